@@ -1,0 +1,1 @@
+//! Shared GP-LVM core (placeholder until the model lands).

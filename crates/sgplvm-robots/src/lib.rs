@@ -1,0 +1,2 @@
+//! The robotic half of sgplvm: URDF bodies, kinematics, MCAP demonstrations and the
+//! demonstration generator. Knows nothing of statistics.
