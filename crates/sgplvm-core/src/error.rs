@@ -1,0 +1,137 @@
+//! Typed errors of the core crate.
+
+use std::path::PathBuf;
+
+/// Result type of the core crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong when building, training, using or storing a model.
+/// Every variant names what was given and what was expected.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A value of the data is NaN or infinite.
+    #[error("space '{space}': value at row {row}, column {col} is {value}; expected a finite number")]
+    NonFinite {
+        /// Space (or input) holding the value.
+        space: String,
+        /// Row of the value.
+        row: usize,
+        /// Column of the value.
+        col: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// Spaces have different numbers of rows (frames).
+    #[error("space '{space}' has {found} rows; expected {expected} (the same N for every space)")]
+    RowCountMismatch {
+        /// Offending space.
+        space: String,
+        /// Rows of the first space.
+        expected: usize,
+        /// Rows found.
+        found: usize,
+    },
+    /// A space has no rows or no columns.
+    #[error("space '{space}' is empty ({rows}×{cols}); expected at least one row and one column")]
+    EmptySpace {
+        /// Offending space.
+        space: String,
+        /// Rows found.
+        rows: usize,
+        /// Columns found.
+        cols: usize,
+    },
+    /// The latent dimension is zero or not smaller than the number of points.
+    #[error("latent dimension Q = {latent_dim} is invalid for N = {n} points; expected 1 ≤ Q < N")]
+    InvalidLatentDim {
+        /// Requested Q.
+        latent_dim: usize,
+        /// Number of points.
+        n: usize,
+    },
+    /// A space name is not part of the model / of the given data.
+    #[error("unknown space '{name}'; expected one of {known:?}")]
+    UnknownSpace {
+        /// Name asked for.
+        name: String,
+        /// Names available.
+        known: Vec<String>,
+    },
+    /// A robot (output) space was asked for but the name is the input space or unknown.
+    #[error("'{name}' is not an output (robot) space of the model; expected one of {known:?}")]
+    NotAnOutput {
+        /// Name asked for.
+        name: String,
+        /// Output spaces of the model.
+        known: Vec<String>,
+    },
+    /// Two spaces share a name, or a transfer target already exists.
+    #[error("space name '{name}' is used twice; expected unique names")]
+    DuplicateSpace {
+        /// Offending name.
+        name: String,
+    },
+    /// No output space was given to `fit`.
+    #[error("no output (robot) space given; expected the input space plus at least one robot")]
+    NoOutputSpace,
+    /// Wrong number of columns (prediction input, transfer data, column names, parameters).
+    #[error("{what}: found {found} columns/values; expected {expected}")]
+    DimensionMismatch {
+        /// What was checked.
+        what: String,
+        /// Expected count.
+        expected: usize,
+        /// Count found.
+        found: usize,
+    },
+    /// A parameter or option is out of its domain.
+    #[error("invalid {what}: {reason}")]
+    InvalidValue {
+        /// Parameter or option name.
+        what: String,
+        /// What was expected.
+        reason: String,
+    },
+    /// A kernel matrix stayed non-positive-definite even with the largest jitter.
+    #[error("kernel matrix of space '{space}' is not positive definite even with jitter {jitter:e}")]
+    NotPositiveDefinite {
+        /// Space whose matrix failed.
+        space: String,
+        /// Largest jitter tried.
+        jitter: f64,
+    },
+    /// An I/O error on a model file.
+    #[error("model file {path}: {source}")]
+    Io {
+        /// File concerned.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The bytes do not start with the model magic.
+    #[error("not an sgplvm model file: expected the magic bytes \"SGPLVM\\0\\0\" at the start")]
+    BadMagic,
+    /// The file was written by another format version.
+    #[error("model file format version {found} is not supported; expected version {supported}")]
+    UnsupportedVersion {
+        /// Version in the file.
+        found: u32,
+        /// Version this library reads.
+        supported: u32,
+    },
+    /// The file is shorter than its header says.
+    #[error("model file truncated: expected {expected} bytes, found {found}")]
+    Truncated {
+        /// Bytes expected.
+        expected: usize,
+        /// Bytes present.
+        found: usize,
+    },
+    /// The payload is damaged or inconsistent.
+    #[error("model file corrupt: {reason}")]
+    Corrupt {
+        /// What is wrong.
+        reason: String,
+    },
+}

@@ -1,0 +1,287 @@
+//! Model files.
+//!
+//! Format (version 1), all integers little-endian:
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 0..8 | magic `b"SGPLVM\0\0"` |
+//! | 8..12 | format version, u32 (= 1) |
+//! | 12..20 | payload length L, u64 |
+//! | 20..28 | FNV-1a 64-bit hash of the payload, u64 |
+//! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
+//!
+//! The payload holds the configuration, every space (name, centred/scaled data, offsets,
+//! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
+//! back-constraint data), the input-map hyperparameters and the training history. Caches
+//! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
+//! that built them after training, so predictions after a round trip are bit-identical.
+//! Files are written to a temporary file next to the target and renamed into place.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::kernel::KernelParams;
+use crate::model::{InputMap, Latent, ModelConfig, SharedGplvm, Space};
+use crate::train::{IterationRecord, StopReason};
+
+/// Magic bytes at the start of every model file.
+pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
+/// The format version this library writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER: usize = 28;
+
+#[derive(Serialize, Deserialize)]
+struct MatData {
+    rows: usize,
+    cols: usize,
+    /// Column-major values.
+    data: Vec<f64>,
+}
+
+impl MatData {
+    fn from(m: &Mat<f64>) -> Self {
+        let mut data = Vec::with_capacity(m.nrows() * m.ncols());
+        for j in 0..m.ncols() {
+            for i in 0..m.nrows() {
+                data.push(m[(i, j)]);
+            }
+        }
+        Self { rows: m.nrows(), cols: m.ncols(), data }
+    }
+
+    fn to_mat(&self, what: &str) -> Result<Mat<f64>> {
+        if self.rows.checked_mul(self.cols) != Some(self.data.len()) {
+            return Err(Error::Corrupt {
+                reason: format!("{what}: {}×{} matrix holds {} values", self.rows, self.cols, self.data.len()),
+            });
+        }
+        if let Some(v) = self.data.iter().find(|v| !v.is_finite()) {
+            return Err(Error::Corrupt { reason: format!("{what}: non-finite value {v}") });
+        }
+        Ok(Mat::from_fn(self.rows, self.cols, |i, j| self.data[j * self.rows + i]))
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+struct SpaceFile {
+    name: String,
+    data: MatData,
+    offset: Vec<f64>,
+    scale: Vec<f64>,
+    kernel: KernelParams,
+    columns: Option<Vec<String>>,
+}
+
+#[derive(Serialize, Deserialize)]
+enum LatentFile {
+    Free { x: MatData },
+    Back { weights: MatData, bandwidth: f64, data: MatData },
+}
+
+#[derive(Serialize, Deserialize)]
+struct MapFile {
+    kernel: KernelParams,
+    x_mean: Vec<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ModelFile {
+    config: ModelConfig,
+    spaces: Vec<SpaceFile>,
+    latent: LatentFile,
+    map: Option<MapFile>,
+    history: Vec<IterationRecord>,
+    stop_reason: Option<StopReason>,
+}
+
+fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+impl SharedGplvm {
+    /// The model as bytes in the documented file format (see the `io` module docs).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let file = ModelFile {
+            config: self.config.clone(),
+            spaces: self
+                .spaces
+                .iter()
+                .map(|s| SpaceFile {
+                    name: s.name.clone(),
+                    data: MatData::from(&s.data),
+                    offset: s.offset.clone(),
+                    scale: s.scale.clone(),
+                    kernel: s.kernel.clone(),
+                    columns: s.columns.clone(),
+                })
+                .collect(),
+            latent: match &self.latent {
+                Latent::Free { x } => LatentFile::Free { x: MatData::from(x) },
+                Latent::Back { weights, bandwidth, data } => LatentFile::Back {
+                    weights: MatData::from(weights),
+                    bandwidth: *bandwidth,
+                    data: MatData::from(data),
+                },
+            },
+            map: self.map.as_ref().map(|m| MapFile { kernel: m.kernel.clone(), x_mean: m.x_mean.clone() }),
+            history: self.history.clone(),
+            stop_reason: self.stop_reason.clone(),
+        };
+        // Serialising plain structs of finite numbers and strings cannot fail.
+        let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
+        let mut out = Vec::with_capacity(HEADER + payload.len());
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        out.extend_from_slice(&payload);
+        out
+    }
+
+    /// Reads a model from bytes written by [`SharedGplvm::to_bytes`]; foreign, truncated,
+    /// corrupted or other-version input is a typed error.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+            return Err(Error::BadMagic);
+        }
+        if bytes.len() < HEADER {
+            return Err(Error::Truncated { expected: HEADER, found: bytes.len() });
+        }
+        let word = |a: usize, b: usize| -> [u8; 8] {
+            let mut w = [0u8; 8];
+            w[..b - a].copy_from_slice(&bytes[a..b]);
+            w
+        };
+        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if version != FORMAT_VERSION {
+            return Err(Error::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
+        }
+        let len = u64::from_le_bytes(word(12, 20));
+        let hash = u64::from_le_bytes(word(20, 28));
+        let expected = usize::try_from(len).ok().and_then(|l| l.checked_add(HEADER)).ok_or(Error::Corrupt {
+            reason: format!("payload length {len} is impossible"),
+        })?;
+        if bytes.len() < expected {
+            return Err(Error::Truncated { expected, found: bytes.len() });
+        }
+        if bytes.len() > expected {
+            return Err(Error::Corrupt { reason: format!("{} trailing bytes after the payload", bytes.len() - expected) });
+        }
+        let payload = &bytes[HEADER..];
+        if fnv1a(payload) != hash {
+            return Err(Error::Corrupt { reason: "payload checksum mismatch".into() });
+        }
+        let file: ModelFile =
+            serde_json::from_slice(payload).map_err(|e| Error::Corrupt { reason: format!("payload: {e}") })?;
+        Self::from_file(file)
+    }
+
+    fn from_file(f: ModelFile) -> Result<Self> {
+        let corrupt = |reason: String| Error::Corrupt { reason };
+        f.config.check()?;
+        let q = f.config.latent_dim;
+        if f.spaces.len() < 2 {
+            return Err(corrupt(format!("{} spaces; expected at least 2", f.spaces.len())));
+        }
+        let mut spaces = Vec::new();
+        for s in f.spaces {
+            let data = s.data.to_mat(&format!("space '{}' data", s.name))?;
+            let d = data.ncols();
+            if s.offset.len() != d || s.scale.len() != d {
+                return Err(corrupt(format!("space '{}': offset/scale length differs from {d} columns", s.name)));
+            }
+            if s.kernel.lengthscale.len() != q || !s.kernel.is_valid() {
+                return Err(corrupt(format!("space '{}': invalid kernel", s.name)));
+            }
+            if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0)) || s.offset.iter().any(|v| !v.is_finite()) {
+                return Err(corrupt(format!("space '{}': invalid offset/scale", s.name)));
+            }
+            if let Some(c) = &s.columns {
+                if c.len() != d {
+                    return Err(corrupt(format!("space '{}': {} column names for {d} columns", s.name, c.len())));
+                }
+            }
+            spaces.push(Space { name: s.name, data, offset: s.offset, scale: s.scale, kernel: s.kernel, columns: s.columns });
+        }
+        let n = spaces[0].data.nrows();
+        if q == 0 || q >= n || spaces.iter().any(|s| s.data.nrows() != n || s.data.ncols() == 0) {
+            return Err(corrupt("space shapes are inconsistent".into()));
+        }
+        let latent = match f.latent {
+            LatentFile::Free { x } => Latent::Free { x: x.to_mat("latent x")? },
+            LatentFile::Back { weights, bandwidth, data } => {
+                if !(bandwidth.is_finite() && bandwidth > 0.0) {
+                    return Err(corrupt(format!("bandwidth {bandwidth}")));
+                }
+                Latent::Back { weights: weights.to_mat("weights")?, bandwidth, data: data.to_mat("back-constraint data")? }
+            }
+        };
+        let lat_shape = match &latent {
+            Latent::Free { x } => (x.nrows(), x.ncols(), n),
+            Latent::Back { weights, data, .. } => (weights.nrows(), weights.ncols(), data.nrows()),
+        };
+        if lat_shape != (n, q, n) {
+            return Err(corrupt("latent parameters have the wrong shape".into()));
+        }
+        let map = match f.map {
+            Some(m) => {
+                if m.kernel.lengthscale.len() != spaces[0].data.ncols() || !m.kernel.is_valid() || m.x_mean.len() != q {
+                    return Err(corrupt("input map has the wrong shape".into()));
+                }
+                Some(InputMap { kernel: m.kernel, x_mean: m.x_mean })
+            }
+            None => None,
+        };
+        let mut model = SharedGplvm {
+            config: f.config,
+            spaces,
+            latent,
+            map,
+            history: f.history,
+            stop_reason: f.stop_reason,
+            training_jitter: 0.0,
+            x: Mat::zeros(0, 0),
+            x_rows: Vec::new(),
+            caches: Vec::new(),
+            latent_cache: None,
+        };
+        model.rebuild()?;
+        model.training_jitter = model.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
+        Ok(model)
+    }
+
+    /// Writes the model to `path` atomically (temporary file in the same directory, then
+    /// rename), so no half-written model file is ever left behind.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let io = |source: std::io::Error, p: &Path| Error::Io { path: p.to_path_buf(), source };
+        let bytes = self.to_bytes();
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let file_name = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
+        let tmp: PathBuf = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
+        let result = (|| {
+            let mut f = std::fs::File::create(&tmp).map_err(|e| io(e, &tmp))?;
+            f.write_all(&bytes).map_err(|e| io(e, &tmp))?;
+            f.sync_all().map_err(|e| io(e, &tmp))?;
+            std::fs::rename(&tmp, path).map_err(|e| io(e, path))
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result
+    }
+
+    /// Reads a model file written by [`SharedGplvm::save`].
+    pub fn load(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        Self::from_bytes(&bytes)
+    }
+}

@@ -1,0 +1,339 @@
+//! L-BFGS training driver around argmin 0.11 (More–Thuente line search, `Vec<f64>` parameters).
+//!
+//! The solver's own loop is driven here (`Solver::init` then `Solver::next_iter`) so that every
+//! iteration can be recorded, timed and shown to a callback that may stop training.
+
+use std::sync::Mutex;
+use std::time::Instant;
+
+use argmin::core::{CostFunction, Gradient, IterState, Problem, Solver, State};
+use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::quasinewton::LBFGS;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Options of one training run (full fit, transfer, or the human-to-latent regression).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainOptions {
+    /// Iteration budget (L-BFGS iterations, each one line search).
+    pub max_iters: usize,
+    /// Stop when the largest absolute component of the objective's gradient with respect to the
+    /// unconstrained vector (log of positive parameters) is below this (scipy's `pgtol`).
+    pub grad_tol: f64,
+    /// Stop when `(f_prev − f) / max(|f_prev|, |f|, 1)` is below this (scipy's `factr·eps`).
+    pub rel_tol: f64,
+    /// L-BFGS history size m.
+    pub memory: usize,
+    /// Iteration budget of the GP regression human → latent fitted after training for models
+    /// without input back constraints.
+    pub map_max_iters: usize,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        Self { max_iters: 1000, grad_tol: 1e-5, rel_tol: 2.2e-9, memory: 10, map_max_iters: 300 }
+    }
+}
+
+impl TrainOptions {
+    /// Sets the iteration budget.
+    pub fn with_max_iters(mut self, n: usize) -> Self {
+        self.max_iters = n;
+        self
+    }
+    /// Sets the gradient tolerance.
+    pub fn with_grad_tol(mut self, t: f64) -> Self {
+        self.grad_tol = t;
+        self
+    }
+    /// Sets the relative objective-change tolerance.
+    pub fn with_rel_tol(mut self, t: f64) -> Self {
+        self.rel_tol = t;
+        self
+    }
+    /// Sets the L-BFGS history size.
+    pub fn with_memory(mut self, m: usize) -> Self {
+        self.memory = m;
+        self
+    }
+
+    pub(crate) fn check(&self) -> Result<()> {
+        let bad = |what: &str, reason: &str| {
+            Err(Error::InvalidValue { what: what.into(), reason: reason.into() })
+        };
+        if !(self.grad_tol >= 0.0) || !self.grad_tol.is_finite() {
+            return bad("TrainOptions::grad_tol", "expected a finite number ≥ 0");
+        }
+        if !(self.rel_tol >= 0.0) || !self.rel_tol.is_finite() {
+            return bad("TrainOptions::rel_tol", "expected a finite number ≥ 0");
+        }
+        if self.memory == 0 {
+            return bad("TrainOptions::memory", "expected at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// One entry of a model's training history.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    /// Iteration number; 0 is the initial point.
+    pub iteration: usize,
+    /// Negative log marginal likelihood (whole model, all spaces) after the iteration.
+    pub objective: f64,
+    /// Seconds since training started, excluding the time spent in the callback.
+    pub seconds: f64,
+    /// Largest absolute gradient component (unconstrained parametrisation).
+    pub gradient_norm: f64,
+}
+
+/// What a training callback wants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// Keep training.
+    Continue,
+    /// Stop now and keep the current parameters.
+    Stop,
+}
+
+/// Why training ended.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum StopReason {
+    /// Gradient below `grad_tol`.
+    GradientTolerance,
+    /// Relative objective change below `rel_tol`.
+    RelativeTolerance,
+    /// Iteration budget used up.
+    MaxIterations,
+    /// The callback returned [`Control::Stop`].
+    Callback,
+    /// The line search could not find a better point (the best point is kept).
+    LineSearch(String),
+    /// Nothing to train (no free parameters).
+    NothingToTrain,
+}
+
+/// A differentiable objective on an unconstrained vector.
+pub(crate) trait Objective {
+    /// Objective value; writes the gradient into `grad` (same length as `theta`).
+    fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64>;
+}
+
+/// Cost returned to the line search for a point where the objective cannot be evaluated
+/// (non-positive-definite kernel, overflow): large and finite, so More–Thuente backtracks.
+const FAILED_COST: f64 = 1e300;
+
+struct Op<'a, O: Objective> {
+    obj: &'a O,
+    scale: f64,
+    last: Mutex<Option<(Vec<f64>, f64, Vec<f64>)>>,
+}
+
+impl<O: Objective> Op<'_, O> {
+    fn eval(&self, theta: &[f64]) -> (f64, Vec<f64>) {
+        let mut guard = match self.last.lock() {
+            Ok(g) => g,
+            Err(p) => p.into_inner(),
+        };
+        if let Some((t, f, g)) = guard.as_ref() {
+            if t.as_slice() == theta {
+                return (*f, g.clone());
+            }
+        }
+        let mut grad = vec![0.0; theta.len()];
+        let (f, grad) = match self.obj.eval(theta, &mut grad) {
+            Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => {
+                (f * self.scale, grad.into_iter().map(|g| g * self.scale).collect())
+            }
+            _ => (FAILED_COST, vec![0.0; theta.len()]),
+        };
+        *guard = Some((theta.to_vec(), f, grad.clone()));
+        (f, grad)
+    }
+}
+
+impl<O: Objective> CostFunction for Op<'_, O> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Vec<f64>) -> std::result::Result<f64, argmin::core::Error> {
+        Ok(self.eval(p).0)
+    }
+}
+
+impl<O: Objective> Gradient for Op<'_, O> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    fn gradient(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin::core::Error> {
+        Ok(self.eval(p).1)
+    }
+}
+
+/// Outcome of [`minimise`].
+pub(crate) struct Outcome {
+    pub theta: Vec<f64>,
+    pub history: Vec<IterationRecord>,
+    pub reason: StopReason,
+}
+
+fn max_abs(g: &[f64]) -> f64 {
+    g.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// Minimises `obj` from `theta0` with L-BFGS. `scale` (> 0) multiplies the objective seen by
+/// the solver (the model uses 1/(N·ΣD) so that step sizes are O(1)); records keep the true
+/// objective. `on_iter` sees every accepted iteration and the current vector.
+pub(crate) fn minimise<O: Objective>(
+    obj: &O,
+    theta0: Vec<f64>,
+    scale: f64,
+    options: &TrainOptions,
+    mut on_iter: impl FnMut(&IterationRecord, &[f64]) -> Control,
+) -> Result<Outcome> {
+    options.check()?;
+    let start = Instant::now();
+    let mut paused = 0.0f64;
+    // Initial point must be evaluable: its error is the user's error.
+    let mut g0 = vec![0.0; theta0.len()];
+    let f0 = obj.eval(&theta0, &mut g0)?;
+    let mut history = vec![IterationRecord {
+        iteration: 0,
+        objective: f0,
+        seconds: start.elapsed().as_secs_f64(),
+        gradient_norm: max_abs(&g0),
+    }];
+    if theta0.is_empty() {
+        return Ok(Outcome { theta: theta0, history, reason: StopReason::NothingToTrain });
+    }
+    if max_abs(&g0) < options.grad_tol {
+        return Ok(Outcome { theta: theta0, history, reason: StopReason::GradientTolerance });
+    }
+    if options.max_iters == 0 {
+        return Ok(Outcome { theta: theta0, history, reason: StopReason::MaxIterations });
+    }
+    let op = Op { obj, scale, last: Mutex::new(None) };
+    let mut problem = Problem::new(op);
+    let linesearch = MoreThuenteLineSearch::new();
+    let mut solver: LBFGS<_, Vec<f64>, Vec<f64>, f64> = LBFGS::new(linesearch, options.memory);
+    let state = IterState::new().param(theta0.clone());
+    let (mut state, _) = solver
+        .init(&mut problem, state)
+        .map_err(|e| Error::InvalidValue { what: "L-BFGS initialisation".into(), reason: e.to_string() })?;
+    let mut best = theta0;
+    let mut best_f = f0;
+    let reason;
+    let mut iteration = 0;
+    loop {
+        if iteration >= options.max_iters {
+            reason = StopReason::MaxIterations;
+            break;
+        }
+        let next = solver.next_iter(&mut problem, state);
+        let (new_state, _) = match next {
+            Ok(s) => s,
+            Err(e) => {
+                reason = StopReason::LineSearch(e.to_string());
+                break;
+            }
+        };
+        state = new_state;
+        state.increment_iter();
+        iteration += 1;
+        let terminated = state.terminated();
+        let Some(param) = state.get_param() else {
+            reason = StopReason::LineSearch("solver lost its parameter vector".into());
+            break;
+        };
+        let param = param.clone();
+        let mut g = vec![0.0; param.len()];
+        let f = match obj.eval(&param, &mut g) {
+            Ok(f) if f.is_finite() => f,
+            _ => f64::INFINITY,
+        };
+        if !(f <= best_f) {
+            // No progress (or a failed point): keep the best point and stop.
+            reason = StopReason::LineSearch(if terminated {
+                format!("{:?}", state.get_termination_reason())
+            } else {
+                "line search returned a worse point".into()
+            });
+            break;
+        }
+        let rel = (best_f - f) / best_f.abs().max(f.abs()).max(1.0);
+        best = param;
+        best_f = f;
+        let record = IterationRecord {
+            iteration,
+            objective: f,
+            seconds: start.elapsed().as_secs_f64() - paused,
+            gradient_norm: max_abs(&g),
+        };
+        history.push(record.clone());
+        let t = Instant::now();
+        let control = on_iter(&record, &best);
+        paused += t.elapsed().as_secs_f64();
+        if control == Control::Stop {
+            reason = StopReason::Callback;
+            break;
+        }
+        if record.gradient_norm < options.grad_tol {
+            reason = StopReason::GradientTolerance;
+            break;
+        }
+        if rel < options.rel_tol {
+            reason = StopReason::RelativeTolerance;
+            break;
+        }
+        if terminated {
+            reason = StopReason::LineSearch(format!("{:?}", state.get_termination_reason()));
+            break;
+        }
+    }
+    Ok(Outcome { theta: best, history, reason })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Rosenbrock;
+    impl Objective for Rosenbrock {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            let (x, y) = (t[0], t[1]);
+            g[0] = -2.0 * (1.0 - x) - 400.0 * x * (y - x * x);
+            g[1] = 200.0 * (y - x * x);
+            Ok((1.0 - x).powi(2) + 100.0 * (y - x * x).powi(2))
+        }
+    }
+
+    #[test]
+    fn minimises_rosenbrock_monotonically() {
+        let opts = TrainOptions::default().with_grad_tol(1e-8).with_rel_tol(0.0);
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue)
+            .expect("runs");
+        assert!((out.theta[0] - 1.0).abs() < 1e-5 && (out.theta[1] - 1.0).abs() < 1e-5, "{:?}", out.theta);
+        for w in out.history.windows(2) {
+            assert!(w[1].objective <= w[0].objective);
+        }
+        assert!(out.history.len() < 200);
+    }
+
+    #[test]
+    fn callback_stops_and_budget_holds() {
+        let opts = TrainOptions::default();
+        let mut calls = 0;
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |r, _| {
+            calls += 1;
+            if r.iteration == 3 { Control::Stop } else { Control::Continue }
+        })
+        .expect("runs");
+        assert_eq!(calls, 3);
+        assert_eq!(out.reason, StopReason::Callback);
+        assert_eq!(out.history.len(), 4);
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts.with_max_iters(5), |_, _| Control::Continue)
+            .expect("runs");
+        assert_eq!(out.reason, StopReason::MaxIterations);
+        assert_eq!(out.history.last().map(|r| r.iteration), Some(5));
+    }
+}
