@@ -1,0 +1,404 @@
+use super::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// A fresh directory under the system temp dir, removed on drop.
+pub(crate) struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub(crate) fn new(tag: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!(
+            "sgplvm-js-{tag}-{}-{n}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create temp dir");
+        Self(dir)
+    }
+    pub(crate) fn file(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn names(list: &[&str]) -> Vec<String> {
+    list.iter().map(|s| s.to_string()).collect()
+}
+
+fn sample(n: usize, joints: &[&str], t0: i64, dt: i64, phase: f64) -> JointStates {
+    let d = joints.len();
+    let times = (0..n as i64).map(|k| t0 + k * dt).collect();
+    let mut pos = Vec::with_capacity(n * d);
+    for k in 0..n {
+        for j in 0..d {
+            // Values with full mantissas so that any rounding would show.
+            pos.push((k as f64 * 0.1 + j as f64 + phase).sin() * std::f64::consts::E);
+        }
+    }
+    JointStates::new(times, names(joints), pos).expect("valid")
+}
+
+#[test]
+fn round_trip_is_bit_exact_for_every_compression_and_encoding() {
+    let dir = TempDir::new("rt");
+    let states = sample(300, &["a", "b", "c"], 1_000, 25_000_000, 0.3);
+    for compression in [Compression::Zstd, Compression::Lz4, Compression::None] {
+        for encoding in [MessageEncoding::Cdr, MessageEncoding::Json] {
+            let path = dir.file(&format!("{compression:?}-{encoding:?}.mcap"));
+            write_topics(
+                &path,
+                &[TopicData {
+                    topic: "/x/joint_states",
+                    states: &states,
+                    encoding,
+                }],
+                &WriteSettings {
+                    compression,
+                    metadata: vec![],
+                },
+            )
+            .expect("write");
+            let back = read_joint_states(&path, "/x/joint_states").expect("read");
+            assert_eq!(back.times_ns, states.times_ns);
+            assert_eq!(back.names, states.names);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&back.positions), bits(&states.positions));
+        }
+    }
+}
+
+#[test]
+fn writing_is_deterministic_and_leaves_no_temporary_file() {
+    let dir = TempDir::new("det");
+    let s = sample(100, &["a", "b"], 0, 25_000_000, 0.0);
+    let (p1, p2) = (dir.file("1.mcap"), dir.file("2.mcap"));
+    write_joint_states(&p1, "/t", &s, Compression::Zstd).expect("write 1");
+    write_joint_states(&p2, "/t", &s, Compression::Zstd).expect("write 2");
+    let b1 = std::fs::read(&p1).expect("read 1");
+    assert_eq!(b1, std::fs::read(&p2).expect("read 2"));
+    assert!(b1.windows(6).any(|w| w == b"sgplvm"), "library string");
+    let entries: Vec<_> = std::fs::read_dir(&dir.0).expect("ls").collect();
+    assert_eq!(entries.len(), 2, "no temporary files remain");
+}
+
+#[test]
+fn writing_into_a_missing_directory_fails_cleanly() {
+    let dir = TempDir::new("nodir");
+    let s = sample(3, &["a"], 0, 1, 0.0);
+    let err = write_joint_states(dir.file("missing/out.mcap"), "/t", &s, Compression::None)
+        .unwrap_err();
+    assert!(matches!(err, DemoError::Io { .. }), "{err}");
+    assert!(err.to_string().contains("out.mcap"), "{err}");
+}
+
+#[test]
+fn requested_joint_order_is_applied_and_extra_joints_ignored() {
+    let dir = TempDir::new("order");
+    let path = dir.file("o.mcap");
+    let s = sample(10, &["x", "y", "z", "extra"], 0, 10, 0.0);
+    write_joint_states(&path, "/r", &s, Compression::Lz4).expect("write");
+    let want = names(&["z", "x"]);
+    let read = read_topics(&path, &[TopicRequest::joints("/r", &want)]).expect("read");
+    let got = &read.states[0];
+    assert_eq!(got.names, want);
+    for k in 0..10 {
+        assert_eq!(got.row(k), &[s.row(k)[2], s.row(k)[0]]);
+    }
+    let err = read_topics(&path, &[TopicRequest::joints("/r", &names(&["x", "w", "v"]))])
+        .unwrap_err();
+    match &err {
+        DemoError::MissingJoints {
+            topic, missing, ..
+        } => {
+            assert_eq!(topic, "/r");
+            assert_eq!(missing, &names(&["w", "v"]));
+        }
+        other => panic!("unexpected {other}"),
+    }
+    assert!(err.to_string().contains("o.mcap"));
+}
+
+#[test]
+fn messages_with_changing_joint_order_are_reordered() {
+    // Two channels on the same topic with different joint orders (e.g. a recording that was
+    // split and re-merged): rows must come back in the first message's order.
+    let dir = TempDir::new("reorder");
+    let path = dir.file("r.mcap");
+    let file = File::create(&path).expect("create");
+    let mut w = WriteOptions::new()
+        .profile("ros2")
+        .create(BufWriter::new(file))
+        .expect("writer");
+    let sid = w
+        .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+        .expect("schema");
+    let ch = w.add_channel(sid, "/j", "cdr", &BTreeMap::new()).expect("ch");
+    let mut buf = Vec::new();
+    let layouts = [(names(&["a", "b"]), [1.0, 2.0]), (names(&["b", "a"]), [4.0, 3.0])];
+    for (i, (n, p)) in layouts.iter().enumerate() {
+        cdr::encode_joint_state(&mut buf, (0, 0), "", n, p, &[], &[]);
+        let h = MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i as u64 * 10,
+            publish_time: 0,
+        };
+        w.write_to_known_channel(&h, &buf).expect("msg");
+    }
+    w.finish().expect("finish");
+    drop(w);
+    let s = read_joint_states(&path, "/j").expect("read");
+    assert_eq!(s.names, names(&["a", "b"]));
+    assert_eq!(s.positions, vec![1.0, 2.0, 3.0, 4.0]);
+}
+
+#[test]
+fn multiple_topics_are_interleaved_by_time_and_read_independently() {
+    let dir = TempDir::new("multi");
+    let path = dir.file("m.mcap");
+    let a = sample(40, &["h1", "h2"], 5, 25_000_000, 0.0);
+    let b = sample(30, &["r1"], 0, 33_333_333, 1.0);
+    write_topics(
+        &path,
+        &[
+            TopicData {
+                topic: "/human/joint_states",
+                states: &a,
+                encoding: MessageEncoding::Cdr,
+            },
+            TopicData {
+                topic: "/robot/joint_command",
+                states: &b,
+                encoding: MessageEncoding::Json,
+            },
+        ],
+        &WriteSettings::default(),
+    )
+    .expect("write");
+    let read = read_topics(
+        &path,
+        &[
+            TopicRequest::all("/robot/joint_command"),
+            TopicRequest::all("/human/joint_states"),
+        ],
+    )
+    .expect("read");
+    assert_eq!(read.states[0], b);
+    assert_eq!(read.states[1], a);
+    assert_eq!(read.channels.len(), 2);
+    assert_eq!(read.channels[1].message_encoding, "json");
+}
+
+#[test]
+fn alignment_interpolates_linearly_on_the_common_span() {
+    // a: t = 0, 10, 20, ... 100 ms, value = t in ms; b: t = 5..=95 ms, value = 2 t.
+    let ms = 1_000_000i64;
+    let a = JointStates::new(
+        (0..=10).map(|k| k * 10 * ms).collect(),
+        names(&["a"]),
+        (0..=10).map(|k| (k * 10) as f64).collect(),
+    )
+    .expect("a");
+    let b = JointStates::new(
+        vec![5 * ms, 95 * ms],
+        names(&["b"]),
+        vec![10.0, 190.0],
+    )
+    .expect("b");
+    let out = align_onto_clock(&[a, b], 40.0).expect("align");
+    // Common span 5..95 ms at 25 ms: 5, 30, 55, 80 ms.
+    let expect_t: Vec<i64> = vec![5 * ms, 30 * ms, 55 * ms, 80 * ms];
+    assert_eq!(out[0].times_ns, expect_t);
+    assert_eq!(out[1].times_ns, expect_t);
+    for (k, t) in expect_t.iter().enumerate() {
+        let t_ms = (*t / ms) as f64;
+        assert!((out[0].positions[k] - t_ms).abs() < 1e-12);
+        assert!((out[1].positions[k] - 2.0 * t_ms).abs() < 1e-12);
+    }
+    let late = JointStates::new(vec![200 * ms], names(&["c"]), vec![0.0]).expect("c");
+    let err = align_onto_clock(&[out[0].clone(), late], 40.0).unwrap_err();
+    assert!(matches!(err, DemoError::NoOverlap { .. }), "{err}");
+    assert!(align_onto_clock(&out, 0.0).is_err());
+}
+
+#[test]
+fn read_aligned_puts_topics_on_one_forty_hertz_clock() {
+    let dir = TempDir::new("aligned");
+    let path = dir.file("a.mcap");
+    // 100 Hz and 30 Hz topics.
+    let a = sample(200, &["a"], 0, 10_000_000, 0.0);
+    let b = sample(60, &["b"], 3_000_000, 33_333_333, 0.5);
+    write_topics(
+        &path,
+        &[
+            TopicData {
+                topic: "/a",
+                states: &a,
+                encoding: MessageEncoding::Cdr,
+            },
+            TopicData {
+                topic: "/b",
+                states: &b,
+                encoding: MessageEncoding::Cdr,
+            },
+        ],
+        &WriteSettings::default(),
+    )
+    .expect("write");
+    let out = read_aligned(&path, &[TopicRequest::all("/a"), TopicRequest::all("/b")], DEFAULT_RATE_HZ)
+        .expect("aligned");
+    let t = &out[0].times_ns;
+    assert_eq!(t[0], 3_000_000);
+    assert!(t.windows(2).all(|w| w[1] - w[0] == 25_000_000));
+    assert!(*t.last().expect("non-empty") <= 1_990_000_000.min(3_000_000 + 59 * 33_333_333));
+    assert_eq!(t.len(), 79);
+    // Spot check against a hand interpolation of /a at t[1] = 28 ms: between 20 and 30 ms.
+    let (v20, v30) = (a.row(2)[0], a.row(3)[0]);
+    assert!((out[0].positions[1] - (v20 + 0.8 * (v30 - v20))).abs() < 1e-12);
+}
+
+#[test]
+fn resample_at_sample_times_is_exact() {
+    let s = sample(20, &["a", "b"], 7, 13, 0.1);
+    let r = s.resample(&s.times_ns).expect("resample");
+    assert_eq!(r, s);
+    assert!(s.resample(&[6]).is_err());
+}
+
+#[test]
+fn invalid_inputs_are_rejected() {
+    assert!(JointStates::new(vec![0, 1], names(&["a"]), vec![0.0]).is_err());
+    assert!(JointStates::new(vec![-1], names(&["a"]), vec![0.0]).is_err());
+    assert!(JointStates::new(vec![0], names(&["a", "a"]), vec![0.0, 0.0]).is_err());
+}
+
+fn write_good(path: &Path) -> JointStates {
+    let s = sample(2000, &["a", "b", "c"], 0, 25_000_000, 0.0);
+    write_joint_states(path, "/good", &s, Compression::Zstd).expect("write");
+    s
+}
+
+#[test]
+fn a_truncated_file_is_an_error_naming_file_and_topic() {
+    let dir = TempDir::new("trunc");
+    let path = dir.file("full.mcap");
+    write_good(&path);
+    let bytes = std::fs::read(&path).expect("read");
+    for cut in [bytes.len() - 1, bytes.len() - 30, bytes.len() / 2, 100, 10] {
+        let p = dir.file("cut.mcap");
+        std::fs::write(&p, &bytes[..cut]).expect("write cut");
+        let err = read_joint_states(&p, "/good").unwrap_err();
+        assert!(
+            matches!(err, DemoError::Truncated { .. } | DemoError::Mcap { .. }),
+            "cut {cut}: {err}"
+        );
+        let msg = err.to_string();
+        assert!(msg.contains("cut.mcap") && msg.contains("/good"), "{msg}");
+    }
+    let p = dir.file("cut.mcap");
+    std::fs::write(&p, &bytes[..bytes.len() / 2]).expect("write cut");
+    assert!(matches!(
+        read_joint_states(&p, "/good").unwrap_err(),
+        DemoError::Truncated { .. }
+    ));
+}
+
+/// Writes a one-message channel with the given schema and encodings.
+fn write_custom(path: &Path, schema: Option<(&str, &str)>, encoding: &str) {
+    let file = File::create(path).expect("create");
+    let mut w = WriteOptions::new()
+        .create(BufWriter::new(file))
+        .expect("writer");
+    let sid = match schema {
+        Some((name, enc)) => w.add_schema(name, enc, b"whatever").expect("schema"),
+        None => 0,
+    };
+    let ch = w.add_channel(sid, "/t", encoding, &BTreeMap::new()).expect("ch");
+    let mut buf = Vec::new();
+    cdr::encode_joint_state(&mut buf, (0, 0), "", &names(&["a"]), &[1.0], &[], &[]);
+    let h = MessageHeader {
+        channel_id: ch,
+        sequence: 0,
+        log_time: 1,
+        publish_time: 1,
+    };
+    w.write_to_known_channel(&h, &buf).expect("msg");
+    w.finish().expect("finish");
+}
+
+#[test]
+fn wrong_schema_wrong_encoding_and_missing_topic_are_distinct_errors() {
+    let dir = TempDir::new("bad");
+    let p = dir.file("bad.mcap");
+
+    write_custom(&p, Some(("sensor_msgs/msg/Imu", "ros2msg")), "cdr");
+    let err = read_joint_states(&p, "/t").unwrap_err();
+    assert!(matches!(err, DemoError::WrongSchema { .. }), "{err}");
+    assert!(err.to_string().contains("sensor_msgs/msg/Imu") && err.to_string().contains("`/t`"));
+
+    write_custom(&p, Some((JOINT_STATE_SCHEMA, "ros1msg")), "cdr");
+    assert!(matches!(
+        read_joint_states(&p, "/t").unwrap_err(),
+        DemoError::WrongSchema { .. }
+    ));
+
+    write_custom(&p, Some((JOINT_STATE_SCHEMA, "ros2msg")), "protobuf");
+    let err = read_joint_states(&p, "/t").unwrap_err();
+    assert!(matches!(err, DemoError::WrongEncoding { .. }), "{err}");
+    assert!(err.to_string().contains("protobuf") && err.to_string().contains("bad.mcap"));
+
+    write_custom(&p, Some((JOINT_STATE_SCHEMA, "ros2msg")), "cdr");
+    assert_eq!(read_joint_states(&p, "/t").expect("good").positions, vec![1.0]);
+    let err = read_joint_states(&p, "/nope").unwrap_err();
+    match &err {
+        DemoError::MissingTopic {
+            topic, available, ..
+        } => {
+            assert_eq!(topic, "/nope");
+            assert_eq!(available, &names(&["/t"]));
+        }
+        other => panic!("unexpected {other}"),
+    }
+
+    // JSON schema-less channel whose payload is CDR: a malformed-message error.
+    write_custom(&p, None, "json");
+    let err = read_joint_states(&p, "/t").unwrap_err();
+    assert!(matches!(err, DemoError::Malformed { index: 0, .. }), "{err}");
+
+    std::fs::write(&p, b"not an mcap at all").expect("write");
+    let err = read_joint_states(&p, "/t").unwrap_err();
+    assert!(err.to_string().contains("bad.mcap"), "{err}");
+    let err = read_joint_states(dir.file("absent.mcap"), "/t").unwrap_err();
+    assert!(matches!(err, DemoError::Io { .. }), "{err}");
+}
+
+#[test]
+fn metadata_records_are_returned() {
+    let dir = TempDir::new("meta");
+    let p = dir.file("m.mcap");
+    let s = sample(5, &["a"], 0, 1, 0.0);
+    let mut map = BTreeMap::new();
+    map.insert("k".to_string(), "v".to_string());
+    write_topics(
+        &p,
+        &[TopicData {
+            topic: "/a",
+            states: &s,
+            encoding: MessageEncoding::Cdr,
+        }],
+        &WriteSettings {
+            compression: Compression::None,
+            metadata: vec![("my.meta".into(), map.clone())],
+        },
+    )
+    .expect("write");
+    let read = read_topics(&p, &[]).expect("read");
+    assert_eq!(read.metadata.get("my.meta"), Some(&map));
+    assert_eq!(list_channels(&p).expect("list")[0].topic, "/a");
+}
