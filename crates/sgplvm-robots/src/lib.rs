@@ -2,3 +2,4 @@
 //! demonstration generator. Knows nothing of statistics.
 
 pub mod joint_state;
+pub mod dataset;

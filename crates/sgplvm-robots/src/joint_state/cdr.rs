@@ -261,9 +261,20 @@ mod tests {
     #[test]
     fn decode_inverts_encode_including_padding() {
         let mut buf = Vec::new();
-        let names: Vec<String> = ["l_sh", "elbow_2", "w"].iter().map(|s| s.to_string()).collect();
+        let names: Vec<String> = ["l_sh", "elbow_2", "w"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
         let pos = [1.25, -3.5e-7, f64::MAX];
-        encode_joint_state(&mut buf, (-3, 999_999_999), "base", &names, &pos, &[0.1], &[]);
+        encode_joint_state(
+            &mut buf,
+            (-3, 999_999_999),
+            "base",
+            &names,
+            &pos,
+            &[0.1],
+            &[],
+        );
         let mut scratch = Vec::new();
         let v = decode_joint_state(&buf, &mut scratch).expect("decodes");
         assert_eq!(v.stamp, (-3, 999_999_999));
@@ -284,7 +295,10 @@ mod tests {
         encode_joint_state(&mut buf, (0, 0), "", &names, &[1.0], &[], &[]);
         for cut in [0, 3, 9, 20, buf.len() - 1] {
             let mut scratch = Vec::new();
-            assert!(decode_joint_state(&buf[..cut], &mut scratch).is_err(), "cut {cut}");
+            assert!(
+                decode_joint_state(&buf[..cut], &mut scratch).is_err(),
+                "cut {cut}"
+            );
         }
         let mut bad = buf.clone();
         bad[1] = 0x07;

@@ -189,7 +189,9 @@ pub enum DemoError {
         present: Vec<String>,
     },
     /// The topics to align have no common time span.
-    #[error("{path}: topics {topics} do not overlap in time (common span {start_ns}..{end_ns} ns)")]
+    #[error(
+        "{path}: topics {topics} do not overlap in time (common span {start_ns}..{end_ns} ns)"
+    )]
     NoOverlap {
         /// File concerned.
         path: PathBuf,
@@ -508,7 +510,11 @@ fn write_topics_to(
                     Some(id) => id,
                     None => {
                         let id = writer
-                            .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+                            .add_schema(
+                                JOINT_STATE_SCHEMA,
+                                "ros2msg",
+                                JOINT_STATE_MSGDEF.as_bytes(),
+                            )
                             .map_err(mcap_err("schema"))?;
                         cdr_schema = Some(id);
                         id
@@ -831,13 +837,12 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
                 }
             }
             LinearReadEvent::Record { opcode, data } => {
-                let record = ::mcap::parse_record(opcode, data).map_err(|source| {
-                    DemoError::Mcap {
+                let record =
+                    ::mcap::parse_record(opcode, data).map_err(|source| DemoError::Mcap {
                         path: path.to_path_buf(),
                         topics: topics_str.clone(),
                         source,
-                    }
-                })?;
+                    })?;
                 match record {
                     ::mcap::records::Record::Schema { header, .. } => {
                         schemas.insert(header.id, (header.name, header.encoding));
@@ -847,10 +852,8 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
                             continue; // repeated in the summary section
                         }
                         last_route = None;
-                        let (schema, schema_encoding) = schemas
-                            .get(&ch.schema_id)
-                            .cloned()
-                            .unwrap_or_default();
+                        let (schema, schema_encoding) =
+                            schemas.get(&ch.schema_id).cloned().unwrap_or_default();
                         let mut route = (usize::MAX, false);
                         if let Some(req) = requests.iter().position(|r| r.topic == ch.topic) {
                             seen_topics[req] = true;
@@ -1101,8 +1104,7 @@ impl TopicAcc {
         for i in 0..name_count {
             let n = name(i);
             let end = at + n.len();
-            if self.cached_names.get(at..end) != Some(n) || self.cached_names.get(end) != Some(&0)
-            {
+            if self.cached_names.get(at..end) != Some(n) || self.cached_names.get(end) != Some(&0) {
                 return false;
             }
             at = end + 1;

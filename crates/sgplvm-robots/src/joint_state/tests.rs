@@ -8,10 +8,7 @@ impl TempDir {
     pub(crate) fn new(tag: &str) -> Self {
         static COUNTER: AtomicUsize = AtomicUsize::new(0);
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!(
-            "sgplvm-js-{tag}-{}-{n}",
-            std::process::id()
-        ));
+        let dir = std::env::temp_dir().join(format!("sgplvm-js-{tag}-{}-{n}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("create temp dir");
         Self(dir)
@@ -91,8 +88,8 @@ fn writing_is_deterministic_and_leaves_no_temporary_file() {
 fn writing_into_a_missing_directory_fails_cleanly() {
     let dir = TempDir::new("nodir");
     let s = sample(3, &["a"], 0, 1, 0.0);
-    let err = write_joint_states(dir.file("missing/out.mcap"), "/t", &s, Compression::None)
-        .unwrap_err();
+    let err =
+        write_joint_states(dir.file("missing/out.mcap"), "/t", &s, Compression::None).unwrap_err();
     assert!(matches!(err, DemoError::Io { .. }), "{err}");
     assert!(err.to_string().contains("out.mcap"), "{err}");
 }
@@ -110,12 +107,13 @@ fn requested_joint_order_is_applied_and_extra_joints_ignored() {
     for k in 0..10 {
         assert_eq!(got.row(k), &[s.row(k)[2], s.row(k)[0]]);
     }
-    let err = read_topics(&path, &[TopicRequest::joints("/r", &names(&["x", "w", "v"]))])
-        .unwrap_err();
+    let err = read_topics(
+        &path,
+        &[TopicRequest::joints("/r", &names(&["x", "w", "v"]))],
+    )
+    .unwrap_err();
     match &err {
-        DemoError::MissingJoints {
-            topic, missing, ..
-        } => {
+        DemoError::MissingJoints { topic, missing, .. } => {
             assert_eq!(topic, "/r");
             assert_eq!(missing, &names(&["w", "v"]));
         }
@@ -138,9 +136,14 @@ fn messages_with_changing_joint_order_are_reordered() {
     let sid = w
         .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
         .expect("schema");
-    let ch = w.add_channel(sid, "/j", "cdr", &BTreeMap::new()).expect("ch");
+    let ch = w
+        .add_channel(sid, "/j", "cdr", &BTreeMap::new())
+        .expect("ch");
     let mut buf = Vec::new();
-    let layouts = [(names(&["a", "b"]), [1.0, 2.0]), (names(&["b", "a"]), [4.0, 3.0])];
+    let layouts = [
+        (names(&["a", "b"]), [1.0, 2.0]),
+        (names(&["b", "a"]), [4.0, 3.0]),
+    ];
     for (i, (n, p)) in layouts.iter().enumerate() {
         cdr::encode_joint_state(&mut buf, (0, 0), "", n, p, &[], &[]);
         let h = MessageHeader {
@@ -205,12 +208,7 @@ fn alignment_interpolates_linearly_on_the_common_span() {
         (0..=10).map(|k| (k * 10) as f64).collect(),
     )
     .expect("a");
-    let b = JointStates::new(
-        vec![5 * ms, 95 * ms],
-        names(&["b"]),
-        vec![10.0, 190.0],
-    )
-    .expect("b");
+    let b = JointStates::new(vec![5 * ms, 95 * ms], names(&["b"]), vec![10.0, 190.0]).expect("b");
     let out = align_onto_clock(&[a, b], 40.0).expect("align");
     // Common span 5..95 ms at 25 ms: 5, 30, 55, 80 ms.
     let expect_t: Vec<i64> = vec![5 * ms, 30 * ms, 55 * ms, 80 * ms];
@@ -251,8 +249,12 @@ fn read_aligned_puts_topics_on_one_forty_hertz_clock() {
         &WriteSettings::default(),
     )
     .expect("write");
-    let out = read_aligned(&path, &[TopicRequest::all("/a"), TopicRequest::all("/b")], DEFAULT_RATE_HZ)
-        .expect("aligned");
+    let out = read_aligned(
+        &path,
+        &[TopicRequest::all("/a"), TopicRequest::all("/b")],
+        DEFAULT_RATE_HZ,
+    )
+    .expect("aligned");
     let t = &out[0].times_ns;
     assert_eq!(t[0], 3_000_000);
     assert!(t.windows(2).all(|w| w[1] - w[0] == 25_000_000));
@@ -319,7 +321,9 @@ fn write_custom(path: &Path, schema: Option<(&str, &str)>, encoding: &str) {
         Some((name, enc)) => w.add_schema(name, enc, b"whatever").expect("schema"),
         None => 0,
     };
-    let ch = w.add_channel(sid, "/t", encoding, &BTreeMap::new()).expect("ch");
+    let ch = w
+        .add_channel(sid, "/t", encoding, &BTreeMap::new())
+        .expect("ch");
     let mut buf = Vec::new();
     cdr::encode_joint_state(&mut buf, (0, 0), "", &names(&["a"]), &[1.0], &[], &[]);
     let h = MessageHeader {
@@ -354,7 +358,10 @@ fn wrong_schema_wrong_encoding_and_missing_topic_are_distinct_errors() {
     assert!(err.to_string().contains("protobuf") && err.to_string().contains("bad.mcap"));
 
     write_custom(&p, Some((JOINT_STATE_SCHEMA, "ros2msg")), "cdr");
-    assert_eq!(read_joint_states(&p, "/t").expect("good").positions, vec![1.0]);
+    assert_eq!(
+        read_joint_states(&p, "/t").expect("good").positions,
+        vec![1.0]
+    );
     let err = read_joint_states(&p, "/nope").unwrap_err();
     match &err {
         DemoError::MissingTopic {
@@ -369,7 +376,10 @@ fn wrong_schema_wrong_encoding_and_missing_topic_are_distinct_errors() {
     // JSON schema-less channel whose payload is CDR: a malformed-message error.
     write_custom(&p, None, "json");
     let err = read_joint_states(&p, "/t").unwrap_err();
-    assert!(matches!(err, DemoError::Malformed { index: 0, .. }), "{err}");
+    assert!(
+        matches!(err, DemoError::Malformed { index: 0, .. }),
+        "{err}"
+    );
 
     std::fs::write(&p, b"not an mcap at all").expect("write");
     let err = read_joint_states(&p, "/t").unwrap_err();

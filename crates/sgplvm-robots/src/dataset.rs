@@ -1,0 +1,651 @@
+//! The demonstration dataset: human joint angles H (N × 18), one joint-command matrix R per
+//! robot (N × 14), the frame clock, a label per frame saying which pose-to-pose trajectory it
+//! belongs to, and the train/test split.
+//!
+//! A dataset lives in one MCAP file: each body is a `sensor_msgs/msg/JointState` topic (what
+//! ROS 2 tools open), and a Metadata record named [`DATASET_METADATA`] carries the labels and
+//! the split as JSON (key `json`). A foreign MCAP without that record still loads: all its
+//! frames form one unlabelled segment, all of them in the training set.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use crate::joint_state::{
+    align_onto_clock, read_topics, write_topics, Compression, DemoError, JointStates,
+    MessageEncoding, Result, TopicData, TopicRequest, WriteSettings, DEFAULT_RATE_HZ,
+    JOINT_STATE_SCHEMA,
+};
+
+/// Name of the MCAP Metadata record that holds a dataset's labels and split.
+pub const DATASET_METADATA: &str = "sgplvm.dataset";
+
+/// Version of the JSON layout stored under [`DATASET_METADATA`].
+pub const DATASET_FORMAT_VERSION: u32 = 1;
+
+/// One body's joint values over the dataset's frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyData {
+    /// Body name, e.g. `human` or `walkman`.
+    pub name: String,
+    /// Topic the body is stored on, e.g. `/walkman/joint_command`.
+    pub topic: String,
+    /// Joint names, one per column of `positions`.
+    pub joint_names: Vec<String>,
+    /// Joint values, N × D (one row per frame).
+    pub positions: DMatrix<f64>,
+}
+
+impl BodyData {
+    /// Rows `indices` of `positions`, in that order.
+    pub fn rows(&self, indices: &[usize]) -> DMatrix<f64> {
+        self.positions.select_rows(indices)
+    }
+
+    fn to_joint_states(&self, times_ns: &[i64]) -> JointStates {
+        let (n, d) = self.positions.shape();
+        let mut pos = Vec::with_capacity(n * d);
+        for r in 0..n {
+            pos.extend(self.positions.row(r).iter());
+        }
+        JointStates {
+            times_ns: times_ns.to_vec(),
+            names: self.joint_names.clone(),
+            positions: pos,
+        }
+    }
+
+    fn from_joint_states(name: &str, topic: &str, s: &JointStates) -> Self {
+        BodyData {
+            name: name.to_string(),
+            topic: topic.to_string(),
+            joint_names: s.names.clone(),
+            positions: DMatrix::from_row_slice(s.len(), s.dof(), &s.positions),
+        }
+    }
+}
+
+/// A run of consecutive frames belonging to one pose-to-pose trajectory.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Segment {
+    /// First frame (inclusive).
+    pub start: usize,
+    /// One past the last frame.
+    pub end: usize,
+    /// Key pose the trajectory starts from (index into `pose_names`); `None` if unlabelled.
+    pub from_pose: Option<usize>,
+    /// Key pose the trajectory goes to; `None` if unlabelled.
+    pub to_pose: Option<usize>,
+    /// Repetition (0-based) of this pose-to-pose motion; `None` if unlabelled.
+    pub repetition: Option<usize>,
+}
+
+impl Segment {
+    /// Number of frames.
+    pub fn len(&self) -> usize {
+        self.end - self.start
+    }
+
+    /// Whether the segment has no frames.
+    pub fn is_empty(&self) -> bool {
+        self.end == self.start
+    }
+}
+
+/// Demonstrations of one human and several robots on a common frame clock.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// Frame timestamps in nanoseconds (N, increasing).
+    pub times_ns: Vec<i64>,
+    /// The human demonstrator, N × D_H.
+    pub human: BodyData,
+    /// The robots' joint commands, each N × D_R, in a fixed order.
+    pub robots: Vec<BodyData>,
+    /// Names of the key poses the segment labels refer to (empty if unlabelled).
+    pub pose_names: Vec<String>,
+    /// Consecutive segments covering frames `0..N` in order.
+    pub segments: Vec<Segment>,
+    /// Frames of the training set (increasing).
+    pub train: Vec<usize>,
+    /// Frames of the test set (increasing, disjoint from `train`).
+    pub test: Vec<usize>,
+}
+
+impl Dataset {
+    /// Number of frames N.
+    pub fn len(&self) -> usize {
+        self.times_ns.len()
+    }
+
+    /// Whether there are no frames.
+    pub fn is_empty(&self) -> bool {
+        self.times_ns.is_empty()
+    }
+
+    /// The robot called `name`.
+    pub fn robot(&self, name: &str) -> Option<&BodyData> {
+        self.robots.iter().find(|r| r.name == name)
+    }
+
+    /// Robot names in storage order.
+    pub fn robot_names(&self) -> Vec<&str> {
+        self.robots.iter().map(|r| r.name.as_str()).collect()
+    }
+
+    /// The segment frame `frame` belongs to.
+    pub fn segment_of(&self, frame: usize) -> Option<&Segment> {
+        let i = self.segments.partition_point(|s| s.end <= frame);
+        self.segments.get(i).filter(|s| s.start <= frame)
+    }
+
+    /// Human rows of the training set (N_train × D_H).
+    pub fn human_train(&self) -> DMatrix<f64> {
+        self.human.rows(&self.train)
+    }
+
+    /// Human rows of the test set.
+    pub fn human_test(&self) -> DMatrix<f64> {
+        self.human.rows(&self.test)
+    }
+
+    /// Training rows of robot `name`, if there is such a robot.
+    pub fn robot_train(&self, name: &str) -> Option<DMatrix<f64>> {
+        self.robot(name).map(|r| r.rows(&self.train))
+    }
+
+    /// Test rows of robot `name`, if there is such a robot.
+    pub fn robot_test(&self, name: &str) -> Option<DMatrix<f64>> {
+        self.robot(name).map(|r| r.rows(&self.test))
+    }
+
+    /// Checks shapes, segment coverage, split bounds, ordering and disjointness.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |detail: String| DemoError::InvalidInput {
+            what: "dataset".into(),
+            detail,
+        };
+        let n = self.len();
+        if !self.times_ns.windows(2).all(|w| w[0] < w[1]) {
+            return Err(bad("frame times must increase strictly".into()));
+        }
+        for b in std::iter::once(&self.human).chain(&self.robots) {
+            if b.positions.nrows() != n || b.positions.ncols() != b.joint_names.len() {
+                return Err(bad(format!(
+                    "body `{}` has a {}×{} matrix, expected {n}×{} (frames × joints)",
+                    b.name,
+                    b.positions.nrows(),
+                    b.positions.ncols(),
+                    b.joint_names.len()
+                )));
+            }
+        }
+        let mut names: Vec<&str> = vec![&self.human.name];
+        let mut topics: Vec<&str> = vec![&self.human.topic];
+        for r in &self.robots {
+            if names.contains(&r.name.as_str()) || topics.contains(&r.topic.as_str()) {
+                return Err(bad(format!(
+                    "body `{}` (topic `{}`) repeats a name or topic",
+                    r.name, r.topic
+                )));
+            }
+            names.push(&r.name);
+            topics.push(&r.topic);
+        }
+        let mut at = 0;
+        for s in &self.segments {
+            if s.start != at || s.end < s.start {
+                return Err(bad(format!(
+                    "segment {}..{} does not continue at frame {at}",
+                    s.start, s.end
+                )));
+            }
+            for p in [s.from_pose, s.to_pose].into_iter().flatten() {
+                if p >= self.pose_names.len() {
+                    return Err(bad(format!(
+                        "segment {}..{} names pose {p}, but there are {} pose names",
+                        s.start,
+                        s.end,
+                        self.pose_names.len()
+                    )));
+                }
+            }
+            at = s.end;
+        }
+        if at != n {
+            return Err(bad(format!("segments cover {at} frames, expected {n}")));
+        }
+        for (what, set) in [("train", &self.train), ("test", &self.test)] {
+            if !set.windows(2).all(|w| w[0] < w[1]) || set.last().is_some_and(|&l| l >= n) {
+                return Err(bad(format!(
+                    "{what} frames must increase strictly and be < {n}"
+                )));
+            }
+        }
+        if let Some(f) = self
+            .train
+            .iter()
+            .find(|f| self.test.binary_search(f).is_ok())
+        {
+            return Err(bad(format!("frame {f} is in both train and test sets")));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+struct BodyMeta {
+    name: String,
+    topic: String,
+}
+
+#[derive(Serialize, Deserialize)]
+struct DatasetMeta {
+    version: u32,
+    frames: usize,
+    human: BodyMeta,
+    robots: Vec<BodyMeta>,
+    pose_names: Vec<String>,
+    segments: Vec<Segment>,
+    train: Vec<usize>,
+    test: Vec<usize>,
+}
+
+/// Writes `dataset` as a ROS 2 MCAP (zstd chunks, CDR JointState topics) with its labels and
+/// split in the [`DATASET_METADATA`] record. Atomic (temporary file + rename).
+pub fn write_demonstrations(path: impl AsRef<Path>, dataset: &Dataset) -> Result<()> {
+    write_demonstrations_with(path, dataset, Compression::Zstd)
+}
+
+/// [`write_demonstrations`] with a chosen chunk compression.
+pub fn write_demonstrations_with(
+    path: impl AsRef<Path>,
+    dataset: &Dataset,
+    compression: Compression,
+) -> Result<()> {
+    dataset.validate()?;
+    let meta = DatasetMeta {
+        version: DATASET_FORMAT_VERSION,
+        frames: dataset.len(),
+        human: BodyMeta {
+            name: dataset.human.name.clone(),
+            topic: dataset.human.topic.clone(),
+        },
+        robots: dataset
+            .robots
+            .iter()
+            .map(|r| BodyMeta {
+                name: r.name.clone(),
+                topic: r.topic.clone(),
+            })
+            .collect(),
+        pose_names: dataset.pose_names.clone(),
+        segments: dataset.segments.clone(),
+        train: dataset.train.clone(),
+        test: dataset.test.clone(),
+    };
+    let json = serde_json::to_string(&meta).map_err(|e| DemoError::InvalidInput {
+        what: "dataset".into(),
+        detail: format!("cannot encode metadata: {e}"),
+    })?;
+    let mut map = BTreeMap::new();
+    map.insert("version".to_string(), DATASET_FORMAT_VERSION.to_string());
+    map.insert("json".to_string(), json);
+    let bodies: Vec<(&BodyData, JointStates)> = std::iter::once(&dataset.human)
+        .chain(&dataset.robots)
+        .map(|b| (b, b.to_joint_states(&dataset.times_ns)))
+        .collect();
+    let topics: Vec<TopicData<'_>> = bodies
+        .iter()
+        .map(|(b, s)| TopicData {
+            topic: &b.topic,
+            states: s,
+            encoding: MessageEncoding::Cdr,
+        })
+        .collect();
+    write_topics(
+        path,
+        &topics,
+        &WriteSettings {
+            compression,
+            metadata: vec![(DATASET_METADATA.to_string(), map)],
+        },
+    )
+}
+
+/// How to interpret an MCAP without [`DATASET_METADATA`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadOptions {
+    /// Topic of the human; `None` picks the one JointState topic whose name contains `human`.
+    pub human_topic: Option<String>,
+    /// Rate of the common clock the topics are aligned onto.
+    pub rate_hz: f64,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            human_topic: None,
+            rate_hz: DEFAULT_RATE_HZ,
+        }
+    }
+}
+
+/// Loads a dataset written by [`write_demonstrations`] exactly; a foreign MCAP with JointState
+/// topics loads too (see [`load_demonstrations_with`]).
+pub fn load_demonstrations(path: impl AsRef<Path>) -> Result<Dataset> {
+    load_demonstrations_with(path, &LoadOptions::default())
+}
+
+/// Loads a dataset. With [`DATASET_METADATA`], bodies, labels and split come from it and the
+/// frame clock is the human topic's timestamps. Without it, every JointState topic is a body
+/// (the human chosen by `options.human_topic` or by name; a robot is named after the first
+/// component of its topic), the topics are aligned onto a `rate_hz` clock by linear
+/// interpolation, all frames form one unlabelled segment and all are in the training set.
+pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Dataset> {
+    let path = path.as_ref();
+    let probe = read_topics(path, &[])?;
+    let bad_meta = |detail: String| DemoError::BadDatasetMetadata {
+        path: path.to_path_buf(),
+        detail,
+    };
+    if let Some(map) = probe.metadata.get(DATASET_METADATA) {
+        let json = map
+            .get("json")
+            .ok_or_else(|| bad_meta("no `json` key".into()))?;
+        let meta: DatasetMeta =
+            serde_json::from_str(json).map_err(|e| bad_meta(format!("invalid JSON: {e}")))?;
+        if meta.version != DATASET_FORMAT_VERSION {
+            return Err(bad_meta(format!(
+                "format version {} (this library reads version {DATASET_FORMAT_VERSION})",
+                meta.version
+            )));
+        }
+        let mut requests = vec![TopicRequest::all(meta.human.topic.clone())];
+        requests.extend(
+            meta.robots
+                .iter()
+                .map(|r| TopicRequest::all(r.topic.clone())),
+        );
+        let read = read_topics(path, &requests)?;
+        let human_states = &read.states[0];
+        let times = human_states.times_ns.clone();
+        if times.len() != meta.frames {
+            return Err(bad_meta(format!(
+                "{} frames declared, topic `{}` has {}",
+                meta.frames,
+                meta.human.topic,
+                times.len()
+            )));
+        }
+        let human = BodyData::from_joint_states(&meta.human.name, &meta.human.topic, human_states);
+        let mut robots = Vec::with_capacity(meta.robots.len());
+        for (r, s) in meta.robots.iter().zip(&read.states[1..]) {
+            let s = if s.times_ns == times {
+                s.clone()
+            } else {
+                s.resample(&times).map_err(|e| {
+                    bad_meta(format!("topic `{}` does not span the frames: {e}", r.topic))
+                })?
+            };
+            robots.push(BodyData::from_joint_states(&r.name, &r.topic, &s));
+        }
+        let ds = Dataset {
+            times_ns: times,
+            human,
+            robots,
+            pose_names: meta.pose_names,
+            segments: meta.segments,
+            train: meta.train,
+            test: meta.test,
+        };
+        ds.validate().map_err(|e| bad_meta(e.to_string()))?;
+        return Ok(ds);
+    }
+
+    // A foreign file.
+    let mut topics: Vec<String> = Vec::new();
+    for c in &probe.channels {
+        let is_js = c.schema == JOINT_STATE_SCHEMA || c.schema == "sensor_msgs/JointState";
+        if is_js && !topics.contains(&c.topic) {
+            topics.push(c.topic.clone());
+        }
+    }
+    let human_topic = match &options.human_topic {
+        Some(t) => t.clone(),
+        None => {
+            let humans: Vec<&String> = topics.iter().filter(|t| t.contains("human")).collect();
+            match humans.as_slice() {
+                [one] => (*one).clone(),
+                _ => {
+                    return Err(DemoError::InvalidInput {
+                        what: path.display().to_string(),
+                        detail: format!(
+                            "no `{DATASET_METADATA}` metadata and not exactly one JointState topic containing `human` among {topics:?}: say which topic is the human"
+                        ),
+                    })
+                }
+            }
+        }
+    };
+    let mut requests = vec![TopicRequest::all(human_topic.clone())];
+    let robot_topics: Vec<&String> = topics.iter().filter(|t| **t != human_topic).collect();
+    requests.extend(robot_topics.iter().map(|t| TopicRequest::all((*t).clone())));
+    let read = read_topics(path, &requests)?;
+    let aligned = align_onto_clock(&read.states, options.rate_hz).map_err(|e| match e {
+        DemoError::NoOverlap {
+            start_ns, end_ns, ..
+        } => DemoError::NoOverlap {
+            path: path.to_path_buf(),
+            topics: format!("{topics:?}"),
+            start_ns,
+            end_ns,
+        },
+        other => other,
+    })?;
+    let times = aligned[0].times_ns.clone();
+    let n = times.len();
+    let human = BodyData::from_joint_states("human", &human_topic, &aligned[0]);
+    let robots = robot_topics
+        .iter()
+        .zip(&aligned[1..])
+        .map(|(t, s)| BodyData::from_joint_states(&body_name_of_topic(t), t, s))
+        .collect();
+    Ok(Dataset {
+        times_ns: times,
+        human,
+        robots,
+        pose_names: Vec::new(),
+        segments: vec![Segment {
+            start: 0,
+            end: n,
+            from_pose: None,
+            to_pose: None,
+            repetition: None,
+        }],
+        train: (0..n).collect(),
+        test: Vec::new(),
+    })
+}
+
+/// `/walkman/joint_command` → `walkman`; a topic without a namespace keeps its name.
+fn body_name_of_topic(topic: &str) -> String {
+    topic
+        .trim_start_matches('/')
+        .split('/')
+        .next()
+        .filter(|s| !s.is_empty())
+        .unwrap_or(topic)
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::joint_state::write_joint_states;
+
+    fn tmp(tag: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("sgplvm-ds-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).expect("mkdir");
+        d
+    }
+
+    fn body(name: &str, topic: &str, n: usize, d: usize, seed: f64) -> BodyData {
+        BodyData {
+            name: name.into(),
+            topic: topic.into(),
+            joint_names: (0..d).map(|j| format!("{name}_j{j}")).collect(),
+            positions: DMatrix::from_fn(n, d, |r, c| ((r * d + c) as f64 * 0.37 + seed).sin()),
+        }
+    }
+
+    fn small() -> Dataset {
+        let n = 12;
+        Dataset {
+            times_ns: (0..n as i64)
+                .map(|k| 1_000_000_000 + k * 25_000_000)
+                .collect(),
+            human: body("human", "/human/joint_states", n, 18, 0.0),
+            robots: vec![
+                body("walkman", "/walkman/joint_command", n, 14, 1.0),
+                body("coman", "/coman/joint_command", n, 14, 2.0),
+            ],
+            pose_names: vec!["neutral".into(), "up".into(), "side".into()],
+            segments: vec![
+                Segment {
+                    start: 0,
+                    end: 5,
+                    from_pose: Some(0),
+                    to_pose: Some(1),
+                    repetition: Some(0),
+                },
+                Segment {
+                    start: 5,
+                    end: 8,
+                    from_pose: Some(1),
+                    to_pose: Some(0),
+                    repetition: Some(0),
+                },
+                Segment {
+                    start: 8,
+                    end: 12,
+                    from_pose: Some(1),
+                    to_pose: Some(2),
+                    repetition: Some(0),
+                },
+            ],
+            train: vec![0, 2, 4],
+            test: vec![8, 9, 10, 11],
+        }
+    }
+
+    #[test]
+    fn dataset_round_trips_exactly_through_mcap() {
+        let dir = tmp("rt");
+        let ds = small();
+        let p = dir.join("d.mcap");
+        write_demonstrations(&p, &ds).expect("write");
+        let back = load_demonstrations(&p).expect("load");
+        assert_eq!(back, ds);
+        assert_eq!(back.segment_of(6).map(|s| s.from_pose), Some(Some(1)));
+        assert_eq!(back.segment_of(12), None);
+        assert_eq!(back.human_train().shape(), (3, 18));
+        assert_eq!(back.robot_test("coman").map(|m| m.shape()), Some((4, 14)));
+        assert_eq!(
+            back.robot_train("coman").map(|m| m[(1, 3)]),
+            Some(ds.robots[1].positions[(2, 3)])
+        );
+        assert!(back.robot("centauro").is_none());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn invalid_datasets_are_rejected_before_writing() {
+        let dir = tmp("bad");
+        let p = dir.join("d.mcap");
+        let mut ds = small();
+        ds.test.push(2);
+        ds.test.sort();
+        assert!(write_demonstrations(&p, &ds).is_err(), "overlapping split");
+        let mut ds = small();
+        ds.segments[1].end = 7;
+        assert!(ds.validate().is_err(), "gap in segments");
+        let mut ds = small();
+        ds.segments[2].to_pose = Some(3);
+        assert!(ds.validate().is_err(), "pose out of range");
+        let mut ds = small();
+        ds.robots[1].positions = DMatrix::zeros(11, 14);
+        assert!(ds.validate().is_err(), "shape");
+        let mut ds = small();
+        ds.robots[1].topic = ds.robots[0].topic.clone();
+        assert!(ds.validate().is_err(), "duplicate topic");
+        assert!(!p.exists());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn foreign_file_loads_unlabelled_and_aligned() {
+        let dir = tmp("foreign");
+        let p = dir.join("f.mcap");
+        let a = JointStates::new(
+            (0..=40).map(|k| k * 25_000_000).collect(),
+            vec!["h".into()],
+            (0..=40).map(|k| k as f64).collect(),
+        )
+        .expect("a");
+        let b = JointStates::new(
+            (0..=100).map(|k| k * 10_000_000).collect(),
+            vec!["r".into()],
+            (0..=100).map(|k| 2.0 * k as f64).collect(),
+        )
+        .expect("b");
+        write_topics(
+            &p,
+            &[
+                TopicData {
+                    topic: "/human/joint_states",
+                    states: &a,
+                    encoding: MessageEncoding::Cdr,
+                },
+                TopicData {
+                    topic: "/bot/joint_command",
+                    states: &b,
+                    encoding: MessageEncoding::Json,
+                },
+            ],
+            &WriteSettings::default(),
+        )
+        .expect("write");
+        let ds = load_demonstrations(&p).expect("load");
+        assert_eq!(ds.len(), 41);
+        assert_eq!(ds.robot_names(), ["bot"]);
+        assert_eq!(ds.segments.len(), 1);
+        assert_eq!(ds.segments[0].from_pose, None);
+        assert_eq!(ds.train.len(), 41);
+        assert!(ds.test.is_empty());
+        // b at t = k·25 ms is 2·(2.5 k) = 5 k.
+        assert!((ds.robots[0].positions[(3, 0)] - 15.0).abs() < 1e-12);
+
+        // Without a `human` topic, the caller must say which one it is.
+        let q = dir.join("g.mcap");
+        write_joint_states(&q, "/person", &a, Compression::None).expect("write");
+        assert!(load_demonstrations(&q).is_err());
+        let opts = LoadOptions {
+            human_topic: Some("/person".into()),
+            ..LoadOptions::default()
+        };
+        let ds = load_demonstrations_with(&q, &opts).expect("load");
+        assert_eq!(ds.human.positions.nrows(), 41);
+        assert!(ds.robots.is_empty());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn topic_names_give_body_names() {
+        assert_eq!(body_name_of_topic("/walkman/joint_command"), "walkman");
+        assert_eq!(body_name_of_topic("joint_states"), "joint_states");
+        assert_eq!(body_name_of_topic("/"), "/");
+    }
+}
