@@ -652,6 +652,8 @@ struct JsonJointStateOut<'a> {
 #[derive(Deserialize)]
 struct JsonJointStateIn {
     #[serde(default)]
+    header: JsonHeader,
+    #[serde(default)]
     name: Vec<String>,
     #[serde(default)]
     position: Vec<f64>,
@@ -659,6 +661,16 @@ struct JsonJointStateIn {
 
 // ---------------------------------------------------------------------------------------------
 // Reading
+
+/// Which timestamp of a message places it on the clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TimeSource {
+    /// The MCAP record's log time (when the recorder received it; what rosbag2 writes).
+    #[default]
+    LogTime,
+    /// The message's `header.stamp` (when the sender measured it).
+    HeaderStamp,
+}
 
 /// One topic to read and, optionally, the joints wanted from it in the wanted order.
 #[derive(Debug, Clone, PartialEq)]
@@ -668,6 +680,8 @@ pub struct TopicRequest {
     /// Joints to extract, in this order (e.g. a body model's joint names); extra joints in the
     /// messages are ignored, missing ones are an error. `None` takes the first message's joints.
     pub joint_names: Option<Vec<String>>,
+    /// Which timestamp to use.
+    pub time_source: TimeSource,
 }
 
 impl TopicRequest {
@@ -676,6 +690,7 @@ impl TopicRequest {
         Self {
             topic: topic.into(),
             joint_names: None,
+            time_source: TimeSource::LogTime,
         }
     }
 
@@ -684,6 +699,7 @@ impl TopicRequest {
         Self {
             topic: topic.into(),
             joint_names: Some(names.to_vec()),
+            time_source: TimeSource::LogTime,
         }
     }
 }
@@ -814,11 +830,19 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
                     index: acc.count,
                     log_time,
                 };
+                let use_stamp = requests[req].time_source == TimeSource::HeaderStamp;
                 if is_json {
                     let msg: JsonJointStateIn = serde_json::from_slice(payload)
                         .map_err(|e| ctx.malformed(format!("invalid JSON JointState: {e}")))?;
+                    let stamp = msg.header.stamp;
+                    let time = if use_stamp {
+                        stamp_ns(stamp.sec, stamp.nanosec)
+                    } else {
+                        log_time_ns(&ctx)?
+                    };
                     acc.ingest(
                         &ctx,
+                        time,
                         msg.name.len(),
                         |i| msg.name[i].as_bytes(),
                         msg.position.len(),
@@ -827,8 +851,14 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
                 } else {
                     let view = cdr::decode_joint_state(payload, &mut names_scratch)
                         .map_err(|d| ctx.malformed(format!("invalid CDR JointState: {d}")))?;
+                    let time = if use_stamp {
+                        stamp_ns(view.stamp.0, view.stamp.1)
+                    } else {
+                        log_time_ns(&ctx)?
+                    };
                     acc.ingest(
                         &ctx,
+                        time,
                         view.name_count(),
                         |i| view.name(i),
                         view.position_len(),
@@ -1034,6 +1064,15 @@ fn check_channel(
     }
 }
 
+fn log_time_ns(ctx: &MsgCtx<'_>) -> Result<i64> {
+    i64::try_from(ctx.log_time)
+        .map_err(|_| ctx.malformed("log time exceeds i64 nanoseconds".into()))
+}
+
+fn stamp_ns(sec: i32, nanosec: u32) -> i64 {
+    sec as i64 * 1_000_000_000 + nanosec as i64
+}
+
 struct MsgCtx<'a> {
     path: &'a Path,
     topic: &'a str,
@@ -1074,6 +1113,7 @@ impl TopicAcc {
     fn ingest<'n>(
         &mut self,
         ctx: &MsgCtx<'_>,
+        time: i64,
         name_count: usize,
         name: impl Fn(usize) -> &'n [u8],
         position_len: usize,
@@ -1087,8 +1127,6 @@ impl TopicAcc {
         if !self.same_layout(name_count, &name) {
             self.relayout(ctx, name_count, &name)?;
         }
-        let time = i64::try_from(ctx.log_time)
-            .map_err(|_| ctx.malformed("log time exceeds i64 nanoseconds".into()))?;
         self.times.push(time);
         self.positions
             .extend(self.mapping.iter().map(|&i| position(i)));

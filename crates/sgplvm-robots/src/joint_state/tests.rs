@@ -412,3 +412,42 @@ fn metadata_records_are_returned() {
     assert_eq!(read.metadata.get("my.meta"), Some(&map));
     assert_eq!(list_channels(&p).expect("list")[0].topic, "/a");
 }
+
+#[test]
+fn header_stamps_can_place_messages_on_the_clock() {
+    let dir = TempDir::new("stamp");
+    let p = dir.file("s.mcap");
+    let file = File::create(&p).expect("create");
+    let mut w = WriteOptions::new()
+        .create(BufWriter::new(file))
+        .expect("writer");
+    let sid = w
+        .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+        .expect("schema");
+    let ch = w
+        .add_channel(sid, "/j", "cdr", &BTreeMap::new())
+        .expect("ch");
+    let mut buf = Vec::new();
+    for (i, stamp) in [(5, 250_000_000u32), (5, 500_000_000)].iter().enumerate() {
+        cdr::encode_joint_state(&mut buf, *stamp, "", &names(&["a"]), &[i as f64], &[], &[]);
+        let h = MessageHeader {
+            channel_id: ch,
+            sequence: 0,
+            log_time: 100 + i as u64,
+            publish_time: 0,
+        };
+        w.write_to_known_channel(&h, &buf).expect("msg");
+    }
+    w.finish().expect("finish");
+    drop(w);
+    let mut req = TopicRequest::all("/j");
+    assert_eq!(
+        read_topics(&p, &[req.clone()]).expect("log").states[0].times_ns,
+        vec![100, 101]
+    );
+    req.time_source = TimeSource::HeaderStamp;
+    assert_eq!(
+        read_topics(&p, &[req]).expect("stamp").states[0].times_ns,
+        vec![5_250_000_000, 5_500_000_000]
+    );
+}
