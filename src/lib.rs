@@ -1,3 +1,20 @@
-//! sgplvm: teach a family of robots the same motions from one set of human demonstrations.
+//! # sgplvm
+//!
+//! Teach a family of robots the same motions from one set of human demonstrations: a shared
+//! Gaussian-process latent variable model between human and robot joint spaces, trained fully
+//! on one robot and transferred to others (see the README and `../shared/paper.md`).
+//!
+//! This facade joins the statistical core ([`core`], which knows nothing of robots) and the
+//! robot crate ([`robots`], which knows nothing of statistics): it turns demonstration files into
+//! the core's matrices, runs the paper's experiments and draws the pictures. The `sgplvm`
+//! command-line program is built on it.
+
 pub use sgplvm_core as core;
+pub use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 pub use sgplvm_robots as robots;
+pub use sgplvm_robots::Robot;
+
+pub mod csv;
+pub mod experiment;
+pub mod files;
+pub mod plots;

@@ -1,9 +1,17 @@
-//! Python bindings of sgplvm.
+//! Python bindings of sgplvm, built by maturin into the native module `sgplvm._sgplvm`; the
+//! Python package `sgplvm` (in `python/`) wraps it with argument conversion, pickling and type
+//! stubs.
+
 use pyo3::prelude::*;
+
+mod model;
+mod robots;
 
 /// The native part of the `sgplvm` Python package.
 #[pymodule]
 fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<model::NativeModel>()?;
+    m.add_class::<robots::PyRobot>()?;
     Ok(())
 }

@@ -1,0 +1,17 @@
+"""sgplvm: teach a family of robots the same motions from one set of human demonstrations.
+
+A shared Gaussian-process latent variable model between human and robot joint spaces, with back
+constraints on the human input, trained fully on one robot and transferred to others by training
+only their latent-to-output mapping.
+
+>>> import sgplvm
+>>> m = sgplvm.SharedGPLVM(latent_dim=5, back_constraint="input", seed=0)   # doctest: +SKIP
+>>> m.fit({"human": H, "walkman": R1}, input="human", max_iters=1000)       # doctest: +SKIP
+>>> t = m.transfer("coman", R2)                                             # doctest: +SKIP
+>>> t.predict(H_new, robot="coman")                                         # doctest: +SKIP
+"""
+
+from ._sgplvm import Robot, __version__
+from ._model import SharedGPLVM
+
+__all__ = ["SharedGPLVM", "Robot", "__version__"]

@@ -1,0 +1,249 @@
+"""The user-facing model class: numpy in, numpy out, over the native Rust model."""
+
+from __future__ import annotations
+
+import os
+from typing import Callable, Dict, Mapping, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _sgplvm
+
+ArrayLike = Union[np.ndarray, list, tuple]
+_BACK_CONSTRAINTS = ("input", "output", None)
+
+
+def _as_matrix(value: ArrayLike, what: str) -> np.ndarray:
+    """A C-contiguous float64 2-D array from anything numpy can convert."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what}: cannot convert to a float64 array ({e})") from None
+    if array.ndim != 2:
+        raise ValueError(f"{what}: expected a 2-D array (frames × joints), got {array.ndim}-D")
+    return np.ascontiguousarray(array)
+
+
+def _as_frames(value: ArrayLike, what: str) -> Tuple[np.ndarray, bool]:
+    """2-D frames; a single 1-D frame is accepted and flagged so results can be squeezed."""
+    array = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) else value
+    if array.ndim == 1:
+        return _as_matrix(array[None, :], what), True
+    return _as_matrix(array, what), False
+
+
+class SharedGPLVM:
+    """A shared Gaussian-process latent variable model between a human and one or more robots.
+
+    Parameters
+    ----------
+    latent_dim:
+        Dimension Q of the shared latent space (the paper uses 5).
+    back_constraint:
+        ``"input"`` (the paper's choice: latent points are a kernel mapping of the human data),
+        ``"output"`` (a kernel mapping of the robot data) or ``None`` (free latent points).
+    seed:
+        Seed of the initialisation; training is deterministic for a given seed.
+    scale:
+        Scale every space to unit column variance after centring (off by default, so that
+        values compare with GPy's on the same data).
+    """
+
+    def __init__(
+        self,
+        latent_dim: int = 5,
+        back_constraint: Optional[str] = "input",
+        seed: int = 0,
+        scale: bool = False,
+    ) -> None:
+        if back_constraint not in _BACK_CONSTRAINTS and back_constraint != "none":
+            raise ValueError(
+                f"back_constraint is {back_constraint!r}; expected 'input', 'output' or None"
+            )
+        if int(latent_dim) < 1:
+            raise ValueError(f"latent_dim is {latent_dim}; expected an integer >= 1")
+        self.latent_dim = int(latent_dim)
+        self.back_constraint = None if back_constraint == "none" else back_constraint
+        self.seed = int(seed)
+        self.scale = bool(scale)
+        self._native: Optional[_sgplvm.NativeModel] = None
+
+    # ------------------------------------------------------------------ training
+
+    def fit(
+        self,
+        spaces: Mapping[str, ArrayLike],
+        input: str = "human",
+        max_iters: int = 1000,
+        callback: Optional[Callable[[int, float], Optional[bool]]] = None,
+        column_names: Optional[Mapping[str, list]] = None,
+    ) -> "SharedGPLVM":
+        """Trains the model on named spaces with the same number of rows (frames).
+
+        With the input plus one robot this is the paper's fully trained model; with several
+        robots, the multi-robot model. ``callback(iteration, objective)`` is called after every
+        iteration and stops training by returning ``False``. ``column_names`` (joint names per
+        space) are stored in the model. Returns ``self``.
+        """
+        if not isinstance(spaces, Mapping) or not spaces:
+            raise ValueError("spaces: expected a non-empty dict of name -> 2-D array")
+        if input not in spaces:
+            raise ValueError(f"input {input!r} is not one of the spaces {list(spaces)}")
+        arrays = [(str(name), _as_matrix(data, f"spaces[{name!r}]")) for name, data in spaces.items()]
+        names = None if column_names is None else [(k, list(v)) for k, v in column_names.items()]
+        self._native = _sgplvm.NativeModel.fit(
+            arrays,
+            input,
+            self.latent_dim,
+            self.back_constraint,
+            self.seed,
+            self.scale,
+            int(max_iters),
+            callback,
+            names,
+        )
+        return self
+
+    def transfer(
+        self,
+        name: str,
+        data: ArrayLike,
+        max_iters: int = 1000,
+        callback: Optional[Callable[[int, float], Optional[bool]]] = None,
+        column_names: Optional[list] = None,
+    ) -> "SharedGPLVM":
+        """A new model that also predicts robot ``name``: the latent space, the human mapping
+        and the existing robots stay frozen; only the new robot's kernel is trained on ``data``
+        (the same frames as the human training data). This model is not changed."""
+        native = self._require()
+        new = SharedGPLVM(self.latent_dim, self.back_constraint, self.seed, self.scale)
+        new._native = native.transfer(
+            name,
+            _as_matrix(data, name),
+            int(max_iters),
+            callback,
+            None if column_names is None else list(column_names),
+        )
+        return new
+
+    # ------------------------------------------------------------------ prediction
+
+    def predict(self, H: ArrayLike, robot: str, return_std: bool = False):
+        """Joint commands of ``robot`` for human frames ``H`` (n × D_H, or one frame of D_H).
+
+        Returns the posterior mean (n × D_R); with ``return_std=True`` also the posterior
+        standard deviation of the latent function (same shape)."""
+        frames, single = _as_frames(H, "H")
+        mean, variance = self._require().predict(frames, robot, bool(return_std))
+        if single:
+            mean = mean[0]
+            variance = None if variance is None else variance[0]
+        if return_std:
+            return mean, np.sqrt(variance)
+        return mean
+
+    def latent(self, H: ArrayLike) -> np.ndarray:
+        """Latent points (n × Q) of human frames."""
+        frames, single = _as_frames(H, "H")
+        x = self._require().latent(frames)
+        return x[0] if single else x
+
+    @property
+    def latent_points(self) -> np.ndarray:
+        """Latent points of the training frames (N × Q)."""
+        return self._require().latent_points()
+
+    # ------------------------------------------------------------------ inspection
+
+    @property
+    def is_fitted(self) -> bool:
+        """True once the model has been trained (or loaded)."""
+        return self._native is not None
+
+    @property
+    def input_name(self) -> str:
+        """Name of the human (input) space."""
+        return self._require().input_name
+
+    @property
+    def robots(self) -> list:
+        """Names of the robots the model predicts for."""
+        return self._require().output_names
+
+    def column_names(self, space: str) -> Optional[list]:
+        """Joint names stored for a space, if any."""
+        return self._require().column_names(space)
+
+    @property
+    def history(self) -> Dict[str, np.ndarray]:
+        """Per training iteration: ``iteration``, ``objective`` (negative log marginal
+        likelihood), ``seconds`` since training started, ``gradient_norm``."""
+        return self._require().history()
+
+    @property
+    def params(self) -> dict:
+        """Parameters: ``{"latent": X or {"weights": W, "bandwidth": b}, "spaces": {name:
+        {"variance", "lengthscale", "noise"}}}``, in GPy's parametrisation."""
+        return self._require().params()
+
+    def set_params(self, params: dict) -> None:
+        """Sets the parameters (same structure as :attr:`params`)."""
+        self._native = self._require().with_params(params)
+
+    def objective(self) -> float:
+        """Negative log marginal likelihood at the current parameters."""
+        return self._require().objective()
+
+    def gradient(self) -> dict:
+        """Gradient of :meth:`objective` with respect to :attr:`params` (same structure)."""
+        return self._require().gradient()
+
+    # ------------------------------------------------------------------ persistence
+
+    def save(self, path: Union[str, os.PathLike]) -> None:
+        """Writes the model to a versioned file (atomically)."""
+        self._require().save(os.fspath(path))
+
+    @classmethod
+    def load(cls, path: Union[str, os.PathLike]) -> "SharedGPLVM":
+        """Reads a model file written by :meth:`save` or the ``sgplvm`` command line."""
+        return cls._from_native(_sgplvm.NativeModel.load(os.fspath(path)))
+
+    def to_bytes(self) -> bytes:
+        """The model file's bytes."""
+        return bytes(self._require().to_bytes())
+
+    @classmethod
+    def from_bytes(cls, data: bytes) -> "SharedGPLVM":
+        """A model from :meth:`to_bytes` output."""
+        return cls._from_native(_sgplvm.NativeModel.from_bytes(bytes(data), "bytes"))
+
+    @classmethod
+    def _from_native(cls, native: "_sgplvm.NativeModel") -> "SharedGPLVM":
+        config = native.config()
+        model = cls(config["latent_dim"], config["back_constraint"], config["seed"], config["scale"])
+        model._native = native
+        return model
+
+    def __getstate__(self) -> dict:
+        return {
+            "config": (self.latent_dim, self.back_constraint, self.seed, self.scale),
+            "model": None if self._native is None else self.to_bytes(),
+        }
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(*state["config"])
+        if state["model"] is not None:
+            self._native = _sgplvm.NativeModel.from_bytes(state["model"], "pickle")
+
+    def __repr__(self) -> str:
+        fitted = f", robots={self.robots}" if self._native is not None else ", not fitted"
+        return (
+            f"SharedGPLVM(latent_dim={self.latent_dim}, back_constraint={self.back_constraint!r}, "
+            f"seed={self.seed}{fitted})"
+        )
+
+    def _require(self) -> "_sgplvm.NativeModel":
+        if self._native is None:
+            raise RuntimeError("this SharedGPLVM is not fitted yet: call fit() or load() first")
+        return self._native

@@ -1,0 +1,375 @@
+//! The native model class behind `sgplvm.SharedGPLVM` (the Python wrapper in
+//! `python/sgplvm/_model.py` converts arguments and adds pickling).
+
+use numpy::ndarray::Array2;
+use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use sgplvm_core::{
+    BackConstraint, Control, IterationRecord, KernelParams, LatentParams, Mat, ModelConfig, Params,
+    SharedGplvm, TrainOptions,
+};
+
+/// Converts a core error into the Python exception a user expects.
+pub(crate) fn model_error(e: sgplvm_core::Error) -> PyErr {
+    match e {
+        sgplvm_core::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+        sgplvm_core::Error::NotPositiveDefinite { .. } => PyRuntimeError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// A (rows × cols) faer matrix from a 2-D float64 numpy array of any memory order.
+pub(crate) fn to_mat(a: &PyReadonlyArray2<'_, f64>) -> Mat<f64> {
+    let view = a.as_array();
+    Mat::from_fn(view.nrows(), view.ncols(), |i, j| view[[i, j]])
+}
+
+/// A 2-D numpy array from a faer matrix.
+pub(crate) fn to_numpy<'py>(py: Python<'py>, m: &Mat<f64>) -> Bound<'py, PyArray2<f64>> {
+    let array = Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]);
+    PyArray2::from_owned_array(py, array)
+}
+
+fn parse_back_constraint(value: Option<&str>) -> PyResult<BackConstraint> {
+    match value {
+        None | Some("none") => Ok(BackConstraint::None),
+        Some("input") => Ok(BackConstraint::Input),
+        Some("output") => Ok(BackConstraint::Output),
+        Some(other) => Err(PyValueError::new_err(format!(
+            "back_constraint is {other:?}; expected \"input\", \"output\" or None"
+        ))),
+    }
+}
+
+fn back_constraint_name(bc: BackConstraint) -> Option<&'static str> {
+    match bc {
+        BackConstraint::None => None,
+        BackConstraint::Input => Some("input"),
+        BackConstraint::Output => Some("output"),
+    }
+}
+
+/// Runs a training with the GIL released; the Python callback, if any, is called with the GIL
+/// held and may stop training by returning False. An exception in the callback stops training
+/// and is raised once training has returned.
+fn train_detached(
+    py: Python<'_>,
+    callback: Option<Py<PyAny>>,
+    train: impl FnOnce(Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm> + Send,
+) -> PyResult<SharedGplvm> {
+    let mut raised: Option<PyErr> = None;
+    let result = py.detach(|| match &callback {
+        None => train(None),
+        Some(cb) => {
+            let mut call = |it: &IterationRecord, _: &SharedGplvm| {
+                Python::attach(|py| match cb.call1(py, (it.iteration, it.objective)) {
+                    Ok(value) => match value.is_truthy(py) {
+                        Ok(false) if !value.is_none(py) => Control::Stop,
+                        Ok(_) => Control::Continue,
+                        Err(e) => {
+                            raised = Some(e);
+                            Control::Stop
+                        }
+                    },
+                    Err(e) => {
+                        raised = Some(e);
+                        Control::Stop
+                    }
+                })
+            };
+            train(Some(&mut call))
+        }
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    result.map_err(model_error)
+}
+
+/// A trained shared GP-LVM (native part; use `sgplvm.SharedGPLVM`).
+#[pyclass(module = "sgplvm._sgplvm", name = "NativeModel", frozen)]
+pub struct NativeModel {
+    pub(crate) inner: SharedGplvm,
+}
+
+#[pymethods]
+impl NativeModel {
+    /// Fits a model on named spaces (one robot: full model; several: multi-robot).
+    #[staticmethod]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, callback=None, column_names=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn fit(
+        py: Python<'_>,
+        spaces: Vec<(String, PyReadonlyArray2<'_, f64>)>,
+        input: &str,
+        latent_dim: usize,
+        back_constraint: Option<&str>,
+        seed: u64,
+        scale: bool,
+        max_iters: usize,
+        callback: Option<Py<PyAny>>,
+        column_names: Option<Vec<(String, Vec<String>)>>,
+    ) -> PyResult<Self> {
+        let config = ModelConfig::default()
+            .with_latent_dim(latent_dim)
+            .with_back_constraint(parse_back_constraint(back_constraint)?)
+            .with_seed(seed)
+            .with_scale(scale);
+        let mats: Vec<(String, Mat<f64>)> = spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
+        let options = TrainOptions::default().with_max_iters(max_iters);
+        let input = input.to_string();
+        let mut model = train_detached(py, callback, |cb| {
+            let views: Vec<(&str, _)> = mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
+            SharedGplvm::fit(&config, &views, &input, &options, cb)
+        })?;
+        for (space, names) in column_names.unwrap_or_default() {
+            model.set_column_names(&space, names).map_err(model_error)?;
+        }
+        Ok(NativeModel { inner: model })
+    }
+
+    /// A new model that also predicts for robot `name`, trained only on that robot's kernel.
+    #[pyo3(signature = (name, data, max_iters, callback=None, column_names=None))]
+    fn transfer(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        data: PyReadonlyArray2<'_, f64>,
+        max_iters: usize,
+        callback: Option<Py<PyAny>>,
+        column_names: Option<Vec<String>>,
+    ) -> PyResult<Self> {
+        let data = to_mat(&data);
+        let options = TrainOptions::default().with_max_iters(max_iters);
+        let mut model = train_detached(py, callback, |cb| {
+            self.inner.transfer(name, data.as_ref(), &options, cb)
+        })?;
+        if let Some(names) = column_names {
+            model.set_column_names(name, names).map_err(model_error)?;
+        }
+        Ok(NativeModel { inner: model })
+    }
+
+    /// Posterior mean (and variance, when asked) of `robot` for human frames `h` (n × D_H).
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        h: PyReadonlyArray2<'py, f64>,
+        robot: &str,
+        with_variance: bool,
+    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>)> {
+        let h = to_mat(&h);
+        let prediction =
+            py.detach(|| self.inner.predict(h.as_ref(), robot, with_variance)).map_err(model_error)?;
+        let variance = prediction.variance.as_ref().map(|v| to_numpy(py, v));
+        Ok((to_numpy(py, &prediction.mean), variance))
+    }
+
+    /// Latent points of human frames (n × Q).
+    fn latent<'py>(&self, py: Python<'py>, h: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let h = to_mat(&h);
+        let x = py.detach(|| self.inner.latent(h.as_ref())).map_err(model_error)?;
+        Ok(to_numpy(py, &x))
+    }
+
+    /// Latent points of the training frames (N × Q).
+    fn latent_points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        to_numpy(py, &self.inner.latent_points().to_owned())
+    }
+
+    /// Name of the input (human) space.
+    #[getter]
+    fn input_name(&self) -> String {
+        self.inner.input_name().to_string()
+    }
+
+    /// Names of the robot spaces.
+    #[getter]
+    fn output_names(&self) -> Vec<String> {
+        self.inner.output_names().into_iter().map(str::to_string).collect()
+    }
+
+    /// Column (joint) names of a space, if they were given.
+    fn column_names(&self, space: &str) -> Option<Vec<String>> {
+        self.inner.column_names(space).map(|c| c.to_vec())
+    }
+
+    /// Dimension of a space.
+    fn space_dim(&self, space: &str) -> Option<usize> {
+        self.inner.space_dim(space)
+    }
+
+    /// Configuration as a dict (latent_dim, back_constraint, seed, scale).
+    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = self.inner.config();
+        let d = PyDict::new(py);
+        d.set_item("latent_dim", c.latent_dim)?;
+        d.set_item("back_constraint", back_constraint_name(c.back_constraint))?;
+        d.set_item("seed", c.seed)?;
+        d.set_item("scale", c.scale)?;
+        Ok(d)
+    }
+
+    /// Training history: iteration, objective, seconds and gradient norm per iteration.
+    fn history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let h = self.inner.history();
+        let d = PyDict::new(py);
+        d.set_item("iteration", h.iter().map(|r| r.iteration).collect::<Vec<_>>())?;
+        d.set_item("objective", PyArray1::from_vec(py, h.iter().map(|r| r.objective).collect()))?;
+        d.set_item("seconds", PyArray1::from_vec(py, h.iter().map(|r| r.seconds).collect()))?;
+        d.set_item(
+            "gradient_norm",
+            PyArray1::from_vec(py, h.iter().map(|r| r.gradient_norm).collect()),
+        )?;
+        Ok(d)
+    }
+
+    /// Parameters in natural units as nested dicts of numpy arrays and floats.
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        params_to_dict(py, &self.inner.params())
+    }
+
+    /// Gradient of the objective, in the structure of `params`.
+    fn gradient<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        params_to_dict(py, &self.inner.gradient())
+    }
+
+    /// Negative log marginal likelihood at the current parameters.
+    fn objective(&self) -> f64 {
+        self.inner.objective()
+    }
+
+    /// A copy of the model with the given parameters.
+    fn with_params(&self, params: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let current = self.inner.params();
+        let p = params_from_dict(params, &current)?;
+        let mut model = self.inner.clone();
+        model.set_params(&p).map_err(model_error)?;
+        Ok(NativeModel { inner: model })
+    }
+
+    /// The versioned model file as bytes.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &self.inner.to_bytes())
+    }
+
+    /// Reads a model from bytes (`source` names them in errors).
+    #[staticmethod]
+    fn from_bytes(bytes: &[u8], source: &str) -> PyResult<Self> {
+        SharedGplvm::from_bytes(bytes)
+            .map(|inner| NativeModel { inner })
+            .map_err(|e| PyValueError::new_err(format!("{source}: {e}")))
+    }
+
+    /// Writes the model file atomically.
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        self.inner.save(&path).map_err(model_error)
+    }
+
+    /// Reads a model file.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<Self> {
+        SharedGplvm::load(&path).map(|inner| NativeModel { inner }).map_err(|e| match e {
+            sgplvm_core::Error::Io { .. } => model_error(e),
+            other => PyValueError::new_err(format!("{}: {other}", path.display())),
+        })
+    }
+}
+
+fn kernel_to_dict<'py>(py: Python<'py>, k: &KernelParams) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("variance", k.variance)?;
+    d.set_item("lengthscale", PyArray1::from_slice(py, &k.lengthscale))?;
+    d.set_item("noise", k.noise)?;
+    Ok(d)
+}
+
+fn params_to_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    match &p.latent {
+        LatentParams::Free { x } => d.set_item("latent", to_numpy(py, x))?,
+        LatentParams::BackConstrained { weights, bandwidth } => {
+            let l = PyDict::new(py);
+            l.set_item("weights", to_numpy(py, weights))?;
+            l.set_item("bandwidth", *bandwidth)?;
+            d.set_item("latent", l)?;
+        }
+    }
+    let spaces = PyDict::new(py);
+    for (name, k) in &p.spaces {
+        spaces.set_item(name, kernel_to_dict(py, k)?)?;
+    }
+    d.set_item("spaces", spaces)?;
+    Ok(d)
+}
+
+fn get_item<'py>(d: &Bound<'py, PyDict>, key: &str, context: &str) -> PyResult<Bound<'py, PyAny>> {
+    d.get_item(key)?.ok_or_else(|| PyValueError::new_err(format!("{context}: missing key {key:?}")))
+}
+
+fn matrix_from_any(value: &Bound<'_, PyAny>, context: &str, rows: usize, cols: usize) -> PyResult<Mat<f64>> {
+    let array: PyReadonlyArray2<'_, f64> = value
+        .extract()
+        .map_err(|_| PyValueError::new_err(format!("{context}: expected a 2-D float64 array")))?;
+    if array.shape() != [rows, cols] {
+        return Err(PyValueError::new_err(format!(
+            "{context}: shape {:?}, expected ({rows}, {cols})",
+            array.shape()
+        )));
+    }
+    Ok(to_mat(&array))
+}
+
+fn params_from_dict(d: &Bound<'_, PyDict>, current: &Params) -> PyResult<Params> {
+    let latent_value = get_item(d, "latent", "params")?;
+    let latent = match &current.latent {
+        LatentParams::Free { x } => {
+            LatentParams::Free { x: matrix_from_any(&latent_value, "params['latent']", x.nrows(), x.ncols())? }
+        }
+        LatentParams::BackConstrained { weights, bandwidth } => {
+            let l = latent_value.cast::<PyDict>().map_err(|_| {
+                PyValueError::new_err("params['latent']: expected a dict with 'weights' (back-constrained model)")
+            })?;
+            let w = get_item(l, "weights", "params['latent']")?;
+            let bandwidth = match l.get_item("bandwidth")? {
+                Some(b) => b.extract()?,
+                None => *bandwidth,
+            };
+            LatentParams::BackConstrained {
+                weights: matrix_from_any(&w, "params['latent']['weights']", weights.nrows(), weights.ncols())?,
+                bandwidth,
+            }
+        }
+    };
+    let spaces_value = get_item(d, "spaces", "params")?;
+    let spaces_dict = spaces_value
+        .cast::<PyDict>()
+        .map_err(|_| PyValueError::new_err("params['spaces']: expected a dict of spaces"))?;
+    let mut spaces = Vec::with_capacity(current.spaces.len());
+    for (name, k) in &current.spaces {
+        let context = format!("params['spaces'][{name:?}]");
+        let s = get_item(spaces_dict, name, "params['spaces']")?;
+        let s = s.cast::<PyDict>().map_err(|_| PyValueError::new_err(format!("{context}: expected a dict")))?;
+        let lengthscale: Vec<f64> = get_item(s, "lengthscale", &context)?
+            .extract()
+            .map_err(|_| PyValueError::new_err(format!("{context}['lengthscale']: expected a sequence of floats")))?;
+        if lengthscale.len() != k.lengthscale.len() {
+            return Err(PyValueError::new_err(format!(
+                "{context}['lengthscale']: {} values, expected {}",
+                lengthscale.len(),
+                k.lengthscale.len()
+            )));
+        }
+        spaces.push((
+            name.clone(),
+            KernelParams {
+                variance: get_item(s, "variance", &context)?.extract()?,
+                lengthscale,
+                noise: get_item(s, "noise", &context)?.extract()?,
+            },
+        ));
+    }
+    Ok(Params { latent, spaces })
+}

@@ -1,0 +1,275 @@
+"""The Python model API: GPy agreement, fit / transfer / predict / save / load / pickle, threads,
+and errors for every kind of bad input."""
+
+import pickle
+import threading
+
+import numpy as np
+import pytest
+
+import sgplvm
+
+Q = 3
+
+
+def smooth_data(n=40, seed=0):
+    """Human (6-D) and two robots (4-D each) driven by one 2-D latent trajectory."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 2 * np.pi, n)
+    z = np.stack([np.sin(t), np.cos(2 * t)], axis=1)
+    human = np.tanh(z @ rng.normal(size=(2, 6))) + 0.01 * rng.normal(size=(n, 6))
+    r1 = np.sin(z @ rng.normal(size=(2, 4))) + 0.01 * rng.normal(size=(n, 4))
+    r2 = 0.5 * np.sin(z @ rng.normal(size=(2, 4)) + 0.3) + 0.01 * rng.normal(size=(n, 4))
+    return human, r1, r2
+
+
+@pytest.fixture(scope="module")
+def data():
+    return smooth_data()
+
+
+@pytest.fixture(scope="module")
+def trained(data):
+    human, r1, _ = data
+    m = sgplvm.SharedGPLVM(latent_dim=Q, back_constraint="input", seed=0)
+    m.fit({"human": human, "walkman": r1}, input="human", max_iters=60)
+    return m
+
+
+# ---------------------------------------------------------------- GPy agreement
+
+
+def gpy_objective_and_grads(spaces, X, params):
+    """Sum over spaces of GPy's GPLVM negative log likelihood and its gradients (w.r.t. X and
+    each space's kernel and noise), with centred data, as DESIGN.md defines the model."""
+    GPy = pytest.importorskip("GPy")
+    total = 0.0
+    grad_x = np.zeros_like(X)
+    grads = {}
+    for name, Y in spaces.items():
+        p = params["spaces"][name]
+        kern = GPy.kern.RBF(X.shape[1], ARD=True)
+        model = GPy.models.GPLVM(Y - Y.mean(axis=0), X.shape[1], X=X.copy(), kernel=kern)
+        model.kern.variance = p["variance"]
+        model.kern.lengthscale = np.asarray(p["lengthscale"])
+        # GPy factorises K + (noise + 1e-8) I: give it noise - 1e-8 so both see the same matrix.
+        model.likelihood.variance = p["noise"] - 1e-8
+        total += model.objective_function()
+        grad_x -= model.X.gradient
+        grads[name] = {
+            "variance": -float(model.kern.variance.gradient[0]),
+            "lengthscale": -np.asarray(model.kern.lengthscale.gradient),
+            "noise": -float(model.likelihood.variance.gradient[0]),
+        }
+    return total, grad_x, grads
+
+
+@pytest.mark.parametrize("names", [("human", "walkman"), ("human", "walkman", "coman")])
+def test_objective_and_gradient_match_gpy(data, names):
+    human, r1, r2 = data
+    all_spaces = {"human": human, "walkman": r1, "coman": r2}
+    spaces = {n: all_spaces[n] for n in names}
+    m = sgplvm.SharedGPLVM(latent_dim=Q, back_constraint=None, seed=3)
+    m.fit(spaces, input="human", max_iters=0)
+    rng = np.random.default_rng(7)
+    p = m.params
+    p["latent"] = rng.normal(size=p["latent"].shape)
+    for k, name in enumerate(names):
+        p["spaces"][name] = {
+            "variance": 0.7 + 0.3 * k,
+            "lengthscale": rng.uniform(0.5, 2.0, size=Q),
+            "noise": 0.05 + 0.01 * k,
+        }
+    m.set_params(p)
+    ours = m.objective()
+    grad = m.gradient()
+    theirs, grad_x, grads = gpy_objective_and_grads(spaces, p["latent"], p)
+    assert ours == pytest.approx(theirs, rel=1e-8)
+    np.testing.assert_allclose(grad["latent"], grad_x, rtol=1e-7, atol=1e-8 * np.abs(grad_x).max())
+    for name in names:
+        for key in ("variance", "lengthscale", "noise"):
+            np.testing.assert_allclose(grad["spaces"][name][key], grads[name][key], rtol=1e-7)
+
+
+# ---------------------------------------------------------------- fit, transfer, predict
+
+
+def test_fit_reduces_objective_and_records_history(trained):
+    h = trained.history
+    assert len(h["objective"]) >= 2
+    assert h["objective"][-1] < h["objective"][0]
+    assert all(b <= a + 1e-9 for a, b in zip(h["objective"], h["objective"][1:]))
+    assert all(s >= 0 for s in h["seconds"])
+
+
+def test_predict_shapes_and_accuracy(trained, data):
+    human, r1, _ = data
+    pred = trained.predict(human, robot="walkman")
+    assert pred.shape == r1.shape and pred.dtype == np.float64
+    # Training frames are reproduced much better than by the mean.
+    assert np.mean((pred - r1) ** 2) < 0.2 * np.mean((r1 - r1.mean(0)) ** 2)
+    mean, std = trained.predict(human[:5], robot="walkman", return_std=True)
+    assert std.shape == (5, 4) and np.all(std > 0)
+    np.testing.assert_array_equal(mean, pred[:5])
+    one = trained.predict(human[0], robot="walkman")
+    assert one.shape == (4,)
+    np.testing.assert_allclose(one, pred[0], rtol=0, atol=1e-12)
+    assert trained.latent(human).shape == (len(human), Q)
+
+
+def test_inputs_of_any_float_kind_and_order(trained, data):
+    human, _, _ = data
+    ref = trained.predict(human, robot="walkman")
+    np.testing.assert_allclose(trained.predict(np.asfortranarray(human), robot="walkman"), ref, atol=1e-12)
+    np.testing.assert_allclose(trained.predict(human.astype(np.float32), robot="walkman"), ref, atol=1e-5)
+    np.testing.assert_allclose(trained.predict(human.tolist(), robot="walkman"), ref, atol=1e-12)
+    np.testing.assert_allclose(trained.predict(human[::1, :][::-1][::-1], robot="walkman"), ref, atol=1e-12)
+
+
+def test_transfer_trains_only_the_new_robot(trained, data):
+    human, _, r2 = data
+    before = trained.params
+    t = trained.transfer("coman", r2, max_iters=60)
+    after = trained.params
+    np.testing.assert_array_equal(before["latent"]["weights"], after["latent"]["weights"])
+    tp = t.params
+    np.testing.assert_array_equal(tp["latent"]["weights"], before["latent"]["weights"])
+    for key in ("variance", "lengthscale", "noise"):
+        np.testing.assert_array_equal(tp["spaces"]["human"][key], before["spaces"]["human"][key])
+    pred = t.predict(human, robot="coman")
+    assert np.mean((pred - r2) ** 2) < 0.3 * np.mean((r2 - r2.mean(0)) ** 2)
+    with pytest.raises(ValueError, match="coman"):
+        trained.predict(human, robot="coman")
+
+
+def test_multi_robot_fit(data):
+    human, r1, r2 = data
+    m = sgplvm.SharedGPLVM(latent_dim=Q, back_constraint="input", seed=1)
+    m.fit({"human": human, "walkman": r1, "coman": r2}, input="human", max_iters=30)
+    assert set(m.params["spaces"]) == {"human", "walkman", "coman"}
+    assert m.predict(human, robot="coman").shape == r2.shape
+
+
+@pytest.mark.parametrize("bc", [None, "output"])
+def test_other_back_constraints_predict_through_gp_regression(data, bc):
+    human, r1, _ = data
+    m = sgplvm.SharedGPLVM(latent_dim=Q, back_constraint=bc, seed=0)
+    m.fit({"human": human, "walkman": r1}, input="human", max_iters=30)
+    assert np.all(np.isfinite(m.predict(human, robot="walkman")))
+
+
+def test_callback_can_stop_training(data):
+    human, r1, _ = data
+    seen = []
+
+    def callback(iteration, objective):
+        seen.append((iteration, objective))
+        return len(seen) < 3
+
+    m = sgplvm.SharedGPLVM(latent_dim=Q, seed=0)
+    m.fit({"human": human, "walkman": r1}, input="human", max_iters=50, callback=callback)
+    assert len(seen) == 3
+
+
+def test_callback_exception_propagates(data):
+    human, r1, _ = data
+
+    def callback(iteration, objective):
+        raise RuntimeError("stop here")
+
+    m = sgplvm.SharedGPLVM(latent_dim=Q, seed=0)
+    with pytest.raises(RuntimeError, match="stop here"):
+        m.fit({"human": human, "walkman": r1}, input="human", max_iters=50, callback=callback)
+
+
+def test_seeded_training_is_deterministic(data):
+    human, r1, _ = data
+    preds = []
+    for _ in range(2):
+        m = sgplvm.SharedGPLVM(latent_dim=Q, seed=5)
+        m.fit({"human": human, "walkman": r1}, input="human", max_iters=20)
+        preds.append(m.predict(human, robot="walkman"))
+    np.testing.assert_array_equal(preds[0], preds[1])
+
+
+# ---------------------------------------------------------------- persistence
+
+
+def test_save_load_and_pickle_are_bit_identical(trained, data, tmp_path):
+    human, _, _ = data
+    ref = trained.predict(human, robot="walkman")
+    path = tmp_path / "model.sgp"
+    trained.save(str(path))
+    loaded = sgplvm.SharedGPLVM.load(str(path))
+    np.testing.assert_array_equal(loaded.predict(human, robot="walkman"), ref)
+    np.testing.assert_array_equal(
+        pickle.loads(pickle.dumps(trained)).predict(human, robot="walkman"), ref
+    )
+
+
+def test_corrupt_files_raise(tmp_path, trained):
+    path = tmp_path / "model.sgp"
+    trained.save(str(path))
+    raw = path.read_bytes()
+    (tmp_path / "short.sgp").write_bytes(raw[: len(raw) // 2])
+    (tmp_path / "foreign.sgp").write_bytes(b"not a model at all")
+    for name in ("short.sgp", "foreign.sgp"):
+        with pytest.raises(ValueError, match=name):
+            sgplvm.SharedGPLVM.load(str(tmp_path / name))
+    with pytest.raises((OSError, ValueError), match="missing.sgp"):
+        sgplvm.SharedGPLVM.load(str(tmp_path / "missing.sgp"))
+
+
+# ---------------------------------------------------------------- threads
+
+
+def test_two_models_train_in_two_threads(data):
+    human, r1, r2 = data
+    results = {}
+
+    def train(name, robot):
+        m = sgplvm.SharedGPLVM(latent_dim=Q, seed=2)
+        m.fit({"human": human, name: robot}, input="human", max_iters=30)
+        results[name] = m.predict(human, robot=name)
+
+    threads = [threading.Thread(target=train, args=a) for a in (("walkman", r1), ("coman", r2))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    # The same training alone gives the same answer.
+    alone = sgplvm.SharedGPLVM(latent_dim=Q, seed=2)
+    alone.fit({"human": human, "walkman": r1}, input="human", max_iters=30)
+    np.testing.assert_array_equal(results["walkman"], alone.predict(human, robot="walkman"))
+    assert results["coman"].shape == r2.shape
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def test_bad_inputs_raise_value_errors(data, trained):
+    human, r1, _ = data
+    m = sgplvm.SharedGPLVM(latent_dim=Q, seed=0)
+    bad = human.copy()
+    bad[3, 2] = np.nan
+    with pytest.raises(ValueError, match="(?i)nan|finite"):
+        m.fit({"human": bad, "walkman": r1}, input="human", max_iters=5)
+    with pytest.raises(ValueError, match="(?i)rows|frames|N"):
+        m.fit({"human": human, "walkman": r1[:-1]}, input="human", max_iters=5)
+    with pytest.raises(ValueError, match="nobody"):
+        m.fit({"human": human, "walkman": r1}, input="nobody", max_iters=5)
+    with pytest.raises(ValueError):
+        sgplvm.SharedGPLVM(latent_dim=Q, back_constraint="sideways")
+    with pytest.raises(ValueError, match="(?i)latent"):
+        big = sgplvm.SharedGPLVM(latent_dim=60, seed=0)
+        big.fit({"human": human, "walkman": r1}, input="human", max_iters=5)
+    with pytest.raises(ValueError, match="(?i)empty|0"):
+        m.fit({"human": human[:0], "walkman": r1[:0]}, input="human", max_iters=5)
+    with pytest.raises(ValueError, match="(?i)columns|6"):
+        trained.predict(human[:, :5], robot="walkman")
+    with pytest.raises(ValueError, match="centauro"):
+        trained.predict(human, robot="centauro")
+    with pytest.raises(ValueError):
+        trained.predict(np.zeros((2, 3, 6)), robot="walkman")
+    with pytest.raises(RuntimeError, match="(?i)fit"):
+        sgplvm.SharedGPLVM(latent_dim=Q).predict(human, robot="walkman")

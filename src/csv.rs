@@ -1,0 +1,184 @@
+//! Joint frames as CSV: a header of joint names, then one frame per line. An optional first
+//! column named `time` (seconds) or `time_ns` is carried through.
+
+use std::io::BufRead;
+
+/// A CSV file of joint frames that could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum CsvError {
+    /// The header line is missing.
+    #[error("{source_name}: empty input, expected a header line of joint names")]
+    MissingHeader {
+        /// File name (or `stdin`).
+        source_name: String,
+    },
+    /// A line has a value that is not a finite number, or the wrong number of values.
+    #[error("{source_name}: line {line}: {message}")]
+    BadLine {
+        /// File name (or `stdin`).
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong.
+        message: String,
+    },
+    /// Reading failed.
+    #[error("{source_name}: {source}")]
+    Io {
+        /// File name (or `stdin`).
+        source_name: String,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// The parsed header: joint names, and whether the first column is a time column.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvHeader {
+    /// Name of a leading time column (`time` or `time_ns`), if any.
+    pub time_column: Option<String>,
+    /// Joint names, in column order.
+    pub joints: Vec<String>,
+}
+
+impl CsvHeader {
+    /// Parses a header line.
+    pub fn parse(line: &str) -> CsvHeader {
+        let mut names: Vec<String> = line.trim().split(',').map(|s| s.trim().to_string()).collect();
+        let time_column = match names.first().map(String::as_str) {
+            Some("time") | Some("time_ns") | Some("t") => Some(names.remove(0)),
+            _ => None,
+        };
+        CsvHeader { time_column, joints: names }
+    }
+
+    /// Parses one data line (1-based `line_number` for messages) into an optional time and the
+    /// joint values.
+    pub fn parse_line(
+        &self,
+        text: &str,
+        line_number: usize,
+        source_name: &str,
+    ) -> Result<(Option<f64>, Vec<f64>), CsvError> {
+        let bad = |message: String| CsvError::BadLine {
+            source_name: source_name.to_string(),
+            line: line_number,
+            message,
+        };
+        let mut values = Vec::with_capacity(self.joints.len() + 1);
+        for (i, field) in text.trim().split(',').enumerate() {
+            let v: f64 = field.trim().parse().map_err(|_| {
+                bad(format!("column {} is {:?}, expected a number", i + 1, field.trim()))
+            })?;
+            if !v.is_finite() {
+                return Err(bad(format!("column {} is {v}, expected a finite number", i + 1)));
+            }
+            values.push(v);
+        }
+        let expected = self.joints.len() + usize::from(self.time_column.is_some());
+        if values.len() != expected {
+            return Err(bad(format!(
+                "{} values, expected {expected} (one per header column)",
+                values.len()
+            )));
+        }
+        let time = self.time_column.as_ref().map(|_| values.remove(0));
+        Ok((time, values))
+    }
+}
+
+/// A whole CSV table of frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvFrames {
+    /// The header.
+    pub header: CsvHeader,
+    /// Times of the frames, when the file has a time column.
+    pub times: Option<Vec<f64>>,
+    /// Row-major values, `rows × header.joints.len()`.
+    pub values: Vec<f64>,
+    /// Number of frames.
+    pub rows: usize,
+}
+
+/// Reads a whole CSV table of frames from `reader`.
+pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames, CsvError> {
+    let io = |source| CsvError::Io { source_name: source_name.to_string(), source };
+    let mut lines = reader.lines();
+    let header = loop {
+        match lines.next() {
+            None => return Err(CsvError::MissingHeader { source_name: source_name.to_string() }),
+            Some(line) => {
+                let line = line.map_err(io)?;
+                if !line.trim().is_empty() {
+                    break CsvHeader::parse(&line);
+                }
+            }
+        }
+    };
+    let mut times = header.time_column.as_ref().map(|_| Vec::new());
+    let mut values = Vec::new();
+    let mut rows = 0;
+    for (i, line) in lines.enumerate() {
+        let line = line.map_err(io)?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let (time, row) = header.parse_line(&line, i + 2, source_name)?;
+        if let (Some(times), Some(t)) = (times.as_mut(), time) {
+            times.push(t);
+        }
+        values.extend(row);
+        rows += 1;
+    }
+    Ok(CsvFrames { header, times, values, rows })
+}
+
+/// Formats one output line: optional time, then the values, full precision.
+pub fn format_line(time: Option<f64>, values: &[f64]) -> String {
+    let mut out = String::with_capacity(values.len() * 12);
+    if let Some(t) = time {
+        out.push_str(&format!("{t}"));
+    }
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 || time.is_some() {
+            out.push(',');
+        }
+        out.push_str(&format!("{v}"));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_header_time_and_values() {
+        let text = "time,a,b\n0.0,1.5,-2\n\n0.025,1e-3,4\n";
+        let frames = read_frames(text.as_bytes(), "x.csv").unwrap();
+        assert_eq!(frames.header.joints, vec!["a", "b"]);
+        assert_eq!(frames.times, Some(vec![0.0, 0.025]));
+        assert_eq!(frames.values, vec![1.5, -2.0, 1e-3, 4.0]);
+        assert_eq!(frames.rows, 2);
+    }
+
+    #[test]
+    fn bad_lines_name_the_line_and_column() {
+        let err = read_frames("a,b\n1,2\n1,x\n".as_bytes(), "in.csv").unwrap_err();
+        assert_eq!(err.to_string(), "in.csv: line 3: column 2 is \"x\", expected a number");
+        let err = read_frames("a,b\n1,2,3\n".as_bytes(), "in.csv").unwrap_err();
+        assert!(err.to_string().contains("3 values, expected 2"));
+        let err = read_frames("a,b\n1,NaN\n".as_bytes(), "in.csv").unwrap_err();
+        assert!(err.to_string().contains("finite"));
+        assert!(matches!(read_frames("".as_bytes(), "e.csv"), Err(CsvError::MissingHeader { .. })));
+    }
+
+    #[test]
+    fn lines_round_trip() {
+        let header = CsvHeader::parse("a,b");
+        let line = format_line(None, &[0.1, -1.0 / 3.0]);
+        let (_, back) = header.parse_line(&line, 1, "x").unwrap();
+        assert_eq!(back, vec![0.1, -1.0 / 3.0]);
+    }
+}

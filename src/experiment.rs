@@ -1,0 +1,607 @@
+//! The experiments of the paper's Section IV-B: fully trained single-robot models (the baseline),
+//! transfer from a model trained on another robot, and the multi-robot model, each without and
+//! with back constraints on the input (Figs. 4 and 5), and fully trained models with no, input
+//! and output back constraints (Fig. 6). Test error is recorded at every optimisation iteration.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sgplvm_core::{
+    BackConstraint, Control, IterationRecord, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions,
+};
+
+use crate::files::atomic_write;
+use crate::plots::{write_figure, Panel, Series};
+
+/// Training and test matrices of one observation space (rows are frames).
+#[derive(Debug, Clone)]
+pub struct SplitData {
+    /// Training frames.
+    pub train: Mat<f64>,
+    /// Test frames.
+    pub test: Mat<f64>,
+}
+
+/// The human input and every robot, split into training and test frames.
+#[derive(Debug, Clone)]
+pub struct ExperimentData {
+    /// Name of the input space (the human).
+    pub input_name: String,
+    /// The human joint angles.
+    pub human: SplitData,
+    /// The robots' joint commands, by name.
+    pub robots: Vec<(String, SplitData)>,
+}
+
+/// How much to run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ExperimentConfig {
+    /// Independent runs (seeds) of every baseline and multi-robot model.
+    pub runs: usize,
+    /// Transfer runs per trained source model.
+    pub transfers_per_run: usize,
+    /// Iteration budget of full and multi-robot training.
+    pub max_iters: usize,
+    /// Iteration budget of transfer training.
+    pub transfer_max_iters: usize,
+    /// Latent dimension (the paper's 5).
+    pub latent_dim: usize,
+    /// Seed of the first run; run k uses `seed + k`.
+    pub seed: u64,
+}
+
+impl ExperimentConfig {
+    /// The paper's protocol: 10 runs, 10 transfers per source run.
+    pub fn paper() -> Self {
+        ExperimentConfig {
+            runs: 10,
+            transfers_per_run: 10,
+            max_iters: 300,
+            transfer_max_iters: 300,
+            latent_dim: 5,
+            seed: 0,
+        }
+    }
+
+    /// A few minutes' worth: 2 runs, 2 transfers per source run, fewer iterations.
+    pub fn quick() -> Self {
+        ExperimentConfig {
+            runs: 2,
+            transfers_per_run: 2,
+            max_iters: 60,
+            transfer_max_iters: 60,
+            latent_dim: 5,
+            seed: 0,
+        }
+    }
+}
+
+/// Which of the paper's models a run trained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelKind {
+    /// Human + this robot, everything trained.
+    Baseline,
+    /// From a baseline model of another robot, only this robot's kernel trained.
+    Transfer,
+    /// Human + all robots trained jointly.
+    Multi,
+}
+
+/// One training run and its test error after every iteration.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The robot whose test error is recorded.
+    pub robot: String,
+    /// The kind of model.
+    pub model: ModelKind,
+    /// `none`, `input` or `output`.
+    pub back_constraint: String,
+    /// Run index (for transfer: source run × transfers per run + transfer index).
+    pub run: usize,
+    /// For transfer runs, the robot the source model was trained on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source_robot: Option<String>,
+    /// Iteration numbers at which the test error was measured.
+    pub iterations: Vec<usize>,
+    /// Training seconds spent up to each of those iterations (test evaluation excluded).
+    pub seconds: Vec<f64>,
+    /// Test mean squared error (rad², over all joints and frames) at each of those iterations.
+    pub test_mse: Vec<f64>,
+}
+
+/// All runs of an experiment.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Results {
+    /// The robots, in the order of the data.
+    pub robots: Vec<String>,
+    /// What was run.
+    pub config: ExperimentConfig,
+    /// Every run.
+    pub runs: Vec<RunRecord>,
+}
+
+/// Errors of an experiment.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// The model failed.
+    #[error("{context}: {source}")]
+    Model {
+        /// Which run.
+        context: String,
+        /// The model error.
+        #[source]
+        source: sgplvm_core::Error,
+    },
+    /// Results could not be written.
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] crate::plots::PlotError),
+}
+
+/// Mean squared error between two matrices of the same shape.
+pub fn mean_squared_error(predicted: MatRef<'_, f64>, desired: MatRef<'_, f64>) -> f64 {
+    let n = (predicted.nrows() * predicted.ncols()).max(1);
+    let mut sum = 0.0;
+    for j in 0..predicted.ncols() {
+        for i in 0..predicted.nrows() {
+            let d = predicted[(i, j)] - desired[(i, j)];
+            sum += d * d;
+        }
+    }
+    sum / n as f64
+}
+
+fn label(bc: BackConstraint) -> &'static str {
+    match bc {
+        BackConstraint::None => "none",
+        BackConstraint::Input => "input",
+        BackConstraint::Output => "output",
+    }
+}
+
+/// Records the test error of some robots at every iteration of one training.
+struct Recorder<'a> {
+    human_test: MatRef<'a, f64>,
+    robots: Vec<(&'a str, MatRef<'a, f64>)>,
+    iterations: Vec<usize>,
+    seconds: Vec<f64>,
+    mse: Vec<Vec<f64>>,
+    failure: Option<sgplvm_core::Error>,
+}
+
+impl<'a> Recorder<'a> {
+    fn new(human_test: MatRef<'a, f64>, robots: Vec<(&'a str, MatRef<'a, f64>)>) -> Self {
+        let count = robots.len();
+        Recorder {
+            human_test,
+            robots,
+            iterations: Vec::new(),
+            seconds: Vec::new(),
+            mse: vec![Vec::new(); count],
+            failure: None,
+        }
+    }
+
+    fn record(&mut self, iteration: &IterationRecord, model: &SharedGplvm) -> Control {
+        for (k, (robot, desired)) in self.robots.iter().enumerate() {
+            match model.predict(self.human_test, robot, false) {
+                Ok(prediction) => {
+                    self.mse[k].push(mean_squared_error(prediction.mean.as_ref(), *desired))
+                }
+                Err(e) => {
+                    self.failure = Some(e);
+                    return Control::Stop;
+                }
+            }
+        }
+        self.iterations.push(iteration.iteration);
+        self.seconds.push(iteration.seconds);
+        Control::Continue
+    }
+
+    fn into_records(
+        self,
+        model: ModelKind,
+        bc: BackConstraint,
+        run: usize,
+        source_robot: Option<&str>,
+    ) -> Result<Vec<RunRecord>, sgplvm_core::Error> {
+        if let Some(e) = self.failure {
+            return Err(e);
+        }
+        Ok(self
+            .robots
+            .iter()
+            .zip(self.mse)
+            .map(|((robot, _), test_mse)| RunRecord {
+                robot: robot.to_string(),
+                model,
+                back_constraint: label(bc).to_string(),
+                run,
+                source_robot: source_robot.map(str::to_string),
+                iterations: self.iterations.clone(),
+                seconds: self.seconds.clone(),
+                test_mse,
+            })
+            .collect())
+    }
+}
+
+/// Progress of a running experiment, for progress bars.
+#[derive(Debug, Clone)]
+pub struct Progress {
+    /// Trainings done.
+    pub done: usize,
+    /// Trainings in all.
+    pub total: usize,
+    /// What was just finished.
+    pub message: String,
+}
+
+/// Number of trainings [`run`] performs for `robots` robots.
+pub fn training_count(config: &ExperimentConfig, robots: usize) -> usize {
+    let per_bc = config.runs * robots // baselines
+        + config.runs * robots * robots.saturating_sub(1) * config.transfers_per_run
+        + config.runs; // multi-robot
+    2 * per_bc + config.runs * robots // output back constraints (Fig. 6)
+}
+
+/// Runs every model of Figs. 4, 5 and 6.
+pub fn run(
+    data: &ExperimentData,
+    config: &ExperimentConfig,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<Results, ExperimentError> {
+    let total = training_count(config, data.robots.len());
+    let mut done = 0;
+    let mut runs = Vec::new();
+    let mut tick = |message: String, progress: &mut dyn FnMut(&Progress)| {
+        done += 1;
+        progress(&Progress { done, total, message });
+    };
+    let full_options = TrainOptions { max_iters: config.max_iters, ..TrainOptions::default() };
+    let transfer_options =
+        TrainOptions { max_iters: config.transfer_max_iters, ..TrainOptions::default() };
+    let human_train = data.human.train.as_ref();
+    let human_test = data.human.test.as_ref();
+    let model_error = |context: String| move |source| ExperimentError::Model { context, source };
+
+    for bc in [BackConstraint::None, BackConstraint::Input, BackConstraint::Output] {
+        // Baselines: human + one robot, trained fully; kept as transfer sources.
+        let mut sources: BTreeMap<(usize, usize), SharedGplvm> = BTreeMap::new();
+        for run in 0..config.runs {
+            for (r, (robot, split)) in data.robots.iter().enumerate() {
+                let model_config = ModelConfig {
+                    latent_dim: config.latent_dim,
+                    back_constraint: bc,
+                    seed: config.seed + run as u64,
+                    ..ModelConfig::default()
+                };
+                let mut recorder = Recorder::new(human_test, vec![(robot, split.test.as_ref())]);
+                let context = format!("baseline {robot}, {} back constraints, run {run}", label(bc));
+                let model = SharedGplvm::fit(
+                    &model_config,
+                    &[(data.input_name.as_str(), human_train), (robot.as_str(), split.train.as_ref())],
+                    &data.input_name,
+                    &full_options,
+                    Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
+                )
+                .map_err(model_error(context.clone()))?;
+                runs.extend(
+                    recorder
+                        .into_records(ModelKind::Baseline, bc, run, None)
+                        .map_err(model_error(context.clone()))?,
+                );
+                tick(context, progress);
+                sources.insert((run, r), model);
+            }
+        }
+        if bc == BackConstraint::Output {
+            continue; // Fig. 6 compares fully trained models only.
+        }
+        // Transfer: from each source robot's model to every other robot.
+        for ((run, s), source) in &sources {
+            let source_name = &data.robots[*s].0;
+            for (t, (target, split)) in data.robots.iter().enumerate() {
+                if t == *s {
+                    continue;
+                }
+                for k in 0..config.transfers_per_run {
+                    let mut recorder =
+                        Recorder::new(human_test, vec![(target, split.test.as_ref())]);
+                    let context = format!(
+                        "transfer {source_name} → {target}, {} back constraints, run {run}.{k}",
+                        label(bc)
+                    );
+                    let options = transfer_options.clone();
+                    source
+                        .transfer(
+                            target,
+                            split.train.as_ref(),
+                            &options,
+                            Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
+                        )
+                        .map_err(model_error(context.clone()))?;
+                    runs.extend(
+                        recorder
+                            .into_records(
+                                ModelKind::Transfer,
+                                bc,
+                                run * config.transfers_per_run + k,
+                                Some(source_name),
+                            )
+                            .map_err(model_error(context.clone()))?,
+                    );
+                    tick(context, progress);
+                }
+            }
+        }
+        // Multi-robot: human + all robots.
+        for run in 0..config.runs {
+            let model_config = ModelConfig {
+                latent_dim: config.latent_dim,
+                back_constraint: bc,
+                seed: config.seed + run as u64,
+                ..ModelConfig::default()
+            };
+            let mut spaces = vec![(data.input_name.as_str(), human_train)];
+            spaces.extend(data.robots.iter().map(|(n, s)| (n.as_str(), s.train.as_ref())));
+            let mut recorder = Recorder::new(
+                human_test,
+                data.robots.iter().map(|(n, s)| (n.as_str(), s.test.as_ref())).collect(),
+            );
+            let context = format!("multi-robot, {} back constraints, run {run}", label(bc));
+            SharedGplvm::fit(
+                &model_config,
+                &spaces,
+                &data.input_name,
+                &full_options,
+                Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
+            )
+            .map_err(model_error(context.clone()))?;
+            runs.extend(
+                recorder
+                    .into_records(ModelKind::Multi, bc, run, None)
+                    .map_err(model_error(context.clone()))?,
+            );
+            tick(context, progress);
+        }
+    }
+    Ok(Results { robots: data.robots.iter().map(|(n, _)| n.clone()).collect(), config: config.clone(), runs })
+}
+
+/// Mean and standard deviation, per iteration index, of the test error of a group of runs
+/// (runs that stopped early keep their last value).
+fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
+    let length = runs.iter().map(|r| r.test_mse.len()).max().unwrap_or(0);
+    let mut points = Vec::with_capacity(length);
+    let mut band = Vec::with_capacity(length);
+    for i in 0..length {
+        let at = |r: &&RunRecord| r.test_mse.get(i).or(r.test_mse.last()).copied();
+        let values: Vec<f64> = runs.iter().filter_map(at).collect();
+        let x = if by_seconds {
+            let secs: Vec<f64> = runs
+                .iter()
+                .filter_map(|r| r.seconds.get(i).or(r.seconds.last()).copied())
+                .collect();
+            secs.iter().sum::<f64>() / secs.len().max(1) as f64
+        } else {
+            runs.iter().find_map(|r| r.iterations.get(i)).copied().unwrap_or(i) as f64
+        };
+        let n = values.len().max(1) as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        points.push((x, mean));
+        band.push(((mean - sd).max(mean * 0.05), mean + sd));
+    }
+    Series { points, band: Some(band), ..Series::default() }
+}
+
+fn final_mse(run: &RunRecord) -> f64 {
+    run.test_mse.last().copied().unwrap_or(f64::NAN)
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, count) = values.fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+    if count == 0 {
+        f64::NAN
+    } else {
+        sum / count as f64
+    }
+}
+
+impl Results {
+    fn select(&self, robot: &str, model: ModelKind, bc: &str) -> Vec<&RunRecord> {
+        self.runs
+            .iter()
+            .filter(|r| r.robot == robot && r.model == model && r.back_constraint == bc)
+            .collect()
+    }
+
+    /// Mean final test error of a group of runs.
+    pub fn final_mean(&self, robot: &str, model: ModelKind, bc: &str) -> f64 {
+        mean(self.select(robot, model, bc).into_iter().map(final_mse))
+    }
+
+    /// Mean training seconds a group of runs needed to first reach `level` of test error
+    /// (runs that never reach it count with their total time; `None` if none reached it).
+    pub fn seconds_to_reach(&self, robot: &str, model: ModelKind, bc: &str, level: f64) -> Option<f64> {
+        let runs = self.select(robot, model, bc);
+        let mut reached = false;
+        let times = runs.iter().map(|r| {
+            match r.test_mse.iter().position(|&m| m <= level) {
+                Some(i) => {
+                    reached = true;
+                    r.seconds[i]
+                }
+                None => r.seconds.last().copied().unwrap_or(f64::NAN),
+            }
+        });
+        let value = mean(times);
+        reached.then_some(value)
+    }
+}
+
+/// Writes `results.json`, the figures (SVG and PNG) and `report.md` into `dir`; returns the paths.
+pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, ExperimentError> {
+    let mut written = Vec::new();
+    let json = serde_json::to_vec_pretty(results).expect("results serialise");
+    let path = dir.join("results.json");
+    atomic_write(&path, &json)?;
+    written.push(path);
+
+    let models = [
+        (ModelKind::Baseline, "baseline (fully trained)", 0),
+        (ModelKind::Transfer, "transfer (only robot kernel trained)", 1),
+        (ModelKind::Multi, "multi-robot", 2),
+    ];
+    for (figure, bc, title) in [
+        ("fig4", "none", "Fig. 4: no back constraints"),
+        ("fig5", "input", "Fig. 5: back constraints on the input"),
+    ] {
+        for by_seconds in [false, true] {
+            let panels = results
+                .robots
+                .iter()
+                .map(|robot| Panel {
+                    title: robot.clone(),
+                    x_label: if by_seconds { "training seconds" } else { "iteration" }.into(),
+                    y_label: "test MSE (rad²)".into(),
+                    log_y: true,
+                    series: models
+                        .iter()
+                        .filter_map(|&(kind, name, color)| {
+                            let runs = results.select(robot, kind, bc);
+                            (!runs.is_empty()).then(|| Series {
+                                label: name.into(),
+                                color,
+                                ..mean_curve(&runs, by_seconds)
+                            })
+                        })
+                        .collect(),
+                    markers: vec![],
+                })
+                .collect::<Vec<_>>();
+            let stem = dir.join(if by_seconds { format!("{figure}_seconds") } else { figure.to_string() });
+            written.extend(write_figure(&stem, title, &panels, panels.len())?);
+        }
+    }
+    let bcs = [("none", "no back constraints", 1), ("input", "back constraints on the input", 0), ("output", "back constraints on the output", 2)];
+    let panels = results
+        .robots
+        .iter()
+        .map(|robot| Panel {
+            title: robot.clone(),
+            x_label: "iteration".into(),
+            y_label: "test MSE (rad²)".into(),
+            log_y: true,
+            series: bcs
+                .iter()
+                .filter_map(|&(bc, name, color)| {
+                    let runs = results.select(robot, ModelKind::Baseline, bc);
+                    (!runs.is_empty()).then(|| Series { label: name.into(), color, ..mean_curve(&runs, false) })
+                })
+                .collect(),
+            markers: vec![],
+        })
+        .collect::<Vec<_>>();
+    written.extend(write_figure(&dir.join("fig6"), "Fig. 6: fully trained models", &panels, panels.len())?);
+
+    let path = dir.join("report.md");
+    atomic_write(&path, report(results).as_bytes())?;
+    written.push(path);
+    Ok(written)
+}
+
+/// The report: a table of final test errors and, for each of the paper's claims, whether these
+/// results support it.
+pub fn report(results: &Results) -> String {
+    let mut out = String::from("# Experiment report (paper Section IV-B)\n\n");
+    out.push_str(&format!(
+        "{} runs per baseline and multi-robot model, {} transfer runs per source run, {} iterations (transfer: {}), Q = {}.\n\n",
+        results.config.runs,
+        results.config.transfers_per_run,
+        results.config.max_iters,
+        results.config.transfer_max_iters,
+        results.config.latent_dim
+    ));
+    out.push_str("## Final test MSE (rad², mean over runs)\n\n| robot | back constraint | baseline | transfer | multi-robot |\n|---|---|---|---|---|\n");
+    for robot in &results.robots {
+        for bc in ["none", "input", "output"] {
+            let cell = |kind| {
+                let v = results.final_mean(robot, kind, bc);
+                if v.is_nan() { "—".to_string() } else { format!("{v:.5}") }
+            };
+            out.push_str(&format!(
+                "| {robot} | {bc} | {} | {} | {} |\n",
+                cell(ModelKind::Baseline),
+                cell(ModelKind::Transfer),
+                cell(ModelKind::Multi)
+            ));
+        }
+    }
+    out.push_str("\n## The paper's claims\n\n");
+    let verdict = |ok: bool| if ok { "supported" } else { "**not supported**" };
+
+    // 1. Input back constraints give the lowest error of the fully trained models.
+    let mut lines = Vec::new();
+    let mut all = true;
+    for robot in &results.robots {
+        let [none, input, output] =
+            ["none", "input", "output"].map(|bc| results.final_mean(robot, ModelKind::Baseline, bc));
+        let ok = input <= none && input <= output;
+        all &= ok;
+        lines.push(format!("  - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"));
+    }
+    out.push_str(&format!(
+        "1. Back constraints on the input give the best fully trained model (Fig. 6): {}.\n{}\n",
+        verdict(all),
+        lines.join("\n")
+    ));
+
+    // 2. Transfer reaches the baseline's final error faster than the baseline itself.
+    let mut lines = Vec::new();
+    let mut all = true;
+    for robot in &results.robots {
+        let baseline_final = results.final_mean(robot, ModelKind::Baseline, "input");
+        let level = baseline_final * 1.1;
+        let baseline_t = results.seconds_to_reach(robot, ModelKind::Baseline, "input", level);
+        let transfer_t = results.seconds_to_reach(robot, ModelKind::Transfer, "input", level);
+        let ok = matches!((baseline_t, transfer_t), (Some(b), Some(t)) if t < b);
+        all &= ok;
+        let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.3} s"));
+        lines.push(format!(
+            "  - {robot}: time to reach 1.1 × the baseline's final test MSE ({level:.5}): baseline {}, transfer {}",
+            show(baseline_t),
+            show(transfer_t)
+        ));
+    }
+    out.push_str(&format!(
+        "2. With input back constraints, transfer reaches the baseline's error faster (Fig. 5): {}.\n{}\n",
+        verdict(all),
+        lines.join("\n")
+    ));
+
+    // 3. The multi-robot model performs similarly (within 50 % of the baseline's error).
+    let mut lines = Vec::new();
+    let mut all = true;
+    for robot in &results.robots {
+        let baseline = results.final_mean(robot, ModelKind::Baseline, "input");
+        let multi = results.final_mean(robot, ModelKind::Multi, "input");
+        let ratio = multi / baseline;
+        let ok = ratio.is_finite() && (1.0 / 1.5..=1.5).contains(&ratio);
+        all &= ok;
+        lines.push(format!("  - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"));
+    }
+    out.push_str(&format!(
+        "3. The multi-robot model performs similarly to the baseline (ratio within 1/1.5 … 1.5, input back constraints): {}.\n{}\n",
+        verdict(all),
+        lines.join("\n")
+    ));
+    out.push_str("\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training time), fig6.svg/png.\n");
+    out
+}
