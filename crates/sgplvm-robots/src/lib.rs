@@ -3,3 +3,13 @@
 
 pub mod joint_state;
 pub mod dataset;
+
+pub mod error;
+pub mod kinematics;
+pub mod models;
+pub mod urdf;
+
+pub use error::{RobotError, RobotResult};
+pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
+pub use models::{Arm, Side};
+pub use urdf::{JointInfo, JointKind, Robot};

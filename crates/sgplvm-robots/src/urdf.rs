@@ -1,0 +1,827 @@
+//! URDF loading: validation with precise messages, normalisation of real-world quirks, parsing
+//! with urdf-rs and building of the kinematic tree ([`Robot`]).
+//!
+//! Loading goes in three steps:
+//! 1. the XML is read into an element tree and every element the kinematics or a physics engine
+//!    uses is checked (numbers, attribute counts, joint types, required links); a problem is
+//!    reported with the file, the element and what was expected;
+//! 2. quirks that urdf-rs 0.9 would reject although real files contain them are normalised
+//!    (a `<limit>` without `velocity` or `effort`) and the text is parsed by urdf-rs, so that the
+//!    same [`urdf_rs::Robot`] can be handed to rapier's URDF loader;
+//! 3. the joints are assembled into a tree: unknown links, a link with two parents, cycles and
+//!    several roots are errors.
+//!
+//! Quirks that load: joints without `<origin>`, origins without `rpy` or `xyz`, numbers such as
+//! `0.` or `1.6E-4`, a floating root joint (held at its origin: the base is fixed),
+//! `<gazebo>`, `<sensor>`, `<transmission>` and other foreign blocks (ignored), revolute joints
+//! whose lower and upper limits are equal (kept as a movable joint with that one value allowed),
+//! mesh files that do not exist (meshes are never opened).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use xml::{Element, Xml};
+
+use crate::error::{RobotError, RobotResult};
+
+/// The kind of a URDF joint, as far as kinematics is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum JointKind {
+    /// Rotation about the axis, within limits.
+    Revolute,
+    /// Rotation about the axis without limits.
+    Continuous,
+    /// Translation along the axis, within limits.
+    Prismatic,
+    /// Rigid connection.
+    Fixed,
+    /// A free 6-DoF joint; held at its origin (the robot's base is fixed in this crate).
+    Floating,
+    /// A planar 3-DoF joint; held at its origin.
+    Planar,
+}
+
+impl JointKind {
+    /// Whether the joint contributes one coordinate to the configuration vector `q`.
+    pub fn is_movable(self) -> bool {
+        matches!(
+            self,
+            JointKind::Revolute | JointKind::Continuous | JointKind::Prismatic
+        )
+    }
+
+    fn parse(s: &str) -> Option<JointKind> {
+        Some(match s {
+            "revolute" => JointKind::Revolute,
+            "continuous" => JointKind::Continuous,
+            "prismatic" => JointKind::Prismatic,
+            "fixed" => JointKind::Fixed,
+            "floating" => JointKind::Floating,
+            "planar" => JointKind::Planar,
+            _ => return None,
+        })
+    }
+}
+
+/// One joint of a [`Robot`], in the form the kinematics uses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointInfo {
+    /// The joint's name in the URDF.
+    pub name: String,
+    /// Its type.
+    pub kind: JointKind,
+    /// Index of the parent link in [`Robot::link_names`].
+    pub parent: usize,
+    /// Index of the child link in [`Robot::link_names`].
+    pub child: usize,
+    /// Pose of the joint frame in the parent link frame (`<origin>`).
+    pub origin: Isometry3<f64>,
+    /// Unit axis in the joint frame (`<axis>`, default x).
+    pub axis: Unit<Vector3<f64>>,
+    /// `(lower, upper)`; `(-inf, inf)` for continuous joints, `(0, 0)` for fixed ones.
+    pub limits: (f64, f64),
+    /// Velocity limit (`<limit velocity>`), 0 when absent.
+    pub velocity: f64,
+    /// Effort limit (`<limit effort>`), 0 when absent.
+    pub effort: f64,
+    /// Position of this joint in the configuration vector, for movable joints.
+    pub q_index: Option<usize>,
+}
+
+impl JointInfo {
+    /// The joint's local transform (origin then motion) for coordinate `q`.
+    pub fn transform(&self, q: f64) -> Isometry3<f64> {
+        match self.kind {
+            JointKind::Revolute | JointKind::Continuous => {
+                self.origin * UnitQuaternion::from_axis_angle(&self.axis, q)
+            }
+            JointKind::Prismatic => self.origin * Translation3::from(self.axis.into_inner() * q),
+            _ => self.origin,
+        }
+    }
+}
+
+/// A parsed URDF: links, joints and the kinematic tree they form.
+///
+/// The configuration vector `q` holds one value per movable joint (revolute, continuous,
+/// prismatic) in the order of [`Robot::joint_names`]: the order of the joints in the file.
+/// The built-in models are written left arm then right arm, shoulder to wrist.
+#[derive(Debug, Clone)]
+pub struct Robot {
+    pub(crate) name: String,
+    pub(crate) source: String,
+    pub(crate) links: Vec<String>,
+    pub(crate) link_index: HashMap<String, usize>,
+    pub(crate) joints: Vec<JointInfo>,
+    /// For each link, the joint whose child it is (None for the root).
+    pub(crate) parent_joint: Vec<Option<usize>>,
+    pub(crate) root: usize,
+    /// Joint indices of the movable joints, in q order.
+    pub(crate) movable: Vec<usize>,
+    pub(crate) urdf: urdf_rs::Robot,
+}
+
+impl Robot {
+    /// Loads a URDF file. Errors name the file.
+    pub fn from_urdf_file(path: &Path) -> RobotResult<Robot> {
+        let file = path.display().to_string();
+        let xml = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Robot::from_urdf_str(&xml, &file)
+    }
+
+    /// Parses URDF text; `source` is the file name used in error messages.
+    pub fn from_urdf_str(xml: &str, source: &str) -> RobotResult<Robot> {
+        parse(xml, source)
+    }
+
+    /// The robot's name (`<robot name>`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The file name (or `builtin:<name>`) the robot was loaded from.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// Names of the movable joints, in configuration order.
+    pub fn joint_names(&self) -> Vec<String> {
+        self.movable
+            .iter()
+            .map(|&j| self.joints[j].name.clone())
+            .collect()
+    }
+
+    /// `(lower, upper)` of each movable joint, in configuration order.
+    pub fn joint_limits(&self) -> Vec<(f64, f64)> {
+        self.movable.iter().map(|&j| self.joints[j].limits).collect()
+    }
+
+    /// Velocity limit of each movable joint (0 when the file gives none), in configuration order.
+    pub fn velocity_limits(&self) -> Vec<f64> {
+        self.movable.iter().map(|&j| self.joints[j].velocity).collect()
+    }
+
+    /// Number of movable joints (length of `q`).
+    pub fn dof(&self) -> usize {
+        self.movable.len()
+    }
+
+    /// Position of a movable joint in the configuration vector.
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.movable.iter().position(|&j| self.joints[j].name == name)
+    }
+
+    /// Names of all links, in file order.
+    pub fn link_names(&self) -> Vec<String> {
+        self.links.clone()
+    }
+
+    /// The root link (the one link that is no joint's child).
+    pub fn root_link(&self) -> &str {
+        &self.links[self.root]
+    }
+
+    /// Every joint (movable or not), in file order.
+    pub fn joints(&self) -> &[JointInfo] {
+        &self.joints
+    }
+
+    /// The description as urdf-rs parsed it (normalised), e.g. for `rapier3d_urdf`.
+    pub fn urdf(&self) -> &urdf_rs::Robot {
+        &self.urdf
+    }
+
+    /// The configuration closest to all-zeros that respects the joint limits.
+    pub fn neutral_configuration(&self) -> Vec<f64> {
+        self.joint_limits()
+            .iter()
+            .map(|&(lo, hi)| 0.0_f64.clamp(lo, hi))
+            .collect()
+    }
+
+    pub(crate) fn link_id(&self, link: &str) -> RobotResult<usize> {
+        self.link_index
+            .get(link)
+            .copied()
+            .ok_or_else(|| RobotError::NoSuchLink {
+                robot: self.name.clone(),
+                link: link.to_string(),
+            })
+    }
+
+    /// Joints from the root down to `link` (root-most first).
+    pub(crate) fn path_to(&self, link: usize) -> Vec<usize> {
+        let mut path = Vec::new();
+        let mut cur = link;
+        while let Some(j) = self.parent_joint[cur] {
+            path.push(j);
+            cur = self.joints[j].parent;
+        }
+        path.reverse();
+        path
+    }
+
+    /// Pose of `link` in the root frame for configuration `q` (in [`Robot::joint_names`] order).
+    pub fn forward_kinematics(&self, q: &[f64], link: &str) -> RobotResult<Isometry3<f64>> {
+        self.check_q(q, "forward_kinematics")?;
+        let id = self.link_id(link)?;
+        Ok(self.pose_of(q, id))
+    }
+
+    /// Poses of `link` for many configurations, `qs` row-major `n × dof`.
+    pub fn forward_kinematics_batch(
+        &self,
+        qs: &[f64],
+        link: &str,
+    ) -> RobotResult<Vec<Isometry3<f64>>> {
+        let dof = self.dof();
+        if dof == 0 || qs.len() % dof != 0 {
+            return Err(RobotError::WrongDof {
+                what: format!(
+                    "forward_kinematics_batch (a multiple of {dof} values, robot \"{}\")",
+                    self.name
+                ),
+                expected: dof,
+                got: qs.len(),
+            });
+        }
+        let id = self.link_id(link)?;
+        Ok(qs.chunks_exact(dof).map(|q| self.pose_of(q, id)).collect())
+    }
+
+    /// Poses of every link in the root frame, in [`Robot::link_names`] order.
+    pub fn all_link_poses(&self, q: &[f64]) -> RobotResult<Vec<Isometry3<f64>>> {
+        self.check_q(q, "all_link_poses")?;
+        Ok((0..self.links.len()).map(|l| self.pose_of(q, l)).collect())
+    }
+
+    fn pose_of(&self, q: &[f64], link: usize) -> Isometry3<f64> {
+        let mut pose = Isometry3::identity();
+        for j in self.path_to(link) {
+            let joint = &self.joints[j];
+            let v = joint.q_index.map_or(0.0, |i| q[i]);
+            pose *= joint.transform(v);
+        }
+        pose
+    }
+
+    pub(crate) fn check_q(&self, q: &[f64], what: &str) -> RobotResult<()> {
+        if q.len() != self.dof() {
+            return Err(RobotError::WrongDof {
+                what: format!("{what} (robot \"{}\")", self.name),
+                expected: self.dof(),
+                got: q.len(),
+            });
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parsing
+
+struct Ctx<'a> {
+    file: &'a str,
+}
+
+impl Ctx<'_> {
+    fn invalid(&self, element: impl Into<String>, message: impl Into<String>) -> RobotError {
+        RobotError::Invalid {
+            file: self.file.to_string(),
+            element: element.into(),
+            message: message.into(),
+        }
+    }
+}
+
+fn describe(el: &Element) -> String {
+    match el.get_attribute("name", None) {
+        Some(n) => format!("<{} name=\"{}\">", el.name, n),
+        None => format!("<{}>", el.name),
+    }
+}
+
+fn children<'e>(el: &'e Element, name: &'static str) -> impl Iterator<Item = &'e Element> + 'e {
+    el.children.iter().filter_map(move |c| match c {
+        Xml::ElementNode(e) if e.name == name => Some(e),
+        _ => None,
+    })
+}
+
+fn parse_number(ctx: &Ctx, at: &str, attr: &str, text: &str) -> RobotResult<f64> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(ctx.invalid(
+            format!("{at} @{attr}"),
+            format!("bad number \"{text}\", expected a finite decimal number such as 0.25 or 1.6E-4"),
+        )),
+    }
+}
+
+fn parse_numbers<const N: usize>(
+    ctx: &Ctx,
+    at: &str,
+    attr: &str,
+    text: &str,
+) -> RobotResult<[f64; N]> {
+    let parts: Vec<&str> = text.split_whitespace().collect();
+    if parts.len() != N {
+        return Err(ctx.invalid(
+            format!("{at} @{attr}"),
+            format!(
+                "\"{text}\" has {} values, expected {N} numbers separated by spaces",
+                parts.len()
+            ),
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = parse_number(ctx, at, attr, p)?;
+    }
+    Ok(out)
+}
+
+fn opt_attr_numbers<const N: usize>(
+    ctx: &Ctx,
+    el: &Element,
+    at: &str,
+    attr: &str,
+) -> RobotResult<Option<[f64; N]>> {
+    el.get_attribute(attr, None)
+        .map(|t| parse_numbers::<N>(ctx, at, attr, t))
+        .transpose()
+}
+
+fn opt_attr_number(ctx: &Ctx, el: &Element, at: &str, attr: &str) -> RobotResult<Option<f64>> {
+    el.get_attribute(attr, None)
+        .map(|t| parse_number(ctx, at, attr, t))
+        .transpose()
+}
+
+fn req_attr<'e>(ctx: &Ctx, el: &'e Element, at: &str, attr: &str) -> RobotResult<&'e str> {
+    match el.get_attribute(attr, None) {
+        Some(v) if !v.trim().is_empty() => Ok(v),
+        Some(_) => Err(ctx.invalid(at, format!("empty attribute \"{attr}\", expected a name"))),
+        None => Err(ctx.invalid(at, format!("missing attribute \"{attr}\""))),
+    }
+}
+
+fn at_most_one<'e>(
+    ctx: &Ctx,
+    el: &'e Element,
+    at: &str,
+    name: &'static str,
+) -> RobotResult<Option<&'e Element>> {
+    let mut it = children(el, name);
+    let first = it.next();
+    if it.next().is_some() {
+        return Err(ctx.invalid(at, format!("more than one <{name}>, expected at most one")));
+    }
+    Ok(first)
+}
+
+/// Reads an `<origin>` child (absent → identity; absent `xyz`/`rpy` → zeros).
+fn origin_of(ctx: &Ctx, el: &Element, at: &str) -> RobotResult<Isometry3<f64>> {
+    let Some(o) = at_most_one(ctx, el, at, "origin")? else {
+        return Ok(Isometry3::identity());
+    };
+    let at = format!("{at} <origin>");
+    let xyz = opt_attr_numbers::<3>(ctx, o, &at, "xyz")?.unwrap_or([0.0; 3]);
+    let rpy = opt_attr_numbers::<3>(ctx, o, &at, "rpy")?.unwrap_or([0.0; 3]);
+    if o.get_attribute("quat_xyzw", None).is_some() {
+        opt_attr_numbers::<4>(ctx, o, &at, "quat_xyzw")?;
+    }
+    Ok(pose_from_xyz_rpy(xyz, rpy))
+}
+
+/// The URDF pose convention: translation, then `Rz(yaw) · Ry(pitch) · Rx(roll)`.
+pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(xyz[0], xyz[1], xyz[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
+}
+
+fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
+    origin_of(ctx, holder, at)?;
+    let Some(g) = at_most_one(ctx, holder, at, "geometry")? else {
+        return Err(ctx.invalid(at, "missing <geometry>"));
+    };
+    let at = format!("{at} <geometry>");
+    let shapes: Vec<&Element> = g
+        .children
+        .iter()
+        .filter_map(|c| match c {
+            Xml::ElementNode(e) => Some(e),
+            _ => None,
+        })
+        .collect();
+    let [shape] = shapes.as_slice() else {
+        return Err(ctx.invalid(
+            at,
+            format!(
+                "{} shapes, expected exactly one of <box>, <cylinder>, <capsule>, <sphere>, <mesh>",
+                shapes.len()
+            ),
+        ));
+    };
+    let sat = format!("{at} <{}>", shape.name);
+    let need = |attr: &str| -> RobotResult<f64> {
+        let t = req_attr(ctx, shape, &sat, attr)?;
+        let v = parse_number(ctx, &sat, attr, t)?;
+        if v < 0.0 {
+            return Err(ctx.invalid(
+                format!("{sat} @{attr}"),
+                format!("{v} is negative, expected a size ≥ 0"),
+            ));
+        }
+        Ok(v)
+    };
+    match shape.name.as_str() {
+        "box" => {
+            let t = req_attr(ctx, shape, &sat, "size")?;
+            parse_numbers::<3>(ctx, &sat, "size", t)?;
+        }
+        "cylinder" | "capsule" => {
+            need("radius")?;
+            need("length")?;
+        }
+        "sphere" => {
+            need("radius")?;
+        }
+        "mesh" => {
+            req_attr(ctx, shape, &sat, "filename")?;
+            opt_attr_numbers::<3>(ctx, shape, &sat, "scale")?;
+        }
+        other => {
+            return Err(ctx.invalid(
+                at,
+                format!("unknown shape <{other}>, expected <box>, <cylinder>, <capsule>, <sphere> or <mesh>"),
+            ))
+        }
+    }
+    Ok(())
+}
+
+fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
+    if let Some(inertial) = at_most_one(ctx, link, at, "inertial")? {
+        let iat = format!("{at} <inertial>");
+        origin_of(ctx, inertial, &iat)?;
+        match at_most_one(ctx, inertial, &iat, "mass")? {
+            Some(m) => {
+                let mat = format!("{iat} <mass>");
+                let t = req_attr(ctx, m, &mat, "value")?;
+                let v = parse_number(ctx, &mat, "value", t)?;
+                if v < 0.0 {
+                    return Err(ctx.invalid(
+                        format!("{mat} @value"),
+                        format!("{v} is negative, expected a mass ≥ 0"),
+                    ));
+                }
+            }
+            None => return Err(ctx.invalid(iat, "missing <mass>")),
+        }
+        match at_most_one(ctx, inertial, &iat, "inertia")? {
+            Some(i) => {
+                let inat = format!("{iat} <inertia>");
+                for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
+                    let t = req_attr(ctx, i, &inat, attr)?;
+                    parse_number(ctx, &inat, attr, t)?;
+                }
+            }
+            None => return Err(ctx.invalid(iat, "missing <inertia>")),
+        }
+    }
+    for (kind, label) in [("visual", "<visual>"), ("collision", "<collision>")] {
+        for v in link
+            .children
+            .iter()
+            .filter_map(|c| match c {
+                Xml::ElementNode(e) if e.name == kind => Some(e),
+                _ => None,
+            })
+        {
+            check_geometry(ctx, v, &format!("{at} {label}"))?;
+        }
+    }
+    Ok(())
+}
+
+struct RawJoint {
+    name: String,
+    kind: JointKind,
+    parent: String,
+    child: String,
+    origin: Isometry3<f64>,
+    axis: Unit<Vector3<f64>>,
+    limits: (f64, f64),
+    velocity: f64,
+    effort: f64,
+}
+
+fn check_joint(ctx: &Ctx, joint: &Element, at: &str) -> RobotResult<RawJoint> {
+    let name = req_attr(ctx, joint, at, "name")?.to_string();
+    let ty = req_attr(ctx, joint, at, "type")?;
+    let kind = JointKind::parse(ty.trim()).ok_or_else(|| {
+        ctx.invalid(
+            format!("{at} @type"),
+            format!("unknown joint type \"{ty}\", expected one of revolute, continuous, prismatic, fixed, floating, planar"),
+        )
+    })?;
+    let link_of = |role: &'static str| -> RobotResult<String> {
+        let el = at_most_one(ctx, joint, at, role)?
+            .ok_or_else(|| ctx.invalid(at, format!("missing <{role} link=\"...\">")))?;
+        Ok(req_attr(ctx, el, &format!("{at} <{role}>"), "link")?
+            .trim()
+            .to_string())
+    };
+    let parent = link_of("parent")?;
+    let child = link_of("child")?;
+    let origin = origin_of(ctx, joint, at)?;
+    let axis = match at_most_one(ctx, joint, at, "axis")? {
+        None => Vector3::x_axis(),
+        Some(a) => {
+            let aat = format!("{at} <axis>");
+            let xyz = opt_attr_numbers::<3>(ctx, a, &aat, "xyz")?.unwrap_or([1.0, 0.0, 0.0]);
+            let v = Vector3::from(xyz);
+            if kind.is_movable() && v.norm() < 1e-12 {
+                return Err(ctx.invalid(
+                    format!("{aat} @xyz"),
+                    "the axis is zero, expected a non-zero direction",
+                ));
+            }
+            Unit::try_new(v, 1e-12).unwrap_or_else(Vector3::x_axis)
+        }
+    };
+    let mut limits = (0.0, 0.0);
+    let mut velocity = 0.0;
+    let mut effort = 0.0;
+    let limit = at_most_one(ctx, joint, at, "limit")?;
+    if let Some(l) = limit {
+        let lat = format!("{at} <limit>");
+        let lower = opt_attr_number(ctx, l, &lat, "lower")?.unwrap_or(0.0);
+        let upper = opt_attr_number(ctx, l, &lat, "upper")?.unwrap_or(0.0);
+        velocity = opt_attr_number(ctx, l, &lat, "velocity")?.unwrap_or(0.0);
+        effort = opt_attr_number(ctx, l, &lat, "effort")?.unwrap_or(0.0);
+        if lower > upper && matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+            return Err(ctx.invalid(
+                lat,
+                format!("lower {lower} > upper {upper}, expected lower ≤ upper"),
+            ));
+        }
+        limits = (lower, upper);
+    } else if matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+        return Err(ctx.invalid(
+            at,
+            format!("missing <limit lower=... upper=...>, required for a {ty} joint"),
+        ));
+    }
+    match kind {
+        JointKind::Continuous => limits = (f64::NEG_INFINITY, f64::INFINITY),
+        JointKind::Revolute | JointKind::Prismatic => {}
+        _ => limits = (0.0, 0.0),
+    }
+    // Optional children that urdf-rs reads: check their numbers so that its messages never show.
+    for (tag, attrs) in [
+        ("dynamics", &["damping", "friction"][..]),
+        ("calibration", &["rising", "falling"][..]),
+        (
+            "safety_controller",
+            &["soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"][..],
+        ),
+        ("mimic", &["multiplier", "offset"][..]),
+    ] {
+        if let Some(el) = at_most_one(ctx, joint, at, tag)? {
+            let tat = format!("{at} <{tag}>");
+            for a in attrs {
+                opt_attr_number(ctx, el, &tat, a)?;
+            }
+            if tag == "mimic" {
+                req_attr(ctx, el, &tat, "joint")?;
+            }
+        }
+    }
+    Ok(RawJoint {
+        name,
+        kind,
+        parent,
+        child,
+        origin,
+        axis,
+        limits,
+        velocity,
+        effort,
+    })
+}
+
+/// Fills in what urdf-rs 0.9 insists on but real files omit, and drops what it cannot read.
+fn normalise_for_urdf_rs(el: &mut Element) {
+    for c in &mut el.children {
+        if let Xml::ElementNode(child) = c {
+            match child.name.as_str() {
+                "limit" => {
+                    for attr in ["velocity", "effort"] {
+                        if child.get_attribute(attr, None).is_none() {
+                            child.set_attribute(attr.to_string(), None, "0".to_string());
+                        }
+                    }
+                }
+                "safety_controller" => {
+                    if child.get_attribute("k_velocity", None).is_none() {
+                        child.set_attribute("k_velocity".to_string(), None, "0".to_string());
+                    }
+                }
+                _ => {}
+            }
+            normalise_for_urdf_rs(child);
+        }
+    }
+}
+
+fn xml_error(file: &str, err: xml::BuilderError) -> RobotError {
+    match err {
+        xml::BuilderError::Parser(p) => RobotError::Xml {
+            file: file.to_string(),
+            line: p.line,
+            column: p.col,
+            message: p.msg.to_string(),
+        },
+        xml::BuilderError::ImproperNesting => RobotError::Xml {
+            file: file.to_string(),
+            line: 0,
+            column: 0,
+            message: "elements are not properly nested (a closing tag does not match its opening tag)"
+                .into(),
+        },
+        xml::BuilderError::NoElement => RobotError::Xml {
+            file: file.to_string(),
+            line: 0,
+            column: 0,
+            message: "no XML element found, expected <robot>".into(),
+        },
+    }
+}
+
+fn parse(text: &str, file: &str) -> RobotResult<Robot> {
+    let ctx = Ctx { file };
+    let mut root: Element = text.parse().map_err(|e| xml_error(file, e))?;
+    if root.name != "robot" {
+        return Err(ctx.invalid(
+            format!("<{}>", root.name),
+            "the document element must be <robot>",
+        ));
+    }
+    let robot_name = root
+        .get_attribute("name", None)
+        .unwrap_or_default()
+        .to_string();
+
+    // Links.
+    let mut links = Vec::new();
+    let mut link_index = HashMap::new();
+    for link in children(&root, "link") {
+        let at = describe(link);
+        let name = req_attr(&ctx, link, &at, "name")?.trim().to_string();
+        check_link(&ctx, link, &at)?;
+        if link_index.insert(name.clone(), links.len()).is_some() {
+            return Err(ctx.invalid(at, "a second link with this name, expected unique link names"));
+        }
+        links.push(name);
+    }
+    if links.is_empty() {
+        return Err(ctx.invalid("<robot>", "no <link> elements, expected at least one"));
+    }
+
+    // Joints.
+    let mut raw = Vec::new();
+    let mut joint_names = HashMap::new();
+    for joint in children(&root, "joint") {
+        let at = describe(joint);
+        let j = check_joint(&ctx, joint, &at)?;
+        if joint_names.insert(j.name.clone(), raw.len()).is_some() {
+            return Err(ctx.invalid(at, "a second joint with this name, expected unique joint names"));
+        }
+        raw.push(j);
+    }
+
+    // Tree.
+    let mut parent_joint: Vec<Option<usize>> = vec![None; links.len()];
+    let mut joints = Vec::with_capacity(raw.len());
+    let mut movable = Vec::new();
+    for (ji, j) in raw.into_iter().enumerate() {
+        let find = |role: &'static str, l: &str| {
+            link_index
+                .get(l)
+                .copied()
+                .ok_or_else(|| RobotError::UnknownLink {
+                    file: file.to_string(),
+                    joint: j.name.clone(),
+                    role,
+                    link: l.to_string(),
+                })
+        };
+        let parent = find("parent", &j.parent)?;
+        let child = find("child", &j.child)?;
+        if parent == child {
+            return Err(RobotError::Cycle {
+                file: file.to_string(),
+                links: vec![j.child.clone()],
+            });
+        }
+        if let Some(other) = parent_joint[child] {
+            let other: &JointInfo = &joints[other];
+            return Err(ctx.invalid(
+                format!("<joint name=\"{}\">", j.name),
+                format!(
+                    "link \"{}\" is already the child of joint \"{}\", expected each link to have at most one parent joint",
+                    j.child, other.name
+                ),
+            ));
+        }
+        parent_joint[child] = Some(ji);
+        let q_index = if j.kind.is_movable() {
+            movable.push(ji);
+            Some(movable.len() - 1)
+        } else {
+            None
+        };
+        joints.push(JointInfo {
+            name: j.name,
+            kind: j.kind,
+            parent,
+            child,
+            origin: j.origin,
+            axis: j.axis,
+            limits: j.limits,
+            velocity: j.velocity,
+            effort: j.effort,
+            q_index,
+        });
+    }
+    let roots: Vec<usize> = (0..links.len())
+        .filter(|&l| parent_joint[l].is_none())
+        .collect();
+    if roots.len() > 1 {
+        return Err(RobotError::MultipleRoots {
+            file: file.to_string(),
+            roots: roots.iter().map(|&l| links[l].clone()).collect(),
+        });
+    }
+    // Every link has at most one parent; a link that does not reach the root by following
+    // parents lies on (or below) a cycle.
+    for start in 0..links.len() {
+        let mut seen = vec![false; links.len()];
+        let mut cur = start;
+        while let Some(j) = parent_joint[cur] {
+            if seen[cur] {
+                let mut cycle = vec![links[cur].clone()];
+                let mut c = joints[j].parent;
+                while c != cur {
+                    cycle.push(links[c].clone());
+                    match parent_joint[c] {
+                        Some(pj) => c = joints[pj].parent,
+                        None => break,
+                    }
+                }
+                cycle.reverse();
+                return Err(RobotError::Cycle {
+                    file: file.to_string(),
+                    links: cycle,
+                });
+            }
+            seen[cur] = true;
+            cur = joints[j].parent;
+        }
+    }
+    let Some(&root_link) = roots.first() else {
+        // Unreachable in practice: no root means a cycle, which the loop above reports.
+        return Err(RobotError::Cycle {
+            file: file.to_string(),
+            links: links.clone(),
+        });
+    };
+
+    normalise_for_urdf_rs(&mut root);
+    let urdf = urdf_rs::read_from_string(&root.to_string()).map_err(|e| RobotError::UrdfRs {
+        file: file.to_string(),
+        message: e.to_string(),
+    })?;
+
+    Ok(Robot {
+        name: robot_name,
+        source: file.to_string(),
+        links,
+        link_index,
+        joints,
+        parent_joint,
+        root: root_link,
+        movable,
+        urdf,
+    })
+}
