@@ -7,9 +7,11 @@ pub mod dataset;
 pub mod error;
 pub mod kinematics;
 pub mod models;
+pub mod physics;
 pub mod urdf;
 
 pub use error::{RobotError, RobotResult};
 pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
 pub use models::{Arm, Side};
 pub use urdf::{JointInfo, JointKind, Robot};
+pub use physics::{replay, replay_urdf, PhysicsError, ReplayOptions, ReplayReport, Trajectory};
