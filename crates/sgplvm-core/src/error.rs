@@ -11,7 +11,9 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[non_exhaustive]
 pub enum Error {
     /// A value of the data is NaN or infinite.
-    #[error("space '{space}': value at row {row}, column {col} is {value}; expected a finite number")]
+    #[error(
+        "space '{space}': value at row {row}, column {col} is {value}; expected a finite number"
+    )]
     NonFinite {
         /// Space (or input) holding the value.
         space: String,
@@ -94,7 +96,9 @@ pub enum Error {
         reason: String,
     },
     /// A kernel matrix stayed non-positive-definite even with the largest jitter.
-    #[error("kernel matrix of space '{space}' is not positive definite even with jitter {jitter:e}")]
+    #[error(
+        "kernel matrix of space '{space}' is not positive definite even with jitter {jitter:e}"
+    )]
     NotPositiveDefinite {
         /// Space whose matrix failed.
         space: String,

@@ -50,19 +50,32 @@ impl MatData {
                 data.push(m[(i, j)]);
             }
         }
-        Self { rows: m.nrows(), cols: m.ncols(), data }
+        Self {
+            rows: m.nrows(),
+            cols: m.ncols(),
+            data,
+        }
     }
 
     fn to_mat(&self, what: &str) -> Result<Mat<f64>> {
         if self.rows.checked_mul(self.cols) != Some(self.data.len()) {
             return Err(Error::Corrupt {
-                reason: format!("{what}: {}×{} matrix holds {} values", self.rows, self.cols, self.data.len()),
+                reason: format!(
+                    "{what}: {}×{} matrix holds {} values",
+                    self.rows,
+                    self.cols,
+                    self.data.len()
+                ),
             });
         }
         if let Some(v) = self.data.iter().find(|v| !v.is_finite()) {
-            return Err(Error::Corrupt { reason: format!("{what}: non-finite value {v}") });
+            return Err(Error::Corrupt {
+                reason: format!("{what}: non-finite value {v}"),
+            });
         }
-        Ok(Mat::from_fn(self.rows, self.cols, |i, j| self.data[j * self.rows + i]))
+        Ok(Mat::from_fn(self.rows, self.cols, |i, j| {
+            self.data[j * self.rows + i]
+        }))
     }
 }
 
@@ -78,8 +91,14 @@ struct SpaceFile {
 
 #[derive(Serialize, Deserialize)]
 enum LatentFile {
-    Free { x: MatData },
-    Back { weights: MatData, bandwidth: f64, data: MatData },
+    Free {
+        x: MatData,
+    },
+    Back {
+        weights: MatData,
+        bandwidth: f64,
+        data: MatData,
+    },
 }
 
 #[derive(Serialize, Deserialize)]
@@ -125,14 +144,23 @@ impl SharedGplvm {
                 })
                 .collect(),
             latent: match &self.latent {
-                Latent::Free { x } => LatentFile::Free { x: MatData::from(x) },
-                Latent::Back { weights, bandwidth, data } => LatentFile::Back {
+                Latent::Free { x } => LatentFile::Free {
+                    x: MatData::from(x),
+                },
+                Latent::Back {
+                    weights,
+                    bandwidth,
+                    data,
+                } => LatentFile::Back {
                     weights: MatData::from(weights),
                     bandwidth: *bandwidth,
                     data: MatData::from(data),
                 },
             },
-            map: self.map.as_ref().map(|m| MapFile { kernel: m.kernel.clone(), x_mean: m.x_mean.clone() }),
+            map: self.map.as_ref().map(|m| MapFile {
+                kernel: m.kernel.clone(),
+                x_mean: m.x_mean.clone(),
+            }),
             history: self.history.clone(),
             stop_reason: self.stop_reason.clone(),
         };
@@ -154,7 +182,10 @@ impl SharedGplvm {
             return Err(Error::BadMagic);
         }
         if bytes.len() < HEADER {
-            return Err(Error::Truncated { expected: HEADER, found: bytes.len() });
+            return Err(Error::Truncated {
+                expected: HEADER,
+                found: bytes.len(),
+            });
         }
         let word = |a: usize, b: usize| -> [u8; 8] {
             let mut w = [0u8; 8];
@@ -163,25 +194,42 @@ impl SharedGplvm {
         };
         let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
         if version != FORMAT_VERSION {
-            return Err(Error::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
+            return Err(Error::UnsupportedVersion {
+                found: version,
+                supported: FORMAT_VERSION,
+            });
         }
         let len = u64::from_le_bytes(word(12, 20));
         let hash = u64::from_le_bytes(word(20, 28));
-        let expected = usize::try_from(len).ok().and_then(|l| l.checked_add(HEADER)).ok_or(Error::Corrupt {
-            reason: format!("payload length {len} is impossible"),
-        })?;
+        let expected = usize::try_from(len)
+            .ok()
+            .and_then(|l| l.checked_add(HEADER))
+            .ok_or(Error::Corrupt {
+                reason: format!("payload length {len} is impossible"),
+            })?;
         if bytes.len() < expected {
-            return Err(Error::Truncated { expected, found: bytes.len() });
+            return Err(Error::Truncated {
+                expected,
+                found: bytes.len(),
+            });
         }
         if bytes.len() > expected {
-            return Err(Error::Corrupt { reason: format!("{} trailing bytes after the payload", bytes.len() - expected) });
+            return Err(Error::Corrupt {
+                reason: format!(
+                    "{} trailing bytes after the payload",
+                    bytes.len() - expected
+                ),
+            });
         }
         let payload = &bytes[HEADER..];
         if fnv1a(payload) != hash {
-            return Err(Error::Corrupt { reason: "payload checksum mismatch".into() });
+            return Err(Error::Corrupt {
+                reason: "payload checksum mismatch".into(),
+            });
         }
-        let file: ModelFile =
-            serde_json::from_slice(payload).map_err(|e| Error::Corrupt { reason: format!("payload: {e}") })?;
+        let file: ModelFile = serde_json::from_slice(payload).map_err(|e| Error::Corrupt {
+            reason: format!("payload: {e}"),
+        })?;
         Self::from_file(file)
     }
 
@@ -190,39 +238,73 @@ impl SharedGplvm {
         f.config.check()?;
         let q = f.config.latent_dim;
         if f.spaces.len() < 2 {
-            return Err(corrupt(format!("{} spaces; expected at least 2", f.spaces.len())));
+            return Err(corrupt(format!(
+                "{} spaces; expected at least 2",
+                f.spaces.len()
+            )));
         }
         let mut spaces = Vec::new();
         for s in f.spaces {
             let data = s.data.to_mat(&format!("space '{}' data", s.name))?;
             let d = data.ncols();
             if s.offset.len() != d || s.scale.len() != d {
-                return Err(corrupt(format!("space '{}': offset/scale length differs from {d} columns", s.name)));
+                return Err(corrupt(format!(
+                    "space '{}': offset/scale length differs from {d} columns",
+                    s.name
+                )));
             }
             if s.kernel.lengthscale.len() != q || !s.kernel.is_valid() {
                 return Err(corrupt(format!("space '{}': invalid kernel", s.name)));
             }
-            if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0)) || s.offset.iter().any(|v| !v.is_finite()) {
+            if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
+                || s.offset.iter().any(|v| !v.is_finite())
+            {
                 return Err(corrupt(format!("space '{}': invalid offset/scale", s.name)));
             }
             if let Some(c) = &s.columns {
                 if c.len() != d {
-                    return Err(corrupt(format!("space '{}': {} column names for {d} columns", s.name, c.len())));
+                    return Err(corrupt(format!(
+                        "space '{}': {} column names for {d} columns",
+                        s.name,
+                        c.len()
+                    )));
                 }
             }
-            spaces.push(Space { name: s.name, data, offset: s.offset, scale: s.scale, kernel: s.kernel, columns: s.columns });
+            spaces.push(Space {
+                name: s.name,
+                data,
+                offset: s.offset,
+                scale: s.scale,
+                kernel: s.kernel,
+                columns: s.columns,
+            });
         }
         let n = spaces[0].data.nrows();
-        if q == 0 || q >= n || spaces.iter().any(|s| s.data.nrows() != n || s.data.ncols() == 0) {
+        if q == 0
+            || q >= n
+            || spaces
+                .iter()
+                .any(|s| s.data.nrows() != n || s.data.ncols() == 0)
+        {
             return Err(corrupt("space shapes are inconsistent".into()));
         }
         let latent = match f.latent {
-            LatentFile::Free { x } => Latent::Free { x: x.to_mat("latent x")? },
-            LatentFile::Back { weights, bandwidth, data } => {
+            LatentFile::Free { x } => Latent::Free {
+                x: x.to_mat("latent x")?,
+            },
+            LatentFile::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
                 if !(bandwidth.is_finite() && bandwidth > 0.0) {
                     return Err(corrupt(format!("bandwidth {bandwidth}")));
                 }
-                Latent::Back { weights: weights.to_mat("weights")?, bandwidth, data: data.to_mat("back-constraint data")? }
+                Latent::Back {
+                    weights: weights.to_mat("weights")?,
+                    bandwidth,
+                    data: data.to_mat("back-constraint data")?,
+                }
             }
         };
         let lat_shape = match &latent {
@@ -234,10 +316,16 @@ impl SharedGplvm {
         }
         let map = match f.map {
             Some(m) => {
-                if m.kernel.lengthscale.len() != spaces[0].data.ncols() || !m.kernel.is_valid() || m.x_mean.len() != q {
+                if m.kernel.lengthscale.len() != spaces[0].data.ncols()
+                    || !m.kernel.is_valid()
+                    || m.x_mean.len() != q
+                {
                     return Err(corrupt("input map has the wrong shape".into()));
                 }
-                Some(InputMap { kernel: m.kernel, x_mean: m.x_mean })
+                Some(InputMap {
+                    kernel: m.kernel,
+                    x_mean: m.x_mean,
+                })
             }
             None => None,
         };
@@ -262,10 +350,19 @@ impl SharedGplvm {
     /// Writes the model to `path` atomically (temporary file in the same directory, then
     /// rename), so no half-written model file is ever left behind.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let io = |source: std::io::Error, p: &Path| Error::Io { path: p.to_path_buf(), source };
+        let io = |source: std::io::Error, p: &Path| Error::Io {
+            path: p.to_path_buf(),
+            source,
+        };
         let bytes = self.to_bytes();
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let file_name = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let file_name = path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into());
         let tmp: PathBuf = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
         let result = (|| {
             let mut f = std::fs::File::create(&tmp).map_err(|e| io(e, &tmp))?;
@@ -281,7 +378,10 @@ impl SharedGplvm {
 
     /// Reads a model file written by [`SharedGplvm::save`].
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Self::from_bytes(&bytes)
     }
 }

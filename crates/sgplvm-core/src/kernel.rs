@@ -131,7 +131,7 @@ pub(crate) fn cholesky_with_jitter(
         if ok {
             return Ok(jitter);
         }
-        if !(next <= 1e-2 * mean_diag) || !next.is_finite() {
+        if next.is_nan() || next > 1e-2 * mean_diag || !next.is_finite() {
             return Err(NotPd { jitter });
         }
         jitter = next;
@@ -321,9 +321,17 @@ mod tests {
 
     fn nll(x: &Mat<f64>, y: &Mat<f64>, k: &KernelParams) -> f64 {
         let mut w = SpaceWork::new(x.nrows(), y.ncols());
-        eval_space(&row_major(x.as_ref()), x.ncols(), y.as_ref(), k, &mut w, false, None)
-            .expect("pd")
-            .nll
+        eval_space(
+            &row_major(x.as_ref()),
+            x.ncols(),
+            y.as_ref(),
+            k,
+            &mut w,
+            false,
+            None,
+        )
+        .expect("pd")
+        .nll
     }
 
     /// Direct O(N³) evaluation with faer's dense solvers as an independent reference.
@@ -350,7 +358,11 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let x = random(25, 3, &mut rng);
         let y = random(25, 4, &mut rng);
-        let k = KernelParams { variance: 1.3, lengthscale: vec![0.7, 1.1, 2.0], noise: 0.05 };
+        let k = KernelParams {
+            variance: 1.3,
+            lengthscale: vec![0.7, 1.1, 2.0],
+            noise: 0.05,
+        };
         let a = nll(&x, &y, &k);
         let b = reference_nll(&x, &y, &k);
         assert!((a - b).abs() < 1e-10 * b.abs(), "{a} vs {b}");
@@ -395,7 +407,12 @@ mod tests {
                 kp.lengthscale[t] += h;
                 let mut km = k.clone();
                 km.lengthscale[t] -= h;
-                check(e.d_lengthscale[t], nll(&x, &y, &kp), nll(&x, &y, &km), "lengthscale");
+                check(
+                    e.d_lengthscale[t],
+                    nll(&x, &y, &kp),
+                    nll(&x, &y, &km),
+                    "lengthscale",
+                );
             }
             for (i, t) in [(0, 0), (n - 1, q - 1), (n / 2, 1)] {
                 let mut xp = x.clone();
@@ -407,7 +424,10 @@ mod tests {
             // The kernel-only path gives the same kernel gradient.
             let e2 = eval_space(&xr, q, y.as_ref(), &k, &mut w, true, None).expect("pd");
             assert!((e2.d_variance - e.d_variance).abs() < 1e-9 * e.d_variance.abs().max(1.0));
-            assert!((e2.d_lengthscale[0] - e.d_lengthscale[0]).abs() < 1e-9 * e.d_lengthscale[0].abs().max(1.0));
+            assert!(
+                (e2.d_lengthscale[0] - e.d_lengthscale[0]).abs()
+                    < 1e-9 * e.d_lengthscale[0].abs().max(1.0)
+            );
         }
     }
 
@@ -415,14 +435,22 @@ mod tests {
     fn jitter_rescues_singular_matrix() {
         // Duplicate points and zero noise: K is singular, jitter must make it factorisable.
         let x = Mat::from_fn(6, 1, |i, _| (i / 2) as f64);
-        let k = KernelParams { variance: 1.0, lengthscale: vec![1.0], noise: 0.0 };
+        let k = KernelParams {
+            variance: 1.0,
+            lengthscale: vec![1.0],
+            noise: 0.0,
+        };
         let mut kf = Mat::zeros(6, 6);
         rbf_lower(&row_major(x.as_ref()), 1, &k, kf.as_mut());
         let mut l = Mat::zeros(6, 6);
         let j = cholesky_with_jitter(kf.as_ref(), 0.0, l.as_mut(), Par::Seq).expect("jitter");
         assert!(j > 0.0 && j <= 1e-2, "jitter {j}");
         // A NaN matrix fails cleanly.
-        let k = KernelParams { variance: f64::NAN, lengthscale: vec![1.0], noise: 0.1 };
+        let k = KernelParams {
+            variance: f64::NAN,
+            lengthscale: vec![1.0],
+            noise: 0.1,
+        };
         rbf_lower(&row_major(x.as_ref()), 1, &k, kf.as_mut());
         assert!(cholesky_with_jitter(kf.as_ref(), 0.1, l.as_mut(), Par::Seq).is_err());
     }

@@ -22,6 +22,9 @@
 //! # Ok::<(), sgplvm_core::Error>(())
 //! ```
 
+// Index loops over several arrays at once are the clearest form of the numeric kernels here.
+#![allow(clippy::needless_range_loop)]
+
 mod error;
 mod io;
 mod kernel;

@@ -111,16 +111,25 @@ impl ModelConfig {
     /// Checks the values that do not depend on the data.
     pub fn check(&self) -> Result<()> {
         let bad = |what: &str, reason: &str| {
-            Err(Error::InvalidValue { what: what.into(), reason: reason.into() })
+            Err(Error::InvalidValue {
+                what: what.into(),
+                reason: reason.into(),
+            })
         };
         if !(self.init_perturbation >= 0.0 && self.init_perturbation.is_finite()) {
-            return bad("ModelConfig::init_perturbation", "expected a finite number ≥ 0");
+            return bad(
+                "ModelConfig::init_perturbation",
+                "expected a finite number ≥ 0",
+            );
         }
         if !(self.bc_ridge > 0.0 && self.bc_ridge.is_finite()) {
             return bad("ModelConfig::bc_ridge", "expected a finite number > 0");
         }
         if !(self.init_noise_fraction > 0.0 && self.init_noise_fraction.is_finite()) {
-            return bad("ModelConfig::init_noise_fraction", "expected a finite number > 0");
+            return bad(
+                "ModelConfig::init_noise_fraction",
+                "expected a finite number > 0",
+            );
         }
         Ok(())
     }
@@ -180,8 +189,14 @@ pub(crate) struct Space {
 /// Latent representation.
 #[derive(Clone, Debug)]
 pub(crate) enum Latent {
-    Free { x: Mat<f64> },
-    Back { weights: Mat<f64>, bandwidth: f64, data: Mat<f64> },
+    Free {
+        x: Mat<f64>,
+    },
+    Back {
+        weights: Mat<f64>,
+        bandwidth: f64,
+        data: Mat<f64>,
+    },
 }
 
 /// GP regression human → latent (for `None` and `Output` back constraints).
@@ -247,7 +262,12 @@ fn check_finite(name: &str, m: MatRef<'_, f64>) -> Result<()> {
         for i in 0..m.nrows() {
             let v = m[(i, j)];
             if !v.is_finite() {
-                return Err(Error::NonFinite { space: name.into(), row: i, col: j, value: v });
+                return Err(Error::NonFinite {
+                    space: name.into(),
+                    row: i,
+                    col: j,
+                    value: v,
+                });
             }
         }
     }
@@ -256,7 +276,11 @@ fn check_finite(name: &str, m: MatRef<'_, f64>) -> Result<()> {
 
 fn check_nonempty(name: &str, m: MatRef<'_, f64>) -> Result<()> {
     if m.nrows() == 0 || m.ncols() == 0 {
-        return Err(Error::EmptySpace { space: name.into(), rows: m.nrows(), cols: m.ncols() });
+        return Err(Error::EmptySpace {
+            space: name.into(),
+            rows: m.nrows(),
+            cols: m.ncols(),
+        });
     }
     Ok(())
 }
@@ -264,7 +288,9 @@ fn check_nonempty(name: &str, m: MatRef<'_, f64>) -> Result<()> {
 /// Centres (and optionally scales) a data matrix, returning (data, offset, scale).
 fn preprocess(m: MatRef<'_, f64>, config: &ModelConfig) -> (Mat<f64>, Vec<f64>, Vec<f64>) {
     let (n, d) = (m.nrows(), m.ncols());
-    let offset: Vec<f64> = (0..d).map(|j| (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64).collect();
+    let offset: Vec<f64> = (0..d)
+        .map(|j| (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64)
+        .collect();
     let var: Vec<f64> = (0..d)
         .map(|j| (0..n).map(|i| (m[(i, j)] - offset[j]).powi(2)).sum::<f64>() / n as f64)
         .collect();
@@ -272,7 +298,10 @@ fn preprocess(m: MatRef<'_, f64>, config: &ModelConfig) -> (Mat<f64>, Vec<f64>, 
         vec![1.0; d]
     } else {
         match config.scale_mode {
-            ScaleMode::PerColumn => var.iter().map(|&v| if v > 0.0 { v.sqrt() } else { 1.0 }).collect(),
+            ScaleMode::PerColumn => var
+                .iter()
+                .map(|&v| if v > 0.0 { v.sqrt() } else { 1.0 })
+                .collect(),
             ScaleMode::PerSpace => {
                 let mv = var.iter().sum::<f64>() / d as f64;
                 vec![if mv > 0.0 { mv.sqrt() } else { 1.0 }; d]
@@ -304,10 +333,12 @@ fn mean_col_var(m: MatRef<'_, f64>) -> f64 {
 fn pca(y: MatRef<'_, f64>, q: usize) -> Result<(Mat<f64>, f64)> {
     let (n, d) = (y.nrows(), y.ncols());
     let cov = (y.transpose() * y) * faer::Scale(1.0 / n as f64);
-    let evd = cov.self_adjoint_eigen(Side::Lower).map_err(|e| Error::InvalidValue {
-        what: "PCA initialisation".into(),
-        reason: format!("eigen-decomposition failed: {e:?}"),
-    })?;
+    let evd = cov
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|e| Error::InvalidValue {
+            what: "PCA initialisation".into(),
+            reason: format!("eigen-decomposition failed: {e:?}"),
+        })?;
     let u = evd.U();
     let s = evd.S().column_vector();
     let k = q.min(d);
@@ -436,8 +467,10 @@ fn ridge_solve(a: MatRef<'_, f64>, b: MatRef<'_, f64>, ridge: f64) -> Result<Mat
     let n = a.nrows();
     let par = par_for(n);
     let mut l = Mat::zeros(n, n);
-    cholesky_with_jitter(a, ridge, l.as_mut(), par)
-        .map_err(|e| Error::NotPositiveDefinite { space: "back constraint".into(), jitter: e.jitter })?;
+    cholesky_with_jitter(a, ridge, l.as_mut(), par).map_err(|e| Error::NotPositiveDefinite {
+        space: "back constraint".into(),
+        jitter: e.jitter,
+    })?;
     let mut x = b.to_owned();
     llt::solve::solve_in_place(l.as_ref(), x.as_mut(), par, MemStack::new(&mut []));
     Ok(x)
@@ -497,9 +530,17 @@ impl<'a> ModelObjective<'a> {
             Mode::Full => (0..model.spaces.len()).collect(),
             Mode::Kernels(v) => v.clone(),
         };
-        let works = evaluated.iter().map(|&s| SpaceWork::new(n, model.spaces[s].data.ncols())).collect();
+        let works = evaluated
+            .iter()
+            .map(|&s| SpaceWork::new(n, model.spaces[s].data.ncols()))
+            .collect();
         let kbc = match (&mode, &model.latent) {
-            (Mode::Full, Latent::Back { data, bandwidth, .. }) => Some(bc_kernel(data.as_ref(), *bandwidth)),
+            (
+                Mode::Full,
+                Latent::Back {
+                    data, bandwidth, ..
+                },
+            ) => Some(bc_kernel(data.as_ref(), *bandwidth)),
             _ => None,
         };
         let mut constant = 0.0;
@@ -512,12 +553,30 @@ impl<'a> ModelObjective<'a> {
                 if w.alpha().ncols() != space.data.ncols() {
                     w = SpaceWork::new(n, space.data.ncols());
                 }
-                let e = eval_space(&model.x_rows, model.q(), space.data.as_ref(), &space.kernel, &mut w, false, None)
-                    .map_err(|e| Error::NotPositiveDefinite { space: space.name.clone(), jitter: e.jitter })?;
+                let e = eval_space(
+                    &model.x_rows,
+                    model.q(),
+                    space.data.as_ref(),
+                    &space.kernel,
+                    &mut w,
+                    false,
+                    None,
+                )
+                .map_err(|e| Error::NotPositiveDefinite {
+                    space: space.name.clone(),
+                    jitter: e.jitter,
+                })?;
                 constant += e.nll;
             }
         }
-        Ok(Self { model, mode, kbc, constant, x_rows: model.x_rows.clone(), works: Mutex::new(works) })
+        Ok(Self {
+            model,
+            mode,
+            kbc,
+            constant,
+            x_rows: model.x_rows.clone(),
+            works: Mutex::new(works),
+        })
     }
 
     fn evaluated(&self) -> Vec<usize> {
@@ -586,7 +645,14 @@ impl Objective for ModelObjective<'_> {
             let x = match &self.kbc {
                 Some(k) => {
                     let mut x = Mat::zeros(n, q);
-                    faer::linalg::matmul::matmul(x.as_mut(), Accum::Replace, k.as_ref(), lat, 1.0, par);
+                    faer::linalg::matmul::matmul(
+                        x.as_mut(),
+                        Accum::Replace,
+                        k.as_ref(),
+                        lat,
+                        1.0,
+                        par,
+                    );
                     x
                 }
                 None => lat.to_owned(),
@@ -607,10 +673,24 @@ impl Objective for ModelObjective<'_> {
             let space = &m.spaces[s];
             let k = decode_kernel(&theta[off..off + q + 2], q);
             if !k.is_valid() {
-                return Err(Error::InvalidValue { what: format!("kernel of '{}'", space.name), reason: "overflow".into() });
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{}'", space.name),
+                    reason: "overflow".into(),
+                });
             }
-            let e = eval_space(xr, q, space.data.as_ref(), &k, w, true, if ll > 0 { Some(&mut dx) } else { None })
-                .map_err(|e| Error::NotPositiveDefinite { space: space.name.clone(), jitter: e.jitter })?;
+            let e = eval_space(
+                xr,
+                q,
+                space.data.as_ref(),
+                &k,
+                w,
+                true,
+                if ll > 0 { Some(&mut dx) } else { None },
+            )
+            .map_err(|e| Error::NotPositiveDefinite {
+                space: space.name.clone(),
+                jitter: e.jitter,
+            })?;
             total += e.nll;
             kernel_grad_log(&k, &e, &mut grad[off..off + q + 2]);
             off += q + 2;
@@ -620,7 +700,14 @@ impl Objective for ModelObjective<'_> {
             match &self.kbc {
                 Some(k) => {
                     let gm = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], n, q);
-                    faer::linalg::matmul::matmul(gm, Accum::Replace, k.transpose(), dxm.as_ref(), 1.0, par);
+                    faer::linalg::matmul::matmul(
+                        gm,
+                        Accum::Replace,
+                        k.transpose(),
+                        dxm.as_ref(),
+                        1.0,
+                        par,
+                    );
                 }
                 None => {
                     for j in 0..q {
@@ -647,14 +734,28 @@ impl Objective for MapObjective {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
         let k = decode_kernel(theta, self.dh);
         if !k.is_valid() {
-            return Err(Error::InvalidValue { what: "input map kernel".into(), reason: "overflow".into() });
+            return Err(Error::InvalidValue {
+                what: "input map kernel".into(),
+                reason: "overflow".into(),
+            });
         }
         let mut w = match self.work.lock() {
             Ok(g) => g,
             Err(p) => p.into_inner(),
         };
-        let e = eval_space(&self.h_rows, self.dh, self.y.as_ref(), &k, &mut w, true, None)
-            .map_err(|e| Error::NotPositiveDefinite { space: "input map".into(), jitter: e.jitter })?;
+        let e = eval_space(
+            &self.h_rows,
+            self.dh,
+            self.y.as_ref(),
+            &k,
+            &mut w,
+            true,
+            None,
+        )
+        .map_err(|e| Error::NotPositiveDefinite {
+            space: "input map".into(),
+            jitter: e.jitter,
+        })?;
         kernel_grad_log(&k, &e, grad);
         Ok(e.nll)
     }
@@ -695,7 +796,10 @@ impl SharedGplvm {
             }
         }
         let Some(ii) = names.iter().position(|n| n == input) else {
-            return Err(Error::UnknownSpace { name: input.into(), known: names });
+            return Err(Error::UnknownSpace {
+                name: input.into(),
+                known: names,
+            });
         };
         if spaces.len() < 2 {
             return Err(Error::NoOutputSpace);
@@ -704,7 +808,11 @@ impl SharedGplvm {
         for (name, m) in spaces {
             check_nonempty(name, *m)?;
             if m.nrows() != n {
-                return Err(Error::RowCountMismatch { space: name.to_string(), expected: n, found: m.nrows() });
+                return Err(Error::RowCountMismatch {
+                    space: name.to_string(),
+                    expected: n,
+                    found: m.nrows(),
+                });
             }
             check_finite(name, *m)?;
         }
@@ -724,7 +832,11 @@ impl SharedGplvm {
                 data,
                 offset,
                 scale,
-                kernel: KernelParams { variance: v, lengthscale: vec![1.0; q], noise: config.init_noise_fraction * v },
+                kernel: KernelParams {
+                    variance: v,
+                    lengthscale: vec![1.0; q],
+                    noise: config.init_noise_fraction * v,
+                },
                 columns: None,
             });
         }
@@ -760,7 +872,11 @@ impl SharedGplvm {
                 let bandwidth = median_distance(data.as_ref());
                 let kbc = bc_kernel(data.as_ref(), bandwidth);
                 let weights = ridge_solve(kbc.as_ref(), x0.as_ref(), config.bc_ridge)?;
-                Latent::Back { weights, bandwidth, data }
+                Latent::Back {
+                    weights,
+                    bandwidth,
+                    data,
+                }
             }
         };
         let mut model = SharedGplvm {
@@ -785,7 +901,11 @@ impl SharedGplvm {
     fn update_latent_points(&mut self) {
         self.x = match &self.latent {
             Latent::Free { x } => x.clone(),
-            Latent::Back { weights, bandwidth, data } => {
+            Latent::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
                 let k = bc_kernel(data.as_ref(), *bandwidth);
                 let mut x = Mat::zeros(weights.nrows(), weights.ncols());
                 faer::linalg::matmul::matmul(
@@ -807,11 +927,20 @@ impl SharedGplvm {
     }
 
     /// Runs the optimiser in `mode`, then fits the input map (full mode) and rebuilds caches.
-    fn train(&mut self, mode: Mode, options: &TrainOptions, mut callback: Option<Callback<'_>>) -> Result<()> {
+    fn train(
+        &mut self,
+        mode: Mode,
+        options: &TrainOptions,
+        mut callback: Option<Callback<'_>>,
+    ) -> Result<()> {
         let (outcome, jitter) = {
             let obj = ModelObjective::new(self, mode.clone())?;
             let theta0 = obj.theta0();
-            let d_total: usize = obj.evaluated().iter().map(|&s| self.spaces[s].data.ncols()).sum();
+            let d_total: usize = obj
+                .evaluated()
+                .iter()
+                .map(|&s| self.spaces[s].data.ncols())
+                .sum();
             let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
             let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
             let outcome = minimise(&obj, theta0, scale, options, |rec, theta| {
@@ -855,21 +984,40 @@ impl SharedGplvm {
     fn fit_map(&mut self, options: &TrainOptions, warm: Option<KernelParams>) -> Result<()> {
         let h = self.spaces[0].data.as_ref();
         let (n, dh, q) = (self.n(), h.ncols(), self.q());
-        let x_mean: Vec<f64> = (0..q).map(|j| (0..n).map(|i| self.x[(i, j)]).sum::<f64>() / n as f64).collect();
+        let x_mean: Vec<f64> = (0..q)
+            .map(|j| (0..n).map(|i| self.x[(i, j)]).sum::<f64>() / n as f64)
+            .collect();
         let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - x_mean[j]);
         let kernel0 = match warm {
             Some(k) if k.lengthscale.len() == dh && k.is_valid() => k,
             _ => {
                 let v = mean_col_var(y.as_ref());
-                KernelParams { variance: v, lengthscale: vec![median_distance(h); dh], noise: 0.01 * v }
+                KernelParams {
+                    variance: v,
+                    lengthscale: vec![median_distance(h); dh],
+                    noise: 0.01 * v,
+                }
             }
         };
-        let obj = MapObjective { h_rows: row_major(h), dh, y: y.clone(), work: Mutex::new(SpaceWork::new(n, q)) };
+        let obj = MapObjective {
+            h_rows: row_major(h),
+            dh,
+            y: y.clone(),
+            work: Mutex::new(SpaceWork::new(n, q)),
+        };
         let mut theta0 = Vec::new();
         encode_kernel(&kernel0, &mut theta0);
-        let opts = TrainOptions { max_iters: options.map_max_iters, ..options.clone() };
-        let out = minimise(&obj, theta0, 1.0 / (n * q) as f64, &opts, |_, _| Control::Continue)?;
-        self.map = Some(InputMap { kernel: decode_kernel(&out.theta, dh), x_mean });
+        let opts = TrainOptions {
+            max_iters: options.map_max_iters,
+            ..options.clone()
+        };
+        let out = minimise(&obj, theta0, 1.0 / (n * q) as f64, &opts, |_, _| {
+            Control::Continue
+        })?;
+        self.map = Some(InputMap {
+            kernel: decode_kernel(&out.theta, dh),
+            x_mean,
+        });
         Ok(())
     }
 
@@ -881,8 +1029,19 @@ impl SharedGplvm {
         let mut caches = Vec::with_capacity(self.spaces.len());
         for s in &self.spaces {
             let mut w = SpaceWork::new(n, s.data.ncols());
-            let e = eval_space(&self.x_rows, q, s.data.as_ref(), &s.kernel, &mut w, false, None)
-                .map_err(|e| Error::NotPositiveDefinite { space: s.name.clone(), jitter: e.jitter })?;
+            let e = eval_space(
+                &self.x_rows,
+                q,
+                s.data.as_ref(),
+                &s.kernel,
+                &mut w,
+                false,
+                None,
+            )
+            .map_err(|e| Error::NotPositiveDefinite {
+                space: s.name.clone(),
+                jitter: e.jitter,
+            })?;
             caches.push(SpaceCache {
                 alpha_rows: row_major(w.alpha()),
                 factor: w.factor().to_owned(),
@@ -892,32 +1051,46 @@ impl SharedGplvm {
         }
         self.caches = caches;
         self.latent_cache = Some(match (&self.latent, &self.map) {
-            (Latent::Back { weights, bandwidth, .. }, _) if self.config.back_constraint == BackConstraint::Input => {
-                LatentCache {
-                    h_rows: row_major(self.spaces[0].data.as_ref()),
-                    weights: row_major(weights.as_ref()),
-                    inv_l2: vec![1.0 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
-                    amplitude: 1.0,
-                    offset: vec![0.0; q],
-                }
-            }
+            (
+                Latent::Back {
+                    weights, bandwidth, ..
+                },
+                _,
+            ) if self.config.back_constraint == BackConstraint::Input => LatentCache {
+                h_rows: row_major(self.spaces[0].data.as_ref()),
+                weights: row_major(weights.as_ref()),
+                inv_l2: vec![1.0 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
+                amplitude: 1.0,
+                offset: vec![0.0; q],
+            },
             (_, Some(map)) => {
                 let h = self.spaces[0].data.as_ref();
                 let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - map.x_mean[j]);
                 let mut w = SpaceWork::new(n, q);
                 let hr = row_major(h);
-                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None)
-                    .map_err(|e| Error::NotPositiveDefinite { space: "input map".into(), jitter: e.jitter })?;
+                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None).map_err(
+                    |e| Error::NotPositiveDefinite {
+                        space: "input map".into(),
+                        jitter: e.jitter,
+                    },
+                )?;
                 LatentCache {
                     h_rows: hr,
                     weights: row_major(w.alpha()),
-                    inv_l2: map.kernel.lengthscale.iter().map(|l| 1.0 / (l * l)).collect(),
+                    inv_l2: map
+                        .kernel
+                        .lengthscale
+                        .iter()
+                        .map(|l| 1.0 / (l * l))
+                        .collect(),
                     amplitude: map.kernel.variance,
                     offset: map.x_mean.clone(),
                 }
             }
             _ => {
-                return Err(Error::Corrupt { reason: "model without input back constraint has no input map".into() })
+                return Err(Error::Corrupt {
+                    reason: "model without input back constraint has no input map".into(),
+                })
             }
         });
         Ok(())
@@ -944,12 +1117,20 @@ impl SharedGplvm {
         }
         check_nonempty(name, data)?;
         if data.nrows() != self.n() {
-            return Err(Error::RowCountMismatch { space: name.into(), expected: self.n(), found: data.nrows() });
+            return Err(Error::RowCountMismatch {
+                space: name.into(),
+                expected: self.n(),
+                found: data.nrows(),
+            });
         }
         check_finite(name, data)?;
         let (d, offset, scale) = preprocess(data, &self.config);
         let v = mean_col_var(d.as_ref());
-        let lengthscale = self.spaces.get(1).map(|s| s.kernel.lengthscale.clone()).unwrap_or(vec![1.0; self.q()]);
+        let lengthscale = self
+            .spaces
+            .get(1)
+            .map(|s| s.kernel.lengthscale.clone())
+            .unwrap_or(vec![1.0; self.q()]);
         let mut model = self.clone();
         model.history = Vec::new();
         model.spaces.push(Space {
@@ -957,7 +1138,11 @@ impl SharedGplvm {
             data: d,
             offset,
             scale,
-            kernel: KernelParams { variance: v, lengthscale, noise: self.config.init_noise_fraction * v },
+            kernel: KernelParams {
+                variance: v,
+                lengthscale,
+                noise: self.config.init_noise_fraction * v,
+            },
             columns: None,
         });
         let idx = model.spaces.len() - 1;
@@ -971,18 +1156,30 @@ impl SharedGplvm {
     fn output_index(&self, space: &str) -> Result<usize> {
         match self.spaces.iter().position(|s| s.name == space) {
             Some(i) if i > 0 => Ok(i),
-            _ => Err(Error::NotAnOutput { name: space.into(), known: self.output_names().iter().map(|s| s.to_string()).collect() }),
+            _ => Err(Error::NotAnOutput {
+                name: space.into(),
+                known: self.output_names().iter().map(|s| s.to_string()).collect(),
+            }),
         }
     }
 
     fn check_input_row(&self, h: &[f64]) -> Result<()> {
         let dh = self.spaces[0].data.ncols();
         if h.len() != dh {
-            return Err(Error::DimensionMismatch { what: format!("input frame for '{}'", self.spaces[0].name), expected: dh, found: h.len() });
+            return Err(Error::DimensionMismatch {
+                what: format!("input frame for '{}'", self.spaces[0].name),
+                expected: dh,
+                found: h.len(),
+            });
         }
         for (c, &v) in h.iter().enumerate() {
             if !v.is_finite() {
-                return Err(Error::NonFinite { space: self.spaces[0].name.clone(), row: 0, col: c, value: v });
+                return Err(Error::NonFinite {
+                    space: self.spaces[0].name.clone(),
+                    row: 0,
+                    col: c,
+                    value: v,
+                });
             }
         }
         Ok(())
@@ -991,7 +1188,9 @@ impl SharedGplvm {
     /// Latent point of one raw input frame into `x` (length Q). Allocation-free.
     fn latent_into(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
         let Some(lc) = &self.latent_cache else {
-            return Err(Error::Corrupt { reason: "prediction caches missing".into() });
+            return Err(Error::Corrupt {
+                reason: "prediction caches missing".into(),
+            });
         };
         let s0 = &self.spaces[0];
         let dh = h.len();
@@ -1046,7 +1245,11 @@ impl SharedGplvm {
         let si = self.output_index(space)?;
         let d = self.spaces[si].data.ncols();
         if out.len() != d {
-            return Err(Error::DimensionMismatch { what: format!("output buffer for '{space}'"), expected: d, found: out.len() });
+            return Err(Error::DimensionMismatch {
+                what: format!("output buffer for '{space}'"),
+                expected: d,
+                found: out.len(),
+            });
         }
         let q = self.q();
         let mut stack = [0.0f64; 32];
@@ -1065,7 +1268,11 @@ impl SharedGplvm {
     fn check_input_matrix(&self, h: MatRef<'_, f64>) -> Result<()> {
         let dh = self.spaces[0].data.ncols();
         if h.ncols() != dh {
-            return Err(Error::DimensionMismatch { what: format!("input columns for '{}'", self.spaces[0].name), expected: dh, found: h.ncols() });
+            return Err(Error::DimensionMismatch {
+                what: format!("input columns for '{}'", self.spaces[0].name),
+                expected: dh,
+                found: h.ncols(),
+            });
         }
         check_finite(&self.spaces[0].name, h)
     }
@@ -1091,14 +1298,23 @@ impl SharedGplvm {
 
     /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
     /// raw human frames in the rows of `h`.
-    pub fn predict(&self, h: MatRef<'_, f64>, space: &str, with_variance: bool) -> Result<Prediction> {
+    pub fn predict(
+        &self,
+        h: MatRef<'_, f64>,
+        space: &str,
+        with_variance: bool,
+    ) -> Result<Prediction> {
         self.check_input_matrix(h)?;
         let si = self.output_index(space)?;
         let (n_new, q) = (h.nrows(), self.q());
         let s = &self.spaces[si];
         let d = s.data.ncols();
         let mut mean = Mat::zeros(n_new, d);
-        let mut variance = if with_variance { Some(Mat::zeros(n_new, d)) } else { None };
+        let mut variance = if with_variance {
+            Some(Mat::zeros(n_new, d))
+        } else {
+            None
+        };
         let mut row = vec![0.0; h.ncols()];
         let mut x = vec![0.0; q];
         let mut out = vec![0.0; d];
@@ -1124,7 +1340,11 @@ impl SharedGplvm {
                     }
                     kcol[(i, 0)] = s.kernel.variance * (-0.5 * r2).exp();
                 }
-                faer::linalg::triangular_solve::solve_lower_triangular_in_place(c.factor.as_ref(), kcol.as_mut(), Par::Seq);
+                faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                    c.factor.as_ref(),
+                    kcol.as_mut(),
+                    Par::Seq,
+                );
                 let explained: f64 = (0..n).map(|i| kcol[(i, 0)] * kcol[(i, 0)]).sum();
                 let f = (s.kernel.variance - explained).max(0.0);
                 for t in 0..d {
@@ -1150,7 +1370,10 @@ impl SharedGplvm {
 
     /// Number of columns of a space, if the model has it.
     pub fn space_dim(&self, name: &str) -> Option<usize> {
-        self.spaces.iter().find(|s| s.name == name).map(|s| s.data.ncols())
+        self.spaces
+            .iter()
+            .find(|s| s.name == name)
+            .map(|s| s.data.ncols())
     }
 
     /// Training latent points X (N×Q).
@@ -1185,7 +1408,10 @@ impl SharedGplvm {
 
     /// Kernel hyperparameters of a space.
     pub fn kernel(&self, space: &str) -> Option<&KernelParams> {
-        self.spaces.iter().find(|s| s.name == space).map(|s| &s.kernel)
+        self.spaces
+            .iter()
+            .find(|s| s.name == space)
+            .map(|s| &s.kernel)
     }
 
     /// Hyperparameters of the human → latent GP regression (models without input back
@@ -1196,17 +1422,27 @@ impl SharedGplvm {
 
     /// Column (joint) names of a space, if set.
     pub fn column_names(&self, space: &str) -> Option<&[String]> {
-        self.spaces.iter().find(|s| s.name == space).and_then(|s| s.columns.as_deref())
+        self.spaces
+            .iter()
+            .find(|s| s.name == space)
+            .and_then(|s| s.columns.as_deref())
     }
 
     /// Stores column (joint) names for a space (saved with the model).
     pub fn set_column_names(&mut self, space: &str, names: Vec<String>) -> Result<()> {
         let known: Vec<String> = self.spaces.iter().map(|s| s.name.clone()).collect();
         let Some(s) = self.spaces.iter_mut().find(|s| s.name == space) else {
-            return Err(Error::UnknownSpace { name: space.into(), known });
+            return Err(Error::UnknownSpace {
+                name: space.into(),
+                known,
+            });
         };
         if names.len() != s.data.ncols() {
-            return Err(Error::DimensionMismatch { what: format!("column names of '{space}'"), expected: s.data.ncols(), found: names.len() });
+            return Err(Error::DimensionMismatch {
+                what: format!("column names of '{space}'"),
+                expected: s.data.ncols(),
+                found: names.len(),
+            });
         }
         s.columns = Some(names);
         Ok(())
@@ -1214,7 +1450,10 @@ impl SharedGplvm {
 
     /// Per-column offset (mean) and scale of a space's preprocessing.
     pub fn normalisation(&self, space: &str) -> Option<(&[f64], &[f64])> {
-        self.spaces.iter().find(|s| s.name == space).map(|s| (s.offset.as_slice(), s.scale.as_slice()))
+        self.spaces
+            .iter()
+            .find(|s| s.name == space)
+            .map(|s| (s.offset.as_slice(), s.scale.as_slice()))
     }
 
     // -----------------------------------------------------------------------------------------
@@ -1225,11 +1464,18 @@ impl SharedGplvm {
         Params {
             latent: match &self.latent {
                 Latent::Free { x } => LatentParams::Free { x: x.clone() },
-                Latent::Back { weights, bandwidth, .. } => {
-                    LatentParams::BackConstrained { weights: weights.clone(), bandwidth: *bandwidth }
-                }
+                Latent::Back {
+                    weights, bandwidth, ..
+                } => LatentParams::BackConstrained {
+                    weights: weights.clone(),
+                    bandwidth: *bandwidth,
+                },
             },
-            spaces: self.spaces.iter().map(|s| (s.name.clone(), s.kernel.clone())).collect(),
+            spaces: self
+                .spaces
+                .iter()
+                .map(|s| (s.name.clone(), s.kernel.clone()))
+                .collect(),
         }
     }
 
@@ -1260,18 +1506,32 @@ impl SharedGplvm {
             }
         }
         if p.spaces.len() != next.spaces.len() {
-            return Err(Error::DimensionMismatch { what: "params.spaces".into(), expected: next.spaces.len(), found: p.spaces.len() });
+            return Err(Error::DimensionMismatch {
+                what: "params.spaces".into(),
+                expected: next.spaces.len(),
+                found: p.spaces.len(),
+            });
         }
         let known: Vec<String> = next.spaces.iter().map(|s| s.name.clone()).collect();
         for (name, k) in &p.spaces {
             let Some(s) = next.spaces.iter_mut().find(|s| &s.name == name) else {
-                return Err(Error::UnknownSpace { name: name.clone(), known });
+                return Err(Error::UnknownSpace {
+                    name: name.clone(),
+                    known,
+                });
             };
             if k.lengthscale.len() != q {
-                return Err(Error::DimensionMismatch { what: format!("lengthscale of '{name}'"), expected: q, found: k.lengthscale.len() });
+                return Err(Error::DimensionMismatch {
+                    what: format!("lengthscale of '{name}'"),
+                    expected: q,
+                    found: k.lengthscale.len(),
+                });
             }
             if !k.is_valid() {
-                return Err(Error::InvalidValue { what: format!("kernel of '{name}'"), reason: "expected finite values > 0".into() });
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{name}'"),
+                    reason: "expected finite values > 0".into(),
+                });
             }
             s.kernel = k.clone();
         }
@@ -1297,7 +1557,11 @@ impl SharedGplvm {
         let lat_g = Mat::from_fn(n, q, |i, j| g[j * n + i]);
         let latent = match &self.latent {
             Latent::Free { .. } => LatentParams::Free { x: lat_g },
-            Latent::Back { weights, bandwidth, data } => {
+            Latent::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
                 // ∂L/∂X = K_bc⁻ᵀ... recover it from ∂L/∂W = K_bc ∂L/∂X is ill-posed, so recompute.
                 let mut dx = vec![0.0; n * q];
                 let mut w = SpaceWork::new(n, 1);
@@ -1305,8 +1569,19 @@ impl SharedGplvm {
                     if w.alpha().ncols() != s.data.ncols() {
                         w = SpaceWork::new(n, s.data.ncols());
                     }
-                    eval_space(&self.x_rows, q, s.data.as_ref(), &s.kernel, &mut w, true, Some(&mut dx))
-                        .map_err(|e| Error::NotPositiveDefinite { space: s.name.clone(), jitter: e.jitter })?;
+                    eval_space(
+                        &self.x_rows,
+                        q,
+                        s.data.as_ref(),
+                        &s.kernel,
+                        &mut w,
+                        true,
+                        Some(&mut dx),
+                    )
+                    .map_err(|e| Error::NotPositiveDefinite {
+                        space: s.name.clone(),
+                        jitter: e.jitter,
+                    })?;
                 }
                 // ∂L/∂bw = Σ_ij (dX Wᵀ)_ij K_ij d²_ij / bw³.
                 let k = bc_kernel(data.as_ref(), *bandwidth);
@@ -1328,7 +1603,10 @@ impl SharedGplvm {
                     }
                 }
                 db /= bandwidth.powi(3);
-                LatentParams::BackConstrained { weights: lat_g, bandwidth: db }
+                LatentParams::BackConstrained {
+                    weights: lat_g,
+                    bandwidth: db,
+                }
             }
         };
         let mut spaces = Vec::new();
@@ -1381,10 +1659,22 @@ impl SharedGplvm {
 
 fn check_shape(what: &str, m: MatRef<'_, f64>, n: usize, q: usize) -> Result<()> {
     if m.nrows() != n {
-        return Err(Error::DimensionMismatch { what: format!("{what} rows"), expected: n, found: m.nrows() });
+        return Err(Error::DimensionMismatch {
+            what: format!("{what} rows"),
+            expected: n,
+            found: m.nrows(),
+        });
     }
     if m.ncols() != q {
-        return Err(Error::DimensionMismatch { what: format!("{what} columns"), expected: q, found: m.ncols() });
+        return Err(Error::DimensionMismatch {
+            what: format!("{what} columns"),
+            expected: q,
+            found: m.ncols(),
+        });
     }
     check_finite(what, m)
 }
+
+#[cfg(test)]
+#[path = "model_tests.rs"]
+mod tests;

@@ -32,7 +32,13 @@ pub struct TrainOptions {
 
 impl Default for TrainOptions {
     fn default() -> Self {
-        Self { max_iters: 1000, grad_tol: 1e-5, rel_tol: 2.2e-9, memory: 10, map_max_iters: 300 }
+        Self {
+            max_iters: 1000,
+            grad_tol: 1e-5,
+            rel_tol: 2.2e-9,
+            memory: 10,
+            map_max_iters: 300,
+        }
     }
 }
 
@@ -60,12 +66,15 @@ impl TrainOptions {
 
     pub(crate) fn check(&self) -> Result<()> {
         let bad = |what: &str, reason: &str| {
-            Err(Error::InvalidValue { what: what.into(), reason: reason.into() })
+            Err(Error::InvalidValue {
+                what: what.into(),
+                reason: reason.into(),
+            })
         };
-        if !(self.grad_tol >= 0.0) || !self.grad_tol.is_finite() {
+        if self.grad_tol.is_nan() || self.grad_tol < 0.0 || !self.grad_tol.is_finite() {
             return bad("TrainOptions::grad_tol", "expected a finite number ≥ 0");
         }
-        if !(self.rel_tol >= 0.0) || !self.rel_tol.is_finite() {
+        if self.rel_tol.is_nan() || self.rel_tol < 0.0 || !self.rel_tol.is_finite() {
             return bad("TrainOptions::rel_tol", "expected a finite number ≥ 0");
         }
         if self.memory == 0 {
@@ -125,10 +134,13 @@ pub(crate) trait Objective {
 /// (non-positive-definite kernel, overflow): large and finite, so More–Thuente backtracks.
 const FAILED_COST: f64 = 1e300;
 
+/// Last evaluated point: parameters, cost, gradient.
+type Evaluated = (Vec<f64>, f64, Vec<f64>);
+
 struct Op<'a, O: Objective> {
     obj: &'a O,
     scale: f64,
-    last: Mutex<Option<(Vec<f64>, f64, Vec<f64>)>>,
+    last: Mutex<Option<Evaluated>>,
 }
 
 impl<O: Objective> Op<'_, O> {
@@ -144,9 +156,10 @@ impl<O: Objective> Op<'_, O> {
         }
         let mut grad = vec![0.0; theta.len()];
         let (f, grad) = match self.obj.eval(theta, &mut grad) {
-            Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => {
-                (f * self.scale, grad.into_iter().map(|g| g * self.scale).collect())
-            }
+            Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => (
+                f * self.scale,
+                grad.into_iter().map(|g| g * self.scale).collect(),
+            ),
             _ => (FAILED_COST, vec![0.0; theta.len()]),
         };
         *guard = Some((theta.to_vec(), f, grad.clone()));
@@ -204,22 +217,41 @@ pub(crate) fn minimise<O: Objective>(
         gradient_norm: max_abs(&g0),
     }];
     if theta0.is_empty() {
-        return Ok(Outcome { theta: theta0, history, reason: StopReason::NothingToTrain });
+        return Ok(Outcome {
+            theta: theta0,
+            history,
+            reason: StopReason::NothingToTrain,
+        });
     }
     if max_abs(&g0) < options.grad_tol {
-        return Ok(Outcome { theta: theta0, history, reason: StopReason::GradientTolerance });
+        return Ok(Outcome {
+            theta: theta0,
+            history,
+            reason: StopReason::GradientTolerance,
+        });
     }
     if options.max_iters == 0 {
-        return Ok(Outcome { theta: theta0, history, reason: StopReason::MaxIterations });
+        return Ok(Outcome {
+            theta: theta0,
+            history,
+            reason: StopReason::MaxIterations,
+        });
     }
-    let op = Op { obj, scale, last: Mutex::new(None) };
+    let op = Op {
+        obj,
+        scale,
+        last: Mutex::new(None),
+    };
     let mut problem = Problem::new(op);
     let linesearch = MoreThuenteLineSearch::new();
     let mut solver: LBFGS<_, Vec<f64>, Vec<f64>, f64> = LBFGS::new(linesearch, options.memory);
     let state = IterState::new().param(theta0.clone());
     let (mut state, _) = solver
         .init(&mut problem, state)
-        .map_err(|e| Error::InvalidValue { what: "L-BFGS initialisation".into(), reason: e.to_string() })?;
+        .map_err(|e| Error::InvalidValue {
+            what: "L-BFGS initialisation".into(),
+            reason: e.to_string(),
+        })?;
     let mut best = theta0;
     let mut best_f = f0;
     let reason;
@@ -251,7 +283,7 @@ pub(crate) fn minimise<O: Objective>(
             Ok(f) if f.is_finite() => f,
             _ => f64::INFINITY,
         };
-        if !(f <= best_f) {
+        if f.is_nan() || f > best_f {
             // No progress (or a failed point): keep the best point and stop.
             reason = StopReason::LineSearch(if terminated {
                 format!("{:?}", state.get_termination_reason())
@@ -290,7 +322,11 @@ pub(crate) fn minimise<O: Objective>(
             break;
         }
     }
-    Ok(Outcome { theta: best, history, reason })
+    Ok(Outcome {
+        theta: best,
+        history,
+        reason,
+    })
 }
 
 #[cfg(test)]
@@ -309,10 +345,18 @@ mod tests {
 
     #[test]
     fn minimises_rosenbrock_monotonically() {
-        let opts = TrainOptions::default().with_grad_tol(1e-8).with_rel_tol(0.0);
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue)
-            .expect("runs");
-        assert!((out.theta[0] - 1.0).abs() < 1e-5 && (out.theta[1] - 1.0).abs() < 1e-5, "{:?}", out.theta);
+        let opts = TrainOptions::default()
+            .with_grad_tol(1e-8)
+            .with_rel_tol(0.0);
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |_, _| {
+            Control::Continue
+        })
+        .expect("runs");
+        assert!(
+            (out.theta[0] - 1.0).abs() < 1e-5 && (out.theta[1] - 1.0).abs() < 1e-5,
+            "{:?}",
+            out.theta
+        );
         for w in out.history.windows(2) {
             assert!(w[1].objective <= w[0].objective);
         }
@@ -325,14 +369,24 @@ mod tests {
         let mut calls = 0;
         let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |r, _| {
             calls += 1;
-            if r.iteration == 3 { Control::Stop } else { Control::Continue }
+            if r.iteration == 3 {
+                Control::Stop
+            } else {
+                Control::Continue
+            }
         })
         .expect("runs");
         assert_eq!(calls, 3);
         assert_eq!(out.reason, StopReason::Callback);
         assert_eq!(out.history.len(), 4);
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts.with_max_iters(5), |_, _| Control::Continue)
-            .expect("runs");
+        let out = minimise(
+            &Rosenbrock,
+            vec![-1.2, 1.0],
+            1.0,
+            &opts.with_max_iters(5),
+            |_, _| Control::Continue,
+        )
+        .expect("runs");
         assert_eq!(out.reason, StopReason::MaxIterations);
         assert_eq!(out.history.last().map(|r| r.iteration), Some(5));
     }

@@ -1,7 +1,9 @@
 //! Objective and gradients against GPy's `GPLVM` (fixture written by
 //! `tests/fixtures/make_gpy_fixtures.py`).
 
-use sgplvm_core::{BackConstraint, KernelParams, LatentParams, Mat, ModelConfig, Params, SharedGplvm, TrainOptions};
+use sgplvm_core::{
+    BackConstraint, KernelParams, LatentParams, Mat, ModelConfig, Params, SharedGplvm, TrainOptions,
+};
 
 fn mat(v: &serde_json::Value) -> Mat<f64> {
     let rows = v.as_array().expect("rows");
@@ -16,8 +18,11 @@ fn rel(a: f64, b: f64) -> f64 {
 
 #[test]
 fn objective_and_gradients_match_gpy() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/gpy_fixture.json"))
-        .expect("fixture present");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/gpy_fixture.json"
+    ))
+    .expect("fixture present");
     let fx: serde_json::Value = serde_json::from_str(&text).expect("fixture is JSON");
     let jitter = fx["gpy_jitter"].as_f64().expect("jitter");
     for case in fx["cases"].as_array().expect("cases") {
@@ -30,40 +35,89 @@ fn objective_and_gradients_match_gpy() {
             .map(|s| {
                 let k = KernelParams {
                     variance: s["variance"].as_f64().expect("v"),
-                    lengthscale: s["lengthscale"].as_array().expect("l").iter().map(|v| v.as_f64().expect("l")).collect(),
+                    lengthscale: s["lengthscale"]
+                        .as_array()
+                        .expect("l")
+                        .iter()
+                        .map(|v| v.as_f64().expect("l"))
+                        .collect(),
                     // GPy factorises K + (noise + 1e-8) I.
                     noise: s["noise"].as_f64().expect("noise") + jitter,
                 };
-                (s["name"].as_str().expect("name").to_string(), mat(&s["y"]), k)
+                (
+                    s["name"].as_str().expect("name").to_string(),
+                    mat(&s["y"]),
+                    k,
+                )
             })
             .collect();
-        let refs: Vec<(&str, sgplvm_core::MatRef<'_, f64>)> =
-            spaces.iter().map(|(n, y, _)| (n.as_str(), y.as_ref())).collect();
-        let config = ModelConfig::default().with_latent_dim(q).with_back_constraint(BackConstraint::None);
-        let options = TrainOptions { max_iters: 0, map_max_iters: 0, ..TrainOptions::default() };
+        let refs: Vec<(&str, sgplvm_core::MatRef<'_, f64>)> = spaces
+            .iter()
+            .map(|(n, y, _)| (n.as_str(), y.as_ref()))
+            .collect();
+        let config = ModelConfig::default()
+            .with_latent_dim(q)
+            .with_back_constraint(BackConstraint::None);
+        let options = TrainOptions {
+            max_iters: 0,
+            map_max_iters: 0,
+            ..TrainOptions::default()
+        };
         let mut model = SharedGplvm::fit(&config, &refs, "s0", &options, None).expect("fit");
         let params = Params {
             latent: LatentParams::Free { x: x.clone() },
-            spaces: spaces.iter().map(|(n, _, k)| (n.clone(), k.clone())).collect(),
+            spaces: spaces
+                .iter()
+                .map(|(n, _, k)| (n.clone(), k.clone()))
+                .collect(),
         };
         model.set_params(&params).expect("set params");
         let (f, g) = model.evaluate().expect("evaluate");
         let want = case["objective"].as_f64().expect("objective");
         assert!(rel(f, want) < 1e-8, "objective {f} vs GPy {want}");
-        let LatentParams::Free { x: gx } = &g.latent else { panic!("free latent expected") };
+        let LatentParams::Free { x: gx } = &g.latent else {
+            panic!("free latent expected")
+        };
         let want_x = mat(&case["d_x"]);
-        let scale = (0..x.nrows()).flat_map(|i| (0..q).map(move |j| (i, j))).fold(0.0f64, |m, (i, j)| m.max(want_x[(i, j)].abs()));
+        let scale = (0..x.nrows())
+            .flat_map(|i| (0..q).map(move |j| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(want_x[(i, j)].abs()));
         for i in 0..x.nrows() {
             for j in 0..q {
-                assert!((gx[(i, j)] - want_x[(i, j)]).abs() < 1e-8 * scale, "dX[{i},{j}] {} vs {}", gx[(i, j)], want_x[(i, j)]);
+                assert!(
+                    (gx[(i, j)] - want_x[(i, j)]).abs() < 1e-8 * scale,
+                    "dX[{i},{j}] {} vs {}",
+                    gx[(i, j)],
+                    want_x[(i, j)]
+                );
             }
         }
-        for (s, (name, k)) in case["spaces"].as_array().expect("spaces").iter().zip(&g.spaces) {
+        for (s, (name, k)) in case["spaces"]
+            .as_array()
+            .expect("spaces")
+            .iter()
+            .zip(&g.spaces)
+        {
             assert_eq!(s["name"].as_str(), Some(name.as_str()));
-            assert!(rel(k.variance, s["d_variance"].as_f64().expect("dv")) < 1e-8, "{name} d_variance");
-            assert!(rel(k.noise, s["d_noise"].as_f64().expect("dn")) < 1e-8, "{name} d_noise {} vs {}", k.noise, s["d_noise"]);
-            for (a, b) in k.lengthscale.iter().zip(s["d_lengthscale"].as_array().expect("dl")) {
-                assert!(rel(*a, b.as_f64().expect("dl")) < 1e-8, "{name} d_lengthscale {a} vs {b}");
+            assert!(
+                rel(k.variance, s["d_variance"].as_f64().expect("dv")) < 1e-8,
+                "{name} d_variance"
+            );
+            assert!(
+                rel(k.noise, s["d_noise"].as_f64().expect("dn")) < 1e-8,
+                "{name} d_noise {} vs {}",
+                k.noise,
+                s["d_noise"]
+            );
+            for (a, b) in k
+                .lengthscale
+                .iter()
+                .zip(s["d_lengthscale"].as_array().expect("dl"))
+            {
+                assert!(
+                    rel(*a, b.as_f64().expect("dl")) < 1e-8,
+                    "{name} d_lengthscale {a} vs {b}"
+                );
             }
         }
     }
