@@ -288,6 +288,8 @@ impl Robot {
 
 struct Ctx<'a> {
     file: &'a str,
+    /// URDF ≥ 1.1 (`<robot version>`): `<origin quat_xyzw>` is read, as urdfdom does.
+    quat: bool,
 }
 
 impl Ctx<'_> {
@@ -393,11 +395,32 @@ fn origin_of(ctx: &Ctx, el: &Element, at: &str) -> RobotResult<Isometry3<f64>> {
     };
     let at = format!("{at} <origin>");
     let xyz = opt_attr_numbers::<3>(ctx, o, &at, "xyz")?.unwrap_or([0.0; 3]);
-    let rpy = opt_attr_numbers::<3>(ctx, o, &at, "rpy")?.unwrap_or([0.0; 3]);
-    if o.get_attribute("quat_xyzw", None).is_some() {
-        opt_attr_numbers::<4>(ctx, o, &at, "quat_xyzw")?;
+    let rpy = opt_attr_numbers::<3>(ctx, o, &at, "rpy")?;
+    let quat = if ctx.quat {
+        opt_attr_numbers::<4>(ctx, o, &at, "quat_xyzw")?
+    } else {
+        None
+    };
+    match (rpy, quat) {
+        (Some(_), Some(_)) => Err(ctx.invalid(
+            at,
+            "both rpy and quat_xyzw are given, expected one orientation",
+        )),
+        (_, Some([x, y, z, w])) => {
+            let q = nalgebra::Quaternion::new(w, x, y, z);
+            if q.norm() < 1e-12 {
+                return Err(ctx.invalid(
+                    format!("{at} @quat_xyzw"),
+                    "the quaternion is zero, expected a rotation",
+                ));
+            }
+            Ok(Isometry3::from_parts(
+                Translation3::new(xyz[0], xyz[1], xyz[2]),
+                UnitQuaternion::from_quaternion(q),
+            ))
+        }
+        (rpy, None) => Ok(pose_from_xyz_rpy(xyz, rpy.unwrap_or([0.0; 3]))),
     }
-    Ok(pose_from_xyz_rpy(xyz, rpy))
 }
 
 /// The URDF pose convention: translation, then `Rz(yaw) · Ry(pitch) · Rx(roll)`.
@@ -669,8 +692,18 @@ fn xml_error(file: &str, err: xml::BuilderError) -> RobotError {
 }
 
 fn parse(text: &str, file: &str) -> RobotResult<Robot> {
-    let ctx = Ctx { file };
     let mut root: Element = text.parse().map_err(|e| xml_error(file, e))?;
+    let version = root
+        .get_attribute("version", None)
+        .and_then(|v| {
+            let (major, minor) = v.trim().split_once('.')?;
+            Some((major.parse::<u32>().ok()?, minor.parse::<u32>().ok()?))
+        })
+        .unwrap_or((1, 0));
+    let ctx = Ctx {
+        file,
+        quat: version >= (1, 1),
+    };
     if root.name != "robot" {
         return Err(ctx.invalid(
             format!("<{}>", root.name),

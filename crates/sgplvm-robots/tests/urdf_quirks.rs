@@ -1,0 +1,338 @@
+//! Real-world URDF quirks that must load, one test each, and broken files that must be rejected
+//! with a message naming the file, the element and what was expected.
+//!
+//! Each quirk test also records what urdf-rs 0.9 alone does with the same text, so that a
+//! change of urdf-rs's behaviour shows up here.
+
+use nalgebra::Vector3;
+use sgplvm_robots::{JointKind, Robot, RobotError};
+
+/// A two-link arm around `joint` (the text of one `<joint>` element named `j`, base → tip).
+fn arm(joint: &str) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<robot name="quirk">
+  <link name="base"/>
+  <link name="tip"/>
+  {joint}
+</robot>"#
+    )
+}
+
+fn load(xml: &str) -> Robot {
+    Robot::from_urdf_str(xml, "quirk.urdf").unwrap_or_else(|e| panic!("should load: {e}"))
+}
+
+fn reject(xml: &str) -> String {
+    match Robot::from_urdf_str(xml, "broken.urdf") {
+        Ok(_) => panic!("should be rejected:\n{xml}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn joint_without_origin_sits_at_the_parent_frame() {
+    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#);
+    assert!(urdf_rs::read_from_string(&xml).is_ok());
+    let r = load(&xml);
+    let p = r.forward_kinematics(&[0.7], "tip").unwrap();
+    assert!(p.translation.vector.norm() < 1e-15);
+    assert!((p.rotation.angle() - 0.7).abs() < 1e-12);
+}
+
+#[test]
+fn origin_without_rpy_or_xyz_defaults_to_zero() {
+    let xml = arm(r#"<joint name="j" type="fixed"><origin xyz="0.1 0.2 0.3"/>
+        <parent link="base"/><child link="tip"/></joint>"#);
+    assert!(urdf_rs::read_from_string(&xml).is_ok());
+    let p = load(&xml).forward_kinematics(&[], "tip").unwrap();
+    assert_eq!(p.translation.vector, Vector3::new(0.1, 0.2, 0.3));
+    assert_eq!(p.rotation.angle(), 0.0);
+    let xml = arm(r#"<joint name="j" type="fixed"><origin rpy="0 0 1.5"/>
+        <parent link="base"/><child link="tip"/></joint>"#);
+    let p = load(&xml).forward_kinematics(&[], "tip").unwrap();
+    assert_eq!(p.translation.vector, Vector3::zeros());
+    assert!((p.rotation.angle() - 1.5).abs() < 1e-15);
+}
+
+#[test]
+fn numbers_written_0dot_and_with_exponents_parse() {
+    let xml = arm(r#"<joint name="j" type="prismatic"><origin xyz="0. 1.6E-4 -2.5e+1" rpy="0. 0 0."/>
+        <parent link="base"/><child link="tip"/><axis xyz="1. 0 0"/>
+        <limit lower="-.5" upper="+1." effort="1E2" velocity="2."/></joint>"#);
+    assert!(urdf_rs::read_from_string(&xml).is_ok());
+    let r = load(&xml);
+    assert_eq!(r.joint_limits(), vec![(-0.5, 1.0)]);
+    let p = r.forward_kinematics(&[0.25], "tip").unwrap();
+    assert_eq!(p.translation.vector, Vector3::new(0.25, 1.6e-4, -25.0));
+}
+
+#[test]
+fn floating_root_joint_is_held_at_its_origin() {
+    let xml = r#"<robot name="floating">
+      <link name="world"/>
+      <link name="base"/>
+      <link name="tip"/>
+      <joint name="root" type="floating"><origin xyz="0 0 1"/><parent link="world"/><child link="base"/></joint>
+      <joint name="j" type="revolute"><origin xyz="0 0 0.5"/><parent link="base"/><child link="tip"/>
+        <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+    </robot>"#;
+    assert!(urdf_rs::read_from_string(xml).is_ok());
+    let r = load(xml);
+    assert_eq!(r.joint_names(), vec!["j".to_string()]);
+    assert_eq!(r.joints()[0].kind, JointKind::Floating);
+    assert_eq!(r.root_link(), "world");
+    let p = r.forward_kinematics(&[0.0], "tip").unwrap();
+    assert_eq!(p.translation.vector, Vector3::new(0.0, 0.0, 1.5));
+}
+
+#[test]
+fn gazebo_sensor_and_transmission_blocks_are_ignored() {
+    let xml = r#"<robot name="g" xmlns:xacro="http://www.ros.org/wiki/xacro">
+      <link name="base"><sensor name="imu" type="imu"><update_rate>100</update_rate></sensor></link>
+      <link name="tip"/>
+      <gazebo reference="base"><material>Gazebo/Grey</material><sensor type="camera" name="cam">
+        <camera><horizontal_fov>1.3</horizontal_fov></camera></sensor></gazebo>
+      <gazebo><plugin name="ros_control" filename="libgazebo_ros_control.so"/></gazebo>
+      <transmission name="t"><type>transmission_interface/SimpleTransmission</type>
+        <joint name="j"><hardwareInterface>EffortJointInterface</hardwareInterface></joint></transmission>
+      <joint name="j" type="continuous"><origin xyz="1 0 0"/><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/></joint>
+    </robot>"#;
+    assert!(urdf_rs::read_from_string(xml).is_ok());
+    let r = load(xml);
+    assert_eq!(r.dof(), 1);
+    assert_eq!(r.joint_limits(), vec![(f64::NEG_INFINITY, f64::INFINITY)]);
+}
+
+#[test]
+fn revolute_joint_with_equal_limits_stays_a_movable_joint() {
+    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="0" upper="0" effort="0" velocity="0"/></joint>"#);
+    assert!(urdf_rs::read_from_string(&xml).is_ok());
+    let r = load(&xml);
+    assert_eq!(r.joint_limits(), vec![(0.0, 0.0)]);
+    // FK does not clamp; IK does (the joint cannot move).
+    let p = r.forward_kinematics(&[0.3], "tip").unwrap();
+    assert!((p.rotation.angle() - 0.3).abs() < 1e-12);
+    let chain = r.chain("base", "tip").unwrap();
+    let sol = chain.inverse_kinematics(
+        &sgplvm_robots::IkTarget::Pose(p),
+        &[0.2],
+        &sgplvm_robots::IkOptions::default(),
+    );
+    assert_eq!(sol.q, vec![0.0]);
+    assert!(!sol.converged);
+    assert!((sol.residual - 0.2 * 0.3).abs() < 1e-9, "{}", sol.residual);
+}
+
+#[test]
+fn missing_mesh_files_do_not_matter() {
+    let xml = r#"<robot name="m">
+      <link name="base"><visual><geometry><mesh filename="package://nowhere/meshes/base.dae" scale="0.001 0.001 0.001"/></geometry></visual>
+        <collision><geometry><mesh filename="meshes/does_not_exist.stl"/></geometry></collision></link>
+    </robot>"#;
+    assert!(urdf_rs::read_from_string(xml).is_ok());
+    let r = load(xml);
+    assert_eq!(r.link_names(), vec!["base".to_string()]);
+    // The third-party fixtures reference meshes that are not copied either.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    for f in ["kuka_iiwa.urdf", "franka_panda.urdf"] {
+        let r = Robot::from_urdf_file(&dir.join(f)).unwrap();
+        assert!(r.dof() >= 7);
+    }
+}
+
+#[test]
+fn limit_without_velocity_is_completed_for_urdf_rs() {
+    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="2"/></joint>"#);
+    // urdf-rs 0.9 alone insists on `velocity`.
+    assert!(urdf_rs::read_from_string(&xml).is_err());
+    let r = load(&xml);
+    assert_eq!(r.joint_limits(), vec![(-1.0, 2.0)]);
+    assert_eq!(r.velocity_limits(), vec![0.0]);
+    assert_eq!(r.urdf().joints[0].limit.upper, 2.0);
+}
+
+#[test]
+fn quat_xyzw_origins_of_urdf_1_1_are_read() {
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let xml = format!(
+        r#"<robot name="q" version="1.1"><link name="base"/><link name="tip"/>
+        <joint name="j" type="fixed"><origin xyz="0 0 0" quat_xyzw="0 0 {h} {h}"/>
+        <parent link="base"/><child link="tip"/></joint></robot>"#
+    );
+    let r = load(&xml);
+    let p = r.forward_kinematics(&[], "tip").unwrap();
+    assert!((p.rotation.angle() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    assert!((p.rotation.axis().unwrap().z - 1.0).abs() < 1e-12);
+}
+
+// ----------------------------------------------------------------------------- broken files
+
+#[test]
+fn unknown_parent_link_is_named() {
+    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="bsae"/><child link="tip"/></joint>"#));
+    assert_eq!(
+        e,
+        "broken.urdf: <joint name=\"j\">: unknown parent link \"bsae\" (expected the name of a declared <link>)"
+    );
+    // urdf-rs alone does not notice.
+    assert!(urdf_rs::read_from_string(&arm(
+        r#"<joint name="j" type="fixed"><parent link="bsae"/><child link="tip"/></joint>"#
+    ))
+    .is_ok());
+}
+
+#[test]
+fn unknown_child_link_is_named() {
+    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="base"/><child link="tpi"/></joint>"#));
+    assert!(e.contains("unknown child link \"tpi\""), "{e}");
+}
+
+#[test]
+fn a_cycle_is_reported_with_its_links() {
+    let xml = r#"<robot name="c"><link name="root"/><link name="a"/><link name="b"/><link name="c"/>
+      <joint name="ra" type="fixed"><parent link="root"/><child link="a"/></joint>
+      <joint name="bc" type="fixed"><parent link="b"/><child link="c"/></joint>
+      <joint name="cb" type="fixed"><parent link="c"/><child link="b"/></joint></robot>"#;
+    assert!(urdf_rs::read_from_string(xml).is_ok());
+    let e = Robot::from_urdf_str(xml, "broken.urdf").unwrap_err();
+    match &e {
+        RobotError::Cycle { file, links } => {
+            assert_eq!(file, "broken.urdf");
+            let mut l = links.clone();
+            l.sort();
+            assert_eq!(l, vec!["b".to_string(), "c".to_string()]);
+        }
+        other => panic!("expected a cycle, got {other}"),
+    }
+    assert!(e.to_string().contains("cycle through links"), "{e}");
+    // A joint from a link to itself.
+    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="tip"/><child link="tip"/></joint>"#));
+    assert!(e.contains("cycle through links \"tip\""), "{e}");
+}
+
+#[test]
+fn two_roots_are_listed() {
+    let xml = r#"<robot name="t"><link name="base"/><link name="tip"/><link name="stray"/>
+      <joint name="j" type="fixed"><parent link="base"/><child link="tip"/></joint></robot>"#;
+    assert_eq!(
+        reject(xml),
+        "broken.urdf: 2 root links (\"base\", \"stray\"); expected exactly one link that is no joint's child"
+    );
+}
+
+#[test]
+fn a_link_with_two_parents_is_rejected() {
+    let xml = r#"<robot name="t"><link name="a"/><link name="b"/><link name="tip"/>
+      <joint name="j1" type="fixed"><parent link="a"/><child link="tip"/></joint>
+      <joint name="j2" type="fixed"><parent link="b"/><child link="tip"/></joint></robot>"#;
+    let e = reject(xml);
+    assert!(e.contains("<joint name=\"j2\">") && e.contains("already the child of joint \"j1\""), "{e}");
+}
+
+#[test]
+fn a_bad_number_names_element_attribute_and_text() {
+    let e = reject(&arm(r#"<joint name="j" type="fixed"><origin xyz="0 0,5 1"/>
+        <parent link="base"/><child link="tip"/></joint>"#));
+    assert_eq!(
+        e,
+        "broken.urdf: <joint name=\"j\"> <origin> @xyz: bad number \"0,5\", expected a finite decimal number such as 0.25 or 1.6E-4"
+    );
+    // urdf-rs 0.9 silently drops the unparsable token when three others remain.
+    let sloppy = arm(r#"<joint name="j" type="fixed"><origin xyz="1 x 2 3"/>
+        <parent link="base"/><child link="tip"/></joint>"#);
+    let parsed = urdf_rs::read_from_string(&sloppy).unwrap();
+    assert_eq!(*parsed.joints[0].origin.xyz, [1.0, 2.0, 3.0]);
+    let e = reject(&sloppy);
+    assert!(e.contains("@xyz: \"1 x 2 3\" has 4 values, expected 3 numbers"), "{e}");
+    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <limit lower="-1" upper="NaN" effort="1" velocity="1"/></joint>"#));
+    assert!(e.contains("<joint name=\"j\"> <limit> @upper: bad number \"NaN\""), "{e}");
+    let e = reject(r#"<robot name="m"><link name="l"><inertial><mass value="heavy"/>
+        <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link></robot>"#);
+    assert!(e.contains("<link name=\"l\"> <inertial> <mass> @value: bad number \"heavy\""), "{e}");
+}
+
+#[test]
+fn an_unknown_joint_type_lists_the_known_ones() {
+    let e = reject(&arm(r#"<joint name="j" type="ball"><parent link="base"/><child link="tip"/></joint>"#));
+    assert_eq!(
+        e,
+        "broken.urdf: <joint name=\"j\"> @type: unknown joint type \"ball\", expected one of revolute, continuous, prismatic, fixed, floating, planar"
+    );
+}
+
+#[test]
+fn other_broken_files() {
+    // Not XML.
+    let e = Robot::from_urdf_str("<robot name=\"x\"><link name=\"a\"></robot>", "broken.urdf")
+        .unwrap_err();
+    assert!(matches!(e, RobotError::Xml { .. }), "{e}");
+    assert!(e.to_string().starts_with("broken.urdf: not well-formed XML"), "{e}");
+    let e = Robot::from_urdf_str("", "empty.urdf").unwrap_err().to_string();
+    assert!(e.contains("empty.urdf") && e.contains("expected <robot>"), "{e}");
+    // Wrong document element.
+    assert!(reject("<sdf version=\"1.6\"><model/></sdf>").contains("<sdf>: the document element must be <robot>"));
+    // A revolute joint without limits, lower > upper, a zero axis.
+    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/></joint>"#));
+    assert!(e.contains("missing <limit lower=... upper=...>, required for a revolute joint"), "{e}");
+    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <limit lower="1" upper="-1" effort="1" velocity="1"/></joint>"#));
+    assert!(e.contains("<limit>: lower 1 > upper -1"), "{e}");
+    let e = reject(&arm(r#"<joint name="j" type="continuous"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 0"/></joint>"#));
+    assert!(e.contains("<axis> @xyz: the axis is zero"), "{e}");
+    // Missing attributes and elements.
+    let e = reject(&arm(r#"<joint type="fixed"><parent link="base"/><child link="tip"/></joint>"#));
+    assert!(e.contains("<joint>: missing attribute \"name\""), "{e}");
+    let e = reject(&arm(r#"<joint name="j" type="fixed"><child link="tip"/></joint>"#));
+    assert!(e.contains("missing <parent link=\"...\">"), "{e}");
+    // Duplicate names.
+    let e = reject(r#"<robot name="d"><link name="a"/><link name="a"/></robot>"#);
+    assert!(e.contains("a second link with this name"), "{e}");
+    // Geometry problems.
+    let e = reject(r#"<robot name="g"><link name="a"><collision><geometry><cone radius="1"/></geometry></collision></link></robot>"#);
+    assert!(e.contains("unknown shape <cone>"), "{e}");
+    let e = reject(r#"<robot name="g"><link name="a"><collision><geometry><sphere radius="-1"/></geometry></collision></link></robot>"#);
+    assert!(e.contains("<sphere> @radius: -1 is negative"), "{e}");
+    // No links at all; an unreadable file.
+    assert!(reject(r#"<robot name="e"/>"#).contains("no <link> elements"));
+    let e = Robot::from_urdf_file(std::path::Path::new("/nonexistent/robot.urdf")).unwrap_err();
+    assert!(e.to_string().starts_with("/nonexistent/robot.urdf: cannot read the URDF file"), "{e}");
+}
+
+#[test]
+fn random_mutations_never_panic() {
+    // Byte-level mutations of a real model: every outcome must be Ok or a typed error.
+    use rand::{Rng, SeedableRng};
+    let base = Robot::builtin_urdf("coman").unwrap().as_bytes().to_vec();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let alphabet = b"<>/=\" .-eE0123456789abcxyz";
+    let mut loaded = 0;
+    for _ in 0..300 {
+        let mut bytes = base.clone();
+        for _ in 0..rng.random_range(1..6) {
+            let i = rng.random_range(0..bytes.len());
+            match rng.random_range(0..3) {
+                0 => bytes[i] = alphabet[rng.random_range(0..alphabet.len())],
+                1 => {
+                    bytes.remove(i);
+                }
+                _ => {
+                    let end = (i + rng.random_range(1..200)).min(bytes.len());
+                    bytes.drain(i..end);
+                }
+            }
+        }
+        let text = String::from_utf8_lossy(&bytes);
+        if Robot::from_urdf_str(&text, "mutated.urdf").is_ok() {
+            loaded += 1;
+        }
+    }
+    // Some mutations hit comments or names and still load; most must not.
+    assert!(loaded < 300, "{loaded}");
+}
