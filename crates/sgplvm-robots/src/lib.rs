@@ -15,3 +15,4 @@ pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
 pub use models::{Arm, Side};
 pub use urdf::{JointInfo, JointKind, Robot};
 pub use physics::{replay, replay_urdf, PhysicsError, ReplayOptions, ReplayReport, Trajectory};
+pub mod generator;
