@@ -17,7 +17,8 @@ pub struct FileError {
 /// The temporary path used while `path` is being written.
 fn temporary_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    // The extension stays last: some writers choose the format by it.
+    path.with_file_name(format!(".tmp-{}-{name}", std::process::id()))
 }
 
 /// Calls `write` with a temporary path beside `path` and renames the result over `path` when

@@ -18,3 +18,5 @@ pub mod csv;
 pub mod experiment;
 pub mod files;
 pub mod plots;
+pub mod figures;
+pub mod pipeline;

@@ -1,0 +1,243 @@
+//! From demonstration files to trained models and test errors: the glue between the robots
+//! crate's [`Dataset`] and the core's matrices, used by the command line and the Python module.
+
+use std::path::{Path, PathBuf};
+
+use sgplvm_core::{Callback, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions};
+use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset};
+use sgplvm_robots::generator::{generate, GeneratorConfig};
+use nalgebra::DMatrix;
+
+use crate::experiment::{mean_squared_error, ExperimentData, SplitData};
+
+/// Where the shipped demonstrations live, relative to the repository root.
+pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
+
+
+/// Errors of the pipeline. Each names the file, robot or space concerned.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PipelineError {
+    /// A demonstration file could not be read or generated.
+    #[error(transparent)]
+    Data(#[from] sgplvm_robots::joint_state::DemoError),
+    /// The demonstrations could not be generated.
+    #[error(transparent)]
+    Generate(#[from] sgplvm_robots::generator::GenerateError),
+    /// The model failed.
+    #[error(transparent)]
+    Model(#[from] sgplvm_core::Error),
+    /// A robot the data does not contain.
+    #[error("{source_name}: no robot named '{name}'; the data has {known:?}")]
+    UnknownRobot {
+        /// The data file.
+        source_name: String,
+        /// The requested robot.
+        name: String,
+        /// The robots in the file.
+        known: Vec<String>,
+    },
+    /// Model and data disagree on the joints of a space.
+    #[error("{source_name}: the {space} joints {data:?} do not match the model's {model:?}")]
+    JointMismatch {
+        /// The data file.
+        source_name: String,
+        /// The space (human or robot name).
+        space: String,
+        /// Joint names in the model.
+        model: Vec<String>,
+        /// Joint names in the data.
+        data: Vec<String>,
+    },
+    /// The data has no training or no test frames.
+    #[error("{source_name}: the {split} set is empty")]
+    EmptySplit {
+        /// The data file.
+        source_name: String,
+        /// `training` or `test`.
+        split: &'static str,
+    },
+}
+
+/// A dataset and a name for it in messages.
+#[derive(Debug, Clone)]
+pub struct Demonstrations {
+    /// The data.
+    pub dataset: Dataset,
+    /// The file it came from (or a description of how it was made).
+    pub source_name: String,
+}
+
+/// Loads demonstrations from `path`; with `None`, the shipped `data/demos/bimanual.mcap` when run
+/// from the repository, else the same data generated in memory with the default (seeded)
+/// generator settings.
+pub fn load(path: Option<&Path>) -> Result<Demonstrations, PipelineError> {
+    let path: Option<PathBuf> = match path {
+        Some(p) => Some(p.to_path_buf()),
+        None => Some(PathBuf::from(DEFAULT_DEMOS)).filter(|p| p.exists()),
+    };
+    match path {
+        Some(path) => Ok(Demonstrations {
+            dataset: load_demonstrations(&path)?,
+            source_name: path.display().to_string(),
+        }),
+        None => Ok(Demonstrations {
+            dataset: generate(&GeneratorConfig::default())?.dataset,
+            source_name: "generated demonstrations (default settings)".into(),
+        }),
+    }
+}
+
+/// A faer matrix from a nalgebra one.
+pub fn to_mat(m: &DMatrix<f64>) -> Mat<f64> {
+    Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
+/// A nalgebra matrix from a faer one.
+pub fn to_dmatrix(m: MatRef<'_, f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
+impl Demonstrations {
+    /// The robot called `name`.
+    pub fn robot(&self, name: &str) -> Result<&BodyData, PipelineError> {
+        self.dataset.robot(name).ok_or_else(|| PipelineError::UnknownRobot {
+            source_name: self.source_name.clone(),
+            name: name.to_string(),
+            known: self.dataset.robot_names().iter().map(|s| s.to_string()).collect(),
+        })
+    }
+
+    fn check_splits(&self) -> Result<(), PipelineError> {
+        for (split, rows) in [("training", &self.dataset.train), ("test", &self.dataset.test)] {
+            if rows.is_empty() {
+                return Err(PipelineError::EmptySplit { source_name: self.source_name.clone(), split });
+            }
+        }
+        Ok(())
+    }
+
+    /// Training and test matrices of the human and every robot, for the experiments.
+    pub fn experiment_data(&self) -> Result<ExperimentData, PipelineError> {
+        self.check_splits()?;
+        let ds = &self.dataset;
+        let split = |body: &BodyData| SplitData {
+            train: to_mat(&body.rows(&ds.train)),
+            test: to_mat(&body.rows(&ds.test)),
+        };
+        Ok(ExperimentData {
+            input_name: ds.human.name.clone(),
+            human: split(&ds.human),
+            robots: ds.robots.iter().map(|r| (r.name.clone(), split(r))).collect(),
+        })
+    }
+
+    /// Trains a model on the training frames of the human and `robots` (one robot: the full
+    /// model; several: the multi-robot model). Joint names are stored in the model.
+    pub fn train(
+        &self,
+        robots: &[String],
+        config: &ModelConfig,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<SharedGplvm, PipelineError> {
+        self.check_splits()?;
+        let ds = &self.dataset;
+        let mut bodies = vec![&ds.human];
+        for name in robots {
+            bodies.push(self.robot(name)?);
+        }
+        let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
+        let spaces: Vec<(&str, MatRef<'_, f64>)> =
+            bodies.iter().zip(&mats).map(|(b, m)| (b.name.as_str(), m.as_ref())).collect();
+        let mut model = SharedGplvm::fit(config, &spaces, &ds.human.name, options, callback)?;
+        for body in bodies {
+            model.set_column_names(&body.name, body.joint_names.clone())?;
+        }
+        Ok(model)
+    }
+
+    /// Transfers `model` to `robot` on this data's training frames (which must be the frames the
+    /// model was trained on: the human joints and frame count are checked).
+    pub fn transfer(
+        &self,
+        model: &SharedGplvm,
+        robot: &str,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<SharedGplvm, PipelineError> {
+        self.check_splits()?;
+        self.check_human(model)?;
+        let body = self.robot(robot)?;
+        let data = to_mat(&body.rows(&self.dataset.train));
+        let mut transferred = model.transfer(robot, data.as_ref(), options, callback)?;
+        transferred.set_column_names(robot, body.joint_names.clone())?;
+        Ok(transferred)
+    }
+
+    /// Checks that the data's human joints are the model's (by name, in order).
+    pub fn check_human(&self, model: &SharedGplvm) -> Result<(), PipelineError> {
+        self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)
+    }
+
+    fn check_joints(&self, model: &SharedGplvm, space: &str, data: &[String]) -> Result<(), PipelineError> {
+        let expected: Vec<String> = match model.column_names(space) {
+            Some(names) => names.to_vec(),
+            None => match model.space_dim(space) {
+                Some(d) if d == data.len() => return Ok(()),
+                _ => vec![format!("{} columns", model.space_dim(space).unwrap_or(0))],
+            },
+        };
+        if expected != data {
+            return Err(PipelineError::JointMismatch {
+                source_name: self.source_name.clone(),
+                space: space.to_string(),
+                model: expected,
+                data: data.to_vec(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Test error of `model` for `robot` on this data's test frames.
+    pub fn evaluate(&self, model: &SharedGplvm, robot: &str) -> Result<Evaluation, PipelineError> {
+        self.check_splits()?;
+        self.check_human(model)?;
+        let body = self.robot(robot)?;
+        self.check_joints(model, robot, &body.joint_names)?;
+        let human = to_mat(&self.dataset.human.rows(&self.dataset.test));
+        let desired = to_mat(&body.rows(&self.dataset.test));
+        let predicted = model.predict(human.as_ref(), robot, false)?.mean;
+        let per_joint = body
+            .joint_names
+            .iter()
+            .enumerate()
+            .map(|(j, name)| {
+                let mse = mean_squared_error(
+                    predicted.as_ref().subcols(j, 1),
+                    desired.as_ref().subcols(j, 1),
+                );
+                (name.clone(), mse)
+            })
+            .collect();
+        Ok(Evaluation {
+            robot: robot.to_string(),
+            frames: desired.nrows(),
+            mse: mean_squared_error(predicted.as_ref(), desired.as_ref()),
+            per_joint,
+        })
+    }
+}
+
+/// Test error of one robot.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Evaluation {
+    /// The robot.
+    pub robot: String,
+    /// Number of test frames.
+    pub frames: usize,
+    /// Mean squared error over all joints and frames (rad²).
+    pub mse: f64,
+    /// Mean squared error of each joint (rad²).
+    pub per_joint: Vec<(String, f64)>,
+}
