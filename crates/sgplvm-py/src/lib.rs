@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod demos;
 mod model;
 mod robots;
 
@@ -13,5 +14,9 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<model::NativeModel>()?;
     m.add_class::<robots::PyRobot>()?;
+    m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;
+    m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
+    m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;
+    m.add_function(wrap_pyfunction!(demos::simulate, m)?)?;
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! `sgplvm.Robot`: URDF bodies and their forward kinematics.
 
 use numpy::ndarray::Array2;
-use numpy::{PyArray2, PyReadonlyArray1};
+use numpy::PyArray2;
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use sgplvm_robots::{Chain, Robot, RobotError};
@@ -100,10 +100,9 @@ impl PyRobot {
     fn forward_kinematics<'py>(
         &self,
         py: Python<'py>,
-        q: PyReadonlyArray1<'py, f64>,
+        q: Vec<f64>,
         link: Option<&str>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let q = q.as_array().to_vec();
         let pose = match (&self.chain, link) {
             (Some(chain), Some(other)) if other != chain.tip() => {
                 return Err(PyValueError::new_err(format!(

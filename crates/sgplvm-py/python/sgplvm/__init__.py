@@ -11,7 +11,22 @@ only their latent-to-output mapping.
 >>> t.predict(H_new, robot="coman")                                         # doctest: +SKIP
 """
 
-from ._sgplvm import Robot, __version__
+from ._sgplvm import (
+    Robot,
+    __version__,
+    load_demonstrations,
+    read_joint_states,
+    simulate,
+    write_joint_states,
+)
 from ._model import SharedGPLVM
 
-__all__ = ["SharedGPLVM", "Robot", "__version__"]
+__all__ = [
+    "SharedGPLVM",
+    "Robot",
+    "load_demonstrations",
+    "read_joint_states",
+    "write_joint_states",
+    "simulate",
+    "__version__",
+]
