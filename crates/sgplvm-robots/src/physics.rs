@@ -164,11 +164,14 @@ pub struct ReplayOptions {
     pub physics_rate_hz: f64,
     /// Proportional gain of the joint motors, in 1/s² (rapier's acceleration-based motor model:
     /// the commanded acceleration is `stiffness × position error + damping × velocity error`,
-    /// whatever the link's inertia). Default 10 000, a 100 rad/s (16 Hz) servo bandwidth.
+    /// whatever the link's inertia). Default 40 000, a 200 rad/s (32 Hz) servo bandwidth.
     pub stiffness: f64,
-    /// Derivative gain of the joint motors, in 1/s (default 200: critical damping for the
+    /// Derivative gain of the joint motors, in 1/s (default 400: critical damping for the
     /// default stiffness).
     pub damping: f64,
+    /// Seconds the robot holds the first frame before the trajectory starts, so that it has
+    /// settled under gravity (default 0.5). Nothing is measured while settling.
+    pub settle_seconds: f64,
     /// Whether gravity (9.81 m/s² along −z of the fixed root link) acts (default true).
     pub gravity: bool,
     /// A joint counts as beyond its limit when it is more than this far past it, in rad (or m
@@ -197,7 +200,9 @@ pub struct ReplayOptions {
     /// Reflected rotor inertia added to every joint, kg·m² (default 1e-4). Keeps the dynamics
     /// well posed when a URDF gives a link no inertia about its joint axis.
     pub armature: f64,
-    /// Velocity-solver iterations per step (default 4).
+    /// Solver iterations (rapier substeps) per physics step (default 1: at 1 kHz more
+    /// iterations cost proportionally more time and changed tracking errors by < 1e-3 rad
+    /// on the shipped robots).
     pub solver_iterations: usize,
     /// Refuse trajectories that would need more physics steps than this (default 10 000 000,
     /// about 2.8 h of motion at 1 kHz).
@@ -211,8 +216,9 @@ impl Default for ReplayOptions {
     fn default() -> Self {
         ReplayOptions {
             physics_rate_hz: 1000.0,
-            stiffness: 10_000.0,
-            damping: 200.0,
+            stiffness: 40_000.0,
+            damping: 400.0,
+            settle_seconds: 0.5,
             gravity: true,
             limit_tolerance: 1e-3,
             enforce_limits: true,
@@ -222,7 +228,7 @@ impl Default for ReplayOptions {
             allow_missing_joints: false,
             ignored_pairs: Vec::new(),
             armature: 1e-4,
-            solver_iterations: 4,
+            solver_iterations: 1,
             max_steps: 10_000_000,
             record_simulated: false,
         }
@@ -257,6 +263,13 @@ impl ReplayOptions {
                 "stiffness",
                 0.0,
                 "a positive stiffness or damping (both are 0: the motors would do nothing)",
+            ));
+        }
+        if !(self.settle_seconds.is_finite() && self.settle_seconds >= 0.0) {
+            return Err(bad(
+                "settle_seconds",
+                self.settle_seconds,
+                "a finite duration >= 0",
             ));
         }
         if !(self.limit_tolerance.is_finite() && self.limit_tolerance >= 0.0) {
@@ -450,7 +463,7 @@ pub struct ReplayReport {
     pub duration: f64,
     /// Physics steps taken.
     pub physics_steps: usize,
-    /// Wall-clock time of the simulation loop, seconds.
+    /// Wall-clock time of the trajectory's physics steps (settling excluded), seconds.
     pub wall_seconds: f64,
     /// Tracking per movable joint, in the order of the trajectory's columns (joints held
     /// still because they had no column follow).
@@ -493,7 +506,9 @@ pub fn replay_urdf(
     let model = prepare_model(robot, source)?;
     // rapier asserts a few invariants of its own; anything we did not foresee becomes an
     // error value instead of tearing down the caller.
-    match catch_unwind(AssertUnwindSafe(|| simulate(&model, source, trajectory, options))) {
+    match catch_unwind(AssertUnwindSafe(|| {
+        simulate(&model, source, trajectory, options)
+    })) {
         Ok(result) => result,
         Err(panic) => {
             let message = panic
@@ -719,7 +734,11 @@ fn prepare_model(robot: &urdf_rs::Robot, file: &str) -> Result<PreparedModel, Ph
             ));
         }
     }
-    let has_shape: Vec<bool> = robot.links.iter().map(|l| !l.collision.is_empty()).collect();
+    let has_shape: Vec<bool> = robot
+        .links
+        .iter()
+        .map(|l| !l.collision.is_empty())
+        .collect();
     let neighbours = neighbour_matrix(&robot, &parent_of, &has_shape);
     Ok(PreparedModel {
         robot,
@@ -870,7 +889,11 @@ fn simulate(
         if is_moving && source.inertial.mass.value == 0.0 {
             if link.colliders.is_empty() {
                 link.body.set_additional_mass_properties(
-                    MassProperties::new(Vector::ZERO, PLACEHOLDER_MASS, Vector::splat(PLACEHOLDER_INERTIA)),
+                    MassProperties::new(
+                        Vector::ZERO,
+                        PLACEHOLDER_MASS,
+                        Vector::splat(PLACEHOLDER_INERTIA),
+                    ),
                     false,
                 );
             } else {
@@ -1059,15 +1082,19 @@ fn simulate(
     let duration = t_end - t0;
     let rate = options.physics_rate_hz;
     let steps_f = (duration * rate).round().max(1.0);
-    if steps_f > options.max_steps as f64 {
+    let settle_steps = (options.settle_seconds * rate).round();
+    if steps_f + settle_steps > options.max_steps as f64 {
         return Err(PhysicsError::Trajectory {
             message: format!(
-                "{duration} s at {rate} Hz needs {steps_f} physics steps; expected at most max_steps = {}",
+                "{duration} s at {rate} Hz (after {} s of settling) needs {} physics steps; expected at most max_steps = {}",
+                options.settle_seconds,
+                steps_f + settle_steps,
                 options.max_steps
             ),
         });
     }
     let steps = steps_f as usize;
+    let settle_steps = settle_steps as usize;
     let n_cols = trajectory.joint_names.len();
     let (stiffness, damping) = (options.stiffness as Real, options.damping as Real);
     let tol = options.limit_tolerance;
@@ -1085,12 +1112,27 @@ fn simulate(
     let mut simulated = options
         .record_simulated
         .then(|| Vec::with_capacity(trajectory.frames() * driven.len()));
-    if let Some(sim) = simulated.as_mut() {
-        sim.extend_from_slice(&initial);
-    }
     let mut next_frame = 1usize;
     let mut segment = 0usize;
 
+    // Settle on the first frame.
+    for _ in 0..settle_steps {
+        for (d, q0) in driven.iter().zip(&initial) {
+            if let Some((mb, link_id)) = world.multibody_joints.get_mut(d.handle) {
+                if let Some(link) = mb.link_mut(link_id) {
+                    link.joint
+                        .data
+                        .set_motor(d.dof.axis(), *q0 as Real, 0.0, stiffness, damping);
+                }
+            }
+        }
+        world.step_with_events(&hooks, &());
+    }
+    if let Some(sim) = simulated.as_mut() {
+        for d in &driven {
+            sim.push(joint_position(&world, d));
+        }
+    }
     let started = Instant::now();
     for step in 1..=steps {
         let t = (t0 + step as f64 / rate).min(t_end);
@@ -1127,11 +1169,7 @@ fn simulate(
         world.step_with_events(&hooks, &());
 
         for (i, d) in driven.iter().enumerate() {
-            let q = world
-                .multibody_joints
-                .get(d.handle)
-                .and_then(|(mb, link_id)| mb.link(link_id))
-                .map_or(f64::NAN, |link| link.joint().coords()[d.dof.coord()] as f64);
+            let q = joint_position(&world, d);
             if !q.is_finite() {
                 return Err(PhysicsError::Diverged {
                     file: file.to_string(),
@@ -1149,7 +1187,11 @@ fn simulate(
             }
             if let Some((lo, hi)) = d.limits {
                 for (commanded, value) in [(true, reference[i]), (false, q)] {
-                    let (beyond, limit) = if value > hi { (value - hi, hi) } else { (lo - value, lo) };
+                    let (beyond, limit) = if value > hi {
+                        (value - hi, hi)
+                    } else {
+                        (lo - value, lo)
+                    };
                     if beyond > tol {
                         let event = open_limits.entry((i, commanded)).or_insert(OpenEvent {
                             start: t,
@@ -1291,6 +1333,15 @@ fn simulate(
     })
 }
 
+/// The simulated position of a driven joint (NaN if rapier lost it, caught as divergence).
+fn joint_position(world: &PhysicsWorld, d: &DrivenJoint) -> f64 {
+    world
+        .multibody_joints
+        .get(d.handle)
+        .and_then(|(mb, link_id)| mb.link(link_id))
+        .map_or(f64::NAN, |link| link.joint().coords()[d.dof.coord()] as f64)
+}
+
 /// Moves every event not extended at `step` from `open` to `emit`.
 fn close_events<K: Copy + Eq + std::hash::Hash>(
     open: &mut HashMap<K, OpenEvent>,
@@ -1309,5 +1360,187 @@ fn close_events<K: Copy + Eq + std::hash::Hash>(
         if let Some(event) = open.remove(&key) {
             emit(key, event);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// base ─rev→ a (shapeless) ─rev→ b (shape); base ─fixed→ c (shape) ─rev→ d (shape);
+    /// d ─fixed→ e (shape).
+    const TREE: &str = r#"<robot name="tree">
+      <link name="base"><collision><geometry><box size="1 1 1"/></geometry></collision></link>
+      <link name="a"/>
+      <link name="b"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="c"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="d"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="e"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <joint name="j_a" type="revolute"><parent link="base"/><child link="a"/>
+        <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="j_b" type="revolute"><parent link="a"/><child link="b"/>
+        <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="j_c" type="fixed"><parent link="base"/><child link="c"/></joint>
+      <joint name="j_d" type="continuous"><parent link="c"/><child link="d"/><axis xyz="0 0 1"/></joint>
+      <joint name="j_e" type="fixed"><parent link="d"/><child link="e"/></joint>
+    </robot>"#;
+
+    fn neighbours(xml: &str) -> (Vec<String>, Vec<bool>) {
+        let robot = urdf_rs::read_from_string(xml).unwrap();
+        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let names = model.robot.links.iter().map(|l| l.name.clone()).collect();
+        (names, model.neighbours)
+    }
+
+    #[test]
+    fn neighbours_are_tree_adjacent_through_shapeless_links_or_fixed_joints() {
+        let (names, m) = neighbours(TREE);
+        let n = names.len();
+        let idx = |s: &str| names.iter().position(|x| x == s).unwrap();
+        let near = |a: &str, b: &str| m[idx(a) * n + idx(b)];
+        // Direct parent/child.
+        assert!(near("base", "a") && near("a", "b") && near("c", "d") && near("d", "e"));
+        // Through the shapeless link a.
+        assert!(near("base", "b") && near("b", "base"));
+        // All-fixed path.
+        assert!(near("base", "c"));
+        // c (with a shape) sits between base and d, and the path has a moving joint.
+        assert!(!near("base", "d") && !near("base", "e"));
+        // Across the base: b and c, b and d are not neighbours.
+        assert!(!near("b", "c") && !near("b", "d") && !near("c", "e"));
+        // Symmetric.
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(m[i * n + j], m[j * n + i]);
+            }
+        }
+    }
+
+    #[test]
+    fn model_preparation_fixes_floating_roots_and_zero_range_joints() {
+        let xml = TREE
+            .replace(
+                r#"<link name="base">"#,
+                r#"<link name="world"/><joint name="float" type="floating"><parent link="world"/><child link="base"/></joint><link name="base">"#,
+            )
+            .replace(
+                r#"<axis xyz="0 1 0"/><limit lower="-1" upper="1""#,
+                r#"<axis xyz="0 1 0"/><limit lower="0" upper="0""#,
+            );
+        let robot = urdf_rs::read_from_string(&xml).unwrap();
+        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let kind = |name: &str| {
+            model
+                .robot
+                .joints
+                .iter()
+                .find(|j| j.name == name)
+                .map(|j| j.joint_type.clone())
+                .unwrap()
+        };
+        assert_eq!(kind("float"), urdf_rs::JointType::Fixed);
+        assert_eq!(kind("j_b"), urdf_rs::JointType::Continuous);
+        assert_eq!(kind("j_a"), urdf_rs::JointType::Revolute);
+        assert_eq!(model.warnings.len(), 2, "{:?}", model.warnings);
+    }
+
+    #[test]
+    fn model_preparation_rejects_loops_and_bad_numbers() {
+        // b ─→ base closes the loop base → a → b → base.
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        let mut back = robot.joints[0].clone();
+        back.name = "j_back".into();
+        back.parent.link = "b".into();
+        back.child.link = "base".into();
+        robot.joints.push(back);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("cycle"), "{err}");
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        // c becomes the child of two joints.
+        let mut extra = robot.joints[2].clone();
+        extra.name = "j_c2".into();
+        extra.parent.link = "b".into();
+        robot.joints.push(extra);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(
+            err.contains("<joint name=\"j_c2\">") && err.contains("tree"),
+            "{err}"
+        );
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        robot.links[2].collision[0].geometry = urdf_rs::Geometry::Sphere { radius: -0.1 };
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("<link name=\"b\"> <collision>"), "{err}");
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        robot.joints[0].axis.xyz = urdf_rs::Vec3([0.0, 0.0, 0.0]);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("<joint name=\"j_a\"> <axis>"), "{err}");
+    }
+
+    #[test]
+    fn options_are_range_checked() {
+        assert!(ReplayOptions::default().validate().is_ok());
+        let cases = [
+            ReplayOptions {
+                physics_rate_hz: 0.0,
+                ..Default::default()
+            },
+            ReplayOptions {
+                stiffness: -1.0,
+                ..Default::default()
+            },
+            ReplayOptions {
+                stiffness: 0.0,
+                damping: 0.0,
+                ..Default::default()
+            },
+            ReplayOptions {
+                settle_seconds: f64::INFINITY,
+                ..Default::default()
+            },
+            ReplayOptions {
+                limit_tolerance: f64::NAN,
+                ..Default::default()
+            },
+            ReplayOptions {
+                solver_iterations: 0,
+                ..Default::default()
+            },
+        ];
+        for options in cases {
+            assert!(
+                matches!(options.validate(), Err(PhysicsError::InvalidOption { .. })),
+                "{options:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn events_close_when_not_extended() {
+        let mut open = HashMap::new();
+        let event = |step| OpenEvent {
+            start: 0.1,
+            end: 0.2,
+            amount: 0.5,
+            limit: 1.0,
+            last_step: step,
+        };
+        open.insert(1usize, event(7));
+        open.insert(2usize, event(8));
+        let mut closed = Vec::new();
+        close_events(&mut open, 8, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed, vec![(1, 7)]);
+        assert!(open.contains_key(&2) && open.len() == 1);
+    }
+
+    #[test]
+    fn public_types_are_send_and_sync() {
+        fn check<T: Send + Sync>() {}
+        check::<ReplayOptions>();
+        check::<Trajectory>();
+        check::<ReplayReport>();
+        check::<PhysicsError>();
     }
 }
