@@ -152,7 +152,9 @@ mod tests {
             role: "parent",
             link: "nowhere".into(),
         };
-        assert!(e.to_string().starts_with("b.urdf: <joint name=\"j1\">: unknown parent link \"nowhere\""));
+        assert!(e
+            .to_string()
+            .starts_with("b.urdf: <joint name=\"j1\">: unknown parent link \"nowhere\""));
     }
 
     #[test]

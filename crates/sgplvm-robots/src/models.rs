@@ -114,7 +114,13 @@ mod tests {
             ("walkman", 14, "DWYTorso", "LShSag", "RWrj2"),
             ("coman", 14, "DWYTorso", "LShSag", "RWrj2"),
             ("centauro", 14, "torso_2", "j_arm1_1", "j_arm2_7"),
-            ("human", 18, "T8", "jLeftC7Shoulder_elevation", "jRightWrist_deviation"),
+            (
+                "human",
+                18,
+                "T8",
+                "jLeftC7Shoulder_elevation",
+                "jRightWrist_deviation",
+            ),
         ];
         for (name, dof, root, first, last) in expect {
             let r = Robot::builtin(name).unwrap();
@@ -129,8 +135,14 @@ mod tests {
             assert_eq!(right.side, Side::Right);
             // Left arm = first half of q, right arm = second half, shoulder to wrist.
             let half = dof / 2;
-            assert_eq!(left.chain.robot_indices(), (0..half).collect::<Vec<_>>().as_slice());
-            assert_eq!(right.chain.robot_indices(), (half..dof).collect::<Vec<_>>().as_slice());
+            assert_eq!(
+                left.chain.robot_indices(),
+                (0..half).collect::<Vec<_>>().as_slice()
+            );
+            assert_eq!(
+                right.chain.robot_indices(),
+                (half..dof).collect::<Vec<_>>().as_slice()
+            );
             assert_eq!(left.chain.joint_names(), &names[..half]);
             // urdf-rs read the same file.
             assert_eq!(r.urdf().joints.len(), r.joints().len());
@@ -142,7 +154,11 @@ mod tests {
         // (name, shoulder width, arm length shoulder→hand at zero)
         let expect = [
             ("coman", 0.312, 0.181 + 0.195 + 0.07),
-            ("centauro", 0.444, 0.21915 + 0.074 + 0.061 + 0.18 + 0.169 + 0.07),
+            (
+                "centauro",
+                0.444,
+                0.21915 + 0.074 + 0.061 + 0.18 + 0.169 + 0.07,
+            ),
             ("human", 0.2 * 1.75, (0.168 + 0.138 + 0.108) * 1.75),
         ];
         for (name, width, length) in expect {
@@ -152,8 +168,15 @@ mod tests {
             let ls = r.forward_kinematics(&zero, &l.shoulder_link).unwrap();
             let rs = r.forward_kinematics(&zero, &rt.shoulder_link).unwrap();
             let w = (ls.translation.vector - rs.translation.vector).norm();
-            assert!((w - width).abs() < 5e-3, "{name}: shoulder width {w} vs {width}");
-            assert!((l.length - length).abs() < 0.01, "{name}: arm length {} vs {length}", l.length);
+            assert!(
+                (w - width).abs() < 5e-3,
+                "{name}: shoulder width {w} vs {width}"
+            );
+            assert!(
+                (l.length - length).abs() < 0.01,
+                "{name}: arm length {} vs {length}",
+                l.length
+            );
             assert!((l.length - rt.length).abs() < 1e-12, "{name}: arms differ");
         }
         // WALK-MAN's shoulder axes do not meet: its centre is the point nearest to them.
@@ -163,7 +186,10 @@ mod tests {
         let ls = w.forward_kinematics(&zero, &l.shoulder_link).unwrap();
         let rs = w.forward_kinematics(&zero, &r.shoulder_link).unwrap();
         let width = (ls.translation.vector - rs.translation.vector).norm();
-        assert!((width - 0.657).abs() < 0.03, "walkman shoulder width {width}");
+        assert!(
+            (width - 0.657).abs() < 0.03,
+            "walkman shoulder width {width}"
+        );
     }
 
     #[test]
@@ -179,8 +205,8 @@ mod tests {
             let wrist = r.forward_kinematics(&q, wrist_link).unwrap();
             let hand = r.forward_kinematics(&q, "left_hand").unwrap();
             let local = wrist.inverse() * hand;
-            for k in 0..3 {
-                assert!((local.translation.vector[k] - offset[k]).abs() < 1e-12, "{name}");
+            for (got, want) in local.translation.vector.iter().zip(offset) {
+                assert!((got - want).abs() < 1e-12, "{name}");
             }
         }
     }
@@ -190,18 +216,42 @@ mod tests {
         let r = Robot::builtin("human").unwrap();
         let left: Vec<f64> = [0.2, 0.1, 0.8, 0.4, -0.3, 1.2, 0.5, 0.3, 0.1].to_vec();
         let q: Vec<f64> = left.iter().chain(left.iter()).copied().collect();
-        let pl = r.forward_kinematics(&q, "left_hand").unwrap().translation.vector;
-        let pr = r.forward_kinematics(&q, "right_hand").unwrap().translation.vector;
-        assert!((pl.x - pr.x).abs() < 1e-12 && (pl.y + pr.y).abs() < 1e-12 && (pl.z - pr.z).abs() < 1e-12);
+        let pl = r
+            .forward_kinematics(&q, "left_hand")
+            .unwrap()
+            .translation
+            .vector;
+        let pr = r
+            .forward_kinematics(&q, "right_hand")
+            .unwrap()
+            .translation
+            .vector;
+        assert!(
+            (pl.x - pr.x).abs() < 1e-12
+                && (pl.y + pr.y).abs() < 1e-12
+                && (pl.z - pr.z).abs() < 1e-12
+        );
         // Flexion lifts the arm forward, abduction sideways.
         let mut q = vec![0.0; 18];
         q[2] = std::f64::consts::FRAC_PI_2;
-        let p = r.forward_kinematics(&q, "left_hand").unwrap().translation.vector;
-        let s = r.forward_kinematics(&q, "left_shoulder").unwrap().translation.vector;
+        let p = r
+            .forward_kinematics(&q, "left_hand")
+            .unwrap()
+            .translation
+            .vector;
+        let s = r
+            .forward_kinematics(&q, "left_shoulder")
+            .unwrap()
+            .translation
+            .vector;
         assert!((p - s - nalgebra::Vector3::new(0.414 * 1.75, 0.0, 0.0)).norm() < 1e-9);
         let mut q = vec![0.0; 18];
         q[3] = std::f64::consts::FRAC_PI_2;
-        let p = r.forward_kinematics(&q, "left_hand").unwrap().translation.vector;
+        let p = r
+            .forward_kinematics(&q, "left_hand")
+            .unwrap()
+            .translation
+            .vector;
         assert!((p - s - nalgebra::Vector3::new(0.0, 0.414 * 1.75, 0.0)).norm() < 1e-9);
     }
 
@@ -216,7 +266,9 @@ mod tests {
         let lim = w.joint_limits();
         assert_eq!(lim[1], (0.0872665, 3.85718));
         assert_eq!(lim[7], (-2.84489, 2.80998));
-        assert_eq!(w.velocity_limits()[3], 6.283);
+        #[allow(clippy::approx_constant)] // WALK-MAN's published velocity limit, not 2π
+        let walkman_velocity = 6.283;
+        assert_eq!(w.velocity_limits()[3], walkman_velocity);
         let h = Robot::builtin("human").unwrap();
         let lim = h.joint_limits();
         assert!((lim[5].1 - 150f64.to_radians()).abs() < 1e-9);

@@ -159,12 +159,18 @@ impl Robot {
 
     /// `(lower, upper)` of each movable joint, in configuration order.
     pub fn joint_limits(&self) -> Vec<(f64, f64)> {
-        self.movable.iter().map(|&j| self.joints[j].limits).collect()
+        self.movable
+            .iter()
+            .map(|&j| self.joints[j].limits)
+            .collect()
     }
 
     /// Velocity limit of each movable joint (0 when the file gives none), in configuration order.
     pub fn velocity_limits(&self) -> Vec<f64> {
-        self.movable.iter().map(|&j| self.joints[j].velocity).collect()
+        self.movable
+            .iter()
+            .map(|&j| self.joints[j].velocity)
+            .collect()
     }
 
     /// Number of movable joints (length of `q`).
@@ -174,7 +180,9 @@ impl Robot {
 
     /// Position of a movable joint in the configuration vector.
     pub fn joint_index(&self, name: &str) -> Option<usize> {
-        self.movable.iter().position(|&j| self.joints[j].name == name)
+        self.movable
+            .iter()
+            .position(|&j| self.joints[j].name == name)
     }
 
     /// Names of all links, in file order.
@@ -241,7 +249,7 @@ impl Robot {
         link: &str,
     ) -> RobotResult<Vec<Isometry3<f64>>> {
         let dof = self.dof();
-        if dof == 0 || qs.len() % dof != 0 {
+        if dof == 0 || !qs.len().is_multiple_of(dof) {
             return Err(RobotError::WrongDof {
                 what: format!(
                     "forward_kinematics_batch (a multiple of {dof} values, robot \"{}\")",
@@ -321,7 +329,9 @@ fn parse_number(ctx: &Ctx, at: &str, attr: &str, text: &str) -> RobotResult<f64>
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(ctx.invalid(
             format!("{at} @{attr}"),
-            format!("bad number \"{text}\", expected a finite decimal number such as 0.25 or 1.6E-4"),
+            format!(
+                "bad number \"{text}\", expected a finite decimal number such as 0.25 or 1.6E-4"
+            ),
         )),
     }
 }
@@ -522,14 +532,10 @@ fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
         }
     }
     for (kind, label) in [("visual", "<visual>"), ("collision", "<collision>")] {
-        for v in link
-            .children
-            .iter()
-            .filter_map(|c| match c {
-                Xml::ElementNode(e) if e.name == kind => Some(e),
-                _ => None,
-            })
-        {
+        for v in link.children.iter().filter_map(|c| match c {
+            Xml::ElementNode(e) if e.name == kind => Some(e),
+            _ => None,
+        }) {
             check_geometry(ctx, v, &format!("{at} {label}"))?;
         }
     }
@@ -616,7 +622,12 @@ fn check_joint(ctx: &Ctx, joint: &Element, at: &str) -> RobotResult<RawJoint> {
         ("calibration", &["rising", "falling"][..]),
         (
             "safety_controller",
-            &["soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"][..],
+            &[
+                "soft_lower_limit",
+                "soft_upper_limit",
+                "k_position",
+                "k_velocity",
+            ][..],
         ),
         ("mimic", &["multiplier", "offset"][..]),
     ] {
@@ -655,10 +666,8 @@ fn normalise_for_urdf_rs(el: &mut Element) {
                         }
                     }
                 }
-                "safety_controller" => {
-                    if child.get_attribute("k_velocity", None).is_none() {
-                        child.set_attribute("k_velocity".to_string(), None, "0".to_string());
-                    }
+                "safety_controller" if child.get_attribute("k_velocity", None).is_none() => {
+                    child.set_attribute("k_velocity".to_string(), None, "0".to_string());
                 }
                 _ => {}
             }
@@ -679,8 +688,9 @@ fn xml_error(file: &str, err: xml::BuilderError) -> RobotError {
             file: file.to_string(),
             line: 0,
             column: 0,
-            message: "elements are not properly nested (a closing tag does not match its opening tag)"
-                .into(),
+            message:
+                "elements are not properly nested (a closing tag does not match its opening tag)"
+                    .into(),
         },
         xml::BuilderError::NoElement => RobotError::Xml {
             file: file.to_string(),
@@ -723,7 +733,10 @@ fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         let name = req_attr(&ctx, link, &at, "name")?.trim().to_string();
         check_link(&ctx, link, &at)?;
         if link_index.insert(name.clone(), links.len()).is_some() {
-            return Err(ctx.invalid(at, "a second link with this name, expected unique link names"));
+            return Err(ctx.invalid(
+                at,
+                "a second link with this name, expected unique link names",
+            ));
         }
         links.push(name);
     }
@@ -738,7 +751,10 @@ fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         let at = describe(joint);
         let j = check_joint(&ctx, joint, &at)?;
         if joint_names.insert(j.name.clone(), raw.len()).is_some() {
-            return Err(ctx.invalid(at, "a second joint with this name, expected unique joint names"));
+            return Err(ctx.invalid(
+                at,
+                "a second joint with this name, expected unique joint names",
+            ));
         }
         raw.push(j);
     }

@@ -19,7 +19,11 @@ fn forward_kinematics_matches_pinocchio() {
         .expect("fixture present");
     let fixture: serde_json::Value = serde_json::from_str(&text).expect("fixture is JSON");
     let robots = fixture["robots"].as_array().expect("robots array");
-    assert_eq!(robots.len(), 6, "four shipped models and two third-party arms");
+    assert_eq!(
+        robots.len(),
+        6,
+        "four shipped models and two third-party arms"
+    );
     let root = manifest().join("../..");
     let mut compared = 0;
     let mut worst: f64 = 0.0;
@@ -43,7 +47,11 @@ fn forward_kinematics_matches_pinocchio() {
             let q: Vec<f64> = robot
                 .joint_names()
                 .iter()
-                .map(|n| *values.get(n).unwrap_or_else(|| panic!("joint {n} in fixture")))
+                .map(|n| {
+                    *values
+                        .get(n)
+                        .unwrap_or_else(|| panic!("joint {n} in fixture"))
+                })
                 .collect();
             let poses = robot.all_link_poses(&q).unwrap();
             let links = robot.link_names();

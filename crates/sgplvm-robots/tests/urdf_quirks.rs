@@ -32,8 +32,10 @@ fn reject(xml: &str) -> String {
 
 #[test]
 fn joint_without_origin_sits_at_the_parent_frame() {
-    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
-        <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#);
+    let xml = arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>"#,
+    );
     assert!(urdf_rs::read_from_string(&xml).is_ok());
     let r = load(&xml);
     let p = r.forward_kinematics(&[0.7], "tip").unwrap();
@@ -58,9 +60,11 @@ fn origin_without_rpy_or_xyz_defaults_to_zero() {
 
 #[test]
 fn numbers_written_0dot_and_with_exponents_parse() {
-    let xml = arm(r#"<joint name="j" type="prismatic"><origin xyz="0. 1.6E-4 -2.5e+1" rpy="0. 0 0."/>
+    let xml = arm(
+        r#"<joint name="j" type="prismatic"><origin xyz="0. 1.6E-4 -2.5e+1" rpy="0. 0 0."/>
         <parent link="base"/><child link="tip"/><axis xyz="1. 0 0"/>
-        <limit lower="-.5" upper="+1." effort="1E2" velocity="2."/></joint>"#);
+        <limit lower="-.5" upper="+1." effort="1E2" velocity="2."/></joint>"#,
+    );
     assert!(urdf_rs::read_from_string(&xml).is_ok());
     let r = load(&xml);
     assert_eq!(r.joint_limits(), vec![(-0.5, 1.0)]);
@@ -108,8 +112,10 @@ fn gazebo_sensor_and_transmission_blocks_are_ignored() {
 
 #[test]
 fn revolute_joint_with_equal_limits_stays_a_movable_joint() {
-    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
-        <axis xyz="0 0 1"/><limit lower="0" upper="0" effort="0" velocity="0"/></joint>"#);
+    let xml = arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="0" upper="0" effort="0" velocity="0"/></joint>"#,
+    );
     assert!(urdf_rs::read_from_string(&xml).is_ok());
     let r = load(&xml);
     assert_eq!(r.joint_limits(), vec![(0.0, 0.0)]);
@@ -146,8 +152,10 @@ fn missing_mesh_files_do_not_matter() {
 
 #[test]
 fn limit_without_velocity_is_completed_for_urdf_rs() {
-    let xml = arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
-        <axis xyz="0 0 1"/><limit lower="-1" upper="2"/></joint>"#);
+    let xml = arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="2"/></joint>"#,
+    );
     // urdf-rs 0.9 alone insists on `velocity`.
     assert!(urdf_rs::read_from_string(&xml).is_err());
     let r = load(&xml);
@@ -174,7 +182,9 @@ fn quat_xyzw_origins_of_urdf_1_1_are_read() {
 
 #[test]
 fn unknown_parent_link_is_named() {
-    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="bsae"/><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="fixed"><parent link="bsae"/><child link="tip"/></joint>"#,
+    ));
     assert_eq!(
         e,
         "broken.urdf: <joint name=\"j\">: unknown parent link \"bsae\" (expected the name of a declared <link>)"
@@ -188,7 +198,9 @@ fn unknown_parent_link_is_named() {
 
 #[test]
 fn unknown_child_link_is_named() {
-    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="base"/><child link="tpi"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="fixed"><parent link="base"/><child link="tpi"/></joint>"#,
+    ));
     assert!(e.contains("unknown child link \"tpi\""), "{e}");
 }
 
@@ -211,7 +223,9 @@ fn a_cycle_is_reported_with_its_links() {
     }
     assert!(e.to_string().contains("cycle through links"), "{e}");
     // A joint from a link to itself.
-    let e = reject(&arm(r#"<joint name="j" type="fixed"><parent link="tip"/><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="fixed"><parent link="tip"/><child link="tip"/></joint>"#,
+    ));
     assert!(e.contains("cycle through links \"tip\""), "{e}");
 }
 
@@ -231,13 +245,18 @@ fn a_link_with_two_parents_is_rejected() {
       <joint name="j1" type="fixed"><parent link="a"/><child link="tip"/></joint>
       <joint name="j2" type="fixed"><parent link="b"/><child link="tip"/></joint></robot>"#;
     let e = reject(xml);
-    assert!(e.contains("<joint name=\"j2\">") && e.contains("already the child of joint \"j1\""), "{e}");
+    assert!(
+        e.contains("<joint name=\"j2\">") && e.contains("already the child of joint \"j1\""),
+        "{e}"
+    );
 }
 
 #[test]
 fn a_bad_number_names_element_attribute_and_text() {
-    let e = reject(&arm(r#"<joint name="j" type="fixed"><origin xyz="0 0,5 1"/>
-        <parent link="base"/><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="fixed"><origin xyz="0 0,5 1"/>
+        <parent link="base"/><child link="tip"/></joint>"#,
+    ));
     assert_eq!(
         e,
         "broken.urdf: <joint name=\"j\"> <origin> @xyz: bad number \"0,5\", expected a finite decimal number such as 0.25 or 1.6E-4"
@@ -248,18 +267,33 @@ fn a_bad_number_names_element_attribute_and_text() {
     let parsed = urdf_rs::read_from_string(&sloppy).unwrap();
     assert_eq!(*parsed.joints[0].origin.xyz, [1.0, 2.0, 3.0]);
     let e = reject(&sloppy);
-    assert!(e.contains("@xyz: \"1 x 2 3\" has 4 values, expected 3 numbers"), "{e}");
-    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
-        <limit lower="-1" upper="NaN" effort="1" velocity="1"/></joint>"#));
-    assert!(e.contains("<joint name=\"j\"> <limit> @upper: bad number \"NaN\""), "{e}");
-    let e = reject(r#"<robot name="m"><link name="l"><inertial><mass value="heavy"/>
-        <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link></robot>"#);
-    assert!(e.contains("<link name=\"l\"> <inertial> <mass> @value: bad number \"heavy\""), "{e}");
+    assert!(
+        e.contains("@xyz: \"1 x 2 3\" has 4 values, expected 3 numbers"),
+        "{e}"
+    );
+    let e = reject(&arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <limit lower="-1" upper="NaN" effort="1" velocity="1"/></joint>"#,
+    ));
+    assert!(
+        e.contains("<joint name=\"j\"> <limit> @upper: bad number \"NaN\""),
+        "{e}"
+    );
+    let e = reject(
+        r#"<robot name="m"><link name="l"><inertial><mass value="heavy"/>
+        <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link></robot>"#,
+    );
+    assert!(
+        e.contains("<link name=\"l\"> <inertial> <mass> @value: bad number \"heavy\""),
+        "{e}"
+    );
 }
 
 #[test]
 fn an_unknown_joint_type_lists_the_known_ones() {
-    let e = reject(&arm(r#"<joint name="j" type="ball"><parent link="base"/><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="ball"><parent link="base"/><child link="tip"/></joint>"#,
+    ));
     assert_eq!(
         e,
         "broken.urdf: <joint name=\"j\"> @type: unknown joint type \"ball\", expected one of revolute, continuous, prismatic, fixed, floating, planar"
@@ -272,37 +306,68 @@ fn other_broken_files() {
     let e = Robot::from_urdf_str("<robot name=\"x\"><link name=\"a\"></robot>", "broken.urdf")
         .unwrap_err();
     assert!(matches!(e, RobotError::Xml { .. }), "{e}");
-    assert!(e.to_string().starts_with("broken.urdf: not well-formed XML"), "{e}");
-    let e = Robot::from_urdf_str("", "empty.urdf").unwrap_err().to_string();
-    assert!(e.contains("empty.urdf") && e.contains("expected <robot>"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("broken.urdf: not well-formed XML"),
+        "{e}"
+    );
+    let e = Robot::from_urdf_str("", "empty.urdf")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("empty.urdf") && e.contains("expected <robot>"),
+        "{e}"
+    );
     // Wrong document element.
-    assert!(reject("<sdf version=\"1.6\"><model/></sdf>").contains("<sdf>: the document element must be <robot>"));
+    assert!(reject("<sdf version=\"1.6\"><model/></sdf>")
+        .contains("<sdf>: the document element must be <robot>"));
     // A revolute joint without limits, lower > upper, a zero axis.
-    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/></joint>"#));
-    assert!(e.contains("missing <limit lower=... upper=...>, required for a revolute joint"), "{e}");
-    let e = reject(&arm(r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
-        <limit lower="1" upper="-1" effort="1" velocity="1"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/></joint>"#,
+    ));
+    assert!(
+        e.contains("missing <limit lower=... upper=...>, required for a revolute joint"),
+        "{e}"
+    );
+    let e = reject(&arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <limit lower="1" upper="-1" effort="1" velocity="1"/></joint>"#,
+    ));
     assert!(e.contains("<limit>: lower 1 > upper -1"), "{e}");
-    let e = reject(&arm(r#"<joint name="j" type="continuous"><parent link="base"/><child link="tip"/>
-        <axis xyz="0 0 0"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="continuous"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 0"/></joint>"#,
+    ));
     assert!(e.contains("<axis> @xyz: the axis is zero"), "{e}");
     // Missing attributes and elements.
-    let e = reject(&arm(r#"<joint type="fixed"><parent link="base"/><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint type="fixed"><parent link="base"/><child link="tip"/></joint>"#,
+    ));
     assert!(e.contains("<joint>: missing attribute \"name\""), "{e}");
-    let e = reject(&arm(r#"<joint name="j" type="fixed"><child link="tip"/></joint>"#));
+    let e = reject(&arm(
+        r#"<joint name="j" type="fixed"><child link="tip"/></joint>"#,
+    ));
     assert!(e.contains("missing <parent link=\"...\">"), "{e}");
     // Duplicate names.
     let e = reject(r#"<robot name="d"><link name="a"/><link name="a"/></robot>"#);
     assert!(e.contains("a second link with this name"), "{e}");
     // Geometry problems.
-    let e = reject(r#"<robot name="g"><link name="a"><collision><geometry><cone radius="1"/></geometry></collision></link></robot>"#);
+    let e = reject(
+        r#"<robot name="g"><link name="a"><collision><geometry><cone radius="1"/></geometry></collision></link></robot>"#,
+    );
     assert!(e.contains("unknown shape <cone>"), "{e}");
-    let e = reject(r#"<robot name="g"><link name="a"><collision><geometry><sphere radius="-1"/></geometry></collision></link></robot>"#);
+    let e = reject(
+        r#"<robot name="g"><link name="a"><collision><geometry><sphere radius="-1"/></geometry></collision></link></robot>"#,
+    );
     assert!(e.contains("<sphere> @radius: -1 is negative"), "{e}");
     // No links at all; an unreadable file.
     assert!(reject(r#"<robot name="e"/>"#).contains("no <link> elements"));
     let e = Robot::from_urdf_file(std::path::Path::new("/nonexistent/robot.urdf")).unwrap_err();
-    assert!(e.to_string().starts_with("/nonexistent/robot.urdf: cannot read the URDF file"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("/nonexistent/robot.urdf: cannot read the URDF file"),
+        "{e}"
+    );
 }
 
 #[test]
