@@ -29,7 +29,7 @@ mod cdr;
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufWriter, Read};
+use std::io::{BufReader, BufWriter, Read};
 use std::path::{Path, PathBuf};
 
 use ::mcap::records::{op, MessageHeader, Metadata};
@@ -757,11 +757,14 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
     let mut metadata = BTreeMap::new();
     let mut seen_topics: Vec<bool> = vec![false; requests.len()];
 
-    let mut file = File::open(path).map_err(|source| DemoError::Io {
+    let file = File::open(path).map_err(|source| DemoError::Io {
         path: path.to_path_buf(),
         action: "open",
         source,
     })?;
+    // The reader asks for small pieces (one record of an uncompressed chunk at a time): a
+    // large buffer turns those into few system calls.
+    let mut file = BufReader::with_capacity(1 << 20, file);
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_validate_chunk_crcs(true),
     );
@@ -1015,7 +1018,7 @@ pub fn align_onto_clock(series: &[JointStates], rate_hz: f64) -> Result<Vec<Join
     series.iter().map(|s| s.resample(&clock)).collect()
 }
 
-fn read_retrying(file: &mut File, buf: &mut [u8]) -> std::io::Result<usize> {
+fn read_retrying(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     loop {
         match file.read(buf) {
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
