@@ -486,7 +486,7 @@ fn check_config(
         && m.speed.1 >= m.speed.0)
         || [m.posture_std, m.path_bend_std, m.noise_std]
             .iter()
-            .any(|s| !(*s >= 0.0))
+            .any(|s| s.is_nan() || *s < 0.0)
     {
         return bad("human mimic ranges must be ordered and non-negative".into());
     }
