@@ -555,7 +555,7 @@ pub fn report(results: &Results) -> String {
             ["none", "input", "output"].map(|bc| results.final_mean(robot, ModelKind::Baseline, bc));
         let ok = input <= none && input <= output;
         all &= ok;
-        lines.push(format!("  - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"));
+        lines.push(format!("   - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"));
     }
     out.push_str(&format!(
         "1. Back constraints on the input give the best fully trained model (Fig. 6): {}.\n{}\n",
@@ -595,7 +595,7 @@ pub fn report(results: &Results) -> String {
         let ratio = multi / baseline;
         let ok = ratio.is_finite() && (1.0 / 1.5..=1.5).contains(&ratio);
         all &= ok;
-        lines.push(format!("  - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"));
+        lines.push(format!("   - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"));
     }
     out.push_str(&format!(
         "3. The multi-robot model performs similarly to the baseline (ratio within 1/1.5 … 1.5, input back constraints): {}.\n{}\n",

@@ -20,6 +20,7 @@ use sgplvm::robots::joint_state::{
     read_topics, write_topics, Compression, JointStates, MessageEncoding, TopicData, TopicRequest,
     WriteSettings,
 };
+use sgplvm::robots::{ReplayOptions, Trajectory};
 use sgplvm::{figures, BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 use sgplvm_core::{Control, IterationRecord};
 
@@ -179,6 +180,34 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Replay a joint trajectory on a robot in the rapier physics engine (PD control at 1 kHz):
+    /// tracking error per joint, joint-limit violations and self-collisions.
+    ///
+    /// Either `--trajectory FILE` (robot joint commands, MCAP JointState or CSV) on `--robot` or
+    /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
+    Simulate {
+        /// A built-in robot (walkman, coman, centauro, human) or the robot of the model.
+        #[arg(long, required_unless_present = "urdf")]
+        robot: Option<String>,
+        /// A URDF file instead of a built-in robot.
+        #[arg(long, conflicts_with = "model")]
+        urdf: Option<PathBuf>,
+        /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column).
+        #[arg(long, required_unless_present = "model", conflicts_with = "model")]
+        trajectory: Option<String>,
+        /// Topic of the trajectory (or of the human, with --model) in an MCAP file.
+        #[arg(long)]
+        topic: Option<String>,
+        /// Predict the trajectory with this model from --input human frames, then replay it.
+        #[arg(long, requires = "input")]
+        model: Option<PathBuf>,
+        /// Human frames (MCAP or CSV) for --model.
+        #[arg(long, requires = "model")]
+        input: Option<String>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// The paper's Section IV-B: Figs. 4, 5 and 6, results.json and report.md.
     Experiment {
         /// Fewer runs and iterations: a few minutes.
@@ -263,6 +292,14 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Simulate { robot, urdf, trajectory, topic, model, input, json } => simulate(
+            robot.as_deref(),
+            urdf.as_deref(),
+            trajectory.as_deref(),
+            topic.as_deref(),
+            model.as_deref().zip(input.as_deref()),
+            json,
+        ),
         Command::Experiment { quick, out, data, runs, max_iters, json } => {
             let mut config = if quick { ExperimentConfig::quick() } else { ExperimentConfig::paper() };
             if let Some(r) = runs {
@@ -673,6 +710,122 @@ fn predict_stream(model: &SharedGplvm, robot: &str, robot_joints: &[String], out
             writeln!(w, "{}", format_line(time, &joints))?;
         }
         w.flush()?;
+    }
+    Ok(())
+}
+
+/// Reads a robot trajectory from an MCAP JointState topic or a CSV file.
+fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Trajectory> {
+    if path.ends_with(".mcap") {
+        let topic = match topic {
+            Some(t) => t.to_string(),
+            None => {
+                let channels = sgplvm::robots::joint_state::list_channels(path)?;
+                let matching: Vec<_> = channels.iter().filter(|c| c.topic.contains(robot)).collect();
+                match (matching.as_slice(), channels.as_slice()) {
+                    ([one], _) => one.topic.clone(),
+                    ([], [one]) => one.topic.clone(),
+                    _ => bail!(
+                        "{path}: cannot tell the trajectory topic among {:?}; name it with --topic",
+                        channels.iter().map(|c| &c.topic).collect::<Vec<_>>()
+                    ),
+                }
+            }
+        };
+        let states = &read_topics(path, &[TopicRequest::all(topic)])?.states[0];
+        let times = states.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
+        return Ok(Trajectory::new(states.names.clone(), times, states.positions.clone())?);
+    }
+    let file = std::fs::File::open(path).with_context(|| format!("{path}: cannot open"))?;
+    let table = read_frames(std::io::BufReader::new(file), path)?;
+    let times = match (table.times, table.header.time_column.as_deref()) {
+        (Some(t), Some("time_ns")) => t.iter().map(|v| v * 1e-9).collect(),
+        (Some(t), _) => t,
+        (None, _) => (0..table.rows).map(|i| i as f64 / 40.0).collect(),
+    };
+    Ok(Trajectory::new(table.header.joints, times, table.values).with_context(|| path.to_string())?)
+}
+
+fn simulate(
+    robot: Option<&str>,
+    urdf: Option<&Path>,
+    trajectory: Option<&str>,
+    topic: Option<&str>,
+    predict_from: Option<(&Path, &str)>,
+    json: bool,
+) -> Result<()> {
+    let (xml, source) = match (urdf, robot) {
+        (Some(path), _) => {
+            let xml = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            (xml, path.display().to_string())
+        }
+        (None, Some(name)) => {
+            let xml = sgplvm::Robot::builtin_urdf(name).ok_or_else(|| {
+                anyhow!("unknown robot '{name}'; expected one of {:?} or --urdf FILE", sgplvm::Robot::builtin_names())
+            })?;
+            (xml.to_string(), format!("builtin:{name}"))
+        }
+        (None, None) => bail!("name the robot with --robot or --urdf"),
+    };
+    let robot_name = robot.unwrap_or("robot");
+    let trajectory = match (predict_from, trajectory) {
+        (Some((model_path, input)), _) => {
+            let model = SharedGplvm::load(model_path).with_context(|| model_path.display().to_string())?;
+            if !model.output_names().contains(&robot_name) {
+                bail!("{}: the model does not know robot '{robot_name}'; it predicts for {:?}", model_path.display(), model.output_names());
+            }
+            let human = read_human_frames(&model, input, topic)?;
+            let mean = model.predict(human.frames.as_ref(), robot_name, false)?.mean;
+            let d = mean.ncols();
+            let positions = (0..mean.nrows()).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| mean[(i, j)]).collect();
+            let times = human.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
+            Trajectory::new(model_joint_names(&model, robot_name), times, positions)?
+        }
+        (None, Some(path)) => read_trajectory(path, topic, robot_name)?,
+        (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
+    };
+    // Report times from the start of the trajectory (recordings carry wall-clock stamps).
+    let mut trajectory = trajectory;
+    let t0 = trajectory.times.first().copied().unwrap_or(0.0);
+    trajectory.times.iter_mut().for_each(|t| *t -= t0);
+    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default())?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    println!(
+        "{source}: {:.1} s of motion, {} physics steps in {:.2} s ({:.0}× real time); times below from the start",
+        report.duration,
+        report.physics_steps,
+        report.wall_seconds,
+        report.duration / report.wall_seconds.max(1e-9)
+    );
+    println!("\n{:<24} {:>12} {:>12}", "joint", "RMS (deg)", "max (deg)");
+    for j in &report.joints {
+        println!("{:<24} {:>12.3} {:>12.3}", j.name, j.rms_error.to_degrees(), j.max_error.to_degrees());
+    }
+    if report.limit_violations.is_empty() {
+        println!("\nno joint-limit violations");
+    } else {
+        println!("\njoint-limit violations:");
+        for v in &report.limit_violations {
+            println!(
+                "  {:>7.3}–{:<7.3} s  {:<20} {:.2}° beyond {:.3} ({})",
+                v.time, v.end_time, v.joint, v.amount.to_degrees(), v.limit,
+                if v.commanded { "commanded" } else { "not commanded" }
+            );
+        }
+    }
+    if report.collisions.is_empty() {
+        println!("no self-collisions");
+    } else {
+        println!("self-collisions:");
+        for c in &report.collisions {
+            println!("  {:>7.3}–{:<7.3} s  {} ↔ {} (deepest {:.1} mm)", c.time, c.end_time, c.link_a, c.link_b, c.max_penetration * 1e3);
+        }
+    }
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
     }
     Ok(())
 }
