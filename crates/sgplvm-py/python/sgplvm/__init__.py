@@ -11,14 +11,8 @@ only their latent-to-output mapping.
 >>> t.predict(H_new, robot="coman")                                         # doctest: +SKIP
 """
 
-from ._sgplvm import (
-    Robot,
-    __version__,
-    load_demonstrations,
-    read_joint_states,
-    simulate,
-    write_joint_states,
-)
+from ._sgplvm import Robot, __version__
+from ._io import load_demonstrations, read_joint_states, simulate, write_joint_states
 from ._model import SharedGPLVM
 
 __all__ = [

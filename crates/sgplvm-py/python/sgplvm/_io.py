@@ -1,0 +1,63 @@
+"""Demonstration files and physics replay: thin wrappers that accept any array-like input."""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, List, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _sgplvm
+
+PathLike = Union[str, os.PathLike]
+
+
+def read_joint_states(path: PathLike, topic: str) -> Tuple[np.ndarray, List[str], np.ndarray]:
+    """Reads one ``sensor_msgs/msg/JointState`` topic (CDR or JSON) of an MCAP file.
+
+    Returns ``(times_ns, joint_names, positions)``: int64 (n,), list of str, float64 (n, joints).
+    """
+    return _sgplvm.read_joint_states(os.fspath(path), topic)
+
+
+def write_joint_states(
+    path: PathLike,
+    topic: str,
+    times_ns: Any,
+    names: Sequence[str],
+    positions: Any,
+    compression: str = "zstd",
+) -> None:
+    """Writes one JointState topic (CDR, ROS 2 profile) to an MCAP file, atomically.
+
+    ``compression`` is ``"zstd"`` (ROS 2's default), ``"lz4"`` or ``"none"``."""
+    times = np.ascontiguousarray(times_ns, dtype=np.int64).reshape(-1)
+    values = np.ascontiguousarray(positions, dtype=np.float64)
+    if values.ndim != 2:
+        raise ValueError(f"positions: expected a 2-D array (frames × joints), got {values.ndim}-D")
+    _sgplvm.write_joint_states(os.fspath(path), topic, times, list(names), values, compression)
+
+
+def load_demonstrations(path: PathLike) -> Dict[str, Any]:
+    """Loads a demonstration MCAP as numpy arrays.
+
+    Returns a dict with ``times_ns``, ``human`` and ``robots`` (name → ``{"topic",
+    "joint_names", "positions"}``), ``train`` and ``test`` frame indices, ``segments`` (start,
+    end, from_pose, to_pose, repetition) and ``pose_names``. Files written by ROS 2 without
+    sgplvm's labels load with every topic aligned onto a 40 Hz clock and all frames in ``train``.
+    """
+    return _sgplvm.load_demonstrations(os.fspath(path))
+
+
+def simulate(robot: Union[str, PathLike], joint_names: Sequence[str], times: Any, positions: Any) -> Dict[str, Any]:
+    """Replays a joint trajectory on a robot in the rapier physics engine.
+
+    ``robot`` is a built-in name (``"coman"``, …) or a URDF path; ``times`` in seconds (n,),
+    ``positions`` (n, len(joint_names)). PD position control at 1 kHz with the base fixed.
+    Returns a dict: ``joints`` (rms_error, max_error per joint), ``limit_violations``,
+    ``collisions``, ``duration``, ``physics_steps``, ``wall_seconds``, ``warnings``."""
+    t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
+    q = np.ascontiguousarray(positions, dtype=np.float64)
+    if q.ndim != 2:
+        raise ValueError(f"positions: expected a 2-D array (frames × joints), got {q.ndim}-D")
+    return _sgplvm.simulate(os.fspath(robot), list(joint_names), t, q)

@@ -1,0 +1,103 @@
+"""Type stubs of the native module (Rust, PyO3). Users import from ``sgplvm`` directly."""
+
+from os import PathLike
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Path = Union[str, PathLike]
+_F64 = npt.NDArray[np.float64]
+_Callback = Callable[[int, float], Optional[bool]]
+
+class NativeModel:
+    """A trained shared GP-LVM (native part; use ``sgplvm.SharedGPLVM``)."""
+
+    @staticmethod
+    def fit(
+        spaces: Sequence[Tuple[str, _F64]],
+        input: str,
+        latent_dim: int,
+        back_constraint: Optional[str],
+        seed: int,
+        scale: bool,
+        max_iters: int,
+        callback: Optional[_Callback] = None,
+        column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
+    ) -> "NativeModel": ...
+    def transfer(
+        self,
+        name: str,
+        data: _F64,
+        max_iters: int,
+        callback: Optional[_Callback] = None,
+        column_names: Optional[List[str]] = None,
+    ) -> "NativeModel": ...
+    def predict(self, h: _F64, robot: str, with_variance: bool) -> Tuple[_F64, Optional[_F64]]: ...
+    def latent(self, h: _F64) -> _F64: ...
+    def latent_points(self) -> _F64: ...
+    @property
+    def input_name(self) -> str: ...
+    @property
+    def output_names(self) -> List[str]: ...
+    def column_names(self, space: str) -> Optional[List[str]]: ...
+    def space_dim(self, space: str) -> Optional[int]: ...
+    def config(self) -> Dict[str, Any]: ...
+    def history(self) -> Dict[str, Any]: ...
+    def params(self) -> Dict[str, Any]: ...
+    def gradient(self) -> Dict[str, Any]: ...
+    def objective(self) -> float: ...
+    def with_params(self, params: Dict[str, Any]) -> "NativeModel": ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(bytes: bytes, source: str) -> "NativeModel": ...
+    def save(self, path: _Path) -> None: ...
+    @staticmethod
+    def load(path: _Path) -> "NativeModel": ...
+
+class Robot:
+    """A robot (or human) body from a URDF: joint names, limits and forward kinematics."""
+
+    @staticmethod
+    def builtin(name: str) -> "Robot":
+        """One of the shipped bodies: "walkman", "coman", "centauro" or "human"."""
+    @staticmethod
+    def builtin_names() -> List[str]: ...
+    @staticmethod
+    def builtin_urdf(name: str) -> str: ...
+    @staticmethod
+    def from_urdf(path: _Path, base: Optional[str] = None, tip: Optional[str] = None) -> "Robot":
+        """Loads a URDF file; with ``base``/``tip`` the body is restricted to that chain."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def joint_names(self) -> List[str]: ...
+    @property
+    def joint_limits(self) -> List[Tuple[float, float]]: ...
+    @property
+    def link_names(self) -> List[str]: ...
+    def forward_kinematics(self, q: Sequence[float], link: Optional[str] = None) -> _F64:
+        """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
+
+def read_joint_states(path: _Path, topic: str) -> Tuple[npt.NDArray[np.int64], List[str], _F64]:
+    """Reads a ``sensor_msgs/msg/JointState`` topic: (times_ns, joint names, positions)."""
+
+def write_joint_states(
+    path: _Path,
+    topic: str,
+    times_ns: npt.NDArray[np.int64],
+    names: List[str],
+    positions: _F64,
+    compression: str = "zstd",
+) -> None:
+    """Writes a JointState topic (CDR, ROS 2 profile) atomically."""
+
+def load_demonstrations(path: _Path) -> Dict[str, Any]:
+    """A demonstration MCAP as numpy arrays (times_ns, human, robots, train, test, segments, pose_names)."""
+
+def simulate(
+    robot: str, joint_names: List[str], times: _F64, positions: _F64
+) -> Dict[str, Any]:
+    """Replays a joint trajectory in rapier; returns tracking errors, limit violations, collisions."""
