@@ -45,12 +45,19 @@ pub struct CsvHeader {
 impl CsvHeader {
     /// Parses a header line.
     pub fn parse(line: &str) -> CsvHeader {
-        let mut names: Vec<String> = line.trim().split(',').map(|s| s.trim().to_string()).collect();
+        let mut names: Vec<String> = line
+            .trim()
+            .split(',')
+            .map(|s| s.trim().to_string())
+            .collect();
         let time_column = match names.first().map(String::as_str) {
             Some("time") | Some("time_ns") | Some("t") => Some(names.remove(0)),
             _ => None,
         };
-        CsvHeader { time_column, joints: names }
+        CsvHeader {
+            time_column,
+            joints: names,
+        }
     }
 
     /// Parses one data line (1-based `line_number` for messages) into an optional time and the
@@ -69,10 +76,17 @@ impl CsvHeader {
         let mut values = Vec::with_capacity(self.joints.len() + 1);
         for (i, field) in text.trim().split(',').enumerate() {
             let v: f64 = field.trim().parse().map_err(|_| {
-                bad(format!("column {} is {:?}, expected a number", i + 1, field.trim()))
+                bad(format!(
+                    "column {} is {:?}, expected a number",
+                    i + 1,
+                    field.trim()
+                ))
             })?;
             if !v.is_finite() {
-                return Err(bad(format!("column {} is {v}, expected a finite number", i + 1)));
+                return Err(bad(format!(
+                    "column {} is {v}, expected a finite number",
+                    i + 1
+                )));
             }
             values.push(v);
         }
@@ -103,11 +117,18 @@ pub struct CsvFrames {
 
 /// Reads a whole CSV table of frames from `reader`.
 pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames, CsvError> {
-    let io = |source| CsvError::Io { source_name: source_name.to_string(), source };
+    let io = |source| CsvError::Io {
+        source_name: source_name.to_string(),
+        source,
+    };
     let mut lines = reader.lines();
     let header = loop {
         match lines.next() {
-            None => return Err(CsvError::MissingHeader { source_name: source_name.to_string() }),
+            None => {
+                return Err(CsvError::MissingHeader {
+                    source_name: source_name.to_string(),
+                })
+            }
             Some(line) => {
                 let line = line.map_err(io)?;
                 if !line.trim().is_empty() {
@@ -131,7 +152,12 @@ pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames,
         values.extend(row);
         rows += 1;
     }
-    Ok(CsvFrames { header, times, values, rows })
+    Ok(CsvFrames {
+        header,
+        times,
+        values,
+        rows,
+    })
 }
 
 /// Formats one output line: optional time, then the values, full precision.
@@ -166,12 +192,18 @@ mod tests {
     #[test]
     fn bad_lines_name_the_line_and_column() {
         let err = read_frames("a,b\n1,2\n1,x\n".as_bytes(), "in.csv").unwrap_err();
-        assert_eq!(err.to_string(), "in.csv: line 3: column 2 is \"x\", expected a number");
+        assert_eq!(
+            err.to_string(),
+            "in.csv: line 3: column 2 is \"x\", expected a number"
+        );
         let err = read_frames("a,b\n1,2,3\n".as_bytes(), "in.csv").unwrap_err();
         assert!(err.to_string().contains("3 values, expected 2"));
         let err = read_frames("a,b\n1,NaN\n".as_bytes(), "in.csv").unwrap_err();
         assert!(err.to_string().contains("finite"));
-        assert!(matches!(read_frames("".as_bytes(), "e.csv"), Err(CsvError::MissingHeader { .. })));
+        assert!(matches!(
+            read_frames("".as_bytes(), "e.csv"),
+            Err(CsvError::MissingHeader { .. })
+        ));
     }
 
     #[test]

@@ -261,16 +261,29 @@ pub fn run(
     let mut runs = Vec::new();
     let mut tick = |message: String, progress: &mut dyn FnMut(&Progress)| {
         done += 1;
-        progress(&Progress { done, total, message });
+        progress(&Progress {
+            done,
+            total,
+            message,
+        });
     };
-    let full_options = TrainOptions { max_iters: config.max_iters, ..TrainOptions::default() };
-    let transfer_options =
-        TrainOptions { max_iters: config.transfer_max_iters, ..TrainOptions::default() };
+    let full_options = TrainOptions {
+        max_iters: config.max_iters,
+        ..TrainOptions::default()
+    };
+    let transfer_options = TrainOptions {
+        max_iters: config.transfer_max_iters,
+        ..TrainOptions::default()
+    };
     let human_train = data.human.train.as_ref();
     let human_test = data.human.test.as_ref();
     let model_error = |context: String| move |source| ExperimentError::Model { context, source };
 
-    for bc in [BackConstraint::None, BackConstraint::Input, BackConstraint::Output] {
+    for bc in [
+        BackConstraint::None,
+        BackConstraint::Input,
+        BackConstraint::Output,
+    ] {
         // Baselines: human + one robot, trained fully; kept as transfer sources.
         let mut sources: BTreeMap<(usize, usize), SharedGplvm> = BTreeMap::new();
         for run in 0..config.runs {
@@ -282,10 +295,16 @@ pub fn run(
                     ..ModelConfig::default()
                 };
                 let mut recorder = Recorder::new(human_test, vec![(robot, split.test.as_ref())]);
-                let context = format!("baseline {robot}, {} back constraints, run {run}", label(bc));
+                let context = format!(
+                    "baseline {robot}, {} back constraints, run {run}",
+                    label(bc)
+                );
                 let model = SharedGplvm::fit(
                     &model_config,
-                    &[(data.input_name.as_str(), human_train), (robot.as_str(), split.train.as_ref())],
+                    &[
+                        (data.input_name.as_str(), human_train),
+                        (robot.as_str(), split.train.as_ref()),
+                    ],
                     &data.input_name,
                     &full_options,
                     Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
@@ -323,7 +342,9 @@ pub fn run(
                             target,
                             split.train.as_ref(),
                             &options,
-                            Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
+                            Some(&mut |it: &IterationRecord, m: &SharedGplvm| {
+                                recorder.record(it, m)
+                            }),
                         )
                         .map_err(model_error(context.clone()))?;
                     runs.extend(
@@ -349,10 +370,17 @@ pub fn run(
                 ..ModelConfig::default()
             };
             let mut spaces = vec![(data.input_name.as_str(), human_train)];
-            spaces.extend(data.robots.iter().map(|(n, s)| (n.as_str(), s.train.as_ref())));
+            spaces.extend(
+                data.robots
+                    .iter()
+                    .map(|(n, s)| (n.as_str(), s.train.as_ref())),
+            );
             let mut recorder = Recorder::new(
                 human_test,
-                data.robots.iter().map(|(n, s)| (n.as_str(), s.test.as_ref())).collect(),
+                data.robots
+                    .iter()
+                    .map(|(n, s)| (n.as_str(), s.test.as_ref()))
+                    .collect(),
             );
             let context = format!("multi-robot, {} back constraints, run {run}", label(bc));
             SharedGplvm::fit(
@@ -371,7 +399,11 @@ pub fn run(
             tick(context, progress);
         }
     }
-    Ok(Results { robots: data.robots.iter().map(|(n, _)| n.clone()).collect(), config: config.clone(), runs })
+    Ok(Results {
+        robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
+        config: config.clone(),
+        runs,
+    })
 }
 
 /// Mean and standard deviation, per iteration index, of the test error of a group of runs
@@ -390,7 +422,10 @@ fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
                 .collect();
             secs.iter().sum::<f64>() / secs.len().max(1) as f64
         } else {
-            runs.iter().find_map(|r| r.iterations.get(i)).copied().unwrap_or(i) as f64
+            runs.iter()
+                .find_map(|r| r.iterations.get(i))
+                .copied()
+                .unwrap_or(i) as f64
         };
         let n = values.len().max(1) as f64;
         let mean = values.iter().sum::<f64>() / n;
@@ -398,7 +433,11 @@ fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
         points.push((x, mean));
         band.push(((mean - sd).max(mean * 0.05), mean + sd));
     }
-    Series { points, band: Some(band), ..Series::default() }
+    Series {
+        points,
+        band: Some(band),
+        ..Series::default()
+    }
 }
 
 fn final_mse(run: &RunRecord) -> f64 {
@@ -429,18 +468,24 @@ impl Results {
 
     /// Mean training seconds a group of runs needed to first reach `level` of test error
     /// (runs that never reach it count with their total time; `None` if none reached it).
-    pub fn seconds_to_reach(&self, robot: &str, model: ModelKind, bc: &str, level: f64) -> Option<f64> {
+    pub fn seconds_to_reach(
+        &self,
+        robot: &str,
+        model: ModelKind,
+        bc: &str,
+        level: f64,
+    ) -> Option<f64> {
         let runs = self.select(robot, model, bc);
         let mut reached = false;
-        let times = runs.iter().map(|r| {
-            match r.test_mse.iter().position(|&m| m <= level) {
+        let times = runs
+            .iter()
+            .map(|r| match r.test_mse.iter().position(|&m| m <= level) {
                 Some(i) => {
                     reached = true;
                     r.seconds[i]
                 }
                 None => r.seconds.last().copied().unwrap_or(f64::NAN),
-            }
-        });
+            });
         let value = mean(times);
         reached.then_some(value)
     }
@@ -456,7 +501,11 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
 
     let models = [
         (ModelKind::Baseline, "baseline (fully trained)", 0),
-        (ModelKind::Transfer, "transfer (only robot kernel trained)", 1),
+        (
+            ModelKind::Transfer,
+            "transfer (only robot kernel trained)",
+            1,
+        ),
         (ModelKind::Multi, "multi-robot", 2),
     ];
     for (figure, bc, title) in [
@@ -469,7 +518,12 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
                 .iter()
                 .map(|robot| Panel {
                     title: robot.clone(),
-                    x_label: if by_seconds { "training seconds" } else { "iteration" }.into(),
+                    x_label: if by_seconds {
+                        "training seconds"
+                    } else {
+                        "iteration"
+                    }
+                    .into(),
                     y_label: "test MSE (rad²)".into(),
                     log_y: true,
                     series: models
@@ -486,11 +540,19 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
                     markers: vec![],
                 })
                 .collect::<Vec<_>>();
-            let stem = dir.join(if by_seconds { format!("{figure}_seconds") } else { figure.to_string() });
+            let stem = dir.join(if by_seconds {
+                format!("{figure}_seconds")
+            } else {
+                figure.to_string()
+            });
             written.extend(write_figure(&stem, title, &panels, panels.len())?);
         }
     }
-    let bcs = [("none", "no back constraints", 1), ("input", "back constraints on the input", 0), ("output", "back constraints on the output", 2)];
+    let bcs = [
+        ("none", "no back constraints", 1),
+        ("input", "back constraints on the input", 0),
+        ("output", "back constraints on the output", 2),
+    ];
     let panels = results
         .robots
         .iter()
@@ -503,13 +565,22 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
                 .iter()
                 .filter_map(|&(bc, name, color)| {
                     let runs = results.select(robot, ModelKind::Baseline, bc);
-                    (!runs.is_empty()).then(|| Series { label: name.into(), color, ..mean_curve(&runs, false) })
+                    (!runs.is_empty()).then(|| Series {
+                        label: name.into(),
+                        color,
+                        ..mean_curve(&runs, false)
+                    })
                 })
                 .collect(),
             markers: vec![],
         })
         .collect::<Vec<_>>();
-    written.extend(write_figure(&dir.join("fig6"), "Fig. 6: fully trained models", &panels, panels.len())?);
+    written.extend(write_figure(
+        &dir.join("fig6"),
+        "Fig. 6: fully trained models",
+        &panels,
+        panels.len(),
+    )?);
 
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
@@ -534,7 +605,11 @@ pub fn report(results: &Results) -> String {
         for bc in ["none", "input", "output"] {
             let cell = |kind| {
                 let v = results.final_mean(robot, kind, bc);
-                if v.is_nan() { "—".to_string() } else { format!("{v:.5}") }
+                if v.is_nan() {
+                    "—".to_string()
+                } else {
+                    format!("{v:.5}")
+                }
             };
             out.push_str(&format!(
                 "| {robot} | {bc} | {} | {} | {} |\n",
@@ -551,11 +626,13 @@ pub fn report(results: &Results) -> String {
     let mut lines = Vec::new();
     let mut all = true;
     for robot in &results.robots {
-        let [none, input, output] =
-            ["none", "input", "output"].map(|bc| results.final_mean(robot, ModelKind::Baseline, bc));
+        let [none, input, output] = ["none", "input", "output"]
+            .map(|bc| results.final_mean(robot, ModelKind::Baseline, bc));
         let ok = input <= none && input <= output;
         all &= ok;
-        lines.push(format!("   - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"));
+        lines.push(format!(
+            "   - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"
+        ));
     }
     out.push_str(&format!(
         "1. Back constraints on the input give the best fully trained model (Fig. 6): {}.\n{}\n",
@@ -595,7 +672,9 @@ pub fn report(results: &Results) -> String {
         let ratio = multi / baseline;
         let ok = ratio.is_finite() && (1.0 / 1.5..=1.5).contains(&ratio);
         all &= ok;
-        lines.push(format!("   - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"));
+        lines.push(format!(
+            "   - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"
+        ));
     }
     out.push_str(&format!(
         "3. The multi-robot model performs similarly to the baseline (ratio within 1/1.5 … 1.5, input back constraints): {}.\n{}\n",

@@ -25,7 +25,9 @@ pub enum FigureError {
 
 /// The two latent dimensions that matter most for `robot`: those with the shortest lengthscales.
 pub fn dominant_dims(model: &SharedGplvm, robot: &str) -> (usize, usize) {
-    let Some(kernel) = model.kernel(robot) else { return (0, 1.min(model.config().latent_dim - 1)) };
+    let Some(kernel) = model.kernel(robot) else {
+        return (0, 1.min(model.config().latent_dim - 1));
+    };
     let mut order: Vec<usize> = (0..kernel.lengthscale.len()).collect();
     order.sort_by(|&a, &b| kernel.lengthscale[a].total_cmp(&kernel.lengthscale[b]));
     (order[0], *order.get(1).unwrap_or(&order[0]))
@@ -55,19 +57,33 @@ pub fn latent_space(
             pose_frames.entry(to).or_default().push(s.end - 1);
         }
     }
-    let mut poses = Markers { label: "key poses".into(), color: 1, circles: true, ..Markers::default() };
+    let mut poses = Markers {
+        label: "key poses".into(),
+        color: 1,
+        circles: true,
+        ..Markers::default()
+    };
     for (pose, frames) in &pose_frames {
         let h = to_mat(&ds.human.rows(frames));
         let z = model.latent(h.as_ref())?;
         let n = z.nrows() as f64;
         let mean = |d: usize| (0..z.nrows()).map(|i| z[(i, d)]).sum::<f64>() / n;
         poses.points.push((mean(a), mean(b)));
-        poses.annotations.push(ds.pose_names.get(*pose).cloned().unwrap_or_else(|| format!("P{pose}")));
+        poses.annotations.push(
+            ds.pose_names
+                .get(*pose)
+                .cloned()
+                .unwrap_or_else(|| format!("P{pose}")),
+        );
     }
     // Test trajectories: the first few distinct pose pairs of the test set.
     let mut series = Vec::new();
     let mut seen = Vec::new();
-    for s in ds.segments.iter().filter(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok()) {
+    for s in ds
+        .segments
+        .iter()
+        .filter(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok())
+    {
         let pair = (s.from_pose.min(s.to_pose), s.from_pose.max(s.to_pose));
         if seen.contains(&pair) {
             continue;
@@ -76,7 +92,8 @@ pub fn latent_space(
         let frames: Vec<usize> = (s.start..s.end).collect();
         let z = model.latent(to_mat(&ds.human.rows(&frames)).as_ref())?;
         let name = |p: Option<usize>| {
-            p.and_then(|p| ds.pose_names.get(p).cloned()).unwrap_or_else(|| "?".into())
+            p.and_then(|p| ds.pose_names.get(p).cloned())
+                .unwrap_or_else(|| "?".into())
         };
         series.push(Series {
             label: format!("test: {} → {}", name(s.from_pose), name(s.to_pose)),
@@ -96,7 +113,12 @@ pub fn latent_space(
         series,
         markers: vec![training, poses],
     };
-    Ok(write_figure(stem, "Shared latent space (Fig. 7)", &[panel], 1)?)
+    Ok(write_figure(
+        stem,
+        "Shared latent space (Fig. 7)",
+        &[panel],
+        1,
+    )?)
 }
 
 /// Fig. 8: for the test frames between two poses (all repetitions, in time order), the human's
@@ -111,7 +133,10 @@ pub fn trajectories(
     let ds = &demos.dataset;
     let body = demos.robot(robot)?;
     // The first test pose pair, both directions, every repetition.
-    let first = ds.segments.iter().find(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok());
+    let first = ds
+        .segments
+        .iter()
+        .find(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok());
     let frames: Vec<usize> = match first {
         Some(f) => ds
             .segments
@@ -129,13 +154,19 @@ pub fn trajectories(
     let predicted = model.predict(h.as_ref(), robot, false)?.mean;
     let desired = body.rows(&frames);
     let t0 = frames.first().map(|&f| ds.times_ns[f]).unwrap_or(0);
-    let time: Vec<f64> = frames.iter().map(|&f| (ds.times_ns[f] - t0) as f64 * 1e-9).collect();
+    let time: Vec<f64> = frames
+        .iter()
+        .map(|&f| (ds.times_ns[f] - t0) as f64 * 1e-9)
+        .collect();
     // Plot against frame index within the selection: segments are not contiguous in time.
     let step = time.get(1).map_or(0.025, |t| t - time[0]).max(1e-6);
     let x: Vec<f64> = (0..frames.len()).map(|i| i as f64 * step).collect();
     let half = |d: usize| [(0..d / 2), (d / 2..d)];
     let mut panels = Vec::new();
-    for (side, range) in ["left", "right"].into_iter().zip(half(ds.human.joint_names.len())) {
+    for (side, range) in ["left", "right"]
+        .into_iter()
+        .zip(half(ds.human.joint_names.len()))
+    {
         panels.push(Panel {
             title: format!("human {side} arm"),
             x_label: "seconds".into(),
@@ -150,21 +181,40 @@ pub fn trajectories(
             ..Panel::default()
         });
     }
-    for (side, range) in ["left", "right"].into_iter().zip(half(body.joint_names.len())) {
+    for (side, range) in ["left", "right"]
+        .into_iter()
+        .zip(half(body.joint_names.len()))
+    {
         let mut series = Vec::new();
         for (k, j) in range.enumerate() {
             let first = k == 0;
             series.push(Series {
-                label: if first { "predicted".into() } else { String::new() },
+                label: if first {
+                    "predicted".into()
+                } else {
+                    String::new()
+                },
                 color: j,
-                points: x.iter().enumerate().map(|(i, &t)| (t, predicted[(i, j)])).collect(),
+                points: x
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| (t, predicted[(i, j)]))
+                    .collect(),
                 ..Series::default()
             });
             series.push(Series {
-                label: if first { "desired".into() } else { String::new() },
+                label: if first {
+                    "desired".into()
+                } else {
+                    String::new()
+                },
                 color: j,
                 dashed: true,
-                points: x.iter().enumerate().map(|(i, &t)| (t, desired[(i, j)])).collect(),
+                points: x
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| (t, desired[(i, j)]))
+                    .collect(),
                 ..Series::default()
             });
         }
@@ -176,6 +226,7 @@ pub fn trajectories(
             ..Panel::default()
         });
     }
-    let title = format!("{robot}: predicted (solid) and desired (dashed) joints on test motions (Fig. 8)");
+    let title =
+        format!("{robot}: predicted (solid) and desired (dashed) joints on test motions (Fig. 8)");
     Ok(write_figure(stem, &title, &panels, 2)?)
 }

@@ -16,7 +16,10 @@ pub struct FileError {
 
 /// The temporary path used while `path` is being written.
 fn temporary_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     // The extension stays last: some writers choose the format by it.
     path.with_file_name(format!(".tmp-{}-{name}", std::process::id()))
 }
@@ -27,7 +30,10 @@ pub fn atomic_write_with(
     path: &Path,
     write: impl FnOnce(&Path) -> std::io::Result<()>,
 ) -> Result<(), FileError> {
-    let fail = |source| FileError { path: path.to_path_buf(), source };
+    let fail = |source| FileError {
+        path: path.to_path_buf(),
+        source,
+    };
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(fail)?;
     }

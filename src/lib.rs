@@ -16,7 +16,7 @@ pub use sgplvm_robots::Robot;
 
 pub mod csv;
 pub mod experiment;
-pub mod files;
-pub mod plots;
 pub mod figures;
+pub mod files;
 pub mod pipeline;
+pub mod plots;

@@ -239,7 +239,11 @@ fn main() {
         let mut message = String::new();
         for cause in e.chain().map(|c| c.to_string()) {
             if !message.contains(&cause) {
-                message = if message.is_empty() { cause } else { format!("{message}: {cause}") };
+                message = if message.is_empty() {
+                    cause
+                } else {
+                    format!("{message}: {cause}")
+                };
             }
         }
         eprintln!("error: {message}");
@@ -249,39 +253,84 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Demo { data, out, source, max_iters, latent_dim, json } => {
-            demo(data.as_deref(), &out, &source, max_iters as usize, latent_dim as usize, json)
-        }
-        Command::Generate { out, seed, subsample } => generate(&out, seed, subsample),
-        Command::Train { data, robots, back_constraint, latent_dim, max_iters, seed, out, json } => {
+        Command::Demo {
+            data,
+            out,
+            source,
+            max_iters,
+            latent_dim,
+            json,
+        } => demo(
+            data.as_deref(),
+            &out,
+            &source,
+            max_iters as usize,
+            latent_dim as usize,
+            json,
+        ),
+        Command::Generate {
+            out,
+            seed,
+            subsample,
+        } => generate(&out, seed, subsample),
+        Command::Train {
+            data,
+            robots,
+            back_constraint,
+            latent_dim,
+            max_iters,
+            seed,
+            out,
+            json,
+        } => {
             let demos = pipeline::load(data.as_deref())?;
             let config = ModelConfig::default()
                 .with_latent_dim(latent_dim as usize)
                 .with_back_constraint(back_constraint.into())
                 .with_seed(seed);
             let options = TrainOptions::default().with_max_iters(max_iters as usize);
-            let (model, seconds) = train_with_progress(&format!("training {}", robots.join(" + ")), max_iters, |cb| {
-                demos.train(&robots, &config, &options, cb)
-            })?;
+            let (model, seconds) = train_with_progress(
+                &format!("training {}", robots.join(" + ")),
+                max_iters,
+                |cb| demos.train(&robots, &config, &options, cb),
+            )?;
             model.save(&out)?;
             report_training(&model, seconds, &out, json);
             Ok(())
         }
-        Command::Transfer { model, data, robot, max_iters, out, json } => {
+        Command::Transfer {
+            model,
+            data,
+            robot,
+            max_iters,
+            out,
+            json,
+        } => {
             let source = SharedGplvm::load(&model).with_context(|| model.display().to_string())?;
             let demos = pipeline::load(data.as_deref())?;
             let options = TrainOptions::default().with_max_iters(max_iters as usize);
-            let (model, seconds) = train_with_progress(&format!("transfer to {robot}"), max_iters, |cb| {
-                demos.transfer(&source, &robot, &options, cb)
-            })?;
+            let (model, seconds) =
+                train_with_progress(&format!("transfer to {robot}"), max_iters, |cb| {
+                    demos.transfer(&source, &robot, &options, cb)
+                })?;
             model.save(&out)?;
             report_training(&model, seconds, &out, json);
             Ok(())
         }
-        Command::Predict { model, input, topic, robot, out, std } => {
-            predict(&model, &input, topic.as_deref(), &robot, &out, std)
-        }
-        Command::Evaluate { model, data, robot, json } => {
+        Command::Predict {
+            model,
+            input,
+            topic,
+            robot,
+            out,
+            std,
+        } => predict(&model, &input, topic.as_deref(), &robot, &out, std),
+        Command::Evaluate {
+            model,
+            data,
+            robot,
+            json,
+        } => {
             let model = SharedGplvm::load(&model).with_context(|| model.display().to_string())?;
             let demos = pipeline::load(data.as_deref())?;
             let evaluation = demos.evaluate(&model, &robot)?;
@@ -292,7 +341,15 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Simulate { robot, urdf, trajectory, topic, model, input, json } => simulate(
+        Command::Simulate {
+            robot,
+            urdf,
+            trajectory,
+            topic,
+            model,
+            input,
+            json,
+        } => simulate(
             robot.as_deref(),
             urdf.as_deref(),
             trajectory.as_deref(),
@@ -300,8 +357,19 @@ fn run(cli: Cli) -> Result<()> {
             model.as_deref().zip(input.as_deref()),
             json,
         ),
-        Command::Experiment { quick, out, data, runs, max_iters, json } => {
-            let mut config = if quick { ExperimentConfig::quick() } else { ExperimentConfig::paper() };
+        Command::Experiment {
+            quick,
+            out,
+            data,
+            runs,
+            max_iters,
+            json,
+        } => {
+            let mut config = if quick {
+                ExperimentConfig::quick()
+            } else {
+                ExperimentConfig::paper()
+            };
             if let Some(r) = runs {
                 config.runs = r as usize;
                 config.transfers_per_run = config.transfers_per_run.min(r as usize);
@@ -312,7 +380,10 @@ fn run(cli: Cli) -> Result<()> {
             }
             let demos = pipeline::load(data.as_deref())?;
             let data = demos.experiment_data()?;
-            let bar = progress_bar(experiment::training_count(&config, data.robots.len()) as u64, "experiment");
+            let bar = progress_bar(
+                experiment::training_count(&config, data.robots.len()) as u64,
+                "experiment",
+            );
             let results = experiment::run(&data, &config, &mut |p| {
                 bar.set_position(p.done as u64);
                 bar.set_message(p.message.clone());
@@ -336,7 +407,11 @@ fn run(cli: Cli) -> Result<()> {
 fn progress_bar(length: u64, prefix: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(
         Some(length),
-        if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() },
+        if std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
     );
     bar.set_style(
         ProgressStyle::with_template("{prefix:>20} [{bar:30}] {pos}/{len} {msg}")
@@ -351,7 +426,9 @@ fn progress_bar(length: u64, prefix: &str) -> ProgressBar {
 fn train_with_progress(
     label: &str,
     max_iters: u64,
-    train: impl FnOnce(Option<sgplvm_core::Callback<'_>>) -> std::result::Result<SharedGplvm, pipeline::PipelineError>,
+    train: impl FnOnce(
+        Option<sgplvm_core::Callback<'_>>,
+    ) -> std::result::Result<SharedGplvm, pipeline::PipelineError>,
 ) -> Result<(SharedGplvm, f64)> {
     let bar = progress_bar(max_iters, label);
     let started = Instant::now();
@@ -361,18 +438,27 @@ fn train_with_progress(
         Control::Continue
     };
     // The snapshot the core builds for a callback costs time: only ask for it on a terminal.
-    let callback: Option<sgplvm_core::Callback<'_>> =
-        if bar.is_hidden() { None } else { Some(&mut on_iteration) };
+    let callback: Option<sgplvm_core::Callback<'_>> = if bar.is_hidden() {
+        None
+    } else {
+        Some(&mut on_iteration)
+    };
     let model = train(callback)?;
     bar.finish_and_clear();
-    let seconds = model.history().last().map_or(started.elapsed().as_secs_f64(), |r| r.seconds);
+    let seconds = model
+        .history()
+        .last()
+        .map_or(started.elapsed().as_secs_f64(), |r| r.seconds);
     Ok((model, seconds))
 }
 
 fn report_training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
     let history = model.history();
     let objective = history.last().map(|r| r.objective);
-    let stop = model.stop_reason().map(|r| format!("{r:?}")).unwrap_or_default();
+    let stop = model
+        .stop_reason()
+        .map(|r| format!("{r:?}"))
+        .unwrap_or_default();
     if json {
         let value = json!({
             "model": out.display().to_string(),
@@ -429,7 +515,14 @@ fn generate(out: &Path, seed: Option<u64>, subsample: Option<u64>) -> Result<()>
     Ok(())
 }
 
-fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usize, json: bool) -> Result<()> {
+fn demo(
+    data: Option<&Path>,
+    out: &Path,
+    source: &str,
+    max_iters: usize,
+    q: usize,
+    json: bool,
+) -> Result<()> {
     let demos = pipeline::load(data)?;
     let ds = &demos.dataset;
     if !json {
@@ -442,12 +535,15 @@ fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usiz
             ds.robot_names().join(", ")
         );
     }
-    let config = ModelConfig::default().with_latent_dim(q).with_back_constraint(BackConstraint::Input);
+    let config = ModelConfig::default()
+        .with_latent_dim(q)
+        .with_back_constraint(BackConstraint::Input);
     let options = TrainOptions::default().with_max_iters(max_iters);
     let source_robots = vec![source.to_string()];
-    let (full, full_seconds) = train_with_progress(&format!("training {source}"), max_iters as u64, |cb| {
-        demos.train(&source_robots, &config, &options, cb)
-    })?;
+    let (full, full_seconds) =
+        train_with_progress(&format!("training {source}"), max_iters as u64, |cb| {
+            demos.train(&source_robots, &config, &options, cb)
+        })?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     full.save(&out.join(format!("{source}.sgp")))?;
 
@@ -468,9 +564,10 @@ fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usiz
     }];
     let mut coman_model = None;
     for target in ds.robot_names().into_iter().filter(|r| *r != source) {
-        let (transferred, seconds) = train_with_progress(&format!("transfer to {target}"), max_iters as u64, |cb| {
-            demos.transfer(&full, target, &options, cb)
-        })?;
+        let (transferred, seconds) =
+            train_with_progress(&format!("transfer to {target}"), max_iters as u64, |cb| {
+                demos.transfer(&full, target, &options, cb)
+            })?;
         transferred.save(&out.join(format!("{source}_to_{target}.sgp")))?;
         rows.push(Row {
             robot: target.to_string(),
@@ -481,9 +578,10 @@ fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usiz
         });
         // For comparison: the same robot trained fully from scratch.
         let targets = vec![target.to_string()];
-        let (baseline, seconds) = train_with_progress(&format!("training {target}"), max_iters as u64, |cb| {
-            demos.train(&targets, &config, &options, cb)
-        })?;
+        let (baseline, seconds) =
+            train_with_progress(&format!("training {target}"), max_iters as u64, |cb| {
+                demos.train(&targets, &config, &options, cb)
+            })?;
         rows.push(Row {
             robot: target.to_string(),
             model: "full",
@@ -496,9 +594,19 @@ fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usiz
         }
     }
     let mut written = Vec::new();
-    written.extend(figures::latent_space(&full, &demos, source, &out.join("latent_space"))?);
+    written.extend(figures::latent_space(
+        &full,
+        &demos,
+        source,
+        &out.join("latent_space"),
+    )?);
     if let Some((target, model)) = &coman_model {
-        written.extend(figures::trajectories(model, &demos, target, &out.join(format!("{target}_trajectories")))?);
+        written.extend(figures::trajectories(
+            model,
+            &demos,
+            target,
+            &out.join(format!("{target}_trajectories")),
+        )?);
     }
     if json {
         let value = json!({
@@ -513,7 +621,10 @@ fn demo(data: Option<&Path>, out: &Path, source: &str, max_iters: usize, q: usiz
         println!("{value}");
         return Ok(());
     }
-    println!("\n{:<10} {:<9} {:>10} {:>11} {:>14} {:>11}", "robot", "model", "train (s)", "iterations", "test MSE", "RMSE (deg)");
+    println!(
+        "\n{:<10} {:<9} {:>10} {:>11} {:>14} {:>11}",
+        "robot", "model", "train (s)", "iterations", "test MSE", "RMSE (deg)"
+    );
     for r in &rows {
         println!(
             "{:<10} {:<9} {:>10.2} {:>11} {:>14.6} {:>11.2}",
@@ -545,7 +656,9 @@ struct HumanFrames {
 fn model_joint_names(model: &SharedGplvm, space: &str) -> Vec<String> {
     match model.column_names(space) {
         Some(names) => names.to_vec(),
-        None => (0..model.space_dim(space).unwrap_or(0)).map(|j| format!("{space}_{j}")).collect(),
+        None => (0..model.space_dim(space).unwrap_or(0))
+            .map(|j| format!("{space}_{j}"))
+            .collect(),
     }
 }
 
@@ -555,7 +668,10 @@ fn column_order(wanted: &[String], found: &[String], source: &str) -> Result<Vec
     if !missing.is_empty() {
         bail!("{source}: missing human joint column(s) {missing:?}; the model expects {wanted:?}");
     }
-    Ok(wanted.iter().map(|w| found.iter().position(|f| f == w).expect("checked above")).collect())
+    Ok(wanted
+        .iter()
+        .map(|w| found.iter().position(|f| f == w).expect("checked above"))
+        .collect())
 }
 
 fn read_human_frames(model: &SharedGplvm, input: &str, topic: Option<&str>) -> Result<HumanFrames> {
@@ -566,7 +682,10 @@ fn read_human_frames(model: &SharedGplvm, input: &str, topic: Option<&str>) -> R
             Some(t) => t.to_string(),
             None => {
                 let channels = sgplvm::robots::joint_state::list_channels(path)?;
-                let human: Vec<_> = channels.iter().filter(|c| c.topic.contains("human")).collect();
+                let human: Vec<_> = channels
+                    .iter()
+                    .filter(|c| c.topic.contains("human"))
+                    .collect();
                 match human.as_slice() {
                     [one] => one.topic.clone(),
                     _ => bail!(
@@ -579,13 +698,18 @@ fn read_human_frames(model: &SharedGplvm, input: &str, topic: Option<&str>) -> R
         let read = read_topics(path, &[TopicRequest::joints(topic, &wanted)])?;
         let states = &read.states[0];
         let frames = Mat::from_fn(states.len(), wanted.len(), |i, j| states.row(i)[j]);
-        return Ok(HumanFrames { times_ns: states.times_ns.clone(), frames });
+        return Ok(HumanFrames {
+            times_ns: states.times_ns.clone(),
+            frames,
+        });
     }
     let file = std::fs::File::open(path).with_context(|| format!("{input}: cannot open"))?;
     let table = read_frames(std::io::BufReader::new(file), input)?;
     let order = column_order(&wanted, &table.header.joints, input)?;
     let d = table.header.joints.len();
-    let frames = Mat::from_fn(table.rows, wanted.len(), |i, j| table.values[i * d + order[j]]);
+    let frames = Mat::from_fn(table.rows, wanted.len(), |i, j| {
+        table.values[i * d + order[j]]
+    });
     let times_ns = match (&table.times, table.header.time_column.as_deref()) {
         (Some(t), Some("time_ns")) => t.iter().map(|&v| v as i64).collect(),
         (Some(t), _) => t.iter().map(|&v| (v * 1e9).round() as i64).collect(),
@@ -594,7 +718,14 @@ fn read_human_frames(model: &SharedGplvm, input: &str, topic: Option<&str>) -> R
     Ok(HumanFrames { times_ns, frames })
 }
 
-fn predict(model_path: &Path, input: &str, topic: Option<&str>, robot: &str, out: &str, with_std: bool) -> Result<()> {
+fn predict(
+    model_path: &Path,
+    input: &str,
+    topic: Option<&str>,
+    robot: &str,
+    out: &str,
+    with_std: bool,
+) -> Result<()> {
     let model = SharedGplvm::load(model_path).with_context(|| model_path.display().to_string())?;
     if !model.output_names().contains(&robot) {
         bail!(
@@ -612,20 +743,40 @@ fn predict(model_path: &Path, input: &str, topic: Option<&str>, robot: &str, out
     let n = prediction.mean.nrows();
     let d = robot_joints.len();
     let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
-        (0..n).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| f(m[(i, j)])).collect()
+        (0..n)
+            .flat_map(|i| (0..d).map(move |j| (i, j)))
+            .map(|(i, j)| f(m[(i, j)]))
+            .collect()
     };
     let mean = rows(&prediction.mean, |v| v);
     let std = prediction.variance.as_ref().map(|v| rows(v, f64::sqrt));
     if out.ends_with(".mcap") {
         let command = JointStates::new(human.times_ns.clone(), robot_joints.clone(), mean)?;
-        let std_states = std.map(|s| JointStates::new(human.times_ns.clone(), robot_joints.clone(), s)).transpose()?;
+        let std_states = std
+            .map(|s| JointStates::new(human.times_ns.clone(), robot_joints.clone(), s))
+            .transpose()?;
         let main_topic = format!("/{robot}/joint_command");
         let std_topic = format!("/{robot}/joint_command_std");
-        let mut topics = vec![TopicData { topic: &main_topic, states: &command, encoding: MessageEncoding::Cdr }];
+        let mut topics = vec![TopicData {
+            topic: &main_topic,
+            states: &command,
+            encoding: MessageEncoding::Cdr,
+        }];
         if let Some(s) = &std_states {
-            topics.push(TopicData { topic: &std_topic, states: s, encoding: MessageEncoding::Cdr });
+            topics.push(TopicData {
+                topic: &std_topic,
+                states: s,
+                encoding: MessageEncoding::Cdr,
+            });
         }
-        write_topics(out, &topics, &WriteSettings { compression: Compression::Zstd, metadata: Vec::new() })?;
+        write_topics(
+            out,
+            &topics,
+            &WriteSettings {
+                compression: Compression::Zstd,
+                metadata: Vec::new(),
+            },
+        )?;
         eprintln!("wrote {n} frames of {robot} joint commands to {out} (topic {main_topic})");
         return Ok(());
     }
@@ -641,7 +792,11 @@ fn predict(model_path: &Path, input: &str, topic: Option<&str>, robot: &str, out
             if let Some(s) = &std {
                 values.extend_from_slice(&s[i * d..(i + 1) * d]);
             }
-            writeln!(w, "{}", format_line(Some(human.times_ns[i] as f64 * 1e-9), &values))?;
+            writeln!(
+                w,
+                "{}",
+                format_line(Some(human.times_ns[i] as f64 * 1e-9), &values)
+            )?;
         }
         w.flush()
     };
@@ -658,7 +813,13 @@ fn predict(model_path: &Path, input: &str, topic: Option<&str>, robot: &str, out
 }
 
 /// Teleoperation: CSV lines in on stdin, one prediction line out per line, flushed at once.
-fn predict_stream(model: &SharedGplvm, robot: &str, robot_joints: &[String], out: &str, with_std: bool) -> Result<()> {
+fn predict_stream(
+    model: &SharedGplvm,
+    robot: &str,
+    robot_joints: &[String],
+    out: &str,
+    with_std: bool,
+) -> Result<()> {
     if out != "-" {
         bail!("--input - streams to stdout: use --out - as well");
     }
@@ -721,7 +882,10 @@ fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Traje
             Some(t) => t.to_string(),
             None => {
                 let channels = sgplvm::robots::joint_state::list_channels(path)?;
-                let matching: Vec<_> = channels.iter().filter(|c| c.topic.contains(robot)).collect();
+                let matching: Vec<_> = channels
+                    .iter()
+                    .filter(|c| c.topic.contains(robot))
+                    .collect();
                 match (matching.as_slice(), channels.as_slice()) {
                     ([one], _) => one.topic.clone(),
                     ([], [one]) => one.topic.clone(),
@@ -734,7 +898,11 @@ fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Traje
         };
         let states = &read_topics(path, &[TopicRequest::all(topic)])?.states[0];
         let times = states.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
-        return Ok(Trajectory::new(states.names.clone(), times, states.positions.clone())?);
+        return Ok(Trajectory::new(
+            states.names.clone(),
+            times,
+            states.positions.clone(),
+        )?);
     }
     let file = std::fs::File::open(path).with_context(|| format!("{path}: cannot open"))?;
     let table = read_frames(std::io::BufReader::new(file), path)?;
@@ -743,7 +911,8 @@ fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Traje
         (Some(t), _) => t,
         (None, _) => (0..table.rows).map(|i| i as f64 / 40.0).collect(),
     };
-    Ok(Trajectory::new(table.header.joints, times, table.values).with_context(|| path.to_string())?)
+    Ok(Trajectory::new(table.header.joints, times, table.values)
+        .with_context(|| path.to_string())?)
 }
 
 fn simulate(
@@ -756,12 +925,16 @@ fn simulate(
 ) -> Result<()> {
     let (xml, source) = match (urdf, robot) {
         (Some(path), _) => {
-            let xml = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            let xml = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
             (xml, path.display().to_string())
         }
         (None, Some(name)) => {
             let xml = sgplvm::Robot::builtin_urdf(name).ok_or_else(|| {
-                anyhow!("unknown robot '{name}'; expected one of {:?} or --urdf FILE", sgplvm::Robot::builtin_names())
+                anyhow!(
+                    "unknown robot '{name}'; expected one of {:?} or --urdf FILE",
+                    sgplvm::Robot::builtin_names()
+                )
             })?;
             (xml.to_string(), format!("builtin:{name}"))
         }
@@ -770,14 +943,24 @@ fn simulate(
     let robot_name = robot.unwrap_or("robot");
     let trajectory = match (predict_from, trajectory) {
         (Some((model_path, input)), _) => {
-            let model = SharedGplvm::load(model_path).with_context(|| model_path.display().to_string())?;
+            let model =
+                SharedGplvm::load(model_path).with_context(|| model_path.display().to_string())?;
             if !model.output_names().contains(&robot_name) {
-                bail!("{}: the model does not know robot '{robot_name}'; it predicts for {:?}", model_path.display(), model.output_names());
+                bail!(
+                    "{}: the model does not know robot '{robot_name}'; it predicts for {:?}",
+                    model_path.display(),
+                    model.output_names()
+                );
             }
             let human = read_human_frames(&model, input, topic)?;
-            let mean = model.predict(human.frames.as_ref(), robot_name, false)?.mean;
+            let mean = model
+                .predict(human.frames.as_ref(), robot_name, false)?
+                .mean;
             let d = mean.ncols();
-            let positions = (0..mean.nrows()).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| mean[(i, j)]).collect();
+            let positions = (0..mean.nrows())
+                .flat_map(|i| (0..d).map(move |j| (i, j)))
+                .map(|(i, j)| mean[(i, j)])
+                .collect();
             let times = human.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
             Trajectory::new(model_joint_names(&model, robot_name), times, positions)?
         }
@@ -802,7 +985,12 @@ fn simulate(
     );
     println!("\n{:<24} {:>12} {:>12}", "joint", "RMS (deg)", "max (deg)");
     for j in &report.joints {
-        println!("{:<24} {:>12.3} {:>12.3}", j.name, j.rms_error.to_degrees(), j.max_error.to_degrees());
+        println!(
+            "{:<24} {:>12.3} {:>12.3}",
+            j.name,
+            j.rms_error.to_degrees(),
+            j.max_error.to_degrees()
+        );
     }
     if report.limit_violations.is_empty() {
         println!("\nno joint-limit violations");
@@ -811,8 +999,16 @@ fn simulate(
         for v in &report.limit_violations {
             println!(
                 "  {:>7.3}–{:<7.3} s  {:<20} {:.2}° beyond {:.3} ({})",
-                v.time, v.end_time, v.joint, v.amount.to_degrees(), v.limit,
-                if v.commanded { "commanded" } else { "not commanded" }
+                v.time,
+                v.end_time,
+                v.joint,
+                v.amount.to_degrees(),
+                v.limit,
+                if v.commanded {
+                    "commanded"
+                } else {
+                    "not commanded"
+                }
             );
         }
     }
@@ -821,7 +1017,14 @@ fn simulate(
     } else {
         println!("self-collisions:");
         for c in &report.collisions {
-            println!("  {:>7.3}–{:<7.3} s  {} ↔ {} (deepest {:.1} mm)", c.time, c.end_time, c.link_a, c.link_b, c.max_penetration * 1e3);
+            println!(
+                "  {:>7.3}–{:<7.3} s  {} ↔ {} (deepest {:.1} mm)",
+                c.time,
+                c.end_time,
+                c.link_a,
+                c.link_b,
+                c.max_penetration * 1e3
+            );
         }
     }
     for w in &report.warnings {

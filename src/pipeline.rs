@@ -3,16 +3,15 @@
 
 use std::path::{Path, PathBuf};
 
+use nalgebra::DMatrix;
 use sgplvm_core::{Callback, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions};
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
-use nalgebra::DMatrix;
 
 use crate::experiment::{mean_squared_error, ExperimentData, SplitData};
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
-
 
 /// Errors of the pipeline. Each names the file, robot or space concerned.
 #[derive(Debug, thiserror::Error)]
@@ -101,17 +100,30 @@ pub fn to_dmatrix(m: MatRef<'_, f64>) -> DMatrix<f64> {
 impl Demonstrations {
     /// The robot called `name`.
     pub fn robot(&self, name: &str) -> Result<&BodyData, PipelineError> {
-        self.dataset.robot(name).ok_or_else(|| PipelineError::UnknownRobot {
-            source_name: self.source_name.clone(),
-            name: name.to_string(),
-            known: self.dataset.robot_names().iter().map(|s| s.to_string()).collect(),
-        })
+        self.dataset
+            .robot(name)
+            .ok_or_else(|| PipelineError::UnknownRobot {
+                source_name: self.source_name.clone(),
+                name: name.to_string(),
+                known: self
+                    .dataset
+                    .robot_names()
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect(),
+            })
     }
 
     fn check_splits(&self) -> Result<(), PipelineError> {
-        for (split, rows) in [("training", &self.dataset.train), ("test", &self.dataset.test)] {
+        for (split, rows) in [
+            ("training", &self.dataset.train),
+            ("test", &self.dataset.test),
+        ] {
             if rows.is_empty() {
-                return Err(PipelineError::EmptySplit { source_name: self.source_name.clone(), split });
+                return Err(PipelineError::EmptySplit {
+                    source_name: self.source_name.clone(),
+                    split,
+                });
             }
         }
         Ok(())
@@ -128,7 +140,11 @@ impl Demonstrations {
         Ok(ExperimentData {
             input_name: ds.human.name.clone(),
             human: split(&ds.human),
-            robots: ds.robots.iter().map(|r| (r.name.clone(), split(r))).collect(),
+            robots: ds
+                .robots
+                .iter()
+                .map(|r| (r.name.clone(), split(r)))
+                .collect(),
         })
     }
 
@@ -148,8 +164,11 @@ impl Demonstrations {
             bodies.push(self.robot(name)?);
         }
         let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
-        let spaces: Vec<(&str, MatRef<'_, f64>)> =
-            bodies.iter().zip(&mats).map(|(b, m)| (b.name.as_str(), m.as_ref())).collect();
+        let spaces: Vec<(&str, MatRef<'_, f64>)> = bodies
+            .iter()
+            .zip(&mats)
+            .map(|(b, m)| (b.name.as_str(), m.as_ref()))
+            .collect();
         let mut model = SharedGplvm::fit(config, &spaces, &ds.human.name, options, callback)?;
         for body in bodies {
             model.set_column_names(&body.name, body.joint_names.clone())?;
@@ -180,7 +199,12 @@ impl Demonstrations {
         self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)
     }
 
-    fn check_joints(&self, model: &SharedGplvm, space: &str, data: &[String]) -> Result<(), PipelineError> {
+    fn check_joints(
+        &self,
+        model: &SharedGplvm,
+        space: &str,
+        data: &[String],
+    ) -> Result<(), PipelineError> {
         let expected: Vec<String> = match model.column_names(space) {
             Some(names) => names.to_vec(),
             None => match model.space_dim(space) {

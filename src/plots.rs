@@ -112,11 +112,13 @@ pub fn write_figure(
 
     atomic_write_with(&svg_path, |tmp| {
         let root = SVGBackend::new(tmp, size).into_drawing_area();
-        draw_all(&root, title, panels, columns, rows).map_err(|message| draw_error(&svg_path, message))
+        draw_all(&root, title, panels, columns, rows)
+            .map_err(|message| draw_error(&svg_path, message))
     })?;
     atomic_write_with(&png_path, |tmp| {
         let root = BitMapBackend::new(tmp, size).into_drawing_area();
-        draw_all(&root, title, panels, columns, rows).map_err(|message| draw_error(&png_path, message))
+        draw_all(&root, title, panels, columns, rows)
+            .map_err(|message| draw_error(&png_path, message))
     })?;
     Ok([svg_path, png_path])
 }
@@ -156,7 +158,11 @@ fn padded_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     if log {
         return (lo / 1.5, hi * 1.5);
     }
-    let pad = if hi > lo { 0.05 * (hi - lo) } else { 0.5 * lo.abs().max(1.0) };
+    let pad = if hi > lo {
+        0.05 * (hi - lo)
+    } else {
+        0.5 * lo.abs().max(1.0)
+    };
     (lo - pad, hi + pad)
 }
 
@@ -232,7 +238,10 @@ where
                 .chain(s.points.iter().zip(band).rev().map(|(p, b)| (p.0, b.0)))
                 .filter(|p| p.1.is_finite())
                 .collect();
-            chart.draw_series(std::iter::once(Polygon::new(polygon, color.mix(0.18).filled())))?;
+            chart.draw_series(std::iter::once(Polygon::new(
+                polygon,
+                color.mix(0.18).filled(),
+            )))?;
         }
         let style = ShapeStyle::from(&color).stroke_width(2);
         let points = s.points.iter().copied().filter(|p| p.1.is_finite());
@@ -253,7 +262,11 @@ where
         let drawn = if m.circles {
             chart.draw_series(m.points.iter().map(|&p| Circle::new(p, 5, color.filled())))?
         } else {
-            chart.draw_series(m.points.iter().map(|&p| Cross::new(p, 3, color.stroke_width(1))))?
+            chart.draw_series(
+                m.points
+                    .iter()
+                    .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
+            )?
         };
         if !m.label.is_empty() {
             labelled = true;
@@ -310,7 +323,8 @@ mod tests {
                 ..Default::default()
             }],
         };
-        let [svg, png] = write_figure(&dir.join("fig"), "Figure", &[panel.clone(), panel], 2).unwrap();
+        let [svg, png] =
+            write_figure(&dir.join("fig"), "Figure", &[panel.clone(), panel], 2).unwrap();
         let svg_text = std::fs::read_to_string(&svg).unwrap();
         assert!(svg_text.contains("<svg") && svg_text.contains("iteration"));
         let png_bytes = std::fs::read(&png).unwrap();

@@ -30,7 +30,10 @@ fn fails(args: &[&str], code: i32) -> String {
     let out = sgplvm(args);
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert_eq!(out.status.code(), Some(code), "sgplvm {args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "sgplvm {args:?} panicked: {stderr}");
+    assert!(
+        !stderr.contains("panicked"),
+        "sgplvm {args:?} panicked: {stderr}"
+    );
     stderr
 }
 
@@ -60,7 +63,17 @@ fn fixture() -> &'static Fixture {
         assert!(stdout.contains("bimanual.mcap"), "{stdout}");
         let data = dir.join("bimanual.mcap");
         let model = dir.join("walkman.sgp");
-        ok(&["train", "--data", s(&data), "--robot", "walkman", "--max-iters", "40", "--out", s(&model)]);
+        ok(&[
+            "train",
+            "--data",
+            s(&data),
+            "--robot",
+            "walkman",
+            "--max-iters",
+            "40",
+            "--out",
+            s(&model),
+        ]);
         Fixture { dir, data, model }
     })
 }
@@ -70,40 +83,96 @@ fn train_transfer_predict_evaluate() {
     let f = fixture();
     let coman = f.dir.join("coman.sgp");
     let json = ok(&[
-        "transfer", "--model", s(&f.model), "--data", s(&f.data), "--robot", "coman",
-        "--max-iters", "40", "--out", s(&coman), "--json",
+        "transfer",
+        "--model",
+        s(&f.model),
+        "--data",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--max-iters",
+        "40",
+        "--out",
+        s(&coman),
+        "--json",
     ]);
     let value: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(value["robots"], serde_json::json!(["walkman", "coman"]));
 
     // Evaluate: overall and per joint, the per-joint errors averaging to the overall one.
-    let json = ok(&["evaluate", "--model", s(&coman), "--data", s(&f.data), "--robot", "coman", "--json"]);
+    let json = ok(&[
+        "evaluate",
+        "--model",
+        s(&coman),
+        "--data",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--json",
+    ]);
     let e: serde_json::Value = serde_json::from_str(&json).unwrap();
-    let per_joint: Vec<f64> = e["per_joint"].as_array().unwrap().iter().map(|p| p[1].as_f64().unwrap()).collect();
+    let per_joint: Vec<f64> = e["per_joint"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p[1].as_f64().unwrap())
+        .collect();
     assert_eq!(per_joint.len(), 14);
     let mean = per_joint.iter().sum::<f64>() / 14.0;
     let mse = e["mse"].as_f64().unwrap();
-    assert!((mean - mse).abs() < 1e-12 * mse.max(1.0) && mse > 0.0 && mse < 0.2, "{e}");
+    assert!(
+        (mean - mse).abs() < 1e-12 * mse.max(1.0) && mse > 0.0 && mse < 0.2,
+        "{e}"
+    );
 
     // Predict from MCAP to CSV and to MCAP; both agree.
     let csv = f.dir.join("coman.csv");
     let mcap = f.dir.join("coman.mcap");
-    ok(&["predict", "--model", s(&coman), "--input", s(&f.data), "--robot", "coman", "--out", s(&csv)]);
-    ok(&["predict", "--model", s(&coman), "--input", s(&f.data), "--robot", "coman", "--out", s(&mcap), "--std"]);
+    ok(&[
+        "predict",
+        "--model",
+        s(&coman),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--out",
+        s(&csv),
+    ]);
+    ok(&[
+        "predict",
+        "--model",
+        s(&coman),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--out",
+        s(&mcap),
+        "--std",
+    ]);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     assert_eq!(header[0], "time");
     assert_eq!(header[1], "LShSag");
-    let first: Vec<f64> = lines.next().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
-    let states = sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command").unwrap();
+    let first: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let states =
+        sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command").unwrap();
     assert_eq!(states.names.len(), 14);
     assert_eq!(states.row(0), &first[1..]);
-    let std = sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command_std").unwrap();
+    let std =
+        sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command_std").unwrap();
     assert!(std.positions.iter().all(|v| *v > 0.0));
 
     // Human frames as CSV, columns in another order, back through the model.
-    let human = sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
+    let human =
+        sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
     let mut names = human.names.clone();
     names.reverse();
     let human_csv = f.dir.join("human.csv");
@@ -115,28 +184,69 @@ fn train_transfer_predict_evaluate() {
     }
     drop(w);
     let out = f.dir.join("from_csv.csv");
-    ok(&["predict", "--model", s(&coman), "--input", s(&human_csv), "--robot", "coman", "--out", s(&out)]);
+    ok(&[
+        "predict",
+        "--model",
+        s(&coman),
+        "--input",
+        s(&human_csv),
+        "--robot",
+        "coman",
+        "--out",
+        s(&out),
+    ]);
     let text = std::fs::read_to_string(&out).unwrap();
-    let row: Vec<f64> = text.lines().nth(1).unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
     for (a, b) in row[1..].iter().zip(&first[1..]) {
         assert!((a - b).abs() < 1e-9, "{a} vs {b}");
     }
 
     // Streaming on stdin: one flushed output line per input line.
     let mut child = Command::new(env!("CARGO_BIN_EXE_sgplvm"))
-        .args(["predict", "--model", s(&coman), "--input", "-", "--robot", "coman", "--out", "-"])
+        .args([
+            "predict",
+            "--model",
+            s(&coman),
+            "--input",
+            "-",
+            "--robot",
+            "coman",
+            "--out",
+            "-",
+        ])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     let input = std::fs::read_to_string(&human_csv).unwrap();
-    child.stdin.take().unwrap().write_all(input.as_bytes()).unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(input.as_bytes())
+        .unwrap();
     let output = child.wait_with_output().unwrap();
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let text = String::from_utf8(output.stdout).unwrap();
     assert_eq!(text.lines().count(), 4);
-    let streamed: Vec<f64> = text.lines().nth(1).unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    let streamed: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
     for (a, b) in streamed.iter().zip(&first[1..]) {
         assert!((a - b).abs() < 1e-9);
     }
@@ -150,60 +260,223 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
     let out_s = s(&out);
 
     // Missing and corrupt files.
-    let err = fails(&["train", "--data", "/nonexistent/demo.mcap", "--robot", "walkman", "--out", out_s], 1);
+    let err = fails(
+        &[
+            "train",
+            "--data",
+            "/nonexistent/demo.mcap",
+            "--robot",
+            "walkman",
+            "--out",
+            out_s,
+        ],
+        1,
+    );
     assert!(err.contains("/nonexistent/demo.mcap"), "{err}");
     let corrupt = dir.join("corrupt.sgp");
     std::fs::write(&corrupt, b"SGPLVM but not really").unwrap();
-    let err = fails(&["evaluate", "--model", s(&corrupt), "--data", s(&f.data), "--robot", "walkman"], 1);
-    assert!(err.contains("corrupt.sgp") && err.lines().count() == 1, "{err}");
+    let err = fails(
+        &[
+            "evaluate",
+            "--model",
+            s(&corrupt),
+            "--data",
+            s(&f.data),
+            "--robot",
+            "walkman",
+        ],
+        1,
+    );
+    assert!(
+        err.contains("corrupt.sgp") && err.lines().count() == 1,
+        "{err}"
+    );
     let truncated = dir.join("truncated.mcap");
     let bytes = std::fs::read(&f.data).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
-    let err = fails(&["train", "--data", s(&truncated), "--robot", "walkman", "--out", out_s], 1);
+    let err = fails(
+        &[
+            "train",
+            "--data",
+            s(&truncated),
+            "--robot",
+            "walkman",
+            "--out",
+            out_s,
+        ],
+        1,
+    );
     assert!(err.contains("truncated.mcap"), "{err}");
 
     // Unknown robots.
-    let err = fails(&["train", "--data", s(&f.data), "--robot", "r2d2", "--out", out_s], 1);
+    let err = fails(
+        &[
+            "train",
+            "--data",
+            s(&f.data),
+            "--robot",
+            "r2d2",
+            "--out",
+            out_s,
+        ],
+        1,
+    );
     assert!(err.contains("r2d2") && err.contains("walkman"), "{err}");
-    let err = fails(&["predict", "--model", s(&f.model), "--input", s(&f.data), "--robot", "coman", "--out", s(&dir.join("p.csv"))], 1);
+    let err = fails(
+        &[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&f.data),
+            "--robot",
+            "coman",
+            "--out",
+            s(&dir.join("p.csv")),
+        ],
+        1,
+    );
     assert!(err.contains("coman"), "{err}");
 
     // Model and data with different joints.
     let csv = dir.join("wrong.csv");
     std::fs::write(&csv, "a,b,c\n1,2,3\n").unwrap();
-    let err = fails(&["predict", "--model", s(&f.model), "--input", s(&csv), "--robot", "walkman", "--out", s(&dir.join("p.csv"))], 1);
-    assert!(err.contains("wrong.csv") && err.contains("missing human joint"), "{err}");
+    let err = fails(
+        &[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&csv),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&dir.join("p.csv")),
+        ],
+        1,
+    );
+    assert!(
+        err.contains("wrong.csv") && err.contains("missing human joint"),
+        "{err}"
+    );
     let nan = dir.join("nan.csv");
-    let human = sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
-    std::fs::write(&nan, format!("{}\n{}\n", human.names.join(","), vec!["nan"; 18].join(","))).unwrap();
-    let err = fails(&["predict", "--model", s(&f.model), "--input", s(&nan), "--robot", "walkman", "--out", s(&dir.join("p.csv"))], 1);
+    let human =
+        sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
+    std::fs::write(
+        &nan,
+        format!("{}\n{}\n", human.names.join(","), vec!["nan"; 18].join(",")),
+    )
+    .unwrap();
+    let err = fails(
+        &[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&nan),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&dir.join("p.csv")),
+        ],
+        1,
+    );
     assert!(err.contains("nan.csv") && err.contains("line 2"), "{err}");
 
     // Bad flag values are usage errors (exit 2).
-    fails(&["train", "--robot", "walkman", "--latent-dim", "0", "--out", out_s], 2);
-    fails(&["train", "--robot", "walkman", "--back-constraint", "sideways", "--out", out_s], 2);
-    fails(&["train", "--robot", "walkman", "--max-iters", "-3", "--out", out_s], 2);
+    fails(
+        &[
+            "train",
+            "--robot",
+            "walkman",
+            "--latent-dim",
+            "0",
+            "--out",
+            out_s,
+        ],
+        2,
+    );
+    fails(
+        &[
+            "train",
+            "--robot",
+            "walkman",
+            "--back-constraint",
+            "sideways",
+            "--out",
+            out_s,
+        ],
+        2,
+    );
+    fails(
+        &[
+            "train",
+            "--robot",
+            "walkman",
+            "--max-iters",
+            "-3",
+            "--out",
+            out_s,
+        ],
+        2,
+    );
     fails(&["frobnicate"], 2);
     // A latent dimension the data cannot support.
-    let err = fails(&["train", "--data", s(&f.data), "--robot", "walkman", "--latent-dim", "100000", "--out", out_s], 1);
+    let err = fails(
+        &[
+            "train",
+            "--data",
+            s(&f.data),
+            "--robot",
+            "walkman",
+            "--latent-dim",
+            "100000",
+            "--out",
+            out_s,
+        ],
+        1,
+    );
     assert!(err.contains("latent dimension"), "{err}");
 
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| !["corrupt.sgp", "truncated.mcap", "wrong.csv", "nan.csv"].contains(&n.as_str()))
+        .filter(|n| {
+            !["corrupt.sgp", "truncated.mcap", "wrong.csv", "nan.csv"].contains(&n.as_str())
+        })
         .collect();
-    assert!(leftovers.is_empty(), "output files left behind: {leftovers:?}");
+    assert!(
+        leftovers.is_empty(),
+        "output files left behind: {leftovers:?}"
+    );
 }
 
 #[test]
 fn simulate_a_prediction() {
     let f = fixture();
-    let json = ok(&["simulate", "--model", s(&f.model), "--input", s(&f.data), "--robot", "walkman", "--json"]);
+    let json = ok(&[
+        "simulate",
+        "--model",
+        s(&f.model),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "walkman",
+        "--json",
+    ]);
     let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["joints"].as_array().unwrap().len(), 14);
     assert!(report["physics_steps"].as_u64().unwrap() > 1000);
-    let err = fails(&["simulate", "--robot", "walkman", "--trajectory", "/nonexistent.csv"], 1);
+    let err = fails(
+        &[
+            "simulate",
+            "--robot",
+            "walkman",
+            "--trajectory",
+            "/nonexistent.csv",
+        ],
+        1,
+    );
     assert!(err.contains("/nonexistent.csv"), "{err}");
 }
 
@@ -211,29 +484,69 @@ fn simulate_a_prediction() {
 fn experiment_writes_results_in_the_documented_schema() {
     let f = fixture();
     let out = f.dir.join("experiment");
-    ok(&["experiment", "--quick", "--runs", "1", "--max-iters", "3", "--data", s(&f.data), "--out", s(&out)]);
+    ok(&[
+        "experiment",
+        "--quick",
+        "--runs",
+        "1",
+        "--max-iters",
+        "3",
+        "--data",
+        s(&f.data),
+        "--out",
+        s(&out),
+    ]);
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    assert_eq!(results["robots"], serde_json::json!(["walkman", "coman", "centauro"]));
+    assert_eq!(
+        results["robots"],
+        serde_json::json!(["walkman", "coman", "centauro"])
+    );
     let runs = results["runs"].as_array().unwrap();
     let mut kinds = std::collections::BTreeSet::new();
     for run in runs {
-        for key in ["robot", "model", "back_constraint", "run", "iterations", "seconds", "test_mse"] {
+        for key in [
+            "robot",
+            "model",
+            "back_constraint",
+            "run",
+            "iterations",
+            "seconds",
+            "test_mse",
+        ] {
             assert!(run.get(key).is_some(), "run without {key}: {run}");
         }
         let n = run["iterations"].as_array().unwrap().len();
         assert!(n >= 1);
         assert_eq!(run["seconds"].as_array().unwrap().len(), n);
         assert_eq!(run["test_mse"].as_array().unwrap().len(), n);
-        kinds.insert((run["model"].as_str().unwrap().to_string(), run["back_constraint"].as_str().unwrap().to_string()));
+        kinds.insert((
+            run["model"].as_str().unwrap().to_string(),
+            run["back_constraint"].as_str().unwrap().to_string(),
+        ));
     }
     for (model, bc) in [
-        ("baseline", "none"), ("transfer", "none"), ("multi", "none"),
-        ("baseline", "input"), ("transfer", "input"), ("multi", "input"), ("baseline", "output"),
+        ("baseline", "none"),
+        ("transfer", "none"),
+        ("multi", "none"),
+        ("baseline", "input"),
+        ("transfer", "input"),
+        ("multi", "input"),
+        ("baseline", "output"),
     ] {
-        assert!(kinds.contains(&(model.to_string(), bc.to_string())), "missing {model}/{bc}");
+        assert!(
+            kinds.contains(&(model.to_string(), bc.to_string())),
+            "missing {model}/{bc}"
+        );
     }
-    for file in ["fig4.svg", "fig4.png", "fig5.svg", "fig5_seconds.png", "fig6.png", "report.md"] {
+    for file in [
+        "fig4.svg",
+        "fig4.png",
+        "fig5.svg",
+        "fig5_seconds.png",
+        "fig6.png",
+        "report.md",
+    ] {
         assert!(out.join(file).exists(), "missing {file}");
     }
 }

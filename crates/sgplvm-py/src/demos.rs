@@ -18,8 +18,16 @@ fn demo_error(e: DemoError) -> PyErr {
     }
 }
 
-fn matrix<'py>(py: Python<'py>, rows: usize, cols: usize, values: &[f64]) -> Bound<'py, PyArray2<f64>> {
-    PyArray2::from_owned_array(py, Array2::from_shape_fn((rows, cols), |(i, j)| values[i * cols + j]))
+fn matrix<'py>(
+    py: Python<'py>,
+    rows: usize,
+    cols: usize,
+    values: &[f64],
+) -> Bound<'py, PyArray2<f64>> {
+    PyArray2::from_owned_array(
+        py,
+        Array2::from_shape_fn((rows, cols), |(i, j)| values[i * cols + j]),
+    )
 }
 
 fn parse_compression(name: &str) -> PyResult<Compression> {
@@ -41,10 +49,20 @@ pub fn read_joint_states<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     topic: &str,
-) -> PyResult<(Bound<'py, PyArray1<i64>>, Vec<String>, Bound<'py, PyArray2<f64>>)> {
-    let states = py.detach(|| joint_state::read_joint_states(&path, topic)).map_err(demo_error)?;
+) -> PyResult<(
+    Bound<'py, PyArray1<i64>>,
+    Vec<String>,
+    Bound<'py, PyArray2<f64>>,
+)> {
+    let states = py
+        .detach(|| joint_state::read_joint_states(&path, topic))
+        .map_err(demo_error)?;
     let positions = matrix(py, states.len(), states.dof(), &states.positions);
-    Ok((PyArray1::from_vec(py, states.times_ns), states.names, positions))
+    Ok((
+        PyArray1::from_vec(py, states.times_ns),
+        states.names,
+        positions,
+    ))
 }
 
 /// Writes one JointState topic (CDR, profile ros2) to an MCAP file, atomically.
@@ -78,7 +96,8 @@ pub fn write_joint_states(
     }
     let values: Vec<f64> = view.iter().copied().collect();
     let states = JointStates::new(times, names, values).map_err(demo_error)?;
-    py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression)).map_err(demo_error)
+    py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression))
+        .map_err(demo_error)
 }
 
 fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDict>> {
@@ -88,7 +107,10 @@ fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDic
     d.set_item("joint_names", body.joint_names.clone())?;
     d.set_item(
         "positions",
-        PyArray2::from_owned_array(py, Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)])),
+        PyArray2::from_owned_array(
+            py,
+            Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]),
+        ),
     )?;
     Ok(d)
 }
@@ -97,7 +119,10 @@ fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDic
 /// (name → {topic, joint_names, positions}), `train` and `test` frame indices, `segments`
 /// (start, end, from_pose, to_pose, repetition) and `pose_names`.
 #[pyfunction]
-pub fn load_demonstrations<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
+pub fn load_demonstrations<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+) -> PyResult<Bound<'py, PyDict>> {
     let ds = py.detach(|| load_dataset(&path)).map_err(demo_error)?;
     let d = PyDict::new(py);
     d.set_item("times_ns", PyArray1::from_slice(py, &ds.times_ns))?;
@@ -148,7 +173,8 @@ pub fn simulate<'py>(
                 )));
             }
             Robot::from_urdf_file(path).map_err(robot_error)?;
-            let xml = std::fs::read_to_string(path).map_err(|e| PyOSError::new_err(format!("{robot}: {e}")))?;
+            let xml = std::fs::read_to_string(path)
+                .map_err(|e| PyOSError::new_err(format!("{robot}: {e}")))?;
             (xml, robot.to_string())
         }
     };
@@ -160,8 +186,12 @@ pub fn simulate<'py>(
             joint_names.len()
         )));
     }
-    let trajectory = Trajectory::new(joint_names, times.as_array().to_vec(), view.iter().copied().collect())
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let trajectory = Trajectory::new(
+        joint_names,
+        times.as_array().to_vec(),
+        view.iter().copied().collect(),
+    )
+    .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let report = py
         .detach(|| sgplvm_robots::replay(&xml, &source, &trajectory, &ReplayOptions::default()))
         .map_err(|e| PyValueError::new_err(e.to_string()))?;

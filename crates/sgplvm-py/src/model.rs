@@ -117,11 +117,13 @@ impl NativeModel {
             .with_back_constraint(parse_back_constraint(back_constraint)?)
             .with_seed(seed)
             .with_scale(scale);
-        let mats: Vec<(String, Mat<f64>)> = spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
+        let mats: Vec<(String, Mat<f64>)> =
+            spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
         let options = TrainOptions::default().with_max_iters(max_iters);
         let input = input.to_string();
         let mut model = train_detached(py, callback, |cb| {
-            let views: Vec<(&str, _)> = mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
+            let views: Vec<(&str, _)> =
+                mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
             SharedGplvm::fit(&config, &views, &input, &options, cb)
         })?;
         for (space, names) in column_names.unwrap_or_default() {
@@ -161,16 +163,23 @@ impl NativeModel {
         with_variance: bool,
     ) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>)> {
         let h = to_mat(&h);
-        let prediction =
-            py.detach(|| self.inner.predict(h.as_ref(), robot, with_variance)).map_err(model_error)?;
+        let prediction = py
+            .detach(|| self.inner.predict(h.as_ref(), robot, with_variance))
+            .map_err(model_error)?;
         let variance = prediction.variance.as_ref().map(|v| to_numpy(py, v));
         Ok((to_numpy(py, &prediction.mean), variance))
     }
 
     /// Latent points of human frames (n × Q).
-    fn latent<'py>(&self, py: Python<'py>, h: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn latent<'py>(
+        &self,
+        py: Python<'py>,
+        h: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let h = to_mat(&h);
-        let x = py.detach(|| self.inner.latent(h.as_ref())).map_err(model_error)?;
+        let x = py
+            .detach(|| self.inner.latent(h.as_ref()))
+            .map_err(model_error)?;
         Ok(to_numpy(py, &x))
     }
 
@@ -188,7 +197,11 @@ impl NativeModel {
     /// Names of the robot spaces.
     #[getter]
     fn output_names(&self) -> Vec<String> {
-        self.inner.output_names().into_iter().map(str::to_string).collect()
+        self.inner
+            .output_names()
+            .into_iter()
+            .map(str::to_string)
+            .collect()
     }
 
     /// Column (joint) names of a space, if they were given.
@@ -216,9 +229,18 @@ impl NativeModel {
     fn history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let h = self.inner.history();
         let d = PyDict::new(py);
-        d.set_item("iteration", h.iter().map(|r| r.iteration).collect::<Vec<_>>())?;
-        d.set_item("objective", PyArray1::from_vec(py, h.iter().map(|r| r.objective).collect()))?;
-        d.set_item("seconds", PyArray1::from_vec(py, h.iter().map(|r| r.seconds).collect()))?;
+        d.set_item(
+            "iteration",
+            h.iter().map(|r| r.iteration).collect::<Vec<_>>(),
+        )?;
+        d.set_item(
+            "objective",
+            PyArray1::from_vec(py, h.iter().map(|r| r.objective).collect()),
+        )?;
+        d.set_item(
+            "seconds",
+            PyArray1::from_vec(py, h.iter().map(|r| r.seconds).collect()),
+        )?;
         d.set_item(
             "gradient_norm",
             PyArray1::from_vec(py, h.iter().map(|r| r.gradient_norm).collect()),
@@ -271,10 +293,12 @@ impl NativeModel {
     /// Reads a model file.
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        SharedGplvm::load(&path).map(|inner| NativeModel { inner }).map_err(|e| match e {
-            sgplvm_core::Error::Io { .. } => model_error(e),
-            other => PyValueError::new_err(format!("{}: {other}", path.display())),
-        })
+        SharedGplvm::load(&path)
+            .map(|inner| NativeModel { inner })
+            .map_err(|e| match e {
+                sgplvm_core::Error::Io { .. } => model_error(e),
+                other => PyValueError::new_err(format!("{}: {other}", path.display())),
+            })
     }
 }
 
@@ -306,10 +330,16 @@ fn params_to_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDic
 }
 
 fn get_item<'py>(d: &Bound<'py, PyDict>, key: &str, context: &str) -> PyResult<Bound<'py, PyAny>> {
-    d.get_item(key)?.ok_or_else(|| PyValueError::new_err(format!("{context}: missing key {key:?}")))
+    d.get_item(key)?
+        .ok_or_else(|| PyValueError::new_err(format!("{context}: missing key {key:?}")))
 }
 
-fn matrix_from_any(value: &Bound<'_, PyAny>, context: &str, rows: usize, cols: usize) -> PyResult<Mat<f64>> {
+fn matrix_from_any(
+    value: &Bound<'_, PyAny>,
+    context: &str,
+    rows: usize,
+    cols: usize,
+) -> PyResult<Mat<f64>> {
     let array: PyReadonlyArray2<'_, f64> = value
         .extract()
         .map_err(|_| PyValueError::new_err(format!("{context}: expected a 2-D float64 array")))?;
@@ -325,12 +355,14 @@ fn matrix_from_any(value: &Bound<'_, PyAny>, context: &str, rows: usize, cols: u
 fn params_from_dict(d: &Bound<'_, PyDict>, current: &Params) -> PyResult<Params> {
     let latent_value = get_item(d, "latent", "params")?;
     let latent = match &current.latent {
-        LatentParams::Free { x } => {
-            LatentParams::Free { x: matrix_from_any(&latent_value, "params['latent']", x.nrows(), x.ncols())? }
-        }
+        LatentParams::Free { x } => LatentParams::Free {
+            x: matrix_from_any(&latent_value, "params['latent']", x.nrows(), x.ncols())?,
+        },
         LatentParams::BackConstrained { weights, bandwidth } => {
             let l = latent_value.cast::<PyDict>().map_err(|_| {
-                PyValueError::new_err("params['latent']: expected a dict with 'weights' (back-constrained model)")
+                PyValueError::new_err(
+                    "params['latent']: expected a dict with 'weights' (back-constrained model)",
+                )
             })?;
             let w = get_item(l, "weights", "params['latent']")?;
             let bandwidth = match l.get_item("bandwidth")? {
@@ -338,7 +370,12 @@ fn params_from_dict(d: &Bound<'_, PyDict>, current: &Params) -> PyResult<Params>
                 None => *bandwidth,
             };
             LatentParams::BackConstrained {
-                weights: matrix_from_any(&w, "params['latent']['weights']", weights.nrows(), weights.ncols())?,
+                weights: matrix_from_any(
+                    &w,
+                    "params['latent']['weights']",
+                    weights.nrows(),
+                    weights.ncols(),
+                )?,
                 bandwidth,
             }
         }
@@ -351,10 +388,17 @@ fn params_from_dict(d: &Bound<'_, PyDict>, current: &Params) -> PyResult<Params>
     for (name, k) in &current.spaces {
         let context = format!("params['spaces'][{name:?}]");
         let s = get_item(spaces_dict, name, "params['spaces']")?;
-        let s = s.cast::<PyDict>().map_err(|_| PyValueError::new_err(format!("{context}: expected a dict")))?;
-        let lengthscale: Vec<f64> = get_item(s, "lengthscale", &context)?
-            .extract()
-            .map_err(|_| PyValueError::new_err(format!("{context}['lengthscale']: expected a sequence of floats")))?;
+        let s = s
+            .cast::<PyDict>()
+            .map_err(|_| PyValueError::new_err(format!("{context}: expected a dict")))?;
+        let lengthscale: Vec<f64> =
+            get_item(s, "lengthscale", &context)?
+                .extract()
+                .map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "{context}['lengthscale']: expected a sequence of floats"
+                    ))
+                })?;
         if lengthscale.len() != k.lengthscale.len() {
             return Err(PyValueError::new_err(format!(
                 "{context}['lengthscale']: {} values, expected {}",

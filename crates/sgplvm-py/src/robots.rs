@@ -28,7 +28,10 @@ impl PyRobot {
     /// One of the shipped bodies: "walkman", "coman", "centauro" or "human".
     #[staticmethod]
     fn builtin(name: &str) -> PyResult<Self> {
-        Ok(PyRobot { robot: Robot::builtin(name).map_err(robot_error)?, chain: None })
+        Ok(PyRobot {
+            robot: Robot::builtin(name).map_err(robot_error)?,
+            chain: None,
+        })
     }
 
     /// Names accepted by `Robot.builtin`.
@@ -51,14 +54,20 @@ impl PyRobot {
     /// Loads a URDF file; with `base` and `tip`, the body is restricted to the chain between them.
     #[staticmethod]
     #[pyo3(signature = (path, base=None, tip=None))]
-    fn from_urdf(path: std::path::PathBuf, base: Option<&str>, tip: Option<&str>) -> PyResult<Self> {
+    fn from_urdf(
+        path: std::path::PathBuf,
+        base: Option<&str>,
+        tip: Option<&str>,
+    ) -> PyResult<Self> {
         let robot = Robot::from_urdf_file(&path).map_err(robot_error)?;
         let chain = match (base, tip) {
             (None, None) => None,
             (Some(base), Some(tip)) => Some(robot.chain(base, tip).map_err(robot_error)?),
             (None, Some(tip)) => Some(robot.chain(robot.root_link(), tip).map_err(robot_error)?),
             (Some(_), None) => {
-                return Err(PyValueError::new_err("from_urdf: `base` needs a `tip` link as well"))
+                return Err(PyValueError::new_err(
+                    "from_urdf: `base` needs a `tip` link as well",
+                ))
             }
         };
         Ok(PyRobot { robot, chain })
@@ -116,10 +125,17 @@ impl PyRobot {
             (None, None) => return Err(PyValueError::new_err("forward_kinematics: name the link")),
         };
         let m = pose.to_homogeneous();
-        Ok(PyArray2::from_owned_array(py, Array2::from_shape_fn((4, 4), |(i, j)| m[(i, j)])))
+        Ok(PyArray2::from_owned_array(
+            py,
+            Array2::from_shape_fn((4, 4), |(i, j)| m[(i, j)]),
+        ))
     }
 
     fn __repr__(&self) -> String {
-        format!("Robot({:?}, {} joints)", self.robot.name(), self.joint_names().len())
+        format!(
+            "Robot({:?}, {} joints)",
+            self.robot.name(),
+            self.joint_names().len()
+        )
     }
 }
