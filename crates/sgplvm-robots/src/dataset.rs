@@ -321,6 +321,9 @@ pub struct LoadOptions {
     pub human_topic: Option<String>,
     /// Rate of the common clock the topics are aligned onto.
     pub rate_hz: f64,
+    /// Joint order per topic (e.g. a body model's `joint_names()`): listed topics keep only
+    /// these joints, in this order (missing ones are an error); others keep their messages'.
+    pub joint_order: BTreeMap<String, Vec<String>>,
 }
 
 impl Default for LoadOptions {
@@ -328,6 +331,7 @@ impl Default for LoadOptions {
         Self {
             human_topic: None,
             rate_hz: DEFAULT_RATE_HZ,
+            joint_order: BTreeMap::new(),
         }
     }
 }
@@ -339,7 +343,7 @@ pub fn load_demonstrations(path: impl AsRef<Path>) -> Result<Dataset> {
 }
 
 /// Loads a dataset. With [`DATASET_METADATA`], bodies, labels and split come from it and the
-/// frame clock is the human topic's timestamps. Without it, every JointState topic is a body
+/// frame clock is the human topic's timestamps (`options` are not used then). Without it, every JointState topic is a body
 /// (the human chosen by `options.human_topic` or by name; a robot is named after the first
 /// component of its topic), the topics are aligned onto a `rate_hz` clock by linear
 /// interpolation, all frames form one unlabelled segment and all are in the training set.
@@ -429,9 +433,13 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
             }
         }
     };
-    let mut requests = vec![TopicRequest::all(human_topic.clone())];
+    let request = |t: &str| match options.joint_order.get(t) {
+        Some(names) => TopicRequest::joints(t, names),
+        None => TopicRequest::all(t),
+    };
+    let mut requests = vec![request(&human_topic)];
     let robot_topics: Vec<&String> = topics.iter().filter(|t| **t != human_topic).collect();
-    requests.extend(robot_topics.iter().map(|t| TopicRequest::all((*t).clone())));
+    requests.extend(robot_topics.iter().map(|t| request(t)));
     let read = read_topics(path, &requests)?;
     let aligned = align_onto_clock(&read.states, options.rate_hz).map_err(|e| match e {
         DemoError::NoOverlap {
@@ -632,13 +640,19 @@ mod tests {
         let q = dir.join("g.mcap");
         write_joint_states(&q, "/person", &a, Compression::None).expect("write");
         assert!(load_demonstrations(&q).is_err());
-        let opts = LoadOptions {
+        let mut opts = LoadOptions {
             human_topic: Some("/person".into()),
             ..LoadOptions::default()
         };
         let ds = load_demonstrations_with(&q, &opts).expect("load");
         assert_eq!(ds.human.positions.nrows(), 41);
         assert!(ds.robots.is_empty());
+
+        // A body model's joint order: missing joints are an error naming them.
+        opts.joint_order
+            .insert("/person".into(), vec!["h".into(), "elbow".into()]);
+        let err = load_demonstrations_with(&q, &opts).unwrap_err();
+        assert!(err.to_string().contains("elbow"), "{err}");
         let _ = std::fs::remove_dir_all(dir);
     }
 

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use sgplvm_robots::dataset::load_demonstrations;
+use sgplvm_robots::dataset::{load_demonstrations, load_demonstrations_with, LoadOptions};
 use sgplvm_robots::joint_state::{
     read_aligned, read_joint_states, read_topics, DemoError, TimeSource, TopicRequest,
 };
@@ -77,6 +77,17 @@ fn python_file_aligns_onto_forty_hertz_and_loads_as_a_foreign_dataset() {
     assert_eq!(ds.robots[0].joint_names, ["r1", "extra", "r0"]);
     assert_eq!(ds.segments.len(), 1);
     assert_eq!(ds.train.len(), 40);
+
+    // With the robot model's joint order, the extra joint is dropped and r0, r1 reordered.
+    let mut options = LoadOptions::default();
+    options.joint_order.insert(
+        "/bot/joint_command".into(),
+        vec!["r0".to_string(), "r1".to_string()],
+    );
+    let ds = load_demonstrations_with(&path, &options).expect("ordered");
+    assert_eq!(ds.robots[0].joint_names, ["r0", "r1"]);
+    assert_eq!(ds.robots[0].positions[(7, 0)], value(7, 0, 100.0));
+    assert_eq!(ds.robots[0].positions[(7, 1)], value(7, 1, 100.0));
 }
 
 #[test]
