@@ -382,7 +382,7 @@ impl Trajectory {
             }
         }
         if self.positions.len() != frames * n {
-            let rows = if self.positions.len() % n == 0 {
+            let rows = if self.positions.len().is_multiple_of(n) {
                 format!(" ({} rows of {n})", self.positions.len() / n)
             } else {
                 format!(" (not a whole number of rows of {n})")
@@ -599,11 +599,12 @@ fn prepare_model(robot: &urdf_rs::Robot, file: &str) -> Result<PreparedModel, Ph
         let inertial = &link.inertial;
         let i = &inertial.inertia;
         let values = [i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz];
-        if !(inertial.mass.value.is_finite() && inertial.mass.value >= 0.0)
-            || !values.iter().all(|v| v.is_finite())
-            || !finite3(&inertial.origin.xyz.0)
-            || !finite3(&inertial.origin.rpy.0)
-        {
+        let valid = inertial.mass.value.is_finite()
+            && inertial.mass.value >= 0.0
+            && values.iter().all(|v| v.is_finite())
+            && finite3(&inertial.origin.xyz.0)
+            && finite3(&inertial.origin.rpy.0);
+        if !valid {
             return Err(model_err(
                 element + " <inertial>",
                 "expected a finite mass >= 0 and finite inertia and origin".into(),
@@ -1026,7 +1027,7 @@ fn simulate(
             continue;
         };
         mb.armature_mut().fill(options.armature as Real);
-        let mut displacement = vec![0.0 as Real; mb.ndofs()];
+        let mut displacement: Vec<Real> = vec![0.0; mb.ndofs()];
         for (place, q0) in placement.iter().zip(&initial) {
             let Some((_, link_id)) = place.filter(|(m, _)| *m == index) else {
                 continue;
