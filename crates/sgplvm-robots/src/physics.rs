@@ -70,6 +70,9 @@ const GRAVITY: Real = 9.81;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum PhysicsError {
+    /// The URDF was refused by the robot-model parser (see [`crate::urdf::Robot`]).
+    #[error(transparent)]
+    Robot(#[from] crate::error::RobotError),
     /// The URDF text could not be read.
     #[error("{file}: cannot read the URDF: {message}")]
     Urdf {
@@ -480,21 +483,20 @@ pub struct ReplayReport {
 }
 
 /// Replays `trajectory` on the robot described by the URDF text `urdf_xml` (`source` is the
-/// file name used in messages). See the module documentation for the control and the rules.
+/// file name used in messages). The text is read by [`crate::urdf::Robot::from_urdf_str`], which
+/// copes with the quirks of real URDFs; see the module documentation for the control and the
+/// rules.
 pub fn replay(
     urdf_xml: &str,
     source: &str,
     trajectory: &Trajectory,
     options: &ReplayOptions,
 ) -> Result<ReplayReport, PhysicsError> {
-    let robot = urdf_rs::read_from_string(urdf_xml).map_err(|e| PhysicsError::Urdf {
-        file: source.to_string(),
-        message: e.to_string(),
-    })?;
-    replay_urdf(&robot, source, trajectory, options)
+    let robot = crate::urdf::Robot::from_urdf_str(urdf_xml, source)?;
+    replay_urdf(robot.urdf(), source, trajectory, options)
 }
 
-/// Like [`replay`], for a URDF already parsed by urdf-rs (e.g. `Robot::urdf()` of this crate).
+/// Like [`replay`], for a URDF already parsed by urdf-rs (e.g. [`crate::urdf::Robot::urdf`]).
 pub fn replay_urdf(
     robot: &urdf_rs::Robot,
     source: &str,
