@@ -127,3 +127,19 @@ fn default_split_sizes_follow_the_paper() {
     targets.dedup();
     assert_eq!(targets, (1..16).collect::<Vec<_>>());
 }
+
+#[test]
+fn shipped_demonstrations_are_what_the_generator_makes_today() {
+    let shipped =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/bimanual.mcap");
+    let dir = temp("shipped");
+    let (fresh, _) = generate_to_dir(&GeneratorConfig::default(), &dir).expect("generate");
+    let same = std::fs::read(&shipped).expect("data/demos/bimanual.mcap is shipped")
+        == std::fs::read(&fresh).expect("fresh file");
+    let _ = std::fs::remove_dir_all(dir);
+    assert!(
+        same,
+        "data/demos/bimanual.mcap is stale: regenerate it with \
+         `cargo run --release -p sgplvm-robots --example generate -- data/demos`"
+    );
+}
