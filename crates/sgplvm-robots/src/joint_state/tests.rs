@@ -452,3 +452,60 @@ fn header_stamps_can_place_messages_on_the_clock() {
         vec![5_250_000_000, 5_500_000_000]
     );
 }
+
+#[test]
+fn empty_topics_are_an_error_and_unrequested_foreign_topics_are_skipped() {
+    let dir = TempDir::new("empty");
+    let p = dir.file("e.mcap");
+    let empty = JointStates::new(vec![], names(&["a"]), vec![]).expect("empty");
+    write_joint_states(&p, "/quiet", &empty, Compression::Zstd).expect("write");
+    let err = read_joint_states(&p, "/quiet").unwrap_err();
+    assert!(matches!(err, DemoError::EmptyTopic { .. }), "{err}");
+    assert!(err.to_string().contains("/quiet") && err.to_string().contains("e.mcap"));
+
+    // An Imu channel next to a JointState one: only the requested topic is decoded.
+    let q = dir.file("mixed.mcap");
+    let file = File::create(&q).expect("create");
+    let mut w = WriteOptions::new()
+        .create(BufWriter::new(file))
+        .expect("writer");
+    let imu = w
+        .add_schema("sensor_msgs/msg/Imu", "ros2msg", b"...")
+        .expect("imu schema");
+    let js = w
+        .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+        .expect("js schema");
+    let imu_ch = w
+        .add_channel(imu, "/imu", "cdr", &BTreeMap::new())
+        .expect("imu ch");
+    let js_ch = w
+        .add_channel(js, "/joints", "cdr", &BTreeMap::new())
+        .expect("js ch");
+    let mut buf = Vec::new();
+    for k in 0..5u64 {
+        let h = MessageHeader {
+            channel_id: imu_ch,
+            sequence: 0,
+            log_time: k,
+            publish_time: k,
+        };
+        w.write_to_known_channel(&h, b"\x00\x01\x00\x00garbage")
+            .expect("imu msg");
+        cdr::encode_joint_state(&mut buf, (0, 0), "", &names(&["a"]), &[k as f64], &[], &[]);
+        let h = MessageHeader {
+            channel_id: js_ch,
+            sequence: 0,
+            log_time: k,
+            publish_time: k,
+        };
+        w.write_to_known_channel(&h, &buf).expect("js msg");
+    }
+    w.finish().expect("finish");
+    drop(w);
+    let s = read_joint_states(&q, "/joints").expect("joints");
+    assert_eq!(s.positions, vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+    assert!(matches!(
+        read_joint_states(&q, "/imu").unwrap_err(),
+        DemoError::WrongSchema { .. }
+    ));
+}
