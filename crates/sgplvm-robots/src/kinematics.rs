@@ -127,6 +127,16 @@ pub struct IkOptions {
     pub restarts: usize,
     /// Seed of the restarts' configurations (deterministic).
     pub seed: u64,
+    /// Gain of the secondary task that pulls the joints towards `rest` in the null space of
+    /// the target (per iteration, fraction of the gap); 0 (the default) disables it. Keeps
+    /// redundant arms (the 9-joint human) in natural postures and consecutive solutions close
+    /// to each other, at the price of more iterations (try 0.5).
+    pub posture_gain: f64,
+    /// Preferred configuration of the posture task; `None` means the start `q0`.
+    pub rest: Option<Vec<f64>>,
+    /// With a posture task: after convergence, up to this many null-space steps towards `rest`
+    /// (each re-converged to the tolerance; a step that cannot be is undone).
+    pub posture_iters: usize,
 }
 
 impl Default for IkOptions {
@@ -139,6 +149,9 @@ impl Default for IkOptions {
             orientation_weight: 0.2,
             restarts: 8,
             seed: 0,
+            posture_gain: 0.0,
+            rest: None,
+            posture_iters: 20,
         }
     }
 }
@@ -309,8 +322,9 @@ impl Chain {
     /// Damped least-squares inverse kinematics within the joint limits.
     ///
     /// Starts from `q0` (clamped into the limits; missing values are 0), iterates
-    /// `Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e` with λ adapted Levenberg–Marquardt style (a step that does
-    /// not reduce the error is rejected and λ grows), drops from each step the joints that sit
+    /// `Δq = z + Jᵀ (J Jᵀ + λ² I)⁻¹ (e − J z)` with λ adapted Levenberg–Marquardt style (a step
+    /// that does not reduce the error is rejected and λ grows) and `z = posture_gain · (rest − q)`
+    /// a pull towards a preferred posture in the task's null space, drops from each step the joints that sit
     /// at a limit and would be pushed beyond it, and clamps. If the first attempt does not
     /// converge, it tries again from `opts.restarts` seeded random configurations and returns
     /// the best result. An unreachable target gives `converged == false` and the residual left.
@@ -324,6 +338,12 @@ impl Chain {
         let mut start: Vec<f64> = (0..n)
             .map(|i| clamp(q0.get(i).copied().unwrap_or(0.0), self.limits[i]))
             .collect();
+        let rest: Vec<f64> = match &opts.rest {
+            Some(r) => (0..n)
+                .map(|i| clamp(r.get(i).copied().unwrap_or(0.0), self.limits[i]))
+                .collect(),
+            None => start.clone(),
+        };
         let mut best: Option<IkSolution> = None;
         let mut total_iters = 0;
         let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
@@ -338,7 +358,7 @@ impl Chain {
                     };
                 }
             }
-            let mut sol = self.dls(target, &start, opts);
+            let mut sol = self.dls(target, &start, &rest, opts);
             total_iters += sol.iterations;
             sol.iterations = total_iters;
             let better = best.as_ref().is_none_or(|b| sol.residual < b.residual);
@@ -347,6 +367,11 @@ impl Chain {
             }
             if best.as_ref().is_some_and(|b| b.converged) {
                 break;
+            }
+        }
+        if opts.posture_gain > 0.0 {
+            if let Some(b) = best.as_mut().filter(|b| b.converged) {
+                total_iters += self.posture_polish(target, b, &rest, opts);
             }
         }
         let mut best = best.unwrap_or_else(|| IkSolution {
@@ -381,7 +406,74 @@ impl Chain {
         }
     }
 
-    fn dls(&self, target: &IkTarget, q0: &[f64], opts: &IkOptions) -> IkSolution {
+    /// Null-space steps towards `rest` from a converged solution, each re-converged by plain
+    /// DLS; stops when the steps become tiny or one cannot be re-converged. Returns iterations.
+    fn posture_polish(
+        &self,
+        target: &IkTarget,
+        sol: &mut IkSolution,
+        rest: &[f64],
+        opts: &IkOptions,
+    ) -> usize {
+        let n = self.dof();
+        let plain = IkOptions {
+            posture_gain: 0.0,
+            max_iters: 10,
+            restarts: 0,
+            rest: None,
+            ..opts.clone()
+        };
+        let w = opts.orientation_weight;
+        let pose_target = matches!(target, IkTarget::Pose(_));
+        let free = vec![true; n];
+        let mut z = vec![0.0; n];
+        let mut dq = vec![0.0; n];
+        let mut trial = vec![0.0; n];
+        let mut iters = 0;
+        let distance = |q: &[f64]| -> f64 {
+            q.iter()
+                .zip(rest)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+        };
+        for _ in 0..opts.posture_iters {
+            let f = self.frames(&sol.q);
+            let (e, _, _) = self.error(target, &f.tip, w);
+            let cols: Vec<Vector6<f64>> = (0..n)
+                .map(|i| {
+                    let mut c = self.column(&f, i);
+                    for k in 3..6 {
+                        c[k] = if pose_target { c[k] * w } else { 0.0 };
+                    }
+                    c
+                })
+                .collect();
+            let mut biggest: f64 = 0.0;
+            for i in 0..n {
+                z[i] = opts.posture_gain * (rest[i] - sol.q[i]);
+                biggest = biggest.max(z[i].abs());
+            }
+            if biggest < 1e-7 {
+                break;
+            }
+            solve_step(&cols, &free, &e, &z, 1e-6, pose_target, &mut dq);
+            for i in 0..n {
+                trial[i] = clamp(sol.q[i] + dq[i], self.limits[i]);
+            }
+            let c = self.dls(target, &trial, rest, &plain);
+            iters += 1 + c.iterations;
+            if !c.converged || distance(&c.q) >= distance(&sol.q) {
+                break;
+            }
+            sol.q = c.q;
+            sol.residual = c.residual;
+            sol.position_error = c.position_error;
+            sol.orientation_error = c.orientation_error;
+        }
+        iters
+    }
+
+    fn dls(&self, target: &IkTarget, q0: &[f64], rest: &[f64], opts: &IkOptions) -> IkSolution {
         let n = self.dof();
         let pose_target = matches!(target, IkTarget::Pose(_));
         let w = opts.orientation_weight;
@@ -392,6 +484,7 @@ impl Chain {
         let mut lambda = opts.damping.max(1e-12);
         let mut cols: Vec<Vector6<f64>> = vec![Vector6::zeros(); n];
         let mut free = vec![true; n];
+        let mut z = vec![0.0; n];
         let mut dq = vec![0.0; n];
         let mut trial = vec![0.0; n];
         let mut tf = self.frames(&q);
@@ -411,41 +504,59 @@ impl Chain {
                 }
                 *c = col;
             }
-            free.iter_mut().for_each(|x| *x = true);
-            // Active set: a joint at a limit that the step pushes outward is frozen, then re-solve.
-            for _pass in 0..=n {
-                solve_step(&cols, &free, &e, lambda, pose_target, &mut dq);
-                let mut changed = false;
-                for i in 0..n {
-                    let (lo, hi) = self.limits[i];
-                    if free[i] && ((q[i] <= lo && dq[i] < 0.0) || (q[i] >= hi && dq[i] > 0.0)) {
-                        free[i] = false;
-                        changed = true;
+            // First with the posture term, then (if that step is rejected) without it.
+            let mut accepted = false;
+            for with_posture in [opts.posture_gain > 0.0 && err > 1e-6, false] {
+                free.iter_mut().for_each(|x| *x = true);
+                // Active set: a joint at a limit that the step pushes outward is frozen.
+                for _pass in 0..=n {
+                    for i in 0..n {
+                        z[i] = if with_posture && free[i] {
+                            opts.posture_gain * (rest[i] - q[i])
+                        } else {
+                            0.0
+                        };
+                    }
+                    solve_step(&cols, &free, &e, &z, lambda, pose_target, &mut dq);
+                    let mut changed = false;
+                    for i in 0..n {
+                        let (lo, hi) = self.limits[i];
+                        if free[i] && ((q[i] <= lo && dq[i] < 0.0) || (q[i] >= hi && dq[i] > 0.0)) {
+                            free[i] = false;
+                            changed = true;
+                        }
+                    }
+                    if !changed {
+                        break;
                     }
                 }
-                if !changed {
+                let biggest = dq.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+                let scale = if biggest > opts.max_step {
+                    opts.max_step / biggest
+                } else {
+                    1.0
+                };
+                for i in 0..n {
+                    trial[i] = clamp(q[i] + scale * dq[i], self.limits[i]);
+                }
+                self.frames_into(&trial, &mut tf);
+                let (te, tpe, toe) = self.error(target, &tf.tip, w);
+                let terr = te.norm();
+                if terr < err {
+                    std::mem::swap(&mut q, &mut trial);
+                    std::mem::swap(&mut f, &mut tf);
+                    e = te;
+                    pe = tpe;
+                    oe = toe;
+                    err = terr;
+                    accepted = true;
+                    break;
+                }
+                if opts.posture_gain <= 0.0 {
                     break;
                 }
             }
-            let biggest = dq.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
-            let scale = if biggest > opts.max_step {
-                opts.max_step / biggest
-            } else {
-                1.0
-            };
-            for i in 0..n {
-                trial[i] = clamp(q[i] + scale * dq[i], self.limits[i]);
-            }
-            self.frames_into(&trial, &mut tf);
-            let (te, tpe, toe) = self.error(target, &tf.tip, w);
-            let terr = te.norm();
-            if terr < err {
-                std::mem::swap(&mut q, &mut trial);
-                std::mem::swap(&mut f, &mut tf);
-                e = te;
-                pe = tpe;
-                oe = toe;
-                err = terr;
+            if accepted {
                 lambda = (lambda * 0.3).max(1e-9);
             } else {
                 lambda *= 5.0;
@@ -487,16 +598,25 @@ fn motion(s: &Segment, v: f64) -> Isometry3<f64> {
     }
 }
 
-/// `dq = Jfᵀ (Jf Jfᵀ + λ² I)⁻¹ e` over the free columns (3×3 system for position targets).
+/// `dq = z + Jfᵀ (Jf Jfᵀ + λ² I)⁻¹ (e − Jf z)` over the free columns: the damped least-squares
+/// step towards `e` plus the secondary motion `z` projected onto the (damped) null space of the
+/// task. The system is 3×3 for position targets and 6×6 for poses.
 fn solve_step(
     cols: &[Vector6<f64>],
     free: &[bool],
     e: &Vector6<f64>,
+    z: &[f64],
     lambda: f64,
     pose: bool,
     dq: &mut [f64],
 ) {
     let l2 = lambda * lambda;
+    let mut rhs = *e;
+    for ((c, &f), &zi) in cols.iter().zip(free).zip(z) {
+        if f && zi != 0.0 {
+            rhs -= c * zi;
+        }
+    }
     if pose {
         let mut a = Matrix6::identity() * l2;
         for (c, _) in cols.iter().zip(free).filter(|(_, &f)| f) {
@@ -504,10 +624,10 @@ fn solve_step(
         }
         let y = a
             .cholesky()
-            .map(|ch| ch.solve(e))
+            .map(|ch| ch.solve(&rhs))
             .unwrap_or_else(Vector6::zeros);
-        for ((d, c), &f) in dq.iter_mut().zip(cols).zip(free) {
-            *d = if f { c.dot(&y) } else { 0.0 };
+        for (((d, c), &f), &zi) in dq.iter_mut().zip(cols).zip(free).zip(z) {
+            *d = if f { zi + c.dot(&y) } else { 0.0 };
         }
     } else {
         let mut a = Matrix3::identity() * l2;
@@ -515,13 +635,17 @@ fn solve_step(
             let v = c.fixed_rows::<3>(0);
             a += v * v.transpose();
         }
-        let e3 = e.fixed_rows::<3>(0).into_owned();
+        let r3 = rhs.fixed_rows::<3>(0).into_owned();
         let y = a
             .cholesky()
-            .map(|ch| ch.solve(&e3))
+            .map(|ch| ch.solve(&r3))
             .unwrap_or_else(Vector3::zeros);
-        for ((d, c), &f) in dq.iter_mut().zip(cols).zip(free) {
-            *d = if f { c.fixed_rows::<3>(0).dot(&y) } else { 0.0 };
+        for (((d, c), &f), &zi) in dq.iter_mut().zip(cols).zip(free).zip(z) {
+            *d = if f {
+                zi + c.fixed_rows::<3>(0).dot(&y)
+            } else {
+                0.0
+            };
         }
     }
 }
@@ -797,6 +921,43 @@ mod tests {
             Vector3::new(0.5, 0.0, 0.0)
         );
         assert!(empty.forward_batch(&[]).is_empty());
+    }
+
+    #[test]
+    fn posture_task_keeps_redundant_arms_near_rest_and_still_converges() {
+        let r = Robot::builtin("human").unwrap();
+        let [arm, _] = r.arms().unwrap();
+        let zero = vec![0.0; 9];
+        let s = r
+            .forward_kinematics(&vec![0.0; 18], &arm.shoulder_link)
+            .unwrap()
+            .translation
+            .vector;
+        let dist = |q: &[f64]| q.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for offset in [
+            Vector3::new(0.25, 0.0, -0.10),
+            Vector3::new(0.3, 0.2, 0.1),
+            Vector3::new(0.4, -0.1, -0.3),
+        ] {
+            let target = IkTarget::Position(s + offset);
+            let plain = arm
+                .chain
+                .inverse_kinematics(&target, &zero, &IkOptions::default());
+            let opts = IkOptions {
+                posture_gain: 0.5,
+                ..IkOptions::default()
+            };
+            let natural = arm.chain.inverse_kinematics(&target, &zero, &opts);
+            assert!(plain.converged && natural.converged, "{natural:?}");
+            let back = arm.chain.forward(&natural.q).translation.vector;
+            assert!((back - (s + offset)).norm() < 1e-6);
+            assert!(
+                dist(&natural.q) < dist(&plain.q),
+                "{} vs {}",
+                dist(&natural.q),
+                dist(&plain.q)
+            );
+        }
     }
 
     #[test]
