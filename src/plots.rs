@@ -166,34 +166,53 @@ fn padded_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
+/// Every vertical value of a panel: points, band edges and markers.
+fn y_range_values(panel: &Panel) -> impl Iterator<Item = f64> + '_ {
+    panel
+        .series
+        .iter()
+        .flat_map(|s| {
+            s.points
+                .iter()
+                .map(|p| p.1)
+                .chain(s.band.iter().flatten().flat_map(|b| [b.0, b.1]))
+        })
+        .chain(
+            panel
+                .markers
+                .iter()
+                .flat_map(|m| m.points.iter().map(|p| p.1)),
+        )
+}
+
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     panel: &Panel,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let all_points = || {
+    let x_range = padded_range(
         panel
             .series
             .iter()
-            .flat_map(|s| s.points.iter().chain(s.band.iter().flatten()))
+            .flat_map(|s| s.points.iter())
             .chain(panel.markers.iter().flat_map(|m| m.points.iter()))
-    };
-    let x_range = padded_range(all_points().map(|p| p.0), false);
-    let y_range = padded_range(
-        all_points().flat_map(|p| [p.1]).chain(
-            panel
-                .series
-                .iter()
-                .flat_map(|s| s.band.iter().flatten().flat_map(|b| [b.0, b.1])),
-        ),
-        panel.log_y,
+            .map(|p| p.0),
+        false,
     );
+    let y_range = padded_range(y_range_values(panel), panel.log_y);
+    // A log axis over less than a decade shows almost no tick labels: use a linear one then.
+    let log_y = panel.log_y && y_range.1 / y_range.0 > 10.0;
+    let y_range = if panel.log_y && !log_y {
+        padded_range(y_range_values(panel), false)
+    } else {
+        y_range
+    };
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(&panel.title, ("sans-serif", 17))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(62);
-    if panel.log_y {
+    if log_y {
         let mut chart =
             builder.build_cartesian_2d(x_range.0..x_range.1, (y_range.0..y_range.1).log_scale())?;
         chart
