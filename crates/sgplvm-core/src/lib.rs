@@ -36,6 +36,7 @@ pub use faer::{Mat, MatRef};
 pub use io::{FORMAT_VERSION, MAGIC};
 pub use kernel::KernelParams;
 pub use model::{
-    BackConstraint, Callback, LatentParams, ModelConfig, Params, Prediction, ScaleMode, SharedGplvm,
+    BackConstraint, Callback, Evaluator, LatentParams, ModelConfig, Params, Prediction, ScaleMode,
+    SharedGplvm,
 };
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};

@@ -4,7 +4,8 @@ use std::sync::Mutex;
 
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::llt;
-use faer::{Accum, Mat, MatRef, Par, Side};
+use faer::reborrow::ReborrowMut;
+use faer::{Accum, Mat, MatRef, Side};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -12,9 +13,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::kernel::{
-    cholesky_with_jitter, eval_space, par_for, rbf_lower, row_major, KernelParams, SpaceWork,
+    cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg_slice, par_for, rbf_lower,
+    row_major, weighted_sqdist, KernelParams, SpaceWork,
 };
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
+
+/// Training points per block in the prediction loops (stack buffer size).
+const BLOCK: usize = 64;
 
 /// Where the latent points come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -213,8 +218,8 @@ pub(crate) struct SpaceCache {
     alpha_rows: Vec<f64>,
     /// Cholesky factor of K (lower).
     factor: Mat<f64>,
-    /// 1/l² per latent dimension.
-    inv_l2: Vec<f64>,
+    /// −1/(2 l²) per latent dimension.
+    half_inv_l2: Vec<f64>,
     pub(crate) jitter: f64,
 }
 
@@ -225,8 +230,8 @@ pub(crate) struct LatentCache {
     h_rows: Vec<f64>,
     /// Weights row-major N×Q (W, or K⁻¹(X − mean) for the regression).
     weights: Vec<f64>,
-    /// 1/l² per input dimension.
-    inv_l2: Vec<f64>,
+    /// −1/(2 l²) per input dimension.
+    half_inv_l2: Vec<f64>,
     /// Kernel amplitude (1 for back constraints).
     amplitude: f64,
     /// Added to every latent point.
@@ -657,6 +662,7 @@ impl Objective for ModelObjective<'_> {
                 }
                 None => lat.to_owned(),
             };
+            clear_upper_simd_state();
             owned_rows = row_major(x.as_ref());
             &owned_rows
         } else {
@@ -1045,7 +1051,12 @@ impl SharedGplvm {
             caches.push(SpaceCache {
                 alpha_rows: row_major(w.alpha()),
                 factor: w.factor().to_owned(),
-                inv_l2: s.kernel.lengthscale.iter().map(|l| 1.0 / (l * l)).collect(),
+                half_inv_l2: s
+                    .kernel
+                    .lengthscale
+                    .iter()
+                    .map(|l| -0.5 / (l * l))
+                    .collect(),
                 jitter: e.jitter,
             });
         }
@@ -1059,7 +1070,7 @@ impl SharedGplvm {
             ) if self.config.back_constraint == BackConstraint::Input => LatentCache {
                 h_rows: row_major(self.spaces[0].data.as_ref()),
                 weights: row_major(weights.as_ref()),
-                inv_l2: vec![1.0 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
+                half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
                 amplitude: 1.0,
                 offset: vec![0.0; q],
             },
@@ -1077,11 +1088,11 @@ impl SharedGplvm {
                 LatentCache {
                     h_rows: hr,
                     weights: row_major(w.alpha()),
-                    inv_l2: map
+                    half_inv_l2: map
                         .kernel
                         .lengthscale
                         .iter()
-                        .map(|l| 1.0 / (l * l))
+                        .map(|l| -0.5 / (l * l))
                         .collect(),
                     amplitude: map.kernel.variance,
                     offset: map.x_mean.clone(),
@@ -1185,8 +1196,11 @@ impl SharedGplvm {
         Ok(())
     }
 
-    /// Latent point of one raw input frame into `x` (length Q). Allocation-free.
+    /// Latent point of one raw input frame into `x` (length Q). Allocation-free for
+    /// D_H ≤ 64: training points are processed in blocks of [`BLOCK`] (distances, then a
+    /// vectorised exp, then the weighted sum).
     fn latent_into(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
+        clear_upper_simd_state();
         let Some(lc) = &self.latent_cache else {
             return Err(Error::Corrupt {
                 reason: "prediction caches missing".into(),
@@ -1195,20 +1209,37 @@ impl SharedGplvm {
         let s0 = &self.spaces[0];
         let dh = h.len();
         let q = x.len();
+        let mut hs_stack = [0.0f64; 64];
+        let mut hs_heap;
+        let hs: &mut [f64] = if dh <= 64 {
+            &mut hs_stack[..dh]
+        } else {
+            hs_heap = vec![0.0; dh];
+            &mut hs_heap
+        };
+        for t in 0..dh {
+            hs[t] = (h[t] - s0.offset[t]) / s0.scale[t];
+        }
         x.copy_from_slice(&lc.offset);
         let n = self.n();
-        for i in 0..n {
-            let hi = &lc.h_rows[i * dh..(i + 1) * dh];
-            let mut r2 = 0.0;
-            for t in 0..dh {
-                let v = (h[t] - s0.offset[t]) / s0.scale[t] - hi[t];
-                r2 += v * v * lc.inv_l2[t];
+        let mut kb = [0.0f64; BLOCK];
+        let mut start = 0;
+        while start < n {
+            let end = (start + BLOCK).min(n);
+            let k = &mut kb[..end - start];
+            for (o, v) in k.iter_mut().enumerate() {
+                let i = start + o;
+                *v = weighted_sqdist(hs, &lc.h_rows[i * dh..(i + 1) * dh], &lc.half_inv_l2);
             }
-            let k = lc.amplitude * (-0.5 * r2).exp();
-            let wi = &lc.weights[i * q..(i + 1) * q];
-            for t in 0..q {
-                x[t] += k * wi[t];
+            exp_neg_slice(k);
+            for (o, &kv) in k.iter().enumerate() {
+                let i = start + o;
+                let wi = &lc.weights[i * q..(i + 1) * q];
+                for t in 0..q {
+                    x[t] += lc.amplitude * kv * wi[t];
+                }
             }
+            start = end;
         }
         Ok(())
     }
@@ -1220,18 +1251,26 @@ impl SharedGplvm {
         let q = x.len();
         let d = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..self.n() {
-            let xi = &self.x_rows[i * q..(i + 1) * q];
-            let mut r2 = 0.0;
-            for t in 0..q {
-                let v = x[t] - xi[t];
-                r2 += v * v * c.inv_l2[t];
+        let n = self.n();
+        let mut kb = [0.0f64; BLOCK];
+        let mut start = 0;
+        while start < n {
+            let end = (start + BLOCK).min(n);
+            let k = &mut kb[..end - start];
+            for (o, v) in k.iter_mut().enumerate() {
+                let i = start + o;
+                *v = weighted_sqdist(x, &self.x_rows[i * q..(i + 1) * q], &c.half_inv_l2);
             }
-            let k = s.kernel.variance * (-0.5 * r2).exp();
-            let ai = &c.alpha_rows[i * d..(i + 1) * d];
-            for t in 0..d {
-                out[t] += k * ai[t];
+            exp_neg_slice(k);
+            for (o, &kv) in k.iter().enumerate() {
+                let i = start + o;
+                let ai = &c.alpha_rows[i * d..(i + 1) * d];
+                let kv = s.kernel.variance * kv;
+                for t in 0..d {
+                    out[t] += kv * ai[t];
+                }
             }
+            start = end;
         }
         for t in 0..d {
             out[t] = out[t] * s.scale[t] + s.offset[t];
@@ -1316,11 +1355,9 @@ impl SharedGplvm {
             None
         };
         let mut row = vec![0.0; h.ncols()];
+        let mut xs = Mat::zeros(n_new, q);
         let mut x = vec![0.0; q];
         let mut out = vec![0.0; d];
-        let n = self.n();
-        let mut kcol = Mat::zeros(n, 1);
-        let c = &self.caches[si];
         for r in 0..n_new {
             for (cc, v) in row.iter_mut().enumerate() {
                 *v = h[(r, cc)];
@@ -1330,26 +1367,57 @@ impl SharedGplvm {
             for t in 0..d {
                 mean[(r, t)] = out[t];
             }
-            if let Some(var) = variance.as_mut() {
-                for i in 0..n {
-                    let xi = &self.x_rows[i * q..(i + 1) * q];
-                    let mut r2 = 0.0;
-                    for t in 0..q {
-                        let v = x[t] - xi[t];
-                        r2 += v * v * c.inv_l2[t];
+            for t in 0..q {
+                xs[(r, t)] = x[t];
+            }
+        }
+        if let Some(var) = variance.as_mut() {
+            // Frames in chunks: K* (N × chunk), one multi-RHS triangular solve L⁻¹K*, then
+            // k** − |L⁻¹k*|² per frame.
+            let n = self.n();
+            let c = &self.caches[si];
+            let chunk = 256;
+            let mut kstar = Mat::zeros(n, chunk.min(n_new.max(1)));
+            let mut start = 0;
+            while start < n_new {
+                let end = (start + chunk).min(n_new);
+                let m = end - start;
+                let mut ks = kstar.as_mut().subcols_mut(0, m);
+                clear_upper_simd_state();
+                for f in 0..m {
+                    let xf: Vec<f64> = (0..q).map(|t| xs[(start + f, t)]).collect();
+                    let col = ks
+                        .rb_mut()
+                        .col_mut(f)
+                        .try_as_col_major_mut()
+                        .map(|c| c.as_slice_mut());
+                    if let Some(col) = col {
+                        for i in 0..n {
+                            col[i] = weighted_sqdist(
+                                &xf,
+                                &self.x_rows[i * q..(i + 1) * q],
+                                &c.half_inv_l2,
+                            );
+                        }
+                        exp_neg_slice(col);
                     }
-                    kcol[(i, 0)] = s.kernel.variance * (-0.5 * r2).exp();
                 }
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(
                     c.factor.as_ref(),
-                    kcol.as_mut(),
-                    Par::Seq,
+                    ks.rb_mut(),
+                    par_for(n),
                 );
-                let explained: f64 = (0..n).map(|i| kcol[(i, 0)] * kcol[(i, 0)]).sum();
-                let f = (s.kernel.variance - explained).max(0.0);
-                for t in 0..d {
-                    var[(r, t)] = f * s.scale[t] * s.scale[t];
+                clear_upper_simd_state();
+                for f in 0..m {
+                    let explained: f64 = (0..n).map(|i| ks[(i, f)] * ks[(i, f)]).sum::<f64>()
+                        * s.kernel.variance
+                        * s.kernel.variance;
+                    let v = (s.kernel.variance - explained).max(0.0);
+                    for t in 0..d {
+                        var[(start + f, t)] = v * s.scale[t] * s.scale[t];
+                    }
                 }
+                start = end;
             }
         }
         Ok(Prediction { mean, variance })
@@ -1654,6 +1722,38 @@ impl SharedGplvm {
                 p
             }
         }
+    }
+}
+
+/// Repeated objective + gradient evaluation at a model's parameters with every buffer reused:
+/// exactly the work of one optimiser evaluation in a full fit (all spaces, latent block).
+/// Meant for benchmarks and profiling.
+pub struct Evaluator<'a> {
+    obj: ModelObjective<'a>,
+    theta: Vec<f64>,
+    grad: Vec<f64>,
+}
+
+impl Evaluator<'_> {
+    /// Evaluates the objective and the gradient (unconstrained parametrisation: latent block
+    /// column-major, then per space log variance, log lengthscales, log noise).
+    pub fn evaluate(&mut self) -> Result<f64> {
+        self.obj.eval(&self.theta, &mut self.grad)
+    }
+
+    /// Gradient of the last [`Evaluator::evaluate`].
+    pub fn gradient(&self) -> &[f64] {
+        &self.grad
+    }
+}
+
+impl SharedGplvm {
+    /// An [`Evaluator`] at the current parameters.
+    pub fn evaluator(&self) -> Result<Evaluator<'_>> {
+        let obj = ModelObjective::new(self, Mode::Full)?;
+        let theta = obj.theta0();
+        let grad = vec![0.0; theta.len()];
+        Ok(Evaluator { obj, theta, grad })
     }
 }
 

@@ -1,0 +1,121 @@
+//! Criterion benches of the core: one objective+gradient evaluation (human 18-D + robot 14-D,
+//! Q = 5) at N = 300 and 1000, the Cholesky + inverse floor of the same matrices, one-frame
+//! prediction and batch prediction.
+//!
+//! Run: `cargo bench -p sgplvm-core --bench model`
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt;
+use faer::Par;
+use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
+use std::hint::black_box;
+
+/// Smooth synthetic demonstration: a 2-D phase drives an 18-D human and a 14-D robot.
+fn data(n: usize) -> (Mat<f64>, Mat<f64>) {
+    let h = Mat::from_fn(n, 18, |i, j| {
+        let t = i as f64 / n as f64 * 12.0;
+        (t * (1.0 + 0.05 * j as f64)).sin() + 0.3 * (0.37 * t + j as f64).cos()
+    });
+    let r = Mat::from_fn(n, 14, |i, j| {
+        let t = i as f64 / n as f64 * 12.0;
+        0.8 * (t * (1.0 + 0.07 * j as f64) + 0.1).sin() + 0.2 * (0.41 * t + j as f64).cos()
+    });
+    (h, r)
+}
+
+fn model(n: usize, bc: BackConstraint) -> SharedGplvm {
+    let (h, r) = data(n);
+    let config = ModelConfig::default().with_back_constraint(bc);
+    let options = TrainOptions {
+        max_iters: 0,
+        map_max_iters: 0,
+        ..TrainOptions::default()
+    };
+    SharedGplvm::fit(
+        &config,
+        &[("human", h.as_ref()), ("robot", r.as_ref())],
+        "human",
+        &options,
+        None,
+    )
+    .expect("model builds")
+}
+
+fn bench_eval(c: &mut Criterion) {
+    let mut g = c.benchmark_group("evaluation");
+    g.sample_size(20);
+    for n in [300usize, 1000] {
+        for bc in [BackConstraint::Input, BackConstraint::None] {
+            let m = model(n, bc);
+            let mut e = m.evaluator().expect("evaluator");
+            g.bench_function(format!("objective+gradient N={n} {bc:?}"), |b| {
+                b.iter(|| black_box(e.evaluate().expect("evaluates")))
+            });
+        }
+        // Floor: Cholesky + inverse of two N×N SPD matrices (one per space).
+        let m = model(n, BackConstraint::None);
+        let x = m.latent_points().to_owned();
+        let k = Mat::from_fn(n, n, |i, j| {
+            let r2: f64 = (0..x.ncols())
+                .map(|t| (x[(i, t)] - x[(j, t)]).powi(2))
+                .sum();
+            (-0.5 * r2).exp() + if i == j { 0.1 } else { 0.0 }
+        });
+        let par = if n >= 700 { Par::rayon(0) } else { Par::Seq };
+        let mut l = k.clone();
+        let mut inv = Mat::zeros(n, n);
+        let mut mem = MemBuffer::new(
+            llt::factor::cholesky_in_place_scratch::<f64>(n, par, Default::default())
+                .or(llt::inverse::inverse_scratch::<f64>(n, par)),
+        );
+        g.bench_function(format!("2x(cholesky+inverse) N={n}"), |b| {
+            b.iter(|| {
+                for _ in 0..2 {
+                    l.copy_from(&k);
+                    llt::factor::cholesky_in_place(
+                        l.as_mut(),
+                        Default::default(),
+                        par,
+                        MemStack::new(&mut mem),
+                        Default::default(),
+                    )
+                    .expect("spd");
+                    llt::inverse::inverse(inv.as_mut(), l.as_ref(), par, MemStack::new(&mut mem));
+                }
+                black_box(inv[(0, 0)])
+            })
+        });
+    }
+    g.finish();
+}
+
+fn bench_predict(c: &mut Criterion) {
+    let mut g = c.benchmark_group("prediction");
+    let n = 300;
+    for bc in [BackConstraint::Input, BackConstraint::None] {
+        let m = model(n, bc);
+        let (h, _) = data(1000);
+        let frame: Vec<f64> = (0..18).map(|j| h[(17, j)]).collect();
+        let mut out = vec![0.0; 14];
+        g.bench_function(format!("predict_frame N={n} {bc:?}"), |b| {
+            b.iter(|| {
+                m.predict_frame(black_box(&frame), "robot", &mut out)
+                    .expect("predicts");
+                black_box(out[0])
+            })
+        });
+        g.throughput(criterion::Throughput::Elements(1000));
+        g.bench_function(format!("predict 1000 frames N={n} {bc:?}"), |b| {
+            b.iter(|| black_box(m.predict(h.as_ref(), "robot", false).expect("predicts")))
+        });
+        g.bench_function(format!("predict+variance 1000 frames N={n} {bc:?}"), |b| {
+            b.iter(|| black_box(m.predict(h.as_ref(), "robot", true).expect("predicts")))
+        });
+        g.throughput(criterion::Throughput::Elements(1));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_eval, bench_predict);
+criterion_main!(benches);
