@@ -180,6 +180,10 @@ pub struct ReplayOptions {
     /// A joint counts as beyond its limit when it is more than this far past it, in rad (or m
     /// for prismatic joints); default 0.001.
     pub limit_tolerance: f64,
+    /// A joint counts as too fast when its speed exceeds the URDF `<limit velocity>` by more
+    /// than this, in rad/s (or m/s); default 0.01. Joints whose URDF velocity limit is 0 or
+    /// missing are not checked.
+    pub velocity_tolerance: f64,
     /// Whether the URDF joint limits are enforced by the simulator (default true, as on the
     /// robot). With false, a commanded excursion is followed and shows as a measured violation.
     pub enforce_limits: bool,
@@ -224,6 +228,7 @@ impl Default for ReplayOptions {
             settle_seconds: 0.5,
             gravity: true,
             limit_tolerance: 1e-3,
+            velocity_tolerance: 0.01,
             enforce_limits: true,
             contact_response: true,
             contact_distance: 0.0,
@@ -279,6 +284,13 @@ impl ReplayOptions {
             return Err(bad(
                 "limit_tolerance",
                 self.limit_tolerance,
+                "a finite tolerance >= 0",
+            ));
+        }
+        if !(self.velocity_tolerance.is_finite() && self.velocity_tolerance >= 0.0) {
+            return Err(bad(
+                "velocity_tolerance",
+                self.velocity_tolerance,
                 "a finite tolerance >= 0",
             ));
         }
@@ -473,6 +485,11 @@ pub struct ReplayReport {
     pub joints: Vec<JointTracking>,
     /// Limit excursions, ordered by start time.
     pub limit_violations: Vec<LimitViolation>,
+    /// Stretches of time during which a joint moved faster than its URDF velocity limit,
+    /// ordered by start time; `amount` and `limit` are speeds (rad/s or m/s, `limit` signed
+    /// like the velocity), `commanded` as for position limits (the reference's slope, or the
+    /// simulated joint's velocity).
+    pub velocity_violations: Vec<LimitViolation>,
     /// Self-collisions, ordered by start time; consecutive steps in contact form one event.
     pub collisions: Vec<Collision>,
     /// Things the model loader worked around (mesh shapes skipped, floating roots fixed ...).
@@ -847,6 +864,8 @@ struct DrivenJoint {
     dof: Dof,
     /// (lower, upper), or None for continuous joints.
     limits: Option<(f64, f64)>,
+    /// The URDF velocity limit, when positive.
+    velocity_limit: Option<f64>,
     /// Trajectory column, or None when held still.
     column: Option<usize>,
     /// Held position for joints without a column.
@@ -959,6 +978,8 @@ fn simulate(
             body: handle.link2,
             dof,
             limits,
+            velocity_limit: (joint.limit.velocity.is_finite() && joint.limit.velocity > 0.0)
+                .then_some(joint.limit.velocity),
             column: None,
             hold: limits.map_or(0.0, |(lo, hi)| 0.0f64.clamp(lo, hi)),
         });
@@ -1109,6 +1130,9 @@ fn simulate(
     let mut velocity = vec![0.0f64; driven.len()];
     let mut actual = vec![0.0f64; driven.len()];
     let mut open_limits: HashMap<(usize, bool), OpenEvent> = HashMap::new();
+    let mut open_speeds: HashMap<(usize, bool), OpenEvent> = HashMap::new();
+    let mut velocity_violations = Vec::new();
+    let mut slope = vec![0.0f64; driven.len()];
     let mut limit_violations = Vec::new();
     let mut open_contacts: HashMap<(usize, usize), OpenEvent> = HashMap::new();
     let mut collisions = Vec::new();
@@ -1155,6 +1179,7 @@ fn simulate(
                 None => (d.hold, 0.0),
             };
             reference[i] = q;
+            slope[i] = v;
             velocity[i] = if options.velocity_feedforward { v } else { 0.0 };
             if let Some((mb, link_id)) = world.multibody_joints.get_mut(d.handle) {
                 if let Some(link) = mb.link_mut(link_id) {
@@ -1196,23 +1221,31 @@ fn simulate(
                         (lo - value, lo)
                     };
                     if beyond > tol {
-                        let event = open_limits.entry((i, commanded)).or_insert(OpenEvent {
-                            start: t,
-                            end: t,
-                            amount: 0.0,
-                            limit,
-                            last_step: step,
-                        });
-                        event.end = t;
-                        event.last_step = step;
-                        if beyond > event.amount {
-                            event.amount = beyond;
-                            event.limit = limit;
-                        }
+                        extend_event(&mut open_limits, (i, commanded), t, step, beyond, limit);
+                    }
+                }
+            }
+            if let Some(max_speed) = d.velocity_limit {
+                let measured = joint_velocity(&world, d);
+                for (commanded, value) in [(true, slope[i]), (false, measured)] {
+                    let beyond = value.abs() - max_speed;
+                    if beyond > options.velocity_tolerance {
+                        let limit = max_speed.copysign(value);
+                        extend_event(&mut open_speeds, (i, commanded), t, step, beyond, limit);
                     }
                 }
             }
         }
+        close_events(&mut open_speeds, step, |(i, commanded), e| {
+            velocity_violations.push(LimitViolation {
+                time: e.start,
+                end_time: e.end,
+                joint: driven[i].name.clone(),
+                amount: e.amount,
+                limit: e.limit,
+                commanded,
+            })
+        });
         close_events(&mut open_limits, step, |(i, commanded), e| {
             limit_violations.push(LimitViolation {
                 time: e.start,
@@ -1271,6 +1304,16 @@ fn simulate(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     // Close whatever is still open at the end.
+    close_events(&mut open_speeds, usize::MAX, |(i, commanded), e| {
+        velocity_violations.push(LimitViolation {
+            time: e.start,
+            end_time: e.end,
+            joint: driven[i].name.clone(),
+            amount: e.amount,
+            limit: e.limit,
+            commanded,
+        })
+    });
     close_events(&mut open_limits, usize::MAX, |(i, commanded), e| {
         limit_violations.push(LimitViolation {
             time: e.start,
@@ -1290,12 +1333,14 @@ fn simulate(
             max_penetration: e.amount,
         })
     });
-    limit_violations.sort_by(|x, y| {
+    let by_time = |x: &LimitViolation, y: &LimitViolation| {
         x.time
             .total_cmp(&y.time)
             .then_with(|| x.joint.cmp(&y.joint))
             .then_with(|| y.commanded.cmp(&x.commanded))
-    });
+    };
+    limit_violations.sort_by(by_time);
+    velocity_violations.sort_by(by_time);
     collisions.sort_by(|x, y| {
         x.time
             .total_cmp(&y.time)
@@ -1330,6 +1375,7 @@ fn simulate(
         wall_seconds,
         joints,
         limit_violations,
+        velocity_violations,
         collisions,
         warnings,
         simulated,
@@ -1343,6 +1389,40 @@ fn joint_position(world: &PhysicsWorld, d: &DrivenJoint) -> f64 {
         .get(d.handle)
         .and_then(|(mb, link_id)| mb.link(link_id))
         .map_or(f64::NAN, |link| link.joint().coords()[d.dof.coord()] as f64)
+}
+
+/// The simulated velocity of a driven joint.
+fn joint_velocity(world: &PhysicsWorld, d: &DrivenJoint) -> f64 {
+    world
+        .multibody_joints
+        .get(d.handle)
+        .and_then(|(mb, link_id)| mb.link(link_id).map(|link| mb.joint_velocity(link)))
+        .and_then(|v| v.get(0).copied())
+        .map_or(0.0, |v| v as f64)
+}
+
+/// Opens or extends the event `key` at step `step` (time `t`) with excess `beyond` over `limit`.
+fn extend_event<K: Eq + std::hash::Hash>(
+    open: &mut HashMap<K, OpenEvent>,
+    key: K,
+    t: f64,
+    step: usize,
+    beyond: f64,
+    limit: f64,
+) {
+    let event = open.entry(key).or_insert(OpenEvent {
+        start: t,
+        end: t,
+        amount: 0.0,
+        limit,
+        last_step: step,
+    });
+    event.end = t;
+    event.last_step = step;
+    if beyond > event.amount {
+        event.amount = beyond;
+        event.limit = limit;
+    }
 }
 
 /// Moves every event not extended at `step` from `open` to `emit`.

@@ -510,3 +510,57 @@ fn a_reversed_joint_axis_reverses_the_coordinate() {
         "{ta:?} {tb:?}"
     );
 }
+
+#[test]
+fn moving_faster_than_the_velocity_limit_is_reported() {
+    // The elbow (velocity limit 5 rad/s) drops from -0.2 to -1.2 in 0.1 s: 10 rad/s commanded.
+    let trajectory = sampled(1.0, |t| {
+        let e = if t < 0.2 {
+            -0.2
+        } else if t < 0.3 {
+            -0.2 - 10.0 * (t - 0.2)
+        } else {
+            -1.2
+        };
+        [0.0, -0.2, e]
+    });
+    let report = replay(ARM, "mini.urdf", &trajectory, &ReplayOptions::default()).unwrap();
+    assert!(
+        report.limit_violations.is_empty(),
+        "{:?}",
+        report.limit_violations
+    );
+    let commanded: Vec<_> = report
+        .velocity_violations
+        .iter()
+        .filter(|v| v.commanded)
+        .collect();
+    assert_eq!(commanded.len(), 1, "{:?}", report.velocity_violations);
+    let v = commanded[0];
+    assert_eq!(v.joint, "elbow");
+    assert_eq!(v.limit, -5.0);
+    assert!((v.amount - 5.0).abs() < 1e-6, "{v:?}");
+    assert!(
+        (v.time - 0.201).abs() < 1e-6 && (v.end_time - 0.3).abs() < 1e-6,
+        "{v:?}"
+    );
+    // The servo follows, so the simulated elbow is too fast as well, for a similar stretch.
+    let measured = report
+        .velocity_violations
+        .iter()
+        .find(|v| !v.commanded)
+        .expect("measured velocity violation");
+    assert_eq!(measured.joint, "elbow");
+    assert!(
+        measured.amount > 2.0 && measured.amount < 8.0,
+        "{measured:?}"
+    );
+    assert!(measured.time > 0.2 && measured.time < 0.26, "{measured:?}");
+    // The smooth trajectory stays well under every velocity limit.
+    let calm = replay(ARM, "mini.urdf", &smooth(), &ReplayOptions::default()).unwrap();
+    assert!(
+        calm.velocity_violations.is_empty(),
+        "{:?}",
+        calm.velocity_violations
+    );
+}
