@@ -929,7 +929,7 @@ mod tests {
         let [arm, _] = r.arms().unwrap();
         let zero = vec![0.0; 9];
         let s = r
-            .forward_kinematics(&vec![0.0; 18], &arm.shoulder_link)
+            .forward_kinematics(&[0.0; 18], &arm.shoulder_link)
             .unwrap()
             .translation
             .vector;
