@@ -24,6 +24,23 @@ fn main() {
                 ds.test.len()
             );
             for body in &generated.bodies {
+                // Posture continuity: how far each key posture is from the neutral one.
+                let dists: Vec<f64> = body
+                    .postures
+                    .iter()
+                    .map(|q| {
+                        q.iter()
+                            .zip(&body.postures[0])
+                            .map(|(a, b)| (a - b).abs())
+                            .fold(0.0, f64::max)
+                    })
+                    .collect();
+                println!(
+                    "  {}: largest joint move from neutral: mean {:.2} rad, max {:.2} rad",
+                    body.name,
+                    dists.iter().sum::<f64>() / (dists.len() - 1) as f64,
+                    dists.iter().cloned().fold(0.0, f64::max)
+                );
                 let unreached: Vec<String> = body
                     .unreached()
                     .map(|r| {

@@ -233,6 +233,9 @@ impl BodyPoses {
     }
 }
 
+/// Gain of the IK posture task that keeps key postures close to the neutral one.
+const POSTURE_GAIN: f64 = 0.5;
+
 /// Solves every key pose for the built-in body `name` by position IK of each arm.
 pub fn solve_key_poses(name: &str) -> Result<BodyPoses, GenerateError> {
     let robot_err = |source| GenerateError::Robot {
@@ -292,10 +295,17 @@ pub fn solve_key_poses_for(robot: &Robot, name: &str) -> Result<BodyPoses, Gener
             seeds.push(&arm_zero);
             let anchor: &[f64] = neutral_q.as_deref().unwrap_or(&arm_zero);
             let mut best: Option<Candidate> = None;
+            // A null-space posture task pulls every solution towards the anchor (the neutral
+            // posture; the hanging arm for the neutral pose itself): natural, continuous postures.
+            let with_posture = IkOptions {
+                posture_gain: POSTURE_GAIN,
+                rest: Some(anchor.to_vec()),
+                ..seeded.clone()
+            };
             for seed in &seeds {
-                let sol = arm
-                    .chain
-                    .inverse_kinematics(&IkTarget::Position(target), seed, &seeded);
+                let sol =
+                    arm.chain
+                        .inverse_kinematics(&IkTarget::Position(target), seed, &with_posture);
                 keep_better(&mut best, sol, anchor);
             }
             if !best.as_ref().is_some_and(|b| b.converged) {
@@ -575,7 +585,13 @@ pub fn synthesize(
             let s = quintic(t / duration);
             for (rows, b) in robot_rows.iter_mut().zip(robots) {
                 let (qa, qb) = (&b.postures[mv.from], &b.postures[mv.to]);
-                rows.extend(qa.iter().zip(qb).map(|(a, b)| a + s * (b - a)));
+                // Clamped: a + s (b − a) can overshoot a limit-clamped end posture by an ulp.
+                rows.extend(
+                    qa.iter()
+                        .zip(qb)
+                        .zip(&b.limits)
+                        .map(|((a, b), &(lo, hi))| (a + s * (b - a)).clamp(lo, hi)),
+                );
             }
             let sh = quintic((t - delay) / human_duration);
             let arc = (std::f64::consts::PI * sh).sin();
