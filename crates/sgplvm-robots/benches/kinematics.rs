@@ -44,6 +44,20 @@ fn bench(c: &mut Criterion) {
     c.bench_function("ik_position_7dof_walkman_from_neutral", |b| {
         b.iter(|| warm.inverse_kinematics(black_box(&wt), black_box(&w0[..7]), &opts))
     });
+    let human = Robot::builtin("human").expect("the built-in human model loads");
+    let [harm, _] = human.arms().expect("the human has arms");
+    let hq = [0.1, 0.1, 0.8, 0.3, 0.2, 1.2, 0.3, 0.2, 0.1];
+    let ht = IkTarget::Position(harm.chain.forward(&hq).translation.vector);
+    let posture = IkOptions {
+        posture_gain: 0.5,
+        ..IkOptions::default()
+    };
+    c.bench_function("ik_position_9dof_human_with_posture_task", |b| {
+        b.iter(|| {
+            harm.chain
+                .inverse_kinematics(black_box(&ht), black_box(&[0.0; 9]), &posture)
+        })
+    });
 }
 
 criterion_group!(benches, bench);

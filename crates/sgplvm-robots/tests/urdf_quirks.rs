@@ -178,6 +178,38 @@ fn quat_xyzw_origins_of_urdf_1_1_are_read() {
     assert!((p.rotation.axis().unwrap().z - 1.0).abs() < 1e-12);
 }
 
+#[test]
+fn quat_xyzw_conflicts_and_old_versions() {
+    // Both orientations at once is an error in URDF 1.1 ...
+    let both = r#"<robot name="q" version="1.1"><link name="base"/><link name="tip"/>
+        <joint name="j" type="fixed"><origin rpy="0 0 1" quat_xyzw="0 0 0 1"/>
+        <parent link="base"/><child link="tip"/></joint></robot>"#;
+    assert!(reject(both).contains("both rpy and quat_xyzw are given"));
+    let zero = both.replace(
+        r#"rpy="0 0 1" quat_xyzw="0 0 0 1""#,
+        r#"quat_xyzw="0 0 0 0""#,
+    );
+    assert!(reject(&zero).contains("@quat_xyzw: the quaternion is zero"));
+    // ... and before 1.1 quat_xyzw is ignored, as urdfdom does.
+    let old = both.replace(" version=\"1.1\"", "");
+    let p = load(&old).forward_kinematics(&[], "tip").unwrap();
+    assert!((p.rotation.angle() - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn robots_without_the_arm_convention_have_no_arms() {
+    let r = load(&arm(
+        r#"<joint name="j" type="fixed"><parent link="base"/><child link="tip"/></joint>"#,
+    ));
+    assert!(r.arms().is_none());
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    let kuka = Robot::from_urdf_file(&dir.join("kuka_iiwa.urdf")).unwrap();
+    assert!(kuka.arms().is_none());
+    assert_eq!(kuka.joint_names().len(), 7);
+    assert_eq!(kuka.joint_index("lbr_iiwa_joint_4"), Some(3));
+    assert_eq!(kuka.joint_index("nope"), None);
+}
+
 // ----------------------------------------------------------------------------- broken files
 
 #[test]
