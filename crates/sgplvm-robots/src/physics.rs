@@ -193,6 +193,10 @@ pub struct ReplayOptions {
     /// Two links whose shapes are closer than this (metres; negative values demand that much
     /// penetration) count as colliding. Default 0.0: touching or penetrating.
     pub contact_distance: f64,
+    /// Events of the same kind (the same link pair, or the same joint and limit check)
+    /// separated by less than this many seconds are merged into one (default 0.02 s: contact
+    /// that flickers on and off from one 1 ms step to the next is one collision).
+    pub merge_gap_seconds: f64,
     /// Whether the motors also track the reference velocity (default true). With false they
     /// are pure position servos with velocity damping toward zero.
     pub velocity_feedforward: bool,
@@ -232,6 +236,7 @@ impl Default for ReplayOptions {
             enforce_limits: true,
             contact_response: true,
             contact_distance: 0.0,
+            merge_gap_seconds: 0.02,
             velocity_feedforward: true,
             allow_missing_joints: false,
             ignored_pairs: Vec::new(),
@@ -292,6 +297,13 @@ impl ReplayOptions {
                 "velocity_tolerance",
                 self.velocity_tolerance,
                 "a finite tolerance >= 0",
+            ));
+        }
+        if !(self.merge_gap_seconds.is_finite() && self.merge_gap_seconds >= 0.0) {
+            return Err(bad(
+                "merge_gap_seconds",
+                self.merge_gap_seconds,
+                "a finite duration >= 0",
             ));
         }
         if !self.contact_distance.is_finite() {
@@ -1122,6 +1134,7 @@ fn simulate(
     let n_cols = trajectory.joint_names.len();
     let (stiffness, damping) = (options.stiffness as Real, options.damping as Real);
     let tol = options.limit_tolerance;
+    let merge_gap = (options.merge_gap_seconds * rate).round() as usize;
 
     let mut sum_sq = vec![0.0f64; driven.len()];
     let mut max_err = vec![0.0f64; driven.len()];
@@ -1236,7 +1249,7 @@ fn simulate(
                 }
             }
         }
-        close_events(&mut open_speeds, step, |(i, commanded), e| {
+        close_events(&mut open_speeds, step, merge_gap, |(i, commanded), e| {
             velocity_violations.push(LimitViolation {
                 time: e.start,
                 end_time: e.end,
@@ -1246,7 +1259,7 @@ fn simulate(
                 commanded,
             })
         });
-        close_events(&mut open_limits, step, |(i, commanded), e| {
+        close_events(&mut open_limits, step, merge_gap, |(i, commanded), e| {
             limit_violations.push(LimitViolation {
                 time: e.start,
                 end_time: e.end,
@@ -1284,7 +1297,7 @@ fn simulate(
             event.last_step = step;
             event.amount = event.amount.max(depth);
         }
-        close_events(&mut open_contacts, step, |(a, b), e| {
+        close_events(&mut open_contacts, step, merge_gap, |(a, b), e| {
             collisions.push(Collision {
                 time: e.start,
                 end_time: e.end,
@@ -1304,7 +1317,7 @@ fn simulate(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     // Close whatever is still open at the end.
-    close_events(&mut open_speeds, usize::MAX, |(i, commanded), e| {
+    close_events(&mut open_speeds, usize::MAX, 0, |(i, commanded), e| {
         velocity_violations.push(LimitViolation {
             time: e.start,
             end_time: e.end,
@@ -1314,7 +1327,7 @@ fn simulate(
             commanded,
         })
     });
-    close_events(&mut open_limits, usize::MAX, |(i, commanded), e| {
+    close_events(&mut open_limits, usize::MAX, 0, |(i, commanded), e| {
         limit_violations.push(LimitViolation {
             time: e.start,
             end_time: e.end,
@@ -1324,7 +1337,7 @@ fn simulate(
             commanded,
         })
     });
-    close_events(&mut open_contacts, usize::MAX, |(a, b), e| {
+    close_events(&mut open_contacts, usize::MAX, 0, |(a, b), e| {
         collisions.push(Collision {
             time: e.start,
             end_time: e.end,
@@ -1425,10 +1438,12 @@ fn extend_event<K: Eq + std::hash::Hash>(
     }
 }
 
-/// Moves every event not extended at `step` from `open` to `emit`.
+/// Moves every event not extended during the last `gap` steps before `step` (inclusive of
+/// `step`) from `open` to `emit`.
 fn close_events<K: Copy + Eq + std::hash::Hash>(
     open: &mut HashMap<K, OpenEvent>,
     step: usize,
+    gap: usize,
     mut emit: impl FnMut(K, OpenEvent),
 ) {
     if open.is_empty() {
@@ -1436,7 +1451,7 @@ fn close_events<K: Copy + Eq + std::hash::Hash>(
     }
     let done: Vec<K> = open
         .iter()
-        .filter(|(_, e)| e.last_step != step)
+        .filter(|(_, e)| step - e.last_step > gap)
         .map(|(k, _)| *k)
         .collect();
     for key in done {
@@ -1613,9 +1628,14 @@ mod tests {
         open.insert(1usize, event(7));
         open.insert(2usize, event(8));
         let mut closed = Vec::new();
-        close_events(&mut open, 8, |k, e| closed.push((k, e.last_step)));
+        close_events(&mut open, 8, 0, |k, e| closed.push((k, e.last_step)));
         assert_eq!(closed, vec![(1, 7)]);
         assert!(open.contains_key(&2) && open.len() == 1);
+        // With a gap of 3 steps, an event last extended at step 8 stays open through step 11.
+        close_events(&mut open, 11, 3, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed.len(), 1);
+        close_events(&mut open, 12, 3, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed, vec![(1, 7), (2, 8)]);
     }
 
     #[test]

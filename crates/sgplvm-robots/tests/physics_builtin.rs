@@ -97,3 +97,58 @@ fn coman_adducting_its_arms_hits_its_torso() {
         report.limit_violations
     );
 }
+
+#[test]
+fn the_shipped_demonstrations_replay_within_limits() {
+    // Seconds 8-10 of data/demos/bimanual.mcap (the generator's bimanual key poses): every
+    // body follows its recorded commands closely and inside its joint limits.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/demos/bimanual.mcap"
+    );
+    let data = sgplvm_robots::dataset::load_demonstrations(path).unwrap();
+    let t0 = data.times_ns[0];
+    let seconds = |i: usize| (data.times_ns[i] - t0) as f64 * 1e-9;
+    let frames: Vec<usize> = (0..data.len())
+        .filter(|&i| (8.0..=10.0).contains(&seconds(i)))
+        .collect();
+    assert!(frames.len() > 70, "{} frames", frames.len());
+    let times: Vec<f64> = frames.iter().map(|&i| seconds(i)).collect();
+    let mut bodies: Vec<&sgplvm_robots::dataset::BodyData> = data.robots.iter().collect();
+    bodies.push(&data.human);
+    let options = ReplayOptions::default();
+    for body in bodies {
+        let positions = frames
+            .iter()
+            .flat_map(|&r| body.positions.row(r).iter().copied().collect::<Vec<_>>())
+            .collect();
+        let trajectory =
+            Trajectory::new(body.joint_names.clone(), times.clone(), positions).unwrap();
+        let xml = Robot::builtin_urdf(&body.name).unwrap();
+        let report = replay(xml, &body.name, &trajectory, &options).unwrap();
+        for joint in &report.joints {
+            assert!(joint.rms_error < 0.03, "{}: {joint:?}", body.name);
+        }
+        assert!(
+            report.limit_violations.iter().all(|v| !v.commanded),
+            "{}: commands beyond limits {:?}",
+            body.name,
+            report.limit_violations
+        );
+        // Collisions (the generator's poses may bring the hands together) come as merged
+        // events: two events of one pair are further apart than the merge gap.
+        for (k, a) in report.collisions.iter().enumerate() {
+            assert!(a.end_time >= a.time);
+            for b in &report.collisions[k + 1..] {
+                if (a.link_a.as_str(), a.link_b.as_str()) == (b.link_a.as_str(), b.link_b.as_str())
+                {
+                    assert!(
+                        b.time - a.end_time > options.merge_gap_seconds,
+                        "{a:?} {b:?}"
+                    );
+                }
+            }
+        }
+        println!("{}: collisions {:?}", body.name, report.collisions);
+    }
+}
