@@ -237,89 +237,104 @@ pub(crate) fn minimise<O: Objective>(
             reason: StopReason::MaxIterations,
         });
     }
-    let op = Op {
-        obj,
-        scale,
-        last: Mutex::new(None),
+    type Lbfgs = LBFGS<MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>, Vec<f64>, Vec<f64>, f64>;
+    type St = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
+    // A fresh problem and L-BFGS (empty memory) started at `theta`. The problem is recreated
+    // too: argmin 0.11's L-BFGS does not hand the problem back after a failed line search.
+    let fresh = |theta: Vec<f64>| -> Result<(Problem<Op<'_, O>>, Lbfgs, St)> {
+        let mut problem = Problem::new(Op {
+            obj,
+            scale,
+            last: Mutex::new(None),
+        });
+        let mut solver: Lbfgs = LBFGS::new(MoreThuenteLineSearch::new(), options.memory);
+        let (state, _) = solver
+            .init(&mut problem, IterState::new().param(theta))
+            .map_err(|e| Error::InvalidValue {
+                what: "L-BFGS initialisation".into(),
+                reason: e.to_string(),
+            })?;
+        Ok((problem, solver, state))
     };
-    let mut problem = Problem::new(op);
-    let linesearch = MoreThuenteLineSearch::new();
-    let mut solver: LBFGS<_, Vec<f64>, Vec<f64>, f64> = LBFGS::new(linesearch, options.memory);
-    let state = IterState::new().param(theta0.clone());
-    let (mut state, _) = solver
-        .init(&mut problem, state)
-        .map_err(|e| Error::InvalidValue {
-            what: "L-BFGS initialisation".into(),
-            reason: e.to_string(),
-        })?;
+    let (mut problem, mut solver, mut state) = fresh(theta0.clone())?;
     let mut best = theta0;
     let mut best_f = f0;
     let reason;
     let mut iteration = 0;
+    // After a failed line search the solver is restarted once from the best point with an
+    // empty memory (steepest descent step); a second failure in a row ends training.
+    let mut restarted = false;
     loop {
         if iteration >= options.max_iters {
             reason = StopReason::MaxIterations;
             break;
         }
-        let next = solver.next_iter(&mut problem, state);
-        let (new_state, _) = match next {
-            Ok(s) => s,
-            Err(e) => {
-                reason = StopReason::LineSearch(e.to_string());
+        let failure: Option<String>;
+        let mut accepted: Option<(Vec<f64>, f64, Vec<f64>)> = None;
+        match solver.next_iter(&mut problem, state.clone()) {
+            Err(e) => failure = Some(e.to_string()),
+            Ok((mut new_state, _)) => {
+                new_state.increment_iter();
+                let terminated = new_state.terminated();
+                match new_state.get_param().cloned() {
+                    None => failure = Some(format!("{:?}", new_state.get_termination_reason())),
+                    Some(param) => {
+                        let mut g = vec![0.0; param.len()];
+                        let f = match obj.eval(&param, &mut g) {
+                            Ok(f) if f.is_finite() => f,
+                            _ => f64::INFINITY,
+                        };
+                        if f.is_nan() || f > best_f {
+                            failure = Some("line search returned a worse point".into());
+                        } else {
+                            failure = if terminated {
+                                Some(format!("{:?}", new_state.get_termination_reason()))
+                            } else {
+                                None
+                            };
+                            accepted = Some((param, f, g));
+                        }
+                    }
+                }
+                state = new_state;
+            }
+        }
+        if let Some((param, f, g)) = accepted {
+            restarted = false;
+            iteration += 1;
+            let rel = (best_f - f) / best_f.abs().max(f.abs()).max(1.0);
+            best = param;
+            best_f = f;
+            let record = IterationRecord {
+                iteration,
+                objective: f,
+                seconds: start.elapsed().as_secs_f64() - paused,
+                gradient_norm: max_abs(&g),
+            };
+            history.push(record.clone());
+            let t = Instant::now();
+            let control = on_iter(&record, &best);
+            paused += t.elapsed().as_secs_f64();
+            if control == Control::Stop {
+                reason = StopReason::Callback;
                 break;
             }
-        };
-        state = new_state;
-        state.increment_iter();
-        iteration += 1;
-        let terminated = state.terminated();
-        let Some(param) = state.get_param() else {
-            reason = StopReason::LineSearch("solver lost its parameter vector".into());
-            break;
-        };
-        let param = param.clone();
-        let mut g = vec![0.0; param.len()];
-        let f = match obj.eval(&param, &mut g) {
-            Ok(f) if f.is_finite() => f,
-            _ => f64::INFINITY,
-        };
-        if f.is_nan() || f > best_f {
-            // No progress (or a failed point): keep the best point and stop.
-            reason = StopReason::LineSearch(if terminated {
-                format!("{:?}", state.get_termination_reason())
-            } else {
-                "line search returned a worse point".into()
-            });
-            break;
+            if record.gradient_norm < options.grad_tol {
+                reason = StopReason::GradientTolerance;
+                break;
+            }
+            if rel < options.rel_tol {
+                reason = StopReason::RelativeTolerance;
+                break;
+            }
         }
-        let rel = (best_f - f) / best_f.abs().max(f.abs()).max(1.0);
-        best = param;
-        best_f = f;
-        let record = IterationRecord {
-            iteration,
-            objective: f,
-            seconds: start.elapsed().as_secs_f64() - paused,
-            gradient_norm: max_abs(&g),
-        };
-        history.push(record.clone());
-        let t = Instant::now();
-        let control = on_iter(&record, &best);
-        paused += t.elapsed().as_secs_f64();
-        if control == Control::Stop {
-            reason = StopReason::Callback;
-            break;
-        }
-        if record.gradient_norm < options.grad_tol {
-            reason = StopReason::GradientTolerance;
-            break;
-        }
-        if rel < options.rel_tol {
-            reason = StopReason::RelativeTolerance;
-            break;
-        }
-        if terminated {
-            reason = StopReason::LineSearch(format!("{:?}", state.get_termination_reason()));
-            break;
+        if let Some(msg) = failure {
+            if restarted {
+                reason = StopReason::LineSearch(msg);
+                break;
+            }
+            restarted = true;
+            (problem, solver, state) = fresh(best.clone())?;
         }
     }
     Ok(Outcome {
@@ -361,6 +376,30 @@ mod tests {
             assert!(w[1].objective <= w[0].objective);
         }
         assert!(out.history.len() < 200);
+    }
+
+    /// x² shifted, undefined (an error, like a non-PD kernel) left of −0.5.
+    struct Walled;
+    impl Objective for Walled {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            if t[0] < -0.5 {
+                return Err(Error::NotPositiveDefinite {
+                    space: "wall".into(),
+                    jitter: 1e-2,
+                });
+            }
+            g[0] = 2.0 * (t[0] + 0.4);
+            Ok((t[0] + 0.4).powi(2))
+        }
+    }
+
+    #[test]
+    fn failed_evaluations_are_backtracked_not_fatal() {
+        let opts = TrainOptions::default().with_grad_tol(1e-9);
+        let out = minimise(&Walled, vec![3.0], 1.0, &opts, |_, _| Control::Continue).expect("runs");
+        assert!((out.theta[0] + 0.4).abs() < 1e-6, "{:?}", out.theta);
+        // The initial point must be valid: its failure is the caller's error.
+        assert!(minimise(&Walled, vec![-1.0], 1.0, &opts, |_, _| Control::Continue).is_err());
     }
 
     #[test]
