@@ -1012,6 +1012,24 @@ fn simulate(
             );
         }
     }
+    if !report.velocity_violations.is_empty() {
+        println!("velocity-limit violations:");
+        for v in &report.velocity_violations {
+            println!(
+                "  {:>7.3}–{:<7.3} s  {:<20} {:.2} rad/s beyond {:.3} rad/s ({})",
+                v.time,
+                v.end_time,
+                v.joint,
+                v.amount,
+                v.limit,
+                if v.commanded {
+                    "commanded"
+                } else {
+                    "not commanded"
+                }
+            );
+        }
+    }
     if report.collisions.is_empty() {
         println!("no self-collisions");
     } else {
