@@ -911,8 +911,7 @@ fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Traje
         (Some(t), _) => t,
         (None, _) => (0..table.rows).map(|i| i as f64 / 40.0).collect(),
     };
-    Ok(Trajectory::new(table.header.joints, times, table.values)
-        .with_context(|| path.to_string())?)
+    Trajectory::new(table.header.joints, times, table.values).with_context(|| path.to_string())
 }
 
 fn simulate(

@@ -41,6 +41,13 @@ fn parse_compression(name: &str) -> PyResult<Compression> {
     }
 }
 
+/// `(times_ns, joint_names, positions)` as numpy arrays.
+type JointStatesArrays<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Vec<String>,
+    Bound<'py, PyArray2<f64>>,
+);
+
 /// Reads one `sensor_msgs/msg/JointState` topic of an MCAP file (CDR or JSON encoded).
 ///
 /// Returns `(times_ns, joint_names, positions)`: int64 (n,), list of str, float64 (n, joints).
@@ -49,11 +56,7 @@ pub fn read_joint_states<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     topic: &str,
-) -> PyResult<(
-    Bound<'py, PyArray1<i64>>,
-    Vec<String>,
-    Bound<'py, PyArray2<f64>>,
-)> {
+) -> PyResult<JointStatesArrays<'py>> {
     let states = py
         .detach(|| joint_state::read_joint_states(&path, topic))
         .map_err(demo_error)?;

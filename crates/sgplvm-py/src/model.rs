@@ -88,6 +88,9 @@ fn train_detached(
     result.map_err(model_error)
 }
 
+/// Posterior mean and, when asked for, variance.
+type MeanAndVariance<'py> = (Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>);
+
 /// A trained shared GP-LVM (native part; use `sgplvm.SharedGPLVM`).
 #[pyclass(module = "sgplvm._sgplvm", name = "NativeModel", frozen)]
 pub struct NativeModel {
@@ -161,7 +164,7 @@ impl NativeModel {
         h: PyReadonlyArray2<'py, f64>,
         robot: &str,
         with_variance: bool,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>)> {
+    ) -> PyResult<MeanAndVariance<'py>> {
         let h = to_mat(&h);
         let prediction = py
             .detach(|| self.inner.predict(h.as_ref(), robot, with_variance))
