@@ -11,19 +11,37 @@ fn teleop(c: &mut Criterion) {
     let demos = pipeline::load(None).expect("shipped demonstrations");
     let options = TrainOptions::default().with_max_iters(100);
     let full = demos
-        .train(&["walkman".to_string()], &ModelConfig::default(), &options, None)
+        .train(
+            &["walkman".to_string()],
+            &ModelConfig::default(),
+            &options,
+            None,
+        )
         .expect("training");
-    let model = demos.transfer(&full, "coman", &options, None).expect("transfer");
+    let model = demos
+        .transfer(&full, "coman", &options, None)
+        .expect("transfer");
     let ds = &demos.dataset;
     let header = CsvHeader::parse(&ds.human.joint_names.join(","));
     let frame = ds.test[0];
-    let line = format_line(None, &ds.human.positions.row(frame).iter().copied().collect::<Vec<_>>());
+    let line = format_line(
+        None,
+        &ds.human
+            .positions
+            .row(frame)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+    );
     let mut joints = vec![0.0; 14];
 
-    c.bench_function("predict_frame (N = training frames, 18 → 5 → 14)", |b| {
-        let human: Vec<f64> = ds.human.positions.row(frame).iter().copied().collect();
-        b.iter(|| model.predict_frame(&human, "coman", &mut joints).unwrap())
-    });
+    c.bench_function(
+        "predict_frame (N = training frames, 18 → 5 → 14)",
+        |b| {
+            let human: Vec<f64> = ds.human.positions.row(frame).iter().copied().collect();
+            b.iter(|| model.predict_frame(&human, "coman", &mut joints).unwrap())
+        },
+    );
     c.bench_function("CSV line in → CSV line out", |b| {
         b.iter(|| {
             let (_, human) = header.parse_line(&line, 2, "bench").unwrap();

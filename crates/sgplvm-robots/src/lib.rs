@@ -1,8 +1,8 @@
 //! The robotic half of sgplvm: URDF bodies, kinematics, MCAP demonstrations and the
 //! demonstration generator. Knows nothing of statistics.
 
-pub mod joint_state;
 pub mod dataset;
+pub mod joint_state;
 
 pub mod error;
 pub mod kinematics;
@@ -13,6 +13,6 @@ pub mod urdf;
 pub use error::{RobotError, RobotResult};
 pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
 pub use models::{Arm, Side};
-pub use urdf::{JointInfo, JointKind, Robot};
 pub use physics::{replay, replay_urdf, PhysicsError, ReplayOptions, ReplayReport, Trajectory};
+pub use urdf::{JointInfo, JointKind, Robot};
 pub mod generator;
