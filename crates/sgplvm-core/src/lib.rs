@@ -21,6 +21,35 @@
 //! assert_eq!(pred.mean.nrows(), n);
 //! # Ok::<(), sgplvm_core::Error>(())
 //! ```
+//!
+//! ## Choices made (and where they are documented)
+//!
+//! - **Objective**: `L = Σ_s [D_s/2 log|K_s| + ½ tr(K_s⁻¹ Y_s Y_sᵀ) + N D_s/2 log 2π]`, GPy's
+//!   RBF-ARD + Gaussian-noise parametrisation; no jitter is added unless a Cholesky fails (GPy
+//!   always adds 1e-8: give our model `noise + 1e-8` to compare, as `tests/gpy.rs` does).
+//!   Failed factorisations get jitter from 1e-10 to 1e-2 × mean diagonal; the amount used by
+//!   the final model is [`SharedGplvm::jitter`].
+//! - **Preprocessing**: every space is centred; [`ModelConfig::scale`] additionally divides by
+//!   the column (or space) standard deviation. Predictions are returned in original units.
+//! - **Initialisation**: PCA of each centred space to Q dimensions, each projection divided by
+//!   the standard deviation of its first component, columns sign-aligned with the input's, then
+//!   averaged; plus `init_perturbation` × N(0, 1) from the seed. Kernels start at variance =
+//!   mean column variance, lengthscales 1, noise = `init_noise_fraction` × variance.
+//! - **Back constraints**: `k_bc(a, b) = exp(−|a − b|² / (2 bw²))` with `bw` the median of the
+//!   pairwise Euclidean distances of the constrained (centred) data; W starts at
+//!   `(K_bc + bc_ridge·I)⁻¹ X_init`. The bandwidth is not trained.
+//! - **Human → latent** without input back constraints: a GP regression (RBF-ARD over the
+//!   human columns + noise) on the centred training X, hyperparameters by L-BFGS
+//!   (`TrainOptions::map_max_iters`).
+//! - **Training**: argmin's L-BFGS + More–Thuente on log-parameters, objective scaled by
+//!   1/(N·ΣD) for the solver; stop on max |gradient| (`grad_tol`), relative decrease
+//!   (`rel_tol`) or `max_iters`; after a failed line search L-BFGS restarts once from the best
+//!   point. History is monotone; seconds exclude callback time.
+//! - **Transfer** keeps the source robots (frozen) so one model predicts every robot; only the
+//!   new robot's kernel is trained and only its Cholesky is computed per evaluation.
+//! - **Prediction variance** is the latent function's (`k** − kᵀK⁻¹k`), without the noise and
+//!   without the uncertainty of the latent point (see [`Prediction`]).
+//! - **Files**: see [`MAGIC`] / [`FORMAT_VERSION`] and [`SharedGplvm::to_bytes`].
 
 // Index loops over several arrays at once are the clearest form of the numeric kernels here.
 #![allow(clippy::needless_range_loop)]

@@ -1278,7 +1278,7 @@ impl SharedGplvm {
     }
 
     /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (length
-    /// D of the space). Costs O(N(D_H + Q + D)); allocates nothing for Q ≤ 32.
+    /// D of the space). Costs O(N(D_H + Q + D)); allocates nothing for Q ≤ 32 and D_H ≤ 64.
     pub fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()> {
         self.check_input_row(h)?;
         let si = self.output_index(space)?;
