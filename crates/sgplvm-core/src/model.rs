@@ -1114,11 +1114,42 @@ impl SharedGplvm {
     /// space's Cholesky factor is computed per evaluation. `self` is not modified.
     ///
     /// The new kernel starts from the data's mean column variance, the first robot's
-    /// lengthscales and `init_noise_fraction` of the variance.
+    /// lengthscales and `init_noise_fraction` of the variance, so repeated calls give identical
+    /// models; see [`SharedGplvm::transfer_seeded`] for randomised restarts.
     pub fn transfer(
         &self,
         name: &str,
         data: MatRef<'_, f64>,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        self.transfer_impl(name, data, None, options, callback)
+    }
+
+    /// [`SharedGplvm::transfer`] from a randomly perturbed starting kernel, for repeated
+    /// transfer runs per source model (the paper runs 10). The initial variance and each
+    /// initial lengthscale are multiplied by `exp(0.3 z)`, `z ~ N(0, 1)` drawn in that order
+    /// (variance first) from a ChaCha8 generator seeded with `seed`; the initial noise stays
+    /// `init_noise_fraction` of the unperturbed variance. Same seed ⇒ bit-identical model.
+    /// `self` is not modified.
+    pub fn transfer_seeded(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: u64,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        self.transfer_impl(name, data, Some(seed), options, callback)
+    }
+
+    /// Shared body of [`SharedGplvm::transfer`] (`seed = None`: no perturbation) and
+    /// [`SharedGplvm::transfer_seeded`].
+    fn transfer_impl(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: Option<u64>,
         options: &TrainOptions,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
@@ -1142,6 +1173,18 @@ impl SharedGplvm {
             .get(1)
             .map(|s| s.kernel.lengthscale.clone())
             .unwrap_or(vec![1.0; self.q()]);
+        let mut lengthscale = lengthscale;
+        let mut variance = v;
+        if let Some(seed) = seed {
+            const SPREAD: f64 = 0.3;
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let z: f64 = StandardNormal.sample(&mut rng);
+            variance *= (SPREAD * z).exp();
+            for l in lengthscale.iter_mut() {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                *l *= (SPREAD * z).exp();
+            }
+        }
         let mut model = self.clone();
         model.history = Vec::new();
         model.spaces.push(Space {
@@ -1150,7 +1193,7 @@ impl SharedGplvm {
             offset,
             scale,
             kernel: KernelParams {
-                variance: v,
+                variance,
                 lengthscale,
                 noise: self.config.init_noise_fraction * v,
             },
