@@ -250,34 +250,79 @@ pub fn training_count(config: &ExperimentConfig, robots: usize) -> usize {
     2 * per_bc + config.runs * robots // output back constraints (Fig. 6)
 }
 
+/// Everything one training run of the experiment needs to record its test error.
+struct RunSpec<'a> {
+    context: String,
+    kind: ModelKind,
+    back_constraint: BackConstraint,
+    run: usize,
+    source_robot: Option<&'a str>,
+    /// Robots whose test error is recorded, with their test frames.
+    robots: Vec<(&'a str, MatRef<'a, f64>)>,
+}
+
+/// The state of a running experiment: records, progress and the human test frames.
+struct Runner<'a, 'p> {
+    human_test: MatRef<'a, f64>,
+    runs: Vec<RunRecord>,
+    done: usize,
+    total: usize,
+    progress: &'p mut dyn FnMut(&Progress),
+}
+
+impl<'a> Runner<'a, '_> {
+    /// Trains with `train`, recording the test error of `spec.robots` at every iteration.
+    fn record(
+        &mut self,
+        spec: RunSpec<'a>,
+        train: impl FnOnce(Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm>,
+    ) -> Result<SharedGplvm, ExperimentError> {
+        let mut recorder = Recorder::new(self.human_test, spec.robots);
+        let fail = |source| ExperimentError::Model {
+            context: spec.context.clone(),
+            source,
+        };
+        let model = train(Some(&mut |it: &IterationRecord, m: &SharedGplvm| {
+            recorder.record(it, m)
+        }))
+        .map_err(fail)?;
+        let records = recorder
+            .into_records(spec.kind, spec.back_constraint, spec.run, spec.source_robot)
+            .map_err(fail)?;
+        self.runs.extend(records);
+        self.done += 1;
+        (self.progress)(&Progress {
+            done: self.done,
+            total: self.total,
+            message: spec.context,
+        });
+        Ok(model)
+    }
+}
+
 /// Runs every model of Figs. 4, 5 and 6.
 pub fn run(
     data: &ExperimentData,
     config: &ExperimentConfig,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Results, ExperimentError> {
-    let total = training_count(config, data.robots.len());
-    let mut done = 0;
-    let mut runs = Vec::new();
-    let mut tick = |message: String, progress: &mut dyn FnMut(&Progress)| {
-        done += 1;
-        progress(&Progress {
-            done,
-            total,
-            message,
-        });
+    let mut runner = Runner {
+        human_test: data.human.test.as_ref(),
+        runs: Vec::new(),
+        done: 0,
+        total: training_count(config, data.robots.len()),
+        progress,
     };
-    let full_options = TrainOptions {
-        max_iters: config.max_iters,
-        ..TrainOptions::default()
-    };
-    let transfer_options = TrainOptions {
-        max_iters: config.transfer_max_iters,
-        ..TrainOptions::default()
-    };
+    let full_options = TrainOptions::default().with_max_iters(config.max_iters);
+    let transfer_options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
+    let input = data.input_name.as_str();
     let human_train = data.human.train.as_ref();
-    let human_test = data.human.test.as_ref();
-    let model_error = |context: String| move |source| ExperimentError::Model { context, source };
+    let model_config = |bc, run: usize| {
+        ModelConfig::default()
+            .with_latent_dim(config.latent_dim)
+            .with_back_constraint(bc)
+            .with_seed(config.seed + run as u64)
+    };
 
     for bc in [
         BackConstraint::None,
@@ -288,121 +333,90 @@ pub fn run(
         let mut sources: BTreeMap<(usize, usize), SharedGplvm> = BTreeMap::new();
         for run in 0..config.runs {
             for (r, (robot, split)) in data.robots.iter().enumerate() {
-                let model_config = ModelConfig {
-                    latent_dim: config.latent_dim,
+                let spec = RunSpec {
+                    context: format!(
+                        "baseline {robot}, {} back constraints, run {run}",
+                        label(bc)
+                    ),
+                    kind: ModelKind::Baseline,
                     back_constraint: bc,
-                    seed: config.seed + run as u64,
-                    ..ModelConfig::default()
+                    run,
+                    source_robot: None,
+                    robots: vec![(robot.as_str(), split.test.as_ref())],
                 };
-                let mut recorder = Recorder::new(human_test, vec![(robot, split.test.as_ref())]);
-                let context = format!(
-                    "baseline {robot}, {} back constraints, run {run}",
-                    label(bc)
-                );
-                let model = SharedGplvm::fit(
-                    &model_config,
-                    &[
-                        (data.input_name.as_str(), human_train),
-                        (robot.as_str(), split.train.as_ref()),
-                    ],
-                    &data.input_name,
-                    &full_options,
-                    Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
-                )
-                .map_err(model_error(context.clone()))?;
-                runs.extend(
-                    recorder
-                        .into_records(ModelKind::Baseline, bc, run, None)
-                        .map_err(model_error(context.clone()))?,
-                );
-                tick(context, progress);
+                let spaces = [(input, human_train), (robot.as_str(), split.train.as_ref())];
+                let model = runner.record(spec, |cb| {
+                    SharedGplvm::fit(&model_config(bc, run), &spaces, input, &full_options, cb)
+                })?;
                 sources.insert((run, r), model);
             }
         }
         if bc == BackConstraint::Output {
             continue; // Fig. 6 compares fully trained models only.
         }
-        // Transfer: from each source robot's model to every other robot.
+        // Transfer: from each source robot's model to every other robot, from differently
+        // seeded initial kernels.
         for ((run, s), source) in &sources {
-            let source_name = &data.robots[*s].0;
+            let source_name = data.robots[*s].0.as_str();
             for (t, (target, split)) in data.robots.iter().enumerate() {
                 if t == *s {
                     continue;
                 }
                 for k in 0..config.transfers_per_run {
-                    let mut recorder =
-                        Recorder::new(human_test, vec![(target, split.test.as_ref())]);
-                    let context = format!(
-                        "transfer {source_name} → {target}, {} back constraints, run {run}.{k}",
-                        label(bc)
-                    );
-                    let options = transfer_options.clone();
-                    source
-                        .transfer(
+                    let index = run * config.transfers_per_run + k;
+                    let spec = RunSpec {
+                        context: format!(
+                            "transfer {source_name} → {target}, {} back constraints, run {run}.{k}",
+                            label(bc)
+                        ),
+                        kind: ModelKind::Transfer,
+                        back_constraint: bc,
+                        run: index,
+                        source_robot: Some(source_name),
+                        robots: vec![(target.as_str(), split.test.as_ref())],
+                    };
+                    let seed = config.seed + index as u64;
+                    runner.record(spec, |cb| {
+                        source.transfer_seeded(
                             target,
                             split.train.as_ref(),
-                            &options,
-                            Some(&mut |it: &IterationRecord, m: &SharedGplvm| {
-                                recorder.record(it, m)
-                            }),
+                            seed,
+                            &transfer_options,
+                            cb,
                         )
-                        .map_err(model_error(context.clone()))?;
-                    runs.extend(
-                        recorder
-                            .into_records(
-                                ModelKind::Transfer,
-                                bc,
-                                run * config.transfers_per_run + k,
-                                Some(source_name),
-                            )
-                            .map_err(model_error(context.clone()))?,
-                    );
-                    tick(context, progress);
+                    })?;
                 }
             }
         }
         // Multi-robot: human + all robots.
+        let mut spaces = vec![(input, human_train)];
+        spaces.extend(
+            data.robots
+                .iter()
+                .map(|(n, s)| (n.as_str(), s.train.as_ref())),
+        );
         for run in 0..config.runs {
-            let model_config = ModelConfig {
-                latent_dim: config.latent_dim,
+            let spec = RunSpec {
+                context: format!("multi-robot, {} back constraints, run {run}", label(bc)),
+                kind: ModelKind::Multi,
                 back_constraint: bc,
-                seed: config.seed + run as u64,
-                ..ModelConfig::default()
-            };
-            let mut spaces = vec![(data.input_name.as_str(), human_train)];
-            spaces.extend(
-                data.robots
-                    .iter()
-                    .map(|(n, s)| (n.as_str(), s.train.as_ref())),
-            );
-            let mut recorder = Recorder::new(
-                human_test,
-                data.robots
+                run,
+                source_robot: None,
+                robots: data
+                    .robots
                     .iter()
                     .map(|(n, s)| (n.as_str(), s.test.as_ref()))
                     .collect(),
-            );
-            let context = format!("multi-robot, {} back constraints, run {run}", label(bc));
-            SharedGplvm::fit(
-                &model_config,
-                &spaces,
-                &data.input_name,
-                &full_options,
-                Some(&mut |it: &IterationRecord, m: &SharedGplvm| recorder.record(it, m)),
-            )
-            .map_err(model_error(context.clone()))?;
-            runs.extend(
-                recorder
-                    .into_records(ModelKind::Multi, bc, run, None)
-                    .map_err(model_error(context.clone()))?,
-            );
-            tick(context, progress);
+            };
+            runner.record(spec, |cb| {
+                SharedGplvm::fit(&model_config(bc, run), &spaces, input, &full_options, cb)
+            })?;
         }
     }
     Ok(Results {
         robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
         config: config.clone(),
-        runs,
+        runs: runner.runs,
     })
 }
 
