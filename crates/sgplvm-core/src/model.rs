@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::llt;
 use faer::reborrow::ReborrowMut;
-use faer::{Accum, Mat, MatRef, Side};
+use faer::{Accum, Mat, MatRef, Par, Side};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -13,13 +13,48 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::kernel::{
-    cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg_slice, par_for, rbf_lower,
-    row_major, weighted_sqdist, KernelParams, SpaceWork,
+    cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice, par_for,
+    rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceWork,
 };
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
 
 /// Training points per block in the prediction loops (stack buffer size).
 const BLOCK: usize = 64;
+/// Frames per block in the batch paths ([`SharedGplvm::latent`], [`SharedGplvm::predict`]).
+const BATCH: usize = 256;
+
+/// `out[(r, i)] = exp(−|a_r − b_i|²)` for pre-scaled rows (columns already multiplied by
+/// `1/(√2 ℓ)`), via `|a|² + |b|² − 2 A Bᵀ` (one matrix product), clamped to ≤ 0, then the
+/// vectorised exp column by column.
+fn rbf_block(a: MatRef<'_, f64>, b: MatRef<'_, f64>, mut out: faer::MatMut<'_, f64>) {
+    let na: Vec<f64> = (0..a.nrows())
+        .map(|r| (0..a.ncols()).map(|t| a[(r, t)] * a[(r, t)]).sum())
+        .collect();
+    faer::linalg::matmul::matmul(
+        out.rb_mut(),
+        Accum::Replace,
+        a,
+        b.transpose(),
+        2.0,
+        Par::Seq,
+    );
+    clear_upper_simd_state();
+    for i in 0..b.nrows() {
+        let nb: f64 = (0..b.ncols()).map(|t| b[(i, t)] * b[(i, t)]).sum();
+        let mut col = out.rb_mut().col_mut(i);
+        if let Some(col) = col.rb_mut().try_as_col_major_mut() {
+            let col = col.as_slice_mut();
+            for (v, &na) in col.iter_mut().zip(&na) {
+                *v = (*v - na - nb).min(0.0);
+            }
+            exp_neg_slice(col);
+        } else {
+            for (r, &na) in na.iter().enumerate() {
+                col[r] = exp_neg((col[r] - na - nb).min(0.0));
+            }
+        }
+    }
+}
 
 /// Where the latent points come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -1359,27 +1394,56 @@ impl SharedGplvm {
         check_finite(&self.spaces[0].name, h)
     }
 
-    /// Latent points of raw human frames (rows of `h`), n×Q.
+    /// Latent points of raw human frames (rows of `h`), n×Q. Frames are processed in blocks
+    /// of [`BATCH`] with matrix products (see [`rbf_block`]).
     pub fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         self.check_input_matrix(h)?;
-        let q = self.q();
-        let mut out = Mat::zeros(h.nrows(), q);
-        let mut row = vec![0.0; h.ncols()];
-        let mut x = vec![0.0; q];
-        for r in 0..h.nrows() {
-            for (c, v) in row.iter_mut().enumerate() {
-                *v = h[(r, c)];
-            }
-            self.latent_into(&row, &mut x)?;
-            for t in 0..q {
-                out[(r, t)] = x[t];
-            }
+        self.latent_batch(h)
+    }
+
+    fn latent_batch(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
+        let Some(lc) = &self.latent_cache else {
+            return Err(Error::Corrupt {
+                reason: "prediction caches missing".into(),
+            });
+        };
+        let s0 = &self.spaces[0];
+        let (n, dh, q, m_all) = (self.n(), h.ncols(), self.q(), h.nrows());
+        let sc: Vec<f64> = lc.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
+        // Both sides centred on the training mean: smaller norms, less cancellation in
+        // |a|² + |b|² − 2 a·b.
+        let mu: Vec<f64> = (0..dh)
+            .map(|t| (0..n).map(|i| lc.h_rows[i * dh + t]).sum::<f64>() / n.max(1) as f64)
+            .collect();
+        let train = Mat::from_fn(n, dh, |i, t| (lc.h_rows[i * dh + t] - mu[t]) * sc[t]);
+        let w = Mat::from_fn(n, q, |i, t| lc.weights[i * q + t]);
+        let hs = Mat::from_fn(m_all, dh, |r, t| {
+            ((h[(r, t)] - s0.offset[t]) / s0.scale[t] - mu[t]) * sc[t]
+        });
+        let mut out = Mat::from_fn(m_all, q, |_, t| lc.offset[t]);
+        let mut k = Mat::zeros(BATCH.min(m_all), n);
+        let mut r0 = 0;
+        while r0 < m_all {
+            let m = BATCH.min(m_all - r0);
+            let mut kb = k.as_mut().subrows_mut(0, m);
+            rbf_block(hs.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+            faer::linalg::matmul::matmul(
+                out.as_mut().subrows_mut(r0, m),
+                Accum::Add,
+                kb.as_ref(),
+                w.as_ref(),
+                lc.amplitude,
+                Par::Seq,
+            );
+            r0 += m;
         }
         Ok(out)
     }
 
     /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
-    /// raw human frames in the rows of `h`.
+    /// raw human frames in the rows of `h`. Frames go in blocks of [`BATCH`]: kernel blocks
+    /// from matrix products ([`rbf_block`]), the mean as `K* (K⁻¹Y)`, the variance as
+    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block.
     pub fn predict(
         &self,
         h: MatRef<'_, f64>,
@@ -1388,63 +1452,43 @@ impl SharedGplvm {
     ) -> Result<Prediction> {
         self.check_input_matrix(h)?;
         let si = self.output_index(space)?;
-        let (n_new, q) = (h.nrows(), self.q());
+        let xs = self.latent_batch(h)?;
+        let (n_new, q, n) = (h.nrows(), self.q(), self.n());
         let s = &self.spaces[si];
+        let c = &self.caches[si];
         let d = s.data.ncols();
+        let sc: Vec<f64> = c.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
+        let mu: Vec<f64> = (0..q)
+            .map(|t| (0..n).map(|i| self.x_rows[i * q + t]).sum::<f64>() / n.max(1) as f64)
+            .collect();
+        let train = Mat::from_fn(n, q, |i, t| (self.x_rows[i * q + t] - mu[t]) * sc[t]);
+        let alpha = Mat::from_fn(n, d, |i, t| c.alpha_rows[i * d + t]);
+        let xsc = Mat::from_fn(n_new, q, |r, t| (xs[(r, t)] - mu[t]) * sc[t]);
         let mut mean = Mat::zeros(n_new, d);
         let mut variance = if with_variance {
             Some(Mat::zeros(n_new, d))
         } else {
             None
         };
-        let mut row = vec![0.0; h.ncols()];
-        let mut xs = Mat::zeros(n_new, q);
-        let mut x = vec![0.0; q];
-        let mut out = vec![0.0; d];
-        for r in 0..n_new {
-            for (cc, v) in row.iter_mut().enumerate() {
-                *v = h[(r, cc)];
-            }
-            self.latent_into(&row, &mut x)?;
-            self.mean_into(si, &x, &mut out);
-            for t in 0..d {
-                mean[(r, t)] = out[t];
-            }
-            for t in 0..q {
-                xs[(r, t)] = x[t];
-            }
-        }
-        if let Some(var) = variance.as_mut() {
-            // Frames in chunks: K* (N × chunk), one multi-RHS triangular solve L⁻¹K*, then
-            // k** − |L⁻¹k*|² per frame.
-            let n = self.n();
-            let c = &self.caches[si];
-            let chunk = 256;
-            let mut kstar = Mat::zeros(n, chunk.min(n_new.max(1)));
-            let mut start = 0;
-            while start < n_new {
-                let end = (start + chunk).min(n_new);
-                let m = end - start;
-                let mut ks = kstar.as_mut().subcols_mut(0, m);
-                clear_upper_simd_state();
-                for f in 0..m {
-                    let xf: Vec<f64> = (0..q).map(|t| xs[(start + f, t)]).collect();
-                    let col = ks
-                        .rb_mut()
-                        .col_mut(f)
-                        .try_as_col_major_mut()
-                        .map(|c| c.as_slice_mut());
-                    if let Some(col) = col {
-                        for i in 0..n {
-                            col[i] = weighted_sqdist(
-                                &xf,
-                                &self.x_rows[i * q..(i + 1) * q],
-                                &c.half_inv_l2,
-                            );
-                        }
-                        exp_neg_slice(col);
-                    }
-                }
+        let bm = BATCH.min(n_new);
+        let mut k = Mat::zeros(bm, n);
+        let mut kt = Mat::zeros(if with_variance { n } else { 0 }, bm);
+        let mut r0 = 0;
+        while r0 < n_new {
+            let m = BATCH.min(n_new - r0);
+            let mut kb = k.as_mut().subrows_mut(0, m);
+            rbf_block(xsc.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+            faer::linalg::matmul::matmul(
+                mean.as_mut().subrows_mut(r0, m),
+                Accum::Replace,
+                kb.as_ref(),
+                alpha.as_ref(),
+                s.kernel.variance,
+                Par::Seq,
+            );
+            if let Some(var) = variance.as_mut() {
+                let mut ks = kt.as_mut().subcols_mut(0, m);
+                ks.copy_from(kb.as_ref().transpose());
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(
                     c.factor.as_ref(),
                     ks.rb_mut(),
@@ -1457,10 +1501,15 @@ impl SharedGplvm {
                         * s.kernel.variance;
                     let v = (s.kernel.variance - explained).max(0.0);
                     for t in 0..d {
-                        var[(start + f, t)] = v * s.scale[t] * s.scale[t];
+                        var[(r0 + f, t)] = v * s.scale[t] * s.scale[t];
                     }
                 }
-                start = end;
+            }
+            r0 += m;
+        }
+        for t in 0..d {
+            for r in 0..n_new {
+                mean[(r, t)] = mean[(r, t)] * s.scale[t] + s.offset[t];
             }
         }
         Ok(Prediction { mean, variance })

@@ -329,8 +329,10 @@ fn prediction_paths_agree_and_variance_matches_dense_formula() {
                 row[c] = h[(r, c)];
             }
             m.predict_frame(&row, "walkman", &mut out).expect("frame");
+            // The batch path sums in another order (blocked matrix products).
             for c in 0..4 {
-                assert_eq!(out[c], p.mean[(r, c)]);
+                let diff = (out[c] - p.mean[(r, c)]).abs();
+                assert!(diff <= 1e-12 * out[c].abs().max(1.0), "{diff:e}");
             }
             // Dense reference: mean = k*ᵀ K⁻¹ Y + offset, var = k** − k*ᵀ K⁻¹ k*.
             let s = &m.spaces[1];
@@ -723,4 +725,61 @@ fn seeded_transfer_varies_with_the_seed_only() {
     // Frozen parts are shared by all runs.
     assert_eq!(a.latent_points(), source.latent_points());
     assert_eq!(a.kernel("walkman"), source.kernel("walkman"));
+}
+
+#[test]
+fn batch_prediction_matches_the_per_frame_path() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    for bc in [BackConstraint::Input, BackConstraint::None] {
+        let m = fit(bc, 40, 20, 0);
+        // 300 random frames (more than one block of 256), around and beyond the data.
+        let (h, _, _, _) = demo(40, 7);
+        let hn = Mat::from_fn(300, h.ncols(), |r, c| {
+            h[(r % 40, c)] + rng.random_range(-0.5..0.5)
+        });
+        // Norm-wise relative: differences over the largest magnitude of the quantity (the
+        // summation order differs, and the sums over weights of both signs cancel).
+        let rel = |a: f64, b: f64, scale: f64| (a - b).abs() / scale;
+        let lat = m.latent(hn.as_ref()).expect("latent");
+        let amax = |a: &Mat<f64>| {
+            (0..a.nrows())
+                .flat_map(|r| (0..a.ncols()).map(move |c| (r, c)))
+                .map(|(r, c)| a[(r, c)].abs())
+                .fold(0.0f64, f64::max)
+        };
+        let lscale = amax(&lat);
+        for with_var in [false, true] {
+            let p = m
+                .predict(hn.as_ref(), "walkman", with_var)
+                .expect("predict");
+            let mut out = vec![0.0; p.mean.ncols()];
+            let mut row = vec![0.0; hn.ncols()];
+            let mut worst: f64 = 0.0;
+            let mscale = amax(&p.mean);
+            for r in 0..300 {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = hn[(r, c)];
+                }
+                m.predict_frame(&row, "walkman", &mut out).expect("frame");
+                for (t, &o) in out.iter().enumerate() {
+                    worst = worst.max(rel(p.mean[(r, t)], o, mscale));
+                }
+                let mut x = vec![0.0; m.latent_points().ncols()];
+                m.latent_into(&row, &mut x).expect("latent_into");
+                for (t, &xv) in x.iter().enumerate() {
+                    worst = worst.max(rel(lat[(r, t)], xv, lscale));
+                }
+            }
+            assert!(
+                worst < 1e-12,
+                "{bc:?} var={with_var}: worst rel diff {worst:e}"
+            );
+            assert_eq!(p.variance.is_some(), with_var);
+        }
+        // Variances of the blocked path are finite and non-negative everywhere.
+        let p = m.predict(hn.as_ref(), "walkman", true).expect("predict");
+        let v = p.variance.expect("variance");
+        assert!((0..300).all(|r| v[(r, 0)] >= 0.0 && v[(r, 0)].is_finite()));
+    }
 }
