@@ -1286,7 +1286,6 @@ impl SharedGplvm {
         };
         let s0 = &self.spaces[0];
         let dh = h.len();
-        let q = x.len();
         let mut hs_stack = [0.0f64; 64];
         let mut hs_heap;
         let hs: &mut [f64] = if dh <= 64 {
@@ -1299,26 +1298,15 @@ impl SharedGplvm {
             hs[t] = (h[t] - s0.offset[t]) / s0.scale[t];
         }
         x.copy_from_slice(&lc.offset);
-        let n = self.n();
-        let mut kb = [0.0f64; BLOCK];
-        let mut start = 0;
-        while start < n {
-            let end = (start + BLOCK).min(n);
-            let k = &mut kb[..end - start];
-            for (o, v) in k.iter_mut().enumerate() {
-                let i = start + o;
-                *v = weighted_sqdist(hs, &lc.h_rows[i * dh..(i + 1) * dh], &lc.half_inv_l2);
-            }
-            exp_neg_slice(k);
-            for (o, &kv) in k.iter().enumerate() {
-                let i = start + o;
-                let wi = &lc.weights[i * q..(i + 1) * q];
-                for t in 0..q {
-                    x[t] += lc.amplitude * kv * wi[t];
-                }
-            }
-            start = end;
-        }
+        add_kernel_weighted(
+            hs,
+            &lc.h_rows,
+            &lc.half_inv_l2,
+            &lc.weights,
+            lc.amplitude,
+            self.n(),
+            x,
+        );
         Ok(())
     }
 
@@ -1326,30 +1314,17 @@ impl SharedGplvm {
     fn mean_into(&self, si: usize, x: &[f64], out: &mut [f64]) {
         let s = &self.spaces[si];
         let c = &self.caches[si];
-        let q = x.len();
         let d = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
-        let n = self.n();
-        let mut kb = [0.0f64; BLOCK];
-        let mut start = 0;
-        while start < n {
-            let end = (start + BLOCK).min(n);
-            let k = &mut kb[..end - start];
-            for (o, v) in k.iter_mut().enumerate() {
-                let i = start + o;
-                *v = weighted_sqdist(x, &self.x_rows[i * q..(i + 1) * q], &c.half_inv_l2);
-            }
-            exp_neg_slice(k);
-            for (o, &kv) in k.iter().enumerate() {
-                let i = start + o;
-                let ai = &c.alpha_rows[i * d..(i + 1) * d];
-                let kv = s.kernel.variance * kv;
-                for t in 0..d {
-                    out[t] += kv * ai[t];
-                }
-            }
-            start = end;
-        }
+        add_kernel_weighted(
+            x,
+            &self.x_rows,
+            &c.half_inv_l2,
+            &c.alpha_rows,
+            s.kernel.variance,
+            self.n(),
+            out,
+        );
         for t in 0..d {
             out[t] = out[t] * s.scale[t] + s.offset[t];
         }
@@ -1870,3 +1845,39 @@ fn check_shape(what: &str, m: MatRef<'_, f64>, n: usize, q: usize) -> Result<()>
 #[cfg(test)]
 #[path = "model_tests.rs"]
 mod tests;
+
+/// Adds `scale · Σ_i exp(−Σ_t (p_t − r_it)² · w_t) · weights_i` to `out` over the `n` rows `r_i`
+/// of `rows` (row-major, `p.len()` columns; `weights` row-major, `out.len()` columns). Rows are
+/// taken in blocks of [`BLOCK`] so that the exponentials vectorise; allocation-free. The
+/// per-frame kernel-row product shared by the human → latent step and the latent → robot mean.
+fn add_kernel_weighted(
+    p: &[f64],
+    rows: &[f64],
+    half_inv_l2: &[f64],
+    weights: &[f64],
+    scale: f64,
+    n: usize,
+    out: &mut [f64],
+) {
+    let (dim, wdim) = (p.len(), out.len());
+    let mut kb = [0.0f64; BLOCK];
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        let k = &mut kb[..end - start];
+        for (o, v) in k.iter_mut().enumerate() {
+            let i = start + o;
+            *v = weighted_sqdist(p, &rows[i * dim..(i + 1) * dim], half_inv_l2);
+        }
+        exp_neg_slice(k);
+        for (o, &kv) in k.iter().enumerate() {
+            let i = start + o;
+            let wi = &weights[i * wdim..(i + 1) * wdim];
+            let kv = scale * kv;
+            for t in 0..wdim {
+                out[t] += kv * wi[t];
+            }
+        }
+        start = end;
+    }
+}
