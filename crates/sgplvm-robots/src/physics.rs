@@ -265,11 +265,35 @@ impl ReplayOptions {
                 "a finite rate of at least 1 Hz",
             ));
         }
-        if !(self.stiffness.is_finite() && self.stiffness >= 0.0) {
-            return Err(bad("stiffness", self.stiffness, "a finite gain >= 0"));
-        }
-        if !(self.damping.is_finite() && self.damping >= 0.0) {
-            return Err(bad("damping", self.damping, "a finite gain >= 0"));
+        let non_negative = [
+            ("stiffness", self.stiffness, "a finite gain >= 0"),
+            ("damping", self.damping, "a finite gain >= 0"),
+            (
+                "settle_seconds",
+                self.settle_seconds,
+                "a finite duration >= 0",
+            ),
+            (
+                "limit_tolerance",
+                self.limit_tolerance,
+                "a finite tolerance >= 0",
+            ),
+            (
+                "velocity_tolerance",
+                self.velocity_tolerance,
+                "a finite tolerance >= 0",
+            ),
+            (
+                "merge_gap_seconds",
+                self.merge_gap_seconds,
+                "a finite duration >= 0",
+            ),
+            ("armature", self.armature, "a finite inertia >= 0"),
+        ];
+        for (field, value, expected) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(field, value, expected));
+            }
         }
         if self.stiffness == 0.0 && self.damping == 0.0 {
             return Err(bad(
@@ -278,43 +302,12 @@ impl ReplayOptions {
                 "a positive stiffness or damping (both are 0: the motors would do nothing)",
             ));
         }
-        if !(self.settle_seconds.is_finite() && self.settle_seconds >= 0.0) {
-            return Err(bad(
-                "settle_seconds",
-                self.settle_seconds,
-                "a finite duration >= 0",
-            ));
-        }
-        if !(self.limit_tolerance.is_finite() && self.limit_tolerance >= 0.0) {
-            return Err(bad(
-                "limit_tolerance",
-                self.limit_tolerance,
-                "a finite tolerance >= 0",
-            ));
-        }
-        if !(self.velocity_tolerance.is_finite() && self.velocity_tolerance >= 0.0) {
-            return Err(bad(
-                "velocity_tolerance",
-                self.velocity_tolerance,
-                "a finite tolerance >= 0",
-            ));
-        }
-        if !(self.merge_gap_seconds.is_finite() && self.merge_gap_seconds >= 0.0) {
-            return Err(bad(
-                "merge_gap_seconds",
-                self.merge_gap_seconds,
-                "a finite duration >= 0",
-            ));
-        }
         if !self.contact_distance.is_finite() {
             return Err(bad(
                 "contact_distance",
                 self.contact_distance,
                 "a finite distance in metres",
             ));
-        }
-        if !(self.armature.is_finite() && self.armature >= 0.0) {
-            return Err(bad("armature", self.armature, "a finite inertia >= 0"));
         }
         if self.solver_iterations == 0 {
             return Err(bad("solver_iterations", 0, "at least 1"));
