@@ -134,36 +134,52 @@ pub(crate) trait Objective {
 /// (non-positive-definite kernel, overflow): large and finite, so More–Thuente backtracks.
 const FAILED_COST: f64 = 1e300;
 
-/// Last evaluated point: parameters, cost, gradient.
-type Evaluated = (Vec<f64>, f64, Vec<f64>);
+/// Last evaluated point: parameters and, if it could be evaluated, the objective and gradient
+/// (unscaled).
+type Evaluated = (Vec<f64>, Option<(f64, Vec<f64>)>);
+
+/// Evaluates `obj` at `theta` through a one-entry cache: the line search asks for the cost and
+/// the gradient of the same point separately, and the training loop asks once more for the
+/// point the solver accepted — one evaluation serves all three.
+fn eval_cached<O: Objective>(
+    obj: &O,
+    cache: &Mutex<Option<Evaluated>>,
+    theta: &[f64],
+) -> Option<(f64, Vec<f64>)> {
+    let mut guard = match cache.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    };
+    if let Some((t, result)) = guard.as_ref() {
+        if t.as_slice() == theta {
+            return result.clone();
+        }
+    }
+    let mut grad = vec![0.0; theta.len()];
+    let result = match obj.eval(theta, &mut grad) {
+        Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => Some((f, grad)),
+        _ => None,
+    };
+    *guard = Some((theta.to_vec(), result.clone()));
+    result
+}
 
 struct Op<'a, O: Objective> {
     obj: &'a O,
     scale: f64,
-    last: Mutex<Option<Evaluated>>,
+    cache: &'a Mutex<Option<Evaluated>>,
 }
 
 impl<O: Objective> Op<'_, O> {
+    /// Scaled objective and gradient as the solver sees them.
     fn eval(&self, theta: &[f64]) -> (f64, Vec<f64>) {
-        let mut guard = match self.last.lock() {
-            Ok(g) => g,
-            Err(p) => p.into_inner(),
-        };
-        if let Some((t, f, g)) = guard.as_ref() {
-            if t.as_slice() == theta {
-                return (*f, g.clone());
-            }
-        }
-        let mut grad = vec![0.0; theta.len()];
-        let (f, grad) = match self.obj.eval(theta, &mut grad) {
-            Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => (
+        match eval_cached(self.obj, self.cache, theta) {
+            Some((f, g)) => (
                 f * self.scale,
-                grad.into_iter().map(|g| g * self.scale).collect(),
+                g.into_iter().map(|g| g * self.scale).collect(),
             ),
-            _ => (FAILED_COST, vec![0.0; theta.len()]),
-        };
-        *guard = Some((theta.to_vec(), f, grad.clone()));
-        (f, grad)
+            None => (FAILED_COST, vec![0.0; theta.len()]),
+        }
     }
 }
 
@@ -210,6 +226,10 @@ pub(crate) fn minimise<O: Objective>(
     // Initial point must be evaluable: its error is the user's error.
     let mut g0 = vec![0.0; theta0.len()];
     let f0 = obj.eval(&theta0, &mut g0)?;
+    let cache = Mutex::new(
+        (f0.is_finite() && g0.iter().all(|g| g.is_finite()))
+            .then(|| (theta0.clone(), Some((f0, g0.clone())))),
+    );
     let mut history = vec![IterationRecord {
         iteration: 0,
         objective: f0,
@@ -245,7 +265,7 @@ pub(crate) fn minimise<O: Objective>(
         let mut problem = Problem::new(Op {
             obj,
             scale,
-            last: Mutex::new(None),
+            cache: &cache,
         });
         let mut solver: Lbfgs = LBFGS::new(MoreThuenteLineSearch::new(), options.memory);
         let (state, _) = solver
@@ -279,12 +299,9 @@ pub(crate) fn minimise<O: Objective>(
                 match new_state.get_param().cloned() {
                     None => failure = Some(format!("{:?}", new_state.get_termination_reason())),
                     Some(param) => {
-                        let mut g = vec![0.0; param.len()];
-                        let f = match obj.eval(&param, &mut g) {
-                            Ok(f) if f.is_finite() => f,
-                            _ => f64::INFINITY,
-                        };
-                        if f.is_nan() || f > best_f {
+                        let (f, g) = eval_cached(obj, &cache, &param)
+                            .unwrap_or((f64::INFINITY, Vec::new()));
+                        if !f.is_finite() || f > best_f {
                             failure = Some("line search returned a worse point".into());
                         } else {
                             failure = if terminated {
@@ -376,6 +393,34 @@ mod tests {
             assert!(w[1].objective <= w[0].objective);
         }
         assert!(out.history.len() < 200);
+    }
+
+    /// Rosenbrock that records every point it is evaluated at.
+    struct Recording(Mutex<Vec<Vec<f64>>>);
+    impl Objective for Recording {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            self.0.lock().expect("not poisoned").push(t.to_vec());
+            Rosenbrock.eval(t, g)
+        }
+    }
+
+    #[test]
+    fn no_point_is_evaluated_twice_in_a_row() {
+        let obj = Recording(Mutex::new(Vec::new()));
+        let opts = TrainOptions::default().with_max_iters(30);
+        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue)
+            .expect("runs");
+        let points = obj.0.into_inner().expect("not poisoned");
+        for w in points.windows(2) {
+            assert_ne!(w[0], w[1], "the same point was evaluated twice in a row");
+        }
+        // One evaluation per iteration plus the line search's extra trials, not two per iteration.
+        let iterations = out.history.len() - 1;
+        assert!(
+            points.len() < 2 * iterations,
+            "{} evaluations for {iterations} iterations",
+            points.len()
+        );
     }
 
     /// x² shifted, undefined (an error, like a non-PD kernel) left of −0.5.
