@@ -69,32 +69,51 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
     let t = x * LOG2E + MAGIC;
     let k = t - MAGIC;
     let r = (x - k * LN2_HI) - k * LN2_LO;
-    // Horner form of sum_{i=0}^{13} r^i / i!.
-    let mut p = 1.0 / 6_227_020_800.0;
-    p = p * r + 1.0 / 479_001_600.0;
-    p = p * r + 1.0 / 39_916_800.0;
-    p = p * r + 1.0 / 3_628_800.0;
-    p = p * r + 1.0 / 362_880.0;
-    p = p * r + 1.0 / 40_320.0;
-    p = p * r + 1.0 / 5_040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    // sum_{i=0}^{13} r^i / i! in Estrin's scheme: pairs, then pairs of pairs with r², r⁴, r⁸.
+    // Its dependency chain is 8 operations deep instead of Horner's 26, which lets the
+    // vectorised loops keep several blocks in flight.
+    let r2 = r * r;
+    let r4 = r2 * r2;
+    let r8 = r4 * r4;
+    let p01 = 1.0 + r;
+    let p23 = 0.5 + r * (1.0 / 6.0);
+    let p45 = 1.0 / 24.0 + r * (1.0 / 120.0);
+    let p67 = 1.0 / 720.0 + r * (1.0 / 5_040.0);
+    let p89 = 1.0 / 40_320.0 + r * (1.0 / 362_880.0);
+    let p1011 = 1.0 / 3_628_800.0 + r * (1.0 / 39_916_800.0);
+    let p1213 = 1.0 / 479_001_600.0 + r * (1.0 / 6_227_020_800.0);
+    let q0 = p01 + r2 * p23;
+    let q1 = p45 + r2 * p67;
+    let q2 = p89 + r2 * p1011;
+    let p = (q0 + r4 * q1) + r8 * (q2 + r4 * p1213);
     // The low bits of t hold k (two's complement); k + 1023 ∈ [2, 1023] here.
     let scale = f64::from_bits((t.to_bits() << 52).wrapping_add(1023u64 << 52));
     p * scale
 }
 
+/// Runs `f` compiled for the best SIMD instruction set of this CPU (AVX-512, AVX2+FMA or the
+/// baseline), so that the plain slice loops inside it are auto-vectorised 8, 4 or 2 wide.
+///
+/// pulp's runtime dispatch (already in the tree through faer). The closure must be marked
+/// `#[inline(always)]` at the call site for its loops to be compiled with the wider
+/// instructions. Results do not depend on the path taken: no fused multiply-adds are formed
+/// (Rust does not contract `a * b + c`), so every path rounds the same way.
+#[inline(always)]
+pub(crate) fn vectorized<R>(f: impl FnOnce() -> R) -> R {
+    pulp::Arch::new().dispatch(f)
+}
+
 /// Applies [`exp_neg`] to every element.
 #[inline]
 pub(crate) fn exp_neg_slice(v: &mut [f64]) {
-    for x in v.iter_mut() {
-        *x = exp_neg(*x);
-    }
+    vectorized(
+        #[inline(always)]
+        || {
+            for x in v.iter_mut() {
+                *x = exp_neg(*x);
+            }
+        },
+    )
 }
 
 /// Σ_t (a_t − b_t)² w_t with four partial sums (shorter dependency chains).
@@ -153,25 +172,40 @@ pub(crate) fn row_major(m: MatRef<'_, f64>) -> Vec<f64> {
 
 /// Fills the lower triangle (diagonal included) of `out` with the noise-free RBF kernel matrix
 /// of the rows of `x` (given row-major, `q` columns). The strict upper triangle is untouched.
-pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, mut out: MatMut<'_, f64>) {
-    clear_upper_simd_state();
+///
+/// Column by column: the squared scaled distances of rows `j..n` to row `j` are summed one
+/// latent dimension at a time over contiguous columns of `X / ℓ`, then exponentiated — loops
+/// over slices that [`vectorized`] compiles for the widest SIMD available. (Blocks of eight
+/// rows kept in registers measured 25% slower here.)
+pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat<f64>) {
     let n = out.nrows();
-    let half_inv_l2: Vec<f64> = kern.lengthscale.iter().map(|l| -0.5 / (l * l)).collect();
-    let var = kern.variance;
-    let mut col = vec![0.0; n];
-    for j in 0..n {
-        let xj = &xr[j * q..(j + 1) * q];
-        let c = &mut col[j + 1..];
-        for (k, v) in c.iter_mut().enumerate() {
-            let i = j + 1 + k;
-            *v = weighted_sqdist(&xr[i * q..(i + 1) * q], xj, &half_inv_l2);
-        }
-        exp_neg_slice(c);
-        out[(j, j)] = var;
-        for (k, v) in c.iter().enumerate() {
-            out[(j + 1 + k, j)] = var * v;
+    let mut scaled = vec![0.0; n * q];
+    for (t, l) in kern.lengthscale.iter().enumerate().take(q) {
+        for i in 0..n {
+            scaled[t * n + i] = xr[i * q + t] / l;
         }
     }
+    let var = kern.variance;
+    vectorized(
+        #[inline(always)]
+        || {
+            for j in 0..n {
+                let c = &mut out.col_as_slice_mut(j)[j..];
+                c.fill(0.0);
+                for t in 0..q {
+                    let xt = &scaled[t * n + j..(t + 1) * n];
+                    let xj = xt[0];
+                    for (v, &xi) in c.iter_mut().zip(xt) {
+                        let d = xi - xj;
+                        *v += d * d;
+                    }
+                }
+                for v in c.iter_mut() {
+                    *v = var * exp_neg(-0.5 * *v);
+                }
+            }
+        },
+    );
 }
 
 /// Failure of a Cholesky factorisation even after the largest jitter.
@@ -291,12 +325,12 @@ pub(crate) fn eval_space(
     kern: &KernelParams,
     work: &mut SpaceWork,
     grad: bool,
-    dx: Option<&mut [f64]>,
+    mut dx: Option<&mut [f64]>,
 ) -> Result<SpaceEval, NotPd> {
     let n = y.nrows();
     let d = y.ncols();
     let par = par_for(n);
-    rbf_lower(xr, q, kern, work.kf.as_mut());
+    rbf_lower(xr, q, kern, &mut work.kf);
     let jitter = cholesky_with_jitter(work.kf.as_ref(), kern.noise, work.l.as_mut(), par)?;
     let l = work.l.as_ref();
     clear_upper_simd_state();
@@ -336,71 +370,71 @@ pub(crate) fn eval_space(
             par,
         );
     }
-    clear_upper_simd_state();
+    // M = ∂L/∂K ∘ K_f = D/2 · g ∘ K_f (lower triangle, in place in g): every
+    // kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…).
     let half_d = 0.5 * d as f64;
+    let trace_g: f64 = (0..n).map(|j| half_d * work.g[(j, j)]).sum();
+    let (g, kf) = (&mut work.g, &work.kf);
+    vectorized(
+        #[inline(always)]
+        || {
+            for j in 0..n {
+                let gc = &mut g.col_as_slice_mut(j)[j..];
+                for (m, &k) in gc.iter_mut().zip(&kf.col_as_slice(j)[j..]) {
+                    *m *= half_d * k;
+                }
+            }
+        },
+    );
+    // With the latent points centred (the kernel is translation invariant) and a column of
+    // ones, one product gives P = M X and the row sums r = M 1. Then
+    // Σ_j M_ij (x_i − x_j) = r_i x_i − P_i and Σ_{i<j} M_ij (x_i − x_j)² = Σ_i x_i (r_i x_i − P_i).
+    let mut xc = Mat::from_fn(n, q + 1, |i, t| if t < q { xr[i * q + t] } else { 1.0 });
+    for t in 0..q {
+        let mean = xc.col_as_slice(t).iter().sum::<f64>() / n as f64;
+        xc.col_as_slice_mut(t).iter_mut().for_each(|v| *v -= mean);
+    }
+    // M is symmetric and only its lower triangle is stored: P = tril(M) X + stril(M)ᵀ X.
+    let mut p = Mat::zeros(n, q + 1);
     let g = work.g.as_ref();
-    let kf = work.kf.as_ref();
-    let mut sum_m = 0.0;
-    let mut trace_g = 0.0;
-    let mut dl = vec![0.0; q];
-    match dx {
-        Some(dx) => {
-            let mut acc = vec![0.0; n * q];
-            let mut accj = vec![0.0; q];
-            for j in 0..n {
-                let gjj = half_d * g[(j, j)];
-                trace_g += gjj;
-                sum_m += gjj * kf[(j, j)];
-                let xj = &xr[j * q..(j + 1) * q];
-                accj.iter_mut().for_each(|v| *v = 0.0);
-                for i in j + 1..n {
-                    let m = half_d * g[(i, j)] * kf[(i, j)];
-                    sum_m += 2.0 * m;
-                    let xi = &xr[i * q..(i + 1) * q];
-                    let acci = &mut acc[i * q..(i + 1) * q];
-                    for t in 0..q {
-                        let dd = xi[t] - xj[t];
-                        let md = m * dd;
-                        dl[t] += md * dd;
-                        acci[t] += md;
-                        accj[t] -= md;
-                    }
-                }
-                let aj = &mut acc[j * q..(j + 1) * q];
-                for t in 0..q {
-                    aj[t] += accj[t];
-                }
-            }
-            for (t, &lt) in kern.lengthscale.iter().enumerate() {
-                let c = -2.0 / (lt * lt);
-                for i in 0..n {
-                    dx[i * q + t] += c * acc[i * q + t];
-                }
+    for (lhs, structure, accum) in [
+        (g, BlockStructure::TriangularLower, Accum::Replace),
+        (
+            g.transpose(),
+            BlockStructure::StrictTriangularUpper,
+            Accum::Add,
+        ),
+    ] {
+        faer::linalg::matmul::triangular::matmul(
+            p.as_mut(),
+            BlockStructure::Rectangular,
+            accum,
+            lhs,
+            structure,
+            xc.as_ref(),
+            BlockStructure::Rectangular,
+            1.0,
+            par,
+        );
+    }
+    clear_upper_simd_state();
+    let r = p.col_as_slice(q);
+    let sum_m: f64 = r.iter().sum();
+    for (t, &lt) in kern.lengthscale.iter().enumerate().take(q) {
+        let (x, pt) = (xc.col_as_slice(t), p.col_as_slice(t));
+        let c = -2.0 / (lt * lt);
+        let mut dl = 0.0;
+        for i in 0..n {
+            let acc = r[i] * x[i] - pt[i];
+            dl += x[i] * acc;
+            if let Some(dx) = dx.as_deref_mut() {
+                dx[i * q + t] += c * acc;
             }
         }
-        None => {
-            for j in 0..n {
-                let gjj = half_d * g[(j, j)];
-                trace_g += gjj;
-                sum_m += gjj * kf[(j, j)];
-                let xj = &xr[j * q..(j + 1) * q];
-                for i in j + 1..n {
-                    let m = half_d * g[(i, j)] * kf[(i, j)];
-                    sum_m += 2.0 * m;
-                    let xi = &xr[i * q..(i + 1) * q];
-                    for t in 0..q {
-                        let dd = xi[t] - xj[t];
-                        dl[t] += m * dd * dd;
-                    }
-                }
-            }
-        }
+        out.d_lengthscale[t] = 2.0 * dl / (lt * lt * lt);
     }
     out.d_noise = trace_g;
     out.d_variance = sum_m / kern.variance;
-    for (t, &lt) in kern.lengthscale.iter().enumerate() {
-        out.d_lengthscale[t] = 2.0 * dl[t] / (lt * lt * lt);
-    }
     Ok(out)
 }
 
@@ -554,7 +588,7 @@ mod tests {
             noise: 0.0,
         };
         let mut kf = Mat::zeros(6, 6);
-        rbf_lower(&row_major(x.as_ref()), 1, &k, kf.as_mut());
+        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf);
         let mut l = Mat::zeros(6, 6);
         let j = cholesky_with_jitter(kf.as_ref(), 0.0, l.as_mut(), Par::Seq).expect("jitter");
         assert!(j > 0.0 && j <= 1e-2, "jitter {j}");
@@ -564,7 +598,7 @@ mod tests {
             lengthscale: vec![1.0],
             noise: 0.1,
         };
-        rbf_lower(&row_major(x.as_ref()), 1, &k, kf.as_mut());
+        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf);
         assert!(cholesky_with_jitter(kf.as_ref(), 0.1, l.as_mut(), Par::Seq).is_err());
     }
 }

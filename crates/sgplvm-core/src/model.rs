@@ -11,15 +11,20 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::kernel::{
     cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice, par_for,
-    rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceWork,
+    rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceEval, SpaceWork,
 };
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
 
 /// Training points per block in the prediction loops (stack buffer size).
 const BLOCK: usize = 64;
+/// Points from which the spaces of one evaluation run on separate threads (below it the
+/// thread hand-off costs more than it saves).
+const SPACES_IN_PARALLEL_FROM: usize = 64;
 /// Frames per block in the batch paths ([`SharedGplvm::latent`], [`SharedGplvm::predict`]).
 const BATCH: usize = 256;
 
@@ -493,7 +498,7 @@ pub(crate) fn bc_kernel(data: MatRef<'_, f64>, bandwidth: f64) -> Mat<f64> {
         noise: 0.0,
     };
     let mut m = Mat::zeros(n, n);
-    rbf_lower(&row_major(data), data.ncols(), &k, m.as_mut());
+    rbf_lower(&row_major(data), data.ncols(), &k, &mut m);
     for j in 0..n {
         for i in 0..j {
             m[(i, j)] = m[(j, i)];
@@ -703,38 +708,56 @@ impl Objective for ModelObjective<'_> {
         } else {
             &self.x_rows
         };
-        let mut dx = if ll > 0 { vec![0.0; n * q] } else { Vec::new() };
+        let evaluated = self.evaluated();
+        let mut kernels = Vec::with_capacity(evaluated.len());
+        for (i, &s) in evaluated.iter().enumerate() {
+            let off = ll + i * (q + 2);
+            let k = decode_kernel(&theta[off..off + q + 2], q);
+            if !k.is_valid() {
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{}'", m.spaces[s].name),
+                    reason: "overflow".into(),
+                });
+            }
+            kernels.push(k);
+        }
         let mut works = match self.works.lock() {
             Ok(g) => g,
             Err(p) => p.into_inner(),
         };
-        let mut total = self.constant;
-        let mut off = ll;
-        for (w, s) in works.iter_mut().zip(self.evaluated()) {
+        // The spaces share only X: each is evaluated on its own thread, into its own latent
+        // gradient, and the results are summed in a fixed order (deterministic).
+        let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
+            let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
             let space = &m.spaces[s];
-            let k = decode_kernel(&theta[off..off + q + 2], q);
-            if !k.is_valid() {
-                return Err(Error::InvalidValue {
-                    what: format!("kernel of '{}'", space.name),
-                    reason: "overflow".into(),
-                });
-            }
-            let e = eval_space(
-                xr,
-                q,
-                space.data.as_ref(),
-                &k,
-                w,
-                true,
-                if ll > 0 { Some(&mut dx) } else { None },
-            )
-            .map_err(|e| Error::NotPositiveDefinite {
-                space: space.name.clone(),
-                jitter: e.jitter,
-            })?;
+            let dx_out = if ll > 0 { Some(&mut dx[..]) } else { None };
+            eval_space(xr, q, space.data.as_ref(), k, w, true, dx_out)
+                .map(|e| (e, dx))
+                .map_err(|e| Error::NotPositiveDefinite {
+                    space: space.name.clone(),
+                    jitter: e.jitter,
+                })
+        };
+        let pairs = evaluated.iter().zip(&kernels);
+        let results: Vec<Result<(SpaceEval, Vec<f64>)>> =
+            if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM {
+                works
+                    .par_iter_mut()
+                    .zip(evaluated.par_iter().zip(kernels.par_iter()))
+                    .map(one_space)
+                    .collect()
+            } else {
+                works.iter_mut().zip(pairs).map(one_space).collect()
+            };
+        drop(works);
+        let mut total = self.constant;
+        let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
+        for (i, (result, k)) in results.into_iter().zip(&kernels).enumerate() {
+            let (e, dxs) = result?;
             total += e.nll;
-            kernel_grad_log(&k, &e, &mut grad[off..off + q + 2]);
-            off += q + 2;
+            let off = ll + i * (q + 2);
+            kernel_grad_log(k, &e, &mut grad[off..off + q + 2]);
+            dx.iter_mut().zip(&dxs).for_each(|(a, b)| *a += b);
         }
         if ll > 0 {
             let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);

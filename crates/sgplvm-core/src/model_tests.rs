@@ -139,8 +139,9 @@ fn gradients_match_finite_differences_for_every_block_and_parametrisation() {
         BackConstraint::Input,
         BackConstraint::Output,
     ] {
-        for seed in 0..2 {
-            let mut model = fit(bc, 24, 3, seed);
+        // 24 points evaluates the spaces one after the other, 80 on separate threads.
+        for (seed, n) in [(0, 24), (1, 24), (2, 80)] {
+            let mut model = fit(bc, n, 3, seed);
             // Move to a random point so that no gradient is accidentally ~0.
             let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
             for s in &mut model.spaces {
@@ -157,7 +158,7 @@ fn gradients_match_finite_differences_for_every_block_and_parametrisation() {
             let grads = flatten(&g);
             let total = values.len();
             assert_eq!(grads.len(), total);
-            let ll = 24 * 2;
+            let ll = n * 2;
             // A few latent entries, the bandwidth, and every kernel scalar.
             let mut idx: Vec<usize> = vec![0, 5, ll / 2 + 3, ll - 1];
             idx.extend(ll..total);
@@ -170,7 +171,7 @@ fn gradients_match_finite_differences_for_every_block_and_parametrisation() {
                 let an = grads[which];
                 assert!(
                     (an - fd).abs() <= 2e-5 * (1.0 + fd.abs()),
-                    "{bc:?} seed {seed} param {which}: analytic {an} vs fd {fd}"
+                    "{bc:?} seed {seed} n {n} param {which}: analytic {an} vs fd {fd}"
                 );
             }
         }
