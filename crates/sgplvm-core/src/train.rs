@@ -299,8 +299,8 @@ pub(crate) fn minimise<O: Objective>(
                 match new_state.get_param().cloned() {
                     None => failure = Some(format!("{:?}", new_state.get_termination_reason())),
                     Some(param) => {
-                        let (f, g) = eval_cached(obj, &cache, &param)
-                            .unwrap_or((f64::INFINITY, Vec::new()));
+                        let (f, g) =
+                            eval_cached(obj, &cache, &param).unwrap_or((f64::INFINITY, Vec::new()));
                         if !f.is_finite() || f > best_f {
                             failure = Some("line search returned a worse point".into());
                         } else {
@@ -408,8 +408,8 @@ mod tests {
     fn no_point_is_evaluated_twice_in_a_row() {
         let obj = Recording(Mutex::new(Vec::new()));
         let opts = TrainOptions::default().with_max_iters(30);
-        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue)
-            .expect("runs");
+        let out =
+            minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue).expect("runs");
         let points = obj.0.into_inner().expect("not poisoned");
         for w in points.windows(2) {
             assert_ne!(w[0], w[1], "the same point was evaluated twice in a row");
