@@ -341,6 +341,7 @@ impl SharedGplvm {
             x_rows: Vec::new(),
             caches: Vec::new(),
             latent_cache: None,
+            workspace: Default::default(),
         };
         model.rebuild()?;
         model.training_jitter = model.caches.iter().fold(0.0, |m, c| m.max(c.jitter));

@@ -172,20 +172,41 @@ pub(crate) fn row_major(m: MatRef<'_, f64>) -> Vec<f64> {
 
 /// Fills the lower triangle (diagonal included) of `out` with the noise-free RBF kernel matrix
 /// of the rows of `x` (given row-major, `q` columns). The strict upper triangle is untouched.
+pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat<f64>) {
+    let var = kern.variance;
+    map_sqdist_lower(
+        xr,
+        q,
+        &kern.lengthscale,
+        out,
+        #[inline(always)]
+        |d2| var * exp_neg(-0.5 * d2),
+    );
+}
+
+/// Fills the lower triangle (diagonal included) of `out` with `f(|x_i/ℓ − x_j/ℓ|²)` for the
+/// rows of `x` (row-major, `q` columns) scaled by `lengthscale`.
 ///
 /// Column by column: the squared scaled distances of rows `j..n` to row `j` are summed one
-/// latent dimension at a time over contiguous columns of `X / ℓ`, then exponentiated — loops
-/// over slices that [`vectorized`] compiles for the widest SIMD available. (Blocks of eight
-/// rows kept in registers measured 25% slower here.)
-pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat<f64>) {
+/// dimension at a time over contiguous columns of `X / ℓ`, then mapped by `f` — loops over
+/// slices that [`vectorized`] compiles for the widest SIMD available (`f` is inlined into
+/// them; mark it `#[inline(always)]`). Blocks of eight rows kept in registers measured 25%
+/// slower here.
+#[inline(always)]
+pub(crate) fn map_sqdist_lower(
+    xr: &[f64],
+    q: usize,
+    lengthscale: &[f64],
+    out: &mut Mat<f64>,
+    f: impl Fn(f64) -> f64,
+) {
     let n = out.nrows();
     let mut scaled = vec![0.0; n * q];
-    for (t, l) in kern.lengthscale.iter().enumerate().take(q) {
+    for (t, l) in lengthscale.iter().enumerate().take(q) {
         for i in 0..n {
             scaled[t * n + i] = xr[i * q + t] / l;
         }
     }
-    let var = kern.variance;
     vectorized(
         #[inline(always)]
         || {
@@ -201,7 +222,7 @@ pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat
                     }
                 }
                 for v in c.iter_mut() {
-                    *v = var * exp_neg(-0.5 * *v);
+                    *v = f(*v);
                 }
             }
         },
@@ -286,6 +307,11 @@ impl SpaceWork {
             a: Mat::zeros(n, d),
             mem: MemBuffer::new(req),
         }
+    }
+
+    /// True when these buffers serve `n` points and `d` output columns.
+    pub(crate) fn fits(&self, n: usize, d: usize) -> bool {
+        self.kf.nrows() == n && self.a.nrows() == n && self.a.ncols() == d
     }
 
     /// The Cholesky factor of the last evaluation (lower triangle).

@@ -15,8 +15,9 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::kernel::{
-    cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice, par_for,
-    rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceEval, SpaceWork,
+    cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice,
+    map_sqdist_lower, par_for, rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceEval,
+    SpaceWork,
 };
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
 
@@ -297,6 +298,50 @@ pub struct SharedGplvm {
     pub(crate) x_rows: Vec<f64>,
     pub(crate) caches: Vec<SpaceCache>,
     pub(crate) latent_cache: Option<LatentCache>,
+    /// Evaluation buffers kept between calls of [`SharedGplvm::evaluate`] (fresh N×N buffers
+    /// cost more than the evaluation itself: page faults on every call).
+    pub(crate) workspace: Workspace,
+}
+
+/// Reusable per-space evaluation buffers; a clone starts empty.
+#[derive(Default)]
+pub(crate) struct Workspace(Mutex<Vec<SpaceWork>>);
+
+impl Workspace {
+    /// Buffers for spaces of `dims` output columns at `n` points: the kept ones if they fit.
+    fn take(&self, n: usize, dims: &[usize]) -> Vec<SpaceWork> {
+        let kept = std::mem::take(&mut *lock(&self.0));
+        if kept.len() == dims.len() && kept.iter().zip(dims).all(|(w, &d)| w.fits(n, d)) {
+            kept
+        } else {
+            dims.iter().map(|&d| SpaceWork::new(n, d)).collect()
+        }
+    }
+
+    /// Keeps `works` for the next evaluation.
+    fn put(&self, works: Vec<SpaceWork>) {
+        *lock(&self.0) = works;
+    }
+}
+
+impl Clone for Workspace {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for Workspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Workspace")
+    }
+}
+
+/// Locks a mutex, also after a panic elsewhere (the buffers hold no invariant across calls).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    match m.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -566,6 +611,8 @@ struct ModelObjective<'a> {
     /// Latent points row-major (Kernels mode).
     x_rows: Vec<f64>,
     works: Mutex<Vec<SpaceWork>>,
+    /// ∂L/∂X of the last evaluation, for back-constrained models (before the chain rule to W).
+    latent_grad: Mutex<Option<Mat<f64>>>,
 }
 
 impl<'a> ModelObjective<'a> {
@@ -575,10 +622,11 @@ impl<'a> ModelObjective<'a> {
             Mode::Full => (0..model.spaces.len()).collect(),
             Mode::Kernels(v) => v.clone(),
         };
-        let works = evaluated
+        let dims: Vec<usize> = evaluated
             .iter()
-            .map(|&s| SpaceWork::new(n, model.spaces[s].data.ncols()))
+            .map(|&s| model.spaces[s].data.ncols())
             .collect();
+        let works = model.workspace.take(n, &dims);
         let kbc = match (&mode, &model.latent) {
             (
                 Mode::Full,
@@ -621,6 +669,7 @@ impl<'a> ModelObjective<'a> {
             constant,
             x_rows: model.x_rows.clone(),
             works: Mutex::new(works),
+            latent_grad: Mutex::new(None),
         })
     }
 
@@ -677,6 +726,14 @@ impl<'a> ModelObjective<'a> {
     }
 }
 
+impl Drop for ModelObjective<'_> {
+    fn drop(&mut self) {
+        self.model
+            .workspace
+            .put(std::mem::take(&mut *lock(&self.works)));
+    }
+}
+
 impl Objective for ModelObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
         let m = self.model;
@@ -721,10 +778,7 @@ impl Objective for ModelObjective<'_> {
             }
             kernels.push(k);
         }
-        let mut works = match self.works.lock() {
-            Ok(g) => g,
-            Err(p) => p.into_inner(),
-        };
+        let mut works = lock(&self.works);
         // The spaces share only X: each is evaluated on its own thread, into its own latent
         // gradient, and the results are summed in a fixed order (deterministic).
         let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
@@ -772,6 +826,7 @@ impl Objective for ModelObjective<'_> {
                         1.0,
                         par,
                     );
+                    *lock(&self.latent_grad) = Some(dxm);
                 }
                 None => {
                     for j in 0..q {
@@ -955,6 +1010,7 @@ impl SharedGplvm {
             x_rows: Vec::new(),
             caches: Vec::new(),
             latent_cache: None,
+            workspace: Workspace::default(),
         };
         model.update_latent_points();
         model.train(Mode::Full, options, callback)?;
@@ -1720,44 +1776,34 @@ impl SharedGplvm {
                 bandwidth,
                 data,
             } => {
-                // ∂L/∂X = K_bc⁻ᵀ... recover it from ∂L/∂W = K_bc ∂L/∂X is ill-posed, so recompute.
-                let mut dx = vec![0.0; n * q];
-                let mut w = SpaceWork::new(n, 1);
-                for s in &self.spaces {
-                    if w.alpha().ncols() != s.data.ncols() {
-                        w = SpaceWork::new(n, s.data.ncols());
-                    }
-                    eval_space(
-                        &self.x_rows,
-                        q,
-                        s.data.as_ref(),
-                        &s.kernel,
-                        &mut w,
-                        true,
-                        Some(&mut dx),
-                    )
-                    .map_err(|e| Error::NotPositiveDefinite {
-                        space: s.name.clone(),
-                        jitter: e.jitter,
-                    })?;
-                }
-                // ∂L/∂bw = Σ_ij (dX Wᵀ)_ij K_ij d²_ij / bw³.
-                let k = bc_kernel(data.as_ref(), *bandwidth);
-                let rows = row_major(data.as_ref());
+                // ∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³, with K_ij = exp(−d²_ij / 2bw²).
+                let (dx, k) = match (lock(&obj.latent_grad).take(), &obj.kbc) {
+                    (Some(dx), Some(k)) => (dx, k),
+                    _ => unreachable!("a full evaluation of a back-constrained model sets both"),
+                };
+                let mut a = Mat::zeros(n, n);
+                faer::linalg::matmul::matmul(
+                    a.as_mut(),
+                    Accum::Replace,
+                    dx.as_ref(),
+                    weights.transpose(),
+                    1.0,
+                    par_for(n),
+                );
                 let c = data.ncols();
+                let mut d2 = Mat::zeros(n, n);
+                map_sqdist_lower(
+                    &row_major(data.as_ref()),
+                    c,
+                    &vec![1.0; c],
+                    &mut d2,
+                    #[inline(always)]
+                    |v| v,
+                );
                 let mut db = 0.0;
-                for i in 0..n {
-                    for j in 0..n {
-                        let mut d2 = 0.0;
-                        for t in 0..c {
-                            let v = rows[i * c + t] - rows[j * c + t];
-                            d2 += v * v;
-                        }
-                        let mut p = 0.0;
-                        for t in 0..q {
-                            p += dx[i * q + t] * weights[(j, t)];
-                        }
-                        db += p * k[(i, j)] * d2;
+                for j in 0..n {
+                    for i in j + 1..n {
+                        db += (a[(i, j)] + a[(j, i)]) * k[(i, j)] * d2[(i, j)];
                     }
                 }
                 db /= bandwidth.powi(3);
