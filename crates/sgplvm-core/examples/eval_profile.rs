@@ -1,7 +1,8 @@
 //! Times repeated objective+gradient evaluations (for profiling with `perf record`).
 //!
-//! Run: `cargo run --release -p sgplvm-core --example eval_profile -- 300 50`
-use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
+//! Run: `cargo run --release -p sgplvm-core --example eval_profile -- 300 50` (input back
+//! constraints; `FREE=1` for free latent points; `RAYON_NUM_THREADS=1` for one core).
+use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -17,13 +18,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let r = Mat::from_fn(n, 14, |i, j| {
         ((i as f64) * 12.0 / n as f64 * (1.0 + 0.07 * j as f64) + 0.1).sin()
     });
+    let back_constraint = if std::env::var_os("FREE").is_some() {
+        BackConstraint::None
+    } else {
+        BackConstraint::Input
+    };
     let options = TrainOptions {
         max_iters: 0,
         map_max_iters: 0,
         ..TrainOptions::default()
     };
     let m = SharedGplvm::fit(
-        &ModelConfig::default(),
+        &ModelConfig::default().with_back_constraint(back_constraint),
         &[("human", h.as_ref()), ("robot", r.as_ref())],
         "human",
         &options,
@@ -37,6 +43,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "N={n}: {:.3} ms per evaluation (objective {f:.6})",
+        t.elapsed().as_secs_f64() * 1e3 / reps as f64
+    );
+    let t = Instant::now();
+    for _ in 0..reps {
+        f = m.evaluate()?.0;
+    }
+    println!(
+        "N={n}: {:.3} ms per SharedGplvm::evaluate (objective {f:.6})",
         t.elapsed().as_secs_f64() * 1e3 / reps as f64
     );
     let frame: Vec<f64> = (0..18).map(|j| h[(n / 3, j)]).collect();
