@@ -20,9 +20,10 @@ use serde::{Deserialize, Serialize};
 /// 2-core machine the project is developed on: a 300×300 Cholesky takes 0.34 ms on one thread).
 pub(crate) const PARALLEL_FROM: usize = 700;
 
-/// The faer parallelism used for an `n`×`n` problem.
+/// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
+/// only on a pool thread (see [`crate::pool`]), sequential everywhere else.
 pub(crate) fn par_for(n: usize) -> Par {
-    if n >= PARALLEL_FROM {
+    if n >= PARALLEL_FROM && crate::pool::on_pool_thread() {
         Par::rayon(0)
     } else {
         Par::Seq

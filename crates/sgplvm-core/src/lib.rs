@@ -58,6 +58,7 @@ mod error;
 mod io;
 mod kernel;
 mod model;
+mod pool;
 mod train;
 
 pub use error::{Error, Result};

@@ -5,7 +5,7 @@ use std::sync::Mutex;
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::llt;
 use faer::reborrow::ReborrowMut;
-use faer::{Accum, Mat, MatRef, Par, Side};
+use faer::{Accum, Mat, MatRef, Par};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -17,8 +17,9 @@ use crate::error::{Error, Result};
 use crate::kernel::{
     cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice,
     map_sqdist_lower, par_for, rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceEval,
-    SpaceWork,
+    SpaceWork, PARALLEL_FROM,
 };
+use crate::pool::{in_pool, on_pool_thread};
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
 
 /// Training points per block in the prediction loops (stack buffer size).
@@ -422,15 +423,40 @@ fn mean_col_var(m: MatRef<'_, f64>) -> f64 {
 /// positive. Returns the projection and the variance of its first column.
 fn pca(y: MatRef<'_, f64>, q: usize) -> Result<(Mat<f64>, f64)> {
     let (n, d) = (y.nrows(), y.ncols());
-    let cov = (y.transpose() * y) * faer::Scale(1.0 / n as f64);
-    let evd = cov
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| Error::InvalidValue {
-            what: "PCA initialisation".into(),
-            reason: format!("eigen-decomposition failed: {e:?}"),
-        })?;
-    let u = evd.U();
-    let s = evd.S().column_vector();
+    // Explicitly sequential: faer's operators and `self_adjoint_eigen` use its global
+    // parallelism, i.e. rayon's global pool, which deadlocks in a forked child (see `pool`).
+    let mut cov = Mat::zeros(d, d);
+    faer::linalg::matmul::matmul(
+        cov.as_mut(),
+        Accum::Replace,
+        y.transpose(),
+        y,
+        1.0 / n as f64,
+        Par::Seq,
+    );
+    let mut eigenvalues = faer::diag::Diag::<f64>::zeros(d);
+    let mut u = Mat::zeros(d, d);
+    let params = Default::default();
+    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
+        d,
+        faer::linalg::evd::ComputeEigenvectors::Yes,
+        Par::Seq,
+        params,
+    );
+    faer::linalg::evd::self_adjoint_evd(
+        cov.as_ref(),
+        eigenvalues.as_mut(),
+        Some(u.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut faer::dyn_stack::MemBuffer::new(scratch)),
+        params,
+    )
+    .map_err(|e| Error::InvalidValue {
+        what: "PCA initialisation".into(),
+        reason: format!("eigen-decomposition failed: {e:?}"),
+    })?;
+    clear_upper_simd_state();
+    let s = eigenvalues.column_vector();
     let k = q.min(d);
     let mut z = Mat::zeros(n, q);
     let mut top = 0.0;
@@ -736,6 +762,17 @@ impl Drop for ModelObjective<'_> {
 
 impl Objective for ModelObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        if self.model.n() >= SPACES_IN_PARALLEL_FROM {
+            in_pool(|| self.eval_here(theta, grad))
+        } else {
+            self.eval_here(theta, grad)
+        }
+    }
+}
+
+impl ModelObjective<'_> {
+    /// [`Objective::eval`] on the calling thread (spaces in parallel if it is a pool thread).
+    fn eval_here(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
         let m = self.model;
         let (n, q) = (m.n(), m.q());
         let ll = self.latent_len();
@@ -794,7 +831,7 @@ impl Objective for ModelObjective<'_> {
         };
         let pairs = evaluated.iter().zip(&kernels);
         let results: Vec<Result<(SpaceEval, Vec<f64>)>> =
-            if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM {
+            if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread() {
                 works
                     .par_iter_mut()
                     .zip(evaluated.par_iter().zip(kernels.par_iter()))
@@ -851,6 +888,17 @@ struct MapObjective {
 
 impl Objective for MapObjective {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        if self.y.nrows() >= PARALLEL_FROM {
+            in_pool(|| self.eval_here(theta, grad))
+        } else {
+            self.eval_here(theta, grad)
+        }
+    }
+}
+
+impl MapObjective {
+    /// [`Objective::eval`] on the calling thread.
+    fn eval_here(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
         let k = decode_kernel(theta, self.dh);
         if !k.is_valid() {
             return Err(Error::InvalidValue {

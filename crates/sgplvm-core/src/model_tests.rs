@@ -351,7 +351,7 @@ fn prediction_paths_agree_and_variance_matches_dense_formula() {
             });
             let kinv = {
                 use faer::linalg::solvers::DenseSolveCore;
-                kmat.llt(Side::Lower).expect("pd").inverse()
+                kmat.llt(faer::Side::Lower).expect("pd").inverse()
             };
             let kstar = Mat::from_fn(n, 1, |i, _| kx(&xs, &m.x_rows[i * 2..i * 2 + 2]));
             let mean = kstar.transpose() * &kinv * &s.data;

@@ -1,6 +1,8 @@
 """The Python model API: GPy agreement, fit / transfer / predict / save / load / pickle, threads,
 and errors for every kind of bad input."""
 
+import multiprocessing
+import os
 import pickle
 import threading
 
@@ -242,6 +244,31 @@ def test_two_models_train_in_two_threads(data):
     alone.fit({"human": human, "walkman": r1}, input="human", max_iters=30)
     np.testing.assert_array_equal(results["walkman"], alone.predict(human, robot="walkman"))
     assert results["coman"].shape == r2.shape
+
+
+def _fit_and_predict(args):
+    human, robot = args
+    m = sgplvm.SharedGPLVM(latent_dim=Q, seed=3)
+    m.fit({"human": human, "walkman": robot}, input="human", max_iters=5)
+    return m.predict(human, robot="walkman")
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork() on this platform")
+def test_models_train_in_forked_processes():
+    # A child inherits a copy of a thread pool without its threads: work handed to rayon's
+    # global pool (faer's default for its operators, and our space-parallel evaluation before
+    # it had a fork-aware pool) waited there forever. The paper's sizes (300 frames, 18 human
+    # and 14 robot joints) are large enough for both.
+    rng = np.random.default_rng(4)
+    t = np.linspace(0, 2 * np.pi, 300)
+    z = np.stack([np.sin(t), np.cos(2 * t)], axis=1)
+    human = np.tanh(z @ rng.normal(size=(2, 18)))
+    r1 = np.sin(z @ rng.normal(size=(2, 14)))
+    here = _fit_and_predict((human, r1))  # the pool now runs in this process
+    with multiprocessing.get_context("fork").Pool(2) as pool:
+        children = pool.map_async(_fit_and_predict, [(human, r1)] * 2).get(timeout=60)
+    for child in children:
+        np.testing.assert_array_equal(child, here)
 
 
 # ---------------------------------------------------------------- bad input

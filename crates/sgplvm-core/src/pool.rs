@@ -1,0 +1,72 @@
+//! The thread pool the core computes on: rayon's, rebuilt after `fork()`.
+//!
+//! A forked child inherits a copy of a rayon pool's bookkeeping but none of its threads, so
+//! work handed to an inherited pool waits forever — Python's `multiprocessing` with the `fork`
+//! start method hung in the first evaluation of a child. This pool remembers the process that
+//! built it and is rebuilt in a child. faer only parallelises on this pool's threads
+//! ([`crate::kernel::par_for`]); everywhere else the core runs sequentially.
+
+use std::sync::{Arc, Mutex};
+
+use rayon::ThreadPool;
+
+/// The pool and the id of the process that built it.
+static POOL: Mutex<Option<(u32, Arc<ThreadPool>)>> = Mutex::new(None);
+
+/// The pool of this process (built on first use; `RAYON_NUM_THREADS` sets its size). `None`
+/// when no thread can be started, and the caller then computes on its own thread.
+fn pool() -> Option<Arc<ThreadPool>> {
+    let pid = std::process::id();
+    let mut guard = match POOL.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    };
+    if let Some((owner, pool)) = guard.as_ref() {
+        if *owner == pid {
+            return Some(Arc::clone(pool));
+        }
+    }
+    if let Some((_, inherited)) = guard.take() {
+        // Its threads live in the parent process: dropping it would wait on threads that do
+        // not exist here.
+        std::mem::forget(inherited);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .thread_name(|i| format!("sgplvm-{i}"))
+        .build()
+        .ok()
+        .map(Arc::new)?;
+    *guard = Some((pid, Arc::clone(&pool)));
+    Some(pool)
+}
+
+/// Runs `f` on one of the pool's threads, where [`on_pool_thread`] holds and parallel work may
+/// be spread over the pool; on the calling thread if there is no pool.
+pub(crate) fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    match pool() {
+        Some(p) => p.install(f),
+        None => f(),
+    }
+}
+
+/// True on a thread of a rayon pool (ours inside [`in_pool`]): only there may faer or a
+/// parallel iterator spread work without touching rayon's fork-unsafe global pool.
+pub(crate) fn on_pool_thread() -> bool {
+    rayon::current_thread_index().is_some()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn work_runs_on_a_pool_thread_and_only_there() {
+        assert!(!on_pool_thread());
+        assert!(in_pool(on_pool_thread) || pool().is_none());
+        // The same pool is reused within a process.
+        let (a, b) = (pool(), pool());
+        if let (Some(a), Some(b)) = (a, b) {
+            assert!(Arc::ptr_eq(&a, &b));
+        }
+    }
+}
