@@ -19,7 +19,7 @@ use crate::kernel::{
     map_sqdist_lower, par_for, rbf_lower, row_major, weighted_sqdist, KernelParams, SpaceEval,
     SpaceWork, PARALLEL_FROM,
 };
-use crate::pool::{in_pool, on_pool_thread};
+use crate::pool::{in_pool, lock, on_pool_thread};
 use crate::train::{minimise, Control, IterationRecord, Objective, StopReason, TrainOptions};
 
 /// Training points per block in the prediction loops (stack buffer size).
@@ -334,14 +334,6 @@ impl Clone for Workspace {
 impl std::fmt::Debug for Workspace {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("Workspace")
-    }
-}
-
-/// Locks a mutex, also after a panic elsewhere (the buffers hold no invariant across calls).
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    match m.lock() {
-        Ok(g) => g,
-        Err(p) => p.into_inner(),
     }
 }
 
@@ -906,10 +898,7 @@ impl MapObjective {
                 reason: "overflow".into(),
             });
         }
-        let mut w = match self.work.lock() {
-            Ok(g) => g,
-            Err(p) => p.into_inner(),
-        };
+        let mut w = lock(&self.work);
         let e = eval_space(
             &self.h_rows,
             self.dh,

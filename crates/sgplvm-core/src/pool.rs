@@ -6,7 +6,7 @@
 //! built it and is rebuilt in a child. faer only parallelises on this pool's threads
 //! ([`crate::kernel::par_for`]); everywhere else the core runs sequentially.
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use rayon::ThreadPool;
 
@@ -17,10 +17,7 @@ static POOL: Mutex<Option<(u32, Arc<ThreadPool>)>> = Mutex::new(None);
 /// when no thread can be started, and the caller then computes on its own thread.
 fn pool() -> Option<Arc<ThreadPool>> {
     let pid = std::process::id();
-    let mut guard = match POOL.lock() {
-        Ok(g) => g,
-        Err(p) => p.into_inner(),
-    };
+    let mut guard = lock(&POOL);
     if let Some((owner, pool)) = guard.as_ref() {
         if *owner == pid {
             return Some(Arc::clone(pool));
@@ -38,6 +35,15 @@ fn pool() -> Option<Arc<ThreadPool>> {
         .map(Arc::new)?;
     *guard = Some((pid, Arc::clone(&pool)));
     Some(pool)
+}
+
+/// Locks a mutex, also after a panic on another thread: what the core keeps behind its mutexes
+/// (buffers, caches, the pool) holds no invariant that a panic could break.
+pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    match m.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    }
 }
 
 /// Runs `f` on one of the pool's threads, where [`on_pool_thread`] holds and parallel work may

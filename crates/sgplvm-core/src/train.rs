@@ -146,10 +146,7 @@ fn eval_cached<O: Objective>(
     cache: &Mutex<Option<Evaluated>>,
     theta: &[f64],
 ) -> Option<(f64, Vec<f64>)> {
-    let mut guard = match cache.lock() {
-        Ok(g) => g,
-        Err(p) => p.into_inner(),
-    };
+    let mut guard = crate::pool::lock(cache);
     if let Some((t, result)) = guard.as_ref() {
         if t.as_slice() == theta {
             return result.clone();
