@@ -754,7 +754,15 @@ impl Drop for ModelObjective<'_> {
 
 impl Objective for ModelObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
-        if self.model.n() >= SPACES_IN_PARALLEL_FROM {
+        // On the pool only when there is parallel work: several spaces, or one space large
+        // enough for faer's threads (transfer evaluates one space and would only pay the
+        // hand-off to a pool thread).
+        let n = self.model.n();
+        let spaces = match &self.mode {
+            Mode::Full => self.model.spaces.len(),
+            Mode::Kernels(v) => v.len(),
+        };
+        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= PARALLEL_FROM {
             in_pool(|| self.eval_here(theta, grad))
         } else {
             self.eval_here(theta, grad)
