@@ -191,7 +191,7 @@ pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat
 /// Column by column: the squared scaled distances of rows `j..n` to row `j` are summed one
 /// dimension at a time over contiguous columns of `X / ℓ`, then mapped by `f` — loops over
 /// slices that [`vectorized`] compiles for the widest SIMD available (`f` is inlined into
-/// them; mark it `#[inline(always)]`). Blocks of eight rows kept in registers measured 25%
+/// them; mark it `#[inline(always)]`). Blocks of eight rows kept in registers measured
 /// slower here.
 #[inline(always)]
 pub(crate) fn map_sqdist_lower(
