@@ -23,9 +23,10 @@ use std::path::{Path, PathBuf};
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
+use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
-use crate::model::{InputMap, Latent, ModelConfig, SharedGplvm, Space};
+use crate::model::{InputMap, Latent, SharedGplvm, Space};
 use crate::train::{IterationRecord, StopReason};
 
 /// Magic bytes at the start of every model file.

@@ -54,6 +54,7 @@
 // Index loops over several arrays at once are the clearest form of the numeric kernels here.
 #![allow(clippy::needless_range_loop)]
 
+mod config;
 mod error;
 mod io;
 mod kernel;
@@ -61,12 +62,10 @@ mod model;
 mod pool;
 mod train;
 
+pub use config::{BackConstraint, ModelConfig, ScaleMode};
 pub use error::{Error, Result};
 pub use faer::{Mat, MatRef};
 pub use io::{FORMAT_VERSION, MAGIC};
 pub use kernel::KernelParams;
-pub use model::{
-    BackConstraint, Callback, Evaluator, LatentParams, ModelConfig, Params, Prediction, ScaleMode,
-    SharedGplvm,
-};
+pub use model::{Callback, Evaluator, LatentParams, Params, Prediction, SharedGplvm};
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};

@@ -9,10 +9,10 @@ use faer::{Accum, Mat, MatRef, Par};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use serde::{Deserialize, Serialize};
 
 use rayon::prelude::*;
 
+use crate::config::{BackConstraint, ModelConfig, ScaleMode};
 use crate::error::{Error, Result};
 use crate::kernel::{
     cholesky_with_jitter, clear_upper_simd_state, eval_space, exp_neg, exp_neg_slice,
@@ -60,125 +60,6 @@ fn rbf_block(a: MatRef<'_, f64>, b: MatRef<'_, f64>, mut out: faer::MatMut<'_, f
                 col[r] = exp_neg((col[r] - na - nb).min(0.0));
             }
         }
-    }
-}
-
-/// Where the latent points come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BackConstraint {
-    /// Free latent points X (initialised from PCA); human → latent by a GP regression fitted
-    /// after training.
-    None,
-    /// X = K_bc(H, H) W on the input (human) space: the paper's choice; x* = k_bc(h*, H) W.
-    Input,
-    /// X = K_bc(R, R) W on the output spaces given to `fit` (concatenated); human → latent by a
-    /// GP regression fitted after training.
-    Output,
-}
-
-/// How spaces are scaled after centring when [`ModelConfig::scale`] is on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ScaleMode {
-    /// Each column divided by its own standard deviation (constant columns are left as is).
-    PerColumn,
-    /// All columns of a space divided by one number: the root of the mean column variance.
-    PerSpace,
-}
-
-/// Model configuration. `Default`: Q = 5, input back constraints, seed 0, no scaling.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ModelConfig {
-    /// Latent dimension Q (1 ≤ Q < N).
-    pub latent_dim: usize,
-    /// Latent parametrisation.
-    pub back_constraint: BackConstraint,
-    /// Seed of the (only) random step: the perturbation of the PCA initialisation.
-    pub seed: u64,
-    /// Scale every space after centring (see `scale_mode`); off by default.
-    pub scale: bool,
-    /// Scaling rule used when `scale` is on.
-    pub scale_mode: ScaleMode,
-    /// Standard deviation of the Gaussian perturbation added to the PCA initialisation (whose
-    /// first column has unit standard deviation). 0 makes the seed irrelevant.
-    pub init_perturbation: f64,
-    /// Ridge λ of the back-constraint initialisation (K_bc + λI) W = X_pca.
-    pub bc_ridge: f64,
-    /// Initial noise variance of each space as a fraction of its mean column variance.
-    pub init_noise_fraction: f64,
-}
-
-impl Default for ModelConfig {
-    fn default() -> Self {
-        Self {
-            latent_dim: 5,
-            back_constraint: BackConstraint::Input,
-            seed: 0,
-            scale: false,
-            scale_mode: ScaleMode::PerColumn,
-            init_perturbation: 0.01,
-            bc_ridge: 1e-3,
-            init_noise_fraction: 0.1,
-        }
-    }
-}
-
-impl ModelConfig {
-    /// Sets Q.
-    pub fn with_latent_dim(mut self, q: usize) -> Self {
-        self.latent_dim = q;
-        self
-    }
-    /// Sets the latent parametrisation.
-    pub fn with_back_constraint(mut self, bc: BackConstraint) -> Self {
-        self.back_constraint = bc;
-        self
-    }
-    /// Sets the seed.
-    pub fn with_seed(mut self, seed: u64) -> Self {
-        self.seed = seed;
-        self
-    }
-    /// Turns scaling on or off.
-    pub fn with_scale(mut self, scale: bool) -> Self {
-        self.scale = scale;
-        self
-    }
-    /// Sets the scaling rule (and turns scaling on).
-    pub fn with_scale_mode(mut self, mode: ScaleMode) -> Self {
-        self.scale = true;
-        self.scale_mode = mode;
-        self
-    }
-    /// Sets the initial perturbation standard deviation.
-    pub fn with_init_perturbation(mut self, s: f64) -> Self {
-        self.init_perturbation = s;
-        self
-    }
-
-    /// Checks the values that do not depend on the data.
-    pub fn check(&self) -> Result<()> {
-        let bad = |what: &str, reason: &str| {
-            Err(Error::InvalidValue {
-                what: what.into(),
-                reason: reason.into(),
-            })
-        };
-        if !(self.init_perturbation >= 0.0 && self.init_perturbation.is_finite()) {
-            return bad(
-                "ModelConfig::init_perturbation",
-                "expected a finite number ≥ 0",
-            );
-        }
-        if !(self.bc_ridge > 0.0 && self.bc_ridge.is_finite()) {
-            return bad("ModelConfig::bc_ridge", "expected a finite number > 0");
-        }
-        if !(self.init_noise_fraction > 0.0 && self.init_noise_fraction.is_finite()) {
-            return bad(
-                "ModelConfig::init_noise_fraction",
-                "expected a finite number > 0",
-            );
-        }
-        Ok(())
     }
 }
 
