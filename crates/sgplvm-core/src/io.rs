@@ -25,8 +25,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::ModelConfig;
 use crate::error::{Error, Result};
+use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
-use crate::model::{InputMap, Latent, SharedGplvm, Space};
+use crate::model::{Latent, SharedGplvm, Space};
 use crate::train::{IterationRecord, StopReason};
 
 /// Magic bytes at the start of every model file.
@@ -385,5 +386,66 @@ impl SharedGplvm {
             source,
         })?;
         Self::from_bytes(&bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::*;
+
+    #[test]
+    fn save_load_round_trip_is_bit_identical_and_bad_files_fail() {
+        let mut m = fit(BackConstraint::Input, 30, 10, 0);
+        m.set_column_names("walkman", (0..4).map(|i| format!("j{i}")).collect())
+            .expect("names");
+        let dir = std::env::temp_dir().join(format!("sgplvm-core-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp dir");
+        let path = dir.join("model.sgp");
+        m.save(&path).expect("save");
+        let l = SharedGplvm::load(&path).expect("load");
+        let (h, _, _, _) = demo(30, 5);
+        let a = m.predict(h.as_ref(), "walkman", true).expect("p");
+        let b = l.predict(h.as_ref(), "walkman", true).expect("p");
+        assert_eq!(a, b);
+        assert_eq!(l.column_names("walkman").map(|c| c.len()), Some(4));
+        assert_eq!(l.history(), m.history());
+        assert_eq!(l.to_bytes(), m.to_bytes());
+        // No temporary file left behind.
+        assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 1);
+        let bytes = m.to_bytes();
+        assert!(matches!(
+            SharedGplvm::from_bytes(b"PK\x03\x04 a zip file"),
+            Err(Error::BadMagic)
+        ));
+        assert!(matches!(
+            SharedGplvm::from_bytes(&bytes[..bytes.len() - 10]),
+            Err(Error::Truncated { .. })
+        ));
+        assert!(matches!(
+            SharedGplvm::from_bytes(&bytes[..12]),
+            Err(Error::Truncated { .. })
+        ));
+        let mut old = bytes.clone();
+        old[8..12].copy_from_slice(&0u32.to_le_bytes());
+        assert!(matches!(
+            SharedGplvm::from_bytes(&old),
+            Err(Error::UnsupportedVersion {
+                found: 0,
+                supported: 1
+            })
+        ));
+        let mut bad = bytes.clone();
+        let k = bytes.len() / 2;
+        bad[k] = if bad[k] == b'1' { b'2' } else { b'1' };
+        assert!(matches!(
+            SharedGplvm::from_bytes(&bad),
+            Err(Error::Corrupt { .. })
+        ));
+        assert!(matches!(
+            SharedGplvm::load(&dir.join("missing.sgp")),
+            Err(Error::Io { .. })
+        ));
+        std::fs::remove_dir_all(&dir).expect("cleanup");
     }
 }

@@ -54,18 +54,34 @@
 // Index loops over several arrays at once are the clearest form of the numeric kernels here.
 #![allow(clippy::needless_range_loop)]
 
+mod back_constraint;
 mod config;
 mod error;
+mod fit;
+mod init;
+mod input_map;
 mod io;
 mod kernel;
+mod likelihood;
 mod model;
+mod objective;
+mod params;
 mod pool;
+mod predict;
+mod preprocess;
+mod simd;
+#[cfg(test)]
+mod test_support;
 mod train;
+mod transfer;
 
 pub use config::{BackConstraint, ModelConfig, ScaleMode};
 pub use error::{Error, Result};
 pub use faer::{Mat, MatRef};
 pub use io::{FORMAT_VERSION, MAGIC};
 pub use kernel::KernelParams;
-pub use model::{Callback, Evaluator, LatentParams, Params, Prediction, SharedGplvm};
+pub use model::{Callback, SharedGplvm};
+pub use objective::Evaluator;
+pub use params::{LatentParams, Params};
+pub use predict::Prediction;
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};

@@ -4,11 +4,26 @@
 //! work handed to an inherited pool waits forever — Python's `multiprocessing` with the `fork`
 //! start method hung in the first evaluation of a child. This pool remembers the process that
 //! built it and is rebuilt in a child. faer only parallelises on this pool's threads
-//! ([`crate::kernel::par_for`]); everywhere else the core runs sequentially.
+//! ([`par_for`]); everywhere else the core runs sequentially.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use faer::Par;
 use rayon::ThreadPool;
+
+/// Sizes from which faer's rayon parallelism is used (below it, sequential code was faster on the
+/// 2-core machine the project is developed on: a 300×300 Cholesky takes 0.34 ms on one thread).
+pub(crate) const PARALLEL_FROM: usize = 700;
+
+/// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
+/// only on a pool thread (see [`crate::pool`]), sequential everywhere else.
+pub(crate) fn par_for(n: usize) -> Par {
+    if n >= PARALLEL_FROM && crate::pool::on_pool_thread() {
+        Par::rayon(0)
+    } else {
+        Par::Seq
+    }
+}
 
 /// The pool and the id of the process that built it.
 static POOL: Mutex<Option<(u32, Arc<ThreadPool>)>> = Mutex::new(None);

@@ -1,0 +1,110 @@
+//! Back constraints: latent points as a kernel mapping of the data, `X = K_bc W` with
+//! `K_bc[i, j] = exp(−|d_i − d_j|² / (2 bw²))` over the constrained data D (the human's for
+//! input back constraints, the paper's choice; the robots' for output ones). The bandwidth is
+//! the median pairwise distance of D (not trained); W starts at `(K_bc + λI)⁻¹ X_init` and
+//! is trained through `∂L/∂W = K_bcᵀ ∂L/∂X`.
+
+use faer::dyn_stack::MemStack;
+use faer::linalg::cholesky::llt;
+use faer::{Mat, MatRef};
+
+use crate::error::{Error, Result};
+use crate::kernel::{rbf_lower, row_major, KernelParams};
+use crate::likelihood::cholesky_with_jitter;
+use crate::pool::par_for;
+
+/// Median of the pairwise Euclidean distances between the rows of `m` (zero distances
+/// excluded; 1 when every row is the same). The back-constraint bandwidth rule.
+pub(crate) fn median_distance(m: MatRef<'_, f64>) -> f64 {
+    let n = m.nrows();
+    let rows = row_major(m);
+    let c = m.ncols();
+    let mut d = Vec::with_capacity(n * n.saturating_sub(1) / 2);
+    for i in 0..n {
+        for j in 0..i {
+            let mut s = 0.0;
+            for t in 0..c {
+                let v = rows[i * c + t] - rows[j * c + t];
+                s += v * v;
+            }
+            if s > 0.0 {
+                d.push(s.sqrt());
+            }
+        }
+    }
+    if d.is_empty() {
+        return 1.0;
+    }
+    let mid = d.len() / 2;
+    let (_, m, _) = d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    *m
+}
+
+/// Back-constraint kernel matrix exp(-|a_i - a_j|² / (2 bw²)) (full, symmetric).
+pub(crate) fn bc_kernel(data: MatRef<'_, f64>, bandwidth: f64) -> Mat<f64> {
+    let n = data.nrows();
+    let k = KernelParams {
+        variance: 1.0,
+        lengthscale: vec![bandwidth; data.ncols()],
+        noise: 0.0,
+    };
+    let mut m = Mat::zeros(n, n);
+    rbf_lower(&row_major(data), data.ncols(), &k, &mut m);
+    for j in 0..n {
+        for i in 0..j {
+            m[(i, j)] = m[(j, i)];
+        }
+    }
+    m
+}
+
+/// Solves (A + ridge I) X = B for symmetric positive semi-definite A.
+pub(crate) fn ridge_solve(a: MatRef<'_, f64>, b: MatRef<'_, f64>, ridge: f64) -> Result<Mat<f64>> {
+    let n = a.nrows();
+    let par = par_for(n);
+    let mut l = Mat::zeros(n, n);
+    cholesky_with_jitter(a, ridge, l.as_mut(), par).map_err(|e| Error::NotPositiveDefinite {
+        space: "back constraint".into(),
+        jitter: e.jitter,
+    })?;
+    let mut x = b.to_owned();
+    llt::solve::solve_in_place(l.as_ref(), x.as_mut(), par, MemStack::new(&mut []));
+    Ok(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::preprocess::preprocess;
+    use crate::test_support::*;
+
+    #[test]
+    fn input_back_constraint_latent_is_the_kernel_mapping() {
+        let m = fit(BackConstraint::Input, 30, 10, 0);
+        let (h, _, _, _) = demo(30, 7);
+        // x* = k_bc(h*, H) W on training frames equals X = K_bc W.
+        let lat = m.latent(h.as_ref()).expect("latent");
+        for i in 0..30 {
+            for t in 0..2 {
+                assert!((lat[(i, t)] - m.latent_points()[(i, t)]).abs() < 1e-9);
+            }
+        }
+        // The bandwidth is the median pairwise distance of the centred human data.
+        let LatentParams::BackConstrained { bandwidth, .. } = m.params().latent else {
+            panic!("bc")
+        };
+        let centred = preprocess(h.as_ref(), m.config()).0;
+        let mut d = Vec::new();
+        for i in 0..30 {
+            for j in 0..i {
+                d.push(
+                    (0..6)
+                        .map(|c| (centred[(i, c)] - centred[(j, c)]).powi(2))
+                        .sum::<f64>()
+                        .sqrt(),
+                );
+            }
+        }
+        d.sort_by(f64::total_cmp);
+        assert_eq!(bandwidth, d[d.len() / 2]);
+    }
+}

@@ -1,0 +1,327 @@
+//! Training a model from data: the paper's *full* model (human + one robot) and the
+//! *multi-robot* model (human + every robot), all parameters jointly by L-BFGS.
+
+use faer::{Accum, Mat, MatRef};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::back_constraint::{bc_kernel, median_distance, ridge_solve};
+use crate::config::{BackConstraint, ModelConfig};
+use crate::error::{Error, Result};
+use crate::init::pca_init;
+use crate::kernel::{row_major, KernelParams};
+use crate::model::{Callback, Latent, SharedGplvm, Space, Workspace};
+use crate::objective::{Mode, ModelObjective};
+use crate::pool::par_for;
+use crate::preprocess::{check_finite, check_nonempty, mean_col_var, preprocess};
+use crate::train::{minimise, Control, TrainOptions};
+
+impl SharedGplvm {
+    /// Fits a shared GP-LVM. `spaces` are named data matrices with the same number of rows;
+    /// `input` names the human space; with one other space this is the paper's *full* model,
+    /// with several the *multi-robot* model. `callback` sees every iteration with a model
+    /// snapshot (built only when a callback is given) and may stop training.
+    pub fn fit(
+        config: &ModelConfig,
+        spaces: &[(&str, MatRef<'_, f64>)],
+        input: &str,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        config.check()?;
+        options.check()?;
+        let names: Vec<String> = spaces.iter().map(|(n, _)| n.to_string()).collect();
+        for (i, n) in names.iter().enumerate() {
+            if names[..i].contains(n) {
+                return Err(Error::DuplicateSpace { name: n.clone() });
+            }
+        }
+        let Some(ii) = names.iter().position(|n| n == input) else {
+            return Err(Error::UnknownSpace {
+                name: input.into(),
+                known: names,
+            });
+        };
+        if spaces.len() < 2 {
+            return Err(Error::NoOutputSpace);
+        }
+        let n = spaces[ii].1.nrows();
+        for (name, m) in spaces {
+            check_nonempty(name, *m)?;
+            if m.nrows() != n {
+                return Err(Error::RowCountMismatch {
+                    space: name.to_string(),
+                    expected: n,
+                    found: m.nrows(),
+                });
+            }
+            check_finite(name, *m)?;
+        }
+        let q = config.latent_dim;
+        if q == 0 || q >= n {
+            return Err(Error::InvalidLatentDim { latent_dim: q, n });
+        }
+        // Input first, then the robots in the given order.
+        let mut order = vec![ii];
+        order.extend((0..spaces.len()).filter(|&i| i != ii));
+        let mut sp = Vec::new();
+        for &i in &order {
+            let (data, offset, scale) = preprocess(spaces[i].1, config);
+            let v = mean_col_var(data.as_ref());
+            sp.push(Space {
+                name: names[i].clone(),
+                data,
+                offset,
+                scale,
+                kernel: KernelParams {
+                    variance: v,
+                    lengthscale: vec![1.0; q],
+                    noise: config.init_noise_fraction * v,
+                },
+                columns: None,
+            });
+        }
+        let mut x0 = pca_init(&sp, q)?;
+        if config.init_perturbation > 0.0 {
+            let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+            for j in 0..q {
+                for i in 0..n {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    x0[(i, j)] += config.init_perturbation * z;
+                }
+            }
+        }
+        let latent = match config.back_constraint {
+            BackConstraint::None => Latent::Free { x: x0.clone() },
+            bc => {
+                let data = if bc == BackConstraint::Input {
+                    sp[0].data.clone()
+                } else {
+                    let cols: usize = sp[1..].iter().map(|s| s.data.ncols()).sum();
+                    let mut d = Mat::zeros(n, cols);
+                    let mut c0 = 0;
+                    for s in &sp[1..] {
+                        for j in 0..s.data.ncols() {
+                            for i in 0..n {
+                                d[(i, c0 + j)] = s.data[(i, j)];
+                            }
+                        }
+                        c0 += s.data.ncols();
+                    }
+                    d
+                };
+                let bandwidth = median_distance(data.as_ref());
+                let kbc = bc_kernel(data.as_ref(), bandwidth);
+                let weights = ridge_solve(kbc.as_ref(), x0.as_ref(), config.bc_ridge)?;
+                Latent::Back {
+                    weights,
+                    bandwidth,
+                    data,
+                }
+            }
+        };
+        let mut model = SharedGplvm {
+            config: config.clone(),
+            spaces: sp,
+            latent,
+            map: None,
+            history: Vec::new(),
+            stop_reason: None,
+            training_jitter: 0.0,
+            x: Mat::zeros(0, 0),
+            x_rows: Vec::new(),
+            caches: Vec::new(),
+            latent_cache: None,
+            workspace: Workspace::default(),
+        };
+        model.update_latent_points();
+        model.train(Mode::Full, options, callback)?;
+        Ok(model)
+    }
+
+    /// Recomputes X (and its row-major copy) from the latent representation.
+    pub(crate) fn update_latent_points(&mut self) {
+        self.x = match &self.latent {
+            Latent::Free { x } => x.clone(),
+            Latent::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
+                let k = bc_kernel(data.as_ref(), *bandwidth);
+                let mut x = Mat::zeros(weights.nrows(), weights.ncols());
+                faer::linalg::matmul::matmul(
+                    x.as_mut(),
+                    Accum::Replace,
+                    k.as_ref(),
+                    weights.as_ref(),
+                    1.0,
+                    par_for(weights.nrows()),
+                );
+                x
+            }
+        };
+        self.x_rows = row_major(self.x.as_ref());
+    }
+
+    pub(crate) fn needs_map(&self) -> bool {
+        self.config.back_constraint != BackConstraint::Input
+    }
+
+    /// Runs the optimiser in `mode`, then fits the input map (full mode) and rebuilds caches.
+    pub(crate) fn train(
+        &mut self,
+        mode: Mode,
+        options: &TrainOptions,
+        mut callback: Option<Callback<'_>>,
+    ) -> Result<()> {
+        let (outcome, jitter) = {
+            let obj = ModelObjective::new(self, mode.clone())?;
+            let theta0 = obj.theta0();
+            let d_total: usize = obj
+                .evaluated()
+                .iter()
+                .map(|&s| self.spaces[s].data.ncols())
+                .sum();
+            let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
+            let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
+            let outcome = minimise(&obj, theta0, scale, options, |rec, theta| {
+                let Some(cb) = callback.as_mut() else {
+                    return Control::Continue;
+                };
+                let mut snap = self.clone();
+                obj.apply(theta, &mut snap);
+                snap.update_latent_points();
+                if matches!(mode, Mode::Full) && snap.needs_map() {
+                    if let Err(_e) = snap.fit_map(options, prev_map.clone()) {
+                        return Control::Continue;
+                    }
+                    prev_map = snap.map.as_ref().map(|m| m.kernel.clone());
+                }
+                if snap.rebuild().is_err() {
+                    return Control::Continue;
+                }
+                snap.history = Vec::new();
+                cb(rec, &snap)
+            })?;
+            let mut applied = self.clone();
+            obj.apply(&outcome.theta, &mut applied);
+            (outcome, applied)
+        };
+        let mut applied = jitter;
+        applied.update_latent_points();
+        if matches!(mode, Mode::Full) && applied.needs_map() {
+            let warm = None;
+            applied.fit_map(options, warm)?;
+        }
+        applied.rebuild()?;
+        applied.history = outcome.history;
+        applied.stop_reason = Some(outcome.reason);
+        applied.training_jitter = applied.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
+        *self = applied;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::*;
+
+    #[test]
+    fn training_decreases_objective_monotonically_and_is_deterministic() {
+        for bc in [
+            BackConstraint::None,
+            BackConstraint::Input,
+            BackConstraint::Output,
+        ] {
+            let a = fit(bc, 40, 25, 3);
+            let h = a.history();
+            assert!(h.len() > 3, "{bc:?}: only {} records", h.len());
+            assert!(
+                h.last().expect("records").objective < h[0].objective - 1.0,
+                "{bc:?} did not improve"
+            );
+            for w in h.windows(2) {
+                assert!(
+                    w[1].objective <= w[0].objective,
+                    "{bc:?} history not monotone"
+                );
+                assert!(w[1].seconds >= w[0].seconds);
+            }
+            // The reported objective is the model's objective at its final parameters.
+            let f = a.objective();
+            assert!((f - h.last().expect("records").objective).abs() < 1e-9 * f.abs());
+            let b = fit(bc, 40, 25, 3);
+            assert_eq!(a.params(), b.params(), "{bc:?} not deterministic");
+            let c = fit(bc, 40, 25, 4);
+            assert_ne!(a.params(), c.params(), "{bc:?}: seed ignored");
+        }
+    }
+
+    #[test]
+    fn callback_sees_snapshots_and_can_stop() {
+        let (h, r1, _, _) = demo(30, 1);
+        let config = ModelConfig::default().with_latent_dim(2);
+        let mut seen = Vec::new();
+        let mut cb = |rec: &IterationRecord, m: &SharedGplvm| {
+            let p = m
+                .predict(h.as_ref(), "walkman", false)
+                .expect("snapshot predicts");
+            seen.push((rec.iteration, p.mean[(0, 0)]));
+            if rec.iteration == 4 {
+                Control::Stop
+            } else {
+                Control::Continue
+            }
+        };
+        let m = SharedGplvm::fit(
+            &config,
+            &[("human", h.as_ref()), ("walkman", r1.as_ref())],
+            "human",
+            &quick(100),
+            Some(&mut cb),
+        )
+        .expect("fit");
+        assert_eq!(
+            seen.iter().map(|s| s.0).collect::<Vec<_>>(),
+            vec![1, 2, 3, 4]
+        );
+        assert_eq!(m.stop_reason(), Some(&StopReason::Callback));
+        assert_eq!(m.history().len(), 5);
+        // The last snapshot predicts exactly what the returned model predicts.
+        let p = m.predict(h.as_ref(), "walkman", false).expect("predict");
+        assert_eq!(p.mean[(0, 0)], seen[3].1);
+    }
+
+    #[test]
+    fn multi_robot_fit_predicts_every_robot() {
+        let (h, r1, r2, r3) = demo(40, 2);
+        let config = ModelConfig::default().with_latent_dim(2);
+        let m = SharedGplvm::fit(
+            &config,
+            &[
+                ("walkman", r1.as_ref()),
+                ("human", h.as_ref()),
+                ("coman", r2.as_ref()),
+                ("centauro", r3.as_ref()),
+            ],
+            "human",
+            &quick(60),
+            None,
+        )
+        .expect("fit");
+        assert_eq!(m.input_name(), "human");
+        assert_eq!(m.output_names(), vec!["walkman", "coman", "centauro"]);
+        for (name, r) in [("walkman", &r1), ("coman", &r2), ("centauro", &r3)] {
+            let p = m.predict(h.as_ref(), name, false).expect("predict");
+            let mse: f64 = (0..40)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| (p.mean[(i, j)] - r[(i, j)]).powi(2))
+                .sum::<f64>()
+                / 160.0;
+            assert!(mse < 0.05, "{name} training mse {mse}");
+        }
+    }
+}

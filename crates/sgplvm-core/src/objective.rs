@@ -1,0 +1,501 @@
+//! The training objective: the negative log marginal likelihood summed over spaces,
+//! `L(θ) = Σ_s L_s(X, α_s, ℓ_s, σ_s)` (see `likelihood`), on the unconstrained vector θ the
+//! optimiser moves: the latent block (X, or W for back constraints) column-major, then per
+//! space log α², log ℓ_q, log σ². In transfer (`Mode::Kernels`) only the new robot's kernel
+//! moves and the frozen spaces add a constant.
+
+use std::sync::Mutex;
+
+use faer::{Accum, Mat, MatRef};
+use rayon::prelude::*;
+
+use crate::back_constraint::bc_kernel;
+use crate::error::{Error, Result};
+use crate::kernel::{map_sqdist_lower, row_major, KernelParams};
+use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
+use crate::model::{Latent, SharedGplvm};
+use crate::params::{LatentParams, Params};
+use crate::pool::{in_pool, lock, on_pool_thread, par_for, PARALLEL_FROM};
+use crate::simd::clear_upper_simd_state;
+use crate::train::Objective;
+
+/// Points from which the spaces of one evaluation run on separate threads (below it the
+/// thread hand-off costs more than it saves).
+pub(crate) const SPACES_IN_PARALLEL_FROM: usize = 64;
+
+/// Which parameters an optimisation moves.
+#[derive(Clone, Debug)]
+pub(crate) enum Mode {
+    /// The latent block and every space's kernel.
+    Full,
+    /// Only the kernels of these spaces (latent frozen); other spaces add a constant.
+    Kernels(Vec<usize>),
+}
+
+pub(crate) fn encode_kernel(k: &KernelParams, out: &mut Vec<f64>) {
+    out.push(k.variance.ln());
+    out.extend(k.lengthscale.iter().map(|l| l.ln()));
+    out.push(k.noise.ln());
+}
+
+pub(crate) fn decode_kernel(t: &[f64], q: usize) -> KernelParams {
+    KernelParams {
+        variance: t[0].exp(),
+        lengthscale: t[1..=q].iter().map(|v| v.exp()).collect(),
+        noise: t[q + 1].exp(),
+    }
+}
+
+/// Writes ∂L/∂(log p) = p ∂L/∂p for one space.
+pub(crate) fn kernel_grad_log(k: &KernelParams, e: &SpaceEval, out: &mut [f64]) {
+    out[0] = e.d_variance * k.variance;
+    for (t, l) in k.lengthscale.iter().enumerate() {
+        out[1 + t] = e.d_lengthscale[t] * l;
+    }
+    out[k.lengthscale.len() + 1] = e.d_noise * k.noise;
+}
+
+pub(crate) struct ModelObjective<'a> {
+    model: &'a SharedGplvm,
+    mode: Mode,
+    /// K_bc for back-constrained models in full mode.
+    kbc: Option<Mat<f64>>,
+    /// Sum of the frozen spaces' objective (Kernels mode).
+    constant: f64,
+    /// Latent points row-major (Kernels mode).
+    x_rows: Vec<f64>,
+    works: Mutex<Vec<SpaceWork>>,
+    /// ∂L/∂X of the last evaluation, for back-constrained models (before the chain rule to W).
+    latent_grad: Mutex<Option<Mat<f64>>>,
+}
+
+impl<'a> ModelObjective<'a> {
+    pub(crate) fn new(model: &'a SharedGplvm, mode: Mode) -> Result<Self> {
+        let n = model.n();
+        let evaluated: Vec<usize> = match &mode {
+            Mode::Full => (0..model.spaces.len()).collect(),
+            Mode::Kernels(v) => v.clone(),
+        };
+        let dims: Vec<usize> = evaluated
+            .iter()
+            .map(|&s| model.spaces[s].data.ncols())
+            .collect();
+        let works = model.workspace.take(n, &dims);
+        let kbc = match (&mode, &model.latent) {
+            (
+                Mode::Full,
+                Latent::Back {
+                    data, bandwidth, ..
+                },
+            ) => Some(bc_kernel(data.as_ref(), *bandwidth)),
+            _ => None,
+        };
+        let mut constant = 0.0;
+        if let Mode::Kernels(v) = &mode {
+            let mut w = SpaceWork::new(n, 1);
+            for (s, space) in model.spaces.iter().enumerate() {
+                if v.contains(&s) {
+                    continue;
+                }
+                if w.alpha().ncols() != space.data.ncols() {
+                    w = SpaceWork::new(n, space.data.ncols());
+                }
+                let e = eval_space(
+                    &model.x_rows,
+                    model.q(),
+                    space.data.as_ref(),
+                    &space.kernel,
+                    &mut w,
+                    false,
+                    None,
+                )
+                .map_err(|e| Error::NotPositiveDefinite {
+                    space: space.name.clone(),
+                    jitter: e.jitter,
+                })?;
+                constant += e.nll;
+            }
+        }
+        Ok(Self {
+            model,
+            mode,
+            kbc,
+            constant,
+            x_rows: model.x_rows.clone(),
+            works: Mutex::new(works),
+            latent_grad: Mutex::new(None),
+        })
+    }
+
+    pub(crate) fn evaluated(&self) -> Vec<usize> {
+        match &self.mode {
+            Mode::Full => (0..self.model.spaces.len()).collect(),
+            Mode::Kernels(v) => v.clone(),
+        }
+    }
+
+    pub(crate) fn theta0(&self) -> Vec<f64> {
+        let m = self.model;
+        let mut t = Vec::new();
+        if let Mode::Full = self.mode {
+            let lat = match &m.latent {
+                Latent::Free { x } => x,
+                Latent::Back { weights, .. } => weights,
+            };
+            for j in 0..lat.ncols() {
+                for i in 0..lat.nrows() {
+                    t.push(lat[(i, j)]);
+                }
+            }
+        }
+        for s in self.evaluated() {
+            encode_kernel(&m.spaces[s].kernel, &mut t);
+        }
+        t
+    }
+
+    pub(crate) fn latent_len(&self) -> usize {
+        match self.mode {
+            Mode::Full => self.model.n() * self.model.q(),
+            Mode::Kernels(_) => 0,
+        }
+    }
+
+    /// Writes `theta` into a copy of the model (no caches rebuilt).
+    pub(crate) fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
+        let (n, q) = (target.n(), target.q());
+        let ll = self.latent_len();
+        if ll > 0 {
+            let lat = Mat::from_fn(n, q, |i, j| theta[j * n + i]);
+            match &mut target.latent {
+                Latent::Free { x } => *x = lat,
+                Latent::Back { weights, .. } => *weights = lat,
+            }
+        }
+        let mut off = ll;
+        for s in self.evaluated() {
+            target.spaces[s].kernel = decode_kernel(&theta[off..off + q + 2], q);
+            off += q + 2;
+        }
+    }
+}
+
+impl Drop for ModelObjective<'_> {
+    fn drop(&mut self) {
+        self.model
+            .workspace
+            .put(std::mem::take(&mut *lock(&self.works)));
+    }
+}
+
+impl Objective for ModelObjective<'_> {
+    fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        // On the pool only when there is parallel work: several spaces, or one space large
+        // enough for faer's threads (transfer evaluates one space and would only pay the
+        // hand-off to a pool thread).
+        let n = self.model.n();
+        let spaces = match &self.mode {
+            Mode::Full => self.model.spaces.len(),
+            Mode::Kernels(v) => v.len(),
+        };
+        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= PARALLEL_FROM {
+            in_pool(|| self.eval_here(theta, grad))
+        } else {
+            self.eval_here(theta, grad)
+        }
+    }
+}
+
+impl ModelObjective<'_> {
+    /// [`Objective::eval`] on the calling thread (spaces in parallel if it is a pool thread).
+    pub(crate) fn eval_here(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        let m = self.model;
+        let (n, q) = (m.n(), m.q());
+        let ll = self.latent_len();
+        let par = par_for(n);
+        // Latent points.
+        let owned_rows;
+        let xr: &[f64] = if ll > 0 {
+            let lat = MatRef::from_column_major_slice(&theta[..ll], n, q);
+            let x = match &self.kbc {
+                Some(k) => {
+                    let mut x = Mat::zeros(n, q);
+                    faer::linalg::matmul::matmul(
+                        x.as_mut(),
+                        Accum::Replace,
+                        k.as_ref(),
+                        lat,
+                        1.0,
+                        par,
+                    );
+                    x
+                }
+                None => lat.to_owned(),
+            };
+            clear_upper_simd_state();
+            owned_rows = row_major(x.as_ref());
+            &owned_rows
+        } else {
+            &self.x_rows
+        };
+        let evaluated = self.evaluated();
+        let mut kernels = Vec::with_capacity(evaluated.len());
+        for (i, &s) in evaluated.iter().enumerate() {
+            let off = ll + i * (q + 2);
+            let k = decode_kernel(&theta[off..off + q + 2], q);
+            if !k.is_valid() {
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{}'", m.spaces[s].name),
+                    reason: "overflow".into(),
+                });
+            }
+            kernels.push(k);
+        }
+        let mut works = lock(&self.works);
+        // The spaces share only X: each is evaluated on its own thread, into its own latent
+        // gradient, and the results are summed in a fixed order (deterministic).
+        let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
+            let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
+            let space = &m.spaces[s];
+            let dx_out = if ll > 0 { Some(&mut dx[..]) } else { None };
+            eval_space(xr, q, space.data.as_ref(), k, w, true, dx_out)
+                .map(|e| (e, dx))
+                .map_err(|e| Error::NotPositiveDefinite {
+                    space: space.name.clone(),
+                    jitter: e.jitter,
+                })
+        };
+        let pairs = evaluated.iter().zip(&kernels);
+        let results: Vec<Result<(SpaceEval, Vec<f64>)>> =
+            if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread() {
+                works
+                    .par_iter_mut()
+                    .zip(evaluated.par_iter().zip(kernels.par_iter()))
+                    .map(one_space)
+                    .collect()
+            } else {
+                works.iter_mut().zip(pairs).map(one_space).collect()
+            };
+        drop(works);
+        let mut total = self.constant;
+        let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
+        for (i, (result, k)) in results.into_iter().zip(&kernels).enumerate() {
+            let (e, dxs) = result?;
+            total += e.nll;
+            let off = ll + i * (q + 2);
+            kernel_grad_log(k, &e, &mut grad[off..off + q + 2]);
+            dx.iter_mut().zip(&dxs).for_each(|(a, b)| *a += b);
+        }
+        if ll > 0 {
+            let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
+            match &self.kbc {
+                Some(k) => {
+                    let gm = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], n, q);
+                    faer::linalg::matmul::matmul(
+                        gm,
+                        Accum::Replace,
+                        k.transpose(),
+                        dxm.as_ref(),
+                        1.0,
+                        par,
+                    );
+                    *lock(&self.latent_grad) = Some(dxm);
+                }
+                None => {
+                    for j in 0..q {
+                        for i in 0..n {
+                            grad[j * n + i] = dxm[(i, j)];
+                        }
+                    }
+                }
+            }
+        }
+        Ok(total)
+    }
+}
+
+impl SharedGplvm {
+    /// Objective and gradient (natural units, same structure as [`SharedGplvm::params`]; the
+    /// bandwidth entry holds ∂L/∂bandwidth).
+    pub fn evaluate(&self) -> Result<(f64, Params)> {
+        let obj = ModelObjective::new(self, Mode::Full)?;
+        let theta = obj.theta0();
+        let mut g = vec![0.0; theta.len()];
+        let f = obj.eval(&theta, &mut g)?;
+        let (n, q) = (self.n(), self.q());
+        let ll = n * q;
+        let lat_g = Mat::from_fn(n, q, |i, j| g[j * n + i]);
+        let latent = match &self.latent {
+            Latent::Free { .. } => LatentParams::Free { x: lat_g },
+            Latent::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
+                // ∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³, with K_ij = exp(−d²_ij / 2bw²).
+                let (dx, k) = match (lock(&obj.latent_grad).take(), &obj.kbc) {
+                    (Some(dx), Some(k)) => (dx, k),
+                    _ => unreachable!("a full evaluation of a back-constrained model sets both"),
+                };
+                let mut a = Mat::zeros(n, n);
+                faer::linalg::matmul::matmul(
+                    a.as_mut(),
+                    Accum::Replace,
+                    dx.as_ref(),
+                    weights.transpose(),
+                    1.0,
+                    par_for(n),
+                );
+                let c = data.ncols();
+                let mut d2 = Mat::zeros(n, n);
+                map_sqdist_lower(
+                    &row_major(data.as_ref()),
+                    c,
+                    &vec![1.0; c],
+                    &mut d2,
+                    #[inline(always)]
+                    |v| v,
+                );
+                let mut db = 0.0;
+                for j in 0..n {
+                    for i in j + 1..n {
+                        db += (a[(i, j)] + a[(j, i)]) * k[(i, j)] * d2[(i, j)];
+                    }
+                }
+                db /= bandwidth.powi(3);
+                LatentParams::BackConstrained {
+                    weights: lat_g,
+                    bandwidth: db,
+                }
+            }
+        };
+        let mut spaces = Vec::new();
+        let mut off = ll;
+        for s in &self.spaces {
+            let t = &g[off..off + q + 2];
+            spaces.push((
+                s.name.clone(),
+                KernelParams {
+                    variance: t[0] / s.kernel.variance,
+                    lengthscale: (0..q).map(|i| t[1 + i] / s.kernel.lengthscale[i]).collect(),
+                    noise: t[q + 1] / s.kernel.noise,
+                },
+            ));
+            off += q + 2;
+        }
+        Ok((f, Params { latent, spaces }))
+    }
+
+    /// Negative log marginal likelihood at the current parameters (NaN if a kernel matrix
+    /// cannot be factorised; see [`SharedGplvm::evaluate`] for the error).
+    pub fn objective(&self) -> f64 {
+        self.evaluate().map(|(f, _)| f).unwrap_or(f64::NAN)
+    }
+
+    /// Gradient of the objective in natural units (NaN-filled if it cannot be evaluated; see
+    /// [`SharedGplvm::evaluate`] for the error).
+    pub fn gradient(&self) -> Params {
+        match self.evaluate() {
+            Ok((_, g)) => g,
+            Err(_) => {
+                let mut p = self.params();
+                match &mut p.latent {
+                    LatentParams::Free { x } => x.fill(f64::NAN),
+                    LatentParams::BackConstrained { weights, bandwidth } => {
+                        weights.fill(f64::NAN);
+                        *bandwidth = f64::NAN;
+                    }
+                }
+                for (_, k) in &mut p.spaces {
+                    k.variance = f64::NAN;
+                    k.noise = f64::NAN;
+                    k.lengthscale.iter_mut().for_each(|l| *l = f64::NAN);
+                }
+                p
+            }
+        }
+    }
+}
+
+/// Repeated objective + gradient evaluation at a model's parameters with every buffer reused:
+/// exactly the work of one optimiser evaluation in a full fit (all spaces, latent block).
+/// Meant for benchmarks and profiling.
+pub struct Evaluator<'a> {
+    obj: ModelObjective<'a>,
+    theta: Vec<f64>,
+    grad: Vec<f64>,
+}
+
+impl Evaluator<'_> {
+    /// Evaluates the objective and the gradient (unconstrained parametrisation: latent block
+    /// column-major, then per space log variance, log lengthscales, log noise).
+    pub fn evaluate(&mut self) -> Result<f64> {
+        self.obj.eval(&self.theta, &mut self.grad)
+    }
+
+    /// Gradient of the last [`Evaluator::evaluate`].
+    pub fn gradient(&self) -> &[f64] {
+        &self.grad
+    }
+}
+
+impl SharedGplvm {
+    /// An [`Evaluator`] at the current parameters.
+    pub fn evaluator(&self) -> Result<Evaluator<'_>> {
+        let obj = ModelObjective::new(self, Mode::Full)?;
+        let theta = obj.theta0();
+        let grad = vec![0.0; theta.len()];
+        Ok(Evaluator { obj, theta, grad })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::test_support::*;
+
+    #[test]
+    fn gradients_match_finite_differences_for_every_block_and_parametrisation() {
+        for bc in [
+            BackConstraint::None,
+            BackConstraint::Input,
+            BackConstraint::Output,
+        ] {
+            // 24 points evaluates the spaces one after the other, 80 on separate threads.
+            for (seed, n) in [(0, 24), (1, 24), (2, 80)] {
+                let mut model = fit(bc, n, 3, seed);
+                // Move to a random point so that no gradient is accidentally ~0.
+                let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+                for s in &mut model.spaces {
+                    s.kernel.variance *= rng.random_range(0.7..1.5);
+                    s.kernel.noise = rng.random_range(0.05..0.3);
+                    for l in &mut s.kernel.lengthscale {
+                        *l = rng.random_range(0.5..2.0);
+                    }
+                }
+                model.update_latent_points();
+                let (_, g) = model.evaluate().expect("evaluate");
+                let p = model.params();
+                let values = flatten(&p);
+                let grads = flatten(&g);
+                let total = values.len();
+                assert_eq!(grads.len(), total);
+                let ll = n * 2;
+                // A few latent entries, the bandwidth, and every kernel scalar.
+                let mut idx: Vec<usize> = vec![0, 5, ll / 2 + 3, ll - 1];
+                idx.extend(ll..total);
+                for which in idx {
+                    let scale = values[which].abs().max(1.0);
+                    let h = 1e-6 * scale;
+                    let fd = (objective_at(&model, &bump(&p, which, h))
+                        - objective_at(&model, &bump(&p, which, -h)))
+                        / (2.0 * h);
+                    let an = grads[which];
+                    assert!(
+                        (an - fd).abs() <= 2e-5 * (1.0 + fd.abs()),
+                        "{bc:?} seed {seed} n {n} param {which}: analytic {an} vs fd {fd}"
+                    );
+                }
+            }
+        }
+    }
+}

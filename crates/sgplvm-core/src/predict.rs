@@ -1,0 +1,547 @@
+//! Prediction: human frame h → latent point x → robot joints r.
+//! `x = k_bc(h, H) W` (input back constraints) or the input map's GP mean; then the robot's
+//! posterior mean `r = k(x, X) K⁻¹ Y` and variance `k(x, x) − k(x, X) K⁻¹ k(X, x)`, in original
+//! units. Single frames allocation-free; batches by blocked matrix products.
+
+use faer::reborrow::ReborrowMut;
+use faer::{Accum, Mat, MatRef, Par};
+
+use crate::config::BackConstraint;
+use crate::error::{Error, Result};
+use crate::kernel::{rbf_block, row_major};
+use crate::likelihood::{eval_space, SpaceWork};
+use crate::model::{Latent, SharedGplvm};
+use crate::pool::par_for;
+use crate::preprocess::check_finite;
+use crate::simd::{clear_upper_simd_state, exp_neg_slice, weighted_sqdist};
+
+/// Training points per block in the prediction loops (stack buffer size).
+pub(crate) const BLOCK: usize = 64;
+/// Frames per block in the batch paths ([`SharedGplvm::latent`], [`SharedGplvm::predict`]).
+pub(crate) const BATCH: usize = 256;
+
+/// Result of [`SharedGplvm::predict`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prediction {
+    /// Posterior mean in the space's original units (offsets and scales undone), n×D.
+    pub mean: Mat<f64>,
+    /// Posterior variance of the latent function `k** − kᵀK⁻¹k` in original units (×scale²),
+    /// n×D, identical across the columns of a space; add the space's `noise` (× scale²) for
+    /// GPy's `include_likelihood=True` semantics. Uncertainty of the latent point is not
+    /// propagated.
+    pub variance: Option<Mat<f64>>,
+}
+
+/// Prediction caches of one space.
+#[derive(Clone, Debug)]
+pub(crate) struct SpaceCache {
+    /// K⁻¹Y row-major N×D.
+    alpha_rows: Vec<f64>,
+    /// Cholesky factor of K (lower).
+    factor: Mat<f64>,
+    /// −1/(2 l²) per latent dimension.
+    half_inv_l2: Vec<f64>,
+    pub(crate) jitter: f64,
+}
+
+/// Caches of the human → latent step.
+#[derive(Clone, Debug)]
+pub(crate) struct LatentCache {
+    /// Training inputs of the mapping (centred/scaled H) row-major N×D_H.
+    h_rows: Vec<f64>,
+    /// Weights row-major N×Q (W, or K⁻¹(X − mean) for the regression).
+    weights: Vec<f64>,
+    /// −1/(2 l²) per input dimension.
+    half_inv_l2: Vec<f64>,
+    /// Kernel amplitude (1 for back constraints).
+    amplitude: f64,
+    /// Added to every latent point.
+    offset: Vec<f64>,
+}
+
+impl SharedGplvm {
+    /// Recomputes every prediction cache from the stored parameters (used after training, on
+    /// load and by `set_params`, so that a loaded model predicts bit-identically).
+    pub(crate) fn rebuild(&mut self) -> Result<()> {
+        self.update_latent_points();
+        let (n, q) = (self.n(), self.q());
+        let mut caches = Vec::with_capacity(self.spaces.len());
+        for s in &self.spaces {
+            let mut w = SpaceWork::new(n, s.data.ncols());
+            let e = eval_space(
+                &self.x_rows,
+                q,
+                s.data.as_ref(),
+                &s.kernel,
+                &mut w,
+                false,
+                None,
+            )
+            .map_err(|e| Error::NotPositiveDefinite {
+                space: s.name.clone(),
+                jitter: e.jitter,
+            })?;
+            caches.push(SpaceCache {
+                alpha_rows: row_major(w.alpha()),
+                factor: w.factor().to_owned(),
+                half_inv_l2: s
+                    .kernel
+                    .lengthscale
+                    .iter()
+                    .map(|l| -0.5 / (l * l))
+                    .collect(),
+                jitter: e.jitter,
+            });
+        }
+        self.caches = caches;
+        self.latent_cache = Some(match (&self.latent, &self.map) {
+            (
+                Latent::Back {
+                    weights, bandwidth, ..
+                },
+                _,
+            ) if self.config.back_constraint == BackConstraint::Input => LatentCache {
+                h_rows: row_major(self.spaces[0].data.as_ref()),
+                weights: row_major(weights.as_ref()),
+                half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
+                amplitude: 1.0,
+                offset: vec![0.0; q],
+            },
+            (_, Some(map)) => {
+                let h = self.spaces[0].data.as_ref();
+                let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - map.x_mean[j]);
+                let mut w = SpaceWork::new(n, q);
+                let hr = row_major(h);
+                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None).map_err(
+                    |e| Error::NotPositiveDefinite {
+                        space: "input map".into(),
+                        jitter: e.jitter,
+                    },
+                )?;
+                LatentCache {
+                    h_rows: hr,
+                    weights: row_major(w.alpha()),
+                    half_inv_l2: map
+                        .kernel
+                        .lengthscale
+                        .iter()
+                        .map(|l| -0.5 / (l * l))
+                        .collect(),
+                    amplitude: map.kernel.variance,
+                    offset: map.x_mean.clone(),
+                }
+            }
+            _ => {
+                return Err(Error::Corrupt {
+                    reason: "model without input back constraint has no input map".into(),
+                })
+            }
+        });
+        Ok(())
+    }
+
+    pub(crate) fn output_index(&self, space: &str) -> Result<usize> {
+        match self.spaces.iter().position(|s| s.name == space) {
+            Some(i) if i > 0 => Ok(i),
+            _ => Err(Error::NotAnOutput {
+                name: space.into(),
+                known: self.output_names().iter().map(|s| s.to_string()).collect(),
+            }),
+        }
+    }
+
+    pub(crate) fn check_input_row(&self, h: &[f64]) -> Result<()> {
+        let dh = self.spaces[0].data.ncols();
+        if h.len() != dh {
+            return Err(Error::DimensionMismatch {
+                what: format!("input frame for '{}'", self.spaces[0].name),
+                expected: dh,
+                found: h.len(),
+            });
+        }
+        for (c, &v) in h.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(Error::NonFinite {
+                    space: self.spaces[0].name.clone(),
+                    row: 0,
+                    col: c,
+                    value: v,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Latent point of one raw input frame into `x` (length Q). Allocation-free for
+    /// D_H ≤ 64: training points are processed in blocks of [`BLOCK`] (distances, then a
+    /// vectorised exp, then the weighted sum).
+    pub(crate) fn latent_into(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
+        clear_upper_simd_state();
+        let Some(lc) = &self.latent_cache else {
+            return Err(Error::Corrupt {
+                reason: "prediction caches missing".into(),
+            });
+        };
+        let s0 = &self.spaces[0];
+        let dh = h.len();
+        let mut hs_stack = [0.0f64; 64];
+        let mut hs_heap;
+        let hs: &mut [f64] = if dh <= 64 {
+            &mut hs_stack[..dh]
+        } else {
+            hs_heap = vec![0.0; dh];
+            &mut hs_heap
+        };
+        for t in 0..dh {
+            hs[t] = (h[t] - s0.offset[t]) / s0.scale[t];
+        }
+        x.copy_from_slice(&lc.offset);
+        add_kernel_weighted(
+            hs,
+            &lc.h_rows,
+            &lc.half_inv_l2,
+            &lc.weights,
+            lc.amplitude,
+            self.n(),
+            x,
+        );
+        Ok(())
+    }
+
+    /// Mean (original units) of space `si` at latent point `x` into `out`. Allocation-free.
+    pub(crate) fn mean_into(&self, si: usize, x: &[f64], out: &mut [f64]) {
+        let s = &self.spaces[si];
+        let c = &self.caches[si];
+        let d = out.len();
+        out.iter_mut().for_each(|v| *v = 0.0);
+        add_kernel_weighted(
+            x,
+            &self.x_rows,
+            &c.half_inv_l2,
+            &c.alpha_rows,
+            s.kernel.variance,
+            self.n(),
+            out,
+        );
+        for t in 0..d {
+            out[t] = out[t] * s.scale[t] + s.offset[t];
+        }
+    }
+
+    /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (length
+    /// D of the space). Costs O(N(D_H + Q + D)); allocates nothing for Q ≤ 32 and D_H ≤ 64.
+    pub fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()> {
+        self.check_input_row(h)?;
+        let si = self.output_index(space)?;
+        let d = self.spaces[si].data.ncols();
+        if out.len() != d {
+            return Err(Error::DimensionMismatch {
+                what: format!("output buffer for '{space}'"),
+                expected: d,
+                found: out.len(),
+            });
+        }
+        let q = self.q();
+        let mut stack = [0.0f64; 32];
+        let mut heap;
+        let x: &mut [f64] = if q <= 32 {
+            &mut stack[..q]
+        } else {
+            heap = vec![0.0; q];
+            &mut heap
+        };
+        self.latent_into(h, x)?;
+        self.mean_into(si, x, out);
+        Ok(())
+    }
+
+    pub(crate) fn check_input_matrix(&self, h: MatRef<'_, f64>) -> Result<()> {
+        let dh = self.spaces[0].data.ncols();
+        if h.ncols() != dh {
+            return Err(Error::DimensionMismatch {
+                what: format!("input columns for '{}'", self.spaces[0].name),
+                expected: dh,
+                found: h.ncols(),
+            });
+        }
+        check_finite(&self.spaces[0].name, h)
+    }
+
+    /// Latent points of raw human frames (rows of `h`), n×Q. Frames are processed in blocks
+    /// of [`BATCH`] with matrix products (see [`rbf_block`]).
+    pub fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
+        self.check_input_matrix(h)?;
+        self.latent_batch(h)
+    }
+
+    pub(crate) fn latent_batch(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
+        let Some(lc) = &self.latent_cache else {
+            return Err(Error::Corrupt {
+                reason: "prediction caches missing".into(),
+            });
+        };
+        let s0 = &self.spaces[0];
+        let (n, dh, q, m_all) = (self.n(), h.ncols(), self.q(), h.nrows());
+        let sc: Vec<f64> = lc.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
+        // Both sides centred on the training mean: smaller norms, less cancellation in
+        // |a|² + |b|² − 2 a·b.
+        let mu: Vec<f64> = (0..dh)
+            .map(|t| (0..n).map(|i| lc.h_rows[i * dh + t]).sum::<f64>() / n.max(1) as f64)
+            .collect();
+        let train = Mat::from_fn(n, dh, |i, t| (lc.h_rows[i * dh + t] - mu[t]) * sc[t]);
+        let w = Mat::from_fn(n, q, |i, t| lc.weights[i * q + t]);
+        let hs = Mat::from_fn(m_all, dh, |r, t| {
+            ((h[(r, t)] - s0.offset[t]) / s0.scale[t] - mu[t]) * sc[t]
+        });
+        let mut out = Mat::from_fn(m_all, q, |_, t| lc.offset[t]);
+        let mut k = Mat::zeros(BATCH.min(m_all), n);
+        let mut r0 = 0;
+        while r0 < m_all {
+            let m = BATCH.min(m_all - r0);
+            let mut kb = k.as_mut().subrows_mut(0, m);
+            rbf_block(hs.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+            faer::linalg::matmul::matmul(
+                out.as_mut().subrows_mut(r0, m),
+                Accum::Add,
+                kb.as_ref(),
+                w.as_ref(),
+                lc.amplitude,
+                Par::Seq,
+            );
+            r0 += m;
+        }
+        Ok(out)
+    }
+
+    /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
+    /// raw human frames in the rows of `h`. Frames go in blocks of [`BATCH`]: kernel blocks
+    /// from matrix products ([`rbf_block`]), the mean as `K* (K⁻¹Y)`, the variance as
+    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block.
+    pub fn predict(
+        &self,
+        h: MatRef<'_, f64>,
+        space: &str,
+        with_variance: bool,
+    ) -> Result<Prediction> {
+        self.check_input_matrix(h)?;
+        let si = self.output_index(space)?;
+        let xs = self.latent_batch(h)?;
+        let (n_new, q, n) = (h.nrows(), self.q(), self.n());
+        let s = &self.spaces[si];
+        let c = &self.caches[si];
+        let d = s.data.ncols();
+        let sc: Vec<f64> = c.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
+        let mu: Vec<f64> = (0..q)
+            .map(|t| (0..n).map(|i| self.x_rows[i * q + t]).sum::<f64>() / n.max(1) as f64)
+            .collect();
+        let train = Mat::from_fn(n, q, |i, t| (self.x_rows[i * q + t] - mu[t]) * sc[t]);
+        let alpha = Mat::from_fn(n, d, |i, t| c.alpha_rows[i * d + t]);
+        let xsc = Mat::from_fn(n_new, q, |r, t| (xs[(r, t)] - mu[t]) * sc[t]);
+        let mut mean = Mat::zeros(n_new, d);
+        let mut variance = if with_variance {
+            Some(Mat::zeros(n_new, d))
+        } else {
+            None
+        };
+        let bm = BATCH.min(n_new);
+        let mut k = Mat::zeros(bm, n);
+        let mut kt = Mat::zeros(if with_variance { n } else { 0 }, bm);
+        let mut r0 = 0;
+        while r0 < n_new {
+            let m = BATCH.min(n_new - r0);
+            let mut kb = k.as_mut().subrows_mut(0, m);
+            rbf_block(xsc.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+            faer::linalg::matmul::matmul(
+                mean.as_mut().subrows_mut(r0, m),
+                Accum::Replace,
+                kb.as_ref(),
+                alpha.as_ref(),
+                s.kernel.variance,
+                Par::Seq,
+            );
+            if let Some(var) = variance.as_mut() {
+                let mut ks = kt.as_mut().subcols_mut(0, m);
+                ks.copy_from(kb.as_ref().transpose());
+                faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                    c.factor.as_ref(),
+                    ks.rb_mut(),
+                    par_for(n),
+                );
+                clear_upper_simd_state();
+                for f in 0..m {
+                    let explained: f64 = (0..n).map(|i| ks[(i, f)] * ks[(i, f)]).sum::<f64>()
+                        * s.kernel.variance
+                        * s.kernel.variance;
+                    let v = (s.kernel.variance - explained).max(0.0);
+                    for t in 0..d {
+                        var[(r0 + f, t)] = v * s.scale[t] * s.scale[t];
+                    }
+                }
+            }
+            r0 += m;
+        }
+        for t in 0..d {
+            for r in 0..n_new {
+                mean[(r, t)] = mean[(r, t)] * s.scale[t] + s.offset[t];
+            }
+        }
+        Ok(Prediction { mean, variance })
+    }
+}
+
+/// Adds `scale · Σ_i exp(−Σ_t (p_t − r_it)² · w_t) · weights_i` to `out` over the `n` rows `r_i`
+/// of `rows` (row-major, `p.len()` columns; `weights` row-major, `out.len()` columns). Rows are
+/// taken in blocks of [`BLOCK`] so that the exponentials vectorise; allocation-free. The
+/// per-frame kernel-row product shared by the human → latent step and the latent → robot mean.
+pub(crate) fn add_kernel_weighted(
+    p: &[f64],
+    rows: &[f64],
+    half_inv_l2: &[f64],
+    weights: &[f64],
+    scale: f64,
+    n: usize,
+    out: &mut [f64],
+) {
+    let (dim, wdim) = (p.len(), out.len());
+    let mut kb = [0.0f64; BLOCK];
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        let k = &mut kb[..end - start];
+        for (o, v) in k.iter_mut().enumerate() {
+            let i = start + o;
+            *v = weighted_sqdist(p, &rows[i * dim..(i + 1) * dim], half_inv_l2);
+        }
+        exp_neg_slice(k);
+        for (o, &kv) in k.iter().enumerate() {
+            let i = start + o;
+            let wi = &weights[i * wdim..(i + 1) * wdim];
+            let kv = scale * kv;
+            for t in 0..wdim {
+                out[t] += kv * wi[t];
+            }
+        }
+        start = end;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::*;
+
+    #[test]
+    fn prediction_paths_agree_and_variance_matches_dense_formula() {
+        for bc in [BackConstraint::Input, BackConstraint::Output] {
+            let m = fit(bc, 30, 15, 0);
+            let (h, _, _, _) = demo(30, 9);
+            let p = m.predict(h.as_ref(), "walkman", true).expect("predict");
+            let mut out = vec![0.0; 4];
+            let mut row = vec![0.0; 6];
+            let lat = m.latent(h.as_ref()).expect("latent");
+            for r in [0, 11, 29] {
+                for c in 0..6 {
+                    row[c] = h[(r, c)];
+                }
+                m.predict_frame(&row, "walkman", &mut out).expect("frame");
+                // The batch path sums in another order (blocked matrix products).
+                for c in 0..4 {
+                    let diff = (out[c] - p.mean[(r, c)]).abs();
+                    assert!(diff <= 1e-12 * out[c].abs().max(1.0), "{diff:e}");
+                }
+                // Dense reference: mean = k*ᵀ K⁻¹ Y + offset, var = k** − k*ᵀ K⁻¹ k*.
+                let s = &m.spaces[1];
+                let n = m.n();
+                let kx = |a: &[f64], b: &[f64]| {
+                    let r2: f64 = (0..2)
+                        .map(|t| (a[t] - b[t]).powi(2) / s.kernel.lengthscale[t].powi(2))
+                        .sum();
+                    s.kernel.variance * (-0.5 * r2).exp()
+                };
+                let xs = [lat[(r, 0)], lat[(r, 1)]];
+                let kmat = Mat::from_fn(n, n, |i, j| {
+                    kx(&m.x_rows[i * 2..i * 2 + 2], &m.x_rows[j * 2..j * 2 + 2])
+                        + if i == j { s.kernel.noise } else { 0.0 }
+                });
+                let kinv = {
+                    use faer::linalg::solvers::DenseSolveCore;
+                    kmat.llt(faer::Side::Lower).expect("pd").inverse()
+                };
+                let kstar = Mat::from_fn(n, 1, |i, _| kx(&xs, &m.x_rows[i * 2..i * 2 + 2]));
+                let mean = kstar.transpose() * &kinv * &s.data;
+                let var = s.kernel.variance - (kstar.transpose() * &kinv * &kstar)[(0, 0)];
+                for c in 0..4 {
+                    assert!((mean[(0, c)] + s.offset[c] - out[c]).abs() < 1e-8, "mean");
+                    let pv = p.variance.as_ref().expect("variance")[(r, c)];
+                    assert!((pv - var).abs() < 1e-8, "variance {pv} vs {var}");
+                }
+            }
+            // Training frames are reproduced well.
+            let (h0, r1, _, _) = demo(30, 7);
+            let p = m.predict(h0.as_ref(), "walkman", true).expect("predict");
+            let mse: f64 = (0..30)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| (p.mean[(i, j)] - r1[(i, j)]).powi(2))
+                .sum::<f64>()
+                / 120.0;
+            assert!(mse < 0.05, "{bc:?} mse {mse}");
+        }
+    }
+
+    #[test]
+    fn batch_prediction_matches_the_per_frame_path() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for bc in [BackConstraint::Input, BackConstraint::None] {
+            let m = fit(bc, 40, 20, 0);
+            // 300 random frames (more than one block of 256), around and beyond the data.
+            let (h, _, _, _) = demo(40, 7);
+            let hn = Mat::from_fn(300, h.ncols(), |r, c| {
+                h[(r % 40, c)] + rng.random_range(-0.5..0.5)
+            });
+            // Norm-wise relative: differences over the largest magnitude of the quantity (the
+            // summation order differs, and the sums over weights of both signs cancel).
+            let rel = |a: f64, b: f64, scale: f64| (a - b).abs() / scale;
+            let lat = m.latent(hn.as_ref()).expect("latent");
+            let amax = |a: &Mat<f64>| {
+                (0..a.nrows())
+                    .flat_map(|r| (0..a.ncols()).map(move |c| (r, c)))
+                    .map(|(r, c)| a[(r, c)].abs())
+                    .fold(0.0f64, f64::max)
+            };
+            let lscale = amax(&lat);
+            for with_var in [false, true] {
+                let p = m
+                    .predict(hn.as_ref(), "walkman", with_var)
+                    .expect("predict");
+                let mut out = vec![0.0; p.mean.ncols()];
+                let mut row = vec![0.0; hn.ncols()];
+                let mut worst: f64 = 0.0;
+                let mscale = amax(&p.mean);
+                for r in 0..300 {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        *v = hn[(r, c)];
+                    }
+                    m.predict_frame(&row, "walkman", &mut out).expect("frame");
+                    for (t, &o) in out.iter().enumerate() {
+                        worst = worst.max(rel(p.mean[(r, t)], o, mscale));
+                    }
+                    let mut x = vec![0.0; m.latent_points().ncols()];
+                    m.latent_into(&row, &mut x).expect("latent_into");
+                    for (t, &xv) in x.iter().enumerate() {
+                        worst = worst.max(rel(lat[(r, t)], xv, lscale));
+                    }
+                }
+                assert!(
+                    worst < 1e-12,
+                    "{bc:?} var={with_var}: worst rel diff {worst:e}"
+                );
+                assert_eq!(p.variance.is_some(), with_var);
+            }
+            // Variances of the blocked path are finite and non-negative everywhere.
+            let p = m.predict(hn.as_ref(), "walkman", true).expect("predict");
+            let v = p.variance.expect("variance");
+            assert!((0..300).all(|r| v[(r, 0)] >= 0.0 && v[(r, 0)].is_finite()));
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! Shared fixtures of the core's unit tests: synthetic demonstrations, quick training options,
+//! a model fitted per back constraint and flat views of [`Params`] for finite differences.
+//! Also a prelude of what the test modules use (`use crate::test_support::*`).
+
+pub(crate) use faer::{Mat, MatRef};
+pub(crate) use rand::{Rng, SeedableRng};
+pub(crate) use rand_chacha::ChaCha8Rng;
+
+pub(crate) use crate::config::{BackConstraint, ModelConfig, ScaleMode};
+pub(crate) use crate::error::Error;
+pub(crate) use crate::model::{Latent, SharedGplvm};
+pub(crate) use crate::params::{LatentParams, Params};
+pub(crate) use crate::predict::Prediction;
+pub(crate) use crate::train::{IterationRecord, StopReason, TrainOptions};
+
+/// Synthetic demonstration: a 2-D phase drives a human (6 columns) and robots (4 columns,
+/// each robot a slightly different smooth function of the same phase).
+pub(crate) fn demo(n: usize, seed: u64) -> (Mat<f64>, Mat<f64>, Mat<f64>, Mat<f64>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let t: Vec<(f64, f64)> = (0..n)
+        .map(|i| (i as f64 / n as f64 * 6.0, rng.random_range(-1.0..1.0)))
+        .collect();
+    let mut noise = |s: f64| s * rng.random_range(-1.0..1.0);
+    let h = Mat::from_fn(n, 6, |i, j| {
+        let (a, b) = t[i];
+        (a * (1.0 + 0.2 * j as f64)).sin() + 0.3 * b * j as f64 + 2.0 + noise(0.02)
+    });
+    let robot = |scale: f64, shift: f64| {
+        Mat::from_fn(n, 4, |i, j| {
+            let (a, b) = t[i];
+            scale * (a * (1.0 + 0.2 * j as f64) + shift).sin() + 0.2 * b - 1.0
+                + 0.01 * ((i * 7 + j * 3) % 5) as f64
+        })
+    };
+    (h, robot(1.0, 0.0), robot(0.8, 0.1), robot(1.2, -0.1))
+}
+
+pub(crate) fn quick(max_iters: usize) -> TrainOptions {
+    TrainOptions {
+        max_iters,
+        map_max_iters: 50,
+        ..TrainOptions::default()
+    }
+}
+
+pub(crate) fn fit(bc: BackConstraint, n: usize, iters: usize, seed: u64) -> SharedGplvm {
+    let (h, r1, _, _) = demo(n, 7);
+    let config = ModelConfig::default()
+        .with_latent_dim(2)
+        .with_back_constraint(bc)
+        .with_seed(seed);
+    SharedGplvm::fit(
+        &config,
+        &[("human", h.as_ref()), ("walkman", r1.as_ref())],
+        "human",
+        &quick(iters),
+        None,
+    )
+    .expect("fit")
+}
+
+/// Every scalar of `p`: latent entries (column-major), then (bandwidth,) then per space
+/// variance, lengthscales, noise.
+pub(crate) fn flatten(p: &Params) -> Vec<f64> {
+    let mut v = Vec::new();
+    let lat = match &p.latent {
+        LatentParams::Free { x } => x,
+        LatentParams::BackConstrained { weights, .. } => weights,
+    };
+    for j in 0..lat.ncols() {
+        for i in 0..lat.nrows() {
+            v.push(lat[(i, j)]);
+        }
+    }
+    if let LatentParams::BackConstrained { bandwidth, .. } = &p.latent {
+        v.push(*bandwidth);
+    }
+    for (_, k) in &p.spaces {
+        v.push(k.variance);
+        v.extend(&k.lengthscale);
+        v.push(k.noise);
+    }
+    v
+}
+
+/// Inverse of [`flatten`] with the structure of `like`.
+pub(crate) fn unflatten(like: &Params, v: &[f64]) -> Params {
+    let mut p = like.clone();
+    let mut it = v.iter().copied();
+    let mut next = || it.next().expect("length");
+    let lat = match &mut p.latent {
+        LatentParams::Free { x } => x,
+        LatentParams::BackConstrained { weights, .. } => weights,
+    };
+    for j in 0..lat.ncols() {
+        for i in 0..lat.nrows() {
+            lat[(i, j)] = next();
+        }
+    }
+    if let LatentParams::BackConstrained { bandwidth, .. } = &mut p.latent {
+        *bandwidth = next();
+    }
+    for (_, k) in &mut p.spaces {
+        k.variance = next();
+        for l in &mut k.lengthscale {
+            *l = next();
+        }
+        k.noise = next();
+    }
+    p
+}
+
+pub(crate) fn bump(p: &Params, which: usize, h: f64) -> Params {
+    let mut v = flatten(p);
+    v[which] += h;
+    unflatten(p, &v)
+}
+
+/// Objective at parameters `p` without refitting anything (crate-internal).
+pub(crate) fn objective_at(model: &SharedGplvm, p: &Params) -> f64 {
+    let mut m = model.clone();
+    match (&mut m.latent, &p.latent) {
+        (Latent::Free { x }, LatentParams::Free { x: nx }) => *x = nx.clone(),
+        (
+            Latent::Back {
+                weights, bandwidth, ..
+            },
+            LatentParams::BackConstrained {
+                weights: w,
+                bandwidth: b,
+            },
+        ) => {
+            *weights = w.clone();
+            *bandwidth = *b;
+        }
+        _ => panic!("kind"),
+    }
+    for (s, (_, k)) in m.spaces.iter_mut().zip(&p.spaces) {
+        s.kernel = k.clone();
+    }
+    m.update_latent_points();
+    m.objective()
+}

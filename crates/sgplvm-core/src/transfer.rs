@@ -1,0 +1,199 @@
+//! Transfer to a new robot (the paper's eq. 8): the latent points (or the back-constraint
+//! weights), the human kernel, the input map and every existing robot are frozen; only the new
+//! robot's kernel `(α², ℓ, σ²)` is trained, so one evaluation costs one Cholesky of the new
+//! space.
+
+use faer::MatRef;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::error::{Error, Result};
+use crate::kernel::KernelParams;
+use crate::model::{Callback, SharedGplvm, Space};
+use crate::objective::Mode;
+use crate::preprocess::{check_finite, check_nonempty, mean_col_var, preprocess};
+use crate::train::TrainOptions;
+
+impl SharedGplvm {
+    /// Transfers the model to a new robot (the paper's eq. 8): a new model with the same latent
+    /// points, back-constraint weights, human kernel and input map (all frozen), the existing
+    /// robots kept with their kernels frozen (so one model predicts for all), and the new robot
+    /// `name` whose kernel (variance, lengthscales, noise) alone is trained. Only the new
+    /// space's Cholesky factor is computed per evaluation. `self` is not modified.
+    ///
+    /// The new kernel starts from the data's mean column variance, the first robot's
+    /// lengthscales and `init_noise_fraction` of the variance, so repeated calls give identical
+    /// models; see [`SharedGplvm::transfer_seeded`] for randomised restarts.
+    pub fn transfer(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        self.transfer_impl(name, data, None, options, callback)
+    }
+
+    /// [`SharedGplvm::transfer`] from a randomly perturbed starting kernel, for repeated
+    /// transfer runs per source model (the paper runs 10). The initial variance and each
+    /// initial lengthscale are multiplied by `exp(0.3 z)`, `z ~ N(0, 1)` drawn in that order
+    /// (variance first) from a ChaCha8 generator seeded with `seed`; the initial noise stays
+    /// `init_noise_fraction` of the unperturbed variance. Same seed ⇒ bit-identical model.
+    /// `self` is not modified.
+    pub fn transfer_seeded(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: u64,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        self.transfer_impl(name, data, Some(seed), options, callback)
+    }
+
+    /// Shared body of [`SharedGplvm::transfer`] (`seed = None`: no perturbation) and
+    /// [`SharedGplvm::transfer_seeded`].
+    pub(crate) fn transfer_impl(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: Option<u64>,
+        options: &TrainOptions,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        options.check()?;
+        if self.spaces.iter().any(|s| s.name == name) {
+            return Err(Error::DuplicateSpace { name: name.into() });
+        }
+        check_nonempty(name, data)?;
+        if data.nrows() != self.n() {
+            return Err(Error::RowCountMismatch {
+                space: name.into(),
+                expected: self.n(),
+                found: data.nrows(),
+            });
+        }
+        check_finite(name, data)?;
+        let (d, offset, scale) = preprocess(data, &self.config);
+        let v = mean_col_var(d.as_ref());
+        let lengthscale = self
+            .spaces
+            .get(1)
+            .map(|s| s.kernel.lengthscale.clone())
+            .unwrap_or(vec![1.0; self.q()]);
+        let mut lengthscale = lengthscale;
+        let mut variance = v;
+        if let Some(seed) = seed {
+            const SPREAD: f64 = 0.3;
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let z: f64 = StandardNormal.sample(&mut rng);
+            variance *= (SPREAD * z).exp();
+            for l in lengthscale.iter_mut() {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                *l *= (SPREAD * z).exp();
+            }
+        }
+        let mut model = self.clone();
+        model.history = Vec::new();
+        model.spaces.push(Space {
+            name: name.into(),
+            data: d,
+            offset,
+            scale,
+            kernel: KernelParams {
+                variance,
+                lengthscale,
+                noise: self.config.init_noise_fraction * v,
+            },
+            columns: None,
+        });
+        let idx = model.spaces.len() - 1;
+        model.train(Mode::Kernels(vec![idx]), options, callback)?;
+        Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::preprocess::{mean_col_var, preprocess};
+    use crate::test_support::*;
+
+    #[test]
+    fn transfer_freezes_everything_but_the_new_robot() {
+        for bc in [BackConstraint::Input, BackConstraint::None] {
+            let (h, _, r2, _) = demo(40, 7);
+            let source = fit(bc, 40, 20, 0);
+            let before = source.to_bytes();
+            let t = source
+                .transfer("coman", r2.as_ref(), &quick(50), None)
+                .expect("transfer");
+            assert_eq!(source.to_bytes(), before, "source modified");
+            let (ps, pt) = (source.params(), t.params());
+            assert_eq!(ps.latent, pt.latent, "latent moved");
+            assert_eq!(ps.spaces[..], pt.spaces[..2], "frozen kernels moved");
+            assert_eq!(t.latent_points(), source.latent_points());
+            assert_eq!(t.output_names(), vec!["walkman", "coman"]);
+            let (_, k) = &pt.spaces[2];
+            let v0 = mean_col_var(preprocess(r2.as_ref(), source.config()).0.as_ref());
+            assert!(
+                k.variance != v0 || k.noise != 0.1 * v0,
+                "new kernel did not move"
+            );
+            assert!(t.history().len() > 2);
+            assert!(t.history().last().expect("h").objective < t.history()[0].objective);
+            // Both robots predict from one model; the source robot's prediction is unchanged.
+            let a = source.predict(h.as_ref(), "walkman", true).expect("p");
+            let b = t.predict(h.as_ref(), "walkman", true).expect("p");
+            assert_eq!(a, b);
+            let c = t.predict(h.as_ref(), "coman", false).expect("p");
+            let mse: f64 = (0..40)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| (c.mean[(i, j)] - r2[(i, j)]).powi(2))
+                .sum::<f64>()
+                / 160.0;
+            assert!(mse < 0.05, "{bc:?} transfer training mse {mse}");
+            // Transferring to an existing name fails.
+            assert!(matches!(
+                t.transfer("coman", r2.as_ref(), &quick(5), None),
+                Err(Error::DuplicateSpace { .. })
+            ));
+        }
+    }
+
+    #[test]
+    fn seeded_transfer_varies_with_the_seed_only() {
+        let (_, _, r2, _) = demo(40, 7);
+        let source = fit(BackConstraint::Input, 40, 20, 0);
+        let before = source.to_bytes();
+        let run = |seed: u64| {
+            source
+                .transfer_seeded("coman", r2.as_ref(), seed, &quick(10), None)
+                .expect("transfer_seeded")
+        };
+        let (a, a2, b) = (run(1), run(1), run(2));
+        let plain = source
+            .transfer("coman", r2.as_ref(), &quick(10), None)
+            .expect("transfer");
+        assert!(source.to_bytes() == before, "source modified");
+        // Bit-identical except the wall-clock seconds in the history.
+        let objs = |m: &SharedGplvm| -> Vec<u64> {
+            m.history().iter().map(|r| r.objective.to_bits()).collect()
+        };
+        assert!(a.params() == a2.params(), "same seed, different parameters");
+        assert!(objs(&a) == objs(&a2), "same seed, different history");
+        // Different starting kernels ⇒ different initial objectives and trained kernels.
+        let h0 = |m: &SharedGplvm| m.history()[0].objective;
+        assert_ne!(h0(&a), h0(&b));
+        assert_ne!(h0(&a), h0(&plain));
+        assert_ne!(a.kernel("coman"), b.kernel("coman"));
+        // The unseeded transfer is deterministic.
+        let plain2 = source
+            .transfer("coman", r2.as_ref(), &quick(10), None)
+            .expect("transfer");
+        assert!(plain.params() == plain2.params() && objs(&plain) == objs(&plain2));
+        // Frozen parts are shared by all runs.
+        assert_eq!(a.latent_points(), source.latent_points());
+        assert_eq!(a.kernel("walkman"), source.kernel("walkman"));
+    }
+}
