@@ -1,0 +1,253 @@
+//! The control loop of a replay: the robot settles on the first frame, then every physics
+//! step moves each motor's target to the reference at the end of the step (the frames
+//! interpolated linearly) with the slope of the current segment as target velocity, steps
+//! the world and hands the measured joints and contacts to the [`Recorder`].
+
+use std::time::Instant;
+
+use rapier3d::math::Real;
+
+use super::build::Scene;
+use super::model::PreparedModel;
+use super::report::{Recorder, StepTime};
+use super::{PhysicsError, ReplayOptions, ReplayReport, Trajectory};
+
+/// The replay's clock: physics steps over the trajectory's time span.
+struct Clock {
+    /// Time of the first frame, seconds.
+    t0: f64,
+    /// Time of the last frame, seconds.
+    t_end: f64,
+    /// Physics steps per second.
+    rate: f64,
+    /// Physics steps over the trajectory (at least 1).
+    steps: usize,
+    /// Physics steps of settling before the trajectory starts.
+    settle_steps: usize,
+    /// Steps without extension after which an event closes.
+    merge_gap: usize,
+}
+
+impl Clock {
+    /// The clock of `trajectory` at the options' rate; refuses more than `max_steps` steps.
+    fn new(trajectory: &Trajectory, options: &ReplayOptions) -> Result<Clock, PhysicsError> {
+        let t0 = trajectory.times[0];
+        let t_end = trajectory.times[trajectory.frames() - 1];
+        let duration = t_end - t0;
+        let rate = options.physics_rate_hz;
+        let steps_f = (duration * rate).round().max(1.0);
+        let settle_steps = (options.settle_seconds * rate).round();
+        if steps_f + settle_steps > options.max_steps as f64 {
+            return Err(PhysicsError::Trajectory {
+                message: format!(
+                    "{duration} s at {rate} Hz (after {} s of settling) needs {} physics steps; expected at most max_steps = {}",
+                    options.settle_seconds,
+                    steps_f + settle_steps,
+                    options.max_steps
+                ),
+            });
+        }
+        Ok(Clock {
+            t0,
+            t_end,
+            rate,
+            steps: steps_f as usize,
+            settle_steps: settle_steps as usize,
+            merge_gap: (options.merge_gap_seconds * rate).round() as usize,
+        })
+    }
+
+    /// Simulated time, seconds.
+    fn duration(&self) -> f64 {
+        self.t_end - self.t0
+    }
+
+    /// Trajectory time at the end of physics step `step`.
+    fn at(&self, step: usize) -> StepTime {
+        StepTime {
+            step,
+            t: (self.t0 + step as f64 / self.rate).min(self.t_end),
+        }
+    }
+}
+
+/// The motors' gains, as rapier takes them.
+#[derive(Clone, Copy)]
+struct Gains {
+    stiffness: Real,
+    damping: Real,
+}
+
+/// The reference of every driven joint at one step: position and the current segment's slope.
+struct Reference {
+    /// The frame the current segment starts at.
+    segment: usize,
+    /// Reference positions, in report order.
+    position: Vec<f64>,
+    /// Reference velocities (the segment's slope), in report order.
+    slope: Vec<f64>,
+}
+
+impl Reference {
+    /// Moves to time `t` (never backwards) and interpolates every joint's reference.
+    fn advance(&mut self, scene: &Scene, trajectory: &Trajectory, t: f64) {
+        let n_cols = trajectory.joint_names.len();
+        while self.segment + 2 < trajectory.frames() && trajectory.times[self.segment + 1] < t {
+            self.segment += 1;
+        }
+        let segment = self.segment;
+        let (ta, tb) = (trajectory.times[segment], trajectory.times[segment + 1]);
+        let w = ((t - ta) / (tb - ta)).clamp(0.0, 1.0);
+        let row_a = &trajectory.positions[segment * n_cols..(segment + 1) * n_cols];
+        let row_b = &trajectory.positions[(segment + 1) * n_cols..(segment + 2) * n_cols];
+        for (i, d) in scene.driven.iter().enumerate() {
+            let (q, v) = match d.column {
+                Some(c) => (
+                    row_a[c] + w * (row_b[c] - row_a[c]),
+                    (row_b[c] - row_a[c]) / (tb - ta),
+                ),
+                None => (d.hold, 0.0),
+            };
+            self.position[i] = q;
+            self.slope[i] = v;
+        }
+    }
+}
+
+/// Runs the replay of `trajectory` on `model` (the caller has validated both and `options`).
+pub(super) fn simulate(
+    model: &PreparedModel,
+    file: &str,
+    trajectory: &Trajectory,
+    options: &ReplayOptions,
+) -> Result<ReplayReport, PhysicsError> {
+    let mut scene = Scene::build(model, file, trajectory, options)?;
+    let clock = Clock::new(trajectory, options)?;
+    let gains = Gains {
+        stiffness: options.stiffness as Real,
+        damping: options.damping as Real,
+    };
+    let mut recorder = Recorder::new(
+        scene.driven.iter().map(|d| d.name.clone()).collect(),
+        model.robot.links.iter().map(|l| l.name.clone()).collect(),
+        clock.t0,
+        options.record_simulated,
+        trajectory.frames(),
+    );
+    settle(&mut scene, clock.settle_steps, gains);
+    recorder.first_frame(scene.driven.iter().map(|d| d.position(&scene.world)));
+    let n = scene.driven.len();
+    let mut reference = Reference {
+        segment: 0,
+        position: vec![0.0; n],
+        slope: vec![0.0; n],
+    };
+    let started = Instant::now();
+    for step in 1..=clock.steps {
+        let at = clock.at(step);
+        reference.advance(&scene, trajectory, at.t);
+        drive(&mut scene, &reference, gains, options.velocity_feedforward);
+        scene.world.step_with_events(&scene.hooks, &());
+        measure_joints(&scene, &reference, at, options, file, &mut recorder)?;
+        measure_contacts(&scene, at, options, &mut recorder);
+        recorder.close_events(step, clock.merge_gap);
+        recorder.frames_at(trajectory, at.t, clock.rate);
+    }
+    let wall_seconds = started.elapsed().as_secs_f64();
+    let duration = clock.duration();
+    Ok(recorder.finish(
+        trajectory,
+        duration,
+        clock.steps,
+        wall_seconds,
+        scene.warnings,
+    ))
+}
+
+/// Holds every joint at its initial position for `steps` physics steps.
+fn settle(scene: &mut Scene, steps: usize, gains: Gains) {
+    for _ in 0..steps {
+        for (d, q0) in scene.driven.iter().zip(&scene.initial) {
+            d.set_motor(
+                &mut scene.world,
+                *q0 as Real,
+                0.0,
+                gains.stiffness,
+                gains.damping,
+            );
+        }
+        scene.world.step_with_events(&scene.hooks, &());
+    }
+}
+
+/// Points every motor at the reference (and its slope, with velocity feed-forward).
+fn drive(scene: &mut Scene, reference: &Reference, gains: Gains, feedforward: bool) {
+    for (i, d) in scene.driven.iter().enumerate() {
+        let velocity = if feedforward { reference.slope[i] } else { 0.0 };
+        d.set_motor(
+            &mut scene.world,
+            reference.position[i] as Real,
+            velocity as Real,
+            gains.stiffness,
+            gains.damping,
+        );
+    }
+}
+
+/// Records every joint's tracking error and limit crossings; a non-finite position means the
+/// simulation diverged.
+fn measure_joints(
+    scene: &Scene,
+    reference: &Reference,
+    at: StepTime,
+    options: &ReplayOptions,
+    file: &str,
+    recorder: &mut Recorder,
+) -> Result<(), PhysicsError> {
+    for (i, d) in scene.driven.iter().enumerate() {
+        let q = d.position(&scene.world);
+        if !q.is_finite() {
+            return Err(PhysicsError::Diverged {
+                file: file.to_string(),
+                time: at.t,
+                joint: d.name.clone(),
+                value: q,
+            });
+        }
+        let r = reference.position[i];
+        recorder.track(i, r, q, at.t);
+        if let Some(limits) = d.limits {
+            recorder.position_limits(i, limits, (r, q), options.limit_tolerance, at);
+        }
+        if let Some(max_speed) = d.velocity_limit {
+            let measured = d.velocity(&scene.world);
+            let speeds = (reference.slope[i], measured);
+            recorder.velocity_limits(i, max_speed, speeds, options.velocity_tolerance, at);
+        }
+    }
+    Ok(())
+}
+
+/// Records the contacts between links that the filter checks and that are closer than
+/// [`ReplayOptions::contact_distance`].
+fn measure_contacts(scene: &Scene, at: StepTime, options: &ReplayOptions, recorder: &mut Recorder) {
+    let world = &scene.world;
+    let (n_links, skip) = (scene.hooks.n_links, &scene.hooks.skip);
+    for pair in world.narrow_phase.contact_pairs() {
+        let Some((_, contact)) = pair.find_deepest_contact() else {
+            continue;
+        };
+        if (contact.dist as f64) > options.contact_distance {
+            continue;
+        }
+        let link_of = |h| world.colliders.get(h).map(|c| c.user_data as usize);
+        let (Some(a), Some(b)) = (link_of(pair.collider1), link_of(pair.collider2)) else {
+            continue;
+        };
+        if a == b || a >= n_links || b >= n_links || skip[a * n_links + b] {
+            continue;
+        }
+        let depth = (-contact.dist as f64).max(0.0);
+        recorder.contact((a, b), depth, at);
+    }
+}

@@ -1,0 +1,449 @@
+//! The first stage of a replay: the URDF (as urdf-rs parsed it) checked for what the
+//! simulator needs — one tree of uniquely named links, finite numbers, primitive collision
+//! shapes, axes and limits — and adjusted for a fixed-base replay (floating roots fixed,
+//! zero-range revolute joints made continuous). It also decides which link pairs are
+//! neighbours and never collision-checked.
+
+use std::collections::HashMap;
+
+use rapier3d_urdf::urdf_rs;
+
+use super::PhysicsError;
+
+/// A checked, simulation-ready copy of the URDF.
+pub(super) struct PreparedModel {
+    /// The URDF with floating roots fixed and zero-range revolute joints made continuous.
+    pub(super) robot: urdf_rs::Robot,
+    /// For each link: whether it carries a collision shape rapier will build.
+    pub(super) has_shape: Vec<bool>,
+    /// Link pairs (by URDF link index) never checked, as a dense symmetric matrix.
+    pub(super) neighbours: Vec<bool>,
+    /// What was worked around (skipped meshes, fixed floating joints ...).
+    pub(super) warnings: Vec<String>,
+}
+
+/// `<joint name="...">`, as error messages name a joint.
+pub(super) fn element_of_joint(joint: &urdf_rs::Joint) -> String {
+    format!("<joint name=\"{}\">", joint.name)
+}
+
+fn element_of_link(link: &urdf_rs::Link) -> String {
+    format!("<link name=\"{}\">", link.name)
+}
+
+/// Builds the [`PhysicsError::Model`] errors of one file.
+struct ModelErr<'a> {
+    file: &'a str,
+}
+
+impl ModelErr<'_> {
+    fn at(&self, element: String, message: String) -> PhysicsError {
+        PhysicsError::Model {
+            file: self.file.to_string(),
+            element,
+            message,
+        }
+    }
+}
+
+fn finite3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// For each link, its parent joint and parent link (URDF indices), `None` for a root.
+type ParentOf = Vec<Option<(usize, usize)>>;
+
+/// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed.
+pub(super) fn prepare_model(
+    robot: &urdf_rs::Robot,
+    file: &str,
+) -> Result<PreparedModel, PhysicsError> {
+    let err = ModelErr { file };
+    let mut robot = robot.clone();
+    let mut warnings = Vec::new();
+    let link_index = index_links(&robot.links, &err)?;
+    for link in &mut robot.links {
+        check_link(link, &err, &mut warnings)?;
+    }
+    let mut parent_of = vec![None; robot.links.len()];
+    for (j, joint) in robot.joints.iter_mut().enumerate() {
+        let element = element_of_joint(joint);
+        let (parent, child) = joint_links(joint, &element, &link_index, &parent_of, &err)?;
+        parent_of[child] = Some((j, parent));
+        if !finite3(&joint.origin.xyz.0) || !finite3(&joint.origin.rpy.0) {
+            return Err(err.at(element, "expected a finite <origin>".into()));
+        }
+        check_joint_type(joint, element, &err, &mut warnings)?;
+    }
+    check_acyclic(&robot, &parent_of, &err)?;
+    let has_shape: Vec<bool> = robot
+        .links
+        .iter()
+        .map(|l| !l.collision.is_empty())
+        .collect();
+    let neighbours = neighbour_matrix(&robot, &parent_of, &has_shape);
+    Ok(PreparedModel {
+        robot,
+        has_shape,
+        neighbours,
+        warnings,
+    })
+}
+
+/// Link name → URDF index; at least one link, names unique.
+fn index_links(
+    links: &[urdf_rs::Link],
+    err: &ModelErr<'_>,
+) -> Result<HashMap<String, usize>, PhysicsError> {
+    if links.is_empty() {
+        return Err(err.at("<robot>".into(), "no <link>; expected at least one".into()));
+    }
+    let mut link_index = HashMap::new();
+    for (i, link) in links.iter().enumerate() {
+        if link_index.insert(link.name.clone(), i).is_some() {
+            return Err(err.at(
+                element_of_link(link),
+                "declared twice; expected unique link names".into(),
+            ));
+        }
+    }
+    Ok(link_index)
+}
+
+/// Geometry and inertia sanity (parry builds shapes from whatever numbers it gets); mesh
+/// collision shapes are dropped with a warning.
+fn check_link(
+    link: &mut urdf_rs::Link,
+    err: &ModelErr<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<(), PhysicsError> {
+    let file = err.file;
+    let element = element_of_link(link);
+    let inertial = &link.inertial;
+    let i = &inertial.inertia;
+    let values = [i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz];
+    let valid = inertial.mass.value.is_finite()
+        && inertial.mass.value >= 0.0
+        && values.iter().all(|v| v.is_finite())
+        && finite3(&inertial.origin.xyz.0)
+        && finite3(&inertial.origin.rpy.0);
+    if !valid {
+        return Err(err.at(
+            element + " <inertial>",
+            "expected a finite mass >= 0 and finite inertia and origin".into(),
+        ));
+    }
+    let mut kept = Vec::new();
+    for collision in link.collision.drain(..) {
+        let ok_pose = finite3(&collision.origin.xyz.0) && finite3(&collision.origin.rpy.0);
+        let ok_size = |v: f64| v.is_finite() && v >= 0.0;
+        let ok_shape = match &collision.geometry {
+            urdf_rs::Geometry::Box { size } => size.0.iter().all(|v| ok_size(*v)),
+            urdf_rs::Geometry::Cylinder { radius, length }
+            | urdf_rs::Geometry::Capsule { radius, length } => ok_size(*radius) && ok_size(*length),
+            urdf_rs::Geometry::Sphere { radius } => ok_size(*radius),
+            urdf_rs::Geometry::Mesh { filename, .. } => {
+                warnings.push(format!(
+                    "{file}: {element}: collision mesh \"{filename}\" skipped (only boxes, cylinders, capsules and spheres are simulated)"
+                ));
+                continue;
+            }
+        };
+        if !(ok_pose && ok_shape) {
+            return Err(err.at(
+                element + " <collision>",
+                "expected finite, non-negative shape sizes and a finite origin".into(),
+            ));
+        }
+        kept.push(collision);
+    }
+    link.collision = kept;
+    Ok(())
+}
+
+/// The (parent, child) link indices of `joint`: both declared, the child of no other joint.
+fn joint_links(
+    joint: &urdf_rs::Joint,
+    element: &str,
+    link_index: &HashMap<String, usize>,
+    parent_of: &ParentOf,
+    err: &ModelErr<'_>,
+) -> Result<(usize, usize), PhysicsError> {
+    let lookup = |role: &str, name: &str| {
+        link_index.get(name).copied().ok_or_else(|| {
+            err.at(
+                element.to_string(),
+                format!("unknown {role} link \"{name}\"; expected a declared <link>"),
+            )
+        })
+    };
+    let parent = lookup("parent", &joint.parent.link)?;
+    let child = lookup("child", &joint.child.link)?;
+    if parent_of[child].is_some() {
+        return Err(err.at(
+            element.to_string(),
+            format!(
+                "link \"{}\" is the child of a second joint; a URDF must be a tree",
+                joint.child.link
+            ),
+        ));
+    }
+    Ok((parent, child))
+}
+
+/// What each joint type needs: floating and planar joints are fixed (the base is fixed to
+/// the world), spherical ones refused, movable ones need a finite non-zero axis and (unless
+/// continuous) finite ordered limits; a revolute joint with both limits 0 becomes continuous.
+fn check_joint_type(
+    joint: &mut urdf_rs::Joint,
+    element: String,
+    err: &ModelErr<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<(), PhysicsError> {
+    let file = err.file;
+    match joint.joint_type {
+        urdf_rs::JointType::Floating | urdf_rs::JointType::Planar => {
+            warnings.push(format!(
+                "{file}: {element}: {:?} joint fixed (the replay fixes the robot's base to the world)",
+                joint.joint_type
+            ));
+            joint.joint_type = urdf_rs::JointType::Fixed;
+        }
+        urdf_rs::JointType::Spherical => {
+            return Err(err.at(
+                element,
+                "spherical joints cannot follow a one-column trajectory; expected revolute, continuous, prismatic or fixed".into(),
+            ));
+        }
+        urdf_rs::JointType::Revolute
+        | urdf_rs::JointType::Continuous
+        | urdf_rs::JointType::Prismatic => {
+            let axis = joint.axis.xyz.0;
+            let norm = axis.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if !(finite3(&axis) && norm > 1e-9) {
+                return Err(err.at(
+                    element + " <axis>",
+                    format!("{axis:?}; expected a finite, non-zero axis"),
+                ));
+            }
+            let (lower, upper) = (joint.limit.lower, joint.limit.upper);
+            if joint.joint_type != urdf_rs::JointType::Continuous {
+                if !(lower.is_finite() && upper.is_finite() && lower <= upper) {
+                    return Err(err.at(
+                        element + " <limit>",
+                        format!("lower = {lower}, upper = {upper}; expected finite limits with lower <= upper"),
+                    ));
+                }
+                if joint.joint_type == urdf_rs::JointType::Revolute && lower == 0.0 && upper == 0.0
+                {
+                    warnings.push(format!(
+                        "{file}: {element}: revolute joint with both limits 0 treated as unlimited"
+                    ));
+                    joint.joint_type = urdf_rs::JointType::Continuous;
+                }
+            }
+        }
+        urdf_rs::JointType::Fixed => {}
+    }
+    Ok(())
+}
+
+/// No cycles: walking up from any link must end at a root within `n_links` steps.
+fn check_acyclic(
+    robot: &urdf_rs::Robot,
+    parent_of: &ParentOf,
+    err: &ModelErr<'_>,
+) -> Result<(), PhysicsError> {
+    let n_links = robot.links.len();
+    for start in 0..n_links {
+        let mut link = start;
+        for _ in 0..=n_links {
+            match parent_of[link] {
+                Some((_, parent)) => link = parent,
+                None => break,
+            }
+        }
+        if parent_of[link].is_some() {
+            return Err(err.at(
+                element_of_link(&robot.links[start]),
+                "lies on a cycle of joints; a URDF must be a tree".into(),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The chain of (joint, link) steps from `link` up to its root, `link` first.
+fn ancestry(link: usize, parent_of: &[Option<(usize, usize)>]) -> Vec<usize> {
+    let mut chain = vec![link];
+    let mut current = link;
+    while let Some((_, parent)) = parent_of[current] {
+        chain.push(parent);
+        current = parent;
+    }
+    chain
+}
+
+/// Which link pairs are neighbours (never collision-checked): every intermediate link on the
+/// tree path has no shape, or every joint on the path is fixed.
+fn neighbour_matrix(
+    robot: &urdf_rs::Robot,
+    parent_of: &[Option<(usize, usize)>],
+    has_shape: &[bool],
+) -> Vec<bool> {
+    let n = robot.links.len();
+    let mut matrix = vec![false; n * n];
+    let chains: Vec<Vec<usize>> = (0..n).map(|l| ancestry(l, parent_of)).collect();
+    for a in 0..n {
+        matrix[a * n + a] = true;
+        for b in (a + 1)..n {
+            let (ca, cb) = (&chains[a], &chains[b]);
+            // Lowest common ancestor: the first link of a's chain that is in b's chain.
+            let Some((ia, ib)) = ca
+                .iter()
+                .enumerate()
+                .find_map(|(ia, l)| cb.iter().position(|m| m == l).map(|ib| (ia, ib)))
+            else {
+                continue; // different trees: not neighbours
+            };
+            // Links strictly between a and b on the path (the common ancestor included when it
+            // is neither end).
+            let mut between: Vec<usize> = ca.get(1..ia).unwrap_or(&[]).to_vec();
+            between.extend_from_slice(cb.get(1..ib).unwrap_or(&[]));
+            if ia > 0 && ib > 0 {
+                between.push(ca[ia]);
+            }
+            let shapeless_between = between.iter().all(|&l| !has_shape[l]);
+            // Joints on the path: the parent joint of every link below the common ancestor.
+            let all_fixed = ca[..ia]
+                .iter()
+                .chain(cb[..ib].iter())
+                .all(|&l| match parent_of[l] {
+                    Some((j, _)) => robot.joints[j].joint_type == urdf_rs::JointType::Fixed,
+                    None => true,
+                });
+            if shapeless_between || all_fixed {
+                matrix[a * n + b] = true;
+                matrix[b * n + a] = true;
+            }
+        }
+    }
+    matrix
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// base ─rev→ a (shapeless) ─rev→ b (shape); base ─fixed→ c (shape) ─rev→ d (shape);
+    /// d ─fixed→ e (shape).
+    const TREE: &str = r#"<robot name="tree">
+      <link name="base"><collision><geometry><box size="1 1 1"/></geometry></collision></link>
+      <link name="a"/>
+      <link name="b"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="c"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="d"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <link name="e"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+      <joint name="j_a" type="revolute"><parent link="base"/><child link="a"/>
+        <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="j_b" type="revolute"><parent link="a"/><child link="b"/>
+        <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <joint name="j_c" type="fixed"><parent link="base"/><child link="c"/></joint>
+      <joint name="j_d" type="continuous"><parent link="c"/><child link="d"/><axis xyz="0 0 1"/></joint>
+      <joint name="j_e" type="fixed"><parent link="d"/><child link="e"/></joint>
+    </robot>"#;
+
+    fn neighbours(xml: &str) -> (Vec<String>, Vec<bool>) {
+        let robot = urdf_rs::read_from_string(xml).unwrap();
+        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let names = model.robot.links.iter().map(|l| l.name.clone()).collect();
+        (names, model.neighbours)
+    }
+
+    #[test]
+    fn neighbours_are_tree_adjacent_through_shapeless_links_or_fixed_joints() {
+        let (names, m) = neighbours(TREE);
+        let n = names.len();
+        let idx = |s: &str| names.iter().position(|x| x == s).unwrap();
+        let near = |a: &str, b: &str| m[idx(a) * n + idx(b)];
+        // Direct parent/child.
+        assert!(near("base", "a") && near("a", "b") && near("c", "d") && near("d", "e"));
+        // Through the shapeless link a.
+        assert!(near("base", "b") && near("b", "base"));
+        // All-fixed path.
+        assert!(near("base", "c"));
+        // c (with a shape) sits between base and d, and the path has a moving joint.
+        assert!(!near("base", "d") && !near("base", "e"));
+        // Across the base: b and c, b and d are not neighbours.
+        assert!(!near("b", "c") && !near("b", "d") && !near("c", "e"));
+        // Symmetric.
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(m[i * n + j], m[j * n + i]);
+            }
+        }
+    }
+
+    #[test]
+    fn model_preparation_fixes_floating_roots_and_zero_range_joints() {
+        let xml = TREE
+            .replace(
+                r#"<link name="base">"#,
+                r#"<link name="world"/><joint name="float" type="floating"><parent link="world"/><child link="base"/></joint><link name="base">"#,
+            )
+            .replace(
+                r#"<axis xyz="0 1 0"/><limit lower="-1" upper="1""#,
+                r#"<axis xyz="0 1 0"/><limit lower="0" upper="0""#,
+            );
+        let robot = urdf_rs::read_from_string(&xml).unwrap();
+        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let kind = |name: &str| {
+            model
+                .robot
+                .joints
+                .iter()
+                .find(|j| j.name == name)
+                .map(|j| j.joint_type.clone())
+                .unwrap()
+        };
+        assert_eq!(kind("float"), urdf_rs::JointType::Fixed);
+        assert_eq!(kind("j_b"), urdf_rs::JointType::Continuous);
+        assert_eq!(kind("j_a"), urdf_rs::JointType::Revolute);
+        assert_eq!(model.warnings.len(), 2, "{:?}", model.warnings);
+    }
+
+    #[test]
+    fn model_preparation_rejects_loops_and_bad_numbers() {
+        // b ─→ base closes the loop base → a → b → base.
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        let mut back = robot.joints[0].clone();
+        back.name = "j_back".into();
+        back.parent.link = "b".into();
+        back.child.link = "base".into();
+        robot.joints.push(back);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("cycle"), "{err}");
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        // c becomes the child of two joints.
+        let mut extra = robot.joints[2].clone();
+        extra.name = "j_c2".into();
+        extra.parent.link = "b".into();
+        robot.joints.push(extra);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(
+            err.contains("<joint name=\"j_c2\">") && err.contains("tree"),
+            "{err}"
+        );
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        robot.links[2].collision[0].geometry = urdf_rs::Geometry::Sphere { radius: -0.1 };
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("<link name=\"b\"> <collision>"), "{err}");
+
+        let mut robot = urdf_rs::read_from_string(TREE).unwrap();
+        robot.joints[0].axis.xyz = urdf_rs::Vec3([0.0, 0.0, 0.0]);
+        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        assert!(err.contains("<joint name=\"j_a\"> <axis>"), "{err}");
+    }
+}

@@ -1,0 +1,440 @@
+//! The last stage of a replay: what it measured. Per joint the tracking error; limit and
+//! velocity excursions and self-collisions as time intervals — an event opens at the first
+//! physics step that crosses, is extended while the crossing lasts and closes once it has not
+//! been extended for [`ReplayOptions::merge_gap_seconds`](super::ReplayOptions::merge_gap_seconds);
+//! the report lists each kind ordered by start time.
+
+use std::collections::HashMap;
+use std::hash::Hash;
+
+use serde::Serialize;
+
+use super::Trajectory;
+
+/// Tracking quality of one joint over every physics step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointTracking {
+    /// The joint's URDF name.
+    pub name: String,
+    /// Root mean square of (reference − simulated position), rad (m for prismatic joints).
+    pub rms_error: f64,
+    /// Largest absolute error.
+    pub max_error: f64,
+    /// When the largest error happened, seconds (trajectory time).
+    pub max_error_time: f64,
+}
+
+/// A stretch of time during which a joint was beyond one of its limits.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LimitViolation {
+    /// When the excursion began, seconds (trajectory time).
+    pub time: f64,
+    /// The last physics step still beyond the limit, seconds.
+    pub end_time: f64,
+    /// The joint's URDF name.
+    pub joint: String,
+    /// The largest distance beyond the limit, rad (m for prismatic joints).
+    pub amount: f64,
+    /// The limit that was crossed (the lower or the upper one).
+    pub limit: f64,
+    /// True when the reference itself went beyond the limit; false when the simulated joint
+    /// did (e.g. dragged by gravity or a collision, or with limits not enforced).
+    pub commanded: bool,
+}
+
+/// A stretch of time during which two links of the robot touched or penetrated.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Collision {
+    /// When the contact began, seconds (trajectory time).
+    pub time: f64,
+    /// The last physics step still in contact, seconds.
+    pub end_time: f64,
+    /// One link's URDF name (the pair is in URDF link order).
+    pub link_a: String,
+    /// The other link's URDF name.
+    pub link_b: String,
+    /// The deepest penetration seen, metres (0 for a touch).
+    pub max_penetration: f64,
+}
+
+/// Everything a replay measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReplayReport {
+    /// Simulated time, seconds (last minus first frame time).
+    pub duration: f64,
+    /// Physics steps taken.
+    pub physics_steps: usize,
+    /// Wall-clock time of the trajectory's physics steps (settling excluded), seconds.
+    pub wall_seconds: f64,
+    /// Tracking per movable joint, in the order of the trajectory's columns (joints held
+    /// still because they had no column follow).
+    pub joints: Vec<JointTracking>,
+    /// Limit excursions, ordered by start time.
+    pub limit_violations: Vec<LimitViolation>,
+    /// Stretches of time during which a joint moved faster than its URDF velocity limit,
+    /// ordered by start time; `amount` and `limit` are speeds (rad/s or m/s, `limit` signed
+    /// like the velocity), `commanded` as for position limits (the reference's slope, or the
+    /// simulated joint's velocity).
+    pub velocity_violations: Vec<LimitViolation>,
+    /// Self-collisions, ordered by start time; consecutive steps in contact form one event.
+    pub collisions: Vec<Collision>,
+    /// Things the model loader worked around (mesh shapes skipped, floating roots fixed ...).
+    pub warnings: Vec<String>,
+    /// The simulated positions at the trajectory's frame times, same columns as
+    /// [`ReplayReport::joints`], when [`ReplayOptions::record_simulated`] is set.
+    pub simulated: Option<Trajectory>,
+}
+
+/// A physics step and its trajectory time, seconds.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct StepTime {
+    /// 1-based index of the step.
+    pub(super) step: usize,
+    /// Trajectory time at the end of the step.
+    pub(super) t: f64,
+}
+
+/// An open limit or collision event.
+pub(super) struct OpenEvent {
+    start: f64,
+    end: f64,
+    amount: f64,
+    limit: f64,
+    last_step: usize,
+}
+
+/// Opens or extends the event `key` at step `at` with excess `beyond` over `limit`.
+fn extend_event<K: Eq + Hash>(
+    open: &mut HashMap<K, OpenEvent>,
+    key: K,
+    at: StepTime,
+    beyond: f64,
+    limit: f64,
+) {
+    let StepTime { step, t } = at;
+    let event = open.entry(key).or_insert(OpenEvent {
+        start: t,
+        end: t,
+        amount: 0.0,
+        limit,
+        last_step: step,
+    });
+    event.end = t;
+    event.last_step = step;
+    if beyond > event.amount {
+        event.amount = beyond;
+        event.limit = limit;
+    }
+}
+
+/// Moves every event not extended during the last `gap` steps before `step` (inclusive of
+/// `step`) from `open` to `emit`.
+fn close_events<K: Copy + Eq + Hash>(
+    open: &mut HashMap<K, OpenEvent>,
+    step: usize,
+    gap: usize,
+    mut emit: impl FnMut(K, OpenEvent),
+) {
+    if open.is_empty() {
+        return;
+    }
+    let done: Vec<K> = open
+        .iter()
+        .filter(|(_, e)| step - e.last_step > gap)
+        .map(|(k, _)| *k)
+        .collect();
+    for key in done {
+        if let Some(event) = open.remove(&key) {
+            emit(key, event);
+        }
+    }
+}
+
+/// A joint limit check: (index of the joint in report order, whether the reference or the
+/// simulated joint crossed).
+type JointCheck = (usize, bool);
+
+/// The limit, velocity and collision events of a replay, open and closed.
+struct Events {
+    /// Joint names in report order.
+    joints: Vec<String>,
+    /// URDF link names, in URDF order.
+    links: Vec<String>,
+    open_limits: HashMap<JointCheck, OpenEvent>,
+    open_speeds: HashMap<JointCheck, OpenEvent>,
+    open_contacts: HashMap<(usize, usize), OpenEvent>,
+    limit_violations: Vec<LimitViolation>,
+    velocity_violations: Vec<LimitViolation>,
+    collisions: Vec<Collision>,
+}
+
+impl Events {
+    /// Closes every event not extended during the last `gap` steps before `step`.
+    fn close(&mut self, step: usize, gap: usize) {
+        let joints = &self.joints;
+        let violation = |(i, commanded): JointCheck, e: OpenEvent| LimitViolation {
+            time: e.start,
+            end_time: e.end,
+            joint: joints[i].clone(),
+            amount: e.amount,
+            limit: e.limit,
+            commanded,
+        };
+        close_events(&mut self.open_speeds, step, gap, |key, e| {
+            self.velocity_violations.push(violation(key, e))
+        });
+        close_events(&mut self.open_limits, step, gap, |key, e| {
+            self.limit_violations.push(violation(key, e))
+        });
+        let links = &self.links;
+        close_events(&mut self.open_contacts, step, gap, |(a, b), e| {
+            self.collisions.push(Collision {
+                time: e.start,
+                end_time: e.end,
+                link_a: links[a].clone(),
+                link_b: links[b].clone(),
+                max_penetration: e.amount,
+            })
+        });
+    }
+
+    /// Closes what is still open and returns (limit violations, velocity violations,
+    /// collisions), each ordered by start time.
+    fn finish(mut self) -> (Vec<LimitViolation>, Vec<LimitViolation>, Vec<Collision>) {
+        self.close(usize::MAX, 0);
+        let by_time = |x: &LimitViolation, y: &LimitViolation| {
+            x.time
+                .total_cmp(&y.time)
+                .then_with(|| x.joint.cmp(&y.joint))
+                .then_with(|| y.commanded.cmp(&x.commanded))
+        };
+        self.limit_violations.sort_by(by_time);
+        self.velocity_violations.sort_by(by_time);
+        self.collisions.sort_by(|x, y| {
+            x.time
+                .total_cmp(&y.time)
+                .then_with(|| x.link_a.cmp(&y.link_a))
+                .then_with(|| x.link_b.cmp(&y.link_b))
+        });
+        (
+            self.limit_violations,
+            self.velocity_violations,
+            self.collisions,
+        )
+    }
+}
+
+/// Everything measured during the physics steps, turned into a [`ReplayReport`] at the end.
+pub(super) struct Recorder {
+    sum_sq: Vec<f64>,
+    max_err: Vec<f64>,
+    max_err_time: Vec<f64>,
+    /// The simulated positions of the latest step, in report order.
+    actual: Vec<f64>,
+    events: Events,
+    /// Simulated positions at the frame times, when recorded.
+    simulated: Option<Vec<f64>>,
+    /// The next trajectory frame to record.
+    next_frame: usize,
+}
+
+impl Recorder {
+    /// A recorder for the driven joints `joints` (report order) of a robot with links
+    /// `links`; errors start at time `t0`; with `record_simulated`, the positions at the
+    /// trajectory's `frames` frame times are kept.
+    pub(super) fn new(
+        joints: Vec<String>,
+        links: Vec<String>,
+        t0: f64,
+        record_simulated: bool,
+        frames: usize,
+    ) -> Self {
+        let n = joints.len();
+        Recorder {
+            sum_sq: vec![0.0f64; n],
+            max_err: vec![0.0f64; n],
+            max_err_time: vec![t0; n],
+            actual: vec![0.0f64; n],
+            simulated: record_simulated.then(|| Vec::with_capacity(frames * n)),
+            next_frame: 1,
+            events: Events {
+                joints,
+                links,
+                open_limits: HashMap::new(),
+                open_speeds: HashMap::new(),
+                open_contacts: HashMap::new(),
+                limit_violations: Vec::new(),
+                velocity_violations: Vec::new(),
+                collisions: Vec::new(),
+            },
+        }
+    }
+
+    /// Records the first frame's simulated positions (after settling).
+    pub(super) fn first_frame(&mut self, positions: impl Iterator<Item = f64>) {
+        if let Some(sim) = self.simulated.as_mut() {
+            sim.extend(positions);
+        }
+    }
+
+    /// Records joint `i`'s simulated position `q` against its `reference` at time `t`.
+    pub(super) fn track(&mut self, i: usize, reference: f64, q: f64, t: f64) {
+        self.actual[i] = q;
+        let e = (reference - q).abs();
+        self.sum_sq[i] += e * e;
+        if e > self.max_err[i] {
+            self.max_err[i] = e;
+            self.max_err_time[i] = t;
+        }
+    }
+
+    /// Opens or extends the position-limit events of joint `i` (limits `lo`, `hi`) for the
+    /// reference and the simulated position `q` that are more than `tol` beyond.
+    pub(super) fn position_limits(
+        &mut self,
+        i: usize,
+        (lo, hi): (f64, f64),
+        (reference, q): (f64, f64),
+        tol: f64,
+        at: StepTime,
+    ) {
+        for (commanded, value) in [(true, reference), (false, q)] {
+            let (beyond, limit) = if value > hi {
+                (value - hi, hi)
+            } else {
+                (lo - value, lo)
+            };
+            if beyond > tol {
+                let open = &mut self.events.open_limits;
+                extend_event(open, (i, commanded), at, beyond, limit);
+            }
+        }
+    }
+
+    /// Opens or extends the velocity-limit events of joint `i` for the reference's `slope`
+    /// and the simulated velocity `measured` when their speed exceeds `max_speed` by more
+    /// than `tol`.
+    pub(super) fn velocity_limits(
+        &mut self,
+        i: usize,
+        max_speed: f64,
+        (slope, measured): (f64, f64),
+        tol: f64,
+        at: StepTime,
+    ) {
+        for (commanded, value) in [(true, slope), (false, measured)] {
+            let beyond = value.abs() - max_speed;
+            if beyond > tol {
+                let limit = max_speed.copysign(value);
+                let open = &mut self.events.open_speeds;
+                extend_event(open, (i, commanded), at, beyond, limit);
+            }
+        }
+    }
+
+    /// Opens or extends the collision event of links `a` and `b` with penetration `depth`
+    /// (>= 0).
+    pub(super) fn contact(&mut self, (a, b): (usize, usize), depth: f64, at: StepTime) {
+        let key = (a.min(b), a.max(b));
+        extend_event(&mut self.events.open_contacts, key, at, depth, 0.0);
+    }
+
+    /// Closes the events not extended during the last `gap` steps before `step`.
+    pub(super) fn close_events(&mut self, step: usize, gap: usize) {
+        self.events.close(step, gap);
+    }
+
+    /// Keeps the simulated positions for every frame whose time is nearest to step time `t`.
+    pub(super) fn frames_at(&mut self, trajectory: &Trajectory, t: f64, rate: f64) {
+        if let Some(sim) = self.simulated.as_mut() {
+            while self.next_frame < trajectory.frames()
+                && trajectory.times[self.next_frame] <= t + 0.5 / rate
+            {
+                sim.extend_from_slice(&self.actual);
+                self.next_frame += 1;
+            }
+        }
+    }
+
+    /// The report of `steps` physics steps over `duration` seconds.
+    pub(super) fn finish(
+        self,
+        trajectory: &Trajectory,
+        duration: f64,
+        steps: usize,
+        wall_seconds: f64,
+        warnings: Vec<String>,
+    ) -> ReplayReport {
+        let Recorder {
+            sum_sq,
+            max_err,
+            max_err_time,
+            actual,
+            events,
+            simulated,
+            ..
+        } = self;
+        let joint_names = events.joints.clone();
+        let (limit_violations, velocity_violations, collisions) = events.finish();
+        let joints = joint_names
+            .iter()
+            .enumerate()
+            .map(|(i, name)| JointTracking {
+                name: name.clone(),
+                rms_error: (sum_sq[i] / steps as f64).sqrt(),
+                max_error: max_err[i],
+                max_error_time: max_err_time[i],
+            })
+            .collect();
+        let simulated = simulated.map(|mut positions| {
+            // A frame the loop could not reach (only possible through rounding) repeats the last.
+            while positions.len() < trajectory.frames() * joint_names.len() {
+                positions.extend_from_slice(&actual);
+            }
+            Trajectory {
+                joint_names,
+                times: trajectory.times.clone(),
+                positions,
+            }
+        });
+        ReplayReport {
+            duration,
+            physics_steps: steps,
+            wall_seconds,
+            joints,
+            limit_violations,
+            velocity_violations,
+            collisions,
+            warnings,
+            simulated,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn events_close_when_not_extended() {
+        let mut open = HashMap::new();
+        let event = |step| OpenEvent {
+            start: 0.1,
+            end: 0.2,
+            amount: 0.5,
+            limit: 1.0,
+            last_step: step,
+        };
+        open.insert(1usize, event(7));
+        open.insert(2usize, event(8));
+        let mut closed = Vec::new();
+        close_events(&mut open, 8, 0, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed, vec![(1, 7)]);
+        assert!(open.contains_key(&2) && open.len() == 1);
+        // With a gap of 3 steps, an event last extended at step 8 stays open through step 11.
+        close_events(&mut open, 11, 3, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed.len(), 1);
+        close_events(&mut open, 12, 3, |k, e| closed.push((k, e.last_step)));
+        assert_eq!(closed, vec![(1, 7), (2, 8)]);
+    }
+}
