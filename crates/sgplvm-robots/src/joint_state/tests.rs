@@ -1,11 +1,18 @@
 use super::*;
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use ::mcap::records::MessageHeader;
+use ::mcap::WriteOptions;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A fresh directory under the system temp dir, removed on drop.
-pub(crate) struct TempDir(pub PathBuf);
+pub(super) struct TempDir(pub PathBuf);
 
 impl TempDir {
-    pub(crate) fn new(tag: &str) -> Self {
+    pub(super) fn new(tag: &str) -> Self {
         static COUNTER: AtomicUsize = AtomicUsize::new(0);
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let dir = std::env::temp_dir().join(format!("sgplvm-js-{tag}-{}-{n}", std::process::id()));
@@ -13,7 +20,7 @@ impl TempDir {
         std::fs::create_dir_all(&dir).expect("create temp dir");
         Self(dir)
     }
-    pub(crate) fn file(&self, name: &str) -> PathBuf {
+    pub(super) fn file(&self, name: &str) -> PathBuf {
         self.0.join(name)
     }
 }
@@ -24,11 +31,11 @@ impl Drop for TempDir {
     }
 }
 
-fn names(list: &[&str]) -> Vec<String> {
+pub(super) fn names(list: &[&str]) -> Vec<String> {
     list.iter().map(|s| s.to_string()).collect()
 }
 
-fn sample(n: usize, joints: &[&str], t0: i64, dt: i64, phase: f64) -> JointStates {
+pub(super) fn sample(n: usize, joints: &[&str], t0: i64, dt: i64, phase: f64) -> JointStates {
     let d = joints.len();
     let times = (0..n as i64).map(|k| t0 + k * dt).collect();
     let mut pos = Vec::with_capacity(n * d);
@@ -196,89 +203,6 @@ fn multiple_topics_are_interleaved_by_time_and_read_independently() {
     assert_eq!(read.states[1], a);
     assert_eq!(read.channels.len(), 2);
     assert_eq!(read.channels[1].message_encoding, "json");
-}
-
-#[test]
-fn alignment_interpolates_linearly_on_the_common_span() {
-    // a: t = 0, 10, 20, ... 100 ms, value = t in ms; b: t = 5..=95 ms, value = 2 t.
-    let ms = 1_000_000i64;
-    let a = JointStates::new(
-        (0..=10).map(|k| k * 10 * ms).collect(),
-        names(&["a"]),
-        (0..=10).map(|k| (k * 10) as f64).collect(),
-    )
-    .expect("a");
-    let b = JointStates::new(vec![5 * ms, 95 * ms], names(&["b"]), vec![10.0, 190.0]).expect("b");
-    let out = align_onto_clock(&[a, b], 40.0).expect("align");
-    // Common span 5..95 ms at 25 ms: 5, 30, 55, 80 ms.
-    let expect_t: Vec<i64> = vec![5 * ms, 30 * ms, 55 * ms, 80 * ms];
-    assert_eq!(out[0].times_ns, expect_t);
-    assert_eq!(out[1].times_ns, expect_t);
-    for (k, t) in expect_t.iter().enumerate() {
-        let t_ms = (*t / ms) as f64;
-        assert!((out[0].positions[k] - t_ms).abs() < 1e-12);
-        assert!((out[1].positions[k] - 2.0 * t_ms).abs() < 1e-12);
-    }
-    let late = JointStates::new(vec![200 * ms], names(&["c"]), vec![0.0]).expect("c");
-    let err = align_onto_clock(&[out[0].clone(), late], 40.0).unwrap_err();
-    assert!(matches!(err, DemoError::NoOverlap { .. }), "{err}");
-    assert!(align_onto_clock(&out, 0.0).is_err());
-}
-
-#[test]
-fn read_aligned_puts_topics_on_one_forty_hertz_clock() {
-    let dir = TempDir::new("aligned");
-    let path = dir.file("a.mcap");
-    // 100 Hz and 30 Hz topics.
-    let a = sample(200, &["a"], 0, 10_000_000, 0.0);
-    let b = sample(60, &["b"], 3_000_000, 33_333_333, 0.5);
-    write_topics(
-        &path,
-        &[
-            TopicData {
-                topic: "/a",
-                states: &a,
-                encoding: MessageEncoding::Cdr,
-            },
-            TopicData {
-                topic: "/b",
-                states: &b,
-                encoding: MessageEncoding::Cdr,
-            },
-        ],
-        &WriteSettings::default(),
-    )
-    .expect("write");
-    let out = read_aligned(
-        &path,
-        &[TopicRequest::all("/a"), TopicRequest::all("/b")],
-        DEFAULT_RATE_HZ,
-    )
-    .expect("aligned");
-    let t = &out[0].times_ns;
-    assert_eq!(t[0], 3_000_000);
-    assert!(t.windows(2).all(|w| w[1] - w[0] == 25_000_000));
-    // The common span ends at /b's last sample, 3 ms + 59 × 33.33 ms.
-    assert!(*t.last().expect("non-empty") <= 3_000_000 + 59 * 33_333_333);
-    assert_eq!(t.len(), 79);
-    // Spot check against a hand interpolation of /a at t[1] = 28 ms: between 20 and 30 ms.
-    let (v20, v30) = (a.row(2)[0], a.row(3)[0]);
-    assert!((out[0].positions[1] - (v20 + 0.8 * (v30 - v20))).abs() < 1e-12);
-}
-
-#[test]
-fn resample_at_sample_times_is_exact() {
-    let s = sample(20, &["a", "b"], 7, 13, 0.1);
-    let r = s.resample(&s.times_ns).expect("resample");
-    assert_eq!(r, s);
-    assert!(s.resample(&[6]).is_err());
-}
-
-#[test]
-fn invalid_inputs_are_rejected() {
-    assert!(JointStates::new(vec![0, 1], names(&["a"]), vec![0.0]).is_err());
-    assert!(JointStates::new(vec![-1], names(&["a"]), vec![0.0]).is_err());
-    assert!(JointStates::new(vec![0], names(&["a", "a"]), vec![0.0, 0.0]).is_err());
 }
 
 fn write_good(path: &Path) -> JointStates {

@@ -1,0 +1,155 @@
+//! The error of MCAP JointState input and output: every variant names the file, and where a
+//! topic is involved, the topic (and where a message is, its index and log time).
+
+use std::path::PathBuf;
+
+use ::mcap::McapError;
+
+/// Errors of MCAP demonstration input and output. Every variant names the file, and where a
+/// topic is involved, the topic.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum JointStateError {
+    /// The operating system refused an operation on the file.
+    #[error("{path}: cannot {action}: {source}")]
+    Io {
+        /// File concerned.
+        path: PathBuf,
+        /// What was being done ("open", "write", "rename onto", ...).
+        action: &'static str,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The file ended in the middle of a record or before its footer.
+    #[error("{path}: MCAP file is truncated (ended in the middle of a record or before the footer) while reading topic(s) {topics}")]
+    Truncated {
+        /// File concerned.
+        path: PathBuf,
+        /// The topics that were being read.
+        topics: String,
+    },
+    /// The MCAP structure itself is invalid (bad magic, CRC mismatch, ...).
+    #[error("{path}: invalid MCAP while reading topic(s) {topics}: {source}")]
+    Mcap {
+        /// File concerned.
+        path: PathBuf,
+        /// The topics that were being read.
+        topics: String,
+        /// The error reported by the mcap crate.
+        source: McapError,
+    },
+    /// The MCAP writer failed.
+    #[error("{path}: cannot write MCAP ({what}): {source}")]
+    McapWrite {
+        /// File concerned.
+        path: PathBuf,
+        /// What was being written.
+        what: String,
+        /// The error reported by the mcap crate.
+        source: McapError,
+    },
+    /// A requested topic has no channel in the file.
+    #[error("{path}: topic `{topic}` not found (topics present: {available:?})")]
+    MissingTopic {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic asked for.
+        topic: String,
+        /// The topics the file does have.
+        available: Vec<String>,
+    },
+    /// A requested topic has a channel but no messages.
+    #[error("{path}: topic `{topic}` has no messages")]
+    EmptyTopic {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+    },
+    /// A requested topic's schema is not a JointState schema in the expected encoding.
+    #[error("{path}: topic `{topic}` has schema `{schema}` with schema encoding `{schema_encoding}`; expected `sensor_msgs/msg/JointState` with schema encoding `ros2msg` (or `ros2idl`) for cdr, or `jsonschema`/none for json")]
+    WrongSchema {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// Schema name found (empty when the channel has no schema).
+        schema: String,
+        /// Schema encoding found.
+        schema_encoding: String,
+    },
+    /// A requested topic's message encoding is neither `cdr` nor `json`.
+    #[error("{path}: topic `{topic}` has message encoding `{encoding}`; expected `cdr` or `json`")]
+    WrongEncoding {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// Message encoding found.
+        encoding: String,
+    },
+    /// A message could not be decoded.
+    #[error("{path}: topic `{topic}`, message #{index} (log time {log_time_ns} ns): {detail}")]
+    Malformed {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// Index of the message within the topic (0-based).
+        index: usize,
+        /// The message's log time.
+        log_time_ns: u64,
+        /// What was wrong.
+        detail: String,
+    },
+    /// Joints that the body model needs are absent from a message.
+    #[error("{path}: topic `{topic}`, message #{index}: joints {missing:?} required by the body model are missing (the message has {present:?})")]
+    MissingJoints {
+        /// File concerned.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// Index of the message within the topic.
+        index: usize,
+        /// Required joints that are absent.
+        missing: Vec<String>,
+        /// Joints the message does have.
+        present: Vec<String>,
+    },
+    /// The topics to align have no common time span.
+    #[error(
+        "{path}: topics {topics} do not overlap in time (common span {start_ns}..{end_ns} ns)"
+    )]
+    NoOverlap {
+        /// File concerned.
+        path: PathBuf,
+        /// The topics.
+        topics: String,
+        /// Latest first timestamp.
+        start_ns: i64,
+        /// Earliest last timestamp.
+        end_ns: i64,
+    },
+    /// Data handed to a writer or aligner is inconsistent.
+    #[error("invalid data for {what}: {detail}")]
+    InvalidInput {
+        /// The topic, body or argument concerned.
+        what: String,
+        /// What was expected.
+        detail: String,
+    },
+    /// The `sgplvm.dataset` metadata of a demonstration file is unreadable or inconsistent.
+    #[error("{path}: metadata `sgplvm.dataset` is invalid: {detail}")]
+    BadDatasetMetadata {
+        /// File concerned.
+        path: PathBuf,
+        /// What was wrong.
+        detail: String,
+    },
+}
+
+/// Result type of this module.
+pub type Result<T> = std::result::Result<T, JointStateError>;
+
+/// The former name of [`JointStateError`], kept so that code written against it compiles.
+pub type DemoError = JointStateError;
