@@ -14,7 +14,7 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use crate::joint_state::{
-    align_onto_clock, read_topics, write_topics, Compression, DemoError, JointStates,
+    align_onto_clock, read_topics, write_topics, Compression, JointStateError, JointStates,
     MessageEncoding, Result, TopicData, TopicRequest, WriteSettings, DEFAULT_RATE_HZ,
     JOINT_STATE_SCHEMA,
 };
@@ -42,28 +42,6 @@ impl BodyData {
     /// Rows `indices` of `positions`, in that order.
     pub fn rows(&self, indices: &[usize]) -> DMatrix<f64> {
         self.positions.select_rows(indices)
-    }
-
-    fn to_joint_states(&self, times_ns: &[i64]) -> JointStates {
-        let (n, d) = self.positions.shape();
-        let mut pos = Vec::with_capacity(n * d);
-        for r in 0..n {
-            pos.extend(self.positions.row(r).iter());
-        }
-        JointStates {
-            times_ns: times_ns.to_vec(),
-            names: self.joint_names.clone(),
-            positions: pos,
-        }
-    }
-
-    fn from_joint_states(name: &str, topic: &str, s: &JointStates) -> Self {
-        BodyData {
-            name: name.to_string(),
-            topic: topic.to_string(),
-            joint_names: s.names.clone(),
-            positions: DMatrix::from_row_slice(s.len(), s.dof(), &s.positions),
-        }
     }
 }
 
@@ -162,7 +140,7 @@ impl Dataset {
 
     /// Checks shapes, segment coverage, split bounds, ordering and disjointness.
     pub fn validate(&self) -> Result<()> {
-        let bad = |detail: String| DemoError::InvalidInput {
+        let bad = |detail: String| JointStateError::InvalidInput {
             what: "dataset".into(),
             detail,
         };
@@ -285,7 +263,7 @@ pub fn write_demonstrations_with(
         train: dataset.train.clone(),
         test: dataset.test.clone(),
     };
-    let json = serde_json::to_string(&meta).map_err(|e| DemoError::InvalidInput {
+    let json = serde_json::to_string(&meta).map_err(|e| JointStateError::InvalidInput {
         what: "dataset".into(),
         detail: format!("cannot encode metadata: {e}"),
     })?;
@@ -350,7 +328,7 @@ pub fn load_demonstrations(path: impl AsRef<Path>) -> Result<Dataset> {
 pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Dataset> {
     let path = path.as_ref();
     let probe = read_topics(path, &[])?;
-    let bad_meta = |detail: String| DemoError::BadDatasetMetadata {
+    let bad_meta = |detail: String| JointStateError::BadDatasetMetadata {
         path: path.to_path_buf(),
         detail,
     };
@@ -383,7 +361,7 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
                 times.len()
             )));
         }
-        let human = BodyData::from_joint_states(&meta.human.name, &meta.human.topic, human_states);
+        let human = BodyData::from_joint_states(&meta.human.name, &meta.human.topic, human_states)?;
         let mut robots = Vec::with_capacity(meta.robots.len());
         for (r, s) in meta.robots.iter().zip(&read.states[1..]) {
             let s = if s.times_ns == times {
@@ -393,7 +371,7 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
                     bad_meta(format!("topic `{}` does not span the frames: {e}", r.topic))
                 })?
             };
-            robots.push(BodyData::from_joint_states(&r.name, &r.topic, &s));
+            robots.push(BodyData::from_joint_states(&r.name, &r.topic, &s)?);
         }
         let ds = Dataset {
             times_ns: times,
@@ -423,7 +401,7 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
             match humans.as_slice() {
                 [one] => (*one).clone(),
                 _ => {
-                    return Err(DemoError::InvalidInput {
+                    return Err(JointStateError::InvalidInput {
                         what: path.display().to_string(),
                         detail: format!(
                             "no `{DATASET_METADATA}` metadata and not exactly one JointState topic containing `human` among {topics:?}: say which topic is the human"
@@ -442,9 +420,9 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
     requests.extend(robot_topics.iter().map(|t| request(t)));
     let read = read_topics(path, &requests)?;
     let aligned = align_onto_clock(&read.states, options.rate_hz).map_err(|e| match e {
-        DemoError::NoOverlap {
+        JointStateError::NoOverlap {
             start_ns, end_ns, ..
-        } => DemoError::NoOverlap {
+        } => JointStateError::NoOverlap {
             path: path.to_path_buf(),
             topics: format!("{topics:?}"),
             start_ns,
@@ -454,12 +432,12 @@ pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -
     })?;
     let times = aligned[0].times_ns.clone();
     let n = times.len();
-    let human = BodyData::from_joint_states("human", &human_topic, &aligned[0]);
+    let human = BodyData::from_joint_states("human", &human_topic, &aligned[0])?;
     let robots = robot_topics
         .iter()
         .zip(&aligned[1..])
         .map(|(t, s)| BodyData::from_joint_states(&body_name_of_topic(t), t, s))
-        .collect();
+        .collect::<Result<_>>()?;
     Ok(Dataset {
         times_ns: times,
         human,

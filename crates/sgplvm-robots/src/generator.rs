@@ -19,13 +19,13 @@
 
 use std::path::{Path, PathBuf};
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::dataset::{write_demonstrations, BodyData, Dataset, Segment};
-use crate::joint_state::DemoError;
+use crate::joint_state::JointStateError;
 use crate::{IkOptions, IkTarget, Robot, RobotError, Side};
 
 /// Index of the neutral pose in [`KEY_POSES`].
@@ -195,7 +195,7 @@ pub enum GenerateError {
     Config(String),
     /// Writing the dataset failed.
     #[error(transparent)]
-    Demo(#[from] DemoError),
+    Demo(#[from] JointStateError),
 }
 
 /// How well IK reached one hand target of one key pose.
@@ -414,7 +414,7 @@ pub fn generate_to_dir(
     dir: impl AsRef<Path>,
 ) -> Result<(PathBuf, Generated), GenerateError> {
     let dir = dir.as_ref();
-    std::fs::create_dir_all(dir).map_err(|source| DemoError::Io {
+    std::fs::create_dir_all(dir).map_err(|source| JointStateError::Io {
         path: dir.to_path_buf(),
         action: "create the directory",
         source,
@@ -623,20 +623,17 @@ pub fn synthesize(
     let times_ns = (0..frames)
         .map(|k| config.start_time_ns + (k as f64 * period).round() as i64)
         .collect();
-    let body = |b: &BodyPoses, topic: String, rows: &[f64]| BodyData {
-        name: b.name.clone(),
-        topic,
-        joint_names: b.joint_names.clone(),
-        positions: DMatrix::from_row_slice(frames, b.joint_names.len(), rows),
+    let body = |b: &BodyPoses, topic: String, rows: &[f64]| {
+        BodyData::from_rows(b.name.clone(), topic, b.joint_names.clone(), frames, rows)
     };
     let dataset = Dataset {
         times_ns,
-        human: body(human, format!("/{}/joint_states", human.name), &human_rows),
+        human: body(human, format!("/{}/joint_states", human.name), &human_rows)?,
         robots: robots
             .iter()
             .zip(&robot_rows)
             .map(|(b, rows)| body(b, format!("/{}/joint_command", b.name), rows))
-            .collect(),
+            .collect::<Result<_, _>>()?,
         pose_names: KEY_POSES.iter().map(|p| p.name.to_string()).collect(),
         segments,
         train,

@@ -8,6 +8,7 @@ pub mod error;
 pub mod kinematics;
 pub mod models;
 pub mod physics;
+pub mod series;
 pub mod urdf;
 
 pub use error::{RobotError, RobotResult};

@@ -118,12 +118,7 @@ fn the_shipped_demonstrations_replay_within_limits() {
     bodies.push(&data.human);
     let options = ReplayOptions::default();
     for body in bodies {
-        let positions = frames
-            .iter()
-            .flat_map(|&r| body.positions.row(r).iter().copied().collect::<Vec<_>>())
-            .collect();
-        let trajectory =
-            Trajectory::new(body.joint_names.clone(), times.clone(), positions).unwrap();
+        let trajectory = body.to_trajectory(&frames, times.clone()).unwrap();
         let xml = Robot::builtin_urdf(&body.name).unwrap();
         let report = replay(xml, &body.name, &trajectory, &options).unwrap();
         for joint in &report.joints {
