@@ -6,12 +6,116 @@
 
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::llt;
-use faer::{Mat, MatRef};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-use crate::error::{Error, Result};
-use crate::kernel::{rbf_lower, row_major, KernelParams};
+use crate::config::BackConstraint;
+use crate::error::Result;
+use crate::kernel::{map_sqdist_lower, rbf_lower, row_major, KernelParams};
 use crate::likelihood::cholesky_with_jitter;
+use crate::model::{Latent, Space};
 use crate::pool::par_for;
+
+/// The back-constrained latent representation at the start of training: the constrained data
+/// D (the input space for [`BackConstraint::Input`], the output spaces side by side for
+/// [`BackConstraint::Output`]), its median-distance bandwidth and `W = (K_bc + λI)⁻¹ X_init`.
+/// `spaces` are preprocessed, input first.
+pub(crate) fn initial_latent(
+    bc: BackConstraint,
+    spaces: &[Space],
+    x_init: MatRef<'_, f64>,
+    ridge: f64,
+) -> Result<Latent> {
+    let data = match bc {
+        BackConstraint::None => {
+            return Ok(Latent::Free {
+                x: x_init.to_owned(),
+            })
+        }
+        BackConstraint::Input => spaces[0].data.clone(),
+        BackConstraint::Output => side_by_side(&spaces[1..]),
+    };
+    let bandwidth = median_distance(data.as_ref());
+    let kbc = bc_kernel(data.as_ref(), bandwidth);
+    let weights = ridge_solve(kbc.as_ref(), x_init, ridge)?;
+    Ok(Latent::Back {
+        weights,
+        bandwidth,
+        data,
+    })
+}
+
+/// The data of `spaces` as one matrix, their columns side by side.
+fn side_by_side(spaces: &[Space]) -> Mat<f64> {
+    let n = spaces[0].data.nrows();
+    let cols: usize = spaces.iter().map(|s| s.data.ncols()).sum();
+    let mut d = Mat::zeros(n, cols);
+    let mut c0 = 0;
+    for s in spaces {
+        for j in 0..s.data.ncols() {
+            for i in 0..n {
+                d[(i, c0 + j)] = s.data[(i, j)];
+            }
+        }
+        c0 += s.data.ncols();
+    }
+    d
+}
+
+/// The latent points `X = K_bc W`.
+pub(crate) fn latent_points(kbc: MatRef<'_, f64>, weights: MatRef<'_, f64>, par: Par) -> Mat<f64> {
+    let mut x = Mat::zeros(weights.nrows(), weights.ncols());
+    faer::linalg::matmul::matmul(x.as_mut(), Accum::Replace, kbc, weights, 1.0, par);
+    x
+}
+
+/// The chain rule to the weights: `∂L/∂W = K_bcᵀ ∂L/∂X`, written to `out` (N×Q).
+pub(crate) fn weights_gradient(
+    kbc: MatRef<'_, f64>,
+    latent_grad: MatRef<'_, f64>,
+    out: MatMut<'_, f64>,
+    par: Par,
+) {
+    faer::linalg::matmul::matmul(out, Accum::Replace, kbc.transpose(), latent_grad, 1.0, par);
+}
+
+/// `∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³`, with `K_ij = exp(−d²_ij / 2bw²)` the
+/// back-constraint kernel and `d_ij` the distance between rows i and j of the constrained
+/// data. Reported with the gradient; the bandwidth itself is not trained.
+pub(crate) fn bandwidth_gradient(
+    latent_grad: MatRef<'_, f64>,
+    weights: MatRef<'_, f64>,
+    kbc: MatRef<'_, f64>,
+    data: MatRef<'_, f64>,
+    bandwidth: f64,
+) -> f64 {
+    let n = weights.nrows();
+    let mut a = Mat::zeros(n, n);
+    faer::linalg::matmul::matmul(
+        a.as_mut(),
+        Accum::Replace,
+        latent_grad,
+        weights.transpose(),
+        1.0,
+        par_for(n),
+    );
+    let c = data.ncols();
+    let mut d2 = Mat::zeros(n, n);
+    map_sqdist_lower(
+        &row_major(data),
+        c,
+        &vec![1.0; c],
+        &mut d2,
+        #[inline(always)]
+        |v| v,
+    );
+    let mut db = 0.0;
+    for j in 0..n {
+        for i in j + 1..n {
+            db += (a[(i, j)] + a[(j, i)]) * kbc[(i, j)] * d2[(i, j)];
+        }
+    }
+    db / bandwidth.powi(3)
+}
 
 /// Median of the pairwise Euclidean distances between the rows of `m` (zero distances
 /// excluded; 1 when every row is the same). The back-constraint bandwidth rule.
@@ -63,10 +167,7 @@ pub(crate) fn ridge_solve(a: MatRef<'_, f64>, b: MatRef<'_, f64>, ridge: f64) ->
     let n = a.nrows();
     let par = par_for(n);
     let mut l = Mat::zeros(n, n);
-    cholesky_with_jitter(a, ridge, l.as_mut(), par).map_err(|e| Error::NotPositiveDefinite {
-        space: "back constraint".into(),
-        jitter: e.jitter,
-    })?;
+    cholesky_with_jitter(a, ridge, l.as_mut(), par).map_err(|e| e.in_space("back constraint"))?;
     let mut x = b.to_owned();
     llt::solve::solve_in_place(l.as_ref(), x.as_mut(), par, MemStack::new(&mut []));
     Ok(x)

@@ -1,20 +1,17 @@
 //! Training a model from data: the paper's *full* model (human + one robot) and the
 //! *multi-robot* model (human + every robot), all parameters jointly by L-BFGS.
 
-use faer::{Accum, Mat, MatRef};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
+use faer::MatRef;
 
-use crate::back_constraint::{bc_kernel, median_distance, ridge_solve};
+use crate::back_constraint::{bc_kernel, initial_latent, latent_points};
 use crate::config::{BackConstraint, ModelConfig};
-use crate::error::{Error, Result};
-use crate::init::pca_init;
-use crate::kernel::{row_major, KernelParams};
-use crate::model::{Callback, Latent, SharedGplvm, Space, Workspace};
+use crate::error::Result;
+use crate::init::initial_latent_points;
+use crate::kernel::row_major;
+use crate::model::{Callback, Latent, SharedGplvm, Space};
 use crate::objective::{Mode, ModelObjective};
 use crate::pool::par_for;
-use crate::preprocess::{check_finite, check_nonempty, mean_col_var, preprocess};
+use crate::preprocess::checked_order;
 use crate::train::{minimise, Control, TrainOptions};
 
 impl SharedGplvm {
@@ -31,110 +28,14 @@ impl SharedGplvm {
     ) -> Result<Self> {
         config.check()?;
         options.check()?;
-        let names: Vec<String> = spaces.iter().map(|(n, _)| n.to_string()).collect();
-        for (i, n) in names.iter().enumerate() {
-            if names[..i].contains(n) {
-                return Err(Error::DuplicateSpace { name: n.clone() });
-            }
-        }
-        let Some(ii) = names.iter().position(|n| n == input) else {
-            return Err(Error::UnknownSpace {
-                name: input.into(),
-                known: names,
-            });
-        };
-        if spaces.len() < 2 {
-            return Err(Error::NoOutputSpace);
-        }
-        let n = spaces[ii].1.nrows();
-        for (name, m) in spaces {
-            check_nonempty(name, *m)?;
-            if m.nrows() != n {
-                return Err(Error::RowCountMismatch {
-                    space: name.to_string(),
-                    expected: n,
-                    found: m.nrows(),
-                });
-            }
-            check_finite(name, *m)?;
-        }
-        let q = config.latent_dim;
-        if q == 0 || q >= n {
-            return Err(Error::InvalidLatentDim { latent_dim: q, n });
-        }
-        // Input first, then the robots in the given order.
-        let mut order = vec![ii];
-        order.extend((0..spaces.len()).filter(|&i| i != ii));
-        let mut sp = Vec::new();
-        for &i in &order {
-            let (data, offset, scale) = preprocess(spaces[i].1, config);
-            let v = mean_col_var(data.as_ref());
-            sp.push(Space {
-                name: names[i].clone(),
-                data,
-                offset,
-                scale,
-                kernel: KernelParams {
-                    variance: v,
-                    lengthscale: vec![1.0; q],
-                    noise: config.init_noise_fraction * v,
-                },
-                columns: None,
-            });
-        }
-        let mut x0 = pca_init(&sp, q)?;
-        if config.init_perturbation > 0.0 {
-            let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
-            for j in 0..q {
-                for i in 0..n {
-                    let z: f64 = StandardNormal.sample(&mut rng);
-                    x0[(i, j)] += config.init_perturbation * z;
-                }
-            }
-        }
-        let latent = match config.back_constraint {
-            BackConstraint::None => Latent::Free { x: x0.clone() },
-            bc => {
-                let data = if bc == BackConstraint::Input {
-                    sp[0].data.clone()
-                } else {
-                    let cols: usize = sp[1..].iter().map(|s| s.data.ncols()).sum();
-                    let mut d = Mat::zeros(n, cols);
-                    let mut c0 = 0;
-                    for s in &sp[1..] {
-                        for j in 0..s.data.ncols() {
-                            for i in 0..n {
-                                d[(i, c0 + j)] = s.data[(i, j)];
-                            }
-                        }
-                        c0 += s.data.ncols();
-                    }
-                    d
-                };
-                let bandwidth = median_distance(data.as_ref());
-                let kbc = bc_kernel(data.as_ref(), bandwidth);
-                let weights = ridge_solve(kbc.as_ref(), x0.as_ref(), config.bc_ridge)?;
-                Latent::Back {
-                    weights,
-                    bandwidth,
-                    data,
-                }
-            }
-        };
-        let mut model = SharedGplvm {
-            config: config.clone(),
-            spaces: sp,
-            latent,
-            map: None,
-            history: Vec::new(),
-            stop_reason: None,
-            training_jitter: 0.0,
-            x: Mat::zeros(0, 0),
-            x_rows: Vec::new(),
-            caches: Vec::new(),
-            latent_cache: None,
-            workspace: Workspace::default(),
-        };
+        let order = checked_order(spaces, input, config.latent_dim)?;
+        let sp: Vec<Space> = order
+            .iter()
+            .map(|&i| Space::from_data(spaces[i].0, spaces[i].1, config))
+            .collect();
+        let x0 = initial_latent_points(&sp, config)?;
+        let latent = initial_latent(config.back_constraint, &sp, x0.as_ref(), config.bc_ridge)?;
+        let mut model = SharedGplvm::new(config.clone(), sp, latent);
         model.update_latent_points();
         model.train(Mode::Full, options, callback)?;
         Ok(model)
@@ -148,19 +49,11 @@ impl SharedGplvm {
                 weights,
                 bandwidth,
                 data,
-            } => {
-                let k = bc_kernel(data.as_ref(), *bandwidth);
-                let mut x = Mat::zeros(weights.nrows(), weights.ncols());
-                faer::linalg::matmul::matmul(
-                    x.as_mut(),
-                    Accum::Replace,
-                    k.as_ref(),
-                    weights.as_ref(),
-                    1.0,
-                    par_for(weights.nrows()),
-                );
-                x
-            }
+            } => latent_points(
+                bc_kernel(data.as_ref(), *bandwidth).as_ref(),
+                weights.as_ref(),
+                par_for(weights.nrows()),
+            ),
         };
         self.x_rows = row_major(self.x.as_ref());
     }

@@ -5,8 +5,15 @@
 use faer::dyn_stack::MemStack;
 use faer::{Accum, Mat, MatRef, Par};
 
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::config::ModelConfig;
 use crate::error::{Error, Result};
+use crate::kernel::KernelParams;
 use crate::model::Space;
+use crate::preprocess::{mean_col_var, preprocess};
 use crate::simd::clear_upper_simd_state;
 
 /// PCA projection of centred `y` onto its top `q` principal directions (columns beyond the
@@ -122,6 +129,50 @@ pub(crate) fn pca_init(spaces: &[Space], q: usize) -> Result<Mat<f64>> {
         }
     }
     Ok(acc)
+}
+
+/// The starting latent points: [`pca_init`] plus `init_perturbation` × N(0, 1), drawn column
+/// by column from a ChaCha8 generator seeded with the configuration's seed.
+pub(crate) fn initial_latent_points(spaces: &[Space], config: &ModelConfig) -> Result<Mat<f64>> {
+    let q = config.latent_dim;
+    let n = spaces[0].data.nrows();
+    let mut x0 = pca_init(spaces, q)?;
+    if config.init_perturbation > 0.0 {
+        let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+        for j in 0..q {
+            for i in 0..n {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                x0[(i, j)] += config.init_perturbation * z;
+            }
+        }
+    }
+    Ok(x0)
+}
+
+/// The kernel a space starts from: variance = its mean column variance `v`, every lengthscale
+/// 1, noise = `init_noise_fraction` × v.
+pub(crate) fn initial_kernel(v: f64, config: &ModelConfig) -> KernelParams {
+    KernelParams {
+        variance: v,
+        lengthscale: vec![1.0; config.latent_dim],
+        noise: config.init_noise_fraction * v,
+    }
+}
+
+impl Space {
+    /// A space of the model from raw data: centred (and scaled), with its [`initial_kernel`].
+    pub(crate) fn from_data(name: &str, raw: MatRef<'_, f64>, config: &ModelConfig) -> Self {
+        let (data, offset, scale) = preprocess(raw, config);
+        let kernel = initial_kernel(mean_col_var(data.as_ref()), config);
+        Space {
+            name: name.into(),
+            data,
+            offset,
+            scale,
+            kernel,
+            columns: None,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -61,10 +61,7 @@ impl MapObjective {
             true,
             None,
         )
-        .map_err(|e| Error::NotPositiveDefinite {
-            space: "input map".into(),
-            jitter: e.jitter,
-        })?;
+        .map_err(|e| e.in_space("input map"))?;
         kernel_grad_log(&k, &e, grad);
         Ok(e.nll)
     }

@@ -22,6 +22,28 @@
 //! # Ok::<(), sgplvm_core::Error>(())
 //! ```
 //!
+//! ## Where each idea lives
+//!
+//! | file | what it holds |
+//! |---|---|
+//! | `config.rs` | [`ModelConfig`], [`BackConstraint`] (one set of names: `none`, `input`, `output`), [`ScaleMode`] |
+//! | `preprocess.rs` | input checks; centring and scaling of each space |
+//! | `init.rs` | where training starts: PCA-mean latent points, the seeded perturbation, starting kernels |
+//! | `back_constraint.rs` | `X = K_bc W`: the bandwidth rule, the initial W, ∂L/∂W and ∂L/∂bandwidth |
+//! | `kernel.rs` | [`KernelParams`] and RBF-ARD kernel matrices |
+//! | `likelihood.rs` | one space's exact negative log marginal likelihood and its gradient; jitter |
+//! | `simd.rs` | the vectorised `exp` and element-wise loops |
+//! | `objective.rs` | the summed objective on the optimiser's vector θ (full and kernels-only); [`Evaluator`] |
+//! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
+//! | `fit.rs` | the full and multi-robot models ([`SharedGplvm::fit`]) |
+//! | `transfer.rs` | transfer to a new robot ([`SharedGplvm::transfer`]) |
+//! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
+//! | `predict.rs` | human → latent → robot, single frame and batch; the prediction caches |
+//! | `params.rs` | [`Params`] in natural units, [`SharedGplvm::set_params`] |
+//! | `model.rs` | the [`SharedGplvm`] struct and its accessors |
+//! | `io.rs` | the versioned model file |
+//! | `pool.rs` | the fork-safe thread pool |
+//!
 //! ## Choices made (and where they are documented)
 //!
 //! - **Objective**: `L = Σ_s [D_s/2 log|K_s| + ½ tr(K_s⁻¹ Y_s Y_sᵀ) + N D_s/2 log 2π]`, GPy's

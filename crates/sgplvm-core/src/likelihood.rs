@@ -12,6 +12,7 @@ use faer::linalg::matmul::triangular::BlockStructure;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
+use crate::error::Error;
 use crate::kernel::{rbf_lower, KernelParams};
 use crate::pool::par_for;
 use crate::simd::{clear_upper_simd_state, vectorized};
@@ -23,6 +24,16 @@ const LN_2PI: f64 = 1.837_877_066_409_345_5;
 pub(crate) struct NotPd {
     /// Largest jitter tried.
     pub jitter: f64,
+}
+
+impl NotPd {
+    /// The model's error for this failure, naming the space whose matrix it was.
+    pub(crate) fn in_space(self, space: &str) -> Error {
+        Error::NotPositiveDefinite {
+            space: space.into(),
+            jitter: self.jitter,
+        }
+    }
 }
 
 /// Copies the lower triangle of `kf` into `l`, adds `noise` on the diagonal and factorises it in

@@ -10,7 +10,7 @@ use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
-use crate::likelihood::SpaceWork;
+use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
 use crate::pool::lock;
 use crate::predict::{LatentCache, SpaceCache};
 use crate::train::{Control, IterationRecord, StopReason};
@@ -25,6 +25,28 @@ pub(crate) struct Space {
     pub scale: Vec<f64>,
     pub kernel: KernelParams,
     pub columns: Option<Vec<String>>,
+}
+
+impl Space {
+    /// This space's negative log marginal likelihood at latent points `x_rows` (row-major, `q`
+    /// columns), without gradients; leaves its Cholesky factor and `K⁻¹Y` in `work`.
+    pub(crate) fn factorise(
+        &self,
+        x_rows: &[f64],
+        q: usize,
+        work: &mut SpaceWork,
+    ) -> Result<SpaceEval> {
+        eval_space(
+            x_rows,
+            q,
+            self.data.as_ref(),
+            &self.kernel,
+            work,
+            false,
+            None,
+        )
+        .map_err(|e| e.in_space(&self.name))
+    }
 }
 
 /// Latent representation.
@@ -103,6 +125,26 @@ impl std::fmt::Debug for Workspace {
 pub type Callback<'c> = &'c mut dyn FnMut(&IterationRecord, &SharedGplvm) -> Control;
 
 impl SharedGplvm {
+    /// A model of preprocessed `spaces` (input first) and a latent representation, before
+    /// training: no history, no input map, derived state empty until `update_latent_points`
+    /// and `rebuild`.
+    pub(crate) fn new(config: ModelConfig, spaces: Vec<Space>, latent: Latent) -> Self {
+        SharedGplvm {
+            config,
+            spaces,
+            latent,
+            map: None,
+            history: Vec::new(),
+            stop_reason: None,
+            training_jitter: 0.0,
+            x: Mat::zeros(0, 0),
+            x_rows: Vec::new(),
+            caches: Vec::new(),
+            latent_cache: None,
+            workspace: Workspace::default(),
+        }
+    }
+
     pub(crate) fn n(&self) -> usize {
         self.spaces[0].data.nrows()
     }

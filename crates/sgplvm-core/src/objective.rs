@@ -6,12 +6,12 @@
 
 use std::sync::Mutex;
 
-use faer::{Accum, Mat, MatRef};
+use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
-use crate::back_constraint::bc_kernel;
+use crate::back_constraint::{bandwidth_gradient, bc_kernel, latent_points, weights_gradient};
 use crate::error::{Error, Result};
-use crate::kernel::{map_sqdist_lower, row_major, KernelParams};
+use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
 use crate::model::{Latent, SharedGplvm};
 use crate::params::{LatentParams, Params};
@@ -100,20 +100,7 @@ impl<'a> ModelObjective<'a> {
                 if w.alpha().ncols() != space.data.ncols() {
                     w = SpaceWork::new(n, space.data.ncols());
                 }
-                let e = eval_space(
-                    &model.x_rows,
-                    model.q(),
-                    space.data.as_ref(),
-                    &space.kernel,
-                    &mut w,
-                    false,
-                    None,
-                )
-                .map_err(|e| Error::NotPositiveDefinite {
-                    space: space.name.clone(),
-                    jitter: e.jitter,
-                })?;
-                constant += e.nll;
+                constant += space.factorise(&model.x_rows, model.q(), &mut w)?.nll;
             }
         }
         Ok(Self {
@@ -208,75 +195,13 @@ impl Objective for ModelObjective<'_> {
 
 impl ModelObjective<'_> {
     /// [`Objective::eval`] on the calling thread (spaces in parallel if it is a pool thread).
-    pub(crate) fn eval_here(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
-        let m = self.model;
-        let (n, q) = (m.n(), m.q());
+    fn eval_here(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        let (n, q) = (self.model.n(), self.model.q());
         let ll = self.latent_len();
-        let par = par_for(n);
-        // Latent points.
-        let owned_rows;
-        let xr: &[f64] = if ll > 0 {
-            let lat = MatRef::from_column_major_slice(&theta[..ll], n, q);
-            let x = match &self.kbc {
-                Some(k) => {
-                    let mut x = Mat::zeros(n, q);
-                    faer::linalg::matmul::matmul(
-                        x.as_mut(),
-                        Accum::Replace,
-                        k.as_ref(),
-                        lat,
-                        1.0,
-                        par,
-                    );
-                    x
-                }
-                None => lat.to_owned(),
-            };
-            clear_upper_simd_state();
-            owned_rows = row_major(x.as_ref());
-            &owned_rows
-        } else {
-            &self.x_rows
-        };
-        let evaluated = self.evaluated();
-        let mut kernels = Vec::with_capacity(evaluated.len());
-        for (i, &s) in evaluated.iter().enumerate() {
-            let off = ll + i * (q + 2);
-            let k = decode_kernel(&theta[off..off + q + 2], q);
-            if !k.is_valid() {
-                return Err(Error::InvalidValue {
-                    what: format!("kernel of '{}'", m.spaces[s].name),
-                    reason: "overflow".into(),
-                });
-            }
-            kernels.push(k);
-        }
-        let mut works = lock(&self.works);
-        // The spaces share only X: each is evaluated on its own thread, into its own latent
-        // gradient, and the results are summed in a fixed order (deterministic).
-        let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
-            let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
-            let space = &m.spaces[s];
-            let dx_out = if ll > 0 { Some(&mut dx[..]) } else { None };
-            eval_space(xr, q, space.data.as_ref(), k, w, true, dx_out)
-                .map(|e| (e, dx))
-                .map_err(|e| Error::NotPositiveDefinite {
-                    space: space.name.clone(),
-                    jitter: e.jitter,
-                })
-        };
-        let pairs = evaluated.iter().zip(&kernels);
-        let results: Vec<Result<(SpaceEval, Vec<f64>)>> =
-            if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread() {
-                works
-                    .par_iter_mut()
-                    .zip(evaluated.par_iter().zip(kernels.par_iter()))
-                    .map(one_space)
-                    .collect()
-            } else {
-                works.iter_mut().zip(pairs).map(one_space).collect()
-            };
-        drop(works);
+        let owned_rows = (ll > 0).then(|| self.latent_rows(&theta[..ll]));
+        let xr = owned_rows.as_deref().unwrap_or(&self.x_rows);
+        let kernels = self.kernels(&theta[ll..])?;
+        let results = self.eval_spaces(xr, &kernels);
         let mut total = self.constant;
         let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
         for (i, (result, k)) in results.into_iter().zip(&kernels).enumerate() {
@@ -287,30 +212,96 @@ impl ModelObjective<'_> {
             dx.iter_mut().zip(&dxs).for_each(|(a, b)| *a += b);
         }
         if ll > 0 {
-            let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
-            match &self.kbc {
-                Some(k) => {
-                    let gm = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], n, q);
-                    faer::linalg::matmul::matmul(
-                        gm,
-                        Accum::Replace,
-                        k.transpose(),
-                        dxm.as_ref(),
-                        1.0,
-                        par,
-                    );
-                    *lock(&self.latent_grad) = Some(dxm);
-                }
-                None => {
-                    for j in 0..q {
-                        for i in 0..n {
-                            grad[j * n + i] = dxm[(i, j)];
-                        }
+            self.latent_gradient(&dx, &mut grad[..ll]);
+        }
+        Ok(total)
+    }
+
+    /// The latent points, row-major, from the latent block of θ (X itself, or `K_bc W`).
+    fn latent_rows(&self, block: &[f64]) -> Vec<f64> {
+        let (n, q) = (self.model.n(), self.model.q());
+        let lat = MatRef::from_column_major_slice(block, n, q);
+        let x = match &self.kbc {
+            Some(k) => latent_points(k.as_ref(), lat, par_for(n)),
+            None => lat.to_owned(),
+        };
+        clear_upper_simd_state();
+        row_major(x.as_ref())
+    }
+
+    /// The kernels of the evaluated spaces from the kernel part of θ (log parameters).
+    fn kernels(&self, theta: &[f64]) -> Result<Vec<KernelParams>> {
+        let q = self.model.q();
+        let evaluated = self.evaluated();
+        let mut kernels = Vec::with_capacity(evaluated.len());
+        for (i, &s) in evaluated.iter().enumerate() {
+            let k = decode_kernel(&theta[i * (q + 2)..(i + 1) * (q + 2)], q);
+            if !k.is_valid() {
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{}'", self.model.spaces[s].name),
+                    reason: "overflow".into(),
+                });
+            }
+            kernels.push(k);
+        }
+        Ok(kernels)
+    }
+
+    /// Evaluates every space at latent points `xr`, each on its own thread when worth it, into
+    /// its own latent gradient (empty when the latent block is frozen). The spaces share only
+    /// X, and their results are summed by the caller in a fixed order (deterministic).
+    fn eval_spaces(
+        &self,
+        xr: &[f64],
+        kernels: &[KernelParams],
+    ) -> Vec<Result<(SpaceEval, Vec<f64>)>> {
+        let m = self.model;
+        let (n, q) = (m.n(), m.q());
+        let with_latent = self.latent_len() > 0;
+        let evaluated = self.evaluated();
+        let mut works = lock(&self.works);
+        let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
+            let mut dx = vec![0.0; if with_latent { n * q } else { 0 }];
+            let space = &m.spaces[s];
+            let dx_out = if with_latent { Some(&mut dx[..]) } else { None };
+            eval_space(xr, q, space.data.as_ref(), k, w, true, dx_out)
+                .map(|e| (e, dx))
+                .map_err(|e| e.in_space(&space.name))
+        };
+        if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread() {
+            works
+                .par_iter_mut()
+                .zip(evaluated.par_iter().zip(kernels.par_iter()))
+                .map(one_space)
+                .collect()
+        } else {
+            works
+                .iter_mut()
+                .zip(evaluated.iter().zip(kernels))
+                .map(one_space)
+                .collect()
+        }
+    }
+
+    /// Writes the latent block's gradient from `dx` = ∂L/∂X (row-major): ∂L/∂X itself, or
+    /// `K_bcᵀ ∂L/∂X` for back constraints (∂L/∂X is then kept for the bandwidth gradient).
+    fn latent_gradient(&self, dx: &[f64], out: &mut [f64]) {
+        let (n, q) = (self.model.n(), self.model.q());
+        let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
+        match &self.kbc {
+            Some(k) => {
+                let gm = faer::MatMut::from_column_major_slice_mut(out, n, q);
+                weights_gradient(k.as_ref(), dxm.as_ref(), gm, par_for(n));
+                *lock(&self.latent_grad) = Some(dxm);
+            }
+            None => {
+                for j in 0..q {
+                    for i in 0..n {
+                        out[j * n + i] = dxm[(i, j)];
                     }
                 }
             }
         }
-        Ok(total)
     }
 }
 
@@ -332,37 +323,16 @@ impl SharedGplvm {
                 bandwidth,
                 data,
             } => {
-                // ∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³, with K_ij = exp(−d²_ij / 2bw²).
-                let (dx, k) = match (lock(&obj.latent_grad).take(), &obj.kbc) {
-                    (Some(dx), Some(k)) => (dx, k),
-                    _ => unreachable!("a full evaluation of a back-constrained model sets both"),
+                let (Some(dx), Some(k)) = (lock(&obj.latent_grad).take(), &obj.kbc) else {
+                    unreachable!("a full evaluation of a back-constrained model sets both");
                 };
-                let mut a = Mat::zeros(n, n);
-                faer::linalg::matmul::matmul(
-                    a.as_mut(),
-                    Accum::Replace,
+                let db = bandwidth_gradient(
                     dx.as_ref(),
-                    weights.transpose(),
-                    1.0,
-                    par_for(n),
+                    weights.as_ref(),
+                    k.as_ref(),
+                    data.as_ref(),
+                    *bandwidth,
                 );
-                let c = data.ncols();
-                let mut d2 = Mat::zeros(n, n);
-                map_sqdist_lower(
-                    &row_major(data.as_ref()),
-                    c,
-                    &vec![1.0; c],
-                    &mut d2,
-                    #[inline(always)]
-                    |v| v,
-                );
-                let mut db = 0.0;
-                for j in 0..n {
-                    for i in j + 1..n {
-                        db += (a[(i, j)] + a[(j, i)]) * k[(i, j)] * d2[(i, j)];
-                    }
-                }
-                db /= bandwidth.powi(3);
                 LatentParams::BackConstrained {
                     weights: lat_g,
                     bandwidth: db,

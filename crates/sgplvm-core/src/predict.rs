@@ -8,9 +8,9 @@ use faer::{Accum, Mat, MatRef, Par};
 
 use crate::config::BackConstraint;
 use crate::error::{Error, Result};
-use crate::kernel::{rbf_block, row_major};
+use crate::kernel::{rbf_block, row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
-use crate::model::{Latent, SharedGplvm};
+use crate::model::{Latent, SharedGplvm, Space};
 use crate::pool::par_for;
 use crate::preprocess::check_finite;
 use crate::simd::{clear_upper_simd_state, exp_neg_slice, weighted_sqdist};
@@ -59,85 +59,76 @@ pub(crate) struct LatentCache {
     offset: Vec<f64>,
 }
 
+impl SpaceCache {
+    /// The caches of `space` at latent points `x_rows` (row-major, `q` columns): one
+    /// factorisation of its kernel matrix.
+    fn new(space: &Space, x_rows: &[f64], q: usize) -> Result<Self> {
+        let mut w = SpaceWork::new(x_rows.len() / q, space.data.ncols());
+        let e = space.factorise(x_rows, q, &mut w)?;
+        Ok(SpaceCache {
+            alpha_rows: row_major(w.alpha()),
+            factor: w.factor().to_owned(),
+            half_inv_l2: half_inv_l2(&space.kernel),
+            jitter: e.jitter,
+        })
+    }
+}
+
+/// `−1/(2ℓ²)` per lengthscale of `kernel`.
+fn half_inv_l2(kernel: &KernelParams) -> Vec<f64> {
+    kernel.lengthscale.iter().map(|l| -0.5 / (l * l)).collect()
+}
+
 impl SharedGplvm {
     /// Recomputes every prediction cache from the stored parameters (used after training, on
     /// load and by `set_params`, so that a loaded model predicts bit-identically).
     pub(crate) fn rebuild(&mut self) -> Result<()> {
         self.update_latent_points();
+        self.caches = self
+            .spaces
+            .iter()
+            .map(|s| SpaceCache::new(s, &self.x_rows, self.q()))
+            .collect::<Result<_>>()?;
+        self.latent_cache = Some(self.new_latent_cache()?);
+        Ok(())
+    }
+
+    /// The human → latent cache: the back-constraint mapping `x = k_bc(h, H) W` for input back
+    /// constraints, else the input map's GP mean `x = x̄ + α² k(h, H) K⁻¹ (X − x̄)`.
+    fn new_latent_cache(&self) -> Result<LatentCache> {
         let (n, q) = (self.n(), self.q());
-        let mut caches = Vec::with_capacity(self.spaces.len());
-        for s in &self.spaces {
-            let mut w = SpaceWork::new(n, s.data.ncols());
-            let e = eval_space(
-                &self.x_rows,
-                q,
-                s.data.as_ref(),
-                &s.kernel,
-                &mut w,
-                false,
-                None,
-            )
-            .map_err(|e| Error::NotPositiveDefinite {
-                space: s.name.clone(),
-                jitter: e.jitter,
-            })?;
-            caches.push(SpaceCache {
-                alpha_rows: row_major(w.alpha()),
-                factor: w.factor().to_owned(),
-                half_inv_l2: s
-                    .kernel
-                    .lengthscale
-                    .iter()
-                    .map(|l| -0.5 / (l * l))
-                    .collect(),
-                jitter: e.jitter,
-            });
-        }
-        self.caches = caches;
-        self.latent_cache = Some(match (&self.latent, &self.map) {
+        let h = self.spaces[0].data.as_ref();
+        match (&self.latent, &self.map) {
             (
                 Latent::Back {
                     weights, bandwidth, ..
                 },
                 _,
-            ) if self.config.back_constraint == BackConstraint::Input => LatentCache {
-                h_rows: row_major(self.spaces[0].data.as_ref()),
+            ) if self.config.back_constraint == BackConstraint::Input => Ok(LatentCache {
+                h_rows: row_major(h),
                 weights: row_major(weights.as_ref()),
-                half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); self.spaces[0].data.ncols()],
+                half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); h.ncols()],
                 amplitude: 1.0,
                 offset: vec![0.0; q],
-            },
+            }),
             (_, Some(map)) => {
-                let h = self.spaces[0].data.as_ref();
                 let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - map.x_mean[j]);
                 let mut w = SpaceWork::new(n, q);
                 let hr = row_major(h);
-                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None).map_err(
-                    |e| Error::NotPositiveDefinite {
-                        space: "input map".into(),
-                        jitter: e.jitter,
-                    },
-                )?;
-                LatentCache {
+                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None)
+                    .map_err(|e| e.in_space("input map"))?;
+                Ok(LatentCache {
                     h_rows: hr,
                     weights: row_major(w.alpha()),
-                    half_inv_l2: map
-                        .kernel
-                        .lengthscale
-                        .iter()
-                        .map(|l| -0.5 / (l * l))
-                        .collect(),
+                    half_inv_l2: half_inv_l2(&map.kernel),
                     amplitude: map.kernel.variance,
                     offset: map.x_mean.clone(),
-                }
-            }
-            _ => {
-                return Err(Error::Corrupt {
-                    reason: "model without input back constraint has no input map".into(),
                 })
             }
-        });
-        Ok(())
+            _ => Err(Error::Corrupt {
+                reason: "model without input back constraint has no input map".into(),
+            }),
+        }
     }
 
     pub(crate) fn output_index(&self, space: &str) -> Result<usize> {
@@ -274,6 +265,7 @@ impl SharedGplvm {
         self.latent_batch(h)
     }
 
+    /// [`SharedGplvm::latent`] without the input checks.
     pub(crate) fn latent_batch(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         let Some(lc) = &self.latent_cache else {
             return Err(Error::Corrupt {
@@ -282,34 +274,21 @@ impl SharedGplvm {
         };
         let s0 = &self.spaces[0];
         let (n, dh, q, m_all) = (self.n(), h.ncols(), self.q(), h.nrows());
-        let sc: Vec<f64> = lc.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
-        // Both sides centred on the training mean: smaller norms, less cancellation in
-        // |a|² + |b|² − 2 a·b.
-        let mu: Vec<f64> = (0..dh)
-            .map(|t| (0..n).map(|i| lc.h_rows[i * dh + t]).sum::<f64>() / n.max(1) as f64)
-            .collect();
-        let train = Mat::from_fn(n, dh, |i, t| (lc.h_rows[i * dh + t] - mu[t]) * sc[t]);
-        let w = Mat::from_fn(n, q, |i, t| lc.weights[i * q + t]);
-        let hs = Mat::from_fn(m_all, dh, |r, t| {
-            ((h[(r, t)] - s0.offset[t]) / s0.scale[t] - mu[t]) * sc[t]
+        let (train, hs) = scaled_about_mean(&lc.h_rows, dh, &lc.half_inv_l2, m_all, |r, t| {
+            (h[(r, t)] - s0.offset[t]) / s0.scale[t]
         });
+        let w = Mat::from_fn(n, q, |i, t| lc.weights[i * q + t]);
         let mut out = Mat::from_fn(m_all, q, |_, t| lc.offset[t]);
-        let mut k = Mat::zeros(BATCH.min(m_all), n);
-        let mut r0 = 0;
-        while r0 < m_all {
-            let m = BATCH.min(m_all - r0);
-            let mut kb = k.as_mut().subrows_mut(0, m);
-            rbf_block(hs.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+        for_each_kernel_block(hs.as_ref(), train.as_ref(), |r0, kb| {
             faer::linalg::matmul::matmul(
-                out.as_mut().subrows_mut(r0, m),
+                out.as_mut().subrows_mut(r0, kb.nrows()),
                 Accum::Add,
-                kb.as_ref(),
+                kb,
                 w.as_ref(),
                 lc.amplitude,
                 Par::Seq,
             );
-            r0 += m;
-        }
+        });
         Ok(out)
     }
 
@@ -330,38 +309,29 @@ impl SharedGplvm {
         let s = &self.spaces[si];
         let c = &self.caches[si];
         let d = s.data.ncols();
-        let sc: Vec<f64> = c.half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
-        let mu: Vec<f64> = (0..q)
-            .map(|t| (0..n).map(|i| self.x_rows[i * q + t]).sum::<f64>() / n.max(1) as f64)
-            .collect();
-        let train = Mat::from_fn(n, q, |i, t| (self.x_rows[i * q + t] - mu[t]) * sc[t]);
+        let (train, xsc) =
+            scaled_about_mean(&self.x_rows, q, &c.half_inv_l2, n_new, |r, t| xs[(r, t)]);
         let alpha = Mat::from_fn(n, d, |i, t| c.alpha_rows[i * d + t]);
-        let xsc = Mat::from_fn(n_new, q, |r, t| (xs[(r, t)] - mu[t]) * sc[t]);
         let mut mean = Mat::zeros(n_new, d);
         let mut variance = if with_variance {
             Some(Mat::zeros(n_new, d))
         } else {
             None
         };
-        let bm = BATCH.min(n_new);
-        let mut k = Mat::zeros(bm, n);
-        let mut kt = Mat::zeros(if with_variance { n } else { 0 }, bm);
-        let mut r0 = 0;
-        while r0 < n_new {
-            let m = BATCH.min(n_new - r0);
-            let mut kb = k.as_mut().subrows_mut(0, m);
-            rbf_block(xsc.as_ref().subrows(r0, m), train.as_ref(), kb.rb_mut());
+        let mut kt = Mat::zeros(if with_variance { n } else { 0 }, BATCH.min(n_new));
+        for_each_kernel_block(xsc.as_ref(), train.as_ref(), |r0, kb| {
+            let m = kb.nrows();
             faer::linalg::matmul::matmul(
                 mean.as_mut().subrows_mut(r0, m),
                 Accum::Replace,
-                kb.as_ref(),
+                kb,
                 alpha.as_ref(),
                 s.kernel.variance,
                 Par::Seq,
             );
             if let Some(var) = variance.as_mut() {
                 let mut ks = kt.as_mut().subcols_mut(0, m);
-                ks.copy_from(kb.as_ref().transpose());
+                ks.copy_from(kb.transpose());
                 faer::linalg::triangular_solve::solve_lower_triangular_in_place(
                     c.factor.as_ref(),
                     ks.rb_mut(),
@@ -378,14 +348,54 @@ impl SharedGplvm {
                     }
                 }
             }
-            r0 += m;
-        }
+        });
         for t in 0..d {
             for r in 0..n_new {
                 mean[(r, t)] = mean[(r, t)] * s.scale[t] + s.offset[t];
             }
         }
         Ok(Prediction { mean, variance })
+    }
+}
+
+/// Training rows (row-major, `dim` columns) and `m` query rows `query(r, t)`, both centred on
+/// the training mean and multiplied by `1/(√2 ℓ_t)` (from `half_inv_l2` = −1/(2ℓ²)): the form
+/// [`rbf_block`] takes. Centring on the training mean gives smaller norms, so less
+/// cancellation in `|a|² + |b|² − 2 a·b`.
+fn scaled_about_mean(
+    rows: &[f64],
+    dim: usize,
+    half_inv_l2: &[f64],
+    m: usize,
+    query: impl Fn(usize, usize) -> f64,
+) -> (Mat<f64>, Mat<f64>) {
+    let n = rows.len() / dim.max(1);
+    let sc: Vec<f64> = half_inv_l2.iter().map(|v| (-v).sqrt()).collect();
+    let mu: Vec<f64> = (0..dim)
+        .map(|t| (0..n).map(|i| rows[i * dim + t]).sum::<f64>() / n.max(1) as f64)
+        .collect();
+    let train = Mat::from_fn(n, dim, |i, t| (rows[i * dim + t] - mu[t]) * sc[t]);
+    let queries = Mat::from_fn(m, dim, |r, t| (query(r, t) - mu[t]) * sc[t]);
+    (train, queries)
+}
+
+/// The batch loop of [`SharedGplvm::latent`] and [`SharedGplvm::predict`]: kernel rows between
+/// the (pre-scaled) `queries` and `train` rows, [`BATCH`] queries at a time, each block handed
+/// to `f` with the index of its first query.
+fn for_each_kernel_block(
+    queries: MatRef<'_, f64>,
+    train: MatRef<'_, f64>,
+    mut f: impl FnMut(usize, MatRef<'_, f64>),
+) {
+    let total = queries.nrows();
+    let mut k = Mat::zeros(BATCH.min(total), train.nrows());
+    let mut r0 = 0;
+    while r0 < total {
+        let m = BATCH.min(total - r0);
+        let mut kb = k.as_mut().subrows_mut(0, m);
+        rbf_block(queries.subrows(r0, m), train, kb.rb_mut());
+        f(r0, kb.as_ref());
+        r0 += m;
     }
 }
 

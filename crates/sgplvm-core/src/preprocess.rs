@@ -97,3 +97,46 @@ pub(crate) fn check_shape(what: &str, m: MatRef<'_, f64>, n: usize, q: usize) ->
     }
     check_finite(what, m)
 }
+
+/// Checks the spaces given to a fit — unique names, `input` among them, at least one output,
+/// every matrix non-empty, finite and of the same number of rows, `1 ≤ latent_dim < N` — and
+/// returns their order in the model: the input first, then the outputs as given.
+pub(crate) fn checked_order(
+    spaces: &[(&str, MatRef<'_, f64>)],
+    input: &str,
+    latent_dim: usize,
+) -> Result<Vec<usize>> {
+    let names: Vec<String> = spaces.iter().map(|(n, _)| n.to_string()).collect();
+    for (i, n) in names.iter().enumerate() {
+        if names[..i].contains(n) {
+            return Err(Error::DuplicateSpace { name: n.clone() });
+        }
+    }
+    let Some(ii) = names.iter().position(|n| n == input) else {
+        return Err(Error::UnknownSpace {
+            name: input.into(),
+            known: names,
+        });
+    };
+    if spaces.len() < 2 {
+        return Err(Error::NoOutputSpace);
+    }
+    let n = spaces[ii].1.nrows();
+    for (name, m) in spaces {
+        check_nonempty(name, *m)?;
+        if m.nrows() != n {
+            return Err(Error::RowCountMismatch {
+                space: name.to_string(),
+                expected: n,
+                found: m.nrows(),
+            });
+        }
+        check_finite(name, *m)?;
+    }
+    if latent_dim == 0 || latent_dim >= n {
+        return Err(Error::InvalidLatentDim { latent_dim, n });
+    }
+    let mut order = vec![ii];
+    order.extend((0..spaces.len()).filter(|&i| i != ii));
+    Ok(order)
+}

@@ -12,8 +12,23 @@ use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
 use crate::model::{Callback, SharedGplvm, Space};
 use crate::objective::Mode;
-use crate::preprocess::{check_finite, check_nonempty, mean_col_var, preprocess};
+use crate::preprocess::{check_finite, check_nonempty};
 use crate::train::TrainOptions;
+
+/// Spread of the seeded perturbation of a transfer's starting kernel (log scale).
+const SPREAD: f64 = 0.3;
+
+/// Multiplies the variance and then each lengthscale by `exp(SPREAD z)`, `z ~ N(0, 1)` from a
+/// ChaCha8 generator seeded with `seed`; the noise is left as it is.
+fn perturb_kernel(kernel: &mut KernelParams, seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let z: f64 = StandardNormal.sample(&mut rng);
+    kernel.variance *= (SPREAD * z).exp();
+    for l in kernel.lengthscale.iter_mut() {
+        let z: f64 = StandardNormal.sample(&mut rng);
+        *l *= (SPREAD * z).exp();
+    }
+}
 
 impl SharedGplvm {
     /// Transfers the model to a new robot (the paper's eq. 8): a new model with the same latent
@@ -54,7 +69,7 @@ impl SharedGplvm {
 
     /// Shared body of [`SharedGplvm::transfer`] (`seed = None`: no perturbation) and
     /// [`SharedGplvm::transfer_seeded`].
-    pub(crate) fn transfer_impl(
+    fn transfer_impl(
         &self,
         name: &str,
         data: MatRef<'_, f64>,
@@ -75,39 +90,18 @@ impl SharedGplvm {
             });
         }
         check_finite(name, data)?;
-        let (d, offset, scale) = preprocess(data, &self.config);
-        let v = mean_col_var(d.as_ref());
-        let lengthscale = self
-            .spaces
-            .get(1)
-            .map(|s| s.kernel.lengthscale.clone())
-            .unwrap_or(vec![1.0; self.q()]);
-        let mut lengthscale = lengthscale;
-        let mut variance = v;
+        let mut space = Space::from_data(name, data, &self.config);
+        // The first robot's lengthscales: the latent space is shared, and so is the scale on
+        // which robots vary along it.
+        if let Some(first) = self.spaces.get(1) {
+            space.kernel.lengthscale = first.kernel.lengthscale.clone();
+        }
         if let Some(seed) = seed {
-            const SPREAD: f64 = 0.3;
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            let z: f64 = StandardNormal.sample(&mut rng);
-            variance *= (SPREAD * z).exp();
-            for l in lengthscale.iter_mut() {
-                let z: f64 = StandardNormal.sample(&mut rng);
-                *l *= (SPREAD * z).exp();
-            }
+            perturb_kernel(&mut space.kernel, seed);
         }
         let mut model = self.clone();
         model.history = Vec::new();
-        model.spaces.push(Space {
-            name: name.into(),
-            data: d,
-            offset,
-            scale,
-            kernel: KernelParams {
-                variance,
-                lengthscale,
-                noise: self.config.init_noise_fraction * v,
-            },
-            columns: None,
-        });
+        model.spaces.push(space);
         let idx = model.spaces.len() - 1;
         model.train(Mode::Kernels(vec![idx]), options, callback)?;
         Ok(model)
