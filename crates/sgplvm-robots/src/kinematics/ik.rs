@@ -1,0 +1,399 @@
+//! Damped least-squares inverse kinematics on a [`Chain`], within its joint limits, with an
+//! optional posture task in the null space and seeded random restarts.
+
+use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::Chain;
+
+/// What inverse kinematics should reach: a tip position, or a full tip pose (base frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum IkTarget {
+    /// Tip origin at this point; orientation free.
+    Position(Vector3<f64>),
+    /// Tip frame equal to this pose.
+    Pose(Isometry3<f64>),
+}
+
+/// Settings of [`Chain::inverse_kinematics`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct IkOptions {
+    /// Iterations per attempt (the first attempt from `q0`, then each restart).
+    pub max_iters: usize,
+    /// Converged when the residual (metres; for poses the weighted 6-vector norm) is below this.
+    pub tolerance: f64,
+    /// Initial damping λ of `Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e`; adapted per iteration.
+    pub damping: f64,
+    /// Largest change of any joint in one iteration (rad or m).
+    pub max_step: f64,
+    /// Metres per radian of orientation error for pose targets.
+    pub orientation_weight: f64,
+    /// Attempts from seeded random configurations within limits after a failed first attempt.
+    pub restarts: usize,
+    /// Seed of the restarts' configurations (deterministic).
+    pub seed: u64,
+    /// Gain of the secondary task that pulls the joints towards `rest` in the null space of
+    /// the target (per iteration, fraction of the gap); 0 (the default) disables it. Keeps
+    /// redundant arms (the 9-joint human) in natural postures and consecutive solutions close
+    /// to each other, at the price of more iterations (try 0.5).
+    pub posture_gain: f64,
+    /// Preferred configuration of the posture task; `None` means the start `q0`.
+    pub rest: Option<Vec<f64>>,
+    /// With a posture task: after convergence, up to this many null-space steps towards `rest`
+    /// (each re-converged to the tolerance; a step that cannot be is undone).
+    pub posture_iters: usize,
+}
+
+impl Default for IkOptions {
+    fn default() -> Self {
+        IkOptions {
+            max_iters: 100,
+            tolerance: 1e-9,
+            damping: 1e-2,
+            max_step: 0.5,
+            orientation_weight: 0.2,
+            restarts: 8,
+            seed: 0,
+            posture_gain: 0.0,
+            rest: None,
+            posture_iters: 20,
+        }
+    }
+}
+
+/// Result of [`Chain::inverse_kinematics`]; the best configuration found even when not converged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IkSolution {
+    /// Joint values, within limits.
+    pub q: Vec<f64>,
+    /// Whether the residual fell below the tolerance.
+    pub converged: bool,
+    /// Remaining error: position distance in metres, or for poses
+    /// `sqrt(|Δp|² + (w·|Δθ|)²)` with `w = orientation_weight`.
+    pub residual: f64,
+    /// Position error in metres.
+    pub position_error: f64,
+    /// Orientation error in radians (0 for position targets).
+    pub orientation_error: f64,
+    /// Iterations used over all attempts.
+    pub iterations: usize,
+}
+
+impl Chain {
+    /// Damped least-squares inverse kinematics within the joint limits.
+    ///
+    /// Starts from `q0` (clamped into the limits; missing values are 0), iterates
+    /// `Δq = z + Jᵀ (J Jᵀ + λ² I)⁻¹ (e − J z)` with λ adapted Levenberg–Marquardt style (a step
+    /// that does not reduce the error is rejected and λ grows) and `z = posture_gain · (rest − q)`
+    /// a pull towards a preferred posture in the task's null space, drops from each step the joints that sit
+    /// at a limit and would be pushed beyond it, and clamps. If the first attempt does not
+    /// converge, it tries again from `opts.restarts` seeded random configurations and returns
+    /// the best result. An unreachable target gives `converged == false` and the residual left.
+    pub fn inverse_kinematics(
+        &self,
+        target: &IkTarget,
+        q0: &[f64],
+        opts: &IkOptions,
+    ) -> IkSolution {
+        let n = self.dof();
+        let mut start: Vec<f64> = (0..n)
+            .map(|i| clamp(q0.get(i).copied().unwrap_or(0.0), self.limits[i]))
+            .collect();
+        let rest: Vec<f64> = match &opts.rest {
+            Some(r) => (0..n)
+                .map(|i| clamp(r.get(i).copied().unwrap_or(0.0), self.limits[i]))
+                .collect(),
+            None => start.clone(),
+        };
+        let mut best: Option<IkSolution> = None;
+        let mut total_iters = 0;
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+        for attempt in 0..=opts.restarts {
+            if attempt > 0 {
+                for (v, &(lo, hi)) in start.iter_mut().zip(&self.limits) {
+                    let (lo, hi) = (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI));
+                    *v = if hi > lo {
+                        rng.random_range(lo..=hi)
+                    } else {
+                        lo
+                    };
+                }
+            }
+            let mut sol = self.dls(target, &start, &rest, opts);
+            total_iters += sol.iterations;
+            sol.iterations = total_iters;
+            let better = best.as_ref().is_none_or(|b| sol.residual < b.residual);
+            if better {
+                best = Some(sol);
+            }
+            if best.as_ref().is_some_and(|b| b.converged) {
+                break;
+            }
+        }
+        if opts.posture_gain > 0.0 {
+            if let Some(b) = best.as_mut().filter(|b| b.converged) {
+                total_iters += self.posture_polish(target, b, &rest, opts);
+            }
+        }
+        let mut best = best.unwrap_or_else(|| IkSolution {
+            q: start.clone(),
+            converged: false,
+            residual: f64::INFINITY,
+            position_error: f64::INFINITY,
+            orientation_error: f64::INFINITY,
+            iterations: 0,
+        });
+        best.iterations = total_iters;
+        best
+    }
+
+    /// Error vector (target − current), 6 entries (orientation rows weighted; zero for
+    /// position targets) and the unweighted position and orientation errors.
+    fn error(&self, target: &IkTarget, tip: &Isometry3<f64>, w: f64) -> (Vector6<f64>, f64, f64) {
+        match target {
+            IkTarget::Position(p) => {
+                let d = p - tip.translation.vector;
+                (Vector6::new(d.x, d.y, d.z, 0.0, 0.0, 0.0), d.norm(), 0.0)
+            }
+            IkTarget::Pose(t) => {
+                let d = t.translation.vector - tip.translation.vector;
+                let r = (t.rotation * tip.rotation.inverse()).scaled_axis();
+                (
+                    Vector6::new(d.x, d.y, d.z, w * r.x, w * r.y, w * r.z),
+                    d.norm(),
+                    r.norm(),
+                )
+            }
+        }
+    }
+
+    /// Null-space steps towards `rest` from a converged solution, each re-converged by plain
+    /// DLS; stops when the steps become tiny or one cannot be re-converged. Returns iterations.
+    fn posture_polish(
+        &self,
+        target: &IkTarget,
+        sol: &mut IkSolution,
+        rest: &[f64],
+        opts: &IkOptions,
+    ) -> usize {
+        let n = self.dof();
+        let plain = IkOptions {
+            posture_gain: 0.0,
+            max_iters: 10,
+            restarts: 0,
+            rest: None,
+            ..opts.clone()
+        };
+        let w = opts.orientation_weight;
+        let pose_target = matches!(target, IkTarget::Pose(_));
+        let free = vec![true; n];
+        let mut z = vec![0.0; n];
+        let mut dq = vec![0.0; n];
+        let mut trial = vec![0.0; n];
+        let mut iters = 0;
+        let distance = |q: &[f64]| -> f64 {
+            q.iter()
+                .zip(rest)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+        };
+        for _ in 0..opts.posture_iters {
+            let f = self.frames(&sol.q);
+            let (e, _, _) = self.error(target, &f.tip, w);
+            let cols: Vec<Vector6<f64>> = (0..n)
+                .map(|i| {
+                    let mut c = self.column(&f, i);
+                    for k in 3..6 {
+                        c[k] = if pose_target { c[k] * w } else { 0.0 };
+                    }
+                    c
+                })
+                .collect();
+            let mut biggest: f64 = 0.0;
+            for i in 0..n {
+                z[i] = opts.posture_gain * (rest[i] - sol.q[i]);
+                biggest = biggest.max(z[i].abs());
+            }
+            if biggest < 1e-7 {
+                break;
+            }
+            solve_step(&cols, &free, &e, &z, 1e-6, pose_target, &mut dq);
+            for i in 0..n {
+                trial[i] = clamp(sol.q[i] + dq[i], self.limits[i]);
+            }
+            let c = self.dls(target, &trial, rest, &plain);
+            iters += 1 + c.iterations;
+            if !c.converged || distance(&c.q) >= distance(&sol.q) {
+                break;
+            }
+            sol.q = c.q;
+            sol.residual = c.residual;
+            sol.position_error = c.position_error;
+            sol.orientation_error = c.orientation_error;
+        }
+        iters
+    }
+
+    fn dls(&self, target: &IkTarget, q0: &[f64], rest: &[f64], opts: &IkOptions) -> IkSolution {
+        let n = self.dof();
+        let pose_target = matches!(target, IkTarget::Pose(_));
+        let w = opts.orientation_weight;
+        let mut q = q0.to_vec();
+        let mut f = self.frames(&q);
+        let (mut e, mut pe, mut oe) = self.error(target, &f.tip, w);
+        let mut err = e.norm();
+        let mut lambda = opts.damping.max(1e-12);
+        let mut cols: Vec<Vector6<f64>> = vec![Vector6::zeros(); n];
+        let mut free = vec![true; n];
+        let mut z = vec![0.0; n];
+        let mut dq = vec![0.0; n];
+        let mut trial = vec![0.0; n];
+        let mut tf = self.frames(&q);
+        let mut iters = 0;
+        while iters < opts.max_iters && err > opts.tolerance {
+            iters += 1;
+            for (i, c) in cols.iter_mut().enumerate() {
+                let mut col = self.column(&f, i);
+                if pose_target {
+                    col[3] *= w;
+                    col[4] *= w;
+                    col[5] *= w;
+                } else {
+                    col[3] = 0.0;
+                    col[4] = 0.0;
+                    col[5] = 0.0;
+                }
+                *c = col;
+            }
+            // First with the posture term, then (if that step is rejected) without it.
+            let mut accepted = false;
+            for with_posture in [opts.posture_gain > 0.0 && err > 1e-6, false] {
+                free.iter_mut().for_each(|x| *x = true);
+                // Active set: a joint at a limit that the step pushes outward is frozen.
+                for _pass in 0..=n {
+                    for i in 0..n {
+                        z[i] = if with_posture && free[i] {
+                            opts.posture_gain * (rest[i] - q[i])
+                        } else {
+                            0.0
+                        };
+                    }
+                    solve_step(&cols, &free, &e, &z, lambda, pose_target, &mut dq);
+                    let mut changed = false;
+                    for i in 0..n {
+                        let (lo, hi) = self.limits[i];
+                        if free[i] && ((q[i] <= lo && dq[i] < 0.0) || (q[i] >= hi && dq[i] > 0.0)) {
+                            free[i] = false;
+                            changed = true;
+                        }
+                    }
+                    if !changed {
+                        break;
+                    }
+                }
+                let biggest = dq.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+                let scale = if biggest > opts.max_step {
+                    opts.max_step / biggest
+                } else {
+                    1.0
+                };
+                for i in 0..n {
+                    trial[i] = clamp(q[i] + scale * dq[i], self.limits[i]);
+                }
+                self.frames_into(&trial, &mut tf);
+                let (te, tpe, toe) = self.error(target, &tf.tip, w);
+                let terr = te.norm();
+                if terr < err {
+                    std::mem::swap(&mut q, &mut trial);
+                    std::mem::swap(&mut f, &mut tf);
+                    e = te;
+                    pe = tpe;
+                    oe = toe;
+                    err = terr;
+                    accepted = true;
+                    break;
+                }
+                if opts.posture_gain <= 0.0 {
+                    break;
+                }
+            }
+            if accepted {
+                lambda = (lambda * 0.3).max(1e-9);
+            } else {
+                lambda *= 5.0;
+                if lambda > 1e4 {
+                    break; // stuck in a local minimum or at the limits
+                }
+            }
+        }
+        IkSolution {
+            q,
+            converged: err <= opts.tolerance,
+            residual: err,
+            position_error: pe,
+            orientation_error: oe,
+            iterations: iters,
+        }
+    }
+}
+
+fn clamp(v: f64, (lo, hi): (f64, f64)) -> f64 {
+    if lo <= hi {
+        v.clamp(lo, hi)
+    } else {
+        v
+    }
+}
+
+/// `dq = z + Jfᵀ (Jf Jfᵀ + λ² I)⁻¹ (e − Jf z)` over the free columns: the damped least-squares
+/// step towards `e` plus the secondary motion `z` projected onto the (damped) null space of the
+/// task. The system is 3×3 for position targets and 6×6 for poses.
+fn solve_step(
+    cols: &[Vector6<f64>],
+    free: &[bool],
+    e: &Vector6<f64>,
+    z: &[f64],
+    lambda: f64,
+    pose: bool,
+    dq: &mut [f64],
+) {
+    let l2 = lambda * lambda;
+    let mut rhs = *e;
+    for ((c, &f), &zi) in cols.iter().zip(free).zip(z) {
+        if f && zi != 0.0 {
+            rhs -= c * zi;
+        }
+    }
+    if pose {
+        let mut a = Matrix6::identity() * l2;
+        for (c, _) in cols.iter().zip(free).filter(|(_, &f)| f) {
+            a += c * c.transpose();
+        }
+        let y = a
+            .cholesky()
+            .map(|ch| ch.solve(&rhs))
+            .unwrap_or_else(Vector6::zeros);
+        for (((d, c), &f), &zi) in dq.iter_mut().zip(cols).zip(free).zip(z) {
+            *d = if f { zi + c.dot(&y) } else { 0.0 };
+        }
+    } else {
+        let mut a = Matrix3::identity() * l2;
+        for (c, _) in cols.iter().zip(free).filter(|(_, &f)| f) {
+            let v = c.fixed_rows::<3>(0);
+            a += v * v.transpose();
+        }
+        let r3 = rhs.fixed_rows::<3>(0).into_owned();
+        let y = a
+            .cholesky()
+            .map(|ch| ch.solve(&r3))
+            .unwrap_or_else(Vector3::zeros);
+        for (((d, c), &f), &zi) in dq.iter_mut().zip(cols).zip(free).zip(z) {
+            *d = if f {
+                zi + c.fixed_rows::<3>(0).dot(&y)
+            } else {
+                0.0
+            };
+        }
+    }
+}
