@@ -115,6 +115,46 @@ pub struct CsvFrames {
     pub rows: usize,
 }
 
+impl CsvFrames {
+    /// Frame times in nanoseconds: a `time_ns` column as it is, any other time column read as
+    /// seconds, and without a time column frames 25 ms apart (40 Hz) from 0.
+    pub fn times_ns(&self) -> Vec<i64> {
+        match (&self.times, self.header.time_column.as_deref()) {
+            (Some(t), Some("time_ns")) => t.iter().map(|&v| v as i64).collect(),
+            (Some(t), _) => t.iter().map(|&v| (v * 1e9).round() as i64).collect(),
+            (None, _) => (0..self.rows as i64).map(|i| i * 25_000_000).collect(),
+        }
+    }
+
+    /// Frame times in seconds, by the rules of [`times_ns`](Self::times_ns).
+    pub fn times_seconds(&self) -> Vec<f64> {
+        match (&self.times, self.header.time_column.as_deref()) {
+            (Some(t), Some("time_ns")) => t.iter().map(|v| v * 1e-9).collect(),
+            (Some(t), _) => t.clone(),
+            (None, _) => (0..self.rows).map(|i| i as f64 / 40.0).collect(),
+        }
+    }
+}
+
+/// Reads lines up to the first non-blank one and parses it as the header.
+pub fn read_header(
+    lines: &mut impl Iterator<Item = std::io::Result<String>>,
+    source_name: &str,
+) -> Result<CsvHeader, CsvError> {
+    for line in lines {
+        let line = line.map_err(|source| CsvError::Io {
+            source_name: source_name.to_string(),
+            source,
+        })?;
+        if !line.trim().is_empty() {
+            return Ok(CsvHeader::parse(&line));
+        }
+    }
+    Err(CsvError::MissingHeader {
+        source_name: source_name.to_string(),
+    })
+}
+
 /// Reads a whole CSV table of frames from `reader`.
 pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames, CsvError> {
     let io = |source| CsvError::Io {
@@ -122,21 +162,7 @@ pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames,
         source,
     };
     let mut lines = reader.lines();
-    let header = loop {
-        match lines.next() {
-            None => {
-                return Err(CsvError::MissingHeader {
-                    source_name: source_name.to_string(),
-                })
-            }
-            Some(line) => {
-                let line = line.map_err(io)?;
-                if !line.trim().is_empty() {
-                    break CsvHeader::parse(&line);
-                }
-            }
-        }
-    };
+    let header = read_header(&mut lines, source_name)?;
     let mut times = header.time_column.as_ref().map(|_| Vec::new());
     let mut values = Vec::new();
     let mut rows = 0;
@@ -204,6 +230,19 @@ mod tests {
             read_frames("".as_bytes(), "e.csv"),
             Err(CsvError::MissingHeader { .. })
         ));
+    }
+
+    #[test]
+    fn times_follow_the_time_column() {
+        let seconds = read_frames("time,a\n0.5,1\n0.75,2\n".as_bytes(), "s.csv").unwrap();
+        assert_eq!(seconds.times_ns(), vec![500_000_000, 750_000_000]);
+        assert_eq!(seconds.times_seconds(), vec![0.5, 0.75]);
+        let ns = read_frames("time_ns,a\n1000,1\n".as_bytes(), "n.csv").unwrap();
+        assert_eq!(ns.times_ns(), vec![1000]);
+        assert_eq!(ns.times_seconds(), vec![1000.0 * 1e-9]);
+        let none = read_frames("a\n1\n2\n".as_bytes(), "x.csv").unwrap();
+        assert_eq!(none.times_ns(), vec![0, 25_000_000]);
+        assert_eq!(none.times_seconds(), vec![0.0, 0.025]);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use sgplvm_core::{Callback, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions}
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
-use crate::experiment::{mean_squared_error, ExperimentData, SplitData};
+use crate::experiment::{mean_squared_error, ExperimentData, ModelKind, SplitData};
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
@@ -249,6 +249,112 @@ impl Demonstrations {
             frames: desired.nrows(),
             mse: mean_squared_error(predicted.as_ref(), desired.as_ref()),
             per_joint,
+        })
+    }
+}
+
+/// One training of a [`Demonstrations::transfer_study`], as its runner is told of it.
+#[derive(Debug, Clone, Copy)]
+pub struct StudyTraining<'a> {
+    /// The robot trained (or transferred to).
+    pub robot: &'a str,
+    /// [`ModelKind::Baseline`]: human + this robot trained fully; [`ModelKind::Transfer`]: from
+    /// the source robot's model, only this robot's kernel trained.
+    pub kind: ModelKind,
+    /// The robot trained fully first, whose model every transfer starts from.
+    pub source: &'a str,
+}
+
+/// One training, handed to a study's runner: call it (with or without a per-iteration callback)
+/// for the model.
+pub type TrainFn<'f> = dyn FnMut(Option<Callback<'_>>) -> Result<SharedGplvm, PipelineError> + 'f;
+
+/// Runs each training of a study: returns the model and its training seconds (the command line
+/// draws a progress bar and saves the model here).
+pub type StudyRunner<'r, E> =
+    dyn FnMut(&StudyTraining<'_>, &mut TrainFn<'_>) -> Result<(SharedGplvm, f64), E> + 'r;
+
+/// A model of a [`Demonstrations::transfer_study`] and its test error.
+#[derive(Debug, Clone)]
+pub struct StudyModel {
+    /// The robot.
+    pub robot: String,
+    /// Trained fully ([`ModelKind::Baseline`]) or transferred ([`ModelKind::Transfer`]).
+    pub kind: ModelKind,
+    /// The trained model.
+    pub model: SharedGplvm,
+    /// Training seconds, as the runner measured them.
+    pub seconds: f64,
+    /// Iterations of the training.
+    pub iterations: usize,
+    /// Test error for `robot`.
+    pub evaluation: Evaluation,
+}
+
+impl Demonstrations {
+    /// The demo's small experiment (one run of the paper's transfer comparison): `source` trained
+    /// fully, then every other robot of the data transferred from it and, for comparison,
+    /// trained fully from scratch — all with `config` and `options` — each model evaluated on
+    /// the test frames as soon as it is trained. `run` runs each training, in this order.
+    pub fn transfer_study<E: From<PipelineError>>(
+        &self,
+        source: &str,
+        config: &ModelConfig,
+        options: &TrainOptions,
+        run: &mut StudyRunner<'_, E>,
+    ) -> Result<Vec<StudyModel>, E> {
+        let full = |robot: &str| {
+            let robots = vec![robot.to_string()];
+            move |cb: Option<Callback<'_>>| self.train(&robots, config, options, cb)
+        };
+        let training = |robot, kind| StudyTraining {
+            robot,
+            kind,
+            source,
+        };
+        let first = self.study_model(
+            training(source, ModelKind::Baseline),
+            run,
+            &mut full(source),
+        )?;
+        let mut models = Vec::new();
+        for target in self
+            .dataset
+            .robot_names()
+            .into_iter()
+            .filter(|r| *r != source)
+        {
+            let transferred =
+                self.study_model(training(target, ModelKind::Transfer), run, &mut |cb| {
+                    self.transfer(&first.model, target, options, cb)
+                })?;
+            let baseline = self.study_model(
+                training(target, ModelKind::Baseline),
+                run,
+                &mut full(target),
+            )?;
+            models.extend([transferred, baseline]);
+        }
+        models.insert(0, first);
+        Ok(models)
+    }
+
+    /// Runs one training of a study and evaluates the model.
+    fn study_model<E: From<PipelineError>>(
+        &self,
+        training: StudyTraining<'_>,
+        run: &mut StudyRunner<'_, E>,
+        train: &mut TrainFn<'_>,
+    ) -> Result<StudyModel, E> {
+        let (model, seconds) = run(&training, train)?;
+        let evaluation = self.evaluate(&model, training.robot)?;
+        Ok(StudyModel {
+            robot: training.robot.to_string(),
+            kind: training.kind,
+            iterations: model.history().last().map_or(0, |r| r.iteration),
+            seconds,
+            evaluation,
+            model,
         })
     }
 }
