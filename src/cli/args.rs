@@ -1,0 +1,142 @@
+//! Argument groups that several commands share (`#[command(flatten)]`): the demonstrations, the
+//! model file, the training budget and configuration, and where a trained model goes.
+//!
+//! A group's flag keeps its name, default and help wherever it is flattened; a command whose help
+//! for the same flag says more overrides only the help text (`mut_arg`).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::builder::PossibleValue;
+use clap::{Args, ValueEnum};
+use sgplvm::pipeline::{self, Demonstrations};
+use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
+
+// The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
+// struct for the about text of the command it is flattened into.
+
+// `--data`: the demonstrations.
+#[derive(Args)]
+pub struct DataArg {
+    /// Demonstrations (MCAP); default: the shipped data.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+}
+
+impl DataArg {
+    /// The demonstrations named by `--data`, or the shipped ones.
+    pub fn load(&self) -> Result<Demonstrations> {
+        Ok(pipeline::load(self.data.as_deref())?)
+    }
+}
+
+// `--model`: a trained model to read.
+#[derive(Args)]
+pub struct ModelFileArg {
+    /// The model.
+    #[arg(long)]
+    pub model: PathBuf,
+}
+
+impl ModelFileArg {
+    /// The model named by `--model`.
+    pub fn load(&self) -> Result<SharedGplvm> {
+        load_model(&self.model)
+    }
+}
+
+/// Reads a model file; errors name the file.
+pub fn load_model(path: &Path) -> Result<SharedGplvm> {
+    SharedGplvm::load(path).with_context(|| path.display().to_string())
+}
+
+// `--json`: machine-readable output.
+#[derive(Args)]
+pub struct JsonArg {
+    /// Print machine-readable results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+// `--max-iters`: the iteration budget of a training.
+#[derive(Args)]
+pub struct BudgetArg {
+    /// Iteration budget.
+    #[arg(long, default_value_t = 1000)]
+    pub max_iters: u64,
+}
+
+impl BudgetArg {
+    /// Training options with this budget.
+    pub fn options(&self) -> TrainOptions {
+        TrainOptions::default().with_max_iters(self.max_iters as usize)
+    }
+}
+
+// The model configuration of a full training.
+#[derive(Args)]
+pub struct ModelConfigArgs {
+    /// Latent parametrisation.
+    #[arg(long, value_enum, default_value = "input")]
+    pub back_constraint: BackConstraintArg,
+    /// Latent dimension Q.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
+    pub latent_dim: u64,
+    #[command(flatten)]
+    pub budget: BudgetArg,
+    /// Seed of the initialisation.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl ModelConfigArgs {
+    /// The model configuration these flags describe.
+    pub fn config(&self) -> ModelConfig {
+        ModelConfig::default()
+            .with_latent_dim(self.latent_dim as usize)
+            .with_back_constraint(self.back_constraint.0)
+            .with_seed(self.seed)
+    }
+}
+
+// `--out` and `--json` of a training: where the model goes and how the result is reported.
+#[derive(Args)]
+pub struct TrainOutputArgs {
+    /// Where to write the model.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub json: JsonArg,
+}
+
+/// `--back-constraint`: the core's [`BackConstraint`] by its name ([`BackConstraint::name`], the
+/// one its `Display` and `FromStr` use), with a line of help for each value.
+#[derive(Clone, Copy)]
+pub struct BackConstraintArg(pub BackConstraint);
+
+impl BackConstraintArg {
+    const ALL: [BackConstraintArg; 3] = [
+        BackConstraintArg(BackConstraint::ALL[0]),
+        BackConstraintArg(BackConstraint::ALL[1]),
+        BackConstraintArg(BackConstraint::ALL[2]),
+    ];
+}
+
+impl ValueEnum for BackConstraintArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        let help = match self.0 {
+            BackConstraint::None => {
+                "Free latent points (human → latent by GP regression after training)"
+            }
+            BackConstraint::Input => {
+                "Latent points as a kernel mapping of the human input (the paper's choice)"
+            }
+            BackConstraint::Output => "Latent points as a kernel mapping of the robot output",
+        };
+        Some(PossibleValue::new(self.0.name()).help(help))
+    }
+}

@@ -1,0 +1,125 @@
+//! `sgplvm demo`: the library's transfer study on the demonstrations — one robot trained fully,
+//! the others transferred to and trained from scratch — its models saved, Figs. 7 and 8 drawn.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use sgplvm::experiment::ModelKind;
+use sgplvm::pipeline::{StudyModel, StudyTraining, TrainFn};
+use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
+
+use super::args::DataArg;
+use super::progress::train_with_progress;
+use super::report;
+
+#[derive(Args)]
+#[command(mut_arg("data", |a| a.help(
+    "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or the same data generated"
+)))]
+pub struct DemoArgs {
+    #[command(flatten)]
+    data: DataArg,
+    /// Output folder for figures and models.
+    #[arg(long, default_value = "sgplvm-demo")]
+    out: PathBuf,
+    /// Robot trained fully; the others in the data are transferred to.
+    #[arg(long, default_value = "walkman")]
+    source: String,
+    /// Iteration budget of each training.
+    #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u64).range(1..))]
+    max_iters: u64,
+    /// Latent dimension Q.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
+    latent_dim: u64,
+    /// Print machine-readable results (JSON) instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: DemoArgs) -> Result<()> {
+    let demos = args.data.load()?;
+    if !args.json {
+        report::demo_data(&demos);
+    }
+    let config = ModelConfig::default()
+        .with_latent_dim(args.latent_dim as usize)
+        .with_back_constraint(BackConstraint::Input);
+    let options = TrainOptions::default().with_max_iters(args.max_iters as usize);
+    let models = demos.transfer_study(
+        &args.source,
+        &config,
+        &options,
+        &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
+            train_and_save(training, train, args.max_iters, &args.out)
+        },
+    )?;
+    let written = draw_figures(&demos, &args.source, &models, &args.out)?;
+    report::demo(
+        &demos,
+        &args.source,
+        &models,
+        &args.out,
+        &written,
+        args.json,
+    );
+    Ok(())
+}
+
+/// Runs one training of the study under a progress bar; saves the source model and the
+/// transferred ones into `out`.
+fn train_and_save(
+    training: &StudyTraining<'_>,
+    train: &mut TrainFn<'_>,
+    max_iters: u64,
+    out: &Path,
+) -> Result<(SharedGplvm, f64)> {
+    let (robot, source) = (training.robot, training.source);
+    let (label, file) = match training.kind {
+        ModelKind::Transfer => (
+            format!("transfer to {robot}"),
+            Some(format!("{source}_to_{robot}.sgp")),
+        ),
+        _ => (
+            format!("training {robot}"),
+            (robot == source).then(|| format!("{source}.sgp")),
+        ),
+    };
+    let (model, seconds) = train_with_progress(&label, max_iters, train)?;
+    if let Some(file) = file {
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        model.save(&out.join(file))?;
+    }
+    Ok((model, seconds))
+}
+
+/// Fig. 7 for the source model, Fig. 8 for the transfer to COMAN (or the first transfer).
+fn draw_figures(
+    demos: &sgplvm::pipeline::Demonstrations,
+    source: &str,
+    models: &[StudyModel],
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    if let Some(full) = models.first() {
+        written.extend(figures::latent_space(
+            &full.model,
+            demos,
+            source,
+            &out.join("latent_space"),
+        )?);
+    }
+    let transfers = || models.iter().filter(|m| m.kind == ModelKind::Transfer);
+    if let Some(t) = transfers()
+        .find(|m| m.robot == "coman")
+        .or_else(|| transfers().next())
+    {
+        written.extend(figures::trajectories(
+            &t.model,
+            demos,
+            &t.robot,
+            &out.join(format!("{}_trajectories", t.robot)),
+        )?);
+    }
+    Ok(written)
+}

@@ -1,0 +1,77 @@
+//! `sgplvm experiment`: the paper's Section IV-B — every run, Figs. 4–6, results.json and
+//! report.md.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use sgplvm::experiment::{self, ExperimentConfig};
+
+use super::args::DataArg;
+use super::progress::progress_bar;
+
+#[derive(Args)]
+pub struct ExperimentArgs {
+    /// Fewer runs and iterations: a few minutes.
+    #[arg(long)]
+    quick: bool,
+    /// Output folder.
+    #[arg(long, default_value = "experiment-out")]
+    out: PathBuf,
+    #[command(flatten)]
+    data: DataArg,
+    /// Override the number of runs.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    runs: Option<u64>,
+    /// Override the iteration budget of every training.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    max_iters: Option<u64>,
+    /// Print the results JSON to stdout as well.
+    #[arg(long)]
+    json: bool,
+}
+
+impl ExperimentArgs {
+    /// The protocol (`--quick` or the paper's) with the overrides applied.
+    fn config(&self) -> ExperimentConfig {
+        let mut config = if self.quick {
+            ExperimentConfig::quick()
+        } else {
+            ExperimentConfig::paper()
+        };
+        if let Some(r) = self.runs {
+            config.runs = r as usize;
+            config.transfers_per_run = config.transfers_per_run.min(r as usize);
+        }
+        if let Some(m) = self.max_iters {
+            config.max_iters = m as usize;
+            config.transfer_max_iters = m as usize;
+        }
+        config
+    }
+}
+
+pub fn run(args: ExperimentArgs) -> Result<()> {
+    let config = args.config();
+    let demos = args.data.load()?;
+    let data = demos.experiment_data()?;
+    let bar = progress_bar(
+        experiment::training_count(&config, data.robots.len()) as u64,
+        "experiment",
+    );
+    let results = experiment::run(&data, &config, &mut |p| {
+        bar.set_position(p.done as u64);
+        bar.set_message(p.message.clone());
+    })?;
+    bar.finish_and_clear();
+    let written = experiment::write_outputs(&results, &args.out)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&results)?);
+    } else {
+        println!("{}", experiment::report(&results));
+        for path in written {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}

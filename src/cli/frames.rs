@@ -1,0 +1,138 @@
+//! Reading what `predict` and `simulate` are given: human frames in the model's joint order and
+//! robot trajectories, from an MCAP JointState topic or a CSV file; and the checks that name what
+//! a model or the built-in robots do not know.
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+use sgplvm::csv::{read_frames, CsvFrames};
+use sgplvm::robots::joint_state::{list_channels, read_topics, TopicRequest};
+use sgplvm::robots::Trajectory;
+use sgplvm::{Mat, Robot, SharedGplvm};
+
+/// Human frames read for prediction: times (ns) and rows in the model's human joint order.
+pub struct HumanFrames {
+    pub times_ns: Vec<i64>,
+    pub frames: Mat<f64>,
+}
+
+/// The joint names of `space` in `model` (`<space>_<j>` when the model has none stored).
+pub fn model_joint_names(model: &SharedGplvm, space: &str) -> Vec<String> {
+    match model.column_names(space) {
+        Some(names) => names.to_vec(),
+        None => (0..model.space_dim(space).unwrap_or(0))
+            .map(|j| format!("{space}_{j}"))
+            .collect(),
+    }
+}
+
+/// Positions of the model's joints among the file's columns; missing ones are an error.
+pub fn column_order(wanted: &[String], found: &[String], source: &str) -> Result<Vec<usize>> {
+    let missing: Vec<&String> = wanted.iter().filter(|w| !found.contains(w)).collect();
+    if !missing.is_empty() {
+        bail!("{source}: missing human joint column(s) {missing:?}; the model expects {wanted:?}");
+    }
+    Ok(wanted
+        .iter()
+        .map(|w| found.iter().position(|f| f == w).expect("checked above"))
+        .collect())
+}
+
+/// Fails unless `model` (read from `path`) predicts for `robot`.
+pub fn require_robot(model: &SharedGplvm, path: &Path, robot: &str) -> Result<()> {
+    if !model.output_names().contains(&robot) {
+        bail!(
+            "{}: the model does not know robot '{robot}'; it predicts for {:?}",
+            path.display(),
+            model.output_names()
+        );
+    }
+    Ok(())
+}
+
+/// The URDF of a built-in robot; an unknown name is an error listing the known ones.
+pub fn builtin_urdf(name: &str) -> Result<&'static str> {
+    Robot::builtin_urdf(name).ok_or_else(|| {
+        anyhow!(
+            "unknown robot '{name}'; expected one of {:?} or --urdf FILE",
+            Robot::builtin_names()
+        )
+    })
+}
+
+/// The topic to read in an MCAP file: `given`, else the one channel whose topic contains `hint`
+/// (with `or_only`, also the file's only channel); anything else asks for `--topic`, naming what
+/// was looked for (`what`).
+fn pick_topic(
+    path: &str,
+    given: Option<&str>,
+    what: &str,
+    hint: &str,
+    or_only: bool,
+) -> Result<String> {
+    if let Some(t) = given {
+        return Ok(t.to_string());
+    }
+    let channels = list_channels(path)?;
+    let matching: Vec<_> = channels.iter().filter(|c| c.topic.contains(hint)).collect();
+    match (matching.as_slice(), channels.as_slice()) {
+        ([one], _) => Ok(one.topic.clone()),
+        ([], [one]) if or_only => Ok(one.topic.clone()),
+        _ => bail!(
+            "{path}: cannot tell the {what} topic among {:?}; name it with --topic",
+            channels.iter().map(|c| &c.topic).collect::<Vec<_>>()
+        ),
+    }
+}
+
+/// Reads a whole CSV table of frames from the file `path`.
+fn read_csv(path: &str) -> Result<CsvFrames> {
+    let file = std::fs::File::open(path).with_context(|| format!("{path}: cannot open"))?;
+    Ok(read_frames(std::io::BufReader::new(file), path)?)
+}
+
+/// Reads the human frames of `input` (MCAP or CSV) in the model's human joint order.
+pub fn read_human_frames(
+    model: &SharedGplvm,
+    input: &str,
+    topic: Option<&str>,
+) -> Result<HumanFrames> {
+    let wanted = model_joint_names(model, model.input_name());
+    if input.ends_with(".mcap") {
+        let topic = pick_topic(input, topic, "human", "human", false)?;
+        let read = read_topics(input, &[TopicRequest::joints(topic, &wanted)])?;
+        let states = &read.states[0];
+        let frames = Mat::from_fn(states.len(), wanted.len(), |i, j| states.row(i)[j]);
+        return Ok(HumanFrames {
+            times_ns: states.times_ns.clone(),
+            frames,
+        });
+    }
+    let table = read_csv(input)?;
+    let order = column_order(&wanted, &table.header.joints, input)?;
+    let d = table.header.joints.len();
+    let frames = Mat::from_fn(table.rows, wanted.len(), |i, j| {
+        table.values[i * d + order[j]]
+    });
+    Ok(HumanFrames {
+        times_ns: table.times_ns(),
+        frames,
+    })
+}
+
+/// Reads a robot trajectory from an MCAP JointState topic or a CSV file.
+pub fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<Trajectory> {
+    if path.ends_with(".mcap") {
+        let topic = pick_topic(path, topic, "trajectory", robot, true)?;
+        let states = &read_topics(path, &[TopicRequest::all(topic)])?.states[0];
+        let times = states.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
+        return Ok(Trajectory::new(
+            states.names.clone(),
+            times,
+            states.positions.clone(),
+        )?);
+    }
+    let table = read_csv(path)?;
+    let times = table.times_seconds();
+    Trajectory::new(table.header.joints, times, table.values).with_context(|| path.to_string())
+}

@@ -1,0 +1,59 @@
+//! The commands of the `sgplvm` program, one module each, with the argument groups they share
+//! ([`args`]), the progress bars ([`progress`]), the reading of frames and trajectories
+//! ([`frames`]) and everything they print as a result ([`report`]).
+
+mod args;
+mod demo;
+mod evaluate;
+mod experiment;
+mod frames;
+mod generate;
+mod predict;
+mod progress;
+mod report;
+mod simulate;
+mod train;
+mod transfer;
+
+use anyhow::Result;
+use clap::Subcommand;
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Train on WALK-MAN, transfer to COMAN and CENTAURO, print test errors, draw the figures.
+    Demo(demo::DemoArgs),
+    /// Generate demonstrations following the paper's protocol (defaults reproduce data/demos).
+    Generate(generate::GenerateArgs),
+    /// Train a model: one robot gives the full model, several the multi-robot model.
+    Train(train::TrainArgs),
+    /// Transfer a trained model to another robot (only that robot's kernel is trained).
+    Transfer(transfer::TransferArgs),
+    /// Predict robot joint commands from human frames (MCAP JointState or CSV; `-` streams CSV).
+    Predict(predict::PredictArgs),
+    /// Test error of a model on the test frames of a demonstration file, overall and per joint.
+    Evaluate(evaluate::EvaluateArgs),
+    /// Replay a joint trajectory on a robot in the rapier physics engine (PD control at 1 kHz):
+    /// tracking error per joint, joint-limit violations and self-collisions.
+    ///
+    /// Either `--trajectory FILE` (robot joint commands, MCAP JointState or CSV) on `--robot` or
+    /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
+    Simulate(simulate::SimulateArgs),
+    /// The paper's Section IV-B: Figs. 4, 5 and 6, results.json and report.md.
+    Experiment(experiment::ExperimentArgs),
+}
+
+impl Command {
+    /// Runs the command.
+    pub fn run(self) -> Result<()> {
+        match self {
+            Command::Demo(args) => demo::run(args),
+            Command::Generate(args) => generate::run(args),
+            Command::Train(args) => train::run(args),
+            Command::Transfer(args) => transfer::run(args),
+            Command::Predict(args) => predict::run(args),
+            Command::Evaluate(args) => evaluate::run(args),
+            Command::Simulate(args) => simulate::run(args),
+            Command::Experiment(args) => experiment::run(args),
+        }
+    }
+}

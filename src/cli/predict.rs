@@ -1,0 +1,203 @@
+//! `sgplvm predict`: robot joint commands from human frames — a file to a file (MCAP or CSV), or
+//! CSV lines streamed from stdin to stdout for teleoperation.
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use sgplvm::csv::{format_line, read_header};
+use sgplvm::files::atomic_write_with;
+use sgplvm::robots::joint_state::{
+    write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
+};
+use sgplvm::{Mat, SharedGplvm};
+
+use super::args::ModelFileArg;
+use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
+
+#[derive(Args)]
+pub struct PredictArgs {
+    #[command(flatten)]
+    model: ModelFileArg,
+    /// Human frames: an MCAP file, a CSV file with a header of joint names, or `-` for CSV
+    /// lines on stdin (one output line per input line, flushed: for teleoperation).
+    #[arg(long)]
+    input: String,
+    /// Topic of the human in an MCAP input (default: the one whose name contains "human").
+    #[arg(long)]
+    topic: Option<String>,
+    /// The robot to predict for.
+    #[arg(long)]
+    robot: String,
+    /// Output: .mcap (JointState on /ROBOT/joint_command), any other name for CSV, `-` for stdout.
+    #[arg(long)]
+    out: String,
+    /// Also write the predictive standard deviation (CSV: `<joint>_std` columns; MCAP: topic
+    /// /ROBOT/joint_command_std).
+    #[arg(long)]
+    std: bool,
+}
+
+/// Predicted joint commands of every frame, row-major, with their standard deviations.
+struct Predicted {
+    times_ns: Vec<i64>,
+    frames: usize,
+    mean: Vec<f64>,
+    std: Option<Vec<f64>>,
+}
+
+pub fn run(args: PredictArgs) -> Result<()> {
+    let model = args.model.load()?;
+    let robot = args.robot.as_str();
+    require_robot(&model, &args.model.model, robot)?;
+    let robot_joints = model_joint_names(&model, robot);
+    if args.input == "-" {
+        return predict_stream(&model, robot, &robot_joints, &args.out, args.std);
+    }
+    let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
+    let prediction = model.predict(human.frames.as_ref(), robot, args.std)?;
+    let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
+        (0..m.nrows())
+            .flat_map(|i| (0..m.ncols()).map(move |j| (i, j)))
+            .map(|(i, j)| f(m[(i, j)]))
+            .collect()
+    };
+    let predicted = Predicted {
+        frames: prediction.mean.nrows(),
+        mean: rows(&prediction.mean, |v| v),
+        std: prediction.variance.as_ref().map(|v| rows(v, f64::sqrt)),
+        times_ns: human.times_ns,
+    };
+    if args.out.ends_with(".mcap") {
+        write_mcap(&predicted, robot, &robot_joints, &args.out)
+    } else {
+        write_csv(&predicted, robot, &robot_joints, &args.out, args.std)
+    }
+}
+
+/// Writes the prediction as JointState messages on /ROBOT/joint_command (and _std).
+fn write_mcap(p: &Predicted, robot: &str, joints: &[String], out: &str) -> Result<()> {
+    let states =
+        |values: &Vec<f64>| JointStates::new(p.times_ns.clone(), joints.to_vec(), values.clone());
+    let command = states(&p.mean)?;
+    let std_states = p.std.as_ref().map(states).transpose()?;
+    let main_topic = format!("/{robot}/joint_command");
+    let std_topic = format!("/{robot}/joint_command_std");
+    let mut topics = vec![TopicData {
+        topic: &main_topic,
+        states: &command,
+        encoding: MessageEncoding::Cdr,
+    }];
+    if let Some(s) = &std_states {
+        topics.push(TopicData {
+            topic: &std_topic,
+            states: s,
+            encoding: MessageEncoding::Cdr,
+        });
+    }
+    write_topics(
+        out,
+        &topics,
+        &WriteSettings {
+            compression: Compression::Zstd,
+            metadata: Vec::new(),
+        },
+    )?;
+    eprintln!(
+        "wrote {} frames of {robot} joint commands to {out} (topic {main_topic})",
+        p.frames
+    );
+    Ok(())
+}
+
+/// The output CSV header: the time column (if any), the joints and, with `std`, their `_std`.
+fn csv_header(time: Option<&str>, joints: &[String], std: bool) -> String {
+    let mut header: Vec<String> = time.iter().map(|t| t.to_string()).collect();
+    header.extend(joints.iter().cloned());
+    if std {
+        header.extend(joints.iter().map(|j| format!("{j}_std")));
+    }
+    header.join(",")
+}
+
+/// Writes the prediction as CSV to a file (atomically) or to stdout (`-`).
+fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool) -> Result<()> {
+    let d = joints.len();
+    let write = |w: &mut dyn Write| -> std::io::Result<()> {
+        writeln!(w, "{}", csv_header(Some("time"), joints, std))?;
+        for i in 0..p.frames {
+            let mut values = p.mean[i * d..(i + 1) * d].to_vec();
+            if let Some(s) = &p.std {
+                values.extend_from_slice(&s[i * d..(i + 1) * d]);
+            }
+            writeln!(
+                w,
+                "{}",
+                format_line(Some(p.times_ns[i] as f64 * 1e-9), &values)
+            )?;
+        }
+        w.flush()
+    };
+    if out == "-" {
+        write(&mut std::io::stdout().lock())?;
+    } else {
+        atomic_write_with(Path::new(out), |tmp| {
+            let mut file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+            write(&mut file)
+        })?;
+        eprintln!(
+            "wrote {} frames of {robot} joint commands to {out}",
+            p.frames
+        );
+    }
+    Ok(())
+}
+
+/// Teleoperation: CSV lines in on stdin, one prediction line out per line, flushed at once.
+fn predict_stream(
+    model: &SharedGplvm,
+    robot: &str,
+    robot_joints: &[String],
+    out: &str,
+    with_std: bool,
+) -> Result<()> {
+    if out != "-" {
+        bail!("--input - streams to stdout: use --out - as well");
+    }
+    let stdin = std::io::stdin();
+    let mut lines = stdin.lock().lines();
+    let header = read_header(&mut lines, "stdin")?;
+    let wanted = model_joint_names(model, model.input_name());
+    let order = column_order(&wanted, &header.joints, "stdin")?;
+    let stdout = std::io::stdout();
+    let mut w = stdout.lock();
+    let time = header.time_column.as_deref();
+    writeln!(w, "{}", csv_header(time, robot_joints, with_std))?;
+    w.flush()?;
+    let mut human = vec![0.0; wanted.len()];
+    let mut joints = vec![0.0; robot_joints.len()];
+    for (i, line) in lines.enumerate() {
+        let line = line.context("stdin")?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let (time, values) = header.parse_line(&line, i + 2, "stdin")?;
+        for (h, &k) in human.iter_mut().zip(&order) {
+            *h = values[k];
+        }
+        if with_std {
+            let frame = Mat::from_fn(1, human.len(), |_, j| human[j]);
+            let p = model.predict(frame.as_ref(), robot, true)?;
+            let variance = p.variance.ok_or_else(|| anyhow!("no variance returned"))?;
+            let mut out: Vec<f64> = (0..joints.len()).map(|j| p.mean[(0, j)]).collect();
+            out.extend((0..joints.len()).map(|j| variance[(0, j)].sqrt()));
+            writeln!(w, "{}", format_line(time, &out))?;
+        } else {
+            model.predict_frame(&human, robot, &mut joints)?;
+            writeln!(w, "{}", format_line(time, &joints))?;
+        }
+        w.flush()?;
+    }
+    Ok(())
+}

@@ -1,0 +1,90 @@
+//! `sgplvm simulate`: replay a joint trajectory — given, or predicted by a model from human
+//! frames — on a robot in the physics engine, and report tracking, limits and collisions.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use sgplvm::robots::{ReplayOptions, Trajectory};
+
+use super::args::load_model;
+use super::frames::{
+    builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
+};
+use super::report;
+
+#[derive(Args)]
+pub struct SimulateArgs {
+    /// A built-in robot (walkman, coman, centauro, human) or the robot of the model.
+    #[arg(long, required_unless_present = "urdf")]
+    robot: Option<String>,
+    /// A URDF file instead of a built-in robot.
+    #[arg(long, conflicts_with = "model")]
+    urdf: Option<PathBuf>,
+    /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column).
+    #[arg(long, required_unless_present = "model", conflicts_with = "model")]
+    trajectory: Option<String>,
+    /// Topic of the trajectory (or of the human, with --model) in an MCAP file.
+    #[arg(long)]
+    topic: Option<String>,
+    /// Predict the trajectory with this model from --input human frames, then replay it.
+    #[arg(long, requires = "input")]
+    model: Option<PathBuf>,
+    /// Human frames (MCAP or CSV) for --model.
+    #[arg(long, requires = "model")]
+    input: Option<String>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: SimulateArgs) -> Result<()> {
+    let (xml, source) = match (&args.urdf, args.robot.as_deref()) {
+        (Some(path), _) => {
+            let xml = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            (xml, path.display().to_string())
+        }
+        (None, Some(name)) => (builtin_urdf(name)?.to_string(), format!("builtin:{name}")),
+        (None, None) => bail!("name the robot with --robot or --urdf"),
+    };
+    let robot = args.robot.as_deref().unwrap_or("robot");
+    let topic = args.topic.as_deref();
+    let mut trajectory = match (
+        args.model.as_deref().zip(args.input.as_deref()),
+        &args.trajectory,
+    ) {
+        (Some((model, input)), _) => predicted_trajectory(model, input, topic, robot)?,
+        (None, Some(path)) => read_trajectory(path, topic, robot)?,
+        (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
+    };
+    // Report times from the start of the trajectory (recordings carry wall-clock stamps).
+    let t0 = trajectory.times.first().copied().unwrap_or(0.0);
+    trajectory.times.iter_mut().for_each(|t| *t -= t0);
+    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default())?;
+    Ok(report::replay(&source, &report, args.json)?)
+}
+
+/// The trajectory `model` predicts for `robot` from the human frames of `input`.
+fn predicted_trajectory(
+    model_path: &Path,
+    input: &str,
+    topic: Option<&str>,
+    robot: &str,
+) -> Result<Trajectory> {
+    let model = load_model(model_path)?;
+    require_robot(&model, model_path, robot)?;
+    let human = read_human_frames(&model, input, topic)?;
+    let mean = model.predict(human.frames.as_ref(), robot, false)?.mean;
+    let d = mean.ncols();
+    let positions = (0..mean.nrows())
+        .flat_map(|i| (0..d).map(move |j| (i, j)))
+        .map(|(i, j)| mean[(i, j)])
+        .collect();
+    let times = human.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
+    Ok(Trajectory::new(
+        model_joint_names(&model, robot),
+        times,
+        positions,
+    )?)
+}
