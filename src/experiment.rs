@@ -11,8 +11,8 @@ use sgplvm_core::{
     BackConstraint, Control, IterationRecord, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions,
 };
 
+use crate::figures;
 use crate::files::atomic_write;
-use crate::plots::{write_figure, Panel, Series};
 
 /// Training and test matrices of one observation space (rows are frames).
 #[derive(Debug, Clone)]
@@ -155,14 +155,6 @@ pub fn mean_squared_error(predicted: MatRef<'_, f64>, desired: MatRef<'_, f64>) 
     sum / n as f64
 }
 
-fn label(bc: BackConstraint) -> &'static str {
-    match bc {
-        BackConstraint::None => "none",
-        BackConstraint::Input => "input",
-        BackConstraint::Output => "output",
-    }
-}
-
 /// Records the test error of some robots at every iteration of one training.
 struct Recorder<'a> {
     human_test: MatRef<'a, f64>,
@@ -220,7 +212,7 @@ impl<'a> Recorder<'a> {
             .map(|((robot, _), test_mse)| RunRecord {
                 robot: robot.to_string(),
                 model,
-                back_constraint: label(bc).to_string(),
+                back_constraint: bc.to_string(),
                 run,
                 source_robot: source_robot.map(str::to_string),
                 iterations: self.iterations.clone(),
@@ -313,50 +305,77 @@ pub fn run(
         total: training_count(config, data.robots.len()),
         progress,
     };
-    let full_options = TrainOptions::default().with_max_iters(config.max_iters);
-    let transfer_options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
-    let input = data.input_name.as_str();
-    let human_train = data.human.train.as_ref();
-    let model_config = |bc, run: usize| {
-        ModelConfig::default()
-            .with_latent_dim(config.latent_dim)
-            .with_back_constraint(bc)
-            .with_seed(config.seed + run as u64)
-    };
+    for bc in BackConstraint::ALL {
+        let sources = runner.baselines(data, config, bc)?;
+        if bc == BackConstraint::Output {
+            continue; // Fig. 6 compares fully trained models only.
+        }
+        runner.transfers(data, config, bc, &sources)?;
+        runner.multi_robot(data, config, bc)?;
+    }
+    Ok(Results {
+        robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
+        config: config.clone(),
+        runs: runner.runs,
+    })
+}
 
-    for bc in [
-        BackConstraint::None,
-        BackConstraint::Input,
-        BackConstraint::Output,
-    ] {
-        // Baselines: human + one robot, trained fully; kept as transfer sources.
-        let mut sources: BTreeMap<(usize, usize), SharedGplvm> = BTreeMap::new();
+/// The model configuration of run `run` with back constraint `bc`.
+fn model_config(config: &ExperimentConfig, bc: BackConstraint, run: usize) -> ModelConfig {
+    ModelConfig::default()
+        .with_latent_dim(config.latent_dim)
+        .with_back_constraint(bc)
+        .with_seed(config.seed + run as u64)
+}
+
+/// Fully trained models of one back constraint, by (run, source robot index).
+type Sources = BTreeMap<(usize, usize), SharedGplvm>;
+
+impl<'a> Runner<'a, '_> {
+    /// Baselines: human + one robot, trained fully; kept as transfer sources.
+    fn baselines(
+        &mut self,
+        data: &'a ExperimentData,
+        config: &ExperimentConfig,
+        bc: BackConstraint,
+    ) -> Result<Sources, ExperimentError> {
+        let options = TrainOptions::default().with_max_iters(config.max_iters);
+        let input = data.input_name.as_str();
+        let mut sources = Sources::new();
         for run in 0..config.runs {
             for (r, (robot, split)) in data.robots.iter().enumerate() {
                 let spec = RunSpec {
-                    context: format!(
-                        "baseline {robot}, {} back constraints, run {run}",
-                        label(bc)
-                    ),
+                    context: format!("baseline {robot}, {bc} back constraints, run {run}"),
                     kind: ModelKind::Baseline,
                     back_constraint: bc,
                     run,
                     source_robot: None,
                     robots: vec![(robot.as_str(), split.test.as_ref())],
                 };
-                let spaces = [(input, human_train), (robot.as_str(), split.train.as_ref())];
-                let model = runner.record(spec, |cb| {
-                    SharedGplvm::fit(&model_config(bc, run), &spaces, input, &full_options, cb)
+                let spaces = [
+                    (input, data.human.train.as_ref()),
+                    (robot.as_str(), split.train.as_ref()),
+                ];
+                let model = self.record(spec, |cb| {
+                    SharedGplvm::fit(&model_config(config, bc, run), &spaces, input, &options, cb)
                 })?;
                 sources.insert((run, r), model);
             }
         }
-        if bc == BackConstraint::Output {
-            continue; // Fig. 6 compares fully trained models only.
-        }
-        // Transfer: from each source robot's model to every other robot, from differently
-        // seeded initial kernels.
-        for ((run, s), source) in &sources {
+        Ok(sources)
+    }
+
+    /// Transfer: from each source robot's model to every other robot, from differently seeded
+    /// initial kernels.
+    fn transfers(
+        &mut self,
+        data: &'a ExperimentData,
+        config: &ExperimentConfig,
+        bc: BackConstraint,
+        sources: &Sources,
+    ) -> Result<(), ExperimentError> {
+        let options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
+        for ((run, s), source) in sources {
             let source_name = data.robots[*s].0.as_str();
             for (t, (target, split)) in data.robots.iter().enumerate() {
                 if t == *s {
@@ -366,8 +385,7 @@ pub fn run(
                     let index = run * config.transfers_per_run + k;
                     let spec = RunSpec {
                         context: format!(
-                            "transfer {source_name} → {target}, {} back constraints, run {run}.{k}",
-                            label(bc)
+                            "transfer {source_name} → {target}, {bc} back constraints, run {run}.{k}"
                         ),
                         kind: ModelKind::Transfer,
                         back_constraint: bc,
@@ -376,20 +394,25 @@ pub fn run(
                         robots: vec![(target.as_str(), split.test.as_ref())],
                     };
                     let seed = config.seed + index as u64;
-                    runner.record(spec, |cb| {
-                        source.transfer_seeded(
-                            target,
-                            split.train.as_ref(),
-                            seed,
-                            &transfer_options,
-                            cb,
-                        )
+                    self.record(spec, |cb| {
+                        source.transfer_seeded(target, split.train.as_ref(), seed, &options, cb)
                     })?;
                 }
             }
         }
-        // Multi-robot: human + all robots.
-        let mut spaces = vec![(input, human_train)];
+        Ok(())
+    }
+
+    /// Multi-robot: human + all robots.
+    fn multi_robot(
+        &mut self,
+        data: &'a ExperimentData,
+        config: &ExperimentConfig,
+        bc: BackConstraint,
+    ) -> Result<(), ExperimentError> {
+        let options = TrainOptions::default().with_max_iters(config.max_iters);
+        let input = data.input_name.as_str();
+        let mut spaces = vec![(input, data.human.train.as_ref())];
         spaces.extend(
             data.robots
                 .iter()
@@ -397,7 +420,7 @@ pub fn run(
         );
         for run in 0..config.runs {
             let spec = RunSpec {
-                context: format!("multi-robot, {} back constraints, run {run}", label(bc)),
+                context: format!("multi-robot, {bc} back constraints, run {run}"),
                 kind: ModelKind::Multi,
                 back_constraint: bc,
                 run,
@@ -408,49 +431,11 @@ pub fn run(
                     .map(|(n, s)| (n.as_str(), s.test.as_ref()))
                     .collect(),
             };
-            runner.record(spec, |cb| {
-                SharedGplvm::fit(&model_config(bc, run), &spaces, input, &full_options, cb)
+            self.record(spec, |cb| {
+                SharedGplvm::fit(&model_config(config, bc, run), &spaces, input, &options, cb)
             })?;
         }
-    }
-    Ok(Results {
-        robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
-        config: config.clone(),
-        runs: runner.runs,
-    })
-}
-
-/// Mean and standard deviation, per iteration index, of the test error of a group of runs
-/// (runs that stopped early keep their last value).
-fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
-    let length = runs.iter().map(|r| r.test_mse.len()).max().unwrap_or(0);
-    let mut points = Vec::with_capacity(length);
-    let mut band = Vec::with_capacity(length);
-    for i in 0..length {
-        let at = |r: &&RunRecord| r.test_mse.get(i).or(r.test_mse.last()).copied();
-        let values: Vec<f64> = runs.iter().filter_map(at).collect();
-        let x = if by_seconds {
-            let secs: Vec<f64> = runs
-                .iter()
-                .filter_map(|r| r.seconds.get(i).or(r.seconds.last()).copied())
-                .collect();
-            secs.iter().sum::<f64>() / secs.len().max(1) as f64
-        } else {
-            runs.iter()
-                .find_map(|r| r.iterations.get(i))
-                .copied()
-                .unwrap_or(i) as f64
-        };
-        let n = values.len().max(1) as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
-        points.push((x, mean));
-        band.push(((mean - sd).max(mean * 0.05), mean + sd));
-    }
-    Series {
-        points,
-        band: Some(band),
-        ..Series::default()
+        Ok(())
     }
 }
 
@@ -468,7 +453,8 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
 }
 
 impl Results {
-    fn select(&self, robot: &str, model: ModelKind, bc: &str) -> Vec<&RunRecord> {
+    /// The runs of one robot, kind of model and back constraint (by name).
+    pub(crate) fn select(&self, robot: &str, model: ModelKind, bc: &str) -> Vec<&RunRecord> {
         self.runs
             .iter()
             .filter(|r| r.robot == robot && r.model == model && r.back_constraint == bc)
@@ -512,90 +498,8 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     let path = dir.join("results.json");
     atomic_write(&path, &json)?;
     written.push(path);
-
-    let models = [
-        (ModelKind::Baseline, "baseline (fully trained)", 0),
-        (
-            ModelKind::Transfer,
-            "transfer (only robot kernel trained)",
-            1,
-        ),
-        (ModelKind::Multi, "multi-robot", 2),
-    ];
-    for (figure, bc, title) in [
-        ("fig4", "none", "Fig. 4: no back constraints"),
-        ("fig5", "input", "Fig. 5: back constraints on the input"),
-    ] {
-        for by_seconds in [false, true] {
-            let panels = results
-                .robots
-                .iter()
-                .map(|robot| Panel {
-                    title: robot.clone(),
-                    x_label: if by_seconds {
-                        "training seconds"
-                    } else {
-                        "iteration"
-                    }
-                    .into(),
-                    y_label: "test MSE (rad²)".into(),
-                    log_y: true,
-                    series: models
-                        .iter()
-                        .filter_map(|&(kind, name, color)| {
-                            let runs = results.select(robot, kind, bc);
-                            (!runs.is_empty()).then(|| Series {
-                                label: name.into(),
-                                color,
-                                ..mean_curve(&runs, by_seconds)
-                            })
-                        })
-                        .collect(),
-                    markers: vec![],
-                })
-                .collect::<Vec<_>>();
-            let stem = dir.join(if by_seconds {
-                format!("{figure}_seconds")
-            } else {
-                figure.to_string()
-            });
-            written.extend(write_figure(&stem, title, &panels, panels.len())?);
-        }
-    }
-    let bcs = [
-        ("none", "no back constraints", 1),
-        ("input", "back constraints on the input", 0),
-        ("output", "back constraints on the output", 2),
-    ];
-    let panels = results
-        .robots
-        .iter()
-        .map(|robot| Panel {
-            title: robot.clone(),
-            x_label: "iteration".into(),
-            y_label: "test MSE (rad²)".into(),
-            log_y: true,
-            series: bcs
-                .iter()
-                .filter_map(|&(bc, name, color)| {
-                    let runs = results.select(robot, ModelKind::Baseline, bc);
-                    (!runs.is_empty()).then(|| Series {
-                        label: name.into(),
-                        color,
-                        ..mean_curve(&runs, false)
-                    })
-                })
-                .collect(),
-            markers: vec![],
-        })
-        .collect::<Vec<_>>();
-    written.extend(write_figure(
-        &dir.join("fig6"),
-        "Fig. 6: fully trained models",
-        &panels,
-        panels.len(),
-    )?);
-
+    written.extend(figures::learning_curves(results, dir)?);
+    written.extend(figures::back_constraints(results, dir)?);
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
     written.push(path);
@@ -614,11 +518,65 @@ pub fn report(results: &Results) -> String {
         results.config.transfer_max_iters,
         results.config.latent_dim
     ));
-    out.push_str("## Final test MSE (rad², mean over runs)\n\n| robot | back constraint | baseline | transfer | multi-robot |\n|---|---|---|---|---|\n");
+    out.push_str(&final_table(results));
+    out.push_str("\n## The paper's claims\n\n");
+    let input = BackConstraint::Input.name();
+
+    out.push_str(&claim(
+        results,
+        "1. Back constraints on the input give the best fully trained model (Fig. 6)",
+        |robot| {
+            let [none, input, output] = BackConstraint::ALL
+                .map(|bc| results.final_mean(robot, ModelKind::Baseline, bc.name()));
+            (
+                input <= none && input <= output,
+                format!("   - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"),
+            )
+        },
+    ));
+    out.push_str(&claim(
+        results,
+        "2. With input back constraints, transfer reaches the baseline's error faster (Fig. 5)",
+        |robot| {
+            let baseline_final = results.final_mean(robot, ModelKind::Baseline, input);
+            let level = baseline_final * 1.1;
+            let baseline_t = results.seconds_to_reach(robot, ModelKind::Baseline, input, level);
+            let transfer_t = results.seconds_to_reach(robot, ModelKind::Transfer, input, level);
+            let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.3} s"));
+            (
+                matches!((baseline_t, transfer_t), (Some(b), Some(t)) if t < b),
+                format!(
+                    "  - {robot}: time to reach 1.1 × the baseline's final test MSE ({level:.5}): baseline {}, transfer {}",
+                    show(baseline_t),
+                    show(transfer_t)
+                ),
+            )
+        },
+    ));
+    out.push_str(&claim(
+        results,
+        "3. The multi-robot model performs similarly to the baseline (ratio within 1/1.5 … 1.5, input back constraints)",
+        |robot| {
+            let baseline = results.final_mean(robot, ModelKind::Baseline, input);
+            let multi = results.final_mean(robot, ModelKind::Multi, input);
+            let ratio = multi / baseline;
+            (
+                ratio.is_finite() && (1.0 / 1.5..=1.5).contains(&ratio),
+                format!("   - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"),
+            )
+        },
+    ));
+    out.push_str("\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training time), fig6.svg/png.\n");
+    out
+}
+
+/// The table of final test errors: a row per robot and back constraint, a column per model.
+fn final_table(results: &Results) -> String {
+    let mut out = String::from("## Final test MSE (rad², mean over runs)\n\n| robot | back constraint | baseline | transfer | multi-robot |\n|---|---|---|---|---|\n");
     for robot in &results.robots {
-        for bc in ["none", "input", "output"] {
+        for bc in BackConstraint::ALL {
             let cell = |kind| {
-                let v = results.final_mean(robot, kind, bc);
+                let v = results.final_mean(robot, kind, bc.name());
                 if v.is_nan() {
                     "—".to_string()
                 } else {
@@ -633,68 +591,18 @@ pub fn report(results: &Results) -> String {
             ));
         }
     }
-    out.push_str("\n## The paper's claims\n\n");
-    let verdict = |ok: bool| if ok { "supported" } else { "**not supported**" };
-
-    // 1. Input back constraints give the lowest error of the fully trained models.
-    let mut lines = Vec::new();
-    let mut all = true;
-    for robot in &results.robots {
-        let [none, input, output] = ["none", "input", "output"]
-            .map(|bc| results.final_mean(robot, ModelKind::Baseline, bc));
-        let ok = input <= none && input <= output;
-        all &= ok;
-        lines.push(format!(
-            "   - {robot}: none {none:.5}, input {input:.5}, output {output:.5}"
-        ));
-    }
-    out.push_str(&format!(
-        "1. Back constraints on the input give the best fully trained model (Fig. 6): {}.\n{}\n",
-        verdict(all),
-        lines.join("\n")
-    ));
-
-    // 2. Transfer reaches the baseline's final error faster than the baseline itself.
-    let mut lines = Vec::new();
-    let mut all = true;
-    for robot in &results.robots {
-        let baseline_final = results.final_mean(robot, ModelKind::Baseline, "input");
-        let level = baseline_final * 1.1;
-        let baseline_t = results.seconds_to_reach(robot, ModelKind::Baseline, "input", level);
-        let transfer_t = results.seconds_to_reach(robot, ModelKind::Transfer, "input", level);
-        let ok = matches!((baseline_t, transfer_t), (Some(b), Some(t)) if t < b);
-        all &= ok;
-        let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.3} s"));
-        lines.push(format!(
-            "  - {robot}: time to reach 1.1 × the baseline's final test MSE ({level:.5}): baseline {}, transfer {}",
-            show(baseline_t),
-            show(transfer_t)
-        ));
-    }
-    out.push_str(&format!(
-        "2. With input back constraints, transfer reaches the baseline's error faster (Fig. 5): {}.\n{}\n",
-        verdict(all),
-        lines.join("\n")
-    ));
-
-    // 3. The multi-robot model performs similarly (within 50 % of the baseline's error).
-    let mut lines = Vec::new();
-    let mut all = true;
-    for robot in &results.robots {
-        let baseline = results.final_mean(robot, ModelKind::Baseline, "input");
-        let multi = results.final_mean(robot, ModelKind::Multi, "input");
-        let ratio = multi / baseline;
-        let ok = ratio.is_finite() && (1.0 / 1.5..=1.5).contains(&ratio);
-        all &= ok;
-        lines.push(format!(
-            "   - {robot}: multi-robot / baseline final test MSE = {ratio:.2}"
-        ));
-    }
-    out.push_str(&format!(
-        "3. The multi-robot model performs similarly to the baseline (ratio within 1/1.5 … 1.5, input back constraints): {}.\n{}\n",
-        verdict(all),
-        lines.join("\n")
-    ));
-    out.push_str("\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training time), fig6.svg/png.\n");
     out
+}
+
+/// One of the paper's claims, supported when it holds for every robot: `check` tells for one
+/// robot whether it holds, with the line of numbers shown under the claim.
+fn claim(results: &Results, statement: &str, check: impl Fn(&str) -> (bool, String)) -> String {
+    let (holds, lines): (Vec<bool>, Vec<String>) =
+        results.robots.iter().map(|robot| check(robot)).unzip();
+    let verdict = if holds.iter().all(|&ok| ok) {
+        "supported"
+    } else {
+        "**not supported**"
+    };
+    format!("{statement}: {verdict}.\n{}\n", lines.join("\n"))
 }

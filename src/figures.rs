@@ -1,10 +1,16 @@
-//! The demo's pictures: the shared latent space with key poses and test trajectories (the
-//! paper's Fig. 7) and predicted against desired joint trajectories (Fig. 8).
+//! The paper's figures. From an experiment's runs: test error against iterations and training
+//! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
+//! back constraints (Fig. 6). From a trained model, the demo's pictures: the shared latent space
+//! with key poses and test trajectories (Fig. 7) and predicted against desired joint
+//! trajectories (Fig. 8).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use sgplvm_core::SharedGplvm;
+use sgplvm_core::{BackConstraint, SharedGplvm};
+
+use crate::experiment::{ModelKind, Results, RunRecord};
+use sgplvm_robots::dataset::Dataset;
 
 use crate::pipeline::{to_mat, Demonstrations, PipelineError};
 use crate::plots::{write_figure, Markers, Panel, PlotError, Series};
@@ -21,6 +27,145 @@ pub enum FigureError {
     /// Drawing failed.
     #[error(transparent)]
     Plot(#[from] PlotError),
+}
+
+/// One curve of a learning-curve panel: the runs of a kind of model with a back constraint,
+/// their legend label and palette colour.
+struct Curve {
+    kind: ModelKind,
+    back_constraint: BackConstraint,
+    label: &'static str,
+    color: usize,
+}
+
+/// Figs. 4 and 5: per robot, the mean test error (± one standard deviation) of the baseline,
+/// transfer and multi-robot models without back constraints (Fig. 4) and with back constraints
+/// on the input (Fig. 5), against iterations (`fig4`, `fig5`) and training seconds
+/// (`fig4_seconds`, `fig5_seconds`). Returns the files written, SVG then PNG of each.
+pub fn learning_curves(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let mut written = Vec::new();
+    for (figure, back_constraint, title) in [
+        ("fig4", BackConstraint::None, "Fig. 4: no back constraints"),
+        (
+            "fig5",
+            BackConstraint::Input,
+            "Fig. 5: back constraints on the input",
+        ),
+    ] {
+        let curve = |kind, label, color| Curve {
+            kind,
+            back_constraint,
+            label,
+            color,
+        };
+        let curves = [
+            curve(ModelKind::Baseline, "baseline (fully trained)", 0),
+            curve(
+                ModelKind::Transfer,
+                "transfer (only robot kernel trained)",
+                1,
+            ),
+            curve(ModelKind::Multi, "multi-robot", 2),
+        ];
+        for by_seconds in [false, true] {
+            let panels = robot_panels(results, &curves, by_seconds);
+            let stem = dir.join(if by_seconds {
+                format!("{figure}_seconds")
+            } else {
+                figure.to_string()
+            });
+            written.extend(write_figure(&stem, title, &panels, panels.len())?);
+        }
+    }
+    Ok(written)
+}
+
+/// Fig. 6: per robot, the mean test error of fully trained models with no, input and output
+/// back constraints, against iterations. Returns the SVG and PNG written.
+pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let curve = |back_constraint, label, color| Curve {
+        kind: ModelKind::Baseline,
+        back_constraint,
+        label,
+        color,
+    };
+    let curves = [
+        curve(BackConstraint::None, "no back constraints", 1),
+        curve(BackConstraint::Input, "back constraints on the input", 0),
+        curve(BackConstraint::Output, "back constraints on the output", 2),
+    ];
+    let panels = robot_panels(results, &curves, false);
+    write_figure(
+        &dir.join("fig6"),
+        "Fig. 6: fully trained models",
+        &panels,
+        panels.len(),
+    )
+}
+
+/// One panel per robot with a mean curve for each of `curves` that has runs.
+fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Panel> {
+    let x_label = if by_seconds {
+        "training seconds"
+    } else {
+        "iteration"
+    };
+    results
+        .robots
+        .iter()
+        .map(|robot| Panel {
+            title: robot.clone(),
+            x_label: x_label.into(),
+            y_label: "test MSE (rad²)".into(),
+            log_y: true,
+            series: curves
+                .iter()
+                .filter_map(|c| {
+                    let runs = results.select(robot, c.kind, c.back_constraint.name());
+                    (!runs.is_empty()).then(|| Series {
+                        label: c.label.into(),
+                        color: c.color,
+                        ..mean_curve(&runs, by_seconds)
+                    })
+                })
+                .collect(),
+            markers: vec![],
+        })
+        .collect()
+}
+
+/// Mean and standard deviation, per iteration index, of the test error of a group of runs
+/// (runs that stopped early keep their last value).
+fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
+    let length = runs.iter().map(|r| r.test_mse.len()).max().unwrap_or(0);
+    let mut points = Vec::with_capacity(length);
+    let mut band = Vec::with_capacity(length);
+    for i in 0..length {
+        let at = |r: &&RunRecord| r.test_mse.get(i).or(r.test_mse.last()).copied();
+        let values: Vec<f64> = runs.iter().filter_map(at).collect();
+        let x = if by_seconds {
+            let secs: Vec<f64> = runs
+                .iter()
+                .filter_map(|r| r.seconds.get(i).or(r.seconds.last()).copied())
+                .collect();
+            secs.iter().sum::<f64>() / secs.len().max(1) as f64
+        } else {
+            runs.iter()
+                .find_map(|r| r.iterations.get(i))
+                .copied()
+                .unwrap_or(i) as f64
+        };
+        let n = values.len().max(1) as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        points.push((x, mean));
+        band.push(((mean - sd).max(mean * 0.05), mean + sd));
+    }
+    Series {
+        points,
+        band: Some(band),
+        ..Series::default()
+    }
 }
 
 /// The two latent dimensions that matter most for `robot`: those with the shortest lengthscales.
@@ -50,7 +195,29 @@ pub fn latent_space(
         points: (0..x.nrows()).map(|i| (x[(i, a)], x[(i, b)])).collect(),
         ..Markers::default()
     };
-    // Key poses: the last frame of every labelled segment is the human holding its target pose.
+    let panel = Panel {
+        title: format!("human + {robot}, latent dimensions {} and {}", a + 1, b + 1),
+        x_label: format!("x{}", a + 1),
+        y_label: format!("x{}", b + 1),
+        log_y: false,
+        series: test_motions(model, ds, (a, b))?,
+        markers: vec![training, key_poses(model, ds, (a, b))?],
+    };
+    Ok(write_figure(
+        stem,
+        "Shared latent space (Fig. 7)",
+        &[panel],
+        1,
+    )?)
+}
+
+/// Key poses in latent dimensions `(a, b)`: the last frame of every labelled segment is the human
+/// holding its target pose; each pose at the mean of its frames' latent points.
+fn key_poses(
+    model: &SharedGplvm,
+    ds: &Dataset,
+    (a, b): (usize, usize),
+) -> Result<Markers, FigureError> {
     let mut pose_frames: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for s in &ds.segments {
         if let (Some(to), false) = (s.to_pose, s.is_empty()) {
@@ -76,7 +243,16 @@ pub fn latent_space(
                 .unwrap_or_else(|| format!("P{pose}")),
         );
     }
-    // Test trajectories: the first few distinct pose pairs of the test set.
+    Ok(poses)
+}
+
+/// Latent trajectories, in dimensions `(a, b)`, of the first three distinct pose pairs of the
+/// test set.
+fn test_motions(
+    model: &SharedGplvm,
+    ds: &Dataset,
+    (a, b): (usize, usize),
+) -> Result<Vec<Series>, FigureError> {
     let mut series = Vec::new();
     let mut seen = Vec::new();
     for s in ds
@@ -105,20 +281,7 @@ pub fn latent_space(
             break;
         }
     }
-    let panel = Panel {
-        title: format!("human + {robot}, latent dimensions {} and {}", a + 1, b + 1),
-        x_label: format!("x{}", a + 1),
-        y_label: format!("x{}", b + 1),
-        log_y: false,
-        series,
-        markers: vec![training, poses],
-    };
-    Ok(write_figure(
-        stem,
-        "Shared latent space (Fig. 7)",
-        &[panel],
-        1,
-    )?)
+    Ok(series)
 }
 
 /// Fig. 8: for the test frames between two poses (all repetitions, in time order), the human's
@@ -132,24 +295,7 @@ pub fn trajectories(
 ) -> Result<[PathBuf; 2], FigureError> {
     let ds = &demos.dataset;
     let body = demos.robot(robot)?;
-    // The first test pose pair, both directions, every repetition.
-    let first = ds
-        .segments
-        .iter()
-        .find(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok());
-    let frames: Vec<usize> = match first {
-        Some(f) => ds
-            .segments
-            .iter()
-            .filter(|s| {
-                ds.test.binary_search(&s.start).is_ok()
-                    && ((s.from_pose, s.to_pose) == (f.from_pose, f.to_pose)
-                        || (s.from_pose, s.to_pose) == (f.to_pose, f.from_pose))
-            })
-            .flat_map(|s| s.start..s.end)
-            .collect(),
-        None => ds.test.clone(),
-    };
+    let frames = first_test_motion(ds);
     let h = to_mat(&ds.human.rows(&frames));
     let predicted = model.predict(h.as_ref(), robot, false)?.mean;
     let desired = body.rows(&frames);
@@ -161,72 +307,87 @@ pub fn trajectories(
     // Plot against frame index within the selection: segments are not contiguous in time.
     let step = time.get(1).map_or(0.025, |t| t - time[0]).max(1e-6);
     let x: Vec<f64> = (0..frames.len()).map(|i| i as f64 * step).collect();
-    let half = |d: usize| [(0..d / 2), (d / 2..d)];
+    let line = |value: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+        x.iter().enumerate().map(|(i, &t)| (t, value(i))).collect()
+    };
     let mut panels = Vec::new();
     for (side, range) in ["left", "right"]
         .into_iter()
-        .zip(half(ds.human.joint_names.len()))
+        .zip(halves(ds.human.joint_names.len()))
     {
-        panels.push(Panel {
-            title: format!("human {side} arm"),
-            x_label: "seconds".into(),
-            y_label: "joint angle (rad)".into(),
-            series: range
+        panels.push(arm_panel(
+            format!("human {side} arm"),
+            range
                 .map(|j| Series {
                     color: j,
-                    points: x.iter().enumerate().map(|(i, &t)| (t, h[(i, j)])).collect(),
+                    points: line(&|i| h[(i, j)]),
                     ..Series::default()
                 })
                 .collect(),
-            ..Panel::default()
-        });
+        ));
     }
     for (side, range) in ["left", "right"]
         .into_iter()
-        .zip(half(body.joint_names.len()))
+        .zip(halves(body.joint_names.len()))
     {
         let mut series = Vec::new();
         for (k, j) in range.enumerate() {
-            let first = k == 0;
+            let label = |name: &str| if k == 0 { name.into() } else { String::new() };
             series.push(Series {
-                label: if first {
-                    "predicted".into()
-                } else {
-                    String::new()
-                },
+                label: label("predicted"),
                 color: j,
-                points: x
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &t)| (t, predicted[(i, j)]))
-                    .collect(),
+                points: line(&|i| predicted[(i, j)]),
                 ..Series::default()
             });
             series.push(Series {
-                label: if first {
-                    "desired".into()
-                } else {
-                    String::new()
-                },
+                label: label("desired"),
                 color: j,
                 dashed: true,
-                points: x
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &t)| (t, desired[(i, j)]))
-                    .collect(),
+                points: line(&|i| desired[(i, j)]),
                 ..Series::default()
             });
         }
-        panels.push(Panel {
-            title: format!("{robot} {side} arm"),
-            x_label: "seconds".into(),
-            y_label: "joint angle (rad)".into(),
-            series,
-            ..Panel::default()
-        });
+        panels.push(arm_panel(format!("{robot} {side} arm"), series));
     }
     let title =
         format!("{robot}: predicted (solid) and desired (dashed) joints on test motions (Fig. 8)");
     Ok(write_figure(stem, &title, &panels, 2)?)
+}
+
+/// The frames of the first test pose pair, both directions, every repetition (all test frames
+/// if there are no segments).
+fn first_test_motion(ds: &Dataset) -> Vec<usize> {
+    let first = ds
+        .segments
+        .iter()
+        .find(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok());
+    match first {
+        Some(f) => ds
+            .segments
+            .iter()
+            .filter(|s| {
+                ds.test.binary_search(&s.start).is_ok()
+                    && ((s.from_pose, s.to_pose) == (f.from_pose, f.to_pose)
+                        || (s.from_pose, s.to_pose) == (f.to_pose, f.from_pose))
+            })
+            .flat_map(|s| s.start..s.end)
+            .collect(),
+        None => ds.test.clone(),
+    }
+}
+
+/// The joints of the left arm (first half) and the right arm (second half) of `d` joints.
+fn halves(d: usize) -> [std::ops::Range<usize>; 2] {
+    [(0..d / 2), (d / 2..d)]
+}
+
+/// A panel of joint angles against time.
+fn arm_panel(title: String, series: Vec<Series>) -> Panel {
+    Panel {
+        title,
+        x_label: "seconds".into(),
+        y_label: "joint angle (rad)".into(),
+        series,
+        ..Panel::default()
+    }
 }
