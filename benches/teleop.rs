@@ -39,13 +39,21 @@ fn teleop(c: &mut Criterion) {
         "predict_frame (N = training frames, 18 → 5 → 14)",
         |b| {
             let human: Vec<f64> = ds.human.positions.row(frame).iter().copied().collect();
-            b.iter(|| model.predict_frame(&human, "coman", &mut joints).unwrap())
+            b.iter(|| {
+                model
+                    .predict_frame(&human, "coman", &mut joints)
+                    .expect("the model predicts for coman")
+            })
         },
     );
     c.bench_function("CSV line in → CSV line out", |b| {
         b.iter(|| {
-            let (_, human) = header.parse_line(&line, 2, "bench").unwrap();
-            model.predict_frame(&human, "coman", &mut joints).unwrap();
+            let (_, human) = header
+                .parse_line(&line, 2, "bench")
+                .expect("a line formatted from a frame parses");
+            model
+                .predict_frame(&human, "coman", &mut joints)
+                .expect("the model predicts for coman");
             format_line(None, &joints)
         })
     });

@@ -81,6 +81,15 @@ fn fixture() -> &'static Fixture {
 #[test]
 fn train_transfer_predict_evaluate() {
     let f = fixture();
+    let coman = transfer_to_coman(f);
+    evaluate_per_joint(f, &coman);
+    let first = predict_to_csv_and_mcap(f, &coman);
+    let human_csv = predict_from_reordered_csv(f, &coman, &first);
+    predict_streaming(&coman, &human_csv, &first);
+}
+
+/// Transfers the fixture's WALK-MAN model to COMAN; returns the new model's path.
+fn transfer_to_coman(f: &Fixture) -> PathBuf {
     let coman = f.dir.join("coman.sgp");
     let json = ok(&[
         "transfer",
@@ -98,12 +107,15 @@ fn train_transfer_predict_evaluate() {
     ]);
     let value: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(value["robots"], serde_json::json!(["walkman", "coman"]));
+    coman
+}
 
+fn evaluate_per_joint(f: &Fixture, coman: &Path) {
     // Evaluate: overall and per joint, the per-joint errors averaging to the overall one.
     let json = ok(&[
         "evaluate",
         "--model",
-        s(&coman),
+        s(coman),
         "--data",
         s(&f.data),
         "--robot",
@@ -124,14 +136,17 @@ fn train_transfer_predict_evaluate() {
         (mean - mse).abs() < 1e-12 * mse.max(1.0) && mse > 0.0 && mse < 0.2,
         "{e}"
     );
+}
 
+/// Returns the first predicted CSV row (time, then the joints).
+fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
     // Predict from MCAP to CSV and to MCAP; both agree.
     let csv = f.dir.join("coman.csv");
     let mcap = f.dir.join("coman.mcap");
     ok(&[
         "predict",
         "--model",
-        s(&coman),
+        s(coman),
         "--input",
         s(&f.data),
         "--robot",
@@ -142,7 +157,7 @@ fn train_transfer_predict_evaluate() {
     ok(&[
         "predict",
         "--model",
-        s(&coman),
+        s(coman),
         "--input",
         s(&f.data),
         "--robot",
@@ -169,7 +184,11 @@ fn train_transfer_predict_evaluate() {
     let std =
         sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command_std").unwrap();
     assert!(std.positions.iter().all(|v| *v > 0.0));
+    first
+}
 
+/// Returns the human CSV file written (three frames, columns reversed).
+fn predict_from_reordered_csv(f: &Fixture, coman: &Path, first: &[f64]) -> PathBuf {
     // Human frames as CSV, columns in another order, back through the model.
     let human =
         sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
@@ -187,7 +206,7 @@ fn train_transfer_predict_evaluate() {
     ok(&[
         "predict",
         "--model",
-        s(&coman),
+        s(coman),
         "--input",
         s(&human_csv),
         "--robot",
@@ -206,13 +225,16 @@ fn train_transfer_predict_evaluate() {
     for (a, b) in row[1..].iter().zip(&first[1..]) {
         assert!((a - b).abs() < 1e-9, "{a} vs {b}");
     }
+    human_csv
+}
 
+fn predict_streaming(coman: &Path, human_csv: &Path, first: &[f64]) {
     // Streaming on stdin: one flushed output line per input line.
     let mut child = Command::new(env!("CARGO_BIN_EXE_sgplvm"))
         .args([
             "predict",
             "--model",
-            s(&coman),
+            s(coman),
             "--input",
             "-",
             "--robot",
@@ -225,7 +247,7 @@ fn train_transfer_predict_evaluate() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let input = std::fs::read_to_string(&human_csv).unwrap();
+    let input = std::fs::read_to_string(human_csv).unwrap();
     child
         .stdin
         .take()
@@ -252,113 +274,53 @@ fn train_transfer_predict_evaluate() {
     }
 }
 
+/// A command that must fail: its exit code, and what its stderr must say.
+struct Failure<'a> {
+    args: Vec<&'a str>,
+    code: i32,
+    /// Every one of these appears in stderr.
+    says: Vec<&'a str>,
+    /// Stderr is a single line.
+    one_line: bool,
+}
+
+/// A run that must fail with exit code 1 (an error naming `says`).
+fn error<'a>(args: &[&'a str], says: &[&'a str]) -> Failure<'a> {
+    Failure {
+        args: args.to_vec(),
+        code: 1,
+        says: says.to_vec(),
+        one_line: false,
+    }
+}
+
+/// A run that must fail with exit code 2 (bad usage).
+fn usage<'a>(args: &[&'a str]) -> Failure<'a> {
+    Failure {
+        args: args.to_vec(),
+        code: 2,
+        says: Vec::new(),
+        one_line: false,
+    }
+}
+
 #[test]
 fn bad_inputs_fail_cleanly_and_write_nothing() {
     let f = fixture();
     let dir = scratch("bad");
     let out = dir.join("out.sgp");
     let out_s = s(&out);
+    let (data, model) = (s(&f.data), s(&f.model));
+    let p_csv = dir.join("p.csv");
+    let p_csv = s(&p_csv);
 
-    // Missing and corrupt files.
-    let err = fails(
-        &[
-            "train",
-            "--data",
-            "/nonexistent/demo.mcap",
-            "--robot",
-            "walkman",
-            "--out",
-            out_s,
-        ],
-        1,
-    );
-    assert!(err.contains("/nonexistent/demo.mcap"), "{err}");
     let corrupt = dir.join("corrupt.sgp");
     std::fs::write(&corrupt, b"SGPLVM but not really").unwrap();
-    let err = fails(
-        &[
-            "evaluate",
-            "--model",
-            s(&corrupt),
-            "--data",
-            s(&f.data),
-            "--robot",
-            "walkman",
-        ],
-        1,
-    );
-    assert!(
-        err.contains("corrupt.sgp") && err.lines().count() == 1,
-        "{err}"
-    );
     let truncated = dir.join("truncated.mcap");
     let bytes = std::fs::read(&f.data).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
-    let err = fails(
-        &[
-            "train",
-            "--data",
-            s(&truncated),
-            "--robot",
-            "walkman",
-            "--out",
-            out_s,
-        ],
-        1,
-    );
-    assert!(err.contains("truncated.mcap"), "{err}");
-
-    // Unknown robots.
-    let err = fails(
-        &[
-            "train",
-            "--data",
-            s(&f.data),
-            "--robot",
-            "r2d2",
-            "--out",
-            out_s,
-        ],
-        1,
-    );
-    assert!(err.contains("r2d2") && err.contains("walkman"), "{err}");
-    let err = fails(
-        &[
-            "predict",
-            "--model",
-            s(&f.model),
-            "--input",
-            s(&f.data),
-            "--robot",
-            "coman",
-            "--out",
-            s(&dir.join("p.csv")),
-        ],
-        1,
-    );
-    assert!(err.contains("coman"), "{err}");
-
-    // Model and data with different joints.
-    let csv = dir.join("wrong.csv");
-    std::fs::write(&csv, "a,b,c\n1,2,3\n").unwrap();
-    let err = fails(
-        &[
-            "predict",
-            "--model",
-            s(&f.model),
-            "--input",
-            s(&csv),
-            "--robot",
-            "walkman",
-            "--out",
-            s(&dir.join("p.csv")),
-        ],
-        1,
-    );
-    assert!(
-        err.contains("wrong.csv") && err.contains("missing human joint"),
-        "{err}"
-    );
+    let wrong = dir.join("wrong.csv");
+    std::fs::write(&wrong, "a,b,c\n1,2,3\n").unwrap();
     let nan = dir.join("nan.csv");
     let human =
         sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
@@ -367,76 +329,48 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         format!("{}\n{}\n", human.names.join(","), vec!["nan"; 18].join(",")),
     )
     .unwrap();
-    let err = fails(
-        &[
-            "predict",
-            "--model",
-            s(&f.model),
-            "--input",
-            s(&nan),
-            "--robot",
-            "walkman",
-            "--out",
-            s(&dir.join("p.csv")),
-        ],
-        1,
-    );
-    assert!(err.contains("nan.csv") && err.contains("line 2"), "{err}");
 
-    // Bad flag values are usage errors (exit 2).
-    fails(
-        &[
-            "train",
-            "--robot",
-            "walkman",
-            "--latent-dim",
-            "0",
-            "--out",
-            out_s,
-        ],
-        2,
-    );
-    fails(
-        &[
-            "train",
-            "--robot",
-            "walkman",
-            "--back-constraint",
-            "sideways",
-            "--out",
-            out_s,
-        ],
-        2,
-    );
-    fails(
-        &[
-            "train",
-            "--robot",
-            "walkman",
-            "--max-iters",
-            "-3",
-            "--out",
-            out_s,
-        ],
-        2,
-    );
-    fails(&["frobnicate"], 2);
-    // A latent dimension the data cannot support.
-    let err = fails(
-        &[
-            "train",
-            "--data",
-            s(&f.data),
-            "--robot",
-            "walkman",
-            "--latent-dim",
-            "100000",
-            "--out",
-            out_s,
-        ],
-        1,
-    );
-    assert!(err.contains("latent dimension"), "{err}");
+    // One row a failure: the arguments, and what the one-line error must name.
+    #[rustfmt::skip]
+    let cases = [
+        // Missing and corrupt files.
+        error(&["train", "--data", "/nonexistent/demo.mcap", "--robot", "walkman", "--out", out_s],
+              &["/nonexistent/demo.mcap"]),
+        Failure {
+            one_line: true,
+            ..error(&["evaluate", "--model", s(&corrupt), "--data", data, "--robot", "walkman"],
+                    &["corrupt.sgp"])
+        },
+        error(&["train", "--data", s(&truncated), "--robot", "walkman", "--out", out_s],
+              &["truncated.mcap"]),
+        // Unknown robots.
+        error(&["train", "--data", data, "--robot", "r2d2", "--out", out_s],
+              &["r2d2", "walkman"]),
+        error(&["predict", "--model", model, "--input", data, "--robot", "coman", "--out", p_csv],
+              &["coman"]),
+        // Model and data with different joints.
+        error(&["predict", "--model", model, "--input", s(&wrong), "--robot", "walkman", "--out", p_csv],
+              &["wrong.csv", "missing human joint"]),
+        error(&["predict", "--model", model, "--input", s(&nan), "--robot", "walkman", "--out", p_csv],
+              &["nan.csv", "line 2"]),
+        // Bad flag values are usage errors (exit 2).
+        usage(&["train", "--robot", "walkman", "--latent-dim", "0", "--out", out_s]),
+        usage(&["train", "--robot", "walkman", "--back-constraint", "sideways", "--out", out_s]),
+        usage(&["train", "--robot", "walkman", "--max-iters", "-3", "--out", out_s]),
+        usage(&["frobnicate"]),
+        // A latent dimension the data cannot support.
+        error(&["train", "--data", data, "--robot", "walkman", "--latent-dim", "100000", "--out", out_s],
+              &["latent dimension"]),
+    ];
+    for case in &cases {
+        let err = fails(&case.args, case.code);
+        for says in &case.says {
+            assert!(err.contains(says), "sgplvm {:?}: {err}", case.args);
+        }
+        if case.one_line {
+            assert!(err.lines().count() == 1, "sgplvm {:?}: {err}", case.args);
+        }
+    }
 
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
