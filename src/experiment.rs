@@ -2,6 +2,9 @@
 //! transfer from a model trained on another robot, and the multi-robot model, each without and
 //! with back constraints on the input (Figs. 4 and 5), and fully trained models with no, input
 //! and output back constraints (Fig. 6). Test error is recorded at every optimisation iteration.
+//!
+//! This module holds the protocol ([`run`]), the records ([`Results`]) and the report judging the
+//! paper's claims ([`report`]); the figures are drawn by [`crate::figures`].
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
