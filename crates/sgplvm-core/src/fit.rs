@@ -58,6 +58,7 @@ impl SharedGplvm {
         self.x_rows = row_major(self.x.as_ref());
     }
 
+    /// True when human → latent goes through the input map (no input back constraint).
     pub(crate) fn needs_map(&self) -> bool {
         self.config.back_constraint != BackConstraint::Input
     }
@@ -69,7 +70,7 @@ impl SharedGplvm {
         options: &TrainOptions,
         mut callback: Option<Callback<'_>>,
     ) -> Result<()> {
-        let (outcome, jitter) = {
+        let (outcome, mut applied) = {
             let obj = ModelObjective::new(self, mode.clone())?;
             let theta0 = obj.theta0();
             let d_total: usize = obj
@@ -102,16 +103,13 @@ impl SharedGplvm {
             obj.apply(&outcome.theta, &mut applied);
             (outcome, applied)
         };
-        let mut applied = jitter;
         applied.update_latent_points();
         if matches!(mode, Mode::Full) && applied.needs_map() {
-            let warm = None;
-            applied.fit_map(options, warm)?;
+            applied.fit_map(options, None)?;
         }
         applied.rebuild()?;
         applied.history = outcome.history;
         applied.stop_reason = Some(outcome.reason);
-        applied.training_jitter = applied.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
         *self = applied;
         Ok(())
     }

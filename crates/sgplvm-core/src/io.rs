@@ -109,6 +109,98 @@ struct MapFile {
     x_mean: Vec<f64>,
 }
 
+/// A file's inconsistency as an error.
+fn corrupt(reason: String) -> Error {
+    Error::Corrupt { reason }
+}
+
+impl SpaceFile {
+    /// The space, after checking its shapes against `q` latent dimensions and its values.
+    fn into_space(self, q: usize) -> Result<Space> {
+        let s = self;
+        let data = s.data.to_mat(&format!("space '{}' data", s.name))?;
+        let d = data.ncols();
+        if s.offset.len() != d || s.scale.len() != d {
+            return Err(corrupt(format!(
+                "space '{}': offset/scale length differs from {d} columns",
+                s.name
+            )));
+        }
+        if s.kernel.lengthscale.len() != q || !s.kernel.is_valid() {
+            return Err(corrupt(format!("space '{}': invalid kernel", s.name)));
+        }
+        if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
+            || s.offset.iter().any(|v| !v.is_finite())
+        {
+            return Err(corrupt(format!("space '{}': invalid offset/scale", s.name)));
+        }
+        if let Some(c) = &s.columns {
+            if c.len() != d {
+                return Err(corrupt(format!(
+                    "space '{}': {} column names for {d} columns",
+                    s.name,
+                    c.len()
+                )));
+            }
+        }
+        Ok(Space {
+            name: s.name,
+            data,
+            offset: s.offset,
+            scale: s.scale,
+            kernel: s.kernel,
+            columns: s.columns,
+        })
+    }
+}
+
+impl LatentFile {
+    /// The latent representation, after checking that it is N×Q (and its data N rows).
+    fn into_latent(self, n: usize, q: usize) -> Result<Latent> {
+        let latent = match self {
+            LatentFile::Free { x } => Latent::Free {
+                x: x.to_mat("latent x")?,
+            },
+            LatentFile::Back {
+                weights,
+                bandwidth,
+                data,
+            } => {
+                if !(bandwidth.is_finite() && bandwidth > 0.0) {
+                    return Err(corrupt(format!("bandwidth {bandwidth}")));
+                }
+                Latent::Back {
+                    weights: weights.to_mat("weights")?,
+                    bandwidth,
+                    data: data.to_mat("back-constraint data")?,
+                }
+            }
+        };
+        let shape = match &latent {
+            Latent::Free { x } => (x.nrows(), x.ncols(), n),
+            Latent::Back { weights, data, .. } => (weights.nrows(), weights.ncols(), data.nrows()),
+        };
+        if shape != (n, q, n) {
+            return Err(corrupt("latent parameters have the wrong shape".into()));
+        }
+        Ok(latent)
+    }
+}
+
+impl MapFile {
+    /// The input map, after checking it against `dh` human columns and `q` latent dimensions.
+    fn into_map(self, dh: usize, q: usize) -> Result<InputMap> {
+        if self.kernel.lengthscale.len() != dh || !self.kernel.is_valid() || self.x_mean.len() != q
+        {
+            return Err(corrupt("input map has the wrong shape".into()));
+        }
+        Ok(InputMap {
+            kernel: self.kernel,
+            x_mean: self.x_mean,
+        })
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 struct ModelFile {
     config: ModelConfig,
@@ -235,8 +327,8 @@ impl SharedGplvm {
         Self::from_file(file)
     }
 
+    /// The model a parsed file describes, every shape checked, caches rebuilt.
     fn from_file(f: ModelFile) -> Result<Self> {
-        let corrupt = |reason: String| Error::Corrupt { reason };
         f.config.check()?;
         let q = f.config.latent_dim;
         if f.spaces.len() < 2 {
@@ -245,42 +337,11 @@ impl SharedGplvm {
                 f.spaces.len()
             )));
         }
-        let mut spaces = Vec::new();
-        for s in f.spaces {
-            let data = s.data.to_mat(&format!("space '{}' data", s.name))?;
-            let d = data.ncols();
-            if s.offset.len() != d || s.scale.len() != d {
-                return Err(corrupt(format!(
-                    "space '{}': offset/scale length differs from {d} columns",
-                    s.name
-                )));
-            }
-            if s.kernel.lengthscale.len() != q || !s.kernel.is_valid() {
-                return Err(corrupt(format!("space '{}': invalid kernel", s.name)));
-            }
-            if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
-                || s.offset.iter().any(|v| !v.is_finite())
-            {
-                return Err(corrupt(format!("space '{}': invalid offset/scale", s.name)));
-            }
-            if let Some(c) = &s.columns {
-                if c.len() != d {
-                    return Err(corrupt(format!(
-                        "space '{}': {} column names for {d} columns",
-                        s.name,
-                        c.len()
-                    )));
-                }
-            }
-            spaces.push(Space {
-                name: s.name,
-                data,
-                offset: s.offset,
-                scale: s.scale,
-                kernel: s.kernel,
-                columns: s.columns,
-            });
-        }
+        let spaces = f
+            .spaces
+            .into_iter()
+            .map(|s| s.into_space(q))
+            .collect::<Result<Vec<_>>>()?;
         let n = spaces[0].data.nrows();
         if q == 0
             || q >= n
@@ -290,63 +351,16 @@ impl SharedGplvm {
         {
             return Err(corrupt("space shapes are inconsistent".into()));
         }
-        let latent = match f.latent {
-            LatentFile::Free { x } => Latent::Free {
-                x: x.to_mat("latent x")?,
-            },
-            LatentFile::Back {
-                weights,
-                bandwidth,
-                data,
-            } => {
-                if !(bandwidth.is_finite() && bandwidth > 0.0) {
-                    return Err(corrupt(format!("bandwidth {bandwidth}")));
-                }
-                Latent::Back {
-                    weights: weights.to_mat("weights")?,
-                    bandwidth,
-                    data: data.to_mat("back-constraint data")?,
-                }
-            }
-        };
-        let lat_shape = match &latent {
-            Latent::Free { x } => (x.nrows(), x.ncols(), n),
-            Latent::Back { weights, data, .. } => (weights.nrows(), weights.ncols(), data.nrows()),
-        };
-        if lat_shape != (n, q, n) {
-            return Err(corrupt("latent parameters have the wrong shape".into()));
-        }
-        let map = match f.map {
-            Some(m) => {
-                if m.kernel.lengthscale.len() != spaces[0].data.ncols()
-                    || !m.kernel.is_valid()
-                    || m.x_mean.len() != q
-                {
-                    return Err(corrupt("input map has the wrong shape".into()));
-                }
-                Some(InputMap {
-                    kernel: m.kernel,
-                    x_mean: m.x_mean,
-                })
-            }
-            None => None,
-        };
-        let mut model = SharedGplvm {
-            config: f.config,
-            spaces,
-            latent,
-            map,
-            history: f.history,
-            stop_reason: f.stop_reason,
-            training_jitter: 0.0,
-            x: Mat::zeros(0, 0),
-            x_rows: Vec::new(),
-            caches: Vec::new(),
-            latent_cache: None,
-            workspace: Default::default(),
-        };
+        let latent = f.latent.into_latent(n, q)?;
+        let map = f
+            .map
+            .map(|m| m.into_map(spaces[0].data.ncols(), q))
+            .transpose()?;
+        let mut model = SharedGplvm::new(f.config, spaces, latent);
+        model.map = map;
+        model.history = f.history;
+        model.stop_reason = f.stop_reason;
         model.rebuild()?;
-        model.training_jitter = model.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
         Ok(model)
     }
 

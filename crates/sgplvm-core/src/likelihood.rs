@@ -151,7 +151,7 @@ pub(crate) fn eval_space(
     kern: &KernelParams,
     work: &mut SpaceWork,
     grad: bool,
-    mut dx: Option<&mut [f64]>,
+    dx: Option<&mut [f64]>,
 ) -> Result<SpaceEval, NotPd> {
     let n = y.nrows();
     let d = y.ncols();
@@ -181,8 +181,25 @@ pub(crate) fn eval_space(
     if !grad {
         return Ok(out);
     }
-    // g (lower) = K⁻¹ − (1/D) A Aᵀ, so that G = D/2 · g.
-    llt::inverse::inverse(work.g.as_mut(), l, par, MemStack::new(&mut work.mem));
+    out.d_noise = weigh_by_kernel(work, d, par);
+    let (sum_m, d_lengthscale) = pair_sums(&work.g, xr, q, kern, dx, par);
+    out.d_lengthscale = d_lengthscale;
+    out.d_variance = sum_m / kern.variance;
+    Ok(out)
+}
+
+/// Turns `work.g` into M = ∂L/∂K ∘ K_f (lower triangle) and returns tr ∂L/∂K = ∂L/∂σ².
+///
+/// First g = K⁻¹ − (1/D) A Aᵀ, so that ∂L/∂K = D/2 · g; then M = D/2 · g ∘ K_f in place:
+/// every kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…).
+fn weigh_by_kernel(work: &mut SpaceWork, d: usize, par: Par) -> f64 {
+    let n = work.kf.nrows();
+    llt::inverse::inverse(
+        work.g.as_mut(),
+        work.l.as_ref(),
+        par,
+        MemStack::new(&mut work.mem),
+    );
     if d > 0 {
         faer::linalg::matmul::triangular::matmul(
             work.g.as_mut(),
@@ -196,8 +213,6 @@ pub(crate) fn eval_space(
             par,
         );
     }
-    // M = ∂L/∂K ∘ K_f = D/2 · g ∘ K_f (lower triangle, in place in g): every
-    // kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…).
     let half_d = 0.5 * d as f64;
     let trace_g: f64 = (0..n).map(|j| half_d * work.g[(j, j)]).sum();
     let (g, kf) = (&mut work.g, &work.kf);
@@ -212,9 +227,24 @@ pub(crate) fn eval_space(
             }
         },
     );
-    // With the latent points centred (the kernel is translation invariant) and a column of
-    // ones, one product gives P = M X and the row sums r = M 1. Then
-    // Σ_j M_ij (x_i − x_j) = r_i x_i − P_i and Σ_{i<j} M_ij (x_i − x_j)² = Σ_i x_i (r_i x_i − P_i).
+    trace_g
+}
+
+/// From M (lower triangle of `m`): Σ_ij M_ij (for ∂L/∂α²), ∂L/∂ℓ_t for every lengthscale, and
+/// ∂L/∂X added to `dx` (row-major N×Q) when given.
+///
+/// With the latent points centred (the kernel is translation invariant) and a column of ones,
+/// one product gives P = M X and the row sums r = M 1. Then Σ_j M_ij (x_i − x_j) = r_i x_i − P_i
+/// and Σ_{i<j} M_ij (x_i − x_j)² = Σ_i x_i (r_i x_i − P_i).
+fn pair_sums(
+    m: &Mat<f64>,
+    xr: &[f64],
+    q: usize,
+    kern: &KernelParams,
+    mut dx: Option<&mut [f64]>,
+    par: Par,
+) -> (f64, Vec<f64>) {
+    let n = m.nrows();
     let mut xc = Mat::from_fn(n, q + 1, |i, t| if t < q { xr[i * q + t] } else { 1.0 });
     for t in 0..q {
         let mean = xc.col_as_slice(t).iter().sum::<f64>() / n as f64;
@@ -222,7 +252,7 @@ pub(crate) fn eval_space(
     }
     // M is symmetric and only its lower triangle is stored: P = tril(M) X + stril(M)ᵀ X.
     let mut p = Mat::zeros(n, q + 1);
-    let g = work.g.as_ref();
+    let g = m.as_ref();
     for (lhs, structure, accum) in [
         (g, BlockStructure::TriangularLower, Accum::Replace),
         (
@@ -246,6 +276,7 @@ pub(crate) fn eval_space(
     clear_upper_simd_state();
     let r = p.col_as_slice(q);
     let sum_m: f64 = r.iter().sum();
+    let mut d_lengthscale = vec![0.0; q];
     for (t, &lt) in kern.lengthscale.iter().enumerate().take(q) {
         let (x, pt) = (xc.col_as_slice(t), p.col_as_slice(t));
         let c = -2.0 / (lt * lt);
@@ -257,11 +288,9 @@ pub(crate) fn eval_space(
                 dx[i * q + t] += c * acc;
             }
         }
-        out.d_lengthscale[t] = 2.0 * dl / (lt * lt * lt);
+        d_lengthscale[t] = 2.0 * dl / (lt * lt * lt);
     }
-    out.d_noise = trace_g;
-    out.d_variance = sum_m / kern.variance;
-    Ok(out)
+    (sum_m, d_lengthscale)
 }
 
 #[cfg(test)]

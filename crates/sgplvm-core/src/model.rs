@@ -75,8 +75,9 @@ pub struct SharedGplvm {
     pub(crate) map: Option<InputMap>,
     pub(crate) history: Vec<IterationRecord>,
     pub(crate) stop_reason: Option<StopReason>,
-    pub(crate) training_jitter: f64,
     // ----- derived, recomputed by `rebuild` -----
+    /// Largest jitter the prediction caches' factorisations needed.
+    pub(crate) training_jitter: f64,
     pub(crate) x: Mat<f64>,
     pub(crate) x_rows: Vec<f64>,
     pub(crate) caches: Vec<SpaceCache>,

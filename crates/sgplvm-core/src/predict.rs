@@ -90,6 +90,7 @@ impl SharedGplvm {
             .map(|s| SpaceCache::new(s, &self.x_rows, self.q()))
             .collect::<Result<_>>()?;
         self.latent_cache = Some(self.new_latent_cache()?);
+        self.training_jitter = self.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
         Ok(())
     }
 

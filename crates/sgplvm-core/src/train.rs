@@ -219,7 +219,6 @@ pub(crate) fn minimise<O: Objective>(
 ) -> Result<Outcome> {
     options.check()?;
     let start = Instant::now();
-    let mut paused = 0.0f64;
     // Initial point must be evaluable: its error is the user's error.
     let mut g0 = vec![0.0; theta0.len()];
     let f0 = obj.eval(&theta0, &mut g0)?;
@@ -227,35 +226,21 @@ pub(crate) fn minimise<O: Objective>(
         (f0.is_finite() && g0.iter().all(|g| g.is_finite()))
             .then(|| (theta0.clone(), Some((f0, g0.clone())))),
     );
-    let mut history = vec![IterationRecord {
-        iteration: 0,
-        objective: f0,
-        seconds: start.elapsed().as_secs_f64(),
-        gradient_norm: max_abs(&g0),
-    }];
-    if theta0.is_empty() {
-        return Ok(Outcome {
-            theta: theta0,
-            history,
-            reason: StopReason::NothingToTrain,
-        });
+    let mut run = Run {
+        start,
+        paused: 0.0,
+        history: vec![IterationRecord {
+            iteration: 0,
+            objective: f0,
+            seconds: start.elapsed().as_secs_f64(),
+            gradient_norm: max_abs(&g0),
+        }],
+        best: theta0,
+        best_f: f0,
+    };
+    if let Some(reason) = stop_before_start(&run.best, &g0, options) {
+        return Ok(run.finish(reason));
     }
-    if max_abs(&g0) < options.grad_tol {
-        return Ok(Outcome {
-            theta: theta0,
-            history,
-            reason: StopReason::GradientTolerance,
-        });
-    }
-    if options.max_iters == 0 {
-        return Ok(Outcome {
-            theta: theta0,
-            history,
-            reason: StopReason::MaxIterations,
-        });
-    }
-    type Lbfgs = LBFGS<MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>, Vec<f64>, Vec<f64>, f64>;
-    type St = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
     // A fresh problem and L-BFGS (empty memory) started at `theta`. The problem is recreated
     // too: argmin 0.11's L-BFGS does not hand the problem back after a failed line search.
     let fresh = |theta: Vec<f64>| -> Result<(Problem<Op<'_, O>>, Lbfgs, St)> {
@@ -273,89 +258,148 @@ pub(crate) fn minimise<O: Objective>(
             })?;
         Ok((problem, solver, state))
     };
-    let (mut problem, mut solver, mut state) = fresh(theta0.clone())?;
-    let mut best = theta0;
-    let mut best_f = f0;
-    let reason;
-    let mut iteration = 0;
+    let (mut problem, mut solver, mut state) = fresh(run.best.clone())?;
     // After a failed line search the solver is restarted once from the best point with an
     // empty memory (steepest descent step); a second failure in a row ends training.
     let mut restarted = false;
     loop {
-        if iteration >= options.max_iters {
-            reason = StopReason::MaxIterations;
-            break;
+        if run.history.len() > options.max_iters {
+            return Ok(run.finish(StopReason::MaxIterations));
         }
-        let failure: Option<String>;
-        let mut accepted: Option<(Vec<f64>, f64, Vec<f64>)> = None;
-        match solver.next_iter(&mut problem, state.clone()) {
-            Err(e) => failure = Some(e.to_string()),
-            Ok((mut new_state, _)) => {
-                new_state.increment_iter();
-                let terminated = new_state.terminated();
-                match new_state.get_param().cloned() {
-                    None => failure = Some(format!("{:?}", new_state.get_termination_reason())),
-                    Some(param) => {
-                        let (f, g) =
-                            eval_cached(obj, &cache, &param).unwrap_or((f64::INFINITY, Vec::new()));
-                        if !f.is_finite() || f > best_f {
-                            failure = Some("line search returned a worse point".into());
-                        } else {
-                            failure = if terminated {
-                                Some(format!("{:?}", new_state.get_termination_reason()))
-                            } else {
-                                None
-                            };
-                            accepted = Some((param, f, g));
-                        }
-                    }
-                }
-                state = new_state;
-            }
-        }
+        let (accepted, failure) = step(
+            &mut solver,
+            &mut problem,
+            &mut state,
+            obj,
+            &cache,
+            run.best_f,
+        );
         if let Some((param, f, g)) = accepted {
             restarted = false;
-            iteration += 1;
-            let rel = (best_f - f) / best_f.abs().max(f.abs()).max(1.0);
-            best = param;
-            best_f = f;
-            let record = IterationRecord {
-                iteration,
-                objective: f,
-                seconds: start.elapsed().as_secs_f64() - paused,
-                gradient_norm: max_abs(&g),
-            };
-            history.push(record.clone());
-            let t = Instant::now();
-            let control = on_iter(&record, &best);
-            paused += t.elapsed().as_secs_f64();
-            if control == Control::Stop {
-                reason = StopReason::Callback;
-                break;
-            }
-            if record.gradient_norm < options.grad_tol {
-                reason = StopReason::GradientTolerance;
-                break;
-            }
-            if rel < options.rel_tol {
-                reason = StopReason::RelativeTolerance;
-                break;
+            if let Some(reason) = run.accept(param, f, &g, options, &mut on_iter) {
+                return Ok(run.finish(reason));
             }
         }
         if let Some(msg) = failure {
             if restarted {
-                reason = StopReason::LineSearch(msg);
-                break;
+                return Ok(run.finish(StopReason::LineSearch(msg)));
             }
             restarted = true;
-            (problem, solver, state) = fresh(best.clone())?;
+            (problem, solver, state) = fresh(run.best.clone())?;
         }
     }
-    Ok(Outcome {
-        theta: best,
-        history,
-        reason,
-    })
+}
+
+type Lbfgs = LBFGS<MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>, Vec<f64>, Vec<f64>, f64>;
+type St = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
+
+/// Why training ends before its first iteration, if it does: nothing to train, a start that
+/// already meets the gradient tolerance, or no iteration budget.
+fn stop_before_start(theta0: &[f64], g0: &[f64], options: &TrainOptions) -> Option<StopReason> {
+    if theta0.is_empty() {
+        Some(StopReason::NothingToTrain)
+    } else if max_abs(g0) < options.grad_tol {
+        Some(StopReason::GradientTolerance)
+    } else if options.max_iters == 0 {
+        Some(StopReason::MaxIterations)
+    } else {
+        None
+    }
+}
+
+/// A point the solver moved to: parameters, objective, gradient.
+type Point = (Vec<f64>, f64, Vec<f64>);
+
+/// One L-BFGS iteration from `state`. Returns the point to accept, if the solver reached one no
+/// worse than `best_f`, and the reason the solver must be restarted, if it must (a failed or
+/// terminated line search, or a worse point).
+fn step<O: Objective>(
+    solver: &mut Lbfgs,
+    problem: &mut Problem<Op<'_, O>>,
+    state: &mut St,
+    obj: &O,
+    cache: &Mutex<Option<Evaluated>>,
+    best_f: f64,
+) -> (Option<Point>, Option<String>) {
+    let mut new_state = match solver.next_iter(problem, state.clone()) {
+        Err(e) => return (None, Some(e.to_string())),
+        Ok((new_state, _)) => new_state,
+    };
+    new_state.increment_iter();
+    let terminated = new_state.terminated();
+    let outcome = match new_state.get_param().cloned() {
+        None => (
+            None,
+            Some(format!("{:?}", new_state.get_termination_reason())),
+        ),
+        Some(param) => {
+            let (f, g) = eval_cached(obj, cache, &param).unwrap_or((f64::INFINITY, Vec::new()));
+            if !f.is_finite() || f > best_f {
+                (None, Some("line search returned a worse point".into()))
+            } else {
+                let failure =
+                    terminated.then(|| format!("{:?}", new_state.get_termination_reason()));
+                (Some((param, f, g)), failure)
+            }
+        }
+    };
+    *state = new_state;
+    outcome
+}
+
+/// The record of a training run in progress: the history, the best point so far and the time
+/// spent in callbacks (not counted in the records' seconds).
+struct Run {
+    start: Instant,
+    paused: f64,
+    history: Vec<IterationRecord>,
+    best: Vec<f64>,
+    best_f: f64,
+}
+
+impl Run {
+    /// Records an accepted point, shows it to `on_iter` and returns why training stops there,
+    /// if it does (callback, gradient tolerance, relative decrease).
+    fn accept(
+        &mut self,
+        param: Vec<f64>,
+        f: f64,
+        g: &[f64],
+        options: &TrainOptions,
+        on_iter: &mut impl FnMut(&IterationRecord, &[f64]) -> Control,
+    ) -> Option<StopReason> {
+        let rel = (self.best_f - f) / self.best_f.abs().max(f.abs()).max(1.0);
+        self.best = param;
+        self.best_f = f;
+        let record = IterationRecord {
+            iteration: self.history.len(),
+            objective: f,
+            seconds: self.start.elapsed().as_secs_f64() - self.paused,
+            gradient_norm: max_abs(g),
+        };
+        self.history.push(record.clone());
+        let t = Instant::now();
+        let control = on_iter(&record, &self.best);
+        self.paused += t.elapsed().as_secs_f64();
+        if control == Control::Stop {
+            Some(StopReason::Callback)
+        } else if record.gradient_norm < options.grad_tol {
+            Some(StopReason::GradientTolerance)
+        } else if rel < options.rel_tol {
+            Some(StopReason::RelativeTolerance)
+        } else {
+            None
+        }
+    }
+
+    /// The outcome: the best point, the history and why training stopped.
+    fn finish(self, reason: StopReason) -> Outcome {
+        Outcome {
+            theta: self.best,
+            history: self.history,
+            reason,
+        }
+    }
 }
 
 #[cfg(test)]
