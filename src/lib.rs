@@ -9,6 +9,8 @@
 //! the core's matrices, runs the paper's experiments and draws the pictures. The `sgplvm`
 //! command-line program is built on it.
 
+#![deny(clippy::unwrap_used)]
+
 pub use sgplvm_core as core;
 pub use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 pub use sgplvm_robots as robots;

@@ -5,6 +5,8 @@
 //! wrong). Output files are written whole or not at all. Each command lives in its own module
 //! under `cli/`; this file only parses the arguments and prints the error.
 
+#![deny(clippy::unwrap_used)]
+
 mod cli;
 
 use clap::Parser;

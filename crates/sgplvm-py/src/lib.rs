@@ -2,6 +2,8 @@
 //! Python package `sgplvm` (in `python/`) wraps it with argument conversion, pickling and type
 //! stubs.
 
+#![deny(clippy::unwrap_used)]
+
 use pyo3::prelude::*;
 
 mod demos;
@@ -14,6 +16,7 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<model::NativeModel>()?;
     m.add_class::<robots::PyRobot>()?;
+    m.add_function(wrap_pyfunction!(model::canonical_back_constraint, m)?)?;
     m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;

@@ -1,6 +1,8 @@
 //! The robotic half of sgplvm: URDF bodies, kinematics, MCAP demonstrations and the
 //! demonstration generator. Knows nothing of statistics.
 
+#![deny(clippy::unwrap_used)]
+
 pub mod dataset;
 pub mod joint_state;
 
