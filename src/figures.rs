@@ -11,6 +11,7 @@ use sgplvm_core::{BackConstraint, SharedGplvm};
 
 use crate::experiment::{ModelKind, Results, RunRecord};
 use sgplvm_robots::dataset::Dataset;
+use sgplvm_robots::series::seconds_from_ns;
 
 use crate::pipeline::{to_mat, Demonstrations, PipelineError};
 use crate::plots::{write_figure, Markers, Panel, PlotError, Series};
@@ -302,7 +303,7 @@ pub fn trajectories(
     let t0 = frames.first().map(|&f| ds.times_ns[f]).unwrap_or(0);
     let time: Vec<f64> = frames
         .iter()
-        .map(|&f| (ds.times_ns[f] - t0) as f64 * 1e-9)
+        .map(|&f| seconds_from_ns(ds.times_ns[f] - t0))
         .collect();
     // Plot against frame index within the selection: segments are not contiguous in time.
     let step = time.get(1).map_or(0.025, |t| t - time[0]).max(1e-6);

@@ -19,7 +19,7 @@ pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
 pub enum PipelineError {
     /// A demonstration file could not be read or generated.
     #[error(transparent)]
-    Data(#[from] sgplvm_robots::joint_state::DemoError),
+    Data(#[from] sgplvm_robots::joint_state::JointStateError),
     /// The demonstrations could not be generated.
     #[error(transparent)]
     Generate(#[from] sgplvm_robots::generator::GenerateError),

@@ -125,12 +125,7 @@ pub fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<T
     if path.ends_with(".mcap") {
         let topic = pick_topic(path, topic, "trajectory", robot, true)?;
         let states = &read_topics(path, &[TopicRequest::all(topic)])?.states[0];
-        let times = states.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
-        return Ok(Trajectory::new(
-            states.names.clone(),
-            times,
-            states.positions.clone(),
-        )?);
+        return Ok(Trajectory::try_from(states)?);
     }
     let table = read_csv(path)?;
     let times = table.times_seconds();

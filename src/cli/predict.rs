@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use sgplvm::csv::{format_line, read_header};
+use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::files::atomic_write_with;
 use sgplvm::robots::joint_state::{
     write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
@@ -134,7 +135,7 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
             writeln!(
                 w,
                 "{}",
-                format_line(Some(p.times_ns[i] as f64 * 1e-9), &values)
+                format_line(Some(seconds_from_ns(p.times_ns[i])), &values)
             )?;
         }
         w.flush()

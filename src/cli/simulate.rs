@@ -81,10 +81,9 @@ fn predicted_trajectory(
         .flat_map(|i| (0..d).map(move |j| (i, j)))
         .map(|(i, j)| mean[(i, j)])
         .collect();
-    let times = human.times_ns.iter().map(|&t| t as f64 * 1e-9).collect();
-    Ok(Trajectory::new(
+    Ok(Trajectory::from_ns(
         model_joint_names(&model, robot),
-        times,
+        &human.times_ns,
         positions,
     )?)
 }
