@@ -7,11 +7,11 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use sgplvm::csv::{format_line, read_header};
-use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::files::atomic_write_with;
 use sgplvm::robots::joint_state::{
     write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
 };
+use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::{Mat, SharedGplvm};
 
 use super::args::ModelFileArg;

@@ -74,7 +74,6 @@
 //! - **Files**: see [`MAGIC`] / [`FORMAT_VERSION`] and [`SharedGplvm::to_bytes`].
 
 #![deny(clippy::unwrap_used)]
-
 // Index loops over several arrays at once are the clearest form of the numeric kernels here.
 #![allow(clippy::needless_range_loop)]
 
