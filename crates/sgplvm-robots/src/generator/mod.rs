@@ -1,0 +1,198 @@
+//! The demonstration generator, after Section IV-A of the paper.
+//!
+//! 1. Sixteen key bimanual poses ([`KEY_POSES`], pose 0 the neutral one) are defined once as
+//!    hand targets relative to each shoulder, in units of the body's arm length, and solved by
+//!    inverse kinematics within joint limits for every robot and for the human
+//!    ([`solve_key_poses`]). Each pose is solved from a posture seed (the body's neutral
+//!    solution, then its zero configuration); a pose that no seed reaches takes the closest
+//!    configuration found and is reported ([`PoseReport`]).
+//! 2. The robots move between key poses with quintic Hermite interpolation (zero velocity and
+//!    acceleration at both ends, [`quintic`]), all robots together, sampled at 40 Hz, then hold
+//!    the pose briefly.
+//! 3. A simulated human mimics each motion ([`HumanMimic`]): with a reaction delay, their own
+//!    speed, a different posture at each repetition, a curved rather than straight joint path,
+//!    and sensor noise. Every pose pair is recorded going back and forth three times.
+//! 4. Training set: the trajectories that start from the neutral pose, subsampled; test set: the
+//!    trajectories between two non-neutral poses ([`GeneratorConfig::test_pairs`]).
+//!
+//! Everything is seeded: the same configuration gives the same dataset, bit for bit.
+
+//!
+//! The module is laid out along these steps: `poses.rs` holds the key poses and their IK
+//! solutions, `synthesize.rs` the recording plan, the configuration check, the
+//! synthesis of the motions and the train/test split; this file the configuration, the error
+//! and the entry points.
+
+use std::path::{Path, PathBuf};
+
+use crate::dataset::{write_demonstrations, Dataset};
+use crate::joint_state::JointStateError;
+use crate::RobotError;
+
+mod poses;
+mod synthesize;
+
+pub use poses::{
+    solve_key_poses, solve_key_poses_for, BodyPoses, KeyPose, PoseReport, KEY_POSES, NEUTRAL,
+};
+pub use synthesize::{quintic, quintic_derivatives, split, synthesize};
+
+#[cfg(test)]
+use crate::dataset::Segment;
+#[cfg(test)]
+use rand::{Rng, SeedableRng};
+#[cfg(test)]
+use rand_chacha::ChaCha8Rng;
+#[cfg(test)]
+use synthesize::plan;
+
+/// How the simulated human deviates from the robots' motion.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HumanMimic {
+    /// Reaction delay range, seconds (uniform per segment).
+    pub delay_s: (f64, f64),
+    /// Speed factor range relative to the robots (uniform per segment; >1 is faster).
+    pub speed: (f64, f64),
+    /// Standard deviation of the per-repetition posture change at each key pose, radians.
+    pub posture_std: f64,
+    /// Standard deviation of the mid-motion bend away from the straight joint path, radians.
+    pub path_bend_std: f64,
+    /// Standard deviation of the per-frame sensor noise, radians (Xsens-like, ~0.3°).
+    pub noise_std: f64,
+}
+
+impl Default for HumanMimic {
+    fn default() -> Self {
+        Self {
+            delay_s: (0.12, 0.30),
+            speed: (0.85, 1.2),
+            posture_std: 0.04,
+            path_bend_std: 0.05,
+            noise_std: 0.005,
+        }
+    }
+}
+
+/// Everything that shapes a generated dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeneratorConfig {
+    /// Seed of all random draws.
+    pub seed: u64,
+    /// Sampling rate of the recording, Hz.
+    pub rate_hz: f64,
+    /// Built-in robot models to record, in column order of the dataset.
+    pub robots: Vec<String>,
+    /// Built-in model of the demonstrator.
+    pub human: String,
+    /// How many times the human goes back and forth between the two poses of a pair.
+    pub repetitions: usize,
+    /// Keep every `train_subsample`-th frame of the trajectories that start from the neutral pose.
+    pub train_subsample: usize,
+    /// Pose pairs recorded for the test set (both poses non-neutral).
+    pub test_pairs: Vec<(usize, usize)>,
+    /// Keep every `test_subsample`-th frame of the test trajectories (1 keeps all).
+    pub test_subsample: usize,
+    /// Timestamp of the first frame, ns (fixed, so that files are reproducible).
+    pub start_time_ns: i64,
+    /// Seconds the robots hold each key pose after reaching it.
+    pub hold_s: f64,
+    /// Peak joint speed of the fastest-moving joint over all bodies, rad/s; sets durations.
+    pub peak_speed: f64,
+    /// Shortest and longest duration of one pose-to-pose motion, seconds.
+    pub duration_s: (f64, f64),
+    /// The human's deviations.
+    pub mimic: HumanMimic,
+}
+
+impl Default for GeneratorConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            rate_hz: 40.0,
+            robots: vec!["walkman".into(), "coman".into(), "centauro".into()],
+            human: "human".into(),
+            repetitions: 3,
+            train_subsample: 12,
+            test_pairs: vec![(2, 5), (9, 14)],
+            test_subsample: 3,
+            start_time_ns: 1_700_000_000_000_000_000,
+            hold_s: 0.25,
+            peak_speed: 2.0,
+            duration_s: (0.8, 2.0),
+            mimic: HumanMimic::default(),
+        }
+    }
+}
+
+/// Errors of the generator.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum GenerateError {
+    /// A body model could not be loaded or queried.
+    #[error("body `{body}`: {source}")]
+    Robot {
+        /// Body name.
+        body: String,
+        /// The robot error.
+        source: RobotError,
+    },
+    /// A body model lacks the shoulder/hand links of the arm convention.
+    #[error("body `{body}` has no left/right arm (links left_shoulder, left_hand, right_shoulder, right_hand expected)")]
+    NoArms {
+        /// Body name.
+        body: String,
+    },
+    /// The configuration is unusable.
+    #[error("invalid generator configuration: {0}")]
+    Config(String),
+    /// Writing the dataset failed.
+    #[error(transparent)]
+    Demo(#[from] JointStateError),
+}
+
+/// A generated dataset and how its key poses were solved.
+#[derive(Debug, Clone)]
+pub struct Generated {
+    /// The demonstrations.
+    pub dataset: Dataset,
+    /// Key postures of the human followed by each robot.
+    pub bodies: Vec<BodyPoses>,
+}
+
+/// Solves the key poses of every body and synthesizes the demonstrations.
+pub fn generate(config: &GeneratorConfig) -> Result<Generated, GenerateError> {
+    let human = solve_key_poses(&config.human)?;
+    let robots = config
+        .robots
+        .iter()
+        .map(|r| solve_key_poses(r))
+        .collect::<Result<Vec<_>, _>>()?;
+    let dataset = synthesize(config, &human, &robots)?;
+    let mut bodies = vec![human];
+    bodies.extend(robots);
+    Ok(Generated { dataset, bodies })
+}
+
+/// Name of the file [`generate_to_dir`] writes.
+pub const DEMO_FILE_NAME: &str = "bimanual.mcap";
+
+/// Generates with `config` and writes `dir/bimanual.mcap` (zstd, ROS 2 JointState topics
+/// `/human/joint_states` and `/<robot>/joint_command`, labels and split as metadata).
+pub fn generate_to_dir(
+    config: &GeneratorConfig,
+    dir: impl AsRef<Path>,
+) -> Result<(PathBuf, Generated), GenerateError> {
+    let dir = dir.as_ref();
+    std::fs::create_dir_all(dir).map_err(|source| JointStateError::Io {
+        path: dir.to_path_buf(),
+        action: "create the directory",
+        source,
+    })?;
+    let generated = generate(config)?;
+    let path = dir.join(DEMO_FILE_NAME);
+    write_demonstrations(&path, &generated.dataset)?;
+    Ok((path, generated))
+}
+
+#[cfg(test)]
+mod tests;
