@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::joint_state::{
     align_onto_clock, read_topics, write_topics, Compression, JointStateError, JointStates,
-    MessageEncoding, Result, TopicData, TopicRequest, WriteSettings, DEFAULT_RATE_HZ,
+    MessageEncoding, Result, TopicData, TopicRequest, TopicsRead, WriteSettings, DEFAULT_RATE_HZ,
     JOINT_STATE_SCHEMA,
 };
 
@@ -328,65 +328,75 @@ pub fn load_demonstrations(path: impl AsRef<Path>) -> Result<Dataset> {
 pub fn load_demonstrations_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Dataset> {
     let path = path.as_ref();
     let probe = read_topics(path, &[])?;
+    match probe.metadata.get(DATASET_METADATA) {
+        Some(map) => load_own(path, map),
+        None => load_foreign(path, &probe, options),
+    }
+}
+
+/// Loads a file written by [`write_demonstrations`]: bodies, labels and split as its
+/// [`DATASET_METADATA`] metadata record `map` declares them.
+fn load_own(path: &Path, map: &BTreeMap<String, String>) -> Result<Dataset> {
     let bad_meta = |detail: String| JointStateError::BadDatasetMetadata {
         path: path.to_path_buf(),
         detail,
     };
-    if let Some(map) = probe.metadata.get(DATASET_METADATA) {
-        let json = map
-            .get("json")
-            .ok_or_else(|| bad_meta("no `json` key".into()))?;
-        let meta: DatasetMeta =
-            serde_json::from_str(json).map_err(|e| bad_meta(format!("invalid JSON: {e}")))?;
-        if meta.version != DATASET_FORMAT_VERSION {
-            return Err(bad_meta(format!(
-                "format version {} (this library reads version {DATASET_FORMAT_VERSION})",
-                meta.version
-            )));
-        }
-        let mut requests = vec![TopicRequest::all(meta.human.topic.clone())];
-        requests.extend(
-            meta.robots
-                .iter()
-                .map(|r| TopicRequest::all(r.topic.clone())),
-        );
-        let read = read_topics(path, &requests)?;
-        let human_states = &read.states[0];
-        let times = human_states.times_ns.clone();
-        if times.len() != meta.frames {
-            return Err(bad_meta(format!(
-                "{} frames declared, topic `{}` has {}",
-                meta.frames,
-                meta.human.topic,
-                times.len()
-            )));
-        }
-        let human = BodyData::from_joint_states(&meta.human.name, &meta.human.topic, human_states)?;
-        let mut robots = Vec::with_capacity(meta.robots.len());
-        for (r, s) in meta.robots.iter().zip(&read.states[1..]) {
-            let s = if s.times_ns == times {
-                s.clone()
-            } else {
-                s.resample(&times).map_err(|e| {
-                    bad_meta(format!("topic `{}` does not span the frames: {e}", r.topic))
-                })?
-            };
-            robots.push(BodyData::from_joint_states(&r.name, &r.topic, &s)?);
-        }
-        let ds = Dataset {
-            times_ns: times,
-            human,
-            robots,
-            pose_names: meta.pose_names,
-            segments: meta.segments,
-            train: meta.train,
-            test: meta.test,
-        };
-        ds.validate().map_err(|e| bad_meta(e.to_string()))?;
-        return Ok(ds);
+    let json = map
+        .get("json")
+        .ok_or_else(|| bad_meta("no `json` key".into()))?;
+    let meta: DatasetMeta =
+        serde_json::from_str(json).map_err(|e| bad_meta(format!("invalid JSON: {e}")))?;
+    if meta.version != DATASET_FORMAT_VERSION {
+        return Err(bad_meta(format!(
+            "format version {} (this library reads version {DATASET_FORMAT_VERSION})",
+            meta.version
+        )));
     }
+    let mut requests = vec![TopicRequest::all(meta.human.topic.clone())];
+    requests.extend(
+        meta.robots
+            .iter()
+            .map(|r| TopicRequest::all(r.topic.clone())),
+    );
+    let read = read_topics(path, &requests)?;
+    let human_states = &read.states[0];
+    let times = human_states.times_ns.clone();
+    if times.len() != meta.frames {
+        return Err(bad_meta(format!(
+            "{} frames declared, topic `{}` has {}",
+            meta.frames,
+            meta.human.topic,
+            times.len()
+        )));
+    }
+    let human = BodyData::from_joint_states(&meta.human.name, &meta.human.topic, human_states)?;
+    let mut robots = Vec::with_capacity(meta.robots.len());
+    for (r, s) in meta.robots.iter().zip(&read.states[1..]) {
+        let s = if s.times_ns == times {
+            s.clone()
+        } else {
+            s.resample(&times).map_err(|e| {
+                bad_meta(format!("topic `{}` does not span the frames: {e}", r.topic))
+            })?
+        };
+        robots.push(BodyData::from_joint_states(&r.name, &r.topic, &s)?);
+    }
+    let ds = Dataset {
+        times_ns: times,
+        human,
+        robots,
+        pose_names: meta.pose_names,
+        segments: meta.segments,
+        train: meta.train,
+        test: meta.test,
+    };
+    ds.validate().map_err(|e| bad_meta(e.to_string()))?;
+    Ok(ds)
+}
 
-    // A foreign file.
+/// Loads a foreign file: its JointState topics aligned onto one clock, the human topic chosen
+/// by `options` or by name, one unlabelled segment, every frame for training.
+fn load_foreign(path: &Path, probe: &TopicsRead, options: &LoadOptions) -> Result<Dataset> {
     let mut topics: Vec<String> = Vec::new();
     for c in &probe.channels {
         let is_js = c.schema == JOINT_STATE_SCHEMA || c.schema == "sensor_msgs/JointState";

@@ -5,7 +5,7 @@ use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::Chain;
+use super::{Chain, Frames};
 
 /// What inverse kinematics should reach: a tip position, or a full tip pose (base frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -235,6 +235,68 @@ impl Chain {
         iters
     }
 
+    /// The Jacobian columns of the task at frames `f`: orientation rows weighted by `w` for a
+    /// pose target, zeroed for a position target.
+    fn task_columns(&self, f: &Frames, pose_target: bool, w: f64, cols: &mut [Vector6<f64>]) {
+        for (i, c) in cols.iter_mut().enumerate() {
+            let mut col = self.column(f, i);
+            if pose_target {
+                col[3] *= w;
+                col[4] *= w;
+                col[5] *= w;
+            } else {
+                col[3] = 0.0;
+                col[4] = 0.0;
+                col[5] = 0.0;
+            }
+            *c = col;
+        }
+    }
+
+    /// The damped least-squares step `dq` of [`solve_step`] with an active set: a joint at a
+    /// limit that the step pushes outward is frozen and the step solved again, until no joint
+    /// changes. With `posture = Some((gain, rest))` free joints are also pulled towards `rest`.
+    fn limited_step(
+        &self,
+        step: &StepInput,
+        posture: Option<(f64, &[f64])>,
+        free: &mut [bool],
+        z: &mut [f64],
+        dq: &mut [f64],
+    ) {
+        let n = free.len();
+        let q = step.q;
+        free.iter_mut().for_each(|x| *x = true);
+        for _pass in 0..=n {
+            for i in 0..n {
+                z[i] = match posture {
+                    Some((gain, rest)) if free[i] => gain * (rest[i] - q[i]),
+                    _ => 0.0,
+                };
+            }
+            solve_step(
+                step.cols,
+                free,
+                step.e,
+                z,
+                step.lambda,
+                step.pose_target,
+                dq,
+            );
+            let mut changed = false;
+            for i in 0..n {
+                let (lo, hi) = self.limits[i];
+                if free[i] && ((q[i] <= lo && dq[i] < 0.0) || (q[i] >= hi && dq[i] > 0.0)) {
+                    free[i] = false;
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+    }
+
     fn dls(&self, target: &IkTarget, q0: &[f64], rest: &[f64], opts: &IkOptions) -> IkSolution {
         let n = self.dof();
         let pose_target = matches!(target, IkTarget::Pose(_));
@@ -253,45 +315,19 @@ impl Chain {
         let mut iters = 0;
         while iters < opts.max_iters && err > opts.tolerance {
             iters += 1;
-            for (i, c) in cols.iter_mut().enumerate() {
-                let mut col = self.column(&f, i);
-                if pose_target {
-                    col[3] *= w;
-                    col[4] *= w;
-                    col[5] *= w;
-                } else {
-                    col[3] = 0.0;
-                    col[4] = 0.0;
-                    col[5] = 0.0;
-                }
-                *c = col;
-            }
+            self.task_columns(&f, pose_target, w, &mut cols);
             // First with the posture term, then (if that step is rejected) without it.
             let mut accepted = false;
             for with_posture in [opts.posture_gain > 0.0 && err > 1e-6, false] {
-                free.iter_mut().for_each(|x| *x = true);
-                // Active set: a joint at a limit that the step pushes outward is frozen.
-                for _pass in 0..=n {
-                    for i in 0..n {
-                        z[i] = if with_posture && free[i] {
-                            opts.posture_gain * (rest[i] - q[i])
-                        } else {
-                            0.0
-                        };
-                    }
-                    solve_step(&cols, &free, &e, &z, lambda, pose_target, &mut dq);
-                    let mut changed = false;
-                    for i in 0..n {
-                        let (lo, hi) = self.limits[i];
-                        if free[i] && ((q[i] <= lo && dq[i] < 0.0) || (q[i] >= hi && dq[i] > 0.0)) {
-                            free[i] = false;
-                            changed = true;
-                        }
-                    }
-                    if !changed {
-                        break;
-                    }
-                }
+                let posture = with_posture.then_some((opts.posture_gain, rest));
+                let step = StepInput {
+                    cols: &cols,
+                    e: &e,
+                    q: &q,
+                    lambda,
+                    pose_target,
+                };
+                self.limited_step(&step, posture, &mut free, &mut z, &mut dq);
                 let biggest = dq.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
                 let scale = if biggest > opts.max_step {
                     opts.max_step / biggest
@@ -336,6 +372,20 @@ impl Chain {
             iterations: iters,
         }
     }
+}
+
+/// What one damped least-squares step is taken from.
+struct StepInput<'a> {
+    /// Task Jacobian columns.
+    cols: &'a [Vector6<f64>],
+    /// Task error.
+    e: &'a Vector6<f64>,
+    /// Current configuration.
+    q: &'a [f64],
+    /// Damping.
+    lambda: f64,
+    /// Whether the task has orientation rows.
+    pose_target: bool,
 }
 
 fn clamp(v: f64, (lo, hi): (f64, f64)) -> f64 {

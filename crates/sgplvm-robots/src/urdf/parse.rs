@@ -440,14 +440,42 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         .get_attribute("name", None)
         .unwrap_or_default()
         .to_string();
+    let (links, link_index) = read_links(&ctx, &root)?;
+    let raw = read_joints(&ctx, &root)?;
+    let Tree {
+        joints,
+        parent_joint,
+        movable,
+    } = build_tree(&ctx, &links, &link_index, raw)?;
+    let root_link = find_root(file, &links, &joints, &parent_joint)?;
 
-    // Links.
+    normalise_for_urdf_rs(&mut root);
+    let urdf = urdf_rs::read_from_string(&root.to_string()).map_err(|e| RobotError::UrdfRs {
+        file: file.to_string(),
+        message: e.to_string(),
+    })?;
+
+    Ok(Robot {
+        name: robot_name,
+        source: file.to_string(),
+        links,
+        link_index,
+        joints,
+        parent_joint,
+        root: root_link,
+        movable,
+        urdf,
+    })
+}
+
+/// The link names in document order and their index, each link checked.
+fn read_links(ctx: &Ctx, root: &Element) -> RobotResult<(Vec<String>, HashMap<String, usize>)> {
     let mut links = Vec::new();
     let mut link_index = HashMap::new();
-    for link in children(&root, "link") {
+    for link in children(root, "link") {
         let at = describe(link);
-        let name = req_attr(&ctx, link, &at, "name")?.trim().to_string();
-        check_link(&ctx, link, &at)?;
+        let name = req_attr(ctx, link, &at, "name")?.trim().to_string();
+        check_link(ctx, link, &at)?;
         if link_index.insert(name.clone(), links.len()).is_some() {
             return Err(ctx.invalid(
                 at,
@@ -459,13 +487,16 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
     if links.is_empty() {
         return Err(ctx.invalid("<robot>", "no <link> elements, expected at least one"));
     }
+    Ok((links, link_index))
+}
 
-    // Joints.
+/// The joints in document order, each checked, names unique.
+fn read_joints(ctx: &Ctx, root: &Element) -> RobotResult<Vec<RawJoint>> {
     let mut raw = Vec::new();
     let mut joint_names = HashMap::new();
-    for joint in children(&root, "joint") {
+    for joint in children(root, "joint") {
         let at = describe(joint);
-        let j = check_joint(&ctx, joint, &at)?;
+        let j = check_joint(ctx, joint, &at)?;
         if joint_names.insert(j.name.clone(), raw.len()).is_some() {
             return Err(ctx.invalid(
                 at,
@@ -474,8 +505,26 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         }
         raw.push(j);
     }
+    Ok(raw)
+}
 
-    // Tree.
+/// Joints resolved onto link indices.
+struct Tree {
+    joints: Vec<JointInfo>,
+    /// Per link, the joint whose child it is.
+    parent_joint: Vec<Option<usize>>,
+    /// Indices of the movable joints, in configuration order.
+    movable: Vec<usize>,
+}
+
+/// Resolves each joint's links and checks that no link has two parents or is its own parent.
+fn build_tree(
+    ctx: &Ctx,
+    links: &[String],
+    link_index: &HashMap<String, usize>,
+    raw: Vec<RawJoint>,
+) -> RobotResult<Tree> {
+    let file = ctx.file;
     let mut parent_joint: Vec<Option<usize>> = vec![None; links.len()];
     let mut joints = Vec::with_capacity(raw.len());
     let mut movable = Vec::new();
@@ -529,6 +578,20 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
             q_index,
         });
     }
+    Ok(Tree {
+        joints,
+        parent_joint,
+        movable,
+    })
+}
+
+/// The root link: the only link without a parent joint, with every link reaching it.
+fn find_root(
+    file: &str,
+    links: &[String],
+    joints: &[JointInfo],
+    parent_joint: &[Option<usize>],
+) -> RobotResult<usize> {
     let roots: Vec<usize> = (0..links.len())
         .filter(|&l| parent_joint[l].is_none())
         .collect();
@@ -568,25 +631,8 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         // Unreachable in practice: no root means a cycle, which the loop above reports.
         return Err(RobotError::Cycle {
             file: file.to_string(),
-            links: links.clone(),
+            links: links.to_vec(),
         });
     };
-
-    normalise_for_urdf_rs(&mut root);
-    let urdf = urdf_rs::read_from_string(&root.to_string()).map_err(|e| RobotError::UrdfRs {
-        file: file.to_string(),
-        message: e.to_string(),
-    })?;
-
-    Ok(Robot {
-        name: robot_name,
-        source: file.to_string(),
-        links,
-        link_index,
-        joints,
-        parent_joint,
-        root: root_link,
-        movable,
-        urdf,
-    })
+    Ok(root_link)
 }
