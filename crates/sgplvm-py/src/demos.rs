@@ -6,14 +6,14 @@ use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sgplvm_robots::dataset::{load_demonstrations as load_dataset, BodyData};
-use sgplvm_robots::joint_state::{self, Compression, DemoError, JointStates};
+use sgplvm_robots::joint_state::{self, Compression, JointStateError, JointStates};
 use sgplvm_robots::{ReplayOptions, Robot, Trajectory};
 
 use crate::robots::robot_error;
 
-fn demo_error(e: DemoError) -> PyErr {
+fn joint_state_error(e: JointStateError) -> PyErr {
     match e {
-        DemoError::Io { .. } => PyOSError::new_err(e.to_string()),
+        JointStateError::Io { .. } => PyOSError::new_err(e.to_string()),
         other => PyValueError::new_err(other.to_string()),
     }
 }
@@ -59,7 +59,7 @@ pub fn read_joint_states<'py>(
 ) -> PyResult<JointStatesArrays<'py>> {
     let states = py
         .detach(|| joint_state::read_joint_states(&path, topic))
-        .map_err(demo_error)?;
+        .map_err(joint_state_error)?;
     let positions = matrix(py, states.len(), states.dof(), &states.positions);
     Ok((
         PyArray1::from_vec(py, states.times_ns),
@@ -98,9 +98,9 @@ pub fn write_joint_states(
         )));
     }
     let values: Vec<f64> = view.iter().copied().collect();
-    let states = JointStates::new(times, names, values).map_err(demo_error)?;
+    let states = JointStates::new(times, names, values).map_err(joint_state_error)?;
     py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression))
-        .map_err(demo_error)
+        .map_err(joint_state_error)
 }
 
 fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDict>> {
@@ -126,7 +126,9 @@ pub fn load_demonstrations<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let ds = py.detach(|| load_dataset(&path)).map_err(demo_error)?;
+    let ds = py
+        .detach(|| load_dataset(&path))
+        .map_err(joint_state_error)?;
     let d = PyDict::new(py);
     d.set_item("times_ns", PyArray1::from_slice(py, &ds.times_ns))?;
     d.set_item("human", body_dict(py, &ds.human)?)?;

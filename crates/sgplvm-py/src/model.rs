@@ -32,22 +32,42 @@ pub(crate) fn to_numpy<'py>(py: Python<'py>, m: &Mat<f64>) -> Bound<'py, PyArray
     PyArray2::from_owned_array(py, array)
 }
 
+/// Python's spelling of a back constraint: `None` (or "none") for free latent points, else the
+/// core's names ("input", "output"; see [`BackConstraint`]'s `FromStr`).
 fn parse_back_constraint(value: Option<&str>) -> PyResult<BackConstraint> {
-    match value {
-        None | Some("none") => Ok(BackConstraint::None),
-        Some("input") => Ok(BackConstraint::Input),
-        Some("output") => Ok(BackConstraint::Output),
-        Some(other) => Err(PyValueError::new_err(format!(
-            "back_constraint is {other:?}; expected \"input\", \"output\" or None"
-        ))),
-    }
+    value.map_or(Ok(BackConstraint::None), |name| {
+        name.parse().map_err(|_| {
+            PyValueError::new_err(format!(
+                "back_constraint is {name:?}; expected \"input\", \"output\" or None"
+            ))
+        })
+    })
 }
 
+/// The Python value of a back constraint: `None` for free latent points, else its name.
 fn back_constraint_name(bc: BackConstraint) -> Option<&'static str> {
-    match bc {
-        BackConstraint::None => None,
-        BackConstraint::Input => Some("input"),
-        BackConstraint::Output => Some("output"),
+    (bc != BackConstraint::None).then(|| bc.name())
+}
+
+/// Checks a `back_constraint` argument of any Python type and returns its canonical value
+/// ("input", "output" or None); anything else is a ValueError that names what is accepted.
+#[pyfunction]
+pub(crate) fn canonical_back_constraint(
+    value: &Bound<'_, PyAny>,
+) -> PyResult<Option<&'static str>> {
+    if value.is_none() {
+        return Ok(None);
+    }
+    match value
+        .extract::<String>()
+        .ok()
+        .map(|s| s.parse::<BackConstraint>())
+    {
+        Some(Ok(bc)) => Ok(back_constraint_name(bc)),
+        _ => Err(PyValueError::new_err(format!(
+            "back_constraint is {}; expected 'input', 'output' or None",
+            value.repr()?
+        ))),
     }
 }
 

@@ -10,7 +10,6 @@ import numpy as np
 from . import _sgplvm
 
 ArrayLike = Union[np.ndarray, list, tuple]
-_BACK_CONSTRAINTS = ("input", "output", None)
 
 
 def _as_matrix(value: ArrayLike, what: str) -> np.ndarray:
@@ -56,14 +55,11 @@ class SharedGPLVM:
         seed: int = 0,
         scale: bool = False,
     ) -> None:
-        if back_constraint not in _BACK_CONSTRAINTS and back_constraint != "none":
-            raise ValueError(
-                f"back_constraint is {back_constraint!r}; expected 'input', 'output' or None"
-            )
+        canonical = _sgplvm.canonical_back_constraint(back_constraint)
         if int(latent_dim) < 1:
             raise ValueError(f"latent_dim is {latent_dim}; expected an integer >= 1")
         self.latent_dim = int(latent_dim)
-        self.back_constraint = None if back_constraint == "none" else back_constraint
+        self.back_constraint = canonical
         self.seed = int(seed)
         self.scale = bool(scale)
         self._native: Optional[_sgplvm.NativeModel] = None
@@ -139,6 +135,7 @@ class SharedGPLVM:
             mean = mean[0]
             variance = None if variance is None else variance[0]
         if return_std:
+            assert variance is not None, "the native model returns a variance when asked for one"
             return mean, np.sqrt(variance)
         return mean
 
@@ -232,7 +229,7 @@ class SharedGPLVM:
         }
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(*state["config"])
+        SharedGPLVM.__init__(self, *state["config"])
         if state["model"] is not None:
             self._native = _sgplvm.NativeModel.from_bytes(state["model"], "pickle")
 

@@ -1,17 +1,28 @@
 """Type stubs of the native module (Rust, PyO3). Users import from ``sgplvm`` directly."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "NativeModel",
+    "Robot",
+    "__version__",
+    "canonical_back_constraint",
+    "load_demonstrations",
+    "read_joint_states",
+    "simulate",
+    "write_joint_states",
+]
 __version__: str
 
 _Path = Union[str, PathLike]
 _F64 = npt.NDArray[np.float64]
 _Callback = Callable[[int, float], Optional[bool]]
 
+@final
 class NativeModel:
     """A trained shared GP-LVM (native part; use ``sgplvm.SharedGPLVM``)."""
 
@@ -57,6 +68,7 @@ class NativeModel:
     @staticmethod
     def load(path: _Path) -> "NativeModel": ...
 
+@final
 class Robot:
     """A robot (or human) body from a URDF: joint names, limits and forward kinematics."""
 
@@ -81,6 +93,7 @@ class Robot:
     def forward_kinematics(self, q: Sequence[float], link: Optional[str] = None) -> _F64:
         """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
 
+def canonical_back_constraint(value: object) -> Optional[str]: ...
 def read_joint_states(path: _Path, topic: str) -> Tuple[npt.NDArray[np.int64], List[str], _F64]:
     """Reads a ``sensor_msgs/msg/JointState`` topic: (times_ns, joint names, positions)."""
 
