@@ -609,3 +609,252 @@ fn claim(results: &Results, statement: &str, check: impl Fn(&str) -> (bool, Stri
     };
     format!("{statement}: {verdict}.\n{}\n", lines.join("\n"))
 }
+
+#[cfg(test)]
+mod tests {
+    //! The judge of the paper's claims on synthetic run records whose verdicts are known.
+
+    use super::*;
+
+    fn record(robot: &str, model: ModelKind, bc: &str, seconds: &[f64], mse: &[f64]) -> RunRecord {
+        RunRecord {
+            robot: robot.into(),
+            model,
+            back_constraint: bc.into(),
+            run: 0,
+            source_robot: None,
+            iterations: (0..mse.len()).collect(),
+            seconds: seconds.to_vec(),
+            test_mse: mse.to_vec(),
+        }
+    }
+
+    fn results(robots: &[&str], runs: Vec<RunRecord>) -> Results {
+        Results {
+            robots: robots.iter().map(|r| r.to_string()).collect(),
+            config: ExperimentConfig::quick(),
+            runs,
+        }
+    }
+
+    /// One robot whose records support all three claims; `tweak` edits them before judging.
+    fn supporting(robot: &str) -> Vec<RunRecord> {
+        use ModelKind::*;
+        let t = [0.0, 1.0, 2.0, 3.0];
+        vec![
+            // Claim 1: input (final 0.10) beats none (0.20) and output (0.30).
+            record(robot, Baseline, "none", &t, &[1.0, 0.5, 0.3, 0.2]),
+            record(robot, Baseline, "input", &t, &[1.0, 0.5, 0.2, 0.1]),
+            record(robot, Baseline, "input", &t, &[1.0, 0.4, 0.2, 0.1]),
+            record(robot, Baseline, "output", &t, &[1.0, 0.6, 0.4, 0.3]),
+            // Claim 2: transfer reaches 1.1 × 0.1 = 0.11 after 0.5 s, the baseline after 3 s.
+            record(
+                robot,
+                Transfer,
+                "input",
+                &[0.0, 0.5, 1.0],
+                &[0.5, 0.105, 0.1],
+            ),
+            // Claim 3: multi / baseline = 0.12 / 0.1 = 1.2.
+            record(robot, Multi, "input", &t, &[1.0, 0.5, 0.2, 0.12]),
+        ]
+    }
+
+    /// The verdict line of claim `number` (1-based) in the report.
+    fn verdict(report: &str, number: usize) -> &str {
+        let line = report
+            .lines()
+            .find(|l| l.starts_with(&format!("{number}. ")))
+            .unwrap_or_else(|| panic!("claim {number} missing from\n{report}"));
+        if line.ends_with(": supported.") {
+            "supported"
+        } else if line.ends_with(": **not supported**.") {
+            "not supported"
+        } else {
+            panic!("no verdict in {line:?}")
+        }
+    }
+
+    fn verdicts(r: &Results) -> [&'static str; 3] {
+        let rep = report(r);
+        [1, 2, 3].map(|k| match verdict(&rep, k) {
+            "supported" => "supported",
+            _ => "not supported",
+        })
+    }
+
+    const ALL_SUPPORTED: [&str; 3] = ["supported", "supported", "supported"];
+
+    #[test]
+    fn final_mean_averages_the_last_values_of_the_selected_runs() {
+        let r = results(&["a"], supporting("a"));
+        assert_eq!(r.final_mean("a", ModelKind::Baseline, "input"), 0.1);
+        assert_eq!(r.final_mean("a", ModelKind::Baseline, "none"), 0.2);
+        assert_eq!(r.final_mean("a", ModelKind::Multi, "input"), 0.12);
+        // Two runs: (0.1 + 0.3) / 2, not the last run only or the sum.
+        let mut runs = supporting("a");
+        runs[2].test_mse[3] = 0.3;
+        let r = results(&["a"], runs);
+        assert!((r.final_mean("a", ModelKind::Baseline, "input") - 0.2).abs() < 1e-15);
+        // Missing group or robot: NaN, never 0.
+        assert!(r.final_mean("a", ModelKind::Multi, "none").is_nan());
+        assert!(r.final_mean("b", ModelKind::Baseline, "input").is_nan());
+        // An empty record counts as NaN (not dropped silently).
+        let mut runs = supporting("a");
+        runs[0].test_mse.clear();
+        let r = results(&["a"], runs);
+        assert!(r.final_mean("a", ModelKind::Baseline, "none").is_nan());
+    }
+
+    #[test]
+    fn seconds_to_reach_takes_the_first_time_at_or_below_the_level() {
+        use ModelKind::*;
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let r = results(
+            &["a"],
+            vec![
+                record("a", Baseline, "input", &t, &[1.0, 0.5, 0.2, 0.1]),
+                record("a", Baseline, "input", &t, &[1.0, 0.2, 0.3, 0.1]),
+            ],
+        );
+        let at = |level| r.seconds_to_reach("a", Baseline, "input", level);
+        // A tie counts as reached (≤): the first run at 2 s, the second at 1 s (not its later
+        // rise to 0.3, nor its last time).
+        assert_eq!(at(0.2), Some(1.5));
+        assert_eq!(at(0.1), Some(3.0));
+        assert_eq!(at(1.0), Some(0.0));
+        // Nobody reaches it: None (not the mean total time).
+        assert_eq!(at(0.05), None);
+        // One of the two reaches it: the other counts with its total time.
+        let r = results(
+            &["a"],
+            vec![
+                record("a", Baseline, "input", &t, &[1.0, 0.5, 0.2, 0.1]),
+                record("a", Baseline, "input", &t, &[1.0, 0.5, 0.4, 0.3]),
+            ],
+        );
+        assert_eq!(r.seconds_to_reach("a", Baseline, "input", 0.2), Some(2.5));
+        // No runs at all: None.
+        assert_eq!(r.seconds_to_reach("a", Transfer, "input", 1.0), None);
+    }
+
+    #[test]
+    fn every_claim_is_supported_by_supporting_records() {
+        let mut runs = supporting("a");
+        runs.extend(supporting("b"));
+        let r = results(&["a", "b"], runs);
+        assert_eq!(verdicts(&r), ALL_SUPPORTED);
+        let rep = report(&r);
+        assert!(
+            rep.contains("| a | input | 0.10000 | 0.10000 | 0.12000 |"),
+            "{rep}"
+        );
+        assert!(rep.contains("| a | output | 0.30000 | — | — |"), "{rep}");
+        assert!(rep.contains("baseline 3.000 s, transfer 0.500 s"), "{rep}");
+        assert!(
+            rep.contains("multi-robot / baseline final test MSE = 1.20"),
+            "{rep}"
+        );
+    }
+
+    #[test]
+    fn claim_1_needs_input_to_beat_both_others_on_every_robot() {
+        let judge = |none: f64, output: f64| {
+            let mut runs = supporting("a");
+            runs[0].test_mse[3] = none;
+            runs[3].test_mse[3] = output;
+            verdicts(&results(&["a"], runs))[0]
+        };
+        assert_eq!(judge(0.09, 0.3), "not supported", "none better");
+        assert_eq!(judge(0.2, 0.09), "not supported", "output better");
+        // Ties go to the claim (input ≤ the others).
+        assert_eq!(judge(0.1, 0.1), "supported", "ties");
+        assert_eq!(judge(0.1000001, 0.3), "supported");
+        // A second robot that contradicts it makes it unsupported.
+        let mut runs = supporting("a");
+        let mut b = supporting("b");
+        b[3].test_mse[3] = 0.05;
+        runs.extend(b);
+        assert_eq!(verdicts(&results(&["a", "b"], runs))[0], "not supported");
+        // Missing input runs (NaN) never support it.
+        let runs: Vec<_> = supporting("a")
+            .into_iter()
+            .filter(|r| !(r.model == ModelKind::Baseline && r.back_constraint == "input"))
+            .collect();
+        assert_eq!(verdicts(&results(&["a"], runs))[0], "not supported");
+    }
+
+    #[test]
+    fn claim_2_needs_transfer_strictly_faster_to_the_baselines_level() {
+        let judge = |transfer_seconds: &[f64], transfer_mse: &[f64]| {
+            let mut runs = supporting("a");
+            runs[4].seconds = transfer_seconds.to_vec();
+            runs[4].test_mse = transfer_mse.to_vec();
+            verdicts(&results(&["a"], runs))[1]
+        };
+        // The level is 1.1 × the baseline's final 0.1 = 0.11, reached by the baseline at 3 s.
+        assert_eq!(judge(&[0.0, 2.9], &[0.5, 0.11]), "supported");
+        assert_eq!(judge(&[0.0, 3.1], &[0.5, 0.11]), "not supported", "slower");
+        assert_eq!(judge(&[0.0, 3.0], &[0.5, 0.11]), "not supported", "a tie");
+        // 0.1101 misses 1.1 × 0.1; with the level at 1.0 × or 1.2 × it would flip.
+        assert_eq!(judge(&[0.0, 0.5], &[0.5, 0.1101]), "not supported");
+        assert_eq!(judge(&[0.0, 0.5], &[0.5, 0.1099]), "supported");
+        // A transfer curve that never reaches the level.
+        assert_eq!(judge(&[0.0, 0.5, 1.0], &[0.5, 0.3, 0.2]), "not supported");
+        // No transfer runs at all.
+        let runs: Vec<_> = supporting("a")
+            .into_iter()
+            .filter(|r| r.model != ModelKind::Transfer)
+            .collect();
+        let r = results(&["a"], runs);
+        assert_eq!(verdicts(&r)[1], "not supported");
+        assert!(report(&r).contains("baseline 3.000 s, transfer never"));
+    }
+
+    #[test]
+    fn claim_3_needs_the_ratio_within_a_factor_1_5() {
+        let judge = |multi: f64| {
+            let mut runs = supporting("a");
+            runs[5].test_mse[3] = multi;
+            verdicts(&results(&["a"], runs))[2]
+        };
+        // Baseline final 0.1: the band is [0.1/1.5, 0.15], both ends included.
+        assert_eq!(judge(0.15), "supported");
+        assert_eq!(judge(0.1 / 1.5 + 1e-12), "supported");
+        assert_eq!(judge(0.1), "supported");
+        assert_eq!(judge(0.1501), "not supported", "too large");
+        assert_eq!(
+            judge(0.066),
+            "not supported",
+            "too small (much better is not similar)"
+        );
+        // No multi-robot runs: NaN ratio, not supported.
+        let runs: Vec<_> = supporting("a")
+            .into_iter()
+            .filter(|r| r.model != ModelKind::Multi)
+            .collect();
+        assert_eq!(verdicts(&results(&["a"], runs))[2], "not supported");
+    }
+
+    #[test]
+    fn the_verdict_is_per_robot_and_all_must_hold() {
+        // Robot b has records for claim 1 only: claims 2 and 3 fail for it alone.
+        let mut runs = supporting("a");
+        runs.extend(
+            supporting("b")
+                .into_iter()
+                .filter(|r| r.model == ModelKind::Baseline),
+        );
+        assert_eq!(
+            verdicts(&results(&["a", "b"], runs)),
+            ["supported", "not supported", "not supported"]
+        );
+        // Records of a robot not in `robots` are not judged.
+        let mut runs = supporting("a");
+        let mut c = supporting("c");
+        c[1].test_mse[3] = 9.0;
+        c[2].test_mse[3] = 9.0;
+        runs.extend(c);
+        assert_eq!(verdicts(&results(&["a"], runs)), ALL_SUPPORTED);
+    }
+}
