@@ -417,6 +417,43 @@ mod tests {
     }
 
     #[test]
+    fn the_factor_is_of_k_plus_noise_plus_the_reported_jitter() {
+        // 6 points, each twice, no noise: K is singular.
+        let x = Mat::from_fn(12, 2, |i, t| {
+            ((i / 2) as f64 * (0.7 + 0.4 * t as f64)).sin()
+        });
+        let k = KernelParams {
+            variance: 1.7,
+            lengthscale: vec![0.8, 1.3],
+            noise: 0.0,
+        };
+        let mut kf = Mat::zeros(12, 12);
+        rbf_lower(&row_major(x.as_ref()), 2, &k, &mut kf);
+        let mut l = Mat::zeros(12, 12);
+        let j = cholesky_with_jitter(kf.as_ref(), k.noise, l.as_mut(), Par::Seq).expect("jitter");
+        // On the ladder 1e-10 … 1e-2 × mean diagonal, by factors of 10.
+        let rung = (j / 1.7).log10();
+        assert!(
+            (-10.0..=-2.0).contains(&rung) && (rung - rung.round()).abs() < 1e-9,
+            "jitter {j:e} not on the ladder"
+        );
+        // Measured 1.3e-16 (tolerance 2e-15): the factor is of K + (noise + jitter) I, not of
+        // K + noise I or K + (noise + the next rung) I, which differ by 1e-10 … 9e-10 (relative).
+        let err = crate::test_support::reconstruction_error(kf.as_ref(), l.as_ref(), k.noise + j);
+        assert!(err < 2e-15, "L·Lᵀ off by {err:e}");
+        assert!(
+            crate::test_support::reconstruction_error(kf.as_ref(), l.as_ref(), k.noise + 10.0 * j)
+                > 1e3 * err
+        );
+        // A well-conditioned matrix gets no jitter at all and exactly K + noise I.
+        let k = KernelParams { noise: 0.1, ..k };
+        let j = cholesky_with_jitter(kf.as_ref(), 0.1, l.as_mut(), Par::Seq).expect("pd");
+        assert_eq!(j, 0.0);
+        let err = crate::test_support::reconstruction_error(kf.as_ref(), l.as_ref(), k.noise);
+        assert!(err < 2e-15, "L·Lᵀ off by {err:e}");
+    }
+
+    #[test]
     fn jitter_rescues_singular_matrix() {
         // Duplicate points and zero noise: K is singular, jitter must make it factorisable.
         let x = Mat::from_fn(6, 1, |i, _| (i / 2) as f64);

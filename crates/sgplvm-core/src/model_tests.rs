@@ -181,3 +181,109 @@ fn public_types_are_send_and_sync() {
     check::<Prediction>();
     check::<Error>();
 }
+
+/// Dense K(X, X) of `space` at the model's latent points (lower triangle is what is read).
+fn dense_kernel(m: &SharedGplvm, space: usize) -> Mat<f64> {
+    let k = &m.spaces[space].kernel;
+    let x = m.latent_points();
+    Mat::from_fn(x.nrows(), x.nrows(), |i, j| {
+        let r2: f64 = (0..x.ncols())
+            .map(|t| ((x[(i, t)] - x[(j, t)]) / k.lengthscale[t]).powi(2))
+            .sum();
+        k.variance * (-0.5 * r2).exp()
+    })
+}
+
+#[test]
+fn jitter_is_reported_when_the_factors_needed_it_and_only_then() {
+    // Every frame twice: with input back constraints the latent points come in identical pairs,
+    // so K is singular and a tiny noise cannot make it factorisable.
+    let (h, r1, _, _) = demo(20, 3);
+    let (hd, rd) = (
+        Mat::from_fn(20, 6, |i, j| h[(i / 2 * 2, j)]),
+        Mat::from_fn(20, 4, |i, j| r1[(i / 2 * 2, j)]),
+    );
+    let cfg = ModelConfig::default().with_latent_dim(2);
+    let spaces = [("human", hd.as_ref()), ("walkman", rd.as_ref())];
+    let plain = [("human", h.as_ref()), ("walkman", r1.as_ref())];
+    let m = SharedGplvm::fit(&cfg, &plain, "human", &quick(5), None).expect("fit");
+    assert_eq!(m.jitter(), 0.0, "distinct points need no jitter");
+    let mut m = SharedGplvm::fit(&cfg, &spaces, "human", &quick(5), None).expect("fit");
+    let mut p = m.params();
+    for (_, k) in &mut p.spaces {
+        k.noise = 1e-300;
+    }
+    m.set_params(&p).expect("jitter rescues it");
+    let jitter = m.jitter();
+    assert!(jitter > 0.0, "no jitter reported");
+    // jitter() is the largest jitter of the caches, and each cache's factor is that of
+    // K + (noise + its jitter) I (measured ≤ 2e-16 relative).
+    let used: Vec<f64> = m.caches.iter().map(|c| c.jitter).collect();
+    assert_eq!(jitter, used.iter().copied().fold(0.0, f64::max));
+    for (s, c) in m.caches.iter().enumerate() {
+        // The factorisation the caches are built from (`SpaceCache::new`), redone.
+        let space = &m.spaces[s];
+        let mut work = crate::likelihood::SpaceWork::new(m.n(), space.data.ncols());
+        let e = space.factorise(&m.x_rows, m.q(), &mut work).expect("pd");
+        assert_eq!(e.jitter, c.jitter);
+        let k = dense_kernel(&m, s);
+        let err = reconstruction_error(k.as_ref(), work.factor(), 1e-300 + c.jitter);
+        assert!(err < 2e-15, "space {s}: L·Lᵀ off by {err:e}");
+        let mean_diag = m.spaces[s].kernel.variance;
+        // 0 when rounding left the pivots positive, else on the ladder 1e-10 … 1e-2 × mean K_ii.
+        let rung = (c.jitter / mean_diag).log10();
+        let ok = c.jitter == 0.0
+            || ((-10.0..=-2.0).contains(&rung.round()) && (rung - rung.round()).abs() < 1e-9);
+        assert!(ok, "space {s}: jitter {:e}", c.jitter);
+    }
+    // Loading rebuilds the same factors, hence the same jitter.
+    let loaded = SharedGplvm::from_bytes(&m.to_bytes()).expect("load");
+    assert_eq!(loaded.jitter(), jitter);
+    // A noise of 10% of the variance: no jitter again (not the stale value).
+    for (_, k) in &mut p.spaces {
+        k.noise = 0.1 * k.variance;
+    }
+    m.set_params(&p).expect("set_params");
+    assert_eq!(m.jitter(), 0.0, "stale jitter");
+}
+
+#[test]
+fn a_kernel_that_cannot_be_factorised_is_a_typed_error_from_every_path() {
+    let (h, r1, r2, _) = demo(20, 0);
+    let cfg = ModelConfig::default().with_latent_dim(2);
+    let spaces = [("human", h.as_ref()), ("walkman", r1.as_ref())];
+    let m = SharedGplvm::fit(&cfg, &spaces, "human", &quick(3), None).expect("fit");
+    let not_pd = |r: Result<SharedGplvm, Error>, space: &str| match r {
+        Err(Error::NotPositiveDefinite { space: s, .. }) => assert_eq!(s, space),
+        other => panic!("expected NotPositiveDefinite in '{space}', got {other:?}"),
+    };
+    // A finite, valid variance whose K cannot be factorised (the diagonal's sum overflows).
+    let mut p = m.params();
+    p.spaces[1].1.variance = 1e308;
+    let mut broken = m.clone();
+    not_pd(broken.set_params(&p).map(|()| m.clone()), "walkman");
+    assert!(
+        broken.to_bytes() == m.to_bytes(),
+        "a failed set_params changed the model"
+    );
+    // The same parameters in a model file: loading fails the same way.
+    let mut raw = m.clone();
+    raw.spaces[1].kernel.variance = 1e308;
+    not_pd(SharedGplvm::from_bytes(&raw.to_bytes()), "walkman");
+    // Transfer: the new robot trains, then the final rebuild factorises every space.
+    let mut source = m.clone();
+    source.spaces[0].kernel.variance = 1e308;
+    not_pd(
+        source.transfer("coman", r2.as_ref(), &quick(3), None),
+        "human",
+    );
+    // Training (fit's last step) from a start that cannot be factorised.
+    let mut start = m.clone();
+    start.spaces[1].kernel.variance = 1e308;
+    not_pd(
+        start
+            .train(crate::objective::Mode::Full, &quick(3), None)
+            .map(|_| m.clone()),
+        "walkman",
+    );
+}

@@ -425,6 +425,7 @@ mod tests {
 
     #[test]
     fn gradients_match_finite_differences_for_every_block_and_parametrisation() {
+        let mut worst = 0.0f64;
         for bc in [
             BackConstraint::None,
             BackConstraint::Input,
@@ -450,8 +451,13 @@ mod tests {
                 let total = values.len();
                 assert_eq!(grads.len(), total);
                 let ll = n * 2;
-                // A few latent entries, the bandwidth, and every kernel scalar.
-                let mut idx: Vec<usize> = vec![0, 5, ll / 2 + 3, ll - 1];
+                // Every latent entry (X, or all N·Q back-constraint weights) of the small
+                // models, a few of the large one; the bandwidth and every kernel scalar.
+                let mut idx: Vec<usize> = if n <= 24 {
+                    (0..ll).collect()
+                } else {
+                    vec![0, 5, ll / 2 + 3, ll - 1]
+                };
                 idx.extend(ll..total);
                 for which in idx {
                     let scale = values[which].abs().max(1.0);
@@ -460,12 +466,15 @@ mod tests {
                         - objective_at(&model, &bump(&p, which, -h)))
                         / (2.0 * h);
                     let an = grads[which];
+                    worst = worst.max((an - fd).abs() / (1.0 + fd.abs()));
                     assert!(
-                        (an - fd).abs() <= 2e-5 * (1.0 + fd.abs()),
+                        (an - fd).abs() <= 1e-6 * (1.0 + fd.abs()),
                         "{bc:?} seed {seed} n {n} param {which}: analytic {an} vs fd {fd}"
                     );
                 }
             }
         }
+        // Measured 8.2e-8 (central differences, h = 1e-6 relative); tolerance 1e-6 above.
+        assert!(worst < 1e-6, "{worst:e}");
     }
 }

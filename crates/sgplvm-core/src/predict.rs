@@ -443,13 +443,54 @@ mod tests {
 
     #[test]
     fn prediction_paths_agree_and_variance_matches_dense_formula() {
-        for bc in [BackConstraint::Input, BackConstraint::Output] {
-            let m = fit(bc, 30, 15, 0);
+        let (mut worst_mean, mut worst_var) = (0.0f64, 0.0f64);
+        for (bc, scale) in [
+            (BackConstraint::Input, false),
+            (BackConstraint::Output, false),
+            (BackConstraint::Input, true),
+            (BackConstraint::Output, true),
+        ] {
+            let (h0, r1, _, _) = demo(30, 7);
+            let config = ModelConfig::default()
+                .with_latent_dim(2)
+                .with_back_constraint(bc)
+                .with_scale(scale);
+            let spaces = [("human", h0.as_ref()), ("walkman", r1.as_ref())];
+            let m = SharedGplvm::fit(&config, &spaces, "human", &quick(15), None).expect("fit");
+            let s = &m.spaces[1];
+            if scale {
+                // Per-column scales that differ from 1 and from each other, so that a missing
+                // or single scale factor shows.
+                assert!(
+                    s.scale.iter().all(|&c| (c - 1.0).abs() > 0.05),
+                    "{:?}",
+                    s.scale
+                );
+            }
             let (h, _, _, _) = demo(30, 9);
             let p = m.predict(h.as_ref(), "walkman", true).expect("predict");
+            let variance = p.variance.as_ref().expect("variance");
             let mut out = vec![0.0; 4];
             let mut row = vec![0.0; 6];
             let lat = m.latent(h.as_ref()).expect("latent");
+            // Dense reference from the public latent points: K = k(X, X) + σ² I inverted by LLᵀ,
+            // mean = k*ᵀ K⁻¹ Y · scale + offset, var = (k** − k*ᵀ K⁻¹ k*) · scale².
+            let x = m.latent_points();
+            let n = m.n();
+            let kx = |a: &[f64], b: &[f64]| {
+                let r2: f64 = (0..2)
+                    .map(|t| (a[t] - b[t]).powi(2) / s.kernel.lengthscale[t].powi(2))
+                    .sum();
+                s.kernel.variance * (-0.5 * r2).exp()
+            };
+            let xi = |i: usize| [x[(i, 0)], x[(i, 1)]];
+            let kmat = Mat::from_fn(n, n, |i, j| {
+                kx(&xi(i), &xi(j)) + if i == j { s.kernel.noise } else { 0.0 }
+            });
+            let kinv = {
+                use faer::linalg::solvers::DenseSolveCore;
+                kmat.llt(faer::Side::Lower).expect("pd").inverse()
+            };
             for r in [0, 11, 29] {
                 for c in 0..6 {
                     row[c] = h[(r, c)];
@@ -460,43 +501,36 @@ mod tests {
                     let diff = (out[c] - p.mean[(r, c)]).abs();
                     assert!(diff <= 1e-12 * out[c].abs().max(1.0), "{diff:e}");
                 }
-                // Dense reference: mean = k*ᵀ K⁻¹ Y + offset, var = k** − k*ᵀ K⁻¹ k*.
-                let s = &m.spaces[1];
-                let n = m.n();
-                let kx = |a: &[f64], b: &[f64]| {
-                    let r2: f64 = (0..2)
-                        .map(|t| (a[t] - b[t]).powi(2) / s.kernel.lengthscale[t].powi(2))
-                        .sum();
-                    s.kernel.variance * (-0.5 * r2).exp()
-                };
                 let xs = [lat[(r, 0)], lat[(r, 1)]];
-                let kmat = Mat::from_fn(n, n, |i, j| {
-                    kx(&m.x_rows[i * 2..i * 2 + 2], &m.x_rows[j * 2..j * 2 + 2])
-                        + if i == j { s.kernel.noise } else { 0.0 }
-                });
-                let kinv = {
-                    use faer::linalg::solvers::DenseSolveCore;
-                    kmat.llt(faer::Side::Lower).expect("pd").inverse()
-                };
-                let kstar = Mat::from_fn(n, 1, |i, _| kx(&xs, &m.x_rows[i * 2..i * 2 + 2]));
+                let kstar = Mat::from_fn(n, 1, |i, _| kx(&xs, &xi(i)));
                 let mean = kstar.transpose() * &kinv * &s.data;
                 let var = s.kernel.variance - (kstar.transpose() * &kinv * &kstar)[(0, 0)];
                 for c in 0..4 {
-                    assert!((mean[(0, c)] + s.offset[c] - out[c]).abs() < 1e-8, "mean");
-                    let pv = p.variance.as_ref().expect("variance")[(r, c)];
-                    assert!((pv - var).abs() < 1e-8, "variance {pv} vs {var}");
+                    let want = mean[(0, c)] * s.scale[c] + s.offset[c];
+                    worst_mean = worst_mean.max((want - out[c]).abs() / want.abs().max(1.0));
+                    // Relative to the prior variance α²·scale²: the posterior variance is a
+                    // difference of numbers of that size.
+                    let s2 = s.scale[c] * s.scale[c];
+                    let want = var * s2;
+                    let err = (variance[(r, c)] - want).abs() / (s.kernel.variance * s2);
+                    worst_var = worst_var.max(err);
                 }
             }
             // Training frames are reproduced well.
-            let (h0, r1, _, _) = demo(30, 7);
             let p = m.predict(h0.as_ref(), "walkman", true).expect("predict");
             let mse: f64 = (0..30)
                 .flat_map(|i| (0..4).map(move |j| (i, j)))
                 .map(|(i, j)| (p.mean[(i, j)] - r1[(i, j)]).powi(2))
                 .sum::<f64>()
                 / 120.0;
-            assert!(mse < 0.05, "{bc:?} mse {mse}");
+            assert!(mse < 0.05, "{bc:?} scale {scale} mse {mse}");
         }
+        // Measured 2.5e-13 (mean, relative) and 1.9e-13 (variance, relative to α²·scale²).
+        assert!(worst_mean < 3e-12, "mean off by {worst_mean:e} (relative)");
+        assert!(
+            worst_var < 2e-12,
+            "variance off by {worst_var:e} (relative)"
+        );
     }
 
     #[test]

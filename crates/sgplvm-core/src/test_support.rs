@@ -141,3 +141,21 @@ pub(crate) fn objective_at(model: &SharedGplvm, p: &Params) -> f64 {
     m.update_latent_points();
     m.objective()
 }
+
+/// Largest |(L·Lᵀ)_ij − (K_ij + added·δ_ij)| over the lower triangle, relative to the largest
+/// |K_ij + added·δ_ij|: how far the lower-triangular factor `l` is from one of K + added·I
+/// (only the lower triangles of `kf` and `l` are read).
+pub(crate) fn reconstruction_error(kf: MatRef<'_, f64>, l: MatRef<'_, f64>, added: f64) -> f64 {
+    let n = kf.nrows();
+    let mut worst = 0.0f64;
+    let mut top = 0.0f64;
+    for i in 0..n {
+        for j in 0..=i {
+            let llt: f64 = (0..=j).map(|t| l[(i, t)] * l[(j, t)]).sum();
+            let want = kf[(i, j)] + if i == j { added } else { 0.0 };
+            worst = worst.max((llt - want).abs());
+            top = top.max(want.abs());
+        }
+    }
+    worst / top
+}
