@@ -429,17 +429,9 @@ fn load_foreign(path: &Path, probe: &TopicsRead, options: &LoadOptions) -> Resul
     let robot_topics: Vec<&String> = topics.iter().filter(|t| **t != human_topic).collect();
     requests.extend(robot_topics.iter().map(|t| request(t)));
     let read = read_topics(path, &requests)?;
-    let aligned = align_onto_clock(&read.states, options.rate_hz).map_err(|e| match e {
-        JointStateError::NoOverlap {
-            start_ns, end_ns, ..
-        } => JointStateError::NoOverlap {
-            path: path.to_path_buf(),
-            topics: format!("{topics:?}"),
-            start_ns,
-            end_ns,
-        },
-        other => other,
-    })?;
+    let aligned = align_onto_clock(&read.states, options.rate_hz)
+        .map_err(|e| e.in_file(path, Some(format!("{topics:?}"))))?;
+
     let times = aligned[0].times_ns.clone();
     let n = times.len();
     let human = BodyData::from_joint_states("human", &human_topic, &aligned[0])?;

@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::error::{ALIGN_MIN_VALUES, ALIGN_VALUES_PER_VALUE_READ};
 use super::{read_topics, JointStateError, JointStates, Result, TopicRequest};
 
 impl JointStates {
@@ -61,24 +62,16 @@ pub fn read_aligned(
 ) -> Result<Vec<JointStates>> {
     let path = path.as_ref();
     let read = read_topics(path, requests)?;
-    align_onto_clock(&read.states, rate_hz).map_err(|e| match e {
-        JointStateError::NoOverlap {
-            topics,
-            start_ns,
-            end_ns,
-            ..
-        } => JointStateError::NoOverlap {
-            path: path.to_path_buf(),
-            topics,
-            start_ns,
-            end_ns,
-        },
-        other => other,
-    })
+    align_onto_clock(&read.states, rate_hz).map_err(|e| e.in_file(path, None))
 }
 
 /// Aligns series onto one clock at `rate_hz` covering their common time span (see
 /// [`read_aligned`]). All returned series share the same `times_ns`.
+///
+/// The clock is refused ([`JointStateError::TooManyFrames`]) when the aligned series would
+/// hold more than [`ALIGN_VALUES_PER_VALUE_READ`] values per value read, or
+/// [`ALIGN_MIN_VALUES`] if that is larger: two messages a day apart must not become millions
+/// of interpolated frames.
 pub fn align_onto_clock(series: &[JointStates], rate_hz: f64) -> Result<Vec<JointStates>> {
     if !(rate_hz.is_finite() && rate_hz > 0.0) {
         return Err(JointStateError::InvalidInput {
@@ -110,7 +103,26 @@ pub fn align_onto_clock(series: &[JointStates], rate_hz: f64) -> Result<Vec<Join
         });
     }
     let period = 1e9 / rate_hz;
-    let count = ((end - start) as f64 / period).floor() as usize + 1;
+    // In i128: the span of two i64 timestamps may exceed i64.
+    let span_ns = (i128::from(end) - i128::from(start)) as f64;
+    let frames = (span_ns / period).floor() + 1.0;
+    let values_per_frame: usize = series.iter().map(JointStates::dof).sum();
+    let values_read: u64 = series.iter().map(|s| s.positions.len() as u64).sum();
+    let limit = values_read
+        .saturating_mul(ALIGN_VALUES_PER_VALUE_READ)
+        .max(ALIGN_MIN_VALUES);
+    if frames * values_per_frame.max(1) as f64 > limit as f64 {
+        return Err(JointStateError::TooManyFrames {
+            path: PathBuf::new(),
+            topics: format!("{} series", series.len()),
+            rate_hz,
+            span_s: span_ns / 1e9,
+            frames: frames as u64,
+            values_per_frame,
+            limit,
+        });
+    }
+    let count = frames as usize;
     let clock: Vec<i64> = (0..count)
         .map(|k| start + (k as f64 * period).round() as i64)
         .filter(|&t| t <= end)

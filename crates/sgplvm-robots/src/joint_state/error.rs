@@ -38,6 +38,36 @@ pub enum JointStateError {
         /// The error reported by the mcap crate.
         source: McapError,
     },
+    /// A record of the MCAP file cannot be parsed (the mcap crate's parser message, reduced to
+    /// one plain line), or a record or chunk declares a length beyond what the file can hold.
+    #[error("{path}: corrupt MCAP record while reading topic(s) {topics}: {detail}")]
+    Corrupt {
+        /// File concerned.
+        path: PathBuf,
+        /// The topics that were being read.
+        topics: String,
+        /// What is wrong, on one line.
+        detail: String,
+    },
+    /// Aligning the topics onto one clock would make more frames than the data justifies
+    /// (see [`align_onto_clock`](super::align_onto_clock)).
+    #[error("{path}: aligning topics {topics} at {rate_hz} Hz over their common span of {span_s} s would make {frames} frames of {values_per_frame} values, more than the limit of {limit} values (the larger of {ALIGN_VALUES_PER_VALUE_READ} per value read and {ALIGN_MIN_VALUES}); check the timestamps, or align at a lower rate")]
+    TooManyFrames {
+        /// File concerned (empty when aligning series in memory).
+        path: PathBuf,
+        /// The topics.
+        topics: String,
+        /// The clock's rate.
+        rate_hz: f64,
+        /// Length of the common span, seconds.
+        span_s: f64,
+        /// Frames the clock would have.
+        frames: u64,
+        /// Joint values per frame over all series.
+        values_per_frame: usize,
+        /// The largest number of values allowed in the aligned series.
+        limit: u64,
+    },
     /// The MCAP writer failed.
     #[error("{path}: cannot write MCAP ({what}): {source}")]
     McapWrite {
@@ -146,6 +176,51 @@ pub enum JointStateError {
         /// What was wrong.
         detail: String,
     },
+}
+
+/// [`align_onto_clock`](super::align_onto_clock) refuses a clock whose aligned series would
+/// hold more than this many values per value read (or [`ALIGN_MIN_VALUES`], if larger).
+pub const ALIGN_VALUES_PER_VALUE_READ: u64 = 64;
+
+/// The number of aligned values [`align_onto_clock`](super::align_onto_clock) always allows
+/// (16 Mi values, 128 MiB).
+pub const ALIGN_MIN_VALUES: u64 = 1 << 24;
+
+impl JointStateError {
+    /// This error with `path` (and `topics`) filled in where alignment leaves them empty.
+    pub(crate) fn in_file(self, file: &std::path::Path, names: Option<String>) -> Self {
+        match self {
+            JointStateError::NoOverlap {
+                topics,
+                start_ns,
+                end_ns,
+                ..
+            } => JointStateError::NoOverlap {
+                path: file.to_path_buf(),
+                topics: names.unwrap_or(topics),
+                start_ns,
+                end_ns,
+            },
+            JointStateError::TooManyFrames {
+                topics,
+                rate_hz,
+                span_s,
+                frames,
+                values_per_frame,
+                limit,
+                ..
+            } => JointStateError::TooManyFrames {
+                path: file.to_path_buf(),
+                topics: names.unwrap_or(topics),
+                rate_hz,
+                span_s,
+                frames,
+                values_per_frame,
+                limit,
+            },
+            other => other,
+        }
+    }
 }
 
 /// Result type of this module.

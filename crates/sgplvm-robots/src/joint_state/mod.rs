@@ -41,10 +41,12 @@ mod write;
 
 pub use align::{align_onto_clock, read_aligned};
 pub use cdr::JOINT_STATE_MSGDEF;
-pub use error::{DemoError, JointStateError, Result};
+pub use error::{
+    DemoError, JointStateError, Result, ALIGN_MIN_VALUES, ALIGN_VALUES_PER_VALUE_READ,
+};
 pub use read::{
-    list_channels, read_joint_states, read_topics, ChannelInfo, TimeSource, TopicRequest,
-    TopicsRead,
+    list_channels, read_joint_states, read_topics, record_length_limit, ChannelInfo, TimeSource,
+    TopicRequest, TopicsRead,
 };
 pub use states::JointStates;
 pub use write::{

@@ -4,7 +4,7 @@
 //! in another order are reordered, and a message lacking a wanted joint is an error. Rows
 //! come back sorted by time.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
@@ -90,17 +90,31 @@ pub fn read_joint_states(path: impl AsRef<Path>, topic: &str) -> Result<JointSta
 /// channel list. Messages of other topics are skipped without decoding.
 pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<TopicsRead> {
     let path = path.as_ref();
-    let mut stream = Stream::new(path, requests);
     let file = File::open(path).map_err(|source| JointStateError::Io {
         path: path.to_path_buf(),
         action: "open",
         source,
     })?;
+    let file_len = file
+        .metadata()
+        .map_err(|source| JointStateError::Io {
+            path: path.to_path_buf(),
+            action: "read the size of",
+            source,
+        })?
+        .len();
     // The reader asks for small pieces (one record of an uncompressed chunk at a time): a
     // large buffer turns those into few system calls.
+    let mut stream = Stream::new(path, file_len, requests);
     let mut file = BufReader::with_capacity(1 << 20, file);
+    // Every record, and every chunk's decompressed content, is checked against a limit derived
+    // from the file's size before anything is allocated for it; chunks are decompressed whole
+    // and their CRC checked before any record inside is parsed.
     let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_validate_chunk_crcs(true),
+        LinearReaderOptions::default()
+            .with_validate_chunk_crcs(true)
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(record_length_limit(file_len)),
     );
     while let Some(event) = reader.next_event() {
         let event = event.map_err(|e| match e {
@@ -133,6 +147,16 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
     stream.finish()
 }
 
+/// The largest record, or decompressed chunk, that [`read_topics`] accepts in a file of
+/// `file_len` bytes: 16 MiB plus 16 times the file's size (the shipped demonstrations compress
+/// 7.5 : 1 in chunks of under 1 MiB), so that a corrupt length field cannot make the reader
+/// allocate more than that.
+pub fn record_length_limit(file_len: u64) -> usize {
+    const FLOOR: u64 = 16 << 20;
+    const RATIO: u64 = 16;
+    usize::try_from(file_len.saturating_mul(RATIO).saturating_add(FLOOR)).unwrap_or(usize::MAX)
+}
+
 /// Lists the channels of a file (one streaming pass, no message decoded).
 pub fn list_channels(path: impl AsRef<Path>) -> Result<Vec<ChannelInfo>> {
     Ok(read_topics(path, &[])?.channels)
@@ -145,6 +169,8 @@ type Route = (usize, bool);
 /// The state of one streaming pass of [`read_topics`].
 struct Stream<'a> {
     path: &'a Path,
+    /// The file's size, for the record length limit.
+    file_len: u64,
     requests: &'a [TopicRequest],
     /// The requested topics, for messages.
     topics_str: String,
@@ -165,7 +191,7 @@ struct Stream<'a> {
 }
 
 impl<'a> Stream<'a> {
-    fn new(path: &'a Path, requests: &'a [TopicRequest]) -> Self {
+    fn new(path: &'a Path, file_len: u64, requests: &'a [TopicRequest]) -> Self {
         let topics_str = requests
             .iter()
             .map(|r| format!("`{}`", r.topic))
@@ -181,6 +207,7 @@ impl<'a> Stream<'a> {
             .collect();
         Stream {
             path,
+            file_len,
             requests,
             topics_str,
             accs,
@@ -194,12 +221,36 @@ impl<'a> Stream<'a> {
         }
     }
 
-    /// The error of an invalid MCAP structure.
+    /// The error of an invalid MCAP structure: parse failures and oversized lengths as one
+    /// plain line ([`JointStateError::Corrupt`]), the rest as the mcap crate reports them.
     fn invalid(&self, source: McapError) -> JointStateError {
-        JointStateError::Mcap {
+        let corrupt = |detail: String| JointStateError::Corrupt {
             path: self.path.to_path_buf(),
             topics: self.topics_str.clone(),
-            source,
+            detail,
+        };
+        match &source {
+            McapError::Parse(inner) => corrupt(format!(
+                "record parse failed: {}",
+                plain_line(&inner.to_string())
+            )),
+            McapError::RecordTooLarge { opcode, len } => corrupt(format!(
+                "record with opcode {opcode:#04x} declares {len} bytes, more than the {} allowed for this file",
+                record_length_limit(self.file_len)
+            )),
+            McapError::ChunkTooLarge(len) => corrupt(format!(
+                "chunk declares {len} (de)compressed bytes, more than the {} allowed for this file",
+                record_length_limit(self.file_len)
+            )),
+            McapError::Io(inner) => corrupt(plain_line(&format!("{source}: {inner}"))),
+            McapError::DecompressionError(_) | McapError::BadChunkLength { .. } => {
+                corrupt(plain_line(&source.to_string()))
+            }
+            _ => JointStateError::Mcap {
+                path: self.path.to_path_buf(),
+                topics: self.topics_str.clone(),
+                source,
+            },
         }
     }
 
@@ -357,6 +408,33 @@ impl<'a> Stream<'a> {
     }
 }
 
+/// The first line of `text` without terminal escape sequences or trailing source locations.
+fn plain_line(text: &str) -> String {
+    let mut out = String::with_capacity(text.len().min(256));
+    let mut chars = text.chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '\u{1b}' => {
+                // CSI sequence: ESC [ parameters final-byte (0x40..=0x7e).
+                if chars.next() == Some('[') {
+                    for c in chars.by_ref() {
+                        if ('\u{40}'..='\u{7e}').contains(&c) {
+                            break;
+                        }
+                    }
+                }
+            }
+            '\n' | '\r' => break,
+            c if c.is_control() => {}
+            c => out.push(c),
+        }
+    }
+    let line = out.trim();
+    let line = line.split(" at /").next().unwrap_or(line);
+    let line = line.split(" at src/").next().unwrap_or(line);
+    line.trim_end_matches([':', ' ']).to_string()
+}
+
 fn read_retrying(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     loop {
         match file.read(buf) {
@@ -498,11 +576,13 @@ impl TopicAcc {
         name_count: usize,
         name: &impl Fn(usize) -> &'n [u8],
     ) -> Result<()> {
+        // Names are looked up by hash: a message may list tens of thousands of joints.
         let mut present = Vec::with_capacity(name_count);
+        let mut position_of: HashMap<&str, usize> = HashMap::with_capacity(name_count);
         for i in 0..name_count {
             let s = std::str::from_utf8(name(i))
                 .map_err(|_| ctx.malformed(format!("joint name #{i} is not UTF-8")))?;
-            if present.iter().any(|p: &String| p == s) {
+            if position_of.insert(s, i).is_some() {
                 return Err(ctx.malformed(format!("joint name `{s}` appears twice")));
             }
             present.push(s.to_string());
@@ -513,11 +593,12 @@ impl TopicAcc {
         let mut mapping = Vec::with_capacity(self.names.len());
         let mut missing = Vec::new();
         for n in &self.names {
-            match present.iter().position(|p| p == n) {
-                Some(i) => mapping.push(i),
+            match position_of.get(n.as_str()) {
+                Some(&i) => mapping.push(i),
                 None => missing.push(n.clone()),
             }
         }
+        drop(position_of);
         if !missing.is_empty() {
             return Err(JointStateError::MissingJoints {
                 path: ctx.path.to_path_buf(),
