@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use rapier3d_urdf::urdf_rs;
 
 use super::PhysicsError;
+use crate::urdf::{MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 /// A checked, simulation-ready copy of the URDF.
 pub(super) struct PreparedModel {
@@ -46,8 +47,9 @@ impl ModelErr<'_> {
     }
 }
 
+/// Finite and within [`MAX_LENGTH_M`] in size (an offset, or angles).
 fn finite3(v: &[f64; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
+    v.iter().all(|x| x.abs() <= MAX_LENGTH_M)
 }
 
 /// For each link, its parent joint and parent link (URDF indices), `None` for a root.
@@ -123,20 +125,20 @@ fn check_link(
     let i = &inertial.inertia;
     let values = [i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz];
     let valid = inertial.mass.value.is_finite()
-        && inertial.mass.value >= 0.0
-        && values.iter().all(|v| v.is_finite())
+        && (0.0..=MAX_MASS_KG).contains(&inertial.mass.value)
+        && values.iter().all(|v| v.abs() <= MAX_INERTIA)
         && finite3(&inertial.origin.xyz.0)
         && finite3(&inertial.origin.rpy.0);
     if !valid {
         return Err(err.at(
             element + " <inertial>",
-            "expected a finite mass >= 0 and finite inertia and origin".into(),
+            format!("expected a mass in 0..={MAX_MASS_KG} kg, inertia components of at most {MAX_INERTIA} kg·m² in size and an origin within {MAX_LENGTH_M} m"),
         ));
     }
     let mut kept = Vec::new();
     for collision in link.collision.drain(..) {
         let ok_pose = finite3(&collision.origin.xyz.0) && finite3(&collision.origin.rpy.0);
-        let ok_size = |v: f64| v.is_finite() && v >= 0.0;
+        let ok_size = |v: f64| v > 0.0 && v <= MAX_LENGTH_M;
         let ok_shape = match &collision.geometry {
             urdf_rs::Geometry::Box { size } => size.0.iter().all(|v| ok_size(*v)),
             urdf_rs::Geometry::Cylinder { radius, length }
@@ -152,7 +154,7 @@ fn check_link(
         if !(ok_pose && ok_shape) {
             return Err(err.at(
                 element + " <collision>",
-                "expected finite, non-negative shape sizes and a finite origin".into(),
+                format!("expected shape sizes in (0, {MAX_LENGTH_M}] m and an origin within {MAX_LENGTH_M} m"),
             ));
         }
         kept.push(collision);

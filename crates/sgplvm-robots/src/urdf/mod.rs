@@ -22,7 +22,7 @@
 
 mod parse;
 
-pub use parse::pose_from_xyz_rpy;
+pub use parse::{pose_from_xyz_rpy, MAX_DEPTH, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 use std::collections::HashMap;
 use std::path::Path;

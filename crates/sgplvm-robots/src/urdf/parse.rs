@@ -121,6 +121,9 @@ fn origin_of(ctx: &Ctx, el: &Element, at: &str) -> RobotResult<Isometry3<f64>> {
     };
     let at = format!("{at} <origin>");
     let xyz = opt_attr_numbers::<3>(ctx, o, &at, "xyz")?.unwrap_or([0.0; 3]);
+    for v in xyz {
+        check_length(ctx, &at, "xyz", v.abs(), "an offset")?;
+    }
     let rpy = opt_attr_numbers::<3>(ctx, o, &at, "rpy")?;
     let quat = if ctx.quat {
         opt_attr_numbers::<4>(ctx, o, &at, "quat_xyzw")?
@@ -157,6 +160,35 @@ pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
     )
 }
 
+/// Refuses a length `v` (≥ 0) above [`MAX_LENGTH_M`].
+fn check_length(ctx: &Ctx, at: &str, attr: &str, v: f64, what: &str) -> RobotResult<()> {
+    if v > MAX_LENGTH_M {
+        return Err(ctx.invalid(
+            format!("{at} @{attr}"),
+            format!("{v} m is too large, expected {what} of at most {MAX_LENGTH_M} m"),
+        ));
+    }
+    Ok(())
+}
+
+/// A shape size: finite, positive and at most [`MAX_LENGTH_M`].
+fn check_size(ctx: &Ctx, at: &str, attr: &str, v: f64) -> RobotResult<f64> {
+    if v < 0.0 {
+        return Err(ctx.invalid(
+            format!("{at} @{attr}"),
+            format!("{v} is negative, expected a size > 0"),
+        ));
+    }
+    if v == 0.0 {
+        return Err(ctx.invalid(
+            format!("{at} @{attr}"),
+            "the size is zero, expected a size > 0 (leave out a shape that has no extent)",
+        ));
+    }
+    check_length(ctx, at, attr, v, "a size")?;
+    Ok(v)
+}
+
 fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
     origin_of(ctx, holder, at)?;
     let Some(g) = at_most_one(ctx, holder, at, "geometry")? else {
@@ -184,18 +216,14 @@ fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
     let need = |attr: &str| -> RobotResult<f64> {
         let t = req_attr(ctx, shape, &sat, attr)?;
         let v = parse_number(ctx, &sat, attr, t)?;
-        if v < 0.0 {
-            return Err(ctx.invalid(
-                format!("{sat} @{attr}"),
-                format!("{v} is negative, expected a size ≥ 0"),
-            ));
-        }
-        Ok(v)
+        check_size(ctx, &sat, attr, v)
     };
     match shape.name.as_str() {
         "box" => {
             let t = req_attr(ctx, shape, &sat, "size")?;
-            parse_numbers::<3>(ctx, &sat, "size", t)?;
+            for v in parse_numbers::<3>(ctx, &sat, "size", t)? {
+                check_size(ctx, &sat, "size", v)?;
+            }
         }
         "cylinder" | "capsule" => {
             need("radius")?;
@@ -206,7 +234,14 @@ fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
         }
         "mesh" => {
             req_attr(ctx, shape, &sat, "filename")?;
-            opt_attr_numbers::<3>(ctx, shape, &sat, "scale")?;
+            for v in opt_attr_numbers::<3>(ctx, shape, &sat, "scale")?.unwrap_or([1.0; 3]) {
+                if v.abs() > MAX_LENGTH_M || v == 0.0 {
+                    return Err(ctx.invalid(
+                        format!("{sat} @scale"),
+                        format!("{v} is not a usable scale, expected a non-zero factor of at most {MAX_LENGTH_M} in size"),
+                    ));
+                }
+            }
         }
         other => {
             return Err(ctx.invalid(
@@ -233,6 +268,12 @@ fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
                         format!("{v} is negative, expected a mass ≥ 0"),
                     ));
                 }
+                if v > MAX_MASS_KG {
+                    return Err(ctx.invalid(
+                        format!("{mat} @value"),
+                        format!("{v} kg is too large, expected a mass of at most {MAX_MASS_KG} kg"),
+                    ));
+                }
             }
             None => return Err(ctx.invalid(iat, "missing <mass>")),
         }
@@ -241,7 +282,13 @@ fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
                 let inat = format!("{iat} <inertia>");
                 for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
                     let t = req_attr(ctx, i, &inat, attr)?;
-                    parse_number(ctx, &inat, attr, t)?;
+                    let v = parse_number(ctx, &inat, attr, t)?;
+                    if v.abs() > MAX_INERTIA {
+                        return Err(ctx.invalid(
+                            format!("{inat} @{attr}"),
+                            format!("{v} kg·m² is too large, expected at most {MAX_INERTIA} kg·m² in size"),
+                        ));
+                    }
                 }
             }
             None => return Err(ctx.invalid(iat, "missing <inertia>")),
@@ -318,6 +365,27 @@ fn check_joint(ctx: &Ctx, joint: &Element, at: &str) -> RobotResult<RawJoint> {
             return Err(ctx.invalid(
                 lat,
                 format!("lower {lower} > upper {upper}, expected lower ≤ upper"),
+            ));
+        }
+        if kind == JointKind::Prismatic {
+            check_length(ctx, &lat, "lower", lower.abs(), "a travel")?;
+            check_length(ctx, &lat, "upper", upper.abs(), "a travel")?;
+        }
+        for (attr, v) in [("velocity", velocity), ("effort", effort)] {
+            if v < 0.0 {
+                return Err(ctx.invalid(
+                    format!("{lat} @{attr}"),
+                    format!("{v} is negative, expected a {attr} limit > 0 (or none)"),
+                ));
+            }
+        }
+        // A zero velocity limit on a joint that has room to move forbids all motion; the
+        // physics would take it for "no limit". Leave the attribute out for that.
+        let can_move = kind == JointKind::Continuous || (kind.is_movable() && lower < upper);
+        if velocity == 0.0 && can_move && l.get_attribute("velocity", None).is_some() {
+            return Err(ctx.invalid(
+                format!("{lat} @velocity"),
+                "0 forbids all motion of a joint whose limits allow it, expected a velocity limit > 0 (or no velocity attribute for no limit)",
             ));
         }
         limits = (lower, upper);
@@ -417,7 +485,93 @@ fn xml_error(file: &str, err: xml::BuilderError) -> RobotError {
     }
 }
 
+/// The deepest element nesting a URDF may have. A URDF needs five levels (`robot`, `link`,
+/// `visual`, `geometry`, `box`); vendor blocks (`<gazebo>`, `<transmission>`) a few more. The
+/// XML parser and urdf-rs recurse once per level, so a deeper document is refused before they
+/// see it.
+pub const MAX_DEPTH: usize = 64;
+
+/// The largest length a URDF may state, metres (shape sizes, origins, prismatic limits):
+/// the physics engine computes in `f32`, where a cylinder of 1e29 m overflows.
+pub const MAX_LENGTH_M: f64 = 1e4;
+
+/// The largest mass a link may declare, kg.
+pub const MAX_MASS_KG: f64 = 1e6;
+
+/// The largest inertia component a link may declare, kg·m².
+pub const MAX_INERTIA: f64 = 1e9;
+
+/// Refuses `text` if its elements nest deeper than [`MAX_DEPTH`], naming the line and column
+/// of the first element too deep. One linear pass over the bytes, no allocation: comments,
+/// CDATA sections, processing instructions, declarations and quoted attribute values are
+/// skipped; whether the rest is well-formed is the XML parser's business.
+fn check_depth(text: &str, file: &str) -> RobotResult<()> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, end: &[u8]| -> usize {
+        b[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(b.len(), |p| from + p + end.len())
+    };
+    let mut depth = 0usize;
+    let mut i = 0;
+    while let Some(p) = b[i..].iter().position(|&c| c == b'<') {
+        let at = i + p;
+        let rest = &b[at..];
+        i = if rest.starts_with(b"<!--") {
+            skip_to(at + 4, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            skip_to(at + 9, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            skip_to(at + 2, b"?>")
+        } else if rest.starts_with(b"<!") {
+            skip_to(at + 2, b">")
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            skip_to(at + 2, b">")
+        } else {
+            // A start tag: find its end outside quoted attribute values.
+            let mut j = at + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, b'"' | b'\'') => quote = Some(b[j]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if j < b.len() && b[j - 1] != b'/' {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    let line = b[..at].iter().filter(|&&c| c == b'\n').count() + 1;
+                    let line_start = b[..at]
+                        .iter()
+                        .rposition(|&c| c == b'\n')
+                        .map_or(0, |p| p + 1);
+                    let column = text[line_start..at].chars().count() + 1;
+                    return Err(RobotError::Xml {
+                        file: file.to_string(),
+                        line: u32::try_from(line).unwrap_or(u32::MAX),
+                        column: u32::try_from(column).unwrap_or(u32::MAX),
+                        message: format!(
+                            "elements nest deeper than {MAX_DEPTH} levels, expected a URDF (5 levels)"
+                        ),
+                    });
+                }
+            }
+            j + 1
+        };
+        if i >= b.len() {
+            break;
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
+    check_depth(text, file)?;
     let mut root: Element = text.parse().map_err(|e| xml_error(file, e))?;
     let version = root
         .get_attribute("version", None)
@@ -603,28 +757,47 @@ fn find_root(
     }
     // Every link has at most one parent; a link that does not reach the root by following
     // parents lies on (or below) a cycle.
+    // One pass: a link is `Done` once its chain of parents is known to end at a root, so each
+    // link is walked once (a per-start walk is quadratic on a long chain).
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        OnPath,
+        Done,
+    }
+    let mut mark = vec![Mark::New; links.len()];
     for start in 0..links.len() {
-        let mut seen = vec![false; links.len()];
         let mut cur = start;
-        while let Some(j) = parent_joint[cur] {
-            if seen[cur] {
-                let mut cycle = vec![links[cur].clone()];
-                let mut c = joints[j].parent;
-                while c != cur {
-                    cycle.push(links[c].clone());
-                    match parent_joint[c] {
-                        Some(pj) => c = joints[pj].parent,
-                        None => break,
-                    }
-                }
-                cycle.reverse();
-                return Err(RobotError::Cycle {
-                    file: file.to_string(),
-                    links: cycle,
-                });
+        while mark[cur] == Mark::New {
+            mark[cur] = Mark::OnPath;
+            match parent_joint[cur] {
+                Some(j) => cur = joints[j].parent,
+                None => break,
             }
-            seen[cur] = true;
-            cur = joints[j].parent;
+        }
+        if let (Mark::OnPath, Some(pj)) = (mark[cur], parent_joint[cur]) {
+            let mut cycle = vec![links[cur].clone()];
+            let mut c = joints[pj].parent;
+            while c != cur {
+                cycle.push(links[c].clone());
+                match parent_joint[c] {
+                    Some(pj) => c = joints[pj].parent,
+                    None => break,
+                }
+            }
+            cycle.reverse();
+            return Err(RobotError::Cycle {
+                file: file.to_string(),
+                links: cycle,
+            });
+        }
+        let mut c = start;
+        while mark[c] == Mark::OnPath {
+            mark[c] = Mark::Done;
+            match parent_joint[c] {
+                Some(j) => c = joints[j].parent,
+                None => break,
+            }
         }
     }
     let Some(&root_link) = roots.first() else {

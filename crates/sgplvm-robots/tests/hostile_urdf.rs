@@ -1,0 +1,214 @@
+//! Hostile URDF input (issue 13): deep nesting, huge element counts and absurd numbers must
+//! give a one-line error naming the file and the element, quickly, never a stack overflow or
+//! a panic inside the physics engine. Every input is made here.
+
+use std::time::{Duration, Instant};
+
+use sgplvm_robots::urdf::{MAX_DEPTH, MAX_LENGTH_M, MAX_MASS_KG};
+use sgplvm_robots::{Robot, RobotError};
+
+const FILE: &str = "hostile.urdf";
+
+/// A two-link arm whose `base` link holds `link_body` and whose joint carries `limit`.
+fn arm(link_body: &str, limit: &str) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<robot name="hostile">
+  <link name="base">{link_body}</link>
+  <link name="tip"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+    <axis xyz="0 0 1"/>{limit}</joint>
+</robot>"#
+    )
+}
+
+const LIMIT: &str = r#"<limit lower="-1" upper="1" effort="5" velocity="2"/>"#;
+
+/// The error of loading `xml`: one line, naming the file.
+fn rejected(xml: &str) -> RobotError {
+    let started = Instant::now();
+    let e = match Robot::from_urdf_str(xml, FILE) {
+        Ok(_) => panic!("should be rejected"),
+        Err(e) => e,
+    };
+    assert!(
+        started.elapsed() < Duration::from_secs(2),
+        "{:?}",
+        started.elapsed()
+    );
+    let msg = e.to_string();
+    assert!(msg.starts_with(FILE), "{msg}");
+    assert!(!msg.contains('\n'), "{msg}");
+    e
+}
+
+fn invalid_at(xml: &str, element: &str, says: &str) {
+    match rejected(xml) {
+        RobotError::Invalid {
+            element: el,
+            message,
+            ..
+        } => {
+            assert!(el.contains(element), "element {el:?}, expected {element:?}");
+            assert!(message.contains(says), "{message}");
+        }
+        other => panic!("expected an Invalid error, got {other}"),
+    }
+}
+
+#[test]
+fn the_reference_arm_loads() {
+    let r = Robot::from_urdf_str(&arm("", LIMIT), FILE).expect("loads");
+    assert_eq!(r.dof(), 1);
+}
+
+#[test]
+fn twenty_five_thousand_nested_elements_are_refused_before_parsing() {
+    let n = 25_000;
+    let nested = format!("{}{}", "<a>".repeat(n), "</a>".repeat(n));
+    // In a thread with a small stack: nothing may recurse per level.
+    let xml = arm(&nested, LIMIT);
+    let e = std::thread::Builder::new()
+        .stack_size(256 << 10)
+        .spawn(move || rejected(&xml).to_string())
+        .expect("spawn")
+        .join()
+        .expect("no stack overflow");
+    assert!(e.contains("nest deeper than"), "{e}");
+    assert!(e.contains("line 3"), "{e}");
+}
+
+#[test]
+fn nesting_inside_comments_cdata_and_attributes_does_not_count() {
+    let many = "<a>".repeat(2 * MAX_DEPTH);
+    let body = format!(
+        r#"<!-- {many} --><visual><geometry><box size="1 1 1"/></geometry><material name="{}"/></visual><![CDATA[{many}]]>"#,
+        "&lt;a&gt;".repeat(10)
+    );
+    Robot::from_urdf_str(&arm(&body, LIMIT), FILE).expect("loads");
+    // Exactly at the limit is fine (robot and link are two levels).
+    let deep = MAX_DEPTH - 2;
+    let ok = format!("{}{}", "<a>".repeat(deep), "</a>".repeat(deep));
+    Robot::from_urdf_str(&arm(&ok, LIMIT), FILE).expect("at the limit");
+    let too = format!("{}{}", "<a>".repeat(deep + 1), "</a>".repeat(deep + 1));
+    rejected(&arm(&too, LIMIT));
+}
+
+#[test]
+fn a_hundred_thousand_elements_and_a_long_chain_parse_in_linear_time() {
+    let flat = "<a/>".repeat(100_000);
+    let started = Instant::now();
+    Robot::from_urdf_str(&arm(&flat, LIMIT), FILE).expect("loads");
+    let flat_time = started.elapsed();
+    // A chain of 5,000 links: the cycle check walks each link once.
+    let n = 5_000;
+    let mut xml = String::from("<robot name=\"chain\">");
+    for i in 0..n {
+        xml += &format!("<link name=\"l{i}\"/>");
+    }
+    for i in 1..n {
+        xml += &format!(
+            "<joint name=\"j{i}\" type=\"fixed\"><parent link=\"l{}\"/><child link=\"l{i}\"/></joint>",
+            i - 1
+        );
+    }
+    xml += "</robot>";
+    let started = Instant::now();
+    Robot::from_urdf_str(&xml, FILE).expect("loads");
+    let chain_time = started.elapsed();
+    assert!(
+        flat_time < Duration::from_secs(5) && chain_time < Duration::from_secs(5),
+        "100k elements {flat_time:?}, 5k-link chain {chain_time:?}"
+    );
+}
+
+#[test]
+fn absurd_sizes_and_masses_are_refused_with_the_element() {
+    let visual = |shape: &str| format!("<visual><geometry>{shape}</geometry></visual>");
+    invalid_at(
+        &arm(&visual(r#"<cylinder radius="0.1" length="1e29"/>"#), LIMIT),
+        "<cylinder> @length",
+        "too large",
+    );
+    invalid_at(
+        &arm(&visual(r#"<cylinder radius="0" length="1"/>"#), LIMIT),
+        "<cylinder> @radius",
+        "zero",
+    );
+    invalid_at(
+        &arm(&visual(r#"<box size="1 0 1"/>"#), LIMIT),
+        "<box> @size",
+        "zero",
+    );
+    invalid_at(
+        &arm(&visual(r#"<sphere radius="0"/>"#), LIMIT),
+        "<sphere> @radius",
+        "zero",
+    );
+    invalid_at(
+        &arm(&visual(r#"<mesh filename="m.stl" scale="1 0 1"/>"#), LIMIT),
+        "<mesh> @scale",
+        "scale",
+    );
+    let too_far = format!("{}", MAX_LENGTH_M * 10.0);
+    invalid_at(
+        &arm(
+            &format!(
+                r#"<collision><origin xyz="{too_far} 0 0"/><geometry><sphere radius="1"/></geometry></collision>"#
+            ),
+            LIMIT,
+        ),
+        "<origin> @xyz",
+        "too large",
+    );
+    let inertial = |mass: &str, ixx: &str| {
+        format!(
+            r#"<inertial><mass value="{mass}"/><inertia ixx="{ixx}" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>"#
+        )
+    };
+    invalid_at(
+        &arm(&inertial("1e308", "1"), LIMIT),
+        "<mass> @value",
+        "too large",
+    );
+    invalid_at(
+        &arm(&inertial(&format!("{}", MAX_MASS_KG * 2.0), "1"), LIMIT),
+        "<mass> @value",
+        "too large",
+    );
+    invalid_at(
+        &arm(&inertial("1", "1e300"), LIMIT),
+        "<inertia> @ixx",
+        "too large",
+    );
+    Robot::from_urdf_str(&arm(&inertial("0", "0"), LIMIT), FILE).expect("a massless link loads");
+}
+
+#[test]
+fn negative_and_zero_velocity_limits_are_refused() {
+    let limit = |v: &str| format!(r#"<limit lower="-1" upper="1" effort="5" velocity="{v}"/>"#);
+    invalid_at(&arm("", &limit("-1")), "<limit> @velocity", "negative");
+    invalid_at(
+        &arm("", &limit("0")),
+        "<limit> @velocity",
+        "forbids all motion",
+    );
+    invalid_at(
+        &arm(
+            "",
+            r#"<limit lower="-1" upper="1" effort="-5" velocity="1"/>"#,
+        ),
+        "<limit> @effort",
+        "negative",
+    );
+    // No velocity attribute: no limit. A locked joint (lower = upper) may say 0.
+    Robot::from_urdf_str(&arm("", r#"<limit lower="-1" upper="1"/>"#), FILE).expect("no velocity");
+    Robot::from_urdf_str(
+        &arm(
+            "",
+            r#"<limit lower="0" upper="0" effort="0" velocity="0"/>"#,
+        ),
+        FILE,
+    )
+    .expect("locked joint");
+}
