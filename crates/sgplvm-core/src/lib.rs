@@ -37,6 +37,7 @@
 //! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
 //! | `fit.rs` | the full and multi-robot models ([`SharedGplvm::fit`]) |
 //! | `transfer.rs` | transfer to a new robot ([`SharedGplvm::transfer`]) |
+//! | `regression.rs` | [`GpRegression`]: the direct-mapping yardstick, and the regression the input map uses |
 //! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
 //! | `predict.rs` | human → latent → robot, single frame and batch; the prediction caches |
 //! | `params.rs` | [`Params`] in natural units, [`SharedGplvm::set_params`] |
@@ -92,6 +93,7 @@ mod params;
 mod pool;
 mod predict;
 mod preprocess;
+mod regression;
 mod simd;
 #[cfg(test)]
 mod test_support;
@@ -107,4 +109,5 @@ pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
 pub use predict::Prediction;
+pub use regression::GpRegression;
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};

@@ -363,7 +363,7 @@ impl SharedGplvm {
 /// the training mean and multiplied by `1/(√2 ℓ_t)` (from `half_inv_l2` = −1/(2ℓ²)): the form
 /// [`rbf_block`] takes. Centring on the training mean gives smaller norms, so less
 /// cancellation in `|a|² + |b|² − 2 a·b`.
-fn scaled_about_mean(
+pub(crate) fn scaled_about_mean(
     rows: &[f64],
     dim: usize,
     half_inv_l2: &[f64],
@@ -383,7 +383,7 @@ fn scaled_about_mean(
 /// The batch loop of [`SharedGplvm::latent`] and [`SharedGplvm::predict`]: kernel rows between
 /// the (pre-scaled) `queries` and `train` rows, [`BATCH`] queries at a time, each block handed
 /// to `f` with the index of its first query.
-fn for_each_kernel_block(
+pub(crate) fn for_each_kernel_block(
     queries: MatRef<'_, f64>,
     train: MatRef<'_, f64>,
     mut f: impl FnMut(usize, MatRef<'_, f64>),

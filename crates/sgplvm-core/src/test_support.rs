@@ -11,6 +11,7 @@ pub(crate) use crate::error::Error;
 pub(crate) use crate::model::{Latent, SharedGplvm};
 pub(crate) use crate::params::{LatentParams, Params};
 pub(crate) use crate::predict::Prediction;
+pub(crate) use crate::regression::GpRegression;
 pub(crate) use crate::train::{IterationRecord, StopReason, TrainOptions};
 
 /// Synthetic demonstration: a 2-D phase drives a human (6 columns) and robots (4 columns,
