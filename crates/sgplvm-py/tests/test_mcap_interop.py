@@ -141,3 +141,37 @@ def test_sgplvm_reads_what_the_python_client_writes(tmp_path):
     assert names == ["a", "b", "c"]
     np.testing.assert_array_equal(times, 5_000_000_000 + 25_000_000 * np.arange(30))
     np.testing.assert_array_equal(got, positions)
+
+
+# A file written by our Rust writer with the JSON message encoding (and a CDR channel beside it);
+# tests/mcap_json_fixture.rs checks that the writer still produces exactly these bytes.
+OUR_JSON = Path(__file__).resolve().parent / "fixtures" / "sgplvm_json.mcap"
+JSON_SCALES = [1.0, 1e-300, -2.5e300, 1e-5]
+
+
+def test_python_client_decodes_our_json_encoding():
+    with open(OUR_JSON, "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[mcap_ros2_decoder.DecoderFactory()])
+        seen = []
+        for schema, channel, message in reader.iter_messages(topics=["/json/joint_states"]):
+            assert channel.message_encoding == "json"
+            assert schema.encoding == "jsonschema"
+            assert schema.name == "sensor_msgs/msg/JointState"
+            jsonschema = json.loads(schema.data)
+            assert jsonschema["type"] == "object"
+            assert set(jsonschema["properties"]) >= {"header", "name", "position"}
+            seen.append((message.log_time, json.loads(message.data)))
+        # The CDR channel in the same file decodes with the ROS 2 decoder.
+        cdr = [ros.position for _, _, _, ros in reader.iter_decoded_messages(topics=["/cdr/joint_command"])]
+    assert [list(p) for p in cdr] == [[(k + 1) / 3 * s for s in (1.0, 1e-300)] for k in range(3)]
+    assert len(seen) == 12
+    for k, (log_time, msg) in enumerate(seen):
+        t = 999_900_000 + 25_000_000 * k
+        assert log_time == t
+        assert msg["header"]["stamp"] == {"sec": t // 10**9, "nanosec": t % 10**9}
+        assert msg["header"]["frame_id"] == ""
+        assert msg["name"] == ["a", "b", "c", "d"]
+        want = [(k + 1) / 3 * s for s in JSON_SCALES]
+        # Bit-exact float64 through JSON text.
+        assert [float(v).hex() for v in msg["position"]] == [v.hex() for v in want]
+        assert msg.get("velocity", []) == [] and msg.get("effort", []) == []
