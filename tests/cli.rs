@@ -82,8 +82,9 @@ fn fixture() -> &'static Fixture {
 fn train_transfer_predict_evaluate() {
     let f = fixture();
     let coman = transfer_to_coman(f);
-    evaluate_per_joint(f, &coman);
+    let evaluation = evaluate_per_joint(f, &coman);
     let first = predict_to_csv_and_mcap(f, &coman);
+    predictions_agree_with_evaluate_and_a_dense_reference(f, &coman, &evaluation);
     let human_csv = predict_from_reordered_csv(f, &coman, &first);
     predict_streaming(&coman, &human_csv, &first);
 }
@@ -110,7 +111,8 @@ fn transfer_to_coman(f: &Fixture) -> PathBuf {
     coman
 }
 
-fn evaluate_per_joint(f: &Fixture, coman: &Path) {
+/// Returns `evaluate --json`'s per-joint test MSEs and the overall one.
+fn evaluate_per_joint(f: &Fixture, coman: &Path) -> (Vec<f64>, f64) {
     // Evaluate: overall and per joint, the per-joint errors averaging to the overall one.
     let json = ok(&[
         "evaluate",
@@ -132,9 +134,90 @@ fn evaluate_per_joint(f: &Fixture, coman: &Path) {
     assert_eq!(per_joint.len(), 14);
     let mean = per_joint.iter().sum::<f64>() / 14.0;
     let mse = e["mse"].as_f64().unwrap();
+    assert!((mean - mse).abs() < 1e-12 * mse.max(1.0), "{e}");
+    (per_joint, mse)
+}
+
+/// The predictions written by `predict --std` checked independently: the test MSE recomputed
+/// from them equals what `evaluate` reported, it is far below the error of predicting the mean,
+/// and the standard deviations equal a dense computation from the model's parameters
+/// (`√(α² − k*ᵀ (K + σ²I)⁻¹ k*) · scale`).
+fn predictions_agree_with_evaluate_and_a_dense_reference(
+    f: &Fixture,
+    coman: &Path,
+    (per_joint, mse): &(Vec<f64>, f64),
+) {
+    use sgplvm::robots::joint_state::read_joint_states;
+    let ds = sgplvm::robots::dataset::load_demonstrations(&f.data).unwrap();
+    let mcap = f.dir.join("coman.mcap");
+    let predicted = read_joint_states(&mcap, "/coman/joint_command").unwrap();
+    let std = read_joint_states(&mcap, "/coman/joint_command_std").unwrap();
+    let desired = ds.robot("coman").unwrap();
+    assert_eq!(predicted.len(), ds.len());
+    assert_eq!(predicted.names, desired.joint_names);
+    let d = predicted.names.len();
+    let test = &ds.test;
+    let mut baseline = 0.0;
+    for j in 0..d {
+        let err: f64 = test
+            .iter()
+            .map(|&k| (predicted.row(k)[j] - desired.positions[(k, j)]).powi(2))
+            .sum::<f64>()
+            / test.len() as f64;
+        assert!(
+            (err - per_joint[j]).abs() <= 1e-12 * err.max(1e-12),
+            "joint {j}: {err} from the predictions, {} from evaluate",
+            per_joint[j]
+        );
+        let m = test.iter().map(|&k| desired.positions[(k, j)]).sum::<f64>() / test.len() as f64;
+        baseline += test
+            .iter()
+            .map(|&k| (desired.positions[(k, j)] - m).powi(2))
+            .sum::<f64>()
+            / (test.len() * d) as f64;
+    }
+    // Measured: test MSE 0.035 rad², 0.29 × the 0.12 rad² of predicting the test mean.
+    assert!(*mse > 0.0 && *mse < 0.07, "test MSE {mse}");
     assert!(
-        (mean - mse).abs() < 1e-12 * mse.max(1.0) && mse > 0.0 && mse < 0.2,
-        "{e}"
+        *mse < 0.5 * baseline,
+        "test MSE {mse} vs {baseline} for the mean"
+    );
+
+    // The standard deviations against a dense computation from the model's parameters.
+    let model = sgplvm::SharedGplvm::load(coman).unwrap();
+    let human = &ds.human.positions;
+    let frames: Vec<usize> = (0..ds.len()).step_by(17).collect();
+    let h = sgplvm::Mat::from_fn(frames.len(), human.ncols(), |r, c| human[(frames[r], c)]);
+    let xs = model.latent(h.as_ref()).unwrap();
+    let x = model.latent_points();
+    let k = model.kernel("coman").unwrap();
+    let (_, scale) = model.normalisation("coman").unwrap();
+    let kern = |a: &dyn Fn(usize) -> f64, b: &dyn Fn(usize) -> f64| {
+        let r2: f64 = (0..x.ncols())
+            .map(|t| ((a(t) - b(t)) / k.lengthscale[t]).powi(2))
+            .sum();
+        k.variance * (-0.5 * r2).exp()
+    };
+    let n = x.nrows();
+    // nalgebra's Cholesky: another library than the model's faer.
+    let kmat = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+        kern(&|t| x[(i, t)], &|t| x[(j, t)]) + if i == j { k.noise } else { 0.0 }
+    });
+    let chol = kmat.cholesky().expect("K + σ²I is positive definite");
+    let mut worst = 0.0f64;
+    for (r, &frame) in frames.iter().enumerate() {
+        let ks = nalgebra::DVector::from_fn(n, |i, _| kern(&|t| xs[(r, t)], &|t| x[(i, t)]));
+        let var = k.variance - ks.dot(&chol.solve(&ks));
+        for j in 0..d {
+            let want = var * scale[j] * scale[j];
+            let got = std.row(frame)[j].powi(2);
+            worst = worst.max((got - want).abs() / (k.variance * scale[j] * scale[j]));
+        }
+    }
+    // Measured 2.8e-15.
+    assert!(
+        worst < 3e-14,
+        "std² off by {worst:e} relative to the prior variance"
     );
 }
 
