@@ -158,16 +158,15 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
     let d = predicted.names.len();
     let test = &ds.test;
     let mut baseline = 0.0;
-    for j in 0..d {
+    for (j, &reported) in per_joint.iter().enumerate() {
         let err: f64 = test
             .iter()
             .map(|&k| (predicted.row(k)[j] - desired.positions[(k, j)]).powi(2))
             .sum::<f64>()
             / test.len() as f64;
         assert!(
-            (err - per_joint[j]).abs() <= 1e-12 * err.max(1e-12),
-            "joint {j}: {err} from the predictions, {} from evaluate",
-            per_joint[j]
+            (err - reported).abs() <= 1e-12 * err.max(1e-12),
+            "joint {j}: {err} from the predictions, {reported} from evaluate"
         );
         let m = test.iter().map(|&k| desired.positions[(k, j)]).sum::<f64>() / test.len() as f64;
         baseline += test
@@ -208,10 +207,9 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
     for (r, &frame) in frames.iter().enumerate() {
         let ks = nalgebra::DVector::from_fn(n, |i, _| kern(&|t| xs[(r, t)], &|t| x[(i, t)]));
         let var = k.variance - ks.dot(&chol.solve(&ks));
-        for j in 0..d {
-            let want = var * scale[j] * scale[j];
-            let got = std.row(frame)[j].powi(2);
-            worst = worst.max((got - want).abs() / (k.variance * scale[j] * scale[j]));
+        for (&sd, &sc) in std.row(frame).iter().zip(scale) {
+            let want = var * sc * sc;
+            worst = worst.max((sd * sd - want).abs() / (k.variance * sc * sc));
         }
     }
     // Measured 2.8e-15.
