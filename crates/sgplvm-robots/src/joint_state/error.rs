@@ -79,7 +79,10 @@ pub enum JointStateError {
         source: McapError,
     },
     /// A requested topic has no channel in the file.
-    #[error("{path}: topic `{topic}` not found (topics present: {available:?})")]
+    #[error(
+        "{path}: topic `{topic}` not found (topics present: {})",
+        short_list(available)
+    )]
     MissingTopic {
         /// File concerned.
         path: PathBuf,
@@ -133,7 +136,7 @@ pub enum JointStateError {
         detail: String,
     },
     /// Joints that the body model needs are absent from a message.
-    #[error("{path}: topic `{topic}`, message #{index}: joints {missing:?} required by the body model are missing (the message has {present:?})")]
+    #[error("{path}: topic `{topic}`, message #{index}: joints {} required by the body model are missing (the message has {})", short_list(missing), short_list(present))]
     MissingJoints {
         /// File concerned.
         path: PathBuf,
@@ -221,6 +224,24 @@ impl JointStateError {
             other => other,
         }
     }
+}
+
+/// At most the first 20 names of `names`, quoted, then how many more there are: messages stay
+/// readable when a message lists thousands of joints.
+fn short_list(names: &[String]) -> String {
+    const SHOWN: usize = 20;
+    let mut out = String::from("[");
+    for (i, n) in names.iter().take(SHOWN).enumerate() {
+        if i > 0 {
+            out.push_str(", ");
+        }
+        out.push_str(&format!("{n:?}"));
+    }
+    if names.len() > SHOWN {
+        out.push_str(&format!(", … {} more", names.len() - SHOWN));
+    }
+    out.push(']');
+    out
 }
 
 /// Result type of this module.

@@ -299,7 +299,7 @@ impl<'a> Stream<'a> {
                 .map_err(|e| ctx.malformed(format!("invalid JSON JointState: {e}")))?;
             let time = if use_stamp {
                 let (sec, nanosec) = msg.stamp();
-                stamp_ns(sec, nanosec)
+                stamp_time_ns(&ctx, sec, nanosec)?
             } else {
                 log_time_ns(&ctx)?
             };
@@ -315,7 +315,7 @@ impl<'a> Stream<'a> {
             let view = cdr::decode_joint_state(payload, &mut self.names_scratch)
                 .map_err(|d| ctx.malformed(format!("invalid CDR JointState: {d}")))?;
             let time = if use_stamp {
-                stamp_ns(view.stamp.0, view.stamp.1)
+                stamp_time_ns(&ctx, view.stamp.0, view.stamp.1)?
             } else {
                 log_time_ns(&ctx)?
             };
@@ -489,8 +489,15 @@ fn log_time_ns(ctx: &MsgCtx<'_>) -> Result<i64> {
         .map_err(|_| ctx.malformed("log time exceeds i64 nanoseconds".into()))
 }
 
-fn stamp_ns(sec: i32, nanosec: u32) -> i64 {
-    sec as i64 * 1_000_000_000 + nanosec as i64
+/// The time of a `header.stamp`, refused when negative (MCAP times are unsigned).
+fn stamp_time_ns(ctx: &MsgCtx<'_>, sec: i32, nanosec: u32) -> Result<i64> {
+    let t = sec as i64 * 1_000_000_000 + nanosec as i64;
+    if t < 0 {
+        return Err(ctx.malformed(format!(
+            "header.stamp {sec} s {nanosec} ns is negative, expected a time ≥ 0"
+        )));
+    }
+    Ok(t)
 }
 
 struct MsgCtx<'a> {

@@ -68,8 +68,10 @@ impl JointStates {
                 "negative timestamp {t} ns (MCAP times are unsigned)"
             )));
         }
-        for (i, n) in self.names.iter().enumerate() {
-            if self.names[..i].contains(n) {
+        // By hash: a series may have tens of thousands of joints.
+        let mut seen = std::collections::HashSet::with_capacity(self.names.len());
+        for n in &self.names {
+            if !seen.insert(n.as_str()) {
                 return Err(bad(format!("joint name `{n}` appears twice")));
             }
         }

@@ -433,3 +433,62 @@ fn empty_topics_are_an_error_and_unrequested_foreign_topics_are_skipped() {
         DemoError::WrongSchema { .. }
     ));
 }
+
+#[test]
+fn a_negative_header_stamp_is_an_error_naming_file_topic_and_message() {
+    let dir = TempDir::new("negstamp");
+    let p = dir.file("neg.mcap");
+    let file = File::create(&p).expect("create");
+    let mut w = WriteOptions::new()
+        .create(BufWriter::new(file))
+        .expect("writer");
+    let sid = w
+        .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+        .expect("schema");
+    let ch = w
+        .add_channel(sid, "/j", "cdr", &BTreeMap::new())
+        .expect("ch");
+    let mut buf = Vec::new();
+    for (i, stamp) in [(1, 0u32), (-3, 5)].iter().enumerate() {
+        cdr::encode_joint_state(&mut buf, *stamp, "", &names(&["a"]), &[1.0], &[], &[]);
+        let h = MessageHeader {
+            channel_id: ch,
+            sequence: 0,
+            log_time: 100 + i as u64,
+            publish_time: 0,
+        };
+        w.write_to_known_channel(&h, &buf).expect("msg");
+    }
+    w.finish().expect("finish");
+    drop(w);
+    let mut req = TopicRequest::all("/j");
+    req.time_source = TimeSource::HeaderStamp;
+    let e = read_topics(&p, &[req]).expect_err("negative stamp");
+    assert!(
+        matches!(e, JointStateError::Malformed { index: 1, .. }),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("neg.mcap") && msg.contains("`/j`") && msg.contains("-3 s"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn long_joint_lists_are_shortened_in_messages() {
+    let present: Vec<String> = (0..5_000).map(|j| format!("joint_{j}")).collect();
+    let e = JointStateError::MissingJoints {
+        path: PathBuf::from("x.mcap"),
+        topic: "/t".into(),
+        index: 0,
+        missing: vec!["elbow".into()],
+        present,
+    };
+    let msg = e.to_string();
+    assert!(
+        msg.contains("[\"elbow\"]") && msg.contains("… 4980 more"),
+        "{msg}"
+    );
+    assert!(msg.len() < 600, "{} bytes", msg.len());
+}
