@@ -392,3 +392,60 @@ fn arm_panel(title: String, series: Vec<Series>) -> Panel {
         ..Panel::default()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The mean learning curve drawn in Figs. 4-6, on synthetic runs.
+
+    use super::*;
+
+    fn run(iterations: &[usize], seconds: &[f64], mse: &[f64]) -> RunRecord {
+        RunRecord {
+            robot: "r".into(),
+            model: ModelKind::Baseline,
+            back_constraint: "input".into(),
+            run: 0,
+            source_robot: None,
+            iterations: iterations.to_vec(),
+            seconds: seconds.to_vec(),
+            test_mse: mse.to_vec(),
+        }
+    }
+
+    #[test]
+    fn mean_curve_averages_per_iteration_with_a_population_sd_band() {
+        let a = run(&[0, 5], &[0.0, 1.0], &[1.0, 0.5]);
+        let b = run(&[0, 5], &[0.0, 3.0], &[3.0, 1.5]);
+        let s = mean_curve(&[&a, &b], false);
+        // x = iteration numbers (not indices); y = mean over runs.
+        assert_eq!(s.points, vec![(0.0, 2.0), (5.0, 1.0)]);
+        // sd over runs with 1/n: 1 and 0.5.
+        assert_eq!(s.band, Some(vec![(1.0, 3.0), (0.5, 1.5)]));
+        // Against seconds: x is the mean time.
+        let s = mean_curve(&[&a, &b], true);
+        assert_eq!(s.points, vec![(0.0, 2.0), (2.0, 1.0)]);
+    }
+
+    #[test]
+    fn runs_that_stopped_early_keep_their_last_value_and_time() {
+        let short = run(&[0], &[0.0], &[1.0]);
+        let long = run(&[0, 1, 2], &[0.0, 2.0, 4.0], &[3.0, 2.0, 1.0]);
+        let s = mean_curve(&[&short, &long], false);
+        assert_eq!(s.points, vec![(0.0, 2.0), (1.0, 1.5), (2.0, 1.0)]);
+        let s = mean_curve(&[&short, &long], true);
+        assert_eq!(s.points, vec![(0.0, 2.0), (1.0, 1.5), (2.0, 1.0)]);
+    }
+
+    #[test]
+    fn the_band_stays_positive_on_a_log_axis() {
+        // mean 1, sd 1: the lower edge would be 0; it is clipped to 5% of the mean.
+        let s = mean_curve(
+            &[&run(&[0], &[0.0], &[0.0]), &run(&[0], &[0.0], &[2.0])],
+            false,
+        );
+        assert_eq!(s.band, Some(vec![(0.05, 2.0)]));
+        // No runs: an empty curve, no NaN points.
+        let s = mean_curve(&[], false);
+        assert!(s.points.is_empty());
+    }
+}
