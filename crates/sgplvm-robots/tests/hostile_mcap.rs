@@ -134,6 +134,9 @@ fn check<T>(
 /// the outermost naming the file.
 fn assert_one_line(e: &JointStateError, path: &Path, what: &str) {
     let msg = e.to_string();
+    if std::env::var_os("HOSTILE_PRINT").is_some() {
+        eprintln!("{what}: {msg}");
+    }
     let name = path
         .file_name()
         .and_then(|n| n.to_str())
@@ -141,6 +144,10 @@ fn assert_one_line(e: &JointStateError, path: &Path, what: &str) {
     assert!(
         msg.contains(name),
         "{what}: error does not name the file: {msg}"
+    );
+    assert!(
+        !msg.trim_end().ends_with(':'),
+        "{what}: the detail is empty: {msg}"
     );
     let mut cause: Option<&dyn std::error::Error> = Some(e);
     while let Some(c) = cause {

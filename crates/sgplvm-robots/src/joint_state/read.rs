@@ -192,11 +192,15 @@ struct Stream<'a> {
 
 impl<'a> Stream<'a> {
     fn new(path: &'a Path, file_len: u64, requests: &'a [TopicRequest]) -> Self {
-        let topics_str = requests
-            .iter()
-            .map(|r| format!("`{}`", r.topic))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let topics_str = if requests.is_empty() {
+            "(none: listing channels and metadata)".to_string()
+        } else {
+            requests
+                .iter()
+                .map(|r| format!("`{}`", r.topic))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let accs = requests
             .iter()
             .map(|r| TopicAcc {
@@ -408,9 +412,12 @@ impl<'a> Stream<'a> {
     }
 }
 
-/// The first line of `text` without terminal escape sequences or trailing source locations.
+/// `text` on one plain line: without terminal escape sequences, decoration lines, source
+/// locations (`at /path/file.rs:123`) and frame numbers, its remaining lines joined by "; ".
+/// binrw prints its errors as a coloured multi-line backtrace; this keeps what it says
+/// ("failed to fill whole buffer; while parsing field 'metadata' in Channel").
 fn plain_line(text: &str) -> String {
-    let mut out = String::with_capacity(text.len().min(256));
+    let mut clean = String::with_capacity(text.len().min(4096));
     let mut chars = text.chars();
     while let Some(c) = chars.next() {
         match c {
@@ -424,15 +431,61 @@ fn plain_line(text: &str) -> String {
                     }
                 }
             }
-            '\n' | '\r' => break,
+            '\n' => clean.push('\n'),
             c if c.is_control() => {}
-            c => out.push(c),
+            c => clean.push(c),
         }
     }
-    let line = out.trim();
-    let line = line.split(" at /").next().unwrap_or(line);
-    let line = line.split(" at src/").next().unwrap_or(line);
-    line.trim_end_matches([':', ' ']).to_string()
+    let mut parts: Vec<String> = Vec::new();
+    for line in clean.lines() {
+        let mut line = line.trim();
+        if line.is_empty()
+            || line.starts_with("at ")
+            || !line.starts_with(|c: char| c.is_alphanumeric() || c == '`' || c == '\'')
+        {
+            continue;
+        }
+        // Frame numbers "0: ".
+        if let Some((n, rest)) = line.split_once(": ") {
+            if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) {
+                line = rest.trim();
+            }
+        }
+        let line = line.strip_prefix("Error: ").unwrap_or(line);
+        let line = match line.strip_prefix("While ") {
+            Some(rest) => format!("while {rest}"),
+            None => line.to_string(),
+        };
+        if !line.is_empty() && !parts.contains(&line) {
+            parts.push(line);
+        }
+    }
+    let mut out = parts.join("; ");
+    if out.len() > 300 {
+        let cut = (0..=300)
+            .rev()
+            .find(|&i| out.is_char_boundary(i))
+            .unwrap_or(0);
+        out.truncate(cut);
+        out.push('…');
+    }
+    out
+}
+
+#[cfg(test)]
+mod plain_line_tests {
+    #[test]
+    fn binrw_backtraces_become_one_plain_line() {
+        let raw = "\n ╺━━━━┅ Backtrace ┅━━━━╸\n\n 0: \u{1b}[1m\u{1b}[1mError: failed to fill whole buffer\u{1b}[22m\n           \u{1b}[1mWhile parsing field 'offset' in MessageIndexEntry\u{1b}[22m\u{1b}[22m\n     at /root/.cargo/registry/src/x/mcap-0.26.0/src/records.rs:373\n 1: \u{1b}[1mWhile parsing field 'records' in MessageIndex\u{1b}[22m\n     at /root/.cargo/registry/src/x/mcap-0.26.0/src/records.rs:382\n\n ╺━━━━╸\n\n";
+        assert_eq!(
+            super::plain_line(raw),
+            "failed to fill whole buffer; while parsing field 'offset' in MessageIndexEntry; while parsing field 'records' in MessageIndex"
+        );
+        assert_eq!(
+            super::plain_line("Data corruption detected"),
+            "Data corruption detected"
+        );
+    }
 }
 
 fn read_retrying(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
