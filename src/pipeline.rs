@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::DMatrix;
-use sgplvm_core::{Callback, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions};
+use sgplvm_core::{Callback, GpRegression, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions};
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
@@ -230,26 +230,48 @@ impl Demonstrations {
         let body = self.robot(robot)?;
         self.check_joints(model, robot, &body.joint_names)?;
         let human = to_mat(&self.dataset.human.rows(&self.dataset.test));
-        let desired = to_mat(&body.rows(&self.dataset.test));
         let predicted = model.predict(human.as_ref(), robot, false)?.mean;
+        Ok(self.test_error(body, predicted.as_ref()))
+    }
+
+    /// The yardstick the paper measures its model against: a direct GP regression human →
+    /// `robot` ([`GpRegression`]) trained on the training frames, and its test error.
+    pub fn direct_regression(
+        &self,
+        robot: &str,
+        options: &TrainOptions,
+    ) -> Result<(GpRegression, Evaluation), PipelineError> {
+        self.check_splits()?;
+        let body = self.robot(robot)?;
+        let ds = &self.dataset;
+        let human = to_mat(&ds.human.rows(&ds.train));
+        let joints = to_mat(&body.rows(&ds.train));
+        let regression = GpRegression::fit(human.as_ref(), joints.as_ref(), options)?;
+        let test_human = to_mat(&ds.human.rows(&ds.test));
+        let predicted = regression.predict(test_human.as_ref())?;
+        let evaluation = self.test_error(body, predicted.as_ref());
+        Ok((regression, evaluation))
+    }
+
+    /// Test error of `predicted` (test frames × joints of `body`).
+    fn test_error(&self, body: &BodyData, predicted: MatRef<'_, f64>) -> Evaluation {
+        let desired = to_mat(&body.rows(&self.dataset.test));
         let per_joint = body
             .joint_names
             .iter()
             .enumerate()
             .map(|(j, name)| {
-                let mse = mean_squared_error(
-                    predicted.as_ref().subcols(j, 1),
-                    desired.as_ref().subcols(j, 1),
-                );
+                let mse =
+                    mean_squared_error(predicted.subcols(j, 1), desired.as_ref().subcols(j, 1));
                 (name.clone(), mse)
             })
             .collect();
-        Ok(Evaluation {
-            robot: robot.to_string(),
+        Evaluation {
+            robot: body.name.clone(),
             frames: desired.nrows(),
-            mse: mean_squared_error(predicted.as_ref(), desired.as_ref()),
+            mse: mean_squared_error(predicted, desired.as_ref()),
             per_joint,
-        })
+        }
     }
 }
 

@@ -1,17 +1,19 @@
 //! `sgplvm demo`: the library's transfer study on the demonstrations — one robot trained fully,
-//! the others transferred to and trained from scratch — its models saved, Figs. 7 and 8 drawn.
+//! the others transferred to and trained from scratch — beside the yardstick of each robot (a
+//! direct GP regression human → robot), its models saved, Figs. 7 and 8 drawn.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use sgplvm::experiment::ModelKind;
-use sgplvm::pipeline::{StudyModel, StudyTraining, TrainFn};
+use sgplvm::pipeline::{Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
 
 use super::args::DataArg;
 use super::progress::train_with_progress;
-use super::report;
+use super::report::{self, Yardstick};
 
 #[derive(Args)]
 #[command(mut_arg("data", |a| a.help(
@@ -54,16 +56,40 @@ pub fn run(args: DemoArgs) -> Result<()> {
             train_and_save(training, train, args.max_iters, &args.out)
         },
     )?;
+    let yardsticks = direct_regressions(&demos, &models, &options)?;
     let written = draw_figures(&demos, &args.source, &models, &args.out)?;
     report::demo(
         &demos,
         &args.source,
         &models,
+        &yardsticks,
         &args.out,
         &written,
         args.json,
     );
     Ok(())
+}
+
+/// The yardstick of every robot of the study, in the study's order: a direct GP regression
+/// human → robot on the same training frames, with its training seconds.
+fn direct_regressions(
+    demos: &Demonstrations,
+    models: &[StudyModel],
+    options: &TrainOptions,
+) -> Result<Vec<Yardstick>> {
+    let mut robots: Vec<&str> = models.iter().map(|m| m.robot.as_str()).collect();
+    robots.dedup();
+    robots
+        .into_iter()
+        .map(|robot| {
+            let start = Instant::now();
+            let (_, evaluation) = demos.direct_regression(robot, options)?;
+            Ok(Yardstick {
+                seconds: start.elapsed().as_secs_f64(),
+                evaluation,
+            })
+        })
+        .collect()
 }
 
 /// Runs one training of the study under a progress bar; saves the source model and the
@@ -95,7 +121,7 @@ fn train_and_save(
 
 /// Fig. 7 for the source model, Fig. 8 for the transfer to COMAN (or the first transfer).
 fn draw_figures(
-    demos: &sgplvm::pipeline::Demonstrations,
+    demos: &Demonstrations,
     source: &str,
     models: &[StudyModel],
     out: &Path,

@@ -80,22 +80,71 @@ fn demo_label(kind: ModelKind) -> &'static str {
     }
 }
 
-/// The demo's result: a table of the trained models and their test errors, and the files written.
+/// A robot's yardstick in the demo's table: a direct GP regression human → robot.
+pub struct Yardstick {
+    /// Training seconds.
+    pub seconds: f64,
+    /// Its test error.
+    pub evaluation: Evaluation,
+}
+
+/// The label of the yardstick's rows.
+const YARDSTICK: &str = "direct GP";
+
+/// One row of the demo's table.
+struct DemoRow<'a> {
+    robot: &'a str,
+    model: &'a str,
+    seconds: f64,
+    iterations: Option<usize>,
+    mse: f64,
+}
+
+/// The demo's rows: each robot's models, then its yardstick.
+fn demo_rows<'a>(models: &'a [StudyModel], yardsticks: &'a [Yardstick]) -> Vec<DemoRow<'a>> {
+    let mut rows: Vec<DemoRow<'a>> = Vec::new();
+    for (i, m) in models.iter().enumerate() {
+        rows.push(DemoRow {
+            robot: &m.robot,
+            model: demo_label(m.kind),
+            seconds: m.seconds,
+            iterations: Some(m.iterations),
+            mse: m.evaluation.mse,
+        });
+        let last_of_robot = models.get(i + 1).is_none_or(|next| next.robot != m.robot);
+        let yardstick = yardsticks.iter().find(|y| y.evaluation.robot == m.robot);
+        if let (true, Some(y)) = (last_of_robot, yardstick) {
+            rows.push(DemoRow {
+                robot: &m.robot,
+                model: YARDSTICK,
+                seconds: y.seconds,
+                iterations: None,
+                mse: y.evaluation.mse,
+            });
+        }
+    }
+    rows
+}
+
+/// The demo's result: a table of the trained models and their test errors beside each robot's
+/// yardstick, and the files written.
 pub fn demo(
     demos: &Demonstrations,
     source: &str,
     models: &[StudyModel],
+    yardsticks: &[Yardstick],
     out: &Path,
     written: &[PathBuf],
     json: bool,
 ) {
+    let rows = demo_rows(models, yardsticks);
     if json {
         let value = json!({
             "data": demos.source_name,
             "source": source,
-            "rows": models.iter().map(|r| json!({
-                "robot": r.robot, "model": demo_label(r.kind), "seconds": r.seconds,
-                "iterations": r.iterations, "test_mse": r.evaluation.mse,
+            "rows": rows.iter().map(|r| json!({
+                "robot": r.robot, "model": r.model, "seconds": r.seconds,
+                "iterations": r.iterations, "test_mse": r.mse,
             })).collect::<Vec<_>>(),
             "files": written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         });
@@ -106,20 +155,22 @@ pub fn demo(
         "\n{:<10} {:<9} {:>10} {:>11} {:>14} {:>11}",
         "robot", "model", "train (s)", "iterations", "test MSE", "RMSE (deg)"
     );
-    for r in models {
+    for r in &rows {
+        let iterations = r.iterations.map_or("-".to_string(), |i| i.to_string());
         println!(
             "{:<10} {:<9} {:>10.2} {:>11} {:>14.6} {:>11.2}",
             r.robot,
-            demo_label(r.kind),
+            r.model,
             r.seconds,
-            r.iterations,
-            r.evaluation.mse,
-            r.evaluation.mse.sqrt().to_degrees()
+            iterations,
+            r.mse,
+            r.mse.sqrt().to_degrees()
         );
     }
     println!(
         "\n`full` = human + that robot trained from scratch; `transfer` = {source}'s latent space and\n\
-         human mapping reused, only the robot's kernel trained. Models and figures in {}:",
+         human mapping reused, only the robot's kernel trained; `{YARDSTICK}` = the paper's yardstick,\n\
+         a GP regression straight from human to robot joints. Models and figures in {}:",
         out.display()
     );
     for path in written {
