@@ -260,7 +260,7 @@ impl SharedGplvm {
     }
 
     /// Latent points of raw human frames (rows of `h`), n×Q. Frames are processed in blocks
-    /// of [`BATCH`] with matrix products (see [`rbf_block`]).
+    /// of 256 with matrix products.
     pub fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         self.check_input_matrix(h)?;
         self.latent_batch(h)
@@ -294,8 +294,8 @@ impl SharedGplvm {
     }
 
     /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
-    /// raw human frames in the rows of `h`. Frames go in blocks of [`BATCH`]: kernel blocks
-    /// from matrix products ([`rbf_block`]), the mean as `K* (K⁻¹Y)`, the variance as
+    /// raw human frames in the rows of `h`. Frames go in blocks of 256: kernel blocks
+    /// from matrix products, the mean as `K* (K⁻¹Y)`, the variance as
     /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block.
     pub fn predict(
         &self,

@@ -81,7 +81,7 @@ pub struct ReplayReport {
     /// Things the model loader worked around (mesh shapes skipped, floating roots fixed ...).
     pub warnings: Vec<String>,
     /// The simulated positions at the trajectory's frame times, same columns as
-    /// [`ReplayReport::joints`], when [`ReplayOptions::record_simulated`] is set.
+    /// [`ReplayReport::joints`], when [`ReplayOptions::record_simulated`](crate::physics::ReplayOptions::record_simulated) is set.
     pub simulated: Option<Trajectory>,
 }
 
