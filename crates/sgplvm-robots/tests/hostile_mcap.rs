@@ -318,3 +318,84 @@ fn twenty_thousand_joint_names_read_in_linear_time() {
         started.elapsed()
     );
 }
+
+/// An unchunked file with one JointState channel, a metadata record and one message, and the
+/// offsets of its Schema, Channel and Metadata records.
+fn unchunked(path: &Path) -> Vec<(u8, usize)> {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).expect("create"));
+    let mut w = mcap::WriteOptions::new()
+        .use_chunks(false)
+        .create(file)
+        .expect("writer");
+    let sid = w
+        .add_schema(
+            "sensor_msgs/msg/JointState",
+            "ros2msg",
+            b"float64[] position",
+        )
+        .expect("schema");
+    let mut meta = std::collections::BTreeMap::new();
+    meta.insert("k".to_string(), "v".to_string());
+    let ch = w
+        .add_channel(sid, TOPICS[0], "cdr", &meta)
+        .expect("channel");
+    w.write_metadata(&mcap::records::Metadata {
+        name: "m".into(),
+        metadata: meta,
+    })
+    .expect("metadata");
+    let header = mcap::records::MessageHeader {
+        channel_id: ch,
+        sequence: 0,
+        log_time: 1,
+        publish_time: 1,
+    };
+    w.write_to_known_channel(&header, &[0, 1, 0, 0])
+        .expect("message");
+    w.finish().expect("finish");
+    drop(w);
+    let b = std::fs::read(path).expect("read");
+    let mut records = Vec::new();
+    let mut i = 8;
+    while i + 9 <= b.len() && b[i] != 0x02 {
+        if matches!(b[i], 0x03 | 0x04 | 0x0c) {
+            records.push((b[i], i + 9));
+        }
+        i += 9 + u64_at(&b, i + 1) as usize;
+    }
+    records
+}
+
+#[test]
+fn string_lengths_inside_schema_channel_and_metadata_records_are_checked_before_parsing() {
+    let dir = TempDir::new("strings");
+    let clean = dir.0.join("clean.mcap");
+    let records = unchunked(&clean);
+    let ops: Vec<u8> = records.iter().map(|r| r.0).collect();
+    assert!(
+        ops.contains(&0x03) && ops.contains(&0x04) && ops.contains(&0x0c),
+        "{ops:?}"
+    );
+    let bytes = std::fs::read(&clean).expect("read");
+    for &(op, body) in &records {
+        // The first string's length: after the id (Schema), the ids (Channel), at once (Metadata).
+        let at = body
+            + match op {
+                0x03 => 2,
+                0x04 => 4,
+                _ => 0,
+            };
+        for len in [u32::MAX, 0xFFFF_FFF0, 1 << 31] {
+            let mut b = bytes.clone();
+            b[at..at + 4].copy_from_slice(&len.to_le_bytes());
+            let path = dir.0.join(format!("str-{op}-{at}-{len}.mcap"));
+            std::fs::write(&path, &b).expect("write");
+            let what = format!("record {op:#04x}: string length {len}");
+            assert!(check(&path, &what, read_all), "{what}: accepted");
+            let e = read_topics(&path, &[]).expect_err("corrupt");
+            assert!(matches!(e, JointStateError::Corrupt { .. }), "{e}");
+            assert!(e.to_string().contains("declares"), "{e}");
+            std::fs::remove_file(&path).expect("remove");
+        }
+    }
+}

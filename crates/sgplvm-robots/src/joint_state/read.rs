@@ -138,10 +138,18 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
                 opcode: op::MESSAGE,
                 data,
             } => stream.message(data)?,
-            LinearReadEvent::Record { opcode, data } => {
+            // Only these records are used; the others are not even parsed.
+            LinearReadEvent::Record {
+                opcode: opcode @ (op::SCHEMA | op::CHANNEL | op::METADATA),
+                data,
+            } => {
+                // mcap's parser reserves a string's declared length before reading it: check
+                // every length against the record first.
+                strings_fit(opcode, data).map_err(|detail| stream.corrupt(detail))?;
                 let record = ::mcap::parse_record(opcode, data).map_err(|e| stream.invalid(e))?;
                 stream.record(record)?;
             }
+            LinearReadEvent::Record { .. } => {}
         }
     }
     stream.finish()
@@ -225,14 +233,19 @@ impl<'a> Stream<'a> {
         }
     }
 
-    /// The error of an invalid MCAP structure: parse failures and oversized lengths as one
-    /// plain line ([`JointStateError::Corrupt`]), the rest as the mcap crate reports them.
-    fn invalid(&self, source: McapError) -> JointStateError {
-        let corrupt = |detail: String| JointStateError::Corrupt {
+    /// A [`JointStateError::Corrupt`] saying `detail`.
+    fn corrupt(&self, detail: String) -> JointStateError {
+        JointStateError::Corrupt {
             path: self.path.to_path_buf(),
             topics: self.topics_str.clone(),
             detail,
-        };
+        }
+    }
+
+    /// The error of an invalid MCAP structure: parse failures and oversized lengths as one
+    /// plain line ([`JointStateError::Corrupt`]), the rest as the mcap crate reports them.
+    fn invalid(&self, source: McapError) -> JointStateError {
+        let corrupt = |detail: String| self.corrupt(detail);
         match &source {
             McapError::Parse(inner) => corrupt(format!(
                 "record parse failed: {}",
@@ -410,6 +423,79 @@ impl<'a> Stream<'a> {
             channels: self.channels,
         })
     }
+}
+
+/// Checks that every string (and string map) of a Schema, Channel or Metadata record fits in
+/// the record, so that parsing it allocates at most the record's size. A record too short for
+/// a length field is left to mcap's parser, which reports it.
+fn strings_fit(opcode: u8, data: &[u8]) -> std::result::Result<(), String> {
+    struct Fields<'d> {
+        data: &'d [u8],
+        at: usize,
+        record: &'static str,
+    }
+    impl Fields<'_> {
+        fn u32(&mut self) -> Option<usize> {
+            let b = self.data.get(self.at..self.at.checked_add(4)?)?;
+            self.at += 4;
+            usize::try_from(u32::from_le_bytes(b.try_into().ok()?)).ok()
+        }
+        fn string(&mut self, what: &str) -> std::result::Result<Option<()>, String> {
+            let Some(len) = self.u32() else {
+                return Ok(None);
+            };
+            let remain = self.data.len() - self.at;
+            if len > remain {
+                return Err(format!(
+                    "{} record: {what} declares {len} bytes, only {remain} remain in the record",
+                    self.record
+                ));
+            }
+            self.at += len;
+            Ok(Some(()))
+        }
+        fn map(&mut self, what: &str) -> std::result::Result<Option<()>, String> {
+            let Some(byte_len) = self.u32() else {
+                return Ok(None);
+            };
+            let start = self.at;
+            while self.at - start < byte_len {
+                if self.string(what)?.is_none() || self.string(what)?.is_none() {
+                    return Ok(None);
+                }
+            }
+            Ok(Some(()))
+        }
+    }
+    let mut f = Fields {
+        data,
+        at: 0,
+        record: "",
+    };
+    match opcode {
+        op::SCHEMA => {
+            f.record = "Schema";
+            f.at = 2;
+            if f.string("the name")?.is_some() {
+                f.string("the encoding")?;
+            }
+        }
+        op::CHANNEL => {
+            f.record = "Channel";
+            f.at = 4;
+            if f.string("the topic")?.is_some() && f.string("the message encoding")?.is_some() {
+                f.map("a metadata string")?;
+            }
+        }
+        op::METADATA => {
+            f.record = "Metadata";
+            if f.string("the name")?.is_some() {
+                f.map("a metadata string")?;
+            }
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// `text` on one plain line: without terminal escape sequences, decoration lines, source
