@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 
 mod demos;
 mod model;
+mod regression;
 mod robots;
 
 /// The native part of the `sgplvm` Python package.
@@ -15,6 +16,7 @@ mod robots;
 fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<model::NativeModel>()?;
+    m.add_class::<regression::NativeRegression>()?;
     m.add_class::<robots::PyRobot>()?;
     m.add_function(wrap_pyfunction!(model::canonical_back_constraint, m)?)?;
     m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;

@@ -325,7 +325,10 @@ impl NativeModel {
     }
 }
 
-fn kernel_to_dict<'py>(py: Python<'py>, k: &KernelParams) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn kernel_to_dict<'py>(
+    py: Python<'py>,
+    k: &KernelParams,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("variance", k.variance)?;
     d.set_item("lengthscale", PyArray1::from_slice(py, &k.lengthscale))?;

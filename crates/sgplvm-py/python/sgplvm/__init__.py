@@ -13,10 +13,11 @@ only their latent-to-output mapping.
 
 from ._sgplvm import Robot, __version__
 from ._io import load_demonstrations, read_joint_states, simulate, write_joint_states
-from ._model import SharedGPLVM
+from ._model import GPRegression, SharedGPLVM
 
 __all__ = [
     "SharedGPLVM",
+    "GPRegression",
     "Robot",
     "load_demonstrations",
     "read_joint_states",

@@ -8,6 +8,7 @@ import numpy.typing as npt
 
 __all__ = [
     "NativeModel",
+    "NativeRegression",
     "Robot",
     "__version__",
     "canonical_back_constraint",
@@ -67,6 +68,15 @@ class NativeModel:
     def save(self, path: _Path) -> None: ...
     @staticmethod
     def load(path: _Path) -> "NativeModel": ...
+
+@final
+class NativeRegression:
+    """A trained GP regression (native part; use ``sgplvm.GPRegression``)."""
+
+    @staticmethod
+    def fit(x: _F64, y: _F64, max_iters: int) -> "NativeRegression": ...
+    def predict(self, x: _F64) -> _F64: ...
+    def kernel(self) -> Dict[str, Any]: ...
 
 @final
 class Robot:
