@@ -116,7 +116,7 @@ pub fn read_topics(path: impl AsRef<Path>, requests: &[TopicRequest]) -> Result<
             .with_prevalidate_chunk_crcs(true)
             .with_record_length_limit(record_length_limit(file_len)),
     );
-    while let Some(event) = reader.next_event() {
+    while let Some(event) = next_event(&mut reader).map_err(|detail| stream.corrupt(detail))? {
         let event = event.map_err(|e| match e {
             McapError::UnexpectedEof => JointStateError::Truncated {
                 path: path.to_path_buf(),
@@ -423,6 +423,29 @@ impl<'a> Stream<'a> {
             channels: self.channels,
         })
     }
+}
+
+/// The reader's next event. mcap 0.26 can panic on inconsistent chunk contents (an arithmetic
+/// overflow when a record inside an uncompressed chunk without CRC claims more bytes than the
+/// chunk has, in builds with overflow checks): that panic is caught and becomes an error.
+fn next_event(
+    reader: &mut LinearReader,
+) -> std::result::Result<Option<std::result::Result<LinearReadEvent<'_>, McapError>>, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+        let reader = reader;
+        reader.next_event()
+    }))
+    .map_err(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic".to_string());
+        format!(
+            "inconsistent chunk contents (the mcap reader stopped: {})",
+            plain_line(&what)
+        )
+    })
 }
 
 /// Checks that every string (and string map) of a Schema, Channel or Metadata record fits in
