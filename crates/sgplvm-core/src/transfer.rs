@@ -156,6 +156,30 @@ mod tests {
     }
 
     #[test]
+    fn the_seeded_perturbation_is_the_documented_one() {
+        // transfer_seeded's contract: variance, then each lengthscale, multiplied by exp(0.3 z),
+        // z ~ N(0, 1) drawn in that order from ChaCha8 seeded with `seed`; the noise untouched.
+        use rand_distr::{Distribution, StandardNormal};
+        let start = crate::kernel::KernelParams {
+            variance: 2.0,
+            lengthscale: vec![1.0, 3.0],
+            noise: 0.5,
+        };
+        for seed in [0, 7] {
+            let mut k = start.clone();
+            super::perturb_kernel(&mut k, seed);
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let mut z = || -> f64 { StandardNormal.sample(&mut rng) };
+            let rel = |a: f64, b: f64| (a - b).abs() / b;
+            assert!(rel(k.variance, 2.0 * (super::SPREAD * z()).exp()) < 1e-15);
+            for (l, l0) in k.lengthscale.iter().zip(&start.lengthscale) {
+                assert!(rel(*l, l0 * (super::SPREAD * z()).exp()) < 1e-15);
+            }
+            assert_eq!(k.noise, start.noise);
+        }
+    }
+
+    #[test]
     fn seeded_transfer_varies_with_the_seed_only() {
         let (_, _, r2, _) = demo(40, 7);
         let source = fit(BackConstraint::Input, 40, 20, 0);
