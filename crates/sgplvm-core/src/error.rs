@@ -24,6 +24,22 @@ pub enum Error {
         /// The offending value.
         value: f64,
     },
+    /// A prediction came out NaN or infinite (parameters at the edge of what floating point
+    /// holds); it is refused rather than handed on as joint commands.
+    #[error(
+        "prediction for '{space}' at frame {row}, column {col} is {value}; the model's parameters \
+         do not give finite predictions for this input"
+    )]
+    NonFinitePrediction {
+        /// Space predicted (or `latent` for the latent points).
+        space: String,
+        /// Frame (row of the input).
+        row: usize,
+        /// Column of the output.
+        col: usize,
+        /// The value computed.
+        value: f64,
+    },
     /// Spaces have different numbers of rows (frames).
     #[error("space '{space}' has {found} rows; expected {expected} (the same N for every space)")]
     RowCountMismatch {

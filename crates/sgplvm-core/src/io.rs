@@ -114,6 +114,16 @@ fn corrupt(reason: String) -> Error {
     Error::Corrupt { reason }
 }
 
+/// True when `k` holds finite positive values whose squared lengthscales and their inverses are
+/// finite and normal: the kernel computes −d²/(2ℓ²) from them, and a file with ℓ = 10⁻²⁰⁰ (valid
+/// as a number) would otherwise predict NaN.
+fn kernel_is_usable(k: &KernelParams) -> bool {
+    k.is_valid()
+        && k.lengthscale
+            .iter()
+            .all(|l| (l * l).is_normal() && (1.0 / (l * l)).is_normal())
+}
+
 impl SpaceFile {
     /// The space, after checking its shapes against `q` latent dimensions and its values.
     fn into_space(self, q: usize) -> Result<Space> {
@@ -126,7 +136,7 @@ impl SpaceFile {
                 s.name
             )));
         }
-        if s.kernel.lengthscale.len() != q || !s.kernel.is_valid() {
+        if s.kernel.lengthscale.len() != q || !kernel_is_usable(&s.kernel) {
             return Err(corrupt(format!("space '{}': invalid kernel", s.name)));
         }
         if s.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
@@ -190,9 +200,12 @@ impl LatentFile {
 impl MapFile {
     /// The input map, after checking it against `dh` human columns and `q` latent dimensions.
     fn into_map(self, dh: usize, q: usize) -> Result<InputMap> {
-        if self.kernel.lengthscale.len() != dh || !self.kernel.is_valid() || self.x_mean.len() != q
+        if self.kernel.lengthscale.len() != dh
+            || !kernel_is_usable(&self.kernel)
+            || self.x_mean.len() != q
+            || self.x_mean.iter().any(|v| !v.is_finite())
         {
-            return Err(corrupt("input map has the wrong shape".into()));
+            return Err(corrupt("input map has the wrong shape or values".into()));
         }
         Ok(InputMap {
             kernel: self.kernel,
@@ -342,6 +355,11 @@ impl SharedGplvm {
             .into_iter()
             .map(|s| s.into_space(q))
             .collect::<Result<Vec<_>>>()?;
+        for (i, s) in spaces.iter().enumerate() {
+            if spaces[..i].iter().any(|t| t.name == s.name) {
+                return Err(corrupt(format!("space '{}' appears twice", s.name)));
+            }
+        }
         let n = spaces[0].data.nrows();
         if q == 0
             || q >= n
@@ -461,5 +479,51 @@ mod tests {
             Err(Error::Io { .. })
         ));
         std::fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// `bytes` with its JSON payload edited by `edit` and a valid header and hash: what a
+    /// tampered or buggy writer would produce.
+    fn with_payload(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+        let mut json: serde_json::Value = serde_json::from_slice(&bytes[HEADER..]).expect("json");
+        edit(&mut json);
+        let payload = serde_json::to_vec(&json).expect("json");
+        let mut out = bytes[..12].to_vec();
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        out.extend_from_slice(&payload);
+        out
+    }
+
+    #[test]
+    fn files_with_a_valid_hash_but_unusable_contents_are_refused() {
+        let m = fit(BackConstraint::None, 30, 5, 0);
+        let bytes = m.to_bytes();
+        // The helper itself produces loadable files.
+        let same = with_payload(&bytes, |_| {});
+        assert!(SharedGplvm::from_bytes(&same).is_ok());
+        type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
+        let cases: [(&str, Edit); 3] = [
+            (
+                "appears twice",
+                Box::new(|j| {
+                    let name = j["spaces"][0]["name"].clone();
+                    j["spaces"][1]["name"] = name;
+                }),
+            ),
+            (
+                "invalid kernel",
+                Box::new(|j| j["spaces"][1]["kernel"]["lengthscale"][0] = 1e-200.into()),
+            ),
+            (
+                "input map",
+                Box::new(|j| j["map"]["kernel"]["lengthscale"][0] = 1e200.into()),
+            ),
+        ];
+        for (expected, edit) in cases {
+            match SharedGplvm::from_bytes(&with_payload(&bytes, edit)) {
+                Err(Error::Corrupt { reason }) => assert!(reason.contains(expected), "{reason}"),
+                other => panic!("{expected}: {other:?}"),
+            }
+        }
     }
 }

@@ -244,7 +244,7 @@ impl SharedGplvm {
         };
         self.latent_into(h, x)?;
         self.mean_into(si, x, out);
-        Ok(())
+        check_prediction(space, 0, out)
     }
 
     pub(crate) fn check_input_matrix(&self, h: MatRef<'_, f64>) -> Result<()> {
@@ -266,7 +266,7 @@ impl SharedGplvm {
         self.latent_batch(h)
     }
 
-    /// [`SharedGplvm::latent`] without the input checks.
+    /// [`SharedGplvm::latent`] without the input checks (the output is checked).
     pub(crate) fn latent_batch(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         let Some(lc) = &self.latent_cache else {
             return Err(Error::Corrupt {
@@ -290,6 +290,7 @@ impl SharedGplvm {
                 Par::Seq,
             );
         });
+        check_prediction_matrix("latent", out.as_ref())?;
         Ok(out)
     }
 
@@ -355,8 +356,40 @@ impl SharedGplvm {
                 mean[(r, t)] = mean[(r, t)] * s.scale[t] + s.offset[t];
             }
         }
+        check_prediction_matrix(space, mean.as_ref())?;
+        if let Some(v) = &variance {
+            check_prediction_matrix(space, v.as_ref())?;
+        }
         Ok(Prediction { mean, variance })
     }
+}
+
+/// [`Error::NonFinitePrediction`] for the first non-finite value of one predicted frame.
+fn check_prediction(space: &str, row: usize, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(col) => Err(Error::NonFinitePrediction {
+            space: space.into(),
+            row,
+            col,
+            value: values[col],
+        }),
+    }
+}
+
+/// [`check_prediction`] for every frame (row) of `m`.
+fn check_prediction_matrix(space: &str, m: MatRef<'_, f64>) -> Result<()> {
+    for j in 0..m.ncols() {
+        if let Some(row) = (0..m.nrows()).find(|&i| !m[(i, j)].is_finite()) {
+            return Err(Error::NonFinitePrediction {
+                space: space.into(),
+                row,
+                col: j,
+                value: m[(row, j)],
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Training rows (row-major, `dim` columns) and `m` query rows `query(r, t)`, both centred on
@@ -440,6 +473,29 @@ pub(crate) fn add_kernel_weighted(
 mod tests {
     use super::*;
     use crate::test_support::*;
+
+    /// A model whose parameters overflow in prediction is refused with a typed error, on every
+    /// path, instead of handing NaN or infinity on as joint commands.
+    #[test]
+    fn non_finite_predictions_are_an_error() {
+        let (h, _, _, _) = demo(30, 2);
+        let mut m = fit(BackConstraint::Input, 30, 5, 0);
+        m.caches[1].alpha_rows[3] = f64::INFINITY;
+        let is_refused = |r: Result<()>| matches!(r, Err(Error::NonFinitePrediction { ref space, .. }) if space == "walkman");
+        assert!(is_refused(
+            m.predict(h.as_ref(), "walkman", false).map(|_| ())
+        ));
+        let mut out = vec![0.0; 4];
+        assert!(is_refused(m.predict_frame(
+            &h.as_ref().row(0).iter().copied().collect::<Vec<_>>(),
+            "walkman",
+            &mut out
+        )));
+        let mut m = fit(BackConstraint::Input, 30, 5, 0);
+        m.latent_cache.as_mut().expect("cache").weights[0] = f64::NAN;
+        let err = m.latent(h.as_ref()).expect_err("NaN latent points");
+        assert!(err.to_string().contains("prediction for 'latent'"), "{err}");
+    }
 
     #[test]
     fn prediction_paths_agree_and_variance_matches_dense_formula() {
