@@ -22,6 +22,12 @@ pub enum CsvError {
         /// What was wrong.
         message: String,
     },
+    /// The header is followed by no data line.
+    #[error("{source_name}: a header but no frames, expected at least one line of values")]
+    NoFrames {
+        /// File name (or `stdin`).
+        source_name: String,
+    },
     /// Reading failed.
     #[error("{source_name}: {source}")]
     Io {
@@ -43,9 +49,10 @@ pub struct CsvHeader {
 }
 
 impl CsvHeader {
-    /// Parses a header line.
+    /// Parses a header line (a UTF-8 byte-order mark before it is ignored).
     pub fn parse(line: &str) -> CsvHeader {
         let mut names: Vec<String> = line
+            .trim_start_matches('\u{feff}')
             .trim()
             .split(',')
             .map(|s| s.trim().to_string())
@@ -98,6 +105,15 @@ impl CsvHeader {
             )));
         }
         let time = self.time_column.as_ref().map(|_| values.remove(0));
+        if let (Some(t), Some(column)) = (time, self.time_column.as_deref()) {
+            // Times become i64 nanoseconds (MCAP log time): refuse what would saturate.
+            let ns = if column == "time_ns" { t } else { t * 1e9 };
+            if ns.abs() >= i64::MAX as f64 {
+                return Err(bad(format!(
+                    "{column} is {t:e}, beyond what nanosecond timestamps hold (±9.2e18 ns)"
+                )));
+            }
+        }
         Ok((time, values))
     }
 }
@@ -136,18 +152,19 @@ impl CsvFrames {
     }
 }
 
-/// Reads lines up to the first non-blank one and parses it as the header.
+/// Reads lines up to the first non-blank one and parses it as the header; returns it with its
+/// 1-based line number (data lines are numbered on from it in messages).
 pub fn read_header(
     lines: &mut impl Iterator<Item = std::io::Result<String>>,
     source_name: &str,
-) -> Result<CsvHeader, CsvError> {
-    for line in lines {
+) -> Result<(CsvHeader, usize), CsvError> {
+    for (i, line) in lines.enumerate() {
         let line = line.map_err(|source| CsvError::Io {
             source_name: source_name.to_string(),
             source,
         })?;
         if !line.trim().is_empty() {
-            return Ok(CsvHeader::parse(&line));
+            return Ok((CsvHeader::parse(&line), i + 1));
         }
     }
     Err(CsvError::MissingHeader {
@@ -162,7 +179,7 @@ pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames,
         source,
     };
     let mut lines = reader.lines();
-    let header = read_header(&mut lines, source_name)?;
+    let (header, header_line) = read_header(&mut lines, source_name)?;
     let mut times = header.time_column.as_ref().map(|_| Vec::new());
     let mut values = Vec::new();
     let mut rows = 0;
@@ -171,12 +188,17 @@ pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames,
         if line.trim().is_empty() {
             continue;
         }
-        let (time, row) = header.parse_line(&line, i + 2, source_name)?;
+        let (time, row) = header.parse_line(&line, header_line + i + 1, source_name)?;
         if let (Some(times), Some(t)) = (times.as_mut(), time) {
             times.push(t);
         }
         values.extend(row);
         rows += 1;
+    }
+    if rows == 0 {
+        return Err(CsvError::NoFrames {
+            source_name: source_name.to_string(),
+        });
     }
     Ok(CsvFrames {
         header,
@@ -213,6 +235,31 @@ mod tests {
         assert_eq!(frames.times, Some(vec![0.0, 0.025]));
         assert_eq!(frames.values, vec![1.5, -2.0, 1e-3, 4.0]);
         assert_eq!(frames.rows, 2);
+    }
+
+    /// Hostile but plausible files (issue 13): a byte-order mark, blank lines before the
+    /// header, a time that would saturate, a header without frames.
+    #[test]
+    fn bom_blank_lines_huge_times_and_empty_tables() {
+        let t = read_frames("\u{feff}time,a\n0.5,1\n".as_bytes(), "bom.csv").expect("bom");
+        assert_eq!(t.header.time_column.as_deref(), Some("time"));
+        assert_eq!(t.times_ns(), vec![500_000_000]);
+        let e = read_frames("\n\ntime,a\n\n0,1\nx,2\n".as_bytes(), "f.csv").expect_err("bad");
+        assert_eq!(
+            e.to_string(),
+            "f.csv: line 6: column 1 is \"x\", expected a number"
+        );
+        let e = read_frames("time,a\n1e308,1\n".as_bytes(), "f.csv").expect_err("huge");
+        assert!(
+            e.to_string()
+                .starts_with("f.csv: line 2: time is 1e308, beyond"),
+            "{e}"
+        );
+        let e = read_frames("time_ns,a\n1e19,1\n".as_bytes(), "f.csv").expect_err("huge");
+        assert!(e.to_string().contains("time_ns is 1e19"), "{e}");
+        assert!(read_frames("time_ns,a\n9e18,1\n".as_bytes(), "f.csv").is_ok());
+        let e = read_frames("a,b\n\n".as_bytes(), "h.csv").expect_err("no frames");
+        assert!(matches!(e, CsvError::NoFrames { .. }), "{e}");
     }
 
     #[test]

@@ -168,7 +168,7 @@ fn predict_stream(
     }
     let stdin = std::io::stdin();
     let mut lines = stdin.lock().lines();
-    let header = read_header(&mut lines, "stdin")?;
+    let (header, header_line) = read_header(&mut lines, "stdin")?;
     let wanted = model_joint_names(model, model.input_name());
     let order = column_order(&wanted, &header.joints, "stdin")?;
     let stdout = std::io::stdout();
@@ -183,7 +183,7 @@ fn predict_stream(
         if line.trim().is_empty() {
             continue;
         }
-        let (time, values) = header.parse_line(&line, i + 2, "stdin")?;
+        let (time, values) = header.parse_line(&line, header_line + i + 1, "stdin")?;
         for (h, &k) in human.iter_mut().zip(&order) {
             *h = values[k];
         }
