@@ -75,7 +75,7 @@ impl SpaceCache {
 }
 
 /// `−1/(2ℓ²)` per lengthscale of `kernel`.
-fn half_inv_l2(kernel: &KernelParams) -> Vec<f64> {
+pub(crate) fn half_inv_l2(kernel: &KernelParams) -> Vec<f64> {
     kernel.lengthscale.iter().map(|l| -0.5 / (l * l)).collect()
 }
 

@@ -16,7 +16,7 @@ use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
 use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
 use crate::pool::{in_pool, lock, PARALLEL_FROM};
-use crate::predict::{for_each_kernel_block, scaled_about_mean};
+use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
 use crate::preprocess::{check_finite, check_nonempty, mean_col_var};
 use crate::train::{minimise, Control, Objective, TrainOptions};
 
@@ -187,14 +187,13 @@ impl GpRegression {
             });
         }
         check_finite("regression inputs", x)?;
-        let half_inv_l2: Vec<f64> = self
-            .kernel
-            .lengthscale
-            .iter()
-            .map(|l| -0.5 / (l * l))
-            .collect();
-        let (train, queries) =
-            scaled_about_mean(&self.x_rows, dx, &half_inv_l2, x.nrows(), |r, t| x[(r, t)]);
+        let (train, queries) = scaled_about_mean(
+            &self.x_rows,
+            dx,
+            &half_inv_l2(&self.kernel),
+            x.nrows(),
+            |r, t| x[(r, t)],
+        );
         let mut mean = Mat::from_fn(x.nrows(), self.y_mean.len(), |_, j| self.y_mean[j]);
         for_each_kernel_block(queries.as_ref(), train.as_ref(), |r0, kb| {
             faer::linalg::matmul::matmul(
