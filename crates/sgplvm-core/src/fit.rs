@@ -26,8 +26,20 @@ impl SharedGplvm {
         options: &TrainOptions,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
-        config.check()?;
         options.check()?;
+        let mut model = Self::initial(config, spaces, input)?;
+        model.train(Mode::Full, options, callback)?;
+        Ok(model)
+    }
+
+    /// The model [`SharedGplvm::fit`] starts training from: spaces checked and preprocessed,
+    /// latent points initialised (X, or W for back constraints), not yet trained.
+    pub(crate) fn initial(
+        config: &ModelConfig,
+        spaces: &[(&str, MatRef<'_, f64>)],
+        input: &str,
+    ) -> Result<Self> {
+        config.check()?;
         let order = checked_order(spaces, input, config.latent_dim)?;
         let sp: Vec<Space> = order
             .iter()
@@ -37,7 +49,6 @@ impl SharedGplvm {
         let latent = initial_latent(config.back_constraint, &sp, x0.as_ref(), config.bc_ridge)?;
         let mut model = SharedGplvm::new(config.clone(), sp, latent);
         model.update_latent_points();
-        model.train(Mode::Full, options, callback)?;
         Ok(model)
     }
 
@@ -79,7 +90,6 @@ impl SharedGplvm {
                 .map(|&s| self.spaces[s].data.ncols())
                 .sum();
             let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
-            let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
             let outcome = minimise(&obj, theta0, scale, options, |rec, theta| {
                 let Some(cb) = callback.as_mut() else {
                     return Control::Continue;
@@ -87,11 +97,13 @@ impl SharedGplvm {
                 let mut snap = self.clone();
                 obj.apply(theta, &mut snap);
                 snap.update_latent_points();
-                if matches!(mode, Mode::Full) && snap.needs_map() {
-                    if let Err(_e) = snap.fit_map(options, prev_map.clone()) {
-                        return Control::Continue;
-                    }
-                    prev_map = snap.map.as_ref().map(|m| m.kernel.clone());
+                // The map is fitted from the same start as the returned model's, so that a
+                // snapshot predicts exactly what the model stopped at this iteration predicts.
+                if matches!(mode, Mode::Full)
+                    && snap.needs_map()
+                    && snap.fit_map(options, None).is_err()
+                {
+                    return Control::Continue;
                 }
                 if snap.rebuild().is_err() {
                     return Control::Continue;

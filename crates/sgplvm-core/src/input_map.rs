@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::kernel::KernelParams;
 use crate::model::SharedGplvm;
 use crate::regression::{fit_kernel, starting_kernel};
-use crate::train::TrainOptions;
+use crate::train::{Control, TrainOptions};
 
 /// GP regression human → latent (for `None` and `Output` back constraints).
 #[derive(Clone, Debug)]
@@ -38,7 +38,9 @@ impl SharedGplvm {
             max_iters: options.map_max_iters,
             ..options.clone()
         };
-        let kernel = fit_kernel(h, y.as_ref(), start, &opts, "input map")?;
+        let kernel = fit_kernel(h, y.as_ref(), start, &opts, "input map", |_, _| {
+            Control::Continue
+        })?;
         self.map = Some(InputMap { kernel, x_mean });
         Ok(())
     }

@@ -12,7 +12,8 @@
 //!
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
-//! back-constraint data), the input-map hyperparameters and the training history. Caches
+//! back-constraint data), the input-map hyperparameters, the training history and, for models
+//! trained with a validation split, how their iteration budget was chosen. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
 //! Files are written to a temporary file next to the target and renamed into place.
@@ -29,6 +30,7 @@ use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
 use crate::model::{Latent, SharedGplvm, Space};
 use crate::train::{IterationRecord, StopReason};
+use crate::validation::Selection;
 
 /// Magic bytes at the start of every model file.
 pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
@@ -222,6 +224,10 @@ struct ModelFile {
     map: Option<MapFile>,
     history: Vec<IterationRecord>,
     stop_reason: Option<StopReason>,
+    /// Absent in files of models trained without a validation split (and in files written
+    /// before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    selection: Option<Selection>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -270,6 +276,7 @@ impl SharedGplvm {
             }),
             history: self.history.clone(),
             stop_reason: self.stop_reason.clone(),
+            selection: self.selection.clone(),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -378,6 +385,7 @@ impl SharedGplvm {
         model.map = map;
         model.history = f.history;
         model.stop_reason = f.stop_reason;
+        model.selection = f.selection;
         model.rebuild()?;
         Ok(model)
     }

@@ -37,6 +37,7 @@
 //! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
 //! | `fit.rs` | the full and multi-robot models ([`SharedGplvm::fit`]) |
 //! | `transfer.rs` | transfer to a new robot ([`SharedGplvm::transfer`]) |
+//! | `validation.rs` | early stopping on held-out frames: [`SharedGplvm::fit_validated`], [`SharedGplvm::transfer_validated`], [`Validation`], [`Selection`] |
 //! | `regression.rs` | [`GpRegression`]: the direct-mapping yardstick, and the regression the input map uses |
 //! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
 //! | `predict.rs` | human → latent → robot, single frame and batch; the prediction caches |
@@ -99,6 +100,7 @@ mod simd;
 mod test_support;
 mod train;
 mod transfer;
+mod validation;
 
 pub use config::{BackConstraint, ModelConfig, ScaleMode};
 pub use error::{Error, Result};
@@ -111,3 +113,4 @@ pub use params::{LatentParams, Params};
 pub use predict::Prediction;
 pub use regression::GpRegression;
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};
+pub use validation::{Selection, Validation, ValidationRecord};

@@ -14,6 +14,7 @@ use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
 use crate::pool::lock;
 use crate::predict::{LatentCache, SpaceCache};
 use crate::train::{Control, IterationRecord, StopReason};
+use crate::validation::Selection;
 
 /// One observation space.
 #[derive(Clone, Debug)]
@@ -75,6 +76,8 @@ pub struct SharedGplvm {
     pub(crate) map: Option<InputMap>,
     pub(crate) history: Vec<IterationRecord>,
     pub(crate) stop_reason: Option<StopReason>,
+    /// How the iteration budget was chosen on held-out frames, when it was.
+    pub(crate) selection: Option<Selection>,
     // ----- derived, recomputed by `rebuild` -----
     /// Largest jitter the prediction caches' factorisations needed.
     pub(crate) training_jitter: f64,
@@ -137,6 +140,7 @@ impl SharedGplvm {
             map: None,
             history: Vec::new(),
             stop_reason: None,
+            selection: None,
             training_jitter: 0.0,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),
@@ -182,6 +186,19 @@ impl SharedGplvm {
     /// Objective and time per iteration of the last training run (iteration 0 = start).
     pub fn history(&self) -> &[IterationRecord] {
         &self.history
+    }
+
+    /// How the iteration budget was chosen on held-out frames, for a model trained by
+    /// [`SharedGplvm::fit_validated`] or [`SharedGplvm::transfer_validated`].
+    pub fn selection(&self) -> Option<&Selection> {
+        self.selection.as_ref()
+    }
+
+    /// Seconds spent training this model: the selection run on held-out frames, if any, and
+    /// the final training (callbacks excluded).
+    pub fn training_seconds(&self) -> f64 {
+        self.selection.as_ref().map_or(0.0, |s| s.seconds)
+            + self.history.last().map_or(0.0, |r| r.seconds)
     }
 
     /// Why the last training run stopped.

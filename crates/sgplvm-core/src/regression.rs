@@ -18,7 +18,7 @@ use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
 use crate::pool::{in_pool, lock, PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
 use crate::preprocess::{check_finite, check_nonempty, mean_col_var};
-use crate::train::{minimise, Control, Objective, TrainOptions};
+use crate::train::{minimise, Control, IterationRecord, Objective, TrainOptions};
 
 /// The kernel a regression starts from: variance = the targets' mean column variance v, every
 /// lengthscale the median pairwise distance of the inputs, noise = v / 100.
@@ -32,13 +32,15 @@ pub(crate) fn starting_kernel(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> KernelP
 }
 
 /// The hyperparameters of a regression of centred `y` on `x`, trained by L-BFGS from `start`
-/// (`options.max_iters` iterations at most). `what` names the regression in errors.
+/// (`options.max_iters` iterations at most). `what` names the regression in errors;
+/// `on_iter` sees every accepted iteration with its kernel and may stop training.
 pub(crate) fn fit_kernel(
     x: MatRef<'_, f64>,
     y: MatRef<'_, f64>,
     start: KernelParams,
     options: &TrainOptions,
     what: &str,
+    mut on_iter: impl FnMut(&IterationRecord, &KernelParams) -> Control,
 ) -> Result<KernelParams> {
     let (n, d) = (y.nrows(), y.ncols());
     let obj = RegressionObjective {
@@ -50,10 +52,11 @@ pub(crate) fn fit_kernel(
     };
     let mut theta0 = Vec::new();
     encode_kernel(&start, &mut theta0);
-    let out = minimise(&obj, theta0, 1.0 / (n * d) as f64, options, |_, _| {
-        Control::Continue
+    let dx = x.ncols();
+    let out = minimise(&obj, theta0, 1.0 / (n * d) as f64, options, |rec, theta| {
+        on_iter(rec, &decode_kernel(theta, dx))
     })?;
-    Ok(decode_kernel(&out.theta, x.ncols()))
+    Ok(decode_kernel(&out.theta, dx))
 }
 
 /// The regression's negative log marginal likelihood (inputs fixed), θ = log kernel parameters.
@@ -124,6 +127,8 @@ pub struct GpRegression {
     kernel: KernelParams,
     /// K⁻¹(Y − mean), N×D_y.
     alpha: Mat<f64>,
+    /// Negative log marginal likelihood at `kernel`.
+    objective: f64,
 }
 
 impl GpRegression {
@@ -155,24 +160,31 @@ impl GpRegression {
             starting_kernel(x, yc.as_ref()),
             options,
             "regression",
+            |_, _| Control::Continue,
         )?;
+        Self::with_kernel(x, y_mean, yc.as_ref(), kernel, "regression")
+    }
+
+    /// The regression of centred `yc` (whose column means were `y_mean`) on `x` with the given
+    /// hyperparameters: one factorisation. `what` names it in errors.
+    pub(crate) fn with_kernel(
+        x: MatRef<'_, f64>,
+        y_mean: Vec<f64>,
+        yc: MatRef<'_, f64>,
+        kernel: KernelParams,
+        what: &str,
+    ) -> Result<Self> {
+        let (n, d) = (yc.nrows(), yc.ncols());
         let x_rows = row_major(x);
         let mut work = SpaceWork::new(n, d);
-        eval_space(
-            &x_rows,
-            x.ncols(),
-            yc.as_ref(),
-            &kernel,
-            &mut work,
-            false,
-            None,
-        )
-        .map_err(|e| e.in_space("regression"))?;
+        let e = eval_space(&x_rows, x.ncols(), yc, &kernel, &mut work, false, None)
+            .map_err(|e| e.in_space(what))?;
         Ok(GpRegression {
             x_rows,
             y_mean,
             kernel,
             alpha: work.alpha().to_owned(),
+            objective: e.nll,
         })
     }
 
@@ -211,6 +223,11 @@ impl GpRegression {
     /// The trained hyperparameters (one lengthscale per input column).
     pub fn kernel(&self) -> &KernelParams {
         &self.kernel
+    }
+
+    /// Negative log marginal likelihood of the training outputs at the trained hyperparameters.
+    pub fn objective(&self) -> f64 {
+        self.objective
     }
 }
 

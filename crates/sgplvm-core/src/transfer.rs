@@ -69,7 +69,7 @@ impl SharedGplvm {
 
     /// Shared body of [`SharedGplvm::transfer`] (`seed = None`: no perturbation) and
     /// [`SharedGplvm::transfer_seeded`].
-    fn transfer_impl(
+    pub(crate) fn transfer_impl(
         &self,
         name: &str,
         data: MatRef<'_, f64>,
@@ -78,6 +78,25 @@ impl SharedGplvm {
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
+        let space = self.transfer_space(name, data, seed)?;
+        let mut model = self.clone();
+        model.history = Vec::new();
+        model.selection = None;
+        model.spaces.push(space);
+        let idx = model.spaces.len() - 1;
+        model.train(Mode::Kernels(vec![idx]), options, callback)?;
+        Ok(model)
+    }
+
+    /// The new robot's space of a transfer, before training: `data` checked against the model
+    /// (a new name, one row per training frame, finite values) and preprocessed, its kernel at
+    /// the transfer's starting point (perturbed when `seed` is given).
+    pub(crate) fn transfer_space(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: Option<u64>,
+    ) -> Result<Space> {
         if self.spaces.iter().any(|s| s.name == name) {
             return Err(Error::DuplicateSpace { name: name.into() });
         }
@@ -99,12 +118,7 @@ impl SharedGplvm {
         if let Some(seed) = seed {
             perturb_kernel(&mut space.kernel, seed);
         }
-        let mut model = self.clone();
-        model.history = Vec::new();
-        model.spaces.push(space);
-        let idx = model.spaces.len() - 1;
-        model.train(Mode::Kernels(vec![idx]), options, callback)?;
-        Ok(model)
+        Ok(space)
     }
 }
 
