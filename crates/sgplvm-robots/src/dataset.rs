@@ -72,6 +72,36 @@ impl Segment {
     }
 }
 
+/// How [`Dataset::validation_split`] chose its frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ValidationRule {
+    /// The last repetition of every training motion.
+    LastRepetition,
+    /// Every third training trajectory.
+    EveryThirdTrajectory,
+    /// Every third of nine equal blocks of training frames.
+    EveryThirdBlock,
+}
+
+impl std::fmt::Display for ValidationRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::LastRepetition => "the last repetition of every training motion",
+            Self::EveryThirdTrajectory => "every third training trajectory",
+            Self::EveryThirdBlock => "every third of nine blocks of training frames",
+        })
+    }
+}
+
+/// Training frames held out for validation: positions in [`Dataset::train`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ValidationSplit {
+    /// Positions in the training frames (ascending).
+    pub rows: Vec<usize>,
+    /// The rule that chose them.
+    pub rule: ValidationRule,
+}
+
 /// Demonstrations of one human and several robots on a common frame clock.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
@@ -126,6 +156,68 @@ impl Dataset {
     /// Human rows of the test set.
     pub fn human_test(&self) -> DMatrix<f64> {
         self.human.rows(&self.test)
+    }
+
+    /// The training frames to hold out for choosing a model's iteration budget: positions in
+    /// [`Dataset::train`] (not frame numbers), with the rule that chose them.
+    ///
+    /// The training frames are grouped into trajectories (runs of training frames in one
+    /// segment; without segments, runs of consecutive frames). When the trajectories are
+    /// labelled with two or more repetitions, the last repetition of every motion is held out
+    /// ([`ValidationRule::LastRepetition`]): held-out frames are then as far from the others
+    /// as test motions are from the training motions. Otherwise every third trajectory is held
+    /// out ([`ValidationRule::EveryThirdTrajectory`]), or, with fewer than three trajectories,
+    /// every third of nine equal blocks of training frames ([`ValidationRule::EveryThirdBlock`]).
+    /// Test frames are never looked at.
+    pub fn validation_split(&self) -> ValidationSplit {
+        let mut runs: Vec<(Option<usize>, Vec<usize>)> = Vec::new();
+        for (pos, &frame) in self.train.iter().enumerate() {
+            let segment = self.segment_of(frame);
+            let key = segment.map(|s| s.start);
+            let continues = match runs.last() {
+                Some((k, members)) => match segment {
+                    Some(_) => *k == key,
+                    None => members.last().is_some_and(|&p| self.train[p] + 1 == frame),
+                },
+                None => false,
+            };
+            match runs.last_mut() {
+                Some((_, members)) if continues => members.push(pos),
+                _ => runs.push((key, vec![pos])),
+            }
+        }
+        let repetition = |key: Option<usize>| {
+            key.and_then(|start| self.segment_of(start))
+                .and_then(|s| s.repetition)
+        };
+        let repetitions: std::collections::BTreeSet<usize> =
+            runs.iter().filter_map(|(k, _)| repetition(*k)).collect();
+        let (rule, mut rows): (ValidationRule, Vec<usize>) = match repetitions.last() {
+            Some(&last) if repetitions.len() >= 2 => (
+                ValidationRule::LastRepetition,
+                runs.iter()
+                    .filter(|(k, _)| repetition(*k) == Some(last))
+                    .flat_map(|(_, m)| m.iter().copied())
+                    .collect(),
+            ),
+            _ if runs.len() >= 3 => (
+                ValidationRule::EveryThirdTrajectory,
+                runs.iter()
+                    .skip(2)
+                    .step_by(3)
+                    .flat_map(|(_, m)| m.iter().copied())
+                    .collect(),
+            ),
+            _ => {
+                let n = self.train.len();
+                (
+                    ValidationRule::EveryThirdBlock,
+                    (0..n).filter(|&p| (p * 9 / n.max(1)) % 3 == 2).collect(),
+                )
+            }
+        };
+        rows.sort_unstable();
+        ValidationSplit { rows, rule }
     }
 
     /// Training rows of robot `name`, if there is such a robot.
@@ -527,6 +619,47 @@ mod tests {
             train: vec![0, 2, 4],
             test: vec![8, 9, 10, 11],
         }
+    }
+
+    #[test]
+    fn validation_holds_out_the_last_repetition_else_every_third_trajectory() {
+        let segment = |start, end, to_pose, repetition| Segment {
+            start,
+            end,
+            from_pose: Some(0),
+            to_pose: Some(to_pose),
+            repetition,
+        };
+        let mut ds = small();
+        // Three motions, two repetitions each: frames 0..12 in six segments of two.
+        ds.segments = (0..6)
+            .map(|k| segment(2 * k, 2 * k + 2, 1 + k % 3, Some(k / 3)))
+            .collect();
+        ds.train = vec![0, 1, 2, 4, 5, 6, 7, 9, 10, 11];
+        ds.test = vec![3, 8];
+        let split = ds.validation_split();
+        assert_eq!(split.rule, ValidationRule::LastRepetition);
+        // Repetition 1 is frames 6..12: training positions 5..10.
+        assert_eq!(split.rows, vec![5, 6, 7, 8, 9]);
+        // Unlabelled repetitions: every third trajectory (one per segment here).
+        for s in &mut ds.segments {
+            s.repetition = None;
+        }
+        let split = ds.validation_split();
+        assert_eq!(split.rule, ValidationRule::EveryThirdTrajectory);
+        // Trajectories: [0,1] [2] [4,5] [6,7] [9] [10,11] → the third and the sixth.
+        assert_eq!(split.rows, vec![3, 4, 8, 9]);
+        // No segments: trajectories are runs of consecutive frames.
+        ds.segments.clear();
+        let split = ds.validation_split();
+        assert_eq!(split.rule, ValidationRule::EveryThirdTrajectory);
+        // Runs: [0,1,2] [4..7] [9,10,11] → the third.
+        assert_eq!(split.rows, vec![7, 8, 9]);
+        // One run: nine blocks.
+        ds.train = (0..9).collect();
+        let split = ds.validation_split();
+        assert_eq!(split.rule, ValidationRule::EveryThirdBlock);
+        assert_eq!(split.rows, vec![2, 5, 8]);
     }
 
     #[test]
