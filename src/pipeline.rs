@@ -4,8 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::DMatrix;
-use sgplvm_core::{Callback, GpRegression, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions};
-use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset};
+use sgplvm_core::{
+    Callback, GpRegression, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions, Validation,
+};
+use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset, ValidationSplit};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
 use crate::experiment::{mean_squared_error, ExperimentData, ModelKind, SplitData};
@@ -148,13 +150,27 @@ impl Demonstrations {
         })
     }
 
+    /// The training frames held out to choose the iteration budget
+    /// ([`Dataset::validation_split`]) and the rule that chose them.
+    pub fn validation_split(&self) -> ValidationSplit {
+        self.dataset.validation_split()
+    }
+
+    /// [`Demonstrations::validation_split`] as the core takes it, with `patience`.
+    pub fn validation(&self, patience: usize) -> Validation {
+        Validation::new(self.validation_split().rows).with_patience(patience)
+    }
+
     /// Trains a model on the training frames of the human and `robots` (one robot: the full
-    /// model; several: the multi-robot model). Joint names are stored in the model.
+    /// model; several: the multi-robot model). With `validation`, the iteration budget is
+    /// chosen on held-out training frames ([`SharedGplvm::fit_validated`]). Joint names are
+    /// stored in the model.
     pub fn train(
         &self,
         robots: &[String],
         config: &ModelConfig,
         options: &TrainOptions,
+        validation: Option<&Validation>,
         callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm, PipelineError> {
         self.check_splits()?;
@@ -169,7 +185,11 @@ impl Demonstrations {
             .zip(&mats)
             .map(|(b, m)| (b.name.as_str(), m.as_ref()))
             .collect();
-        let mut model = SharedGplvm::fit(config, &spaces, &ds.human.name, options, callback)?;
+        let input = &ds.human.name;
+        let mut model = match validation {
+            Some(v) => SharedGplvm::fit_validated(config, &spaces, input, options, v, callback)?,
+            None => SharedGplvm::fit(config, &spaces, input, options, callback)?,
+        };
         for body in bodies {
             model.set_column_names(&body.name, body.joint_names.clone())?;
         }
@@ -177,19 +197,24 @@ impl Demonstrations {
     }
 
     /// Transfers `model` to `robot` on this data's training frames (which must be the frames the
-    /// model was trained on: the human joints and frame count are checked).
+    /// model was trained on: the human joints and frame count are checked). With `validation`,
+    /// the iteration budget is chosen on held-out frames ([`SharedGplvm::transfer_validated`]).
     pub fn transfer(
         &self,
         model: &SharedGplvm,
         robot: &str,
         options: &TrainOptions,
+        validation: Option<&Validation>,
         callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm, PipelineError> {
         self.check_splits()?;
         self.check_human(model)?;
         let body = self.robot(robot)?;
         let data = to_mat(&body.rows(&self.dataset.train));
-        let mut transferred = model.transfer(robot, data.as_ref(), options, callback)?;
+        let mut transferred = match validation {
+            Some(v) => model.transfer_validated(robot, data.as_ref(), None, options, v, callback)?,
+            None => model.transfer(robot, data.as_ref(), options, callback)?,
+        };
         transferred.set_column_names(robot, body.joint_names.clone())?;
         Ok(transferred)
     }
@@ -316,18 +341,20 @@ pub struct StudyModel {
 impl Demonstrations {
     /// The demo's small experiment (one run of the paper's transfer comparison): `source` trained
     /// fully, then every other robot of the data transferred from it and, for comparison,
-    /// trained fully from scratch — all with `config` and `options` — each model evaluated on
-    /// the test frames as soon as it is trained. `run` runs each training, in this order.
+    /// trained fully from scratch — all with `config`, `options` and `validation` — each model
+    /// evaluated on the test frames as soon as it is trained. `run` runs each training, in this
+    /// order.
     pub fn transfer_study<E: From<PipelineError>>(
         &self,
         source: &str,
         config: &ModelConfig,
         options: &TrainOptions,
+        validation: Option<&Validation>,
         run: &mut StudyRunner<'_, E>,
     ) -> Result<Vec<StudyModel>, E> {
         let full = |robot: &str| {
             let robots = vec![robot.to_string()];
-            move |cb: Option<Callback<'_>>| self.train(&robots, config, options, cb)
+            move |cb: Option<Callback<'_>>| self.train(&robots, config, options, validation, cb)
         };
         let training = |robot, kind| StudyTraining {
             robot,
@@ -348,7 +375,7 @@ impl Demonstrations {
         {
             let transferred =
                 self.study_model(training(target, ModelKind::Transfer), run, &mut |cb| {
-                    self.transfer(&first.model, target, options, cb)
+                    self.transfer(&first.model, target, options, validation, cb)
                 })?;
             let baseline = self.study_model(
                 training(target, ModelKind::Baseline),

@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
-use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
+use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
 // struct for the about text of the command it is flattened into.
@@ -58,18 +58,43 @@ pub struct JsonArg {
     pub json: bool,
 }
 
-// `--max-iters`: the iteration budget of a training.
+// `--max-iters`, `--validation`, `--patience`: the iteration budget of a training and how it is
+// chosen.
 #[derive(Args)]
 pub struct BudgetArg {
-    /// Iteration budget.
+    /// Iteration budget (an upper bound when the budget is chosen on validation frames).
     #[arg(long, default_value_t = 1000)]
     pub max_iters: u64,
+    /// How many iterations to train: `auto` holds out the last repetition of every training
+    /// motion (or every third trajectory), trains until the error on them stops falling, then
+    /// trains on all training frames for the best iteration count; `none` trains on all
+    /// frames until convergence or `--max-iters`.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub validation: ValidationArg,
+    /// With `--validation auto`: iterations without a lower validation error before the
+    /// selection run stops.
+    #[arg(long, default_value_t = Validation::DEFAULT_PATIENCE as u64)]
+    pub patience: u64,
+}
+
+/// `--validation`: whether the iteration budget is chosen on held-out training frames.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ValidationArg {
+    /// Early stopping on held-out training frames, then retraining on all of them.
+    Auto,
+    /// Train on all frames until convergence or the budget.
+    None,
 }
 
 impl BudgetArg {
     /// Training options with this budget.
     pub fn options(&self) -> TrainOptions {
         TrainOptions::default().with_max_iters(self.max_iters as usize)
+    }
+
+    /// The held-out frames of `demos` for `--validation auto`; `None` for `none`.
+    pub fn validation(&self, demos: &Demonstrations) -> Option<Validation> {
+        (self.validation == ValidationArg::Auto).then(|| demos.validation(self.patience as usize))
     }
 }
 

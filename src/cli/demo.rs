@@ -11,7 +11,7 @@ use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
 
-use super::args::DataArg;
+use super::args::{BudgetArg, DataArg};
 use super::progress::train_with_progress;
 use super::report::{self, Yardstick};
 
@@ -19,6 +19,7 @@ use super::report::{self, Yardstick};
 #[command(mut_arg("data", |a| a.help(
     "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or the same data generated"
 )))]
+#[command(mut_arg("max_iters", |a| a.default_value("500")))]
 pub struct DemoArgs {
     #[command(flatten)]
     data: DataArg,
@@ -28,9 +29,8 @@ pub struct DemoArgs {
     /// Robot trained fully; the others in the data are transferred to.
     #[arg(long, default_value = "walkman")]
     source: String,
-    /// Iteration budget of each training.
-    #[arg(long, default_value_t = 500, value_parser = clap::value_parser!(u64).range(1..))]
-    max_iters: u64,
+    #[command(flatten)]
+    budget: BudgetArg,
     /// Latent dimension Q.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
     latent_dim: u64,
@@ -47,13 +47,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let config = ModelConfig::default()
         .with_latent_dim(args.latent_dim as usize)
         .with_back_constraint(BackConstraint::Input);
-    let options = TrainOptions::default().with_max_iters(args.max_iters as usize);
+    let options = args.budget.options();
+    let validation = args.budget.validation(&demos);
     let models = demos.transfer_study(
         &args.source,
         &config,
         &options,
+        validation.as_ref(),
         &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
-            train_and_save(training, train, args.max_iters, &args.out)
+            train_and_save(training, train, args.budget.max_iters, &args.out)
         },
     )?;
     let yardsticks = direct_regressions(&demos, &models, &options)?;

@@ -33,11 +33,12 @@ pub fn run(args: TransferArgs) -> Result<()> {
     let source = load_model(&args.model)?;
     let demos = args.data.load()?;
     let options = args.budget.options();
+    let validation = args.budget.validation(&demos);
     let robot = &args.robot;
     let (model, seconds) = train_with_progress(
         &format!("transfer to {robot}"),
         args.budget.max_iters,
-        |cb| demos.transfer(&source, robot, &options, cb),
+        |cb| demos.transfer(&source, robot, &options, validation.as_ref(), cb),
     )?;
     model.save(&args.output.out)?;
     report::training(&model, seconds, &args.output.out, args.output.json.json);
