@@ -16,10 +16,11 @@ fn teleop(c: &mut Criterion) {
             &ModelConfig::default(),
             &options,
             None,
+            None,
         )
         .expect("training");
     let model = demos
-        .transfer(&full, "coman", &options, None)
+        .transfer(&full, "coman", &options, None, None)
         .expect("transfer");
     let ds = &demos.dataset;
     let header = CsvHeader::parse(&ds.human.joint_names.join(","));

@@ -54,6 +54,13 @@ impl Validation {
         }
     }
 
+    /// Every third of nine equal blocks of `n` rows held out (rows 2/9–3/9, 5/9–6/9 and
+    /// 8/9–1 of the way through): for rows in time order, three stretches of motion the model
+    /// does not see. With the default patience.
+    pub fn blocks(n: usize) -> Self {
+        Self::new((0..n).filter(|&r| (r * 9 / n) % 3 == 2).collect())
+    }
+
     /// Sets the patience.
     pub fn with_patience(mut self, patience: usize) -> Self {
         self.patience = patience;
@@ -422,6 +429,16 @@ mod tests {
             assert_eq!(back.selection(), Some(&s));
             assert!(m.training_seconds() >= s.seconds);
         }
+    }
+
+    #[test]
+    fn blocks_hold_out_a_third_in_three_stretches() {
+        assert_eq!(Validation::blocks(9).rows, vec![2, 5, 8]);
+        let v = Validation::blocks(90);
+        assert_eq!(v.rows.len(), 30);
+        assert_eq!(v.rows[..10], (20..30).collect::<Vec<_>>()[..]);
+        assert_eq!(v.rows[20..], (80..90).collect::<Vec<_>>()[..]);
+        assert!(Validation::blocks(0).rows.is_empty());
     }
 
     #[test]

@@ -119,8 +119,10 @@ fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDic
 }
 
 /// Loads a demonstration MCAP as numpy arrays: a dict with `times_ns`, `human`, `robots`
-/// (name → {topic, joint_names, positions}), `train` and `test` frame indices, `segments`
-/// (start, end, from_pose, to_pose, repetition) and `pose_names`.
+/// (name → {topic, joint_names, positions}), `train` and `test` frame indices, `validation`
+/// (positions in `train` to hold out for choosing the iteration budget: the last repetition
+/// of every training motion), `segments` (start, end, from_pose, to_pose, repetition) and
+/// `pose_names`.
 #[pyfunction]
 pub fn load_demonstrations<'py>(
     py: Python<'py>,
@@ -140,6 +142,7 @@ pub fn load_demonstrations<'py>(
     let index = |v: &[usize]| PyArray1::from_vec(py, v.iter().map(|&i| i as i64).collect());
     d.set_item("train", index(&ds.train))?;
     d.set_item("test", index(&ds.test))?;
+    d.set_item("validation", index(&ds.validation_split().rows))?;
     d.set_item("pose_names", ds.pose_names.clone())?;
     let segments = PyList::empty(py);
     for s in &ds.segments {

@@ -15,6 +15,10 @@ mod robots;
 #[pymodule]
 fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add(
+        "DEFAULT_PATIENCE",
+        sgplvm_core::Validation::DEFAULT_PATIENCE,
+    )?;
     m.add_class::<model::NativeModel>()?;
     m.add_class::<regression::NativeRegression>()?;
     m.add_class::<robots::PyRobot>()?;

@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use sgplvm_core::{
     BackConstraint, Control, IterationRecord, KernelParams, LatentParams, Mat, ModelConfig, Params,
-    SharedGplvm, TrainOptions,
+    SharedGplvm, TrainOptions, Validation,
 };
 
 /// Converts a core error into the Python exception a user expects.
@@ -121,7 +121,7 @@ pub struct NativeModel {
 impl NativeModel {
     /// Fits a model on named spaces (one robot: full model; several: multi-robot).
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, callback=None, column_names=None))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, callback=None, column_names=None))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -132,6 +132,8 @@ impl NativeModel {
         seed: u64,
         scale: bool,
         max_iters: usize,
+        validation: Option<Vec<usize>>,
+        patience: usize,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<(String, Vec<String>)>>,
     ) -> PyResult<Self> {
@@ -147,7 +149,13 @@ impl NativeModel {
         let mut model = train_detached(py, callback, |cb| {
             let views: Vec<(&str, _)> =
                 mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
-            SharedGplvm::fit(&config, &views, &input, &options, cb)
+            match validation {
+                Some(rows) => {
+                    let validation = Validation::new(rows).with_patience(patience);
+                    SharedGplvm::fit_validated(&config, &views, &input, &options, &validation, cb)
+                }
+                None => SharedGplvm::fit(&config, &views, &input, &options, cb),
+            }
         })?;
         for (space, names) in column_names.unwrap_or_default() {
             model.set_column_names(&space, names).map_err(model_error)?;
@@ -156,25 +164,46 @@ impl NativeModel {
     }
 
     /// A new model that also predicts for robot `name`, trained only on that robot's kernel.
-    #[pyo3(signature = (name, data, max_iters, callback=None, column_names=None))]
+    #[pyo3(signature = (name, data, max_iters, validation, patience, callback=None, column_names=None))]
+    #[allow(clippy::too_many_arguments)]
     fn transfer(
         &self,
         py: Python<'_>,
         name: &str,
         data: PyReadonlyArray2<'_, f64>,
         max_iters: usize,
+        validation: Option<Vec<usize>>,
+        patience: usize,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<String>>,
     ) -> PyResult<Self> {
         let data = to_mat(&data);
         let options = TrainOptions::default().with_max_iters(max_iters);
-        let mut model = train_detached(py, callback, |cb| {
-            self.inner.transfer(name, data.as_ref(), &options, cb)
+        let mut model = train_detached(py, callback, |cb| match validation {
+            Some(rows) => {
+                let validation = Validation::new(rows).with_patience(patience);
+                self.inner
+                    .transfer_validated(name, data.as_ref(), None, &options, &validation, cb)
+            }
+            None => self.inner.transfer(name, data.as_ref(), &options, cb),
         })?;
         if let Some(names) = column_names {
             model.set_column_names(name, names).map_err(model_error)?;
         }
         Ok(NativeModel { inner: model })
+    }
+
+    /// Every third of nine equal blocks of `n` rows: the default validation rows.
+    #[staticmethod]
+    fn block_validation_rows(n: usize) -> Vec<usize> {
+        Validation::blocks(n).rows
+    }
+
+    /// How the iteration budget was chosen on held-out frames (JSON), if it was.
+    fn selection_json(&self) -> Option<String> {
+        self.inner
+            .selection()
+            .and_then(|s| serde_json::to_string(s).ok())
     }
 
     /// Posterior mean (and variance, when asked) of `robot` for human frames `h` (n × D_H).

@@ -6,14 +6,14 @@ only their latent-to-output mapping.
 
 >>> import sgplvm
 >>> m = sgplvm.SharedGPLVM(latent_dim=5, back_constraint="input", seed=0)   # doctest: +SKIP
->>> m.fit({"human": H, "walkman": R1}, input="human", max_iters=1000)       # doctest: +SKIP
+>>> m.fit({"human": H, "walkman": R1}, input="human", validation="auto")   # doctest: +SKIP
 >>> t = m.transfer("coman", R2)                                             # doctest: +SKIP
 >>> t.predict(H_new, robot="coman")                                         # doctest: +SKIP
 """
 
 from ._sgplvm import Robot, __version__
 from ._io import load_demonstrations, read_joint_states, simulate, write_joint_states
-from ._model import GPRegression, SharedGPLVM
+from ._model import DEFAULT_PATIENCE, GPRegression, SharedGPLVM
 
 __all__ = [
     "SharedGPLVM",
@@ -23,5 +23,6 @@ __all__ = [
     "read_joint_states",
     "write_joint_states",
     "simulate",
+    "DEFAULT_PATIENCE",
     "__version__",
 ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Callable, Dict, Mapping, Optional, Tuple, Union
 
@@ -29,6 +30,43 @@ def _as_frames(value: ArrayLike, what: str) -> Tuple[np.ndarray, bool]:
     if array.ndim == 1:
         return _as_matrix(array[None, :], what), True
     return _as_matrix(array, what), False
+
+
+Validation = Union[str, None, np.ndarray, list, tuple]
+
+#: Iterations without a lower validation error after which the selection run stops.
+DEFAULT_PATIENCE: int = _sgplvm.DEFAULT_PATIENCE
+
+
+def _validation_rows(validation: Validation, n: int) -> Optional[list]:
+    """The rows to hold out as a list of ints (``None``: no validation) from ``"auto"``,
+    ``None``, row indices or a boolean mask of ``n`` rows."""
+    if validation is None:
+        return None
+    if isinstance(validation, str):
+        if validation != "auto":
+            raise ValueError(
+                f"validation is {validation!r}; expected 'auto', None, row indices or a boolean mask"
+            )
+        return list(_sgplvm.NativeModel.block_validation_rows(n))
+    rows = np.asarray(validation)
+    if rows.ndim != 1:
+        raise ValueError(f"validation: expected a 1-D array of row indices, got {rows.ndim}-D")
+    if rows.dtype == np.bool_:
+        if len(rows) != n:
+            raise ValueError(f"validation: a boolean mask of {len(rows)} rows; the data has {n}")
+        return [int(r) for r in np.flatnonzero(rows)]
+    if rows.size and not np.issubdtype(rows.dtype, np.integer):
+        raise ValueError(f"validation: expected integer row indices, got {rows.dtype}")
+    if rows.size and rows.min() < 0:
+        raise ValueError(f"validation: row {int(rows.min())} is negative; expected 0 <= row < {n}")
+    return [int(r) for r in rows]
+
+
+def _patience(patience: int) -> int:
+    if int(patience) < 0:
+        raise ValueError(f"patience is {patience}; expected an integer >= 0")
+    return int(patience)
 
 
 class SharedGPLVM:
@@ -73,13 +111,25 @@ class SharedGPLVM:
         max_iters: int = 1000,
         callback: Optional[Callable[[int, float], Optional[bool]]] = None,
         column_names: Optional[Mapping[str, list]] = None,
+        validation: Validation = "auto",
+        patience: int = DEFAULT_PATIENCE,
     ) -> "SharedGPLVM":
         """Trains the model on named spaces with the same number of rows (frames).
 
         With the input plus one robot this is the paper's fully trained model; with several
         robots, the multi-robot model. ``callback(iteration, objective)`` is called after every
-        iteration and stops training by returning ``False``. ``column_names`` (joint names per
-        space) are stored in the model. Returns ``self``.
+        iteration of the final training and stops it by returning ``False``. ``column_names``
+        (joint names per space) are stored in the model. Returns ``self``.
+
+        ``validation`` chooses how many iterations to train (trained to convergence, the model
+        fits the training frames ever better and motions it has not seen worse): the rows it
+        names are held out, the model is trained on the others until their error has not
+        fallen for ``patience`` iterations, then trained on all rows for the best iteration
+        count (see :attr:`selection`). Give the row indices (or a boolean mask) to hold out —
+        ``demo["validation"]`` from :func:`load_demonstrations` holds out the last repetition
+        of every training motion — or ``"auto"`` (every third of nine equal blocks of rows,
+        for rows in time order), or ``None`` to train on all rows until convergence or
+        ``max_iters``.
         """
         if not isinstance(spaces, Mapping) or not spaces:
             raise ValueError("spaces: expected a non-empty dict of name -> 2-D array")
@@ -87,6 +137,7 @@ class SharedGPLVM:
             raise ValueError(f"input {input!r} is not one of the spaces {list(spaces)}")
         arrays = [(str(name), _as_matrix(data, f"spaces[{name!r}]")) for name, data in spaces.items()]
         names = None if column_names is None else [(k, list(v)) for k, v in column_names.items()]
+        rows = _validation_rows(validation, len(dict(arrays)[input]))
         self._native = _sgplvm.NativeModel.fit(
             arrays,
             input,
@@ -95,6 +146,8 @@ class SharedGPLVM:
             self.seed,
             self.scale,
             int(max_iters),
+            rows,
+            _patience(patience),
             callback,
             names,
         )
@@ -107,16 +160,24 @@ class SharedGPLVM:
         max_iters: int = 1000,
         callback: Optional[Callable[[int, float], Optional[bool]]] = None,
         column_names: Optional[list] = None,
+        validation: Validation = "auto",
+        patience: int = DEFAULT_PATIENCE,
     ) -> "SharedGPLVM":
         """A new model that also predicts robot ``name``: the latent space, the human mapping
         and the existing robots stay frozen; only the new robot's kernel is trained on ``data``
-        (the same frames as the human training data). This model is not changed."""
+        (the same frames as the human training data). This model is not changed.
+
+        ``validation`` and ``patience`` choose the iteration budget as in :meth:`fit` (the
+        held-out rows are predicted from their latent points)."""
         native = self._require()
         new = SharedGPLVM(self.latent_dim, self.back_constraint, self.seed, self.scale)
+        matrix = _as_matrix(data, name)
         new._native = native.transfer(
             name,
-            _as_matrix(data, name),
+            matrix,
             int(max_iters),
+            _validation_rows(validation, len(matrix)),
+            _patience(patience),
             callback,
             None if column_names is None else list(column_names),
         )
@@ -176,6 +237,15 @@ class SharedGPLVM:
         """Per training iteration: ``iteration``, ``objective`` (negative log marginal
         likelihood), ``seconds`` since training started, ``gradient_norm``."""
         return self._require().history()
+
+    @property
+    def selection(self) -> Optional[dict]:
+        """How the iteration budget was chosen on held-out rows (``None`` when trained with
+        ``validation=None``): ``fit_frames``, ``validation_frames``, ``patience``,
+        ``best_iteration`` (the budget of the final training), ``seconds`` and ``curve`` (per
+        iteration of the selection run: ``iteration``, ``objective``, ``validation_mse``)."""
+        text = self._require().selection_json()
+        return None if text is None else json.loads(text)
 
     @property
     def params(self) -> dict:

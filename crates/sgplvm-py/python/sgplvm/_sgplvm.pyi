@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "DEFAULT_PATIENCE",
     "NativeModel",
     "NativeRegression",
     "Robot",
@@ -18,6 +19,7 @@ __all__ = [
     "write_joint_states",
 ]
 __version__: str
+DEFAULT_PATIENCE: int
 
 _Path = Union[str, PathLike]
 _F64 = npt.NDArray[np.float64]
@@ -36,6 +38,8 @@ class NativeModel:
         seed: int,
         scale: bool,
         max_iters: int,
+        validation: Optional[Sequence[int]],
+        patience: int,
         callback: Optional[_Callback] = None,
         column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
     ) -> "NativeModel": ...
@@ -44,9 +48,14 @@ class NativeModel:
         name: str,
         data: _F64,
         max_iters: int,
+        validation: Optional[Sequence[int]],
+        patience: int,
         callback: Optional[_Callback] = None,
         column_names: Optional[List[str]] = None,
     ) -> "NativeModel": ...
+    @staticmethod
+    def block_validation_rows(n: int) -> List[int]: ...
+    def selection_json(self) -> Optional[str]: ...
     def predict(self, h: _F64, robot: str, with_variance: bool) -> Tuple[_F64, Optional[_F64]]: ...
     def latent(self, h: _F64) -> _F64: ...
     def latent_points(self) -> _F64: ...

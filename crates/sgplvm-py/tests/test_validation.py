@@ -1,0 +1,100 @@
+"""Early stopping on held-out rows (``validation=``): the default, what it records, that it is
+"train on the rest, pick the best iteration, retrain on everything", and bad arguments."""
+
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sgplvm
+
+DEMOS = Path(__file__).resolve().parents[3] / "data" / "demos" / "bimanual.mcap"
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return sgplvm.load_demonstrations(DEMOS)
+
+
+def spaces(demo, robot="walkman"):
+    train = demo["train"]
+    return {
+        "human": demo["human"]["positions"][train],
+        robot: demo["robots"][robot]["positions"][train],
+    }
+
+
+def test_the_shipped_split_holds_out_the_last_repetition(demo):
+    rows = np.asarray(demo["validation"])
+    train = demo["train"]
+    frames = train[rows]
+    last = max(s["repetition"] for s in demo["segments"] if s["repetition"] is not None)
+
+    def repetition(frame):
+        return next(s["repetition"] for s in demo["segments"] if s["start"] <= frame < s["end"])
+
+    assert len(rows) == 84 and len(train) == 249
+    assert all(repetition(f) == last for f in frames)
+    assert all(repetition(f) != last for f in np.delete(train, rows))
+    # Test frames are not among them.
+    assert not set(frames) & set(demo["test"])
+
+
+def test_default_fit_is_early_stopping_then_retraining(demo):
+    data = spaces(demo)
+    model = sgplvm.SharedGPLVM(5, "input").fit(data, max_iters=200, validation=demo["validation"])
+    sel = model.selection
+    assert (sel["fit_frames"], sel["validation_frames"]) == (165, 84)
+    errors = [c["validation_mse"] for c in sel["curve"]]
+    assert sel["curve"][int(np.argmin(errors))]["iteration"] == sel["best_iteration"]
+    assert sel["curve"][-1]["iteration"] <= sel["best_iteration"] + sel["patience"]
+    # The final model is the plain fit on all rows for the chosen budget.
+    plain = sgplvm.SharedGPLVM(5, "input").fit(
+        data, max_iters=sel["best_iteration"], validation=None
+    )
+    assert plain.selection is None
+    h = data["human"]
+    np.testing.assert_array_equal(model.predict(h, "walkman"), plain.predict(h, "walkman"))
+    # The selection travels with the model.
+    assert pickle.loads(pickle.dumps(model)).selection == sel
+    # "auto" holds out every third of nine blocks of rows.
+    auto = sgplvm.SharedGPLVM(5, "input").fit(data, max_iters=20)
+    blocks = np.arange(249) * 9 // 249
+    held = int(np.sum(blocks % 3 == 2))  # 81: blocks 2, 5, 8 of nine
+    assert (auto.selection["fit_frames"], auto.selection["validation_frames"]) == (249 - held, held)
+
+
+def test_transfer_chooses_its_budget_too(demo):
+    data = spaces(demo)
+    source = sgplvm.SharedGPLVM(5, "input").fit(data, max_iters=20, validation=demo["validation"])
+    coman = demo["robots"]["coman"]["positions"][demo["train"]]
+    moved = source.transfer("coman", coman, validation=demo["validation"], patience=5)
+    sel = moved.selection
+    assert sel["validation_frames"] == 84
+    plain = source.transfer("coman", coman, max_iters=sel["best_iteration"], validation=None)
+    h = data["human"]
+    np.testing.assert_array_equal(moved.predict(h, "coman"), plain.predict(h, "coman"))
+
+
+@pytest.mark.parametrize(
+    "validation, message",
+    [
+        ("bogus", "expected 'auto', None"),
+        (np.zeros((2, 2), dtype=int), "1-D"),
+        ([1.5, 2.0], "integer row indices"),
+        ([-1], "negative"),
+        (np.ones(3, dtype=bool), "boolean mask of 3 rows"),
+        ([0, 0], "given twice"),
+        ([10_000], "out of range"),
+        ([], "no row is held out"),
+    ],
+)
+def test_bad_validation_arguments_are_errors(demo, validation, message):
+    with pytest.raises(ValueError, match=message):
+        sgplvm.SharedGPLVM(5, "input").fit(spaces(demo), max_iters=5, validation=validation)
+
+
+def test_negative_patience_is_an_error(demo):
+    with pytest.raises(ValueError, match="patience"):
+        sgplvm.SharedGPLVM(5, "input").fit(spaces(demo), max_iters=5, patience=-1)
