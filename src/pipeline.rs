@@ -212,7 +212,9 @@ impl Demonstrations {
         let body = self.robot(robot)?;
         let data = to_mat(&body.rows(&self.dataset.train));
         let mut transferred = match validation {
-            Some(v) => model.transfer_validated(robot, data.as_ref(), None, options, v, callback)?,
+            Some(v) => {
+                model.transfer_validated(robot, data.as_ref(), None, options, v, callback)?
+            }
             None => model.transfer(robot, data.as_ref(), options, callback)?,
         };
         transferred.set_column_names(robot, body.joint_names.clone())?;
