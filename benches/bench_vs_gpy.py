@@ -120,7 +120,7 @@ def row(label, ours, theirs, unit="ms", scale=1e3):
 def initial_model(spaces, seed=0):
     """Our model at its initial point (free latent points from PCA) and its parameters."""
     m = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=None, seed=seed)
-    m.fit(spaces, input="human", max_iters=0)
+    m.fit(spaces, input="human", max_iters=0, validation=None)
     return m, m.params
 
 
@@ -160,7 +160,7 @@ def main():
     settle()
     start = time.perf_counter()
     trained = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=None, seed=1)
-    trained.fit(spaces, input="human", max_iters=iters)
+    trained.fit(spaces, input="human", max_iters=iters, validation=None)
     t_ours = time.perf_counter() - start
     fits = []
 
@@ -178,7 +178,7 @@ def main():
     # 3. Transfer: only a new robot's kernel, on the frozen latent points.
     settle()
     start = time.perf_counter()
-    transferred = trained.transfer("coman", coman, max_iters=iters)
+    transferred = trained.transfer("coman", coman, max_iters=iters, validation=None)
     t_ours = time.perf_counter() - start
     X = trained.latent_points
     p = transferred.params["spaces"]["coman"]

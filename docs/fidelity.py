@@ -104,7 +104,7 @@ def study(path):
             curve = []
             for k in CHECKPOINTS:
                 m = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=bc, seed=0, scale=scale)
-                m.fit({"human": H[fit_i], robot: R[fit_i]}, input="human", max_iters=k)
+                m.fit({"human": H[fit_i], robot: R[fit_i]}, input="human", max_iters=k, validation=None)
                 curve.append(
                     (k, mse(R[val_i], m.predict(H[val_i], robot)), mse(R[test_i], m.predict(H[test_i], robot)), m)
                 )
@@ -114,7 +114,7 @@ def study(path):
             print(f"| {name}, 500 iterations | {curve[-1][1]:.4f} | {curve[-1][2]:.4f} | val/test by iteration: {path_txt} |")
             print(f"| {name}, early-stopped | {best[1]:.4f} | {best[2]:.4f} | iteration {best[0]} chosen on validation |")
             again = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=bc, seed=0, scale=scale)
-            again.fit({"human": H[all_i], robot: R[all_i]}, input="human", max_iters=best[0])
+            again.fit({"human": H[all_i], robot: R[all_i]}, input="human", max_iters=best[0], validation=None)
             print(
                 f"| {name}, {best[0]} iterations on all training frames | | "
                 f"{mse(R[test_i], again.predict(H[test_i], robot)):.4f} | the validated budget |"
@@ -149,7 +149,7 @@ def ridge_study(path, lambdas=(0.0, 0.1, 1.0, 10.0), iters=300, bandwidths=(1.0,
         R = body["positions"]
         spaces = {"human": H[fit_i], robot: R[fit_i]}
         start = sgplvm.SharedGPLVM(latent_dim=5, back_constraint="input", seed=0)
-        start.fit(spaces, input="human", max_iters=0)
+        start.fit(spaces, input="human", max_iters=0, validation=None)
         p0 = start.params
         for factor in bandwidths:
             bw = p0["latent"]["bandwidth"] * factor
@@ -157,7 +157,7 @@ def ridge_study(path, lambdas=(0.0, 0.1, 1.0, 10.0), iters=300, bandwidths=(1.0,
             w0 = np.linalg.solve(k_bc + 1e-3 * np.eye(len(hc)), start.latent_points)
             for lam in lambdas:
                 model = sgplvm.SharedGPLVM(latent_dim=5, back_constraint="input", seed=0)
-                model.fit(spaces, input="human", max_iters=0)
+                model.fit(spaces, input="human", max_iters=0, validation=None)
                 w = train_with_prior(model, p0, w0, bw, lam, iters)
                 print(
                     f"| {robot} | {factor:g} | {lam:g} | {mse(R[val_i], model.predict(H[val_i], robot)):.4f} | "
