@@ -108,6 +108,16 @@ fn transfer_to_coman(f: &Fixture) -> PathBuf {
     ]);
     let value: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(value["robots"], serde_json::json!(["walkman", "coman"]));
+    // The budget was chosen on held-out frames (the default) and the final run kept to it.
+    let selection = &value["selection"];
+    assert!(
+        selection["validation_frames"].as_u64().unwrap() > 0,
+        "{json}"
+    );
+    assert!(
+        value["iterations"].as_u64().unwrap() <= selection["best_iteration"].as_u64().unwrap(),
+        "{json}"
+    );
     coman
 }
 
@@ -438,6 +448,8 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         usage(&["train", "--robot", "walkman", "--latent-dim", "0", "--out", out_s]),
         usage(&["train", "--robot", "walkman", "--back-constraint", "sideways", "--out", out_s]),
         usage(&["train", "--robot", "walkman", "--max-iters", "-3", "--out", out_s]),
+        usage(&["train", "--robot", "walkman", "--validation", "sideways", "--out", out_s]),
+        usage(&["train", "--robot", "walkman", "--patience", "-1", "--out", out_s]),
         usage(&["frobnicate"]),
         // A latent dimension the data cannot support.
         error(&["train", "--data", data, "--robot", "walkman", "--latent-dim", "100000", "--out", out_s],

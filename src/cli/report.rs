@@ -25,6 +25,7 @@ pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
             "seconds": seconds,
             "objective": objective,
             "stop_reason": stop,
+            "selection": model.selection(),
         });
         println!("{value}");
     } else {
@@ -36,6 +37,18 @@ pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
             objective.unwrap_or(f64::NAN),
             out.display()
         );
+        if let Some(s) = model.selection() {
+            let best = s.curve.iter().find(|r| r.iteration == s.best_iteration);
+            println!(
+                "  budget chosen on {} held-out training frames (trained on the other {} until \
+                 their error had not fallen for {} iterations): {} iterations, held-out MSE {:.6}",
+                s.validation_frames,
+                s.fit_frames,
+                s.patience,
+                s.best_iteration,
+                best.map_or(f64::NAN, |r| r.validation_mse)
+            );
+        }
     }
 }
 
