@@ -75,6 +75,19 @@ pub struct BudgetArg {
     /// selection run stops.
     #[arg(long, default_value_t = Validation::DEFAULT_PATIENCE as u64)]
     pub patience: u64,
+    /// Wall-clock budget of each training in seconds (with `--validation auto`, half of it for
+    /// choosing the iteration count): when it runs out, training stops and keeps the best
+    /// parameters so far (stop reason TimeLimit). Default: no limit.
+    #[arg(long, value_parser = parse_seconds)]
+    pub max_seconds: Option<f64>,
+}
+
+/// A `--max-seconds` value: a number of seconds ≥ 0.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s >= 0.0 => Ok(s),
+        _ => Err(format!("expected a number of seconds ≥ 0, got '{text}'")),
+    }
 }
 
 /// `--validation`: whether the iteration budget is chosen on held-out training frames.
@@ -89,7 +102,9 @@ pub enum ValidationArg {
 impl BudgetArg {
     /// Training options with this budget.
     pub fn options(&self) -> TrainOptions {
-        TrainOptions::default().with_max_iters(self.max_iters as usize)
+        TrainOptions::default()
+            .with_max_iters(self.max_iters as usize)
+            .with_max_seconds(self.max_seconds)
     }
 
     /// The held-out frames of `demos` for `--validation auto`; `None` for `none`.

@@ -12,7 +12,7 @@ use crate::model::{Callback, Latent, SharedGplvm, Space};
 use crate::objective::{Mode, ModelObjective};
 use crate::pool::par_for;
 use crate::preprocess::checked_order;
-use crate::train::{minimise, Control, TrainOptions};
+use crate::train::{minimise, Control, Limits, TrainOptions};
 
 impl SharedGplvm {
     /// Fits a shared GP-LVM. `spaces` are named data matrices with the same number of rows;
@@ -27,8 +27,9 @@ impl SharedGplvm {
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
+        let limits = Limits::start(options);
         let mut model = Self::initial(config, spaces, input)?;
-        model.train(Mode::Full, options, callback)?;
+        model.train(Mode::Full, options, &limits, callback)?;
         Ok(model)
     }
 
@@ -74,11 +75,13 @@ impl SharedGplvm {
         self.config.back_constraint != BackConstraint::Input
     }
 
-    /// Runs the optimiser in `mode`, then fits the input map (full mode) and rebuilds caches.
+    /// Runs the optimiser in `mode` within `limits` (the calling training's deadline and
+    /// interrupt), then fits the input map (full mode) and rebuilds caches.
     pub(crate) fn train(
         &mut self,
         mode: Mode,
         options: &TrainOptions,
+        limits: &Limits,
         mut callback: Option<Callback<'_>>,
     ) -> Result<()> {
         let (outcome, mut applied) = {
@@ -90,7 +93,7 @@ impl SharedGplvm {
                 .map(|&s| self.spaces[s].data.ncols())
                 .sum();
             let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
-            let outcome = minimise(&obj, theta0, scale, options, |rec, theta| {
+            let outcome = minimise(&obj, theta0, scale, options, limits, |rec, theta| {
                 let Some(cb) = callback.as_mut() else {
                     return Control::Continue;
                 };
@@ -101,7 +104,7 @@ impl SharedGplvm {
                 // snapshot predicts exactly what the model stopped at this iteration predicts.
                 if matches!(mode, Mode::Full)
                     && snap.needs_map()
-                    && snap.fit_map(options, None).is_err()
+                    && snap.fit_map(options, limits, None).is_err()
                 {
                     return Control::Continue;
                 }
@@ -117,7 +120,7 @@ impl SharedGplvm {
         };
         applied.update_latent_points();
         if matches!(mode, Mode::Full) && applied.needs_map() {
-            applied.fit_map(options, None)?;
+            applied.fit_map(options, limits, None)?;
         }
         applied.rebuild()?;
         applied.history = outcome.history;

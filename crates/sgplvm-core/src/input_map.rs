@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::kernel::KernelParams;
 use crate::model::SharedGplvm;
 use crate::regression::{fit_kernel, starting_kernel};
-use crate::train::{Control, TrainOptions};
+use crate::train::{Control, Limits, TrainOptions};
 
 /// GP regression human → latent (for `None` and `Output` back constraints).
 #[derive(Clone, Debug)]
@@ -18,10 +18,11 @@ pub(crate) struct InputMap {
 }
 
 impl SharedGplvm {
-    /// Fits the GP regression human → latent (targets: X minus its mean).
+    /// Fits the GP regression human → latent (targets: X minus its mean) within `limits`.
     pub(crate) fn fit_map(
         &mut self,
         options: &TrainOptions,
+        limits: &Limits,
         warm: Option<KernelParams>,
     ) -> Result<()> {
         let h = self.spaces[0].data.as_ref();
@@ -38,7 +39,7 @@ impl SharedGplvm {
             max_iters: options.map_max_iters,
             ..options.clone()
         };
-        let kernel = fit_kernel(h, y.as_ref(), start, &opts, "input map", |_, _| {
+        let kernel = fit_kernel(h, y.as_ref(), start, &opts, limits, "input map", |_, _| {
             Control::Continue
         })?;
         self.map = Some(InputMap { kernel, x_mean });

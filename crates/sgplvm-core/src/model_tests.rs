@@ -282,7 +282,12 @@ fn a_kernel_that_cannot_be_factorised_is_a_typed_error_from_every_path() {
     start.spaces[1].kernel.variance = 1e308;
     not_pd(
         start
-            .train(crate::objective::Mode::Full, &quick(3), None)
+            .train(
+                crate::objective::Mode::Full,
+                &quick(3),
+                &crate::train::Limits::default(),
+                None,
+            )
             .map(|_| m.clone()),
         "walkman",
     );

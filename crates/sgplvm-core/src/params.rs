@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
 use crate::model::{Latent, SharedGplvm};
 use crate::preprocess::check_shape;
-use crate::train::TrainOptions;
+use crate::train::{Limits, TrainOptions};
 
 /// Latent block of [`Params`].
 #[derive(Clone, Debug, PartialEq)]
@@ -116,7 +116,7 @@ impl SharedGplvm {
         next.update_latent_points();
         if next.needs_map() {
             let warm = next.map.as_ref().map(|m| m.kernel.clone());
-            next.fit_map(&TrainOptions::default(), warm)?;
+            next.fit_map(&TrainOptions::default(), &Limits::default(), warm)?;
         }
         next.rebuild()?;
         *self = next;

@@ -18,7 +18,7 @@ use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
 use crate::pool::{in_pool, lock, PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
 use crate::preprocess::{check_finite, check_nonempty, mean_col_var};
-use crate::train::{minimise, Control, IterationRecord, Objective, TrainOptions};
+use crate::train::{minimise, Control, IterationRecord, Limits, Objective, TrainOptions};
 
 /// The kernel a regression starts from: variance = the targets' mean column variance v, every
 /// lengthscale the median pairwise distance of the inputs, noise = v / 100.
@@ -32,13 +32,14 @@ pub(crate) fn starting_kernel(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> KernelP
 }
 
 /// The hyperparameters of a regression of centred `y` on `x`, trained by L-BFGS from `start`
-/// (`options.max_iters` iterations at most). `what` names the regression in errors;
-/// `on_iter` sees every accepted iteration with its kernel and may stop training.
+/// (`options.max_iters` iterations at most, within `limits`). `what` names the regression in
+/// errors; `on_iter` sees every accepted iteration with its kernel and may stop training.
 pub(crate) fn fit_kernel(
     x: MatRef<'_, f64>,
     y: MatRef<'_, f64>,
     start: KernelParams,
     options: &TrainOptions,
+    limits: &Limits,
     what: &str,
     mut on_iter: impl FnMut(&IterationRecord, &KernelParams) -> Control,
 ) -> Result<KernelParams> {
@@ -53,9 +54,14 @@ pub(crate) fn fit_kernel(
     let mut theta0 = Vec::new();
     encode_kernel(&start, &mut theta0);
     let dx = x.ncols();
-    let out = minimise(&obj, theta0, 1.0 / (n * d) as f64, options, |rec, theta| {
-        on_iter(rec, &decode_kernel(theta, dx))
-    })?;
+    let out = minimise(
+        &obj,
+        theta0,
+        1.0 / (n * d) as f64,
+        options,
+        limits,
+        |rec, theta| on_iter(rec, &decode_kernel(theta, dx)),
+    )?;
     Ok(decode_kernel(&out.theta, dx))
 }
 
@@ -159,6 +165,7 @@ impl GpRegression {
             yc.as_ref(),
             starting_kernel(x, yc.as_ref()),
             options,
+            &Limits::start(options),
             "regression",
             |_, _| Control::Continue,
         )?;

@@ -2,9 +2,16 @@
 //!
 //! The solver's own loop is driven here (`Solver::init` then `Solver::next_iter`) so that every
 //! iteration can be recorded, timed and shown to a callback that may stop training.
+//!
+//! Every run is bounded: each line search may evaluate the objective at most
+//! [`TrainOptions::max_line_search_evaluations`] times (argmin's More–Thuente search has no cap
+//! of its own), a run at most [`TrainOptions::max_evaluations`] times, and
+//! [`TrainOptions::max_seconds`] and [`TrainOptions::interrupt`] are checked before every
+//! evaluation and between iterations. Whatever stops training, the best point is kept.
 
-use std::sync::Mutex;
-use std::time::Instant;
+use std::fmt;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use argmin::core::{CostFunction, Gradient, IterState, Problem, Solver, State};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -28,6 +35,36 @@ pub struct TrainOptions {
     /// Iteration budget of the GP regression human → latent fitted after training for models
     /// without input back constraints.
     pub map_max_iters: usize,
+    /// Wall-clock budget in seconds of the whole call the options are given to (`fit`,
+    /// `fit_validated`, `transfer`, …, selection runs and the input map included), from the
+    /// moment it starts. Checked between iterations and before every objective evaluation;
+    /// when it runs out, training stops with [`StopReason::TimeLimit`] and keeps the best
+    /// parameters so far. The call returns after at most one more evaluation and the final
+    /// factorisations. `None`: no limit.
+    #[serde(default)]
+    pub max_seconds: Option<f64>,
+    /// Objective evaluations one line search may make (argmin's More–Thuente search has no
+    /// cap of its own and can otherwise search forever on badly scaled objectives). A line
+    /// search that reaches the cap fails like any failed line search: the solver restarts once
+    /// from the best point, and a second failure in a row ends training with
+    /// [`StopReason::LineSearch`]. Default [`TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS`].
+    #[serde(default = "default_line_search_evaluations")]
+    pub max_line_search_evaluations: usize,
+    /// Objective evaluations one training run may make in all (the initial point included);
+    /// at the cap training stops with [`StopReason::EvaluationLimit`], keeping the best
+    /// parameters. `None`: bounded only by `max_iters` × `max_line_search_evaluations`.
+    #[serde(default)]
+    pub max_evaluations: Option<usize>,
+    /// Asked before every objective evaluation and between iterations whether training must
+    /// stop now (Ctrl-C in the Python module); when it says so, training stops with
+    /// [`StopReason::Interrupted`], keeping the best parameters. Not serialised.
+    #[serde(skip)]
+    pub interrupt: Option<Interrupt>,
+}
+
+/// serde's default of [`TrainOptions::max_line_search_evaluations`].
+fn default_line_search_evaluations() -> usize {
+    TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS
 }
 
 impl Default for TrainOptions {
@@ -38,7 +75,42 @@ impl Default for TrainOptions {
             rel_tol: 2.2e-9,
             memory: 10,
             map_max_iters: 300,
+            max_seconds: None,
+            max_line_search_evaluations: Self::DEFAULT_LINE_SEARCH_EVALUATIONS,
+            max_evaluations: None,
+            interrupt: None,
         }
+    }
+}
+
+/// A check, asked between objective evaluations, of whether training must stop now (see
+/// [`TrainOptions::interrupt`]). It is called from the training thread, once per evaluation:
+/// keep it cheap (rate-limit anything expensive inside it).
+#[derive(Clone)]
+pub struct Interrupt(Arc<dyn Fn() -> bool + Send + Sync>);
+
+impl Interrupt {
+    /// An interrupt that stops training when `should_stop` returns true.
+    pub fn new(should_stop: impl Fn() -> bool + Send + Sync + 'static) -> Self {
+        Self(Arc::new(should_stop))
+    }
+
+    /// True when training must stop now.
+    pub fn should_stop(&self) -> bool {
+        (self.0)()
+    }
+}
+
+impl fmt::Debug for Interrupt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("Interrupt(..)")
+    }
+}
+
+impl PartialEq for Interrupt {
+    /// The same check (clones of one interrupt are equal).
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
     }
 }
 
@@ -63,6 +135,29 @@ impl TrainOptions {
         self.memory = m;
         self
     }
+    /// Sets the wall-clock budget in seconds (`None`: no limit).
+    pub fn with_max_seconds(mut self, seconds: Option<f64>) -> Self {
+        self.max_seconds = seconds;
+        self
+    }
+    /// Sets the cap on objective evaluations per line search.
+    pub fn with_max_line_search_evaluations(mut self, n: usize) -> Self {
+        self.max_line_search_evaluations = n;
+        self
+    }
+    /// Sets the cap on objective evaluations per training run (`None`: no cap of its own).
+    pub fn with_max_evaluations(mut self, n: Option<usize>) -> Self {
+        self.max_evaluations = n;
+        self
+    }
+    /// Sets the interrupt check.
+    pub fn with_interrupt(mut self, interrupt: Interrupt) -> Self {
+        self.interrupt = Some(interrupt);
+        self
+    }
+
+    /// Objective evaluations one line search may make by default (scipy's L-BFGS-B `maxls`).
+    pub const DEFAULT_LINE_SEARCH_EVALUATIONS: usize = 20;
 
     pub(crate) fn check(&self) -> Result<()> {
         let bad = |what: &str, reason: &str| {
@@ -80,7 +175,66 @@ impl TrainOptions {
         if self.memory == 0 {
             return bad("TrainOptions::memory", "expected at least 1");
         }
+        if self.max_seconds.is_some_and(|s| s.is_nan() || s < 0.0) {
+            return bad(
+                "TrainOptions::max_seconds",
+                "expected a number of seconds ≥ 0 (or None for no limit)",
+            );
+        }
+        if self.max_line_search_evaluations == 0 {
+            return bad(
+                "TrainOptions::max_line_search_evaluations",
+                "expected at least 1",
+            );
+        }
         Ok(())
+    }
+}
+
+/// What stops a training call from outside its iterations: the deadline `max_seconds` set
+/// when the call started, and the interrupt. Made once per call and shared by its runs.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Limits {
+    deadline: Option<Instant>,
+    interrupt: Option<Interrupt>,
+}
+
+impl Limits {
+    /// The limits of a call that starts now with `options`.
+    pub(crate) fn start(options: &TrainOptions) -> Self {
+        let now = Instant::now();
+        Self {
+            deadline: options.max_seconds.and_then(|s| {
+                Duration::try_from_secs_f64(s)
+                    .ok()
+                    .and_then(|d| now.checked_add(d))
+            }),
+            interrupt: options.interrupt.clone(),
+        }
+    }
+
+    /// These limits with the deadline brought forward to `fraction` of the time left (for a
+    /// run that must leave time to the runs after it).
+    pub(crate) fn share(&self, fraction: f64) -> Self {
+        let now = Instant::now();
+        Self {
+            deadline: self.deadline.map(|d| {
+                let left = d.saturating_duration_since(now);
+                now + left.mul_f64(fraction.clamp(0.0, 1.0))
+            }),
+            interrupt: self.interrupt.clone(),
+        }
+    }
+
+    /// Why training must stop now, if it must: the deadline has passed or the interrupt says so.
+    pub(crate) fn check(&self) -> Option<StopReason> {
+        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(StopReason::TimeLimit)
+        } else if self.interrupt.as_ref().is_some_and(Interrupt::should_stop) {
+            Some(StopReason::Interrupted)
+        } else {
+            None
+        }
     }
 }
 
@@ -122,6 +276,13 @@ pub enum StopReason {
     LineSearch(String),
     /// Nothing to train (no free parameters).
     NothingToTrain,
+    /// The wall-clock budget [`TrainOptions::max_seconds`] ran out (the best point is kept).
+    TimeLimit,
+    /// The evaluation budget [`TrainOptions::max_evaluations`] was used up (the best point is
+    /// kept).
+    EvaluationLimit,
+    /// [`TrainOptions::interrupt`] asked training to stop (the best point is kept).
+    Interrupted,
 }
 
 /// A differentiable objective on an unconstrained vector.
@@ -138,44 +299,127 @@ const FAILED_COST: f64 = 1e300;
 /// (unscaled).
 type Evaluated = (Vec<f64>, Option<(f64, Vec<f64>)>);
 
+/// Counts a run's objective evaluations and refuses the next one when a limit is reached: the
+/// line search's cap (the line search then fails), the run's cap, the deadline or the
+/// interrupt (training then stops, for the reason kept here).
+struct Guard<'a> {
+    options: &'a TrainOptions,
+    limits: &'a Limits,
+    state: Mutex<GuardState>,
+}
+
+#[derive(Default)]
+struct GuardState {
+    /// Evaluations in the run, the initial point included.
+    total: usize,
+    /// Evaluations since the current line search began.
+    in_line_search: usize,
+    /// Why training must stop, once a limit other than the line search's was reached.
+    stop: Option<StopReason>,
+}
+
+/// An evaluation the guard refused.
+struct Refused;
+
+impl<'a> Guard<'a> {
+    fn new(options: &'a TrainOptions, limits: &'a Limits) -> Self {
+        Self {
+            options,
+            limits,
+            state: Mutex::new(GuardState {
+                total: 1,
+                ..GuardState::default()
+            }),
+        }
+    }
+
+    /// Lets one more evaluation happen, or says why not.
+    fn admit(&self) -> std::result::Result<(), Refused> {
+        let mut s = crate::pool::lock(&self.state);
+        if s.stop.is_some() {
+            return Err(Refused);
+        }
+        if self.options.max_evaluations.is_some_and(|m| s.total >= m) {
+            s.stop = Some(StopReason::EvaluationLimit);
+            return Err(Refused);
+        }
+        if let Some(reason) = self.limits.check() {
+            s.stop = Some(reason);
+            return Err(Refused);
+        }
+        if s.in_line_search >= self.options.max_line_search_evaluations {
+            return Err(Refused);
+        }
+        s.total += 1;
+        s.in_line_search += 1;
+        Ok(())
+    }
+
+    /// Starts counting the evaluations of a new line search.
+    fn new_line_search(&self) {
+        crate::pool::lock(&self.state).in_line_search = 0;
+    }
+
+    /// Why training must stop now, if it must (a limit reached during an evaluation, or now).
+    fn stop(&self) -> Option<StopReason> {
+        let mut s = crate::pool::lock(&self.state);
+        if s.stop.is_none() {
+            if self.options.max_evaluations.is_some_and(|m| s.total >= m) {
+                s.stop = Some(StopReason::EvaluationLimit);
+            } else {
+                s.stop = self.limits.check();
+            }
+        }
+        s.stop.clone()
+    }
+}
+
 /// Evaluates `obj` at `theta` through a one-entry cache: the line search asks for the cost and
 /// the gradient of the same point separately, and the training loop asks once more for the
-/// point the solver accepted — one evaluation serves all three.
+/// point the solver accepted — one evaluation serves all three. A new evaluation must first
+/// be admitted by `guard`.
 fn eval_cached<O: Objective>(
     obj: &O,
     cache: &Mutex<Option<Evaluated>>,
+    guard: &Guard<'_>,
     theta: &[f64],
-) -> Option<(f64, Vec<f64>)> {
-    let mut guard = crate::pool::lock(cache);
-    if let Some((t, result)) = guard.as_ref() {
+) -> std::result::Result<Option<(f64, Vec<f64>)>, Refused> {
+    let mut guard_cache = crate::pool::lock(cache);
+    if let Some((t, result)) = guard_cache.as_ref() {
         if t.as_slice() == theta {
-            return result.clone();
+            return Ok(result.clone());
         }
     }
+    guard.admit()?;
     let mut grad = vec![0.0; theta.len()];
     let result = match obj.eval(theta, &mut grad) {
         Ok(f) if f.is_finite() && grad.iter().all(|g| g.is_finite()) => Some((f, grad)),
         _ => None,
     };
-    *guard = Some((theta.to_vec(), result.clone()));
-    result
+    *guard_cache = Some((theta.to_vec(), result.clone()));
+    Ok(result)
 }
 
 struct Op<'a, O: Objective> {
     obj: &'a O,
     scale: f64,
     cache: &'a Mutex<Option<Evaluated>>,
+    guard: &'a Guard<'a>,
 }
 
 impl<O: Objective> Op<'_, O> {
-    /// Scaled objective and gradient as the solver sees them.
-    fn eval(&self, theta: &[f64]) -> (f64, Vec<f64>) {
-        match eval_cached(self.obj, self.cache, theta) {
-            Some((f, g)) => (
+    /// Scaled objective and gradient as the solver sees them; an error when the guard
+    /// refuses the evaluation (the solver's iteration then fails).
+    fn eval(&self, theta: &[f64]) -> std::result::Result<(f64, Vec<f64>), argmin::core::Error> {
+        match eval_cached(self.obj, self.cache, self.guard, theta) {
+            Err(Refused) => Err(argmin::core::Error::msg(
+                "objective evaluation refused: an evaluation limit was reached",
+            )),
+            Ok(Some((f, g))) => Ok((
                 f * self.scale,
                 g.into_iter().map(|g| g * self.scale).collect(),
-            ),
-            None => (FAILED_COST, vec![0.0; theta.len()]),
+            )),
+            Ok(None) => Ok((FAILED_COST, vec![0.0; theta.len()])),
         }
     }
 }
@@ -184,7 +428,7 @@ impl<O: Objective> CostFunction for Op<'_, O> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Vec<f64>) -> std::result::Result<f64, argmin::core::Error> {
-        Ok(self.eval(p).0)
+        Ok(self.eval(p)?.0)
     }
 }
 
@@ -192,7 +436,7 @@ impl<O: Objective> Gradient for Op<'_, O> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
     fn gradient(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin::core::Error> {
-        Ok(self.eval(p).1)
+        Ok(self.eval(p)?.1)
     }
 }
 
@@ -209,12 +453,14 @@ fn max_abs(g: &[f64]) -> f64 {
 
 /// Minimises `obj` from `theta0` with L-BFGS. `scale` (> 0) multiplies the objective seen by
 /// the solver (the model uses 1/(N·ΣD) so that step sizes are O(1)); records keep the true
-/// objective. `on_iter` sees every accepted iteration and the current vector.
+/// objective. `on_iter` sees every accepted iteration and the current vector. `limits` (the
+/// calling training's deadline and interrupt) and the options' evaluation caps bound the run.
 pub(crate) fn minimise<O: Objective>(
     obj: &O,
     theta0: Vec<f64>,
     scale: f64,
     options: &TrainOptions,
+    limits: &Limits,
     mut on_iter: impl FnMut(&IterationRecord, &[f64]) -> Control,
 ) -> Result<Outcome> {
     options.check()?;
@@ -226,6 +472,7 @@ pub(crate) fn minimise<O: Objective>(
         (f0.is_finite() && g0.iter().all(|g| g.is_finite()))
             .then(|| (theta0.clone(), Some((f0, g0.clone())))),
     );
+    let guard = Guard::new(options, limits);
     let mut run = Run {
         start,
         paused: 0.0,
@@ -237,28 +484,42 @@ pub(crate) fn minimise<O: Objective>(
         }],
         best: theta0,
         best_f: f0,
+        best_g: g0,
     };
-    if let Some(reason) = stop_before_start(&run.best, &g0, options) {
+    if let Some(reason) = stop_before_start(&run.best, &run.best_g, options) {
         return Ok(run.finish(reason));
     }
-    // A fresh problem and L-BFGS (empty memory) started at `theta`. The problem is recreated
-    // too: argmin 0.11's L-BFGS does not hand the problem back after a failed line search.
-    let fresh = |theta: Vec<f64>| -> Result<(Problem<Op<'_, O>>, Lbfgs, St)> {
+    // A fresh problem and L-BFGS (empty memory) started at the best point, whose objective
+    // and gradient are handed over (no evaluation). The problem is recreated too: argmin
+    // 0.11's L-BFGS does not hand the problem back after a failed line search.
+    let fresh = |run: &Run| -> Result<(Problem<Op<'_, O>>, Lbfgs, St)> {
         let mut problem = Problem::new(Op {
             obj,
             scale,
             cache: &cache,
+            guard: &guard,
         });
         let mut solver: Lbfgs = LBFGS::new(MoreThuenteLineSearch::new(), options.memory);
+        let mut start = IterState::new().param(run.best.clone());
+        if run.best_f.is_finite() && run.best_g.iter().all(|g| g.is_finite()) {
+            start = start
+                .cost(run.best_f * scale)
+                .gradient(run.best_g.iter().map(|g| g * scale).collect());
+        }
         let (state, _) = solver
-            .init(&mut problem, IterState::new().param(theta))
+            .init(&mut problem, start)
             .map_err(|e| Error::InvalidValue {
                 what: "L-BFGS initialisation".into(),
                 reason: e.to_string(),
             })?;
         Ok((problem, solver, state))
     };
-    let (mut problem, mut solver, mut state) = fresh(run.best.clone())?;
+    // A start the guard refused to evaluate (only a non-finite start is evaluated again) ends
+    // training for the guard's reason.
+    let (mut problem, mut solver, mut state) = match fresh(&run) {
+        Ok(started) => started,
+        Err(e) => return guard.stop().map(|r| run.finish(r)).ok_or(e),
+    };
     // After a failed line search the solver is restarted once from the best point with an
     // empty memory (steepest descent step); a second failure in a row ends training.
     let mut restarted = false;
@@ -266,26 +527,37 @@ pub(crate) fn minimise<O: Objective>(
         if run.history.len() > options.max_iters {
             return Ok(run.finish(StopReason::MaxIterations));
         }
+        if let Some(reason) = guard.stop() {
+            return Ok(run.finish(reason));
+        }
+        guard.new_line_search();
         let (accepted, failure) = step(
             &mut solver,
             &mut problem,
             &mut state,
             obj,
             &cache,
+            &guard,
             run.best_f,
         );
         if let Some((param, f, g)) = accepted {
             restarted = false;
-            if let Some(reason) = run.accept(param, f, &g, options, &mut on_iter) {
+            if let Some(reason) = run.accept(param, f, g, options, &mut on_iter) {
                 return Ok(run.finish(reason));
             }
+        }
+        if let Some(reason) = guard.stop() {
+            return Ok(run.finish(reason));
         }
         if let Some(msg) = failure {
             if restarted {
                 return Ok(run.finish(StopReason::LineSearch(msg)));
             }
             restarted = true;
-            (problem, solver, state) = fresh(run.best.clone())?;
+            (problem, solver, state) = match fresh(&run) {
+                Ok(started) => started,
+                Err(e) => return guard.stop().map(|r| run.finish(r)).ok_or(e),
+            };
         }
     }
 }
@@ -319,6 +591,7 @@ fn step<O: Objective>(
     state: &mut St,
     obj: &O,
     cache: &Mutex<Option<Evaluated>>,
+    guard: &Guard<'_>,
     best_f: f64,
 ) -> (Option<Point>, Option<String>) {
     let mut new_state = match solver.next_iter(problem, state.clone()) {
@@ -333,7 +606,10 @@ fn step<O: Objective>(
             Some(format!("{:?}", new_state.get_termination_reason())),
         ),
         Some(param) => {
-            let (f, g) = eval_cached(obj, cache, &param).unwrap_or((f64::INFINITY, Vec::new()));
+            let (f, g) = eval_cached(obj, cache, guard, &param)
+                .ok()
+                .flatten()
+                .unwrap_or((f64::INFINITY, Vec::new()));
             if !f.is_finite() || f > best_f {
                 (None, Some("line search returned a worse point".into()))
             } else {
@@ -347,14 +623,16 @@ fn step<O: Objective>(
     outcome
 }
 
-/// The record of a training run in progress: the history, the best point so far and the time
-/// spent in callbacks (not counted in the records' seconds).
+/// The record of a training run in progress: the history, the best point so far (with its
+/// objective and gradient) and the time spent in callbacks (not counted in the records'
+/// seconds).
 struct Run {
     start: Instant,
     paused: f64,
     history: Vec<IterationRecord>,
     best: Vec<f64>,
     best_f: f64,
+    best_g: Vec<f64>,
 }
 
 impl Run {
@@ -364,7 +642,7 @@ impl Run {
         &mut self,
         param: Vec<f64>,
         f: f64,
-        g: &[f64],
+        g: Vec<f64>,
         options: &TrainOptions,
         on_iter: &mut impl FnMut(&IterationRecord, &[f64]) -> Control,
     ) -> Option<StopReason> {
@@ -375,8 +653,9 @@ impl Run {
             iteration: self.history.len(),
             objective: f,
             seconds: self.start.elapsed().as_secs_f64() - self.paused,
-            gradient_norm: max_abs(g),
+            gradient_norm: max_abs(&g),
         };
+        self.best_g = g;
         self.history.push(record.clone());
         let t = Instant::now();
         let control = on_iter(&record, &self.best);
@@ -406,6 +685,11 @@ impl Run {
 mod tests {
     use super::*;
 
+    /// No deadline, no interrupt.
+    fn none() -> Limits {
+        Limits::default()
+    }
+
     struct Rosenbrock;
     impl Objective for Rosenbrock {
         fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
@@ -421,7 +705,7 @@ mod tests {
         let opts = TrainOptions::default()
             .with_grad_tol(1e-8)
             .with_rel_tol(0.0);
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |_, _| {
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
             Control::Continue
         })
         .expect("runs");
@@ -449,8 +733,10 @@ mod tests {
     fn no_point_is_evaluated_twice_in_a_row() {
         let obj = Recording(Mutex::new(Vec::new()));
         let opts = TrainOptions::default().with_max_iters(30);
-        let out =
-            minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, |_, _| Control::Continue).expect("runs");
+        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
+            Control::Continue
+        })
+        .expect("runs");
         let points = obj.0.into_inner().expect("not poisoned");
         for w in points.windows(2) {
             assert_ne!(w[0], w[1], "the same point was evaluated twice in a row");
@@ -482,17 +768,23 @@ mod tests {
     #[test]
     fn failed_evaluations_are_backtracked_not_fatal() {
         let opts = TrainOptions::default().with_grad_tol(1e-9);
-        let out = minimise(&Walled, vec![3.0], 1.0, &opts, |_, _| Control::Continue).expect("runs");
+        let out = minimise(&Walled, vec![3.0], 1.0, &opts, &none(), |_, _| {
+            Control::Continue
+        })
+        .expect("runs");
         assert!((out.theta[0] + 0.4).abs() < 1e-6, "{:?}", out.theta);
         // The initial point must be valid: its failure is the caller's error.
-        assert!(minimise(&Walled, vec![-1.0], 1.0, &opts, |_, _| Control::Continue).is_err());
+        assert!(minimise(&Walled, vec![-1.0], 1.0, &opts, &none(), |_, _| {
+            Control::Continue
+        })
+        .is_err());
     }
 
     #[test]
     fn callback_stops_and_budget_holds() {
         let opts = TrainOptions::default();
         let mut calls = 0;
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, |r, _| {
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, &none(), |r, _| {
             calls += 1;
             if r.iteration == 3 {
                 Control::Stop
@@ -509,10 +801,179 @@ mod tests {
             vec![-1.2, 1.0],
             1.0,
             &opts.with_max_iters(5),
+            &none(),
             |_, _| Control::Continue,
         )
         .expect("runs");
         assert_eq!(out.reason, StopReason::MaxIterations);
         assert_eq!(out.history.last().map(|r| r.iteration), Some(5));
+    }
+
+    /// f(x) = −x₀: unbounded below, so More–Thuente extrapolates along every descent direction
+    /// (hundreds of evaluations before the step overflows, without a cap).
+    struct Unbounded(Mutex<usize>);
+    impl Objective for Unbounded {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            *self.0.lock().expect("not poisoned") += 1;
+            g[0] = -1.0;
+            Ok(-t[0])
+        }
+    }
+
+    #[test]
+    fn every_line_search_is_capped() {
+        for cap in [1, 5, TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS] {
+            let obj = Unbounded(Mutex::new(0));
+            let opts = TrainOptions::default()
+                .with_max_iters(50)
+                .with_max_line_search_evaluations(cap);
+            let out = minimise(&obj, vec![0.0], 1.0, &opts, &none(), |_, _| {
+                Control::Continue
+            })
+            .expect("runs");
+            let evaluations = obj.0.into_inner().expect("not poisoned");
+            // Every loop round is one line search; at most two rounds in a row accept nothing.
+            let rounds = 2 * out.history.len() + 2;
+            assert!(
+                evaluations <= 1 + rounds * cap,
+                "cap {cap}: {evaluations} evaluations in {} iterations ({:?})",
+                out.history.len() - 1,
+                out.reason
+            );
+        }
+        // A line search without a cap of ours makes far more evaluations than the default cap.
+        let obj = Unbounded(Mutex::new(0));
+        let opts = TrainOptions::default()
+            .with_max_iters(1)
+            .with_max_line_search_evaluations(usize::MAX);
+        let _ = minimise(&obj, vec![0.0], 1.0, &opts, &none(), |_, _| {
+            Control::Continue
+        });
+        let evaluations = obj.0.into_inner().expect("not poisoned");
+        assert!(
+            evaluations > 10 * TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS,
+            "{evaluations}"
+        );
+    }
+
+    #[test]
+    fn the_evaluation_budget_stops_training_at_the_best_point() {
+        let obj = Recording(Mutex::new(Vec::new()));
+        let opts = TrainOptions::default().with_max_evaluations(Some(12));
+        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
+            Control::Continue
+        })
+        .expect("runs");
+        assert_eq!(out.reason, StopReason::EvaluationLimit);
+        let points = obj.0.into_inner().expect("not poisoned");
+        assert!(points.len() <= 12, "{} evaluations", points.len());
+        assert!(out.history.len() > 2);
+        // The best point is the last accepted one, and it is the one returned.
+        let mut g = [0.0; 2];
+        let f = Rosenbrock.eval(&out.theta, &mut g).expect("evaluates");
+        assert_eq!(f, out.history.last().expect("history").objective);
+    }
+
+    #[test]
+    fn the_deadline_stops_training_and_keeps_the_start() {
+        let opts = TrainOptions::default().with_max_seconds(Some(0.0));
+        let limits = Limits::start(&opts);
+        let obj = Recording(Mutex::new(Vec::new()));
+        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &limits, |_, _| {
+            Control::Continue
+        })
+        .expect("runs");
+        assert_eq!(out.reason, StopReason::TimeLimit);
+        assert_eq!(out.theta, vec![-1.2, 1.0]);
+        assert_eq!(out.history.len(), 1);
+        // Only the initial point was evaluated.
+        assert_eq!(obj.0.into_inner().expect("not poisoned").len(), 1);
+        // A deadline far away changes nothing.
+        let far = TrainOptions::default().with_max_seconds(Some(1e9));
+        let a = minimise(
+            &Rosenbrock,
+            vec![-1.2, 1.0],
+            1.0,
+            &far,
+            &Limits::start(&far),
+            |_, _| Control::Continue,
+        )
+        .expect("runs");
+        let b = minimise(
+            &Rosenbrock,
+            vec![-1.2, 1.0],
+            1.0,
+            &TrainOptions::default(),
+            &none(),
+            |_, _| Control::Continue,
+        )
+        .expect("runs");
+        assert_eq!(a.theta, b.theta);
+        assert_eq!(a.reason, b.reason);
+        // Shares of no deadline and of an infinite one are no deadline.
+        for s in [None, Some(f64::INFINITY), Some(1e300)] {
+            let o = TrainOptions::default().with_max_seconds(s);
+            assert_eq!(Limits::start(&o).share(0.5).check(), None);
+        }
+    }
+
+    #[test]
+    fn an_interrupt_between_evaluations_keeps_the_best_point() {
+        let calls = Arc::new(Mutex::new(0usize));
+        let seen = Arc::clone(&calls);
+        let interrupt = Interrupt::new(move || {
+            let mut c = seen.lock().expect("not poisoned");
+            *c += 1;
+            *c > 15
+        });
+        let opts = TrainOptions::default().with_interrupt(interrupt.clone());
+        assert_eq!(opts.clone().interrupt, Some(interrupt));
+        let mut accepted = Vec::new();
+        let out = minimise(
+            &Rosenbrock,
+            vec![-1.2, 1.0],
+            1.0,
+            &opts,
+            &Limits::start(&opts),
+            |_, theta| {
+                accepted.push(theta.to_vec());
+                Control::Continue
+            },
+        )
+        .expect("runs");
+        assert_eq!(out.reason, StopReason::Interrupted);
+        assert_eq!(Some(&out.theta), accepted.last());
+        assert!(out.history.len() > 2, "{}", out.history.len());
+        // Asked once more after it said stop, not again and again.
+        assert_eq!(*calls.lock().expect("not poisoned"), 16);
+    }
+
+    #[test]
+    fn bad_limits_are_refused_and_old_options_still_read() {
+        for bad in [
+            TrainOptions::default().with_max_seconds(Some(-1.0)),
+            TrainOptions::default().with_max_seconds(Some(f64::NAN)),
+            TrainOptions::default().with_max_line_search_evaluations(0),
+        ] {
+            let e = minimise(&Rosenbrock, vec![0.0, 0.0], 1.0, &bad, &none(), |_, _| {
+                Control::Continue
+            })
+            .err()
+            .expect("refused")
+            .to_string();
+            assert!(e.contains("TrainOptions::max_"), "{e}");
+        }
+        // Options serialised before the limits existed read with the defaults.
+        let old = r#"{"max_iters":5,"grad_tol":1e-5,"rel_tol":0.0,"memory":10,"map_max_iters":3}"#;
+        let o: TrainOptions = serde_json::from_str(old).expect("reads");
+        assert_eq!(o.max_seconds, None);
+        assert_eq!(o.max_evaluations, None);
+        assert_eq!(
+            o.max_line_search_evaluations,
+            TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS
+        );
+        // The stop reasons are stored in model files by name.
+        let json = serde_json::to_string(&StopReason::TimeLimit).expect("json");
+        assert_eq!(json, "\"TimeLimit\"");
     }
 }

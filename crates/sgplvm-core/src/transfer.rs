@@ -13,7 +13,7 @@ use crate::kernel::KernelParams;
 use crate::model::{Callback, SharedGplvm, Space};
 use crate::objective::Mode;
 use crate::preprocess::{check_finite, check_nonempty};
-use crate::train::TrainOptions;
+use crate::train::{Limits, TrainOptions};
 
 /// Spread of the seeded perturbation of a transfer's starting kernel (log scale).
 const SPREAD: f64 = 0.3;
@@ -47,7 +47,7 @@ impl SharedGplvm {
         options: &TrainOptions,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
-        self.transfer_impl(name, data, None, options, callback)
+        self.transfer_impl(name, data, None, options, &Limits::start(options), callback)
     }
 
     /// [`SharedGplvm::transfer`] from a randomly perturbed starting kernel, for repeated
@@ -64,17 +64,25 @@ impl SharedGplvm {
         options: &TrainOptions,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
-        self.transfer_impl(name, data, Some(seed), options, callback)
+        self.transfer_impl(
+            name,
+            data,
+            Some(seed),
+            options,
+            &Limits::start(options),
+            callback,
+        )
     }
 
     /// Shared body of [`SharedGplvm::transfer`] (`seed = None`: no perturbation) and
-    /// [`SharedGplvm::transfer_seeded`].
+    /// [`SharedGplvm::transfer_seeded`], trained within `limits`.
     pub(crate) fn transfer_impl(
         &self,
         name: &str,
         data: MatRef<'_, f64>,
         seed: Option<u64>,
         options: &TrainOptions,
+        limits: &Limits,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
@@ -84,7 +92,7 @@ impl SharedGplvm {
         model.selection = None;
         model.spaces.push(space);
         let idx = model.spaces.len() - 1;
-        model.train(Mode::Kernels(vec![idx]), options, callback)?;
+        model.train(Mode::Kernels(vec![idx]), options, limits, callback)?;
         Ok(model)
     }
 

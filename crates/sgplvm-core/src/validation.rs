@@ -29,7 +29,11 @@ use crate::kernel::KernelParams;
 use crate::model::{Callback, SharedGplvm};
 use crate::objective::Mode;
 use crate::regression::{fit_kernel, GpRegression};
-use crate::train::{Control, IterationRecord, TrainOptions};
+use crate::train::{Control, IterationRecord, Limits, TrainOptions};
+
+/// The share of the time left that a selection run may use under
+/// [`TrainOptions::max_seconds`]; the final training gets the rest.
+const SELECTION_SHARE: f64 = 0.5;
 
 /// Frames held out of training to choose the iteration budget (see the module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -196,8 +200,10 @@ fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
 impl SharedGplvm {
     /// [`SharedGplvm::fit`] with its iteration budget chosen on held-out frames (see the
     /// `validation` module): a selection run on the other frames, then the model trained on
-    /// all frames for the best iteration. `options.max_iters` bounds both runs; `callback`
-    /// sees the final run. The model's [`SharedGplvm::selection`] says what was chosen.
+    /// all frames for the best iteration. `options.max_iters` bounds both runs; under
+    /// `options.max_seconds` the selection run may use half of the time and the final run the
+    /// rest. `callback` sees the final run. The model's [`SharedGplvm::selection`] says what
+    /// was chosen.
     pub fn fit_validated(
         config: &ModelConfig,
         spaces: &[(&str, MatRef<'_, f64>)],
@@ -207,6 +213,7 @@ impl SharedGplvm {
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
+        let limits = Limits::start(options);
         // Checks every space (shapes, names, values) before the split indexes into them.
         let all = Self::initial(config, spaces, input)?;
         let (fit, held) = validation.split(all.n(), config.latent_dim)?;
@@ -238,7 +245,12 @@ impl SharedGplvm {
         let mut tracker = Tracker::new(validation.patience);
         let seed_model = Self::initial(config, &fit_spaces, input)?;
         let mut initial = seed_model.clone();
-        initial.train(Mode::Full, &options.clone().with_max_iters(0), None)?;
+        initial.train(
+            Mode::Full,
+            &options.clone().with_max_iters(0),
+            &limits,
+            None,
+        )?;
         let objective0 = initial.history.first().map_or(f64::NAN, |r| r.objective);
         let go_on = tracker.record(0, objective0, error(&initial));
         if go_on == Control::Continue && options.max_iters > 0 {
@@ -246,6 +258,7 @@ impl SharedGplvm {
             selection.train(
                 Mode::Full,
                 options,
+                &limits.share(SELECTION_SHARE),
                 Some(&mut |rec: &IterationRecord, snapshot: &SharedGplvm| {
                     tracker.record(rec.iteration, rec.objective, error(snapshot))
                 }),
@@ -256,6 +269,7 @@ impl SharedGplvm {
         model.train(
             Mode::Full,
             &options.clone().with_max_iters(chosen.best_iteration),
+            &limits,
             callback,
         )?;
         model.selection = Some(chosen);
@@ -277,6 +291,7 @@ impl SharedGplvm {
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
+        let limits = Limits::start(options);
         let space = self.transfer_space(name, data, seed)?;
         let (fit, held) = validation.split(self.n(), self.q())?;
         let start = Instant::now();
@@ -314,13 +329,14 @@ impl SharedGplvm {
                 y_fit.as_ref(),
                 space.kernel.clone(),
                 options,
+                &limits.share(SELECTION_SHARE),
                 name,
                 |rec, kernel| tracker.record(rec.iteration, rec.objective, score(kernel).1),
             )?;
         }
         let chosen = tracker.finish(fit.len(), held.len(), start);
         let budget = options.clone().with_max_iters(chosen.best_iteration);
-        let mut model = self.transfer_impl(name, data, seed, &budget, callback)?;
+        let mut model = self.transfer_impl(name, data, seed, &budget, &limits, callback)?;
         model.selection = Some(chosen);
         Ok(model)
     }
