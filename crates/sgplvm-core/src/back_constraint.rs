@@ -193,7 +193,9 @@ mod tests {
         let LatentParams::BackConstrained { bandwidth, .. } = m.params().latent else {
             panic!("bc")
         };
-        let centred = preprocess(h.as_ref(), m.config()).0;
+        let centred = preprocess("human", h.as_ref(), m.config())
+            .expect("in range")
+            .0;
         let mut d = Vec::new();
         for i in 0..30 {
             for j in 0..i {

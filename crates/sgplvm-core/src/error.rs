@@ -10,6 +10,22 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// A space's values vary on a scale (root mean square after centring) that floating point
+    /// cannot train on, even after standardising it by a power of two.
+    #[error(
+        "space '{space}': its values vary on a scale of {scale:.3e} (root mean square after \
+         centring); expected a scale between {min:e} and {max:e}: change the data's units"
+    )]
+    DataScale {
+        /// Offending space.
+        space: String,
+        /// Its scale (infinite when centring overflowed).
+        scale: f64,
+        /// Smallest scale accepted.
+        min: f64,
+        /// Largest scale accepted.
+        max: f64,
+    },
     /// A value of the data is NaN or infinite.
     #[error(
         "space '{space}': value at row {row}, column {col} is {value}; expected a finite number"

@@ -45,7 +45,7 @@ impl SharedGplvm {
         let sp: Vec<Space> = order
             .iter()
             .map(|&i| Space::from_data(spaces[i].0, spaces[i].1, config))
-            .collect();
+            .collect::<Result<_>>()?;
         let x0 = initial_latent_points(&sp, config)?;
         let latent = initial_latent(config.back_constraint, &sp, x0.as_ref(), config.bc_ridge)?;
         let mut model = SharedGplvm::new(config.clone(), sp, latent);

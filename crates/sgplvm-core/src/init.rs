@@ -160,18 +160,23 @@ pub(crate) fn initial_kernel(v: f64, config: &ModelConfig) -> KernelParams {
 }
 
 impl Space {
-    /// A space of the model from raw data: centred (and scaled), with its [`initial_kernel`].
-    pub(crate) fn from_data(name: &str, raw: MatRef<'_, f64>, config: &ModelConfig) -> Self {
-        let (data, offset, scale) = preprocess(raw, config);
+    /// A space of the model from raw data: centred (and scaled, see `preprocess`), with its
+    /// [`initial_kernel`]; data too far from unit scale is an error.
+    pub(crate) fn from_data(
+        name: &str,
+        raw: MatRef<'_, f64>,
+        config: &ModelConfig,
+    ) -> Result<Self> {
+        let (data, offset, scale) = preprocess(name, raw, config)?;
         let kernel = initial_kernel(mean_col_var(data.as_ref()), config);
-        Space {
+        Ok(Space {
             name: name.into(),
             data,
             offset,
             scale,
             kernel,
             columns: None,
-        }
+        })
     }
 }
 

@@ -54,7 +54,12 @@
 //!   Failed factorisations get jitter from 1e-10 to 1e-2 × mean diagonal; the amount used by
 //!   the final model is [`SharedGplvm::jitter`].
 //! - **Preprocessing**: every space is centred; [`ModelConfig::scale`] additionally divides by
-//!   the column (or space) standard deviation. Predictions are returned in original units.
+//!   the column (or space) standard deviation. A space whose scale (root mean square after
+//!   centring) is outside [`STANDARD_SCALES`] (10⁻⁶…10⁶) is also divided by the power of two
+//!   nearest its scale — exact, so data ×2^k trains exactly like the data itself — and one
+//!   outside [`ACCEPTED_SCALES`] (10⁻¹⁵³…10¹⁵³) is refused ([`Error::DataScale`]). Predictions
+//!   are returned in original units; parameters and the objective refer to the preprocessed
+//!   data ([`SharedGplvm::normalisation`] gives the offsets and scales).
 //! - **Initialisation**: PCA of each centred space to Q dimensions, each projection divided by
 //!   the standard deviation of its first component, columns sign-aligned with the input's, then
 //!   averaged; plus `init_perturbation` × N(0, 1) from the seed. Kernels start at variance =
@@ -68,7 +73,9 @@
 //! - **Training**: argmin's L-BFGS + More–Thuente on log-parameters, objective scaled by
 //!   1/(N·ΣD) for the solver; stop on max |gradient| (`grad_tol`), relative decrease
 //!   (`rel_tol`) or `max_iters`; after a failed line search L-BFGS restarts once from the best
-//!   point. History is monotone; seconds exclude callback time.
+//!   point. Every line search makes at most `max_line_search_evaluations` evaluations, and
+//!   `max_seconds`, `max_evaluations` and an [`Interrupt`] can end a run early, keeping the
+//!   best point. History is monotone; seconds exclude callback time.
 //! - **Transfer** keeps the source robots (frozen) so one model predicts every robot; only the
 //!   new robot's kernel is trained and only its Cholesky is computed per evaluation.
 //! - **Prediction variance** is the latent function's (`k** − kᵀK⁻¹k`), without the noise and
@@ -111,6 +118,7 @@ pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
 pub use predict::Prediction;
+pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use regression::GpRegression;
-pub use train::{Control, IterationRecord, StopReason, TrainOptions};
+pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};
 pub use validation::{Selection, Validation, ValidationRecord};

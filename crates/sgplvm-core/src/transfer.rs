@@ -117,7 +117,7 @@ impl SharedGplvm {
             });
         }
         check_finite(name, data)?;
-        let mut space = Space::from_data(name, data, &self.config);
+        let mut space = Space::from_data(name, data, &self.config)?;
         // The first robot's lengthscales: the latent space is shared, and so is the scale on
         // which robots vary along it.
         if let Some(first) = self.spaces.get(1) {
@@ -151,7 +151,12 @@ mod tests {
             assert_eq!(t.latent_points(), source.latent_points());
             assert_eq!(t.output_names(), vec!["walkman", "coman"]);
             let (_, k) = &pt.spaces[2];
-            let v0 = mean_col_var(preprocess(r2.as_ref(), source.config()).0.as_ref());
+            let v0 = mean_col_var(
+                preprocess("coman", r2.as_ref(), source.config())
+                    .expect("in range")
+                    .0
+                    .as_ref(),
+            );
             assert!(
                 k.variance != v0 || k.noise != 0.1 * v0,
                 "new kernel did not move"
