@@ -26,6 +26,29 @@ pub enum Error {
         /// Largest scale accepted.
         max: f64,
     },
+    /// The exact model would need more memory than the limit (see the `memory` module);
+    /// refused before allocating.
+    #[error(
+        "{what} with N = {n} frames needs about {} ({matrices} N×N matrices of 8-byte floats); \
+         {} is available ({limit_source}): the exact model's memory grows with N², use fewer \
+         frames (e.g. subsample the demonstrations)",
+        crate::memory::human(*needed_bytes),
+        crate::memory::human(*available_bytes)
+    )]
+    TooLarge {
+        /// What was refused (training, transfer, loading a model, …).
+        what: String,
+        /// Number of frames N.
+        n: usize,
+        /// N×N matrices estimated.
+        matrices: usize,
+        /// Bytes those matrices need.
+        needed_bytes: u64,
+        /// The memory limit in bytes.
+        available_bytes: u64,
+        /// Where the limit comes from.
+        limit_source: String,
+    },
     /// A value of the data is NaN or infinite.
     #[error(
         "space '{space}': value at row {row}, column {col} is {value}; expected a finite number"

@@ -8,6 +8,7 @@ use crate::config::{BackConstraint, ModelConfig};
 use crate::error::Result;
 use crate::init::initial_latent_points;
 use crate::kernel::row_major;
+use crate::memory;
 use crate::model::{Callback, Latent, SharedGplvm, Space};
 use crate::objective::{Mode, ModelObjective};
 use crate::pool::par_for;
@@ -42,6 +43,11 @@ impl SharedGplvm {
     ) -> Result<Self> {
         config.check()?;
         let order = checked_order(spaces, input, config.latent_dim)?;
+        memory::check(
+            "training",
+            spaces[order[0]].1.nrows(),
+            memory::fit_matrices(spaces.len()),
+        )?;
         let sp: Vec<Space> = order
             .iter()
             .map(|&i| Space::from_data(spaces[i].0, spaces[i].1, config))

@@ -28,6 +28,7 @@ use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
+use crate::memory;
 use crate::model::{Latent, SharedGplvm, Space};
 use crate::train::{IterationRecord, StopReason};
 use crate::validation::Selection;
@@ -376,6 +377,7 @@ impl SharedGplvm {
         {
             return Err(corrupt("space shapes are inconsistent".into()));
         }
+        memory::check("loading the model", n, memory::load_matrices(spaces.len()))?;
         let latent = f.latent.into_latent(n, q)?;
         let map = f
             .map
@@ -532,6 +534,33 @@ mod tests {
                 Err(Error::Corrupt { reason }) => assert!(reason.contains(expected), "{reason}"),
                 other => panic!("{expected}: {other:?}"),
             }
+        }
+    }
+
+    /// A file declaring N = 200 000 frames (7 MB of JSON) would need 1.6 TB of N×N matrices
+    /// to load: refused before any is allocated.
+    #[test]
+    fn a_file_declaring_a_huge_model_is_refused_before_allocating() {
+        let m = fit(BackConstraint::None, 20, 2, 0);
+        let n = 200_000usize;
+        let column = |c: usize| serde_json::json!({"rows": n, "cols": c, "data": vec![0.5; n * c]});
+        let bytes = with_payload(&m.to_bytes(), |j| {
+            for s in j["spaces"].as_array_mut().expect("spaces") {
+                let c = s["data"]["cols"].as_u64().expect("cols") as usize;
+                s["data"] = column(c);
+            }
+            let x: Vec<f64> = (0..2 * n).map(|i| i as f64 / n as f64).collect();
+            j["latent"] = serde_json::json!({"Free": {"x": {"rows": n, "cols": 2, "data": x}}});
+        });
+        match SharedGplvm::from_bytes(&bytes) {
+            Err(e @ Error::TooLarge { .. }) => {
+                let text = e.to_string();
+                assert!(
+                    text.starts_with("loading the model with N = 200000 frames needs about 1.9 TB"),
+                    "{text}"
+                );
+            }
+            other => panic!("{other:?}"),
         }
     }
 }

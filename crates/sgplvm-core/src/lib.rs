@@ -45,6 +45,7 @@
 //! | `model.rs` | the [`SharedGplvm`] struct and its accessors |
 //! | `io.rs` | the versioned model file |
 //! | `pool.rs` | the fork-safe thread pool |
+//! | `memory.rs` | the memory an exact model needs, checked before allocating ([`Error::TooLarge`]) |
 //!
 //! ## Choices made (and where they are documented)
 //!
@@ -95,6 +96,7 @@ mod input_map;
 mod io;
 mod kernel;
 mod likelihood;
+mod memory;
 mod model;
 mod objective;
 mod params;
@@ -114,6 +116,7 @@ pub use error::{Error, Result};
 pub use faer::{Mat, MatRef};
 pub use io::{FORMAT_VERSION, MAGIC};
 pub use kernel::KernelParams;
+pub use memory::{DEFAULT_MEMORY_LIMIT, MEMORY_LIMIT_ENV};
 pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};

@@ -292,3 +292,40 @@ fn a_kernel_that_cannot_be_factorised_is_a_typed_error_from_every_path() {
         "walkman",
     );
 }
+
+/// Training and the GP regression at N = 100 000 frames (15 N×N matrices: 1.2 TB for training)
+/// are refused before their matrices are allocated, with a one-line error naming the size.
+#[test]
+fn models_too_large_for_memory_are_refused_before_allocating() {
+    let n = 100_000;
+    let h = Mat::from_fn(n, 2, |i, j| (i as f64 * 1e-3 + j as f64).sin());
+    let r = Mat::from_fn(n, 1, |i, _| (i as f64 * 2e-3).cos());
+    let config = ModelConfig::default().with_latent_dim(1);
+    let spaces = [("human", h.as_ref()), ("robot", r.as_ref())];
+    let refused = |e: Error, what: &str| {
+        let text = e.to_string();
+        assert!(matches!(e, Error::TooLarge { n: 100_000, .. }), "{e:?}");
+        assert!(
+            text.starts_with(&format!("{what} with N = 100000 frames needs about")),
+            "{text}"
+        );
+        assert!(
+            text.contains("use fewer frames") && !text.contains('\n'),
+            "{text}"
+        );
+    };
+    refused(
+        SharedGplvm::fit(&config, &spaces, "human", &quick(1), None).expect_err("refused"),
+        "training",
+    );
+    let validation = crate::validation::Validation::blocks(n);
+    refused(
+        SharedGplvm::fit_validated(&config, &spaces, "human", &quick(1), &validation, None)
+            .expect_err("refused"),
+        "training",
+    );
+    refused(
+        GpRegression::fit(h.as_ref(), r.as_ref(), &quick(1)).expect_err("refused"),
+        "GP regression",
+    );
+}

@@ -14,6 +14,7 @@ use crate::back_constraint::median_distance;
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
+use crate::memory;
 use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
 use crate::pool::{in_pool, lock, PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
@@ -156,6 +157,7 @@ impl GpRegression {
         check_finite("regression inputs", x)?;
         check_finite("regression outputs", y)?;
         let (n, d) = (y.nrows(), y.ncols());
+        memory::check("GP regression", n, memory::REGRESSION_MATRICES)?;
         let y_mean: Vec<f64> = (0..d)
             .map(|j| (0..n).map(|i| y[(i, j)]).sum::<f64>() / n as f64)
             .collect();

@@ -10,6 +10,7 @@ use rand_distr::{Distribution, StandardNormal};
 
 use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
+use crate::memory;
 use crate::model::{Callback, SharedGplvm, Space};
 use crate::objective::Mode;
 use crate::preprocess::{check_finite, check_nonempty};
@@ -117,6 +118,11 @@ impl SharedGplvm {
             });
         }
         check_finite(name, data)?;
+        memory::check(
+            "transfer",
+            self.n(),
+            memory::transfer_matrices(self.spaces.len() + 1),
+        )?;
         let mut space = Space::from_data(name, data, &self.config)?;
         // The first robot's lengthscales: the latent space is shared, and so is the scale on
         // which robots vary along it.

@@ -244,15 +244,19 @@ impl SharedGplvm {
         };
         let mut tracker = Tracker::new(validation.patience);
         let seed_model = Self::initial(config, &fit_spaces, input)?;
-        let mut initial = seed_model.clone();
-        initial.train(
-            Mode::Full,
-            &options.clone().with_max_iters(0),
-            &limits,
-            None,
-        )?;
-        let objective0 = initial.history.first().map_or(f64::NAN, |r| r.objective);
-        let go_on = tracker.record(0, objective0, error(&initial));
+        // Scored and dropped before the other runs: its buffers would add a third to the peak
+        // memory of the final run.
+        let go_on = {
+            let mut initial = seed_model.clone();
+            initial.train(
+                Mode::Full,
+                &options.clone().with_max_iters(0),
+                &limits,
+                None,
+            )?;
+            let objective0 = initial.history.first().map_or(f64::NAN, |r| r.objective);
+            tracker.record(0, objective0, error(&initial))
+        };
         if go_on == Control::Continue && options.max_iters > 0 {
             let mut selection = seed_model;
             selection.train(
