@@ -285,6 +285,25 @@ pub enum StopReason {
     Interrupted,
 }
 
+impl StopReason {
+    /// The reason's name in snake case: `gradient_tolerance`, `relative_tolerance`,
+    /// `max_iterations`, `callback`, `line_search`, `nothing_to_train`, `time_limit`,
+    /// `evaluation_limit` or `interrupted`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::GradientTolerance => "gradient_tolerance",
+            Self::RelativeTolerance => "relative_tolerance",
+            Self::MaxIterations => "max_iterations",
+            Self::Callback => "callback",
+            Self::LineSearch(_) => "line_search",
+            Self::NothingToTrain => "nothing_to_train",
+            Self::TimeLimit => "time_limit",
+            Self::EvaluationLimit => "evaluation_limit",
+            Self::Interrupted => "interrupted",
+        }
+    }
+}
+
 /// A differentiable objective on an unconstrained vector.
 pub(crate) trait Objective {
     /// Objective value; writes the gradient into `grad` (same length as `theta`).

@@ -9,6 +9,7 @@ use sgplvm_robots::dataset::{load_demonstrations as load_dataset, BodyData};
 use sgplvm_robots::joint_state::{self, Compression, JointStateError, JointStates};
 use sgplvm_robots::{ReplayOptions, Robot, Trajectory};
 
+use crate::guard::guarded;
 use crate::robots::robot_error;
 
 fn joint_state_error(e: JointStateError) -> PyErr {
@@ -57,15 +58,17 @@ pub fn read_joint_states<'py>(
     path: std::path::PathBuf,
     topic: &str,
 ) -> PyResult<JointStatesArrays<'py>> {
-    let states = py
-        .detach(|| joint_state::read_joint_states(&path, topic))
-        .map_err(joint_state_error)?;
-    let positions = matrix(py, states.len(), states.dof(), &states.positions);
-    Ok((
-        PyArray1::from_vec(py, states.times_ns),
-        states.names,
-        positions,
-    ))
+    guarded(|| {
+        let states = py
+            .detach(|| joint_state::read_joint_states(&path, topic))
+            .map_err(joint_state_error)?;
+        let positions = matrix(py, states.len(), states.dof(), &states.positions);
+        Ok((
+            PyArray1::from_vec(py, states.times_ns),
+            states.names,
+            positions,
+        ))
+    })
 }
 
 /// Writes one JointState topic (CDR, profile ros2) to an MCAP file, atomically.
@@ -80,27 +83,29 @@ pub fn write_joint_states(
     positions: PyReadonlyArray2<'_, f64>,
     compression: &str,
 ) -> PyResult<()> {
-    let compression = parse_compression(compression)?;
-    let times = times_ns.as_array().to_vec();
-    let view = positions.as_array();
-    if view.nrows() != times.len() || view.ncols() != names.len() {
-        return Err(PyValueError::new_err(format!(
-            "positions has shape ({}, {}); expected ({}, {}) = (len(times_ns), len(names))",
-            view.nrows(),
-            view.ncols(),
-            times.len(),
-            names.len()
-        )));
-    }
-    if let Some(((i, j), v)) = view.indexed_iter().find(|(_, v)| !v.is_finite()) {
-        return Err(PyValueError::new_err(format!(
-            "positions[{i}, {j}] is {v}; expected finite joint positions"
-        )));
-    }
-    let values: Vec<f64> = view.iter().copied().collect();
-    let states = JointStates::new(times, names, values).map_err(joint_state_error)?;
-    py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression))
-        .map_err(joint_state_error)
+    guarded(|| {
+        let compression = parse_compression(compression)?;
+        let times = times_ns.as_array().to_vec();
+        let view = positions.as_array();
+        if view.nrows() != times.len() || view.ncols() != names.len() {
+            return Err(PyValueError::new_err(format!(
+                "positions has shape ({}, {}); expected ({}, {}) = (len(times_ns), len(names))",
+                view.nrows(),
+                view.ncols(),
+                times.len(),
+                names.len()
+            )));
+        }
+        if let Some(((i, j), v)) = view.indexed_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "positions[{i}, {j}] is {v}; expected finite joint positions"
+            )));
+        }
+        let values: Vec<f64> = view.iter().copied().collect();
+        let states = JointStates::new(times, names, values).map_err(joint_state_error)?;
+        py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression))
+            .map_err(joint_state_error)
+    })
 }
 
 fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDict>> {
@@ -128,34 +133,36 @@ pub fn load_demonstrations<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let ds = py
-        .detach(|| load_dataset(&path))
-        .map_err(joint_state_error)?;
-    let d = PyDict::new(py);
-    d.set_item("times_ns", PyArray1::from_slice(py, &ds.times_ns))?;
-    d.set_item("human", body_dict(py, &ds.human)?)?;
-    let robots = PyDict::new(py);
-    for robot in &ds.robots {
-        robots.set_item(&robot.name, body_dict(py, robot)?)?;
-    }
-    d.set_item("robots", robots)?;
-    let index = |v: &[usize]| PyArray1::from_vec(py, v.iter().map(|&i| i as i64).collect());
-    d.set_item("train", index(&ds.train))?;
-    d.set_item("test", index(&ds.test))?;
-    d.set_item("validation", index(&ds.validation_split().rows))?;
-    d.set_item("pose_names", ds.pose_names.clone())?;
-    let segments = PyList::empty(py);
-    for s in &ds.segments {
-        let sd = PyDict::new(py);
-        sd.set_item("start", s.start)?;
-        sd.set_item("end", s.end)?;
-        sd.set_item("from_pose", s.from_pose)?;
-        sd.set_item("to_pose", s.to_pose)?;
-        sd.set_item("repetition", s.repetition)?;
-        segments.append(sd)?;
-    }
-    d.set_item("segments", segments)?;
-    Ok(d)
+    guarded(|| {
+        let ds = py
+            .detach(|| load_dataset(&path))
+            .map_err(joint_state_error)?;
+        let d = PyDict::new(py);
+        d.set_item("times_ns", PyArray1::from_slice(py, &ds.times_ns))?;
+        d.set_item("human", body_dict(py, &ds.human)?)?;
+        let robots = PyDict::new(py);
+        for robot in &ds.robots {
+            robots.set_item(&robot.name, body_dict(py, robot)?)?;
+        }
+        d.set_item("robots", robots)?;
+        let index = |v: &[usize]| PyArray1::from_vec(py, v.iter().map(|&i| i as i64).collect());
+        d.set_item("train", index(&ds.train))?;
+        d.set_item("test", index(&ds.test))?;
+        d.set_item("validation", index(&ds.validation_split().rows))?;
+        d.set_item("pose_names", ds.pose_names.clone())?;
+        let segments = PyList::empty(py);
+        for s in &ds.segments {
+            let sd = PyDict::new(py);
+            sd.set_item("start", s.start)?;
+            sd.set_item("end", s.end)?;
+            sd.set_item("from_pose", s.from_pose)?;
+            sd.set_item("to_pose", s.to_pose)?;
+            sd.set_item("repetition", s.repetition)?;
+            segments.append(sd)?;
+        }
+        d.set_item("segments", segments)?;
+        Ok(d)
+    })
 }
 
 /// Replays a joint trajectory on a robot in the rapier physics engine (PD position control at
@@ -170,39 +177,42 @@ pub fn simulate<'py>(
     times: PyReadonlyArray1<'py, f64>,
     positions: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (xml, source) = match Robot::builtin_urdf(robot) {
-        Some(xml) => (xml.to_string(), format!("builtin:{robot}")),
-        None => {
-            let path = std::path::Path::new(robot);
-            if !path.exists() {
-                return Err(PyValueError::new_err(format!(
+    guarded(|| {
+        let (xml, source) = match Robot::builtin_urdf(robot) {
+            Some(xml) => (xml.to_string(), format!("builtin:{robot}")),
+            None => {
+                let path = std::path::Path::new(robot);
+                if !path.exists() {
+                    return Err(PyValueError::new_err(format!(
                     "robot {robot:?} is neither a built-in name ({:?}) nor an existing URDF file",
                     Robot::builtin_names()
                 )));
+                }
+                Robot::from_urdf_file(path).map_err(robot_error)?;
+                let xml = std::fs::read_to_string(path)
+                    .map_err(|e| PyOSError::new_err(format!("{robot}: {e}")))?;
+                (xml, robot.to_string())
             }
-            Robot::from_urdf_file(path).map_err(robot_error)?;
-            let xml = std::fs::read_to_string(path)
-                .map_err(|e| PyOSError::new_err(format!("{robot}: {e}")))?;
-            (xml, robot.to_string())
+        };
+        let view = positions.as_array();
+        if view.ncols() != joint_names.len() {
+            return Err(PyValueError::new_err(format!(
+                "positions has {} columns; expected {} (one per joint name)",
+                view.ncols(),
+                joint_names.len()
+            )));
         }
-    };
-    let view = positions.as_array();
-    if view.ncols() != joint_names.len() {
-        return Err(PyValueError::new_err(format!(
-            "positions has {} columns; expected {} (one per joint name)",
-            view.ncols(),
-            joint_names.len()
-        )));
-    }
-    let trajectory = Trajectory::new(
-        joint_names,
-        times.as_array().to_vec(),
-        view.iter().copied().collect(),
-    )
-    .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let report = py
-        .detach(|| sgplvm_robots::replay(&xml, &source, &trajectory, &ReplayOptions::default()))
+        let trajectory = Trajectory::new(
+            joint_names,
+            times.as_array().to_vec(),
+            view.iter().copied().collect(),
+        )
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let json = serde_json::to_string(&report).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    py.import("json")?.call_method1("loads", (json,))
+        let report = py
+            .detach(|| sgplvm_robots::replay(&xml, &source, &trajectory, &ReplayOptions::default()))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let json =
+            serde_json::to_string(&report).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        py.import("json")?.call_method1("loads", (json,))
+    })
 }

@@ -7,6 +7,7 @@
 use pyo3::prelude::*;
 
 mod demos;
+mod guard;
 mod model;
 mod regression;
 mod robots;
@@ -27,5 +28,6 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;
     m.add_function(wrap_pyfunction!(demos::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(guard::panic_for_tests, m)?)?;
     Ok(())
 }

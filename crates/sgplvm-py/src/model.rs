@@ -1,22 +1,39 @@
 //! The native model class behind `sgplvm.SharedGPLVM` (the Python wrapper in
 //! `python/sgplvm/_model.py` converts arguments and adds pickling).
 
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use sgplvm_core::{
-    BackConstraint, Control, IterationRecord, KernelParams, LatentParams, Mat, ModelConfig, Params,
-    SharedGplvm, TrainOptions, Validation,
+    BackConstraint, Control, Interrupt, IterationRecord, KernelParams, LatentParams, Mat,
+    ModelConfig, Params, SharedGplvm, TrainOptions, Validation,
 };
 
-/// Converts a core error into the Python exception a user expects.
+use crate::guard::guarded;
+
+/// Converts a core error into the Python exception a user expects: `OSError` for files,
+/// `MemoryError` for a model too large for memory (refused before allocating), `RuntimeError`
+/// for a kernel that cannot be factorised, `ValueError` for the rest.
 pub(crate) fn model_error(e: sgplvm_core::Error) -> PyErr {
     match e {
         sgplvm_core::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
         sgplvm_core::Error::NotPositiveDefinite { .. } => PyRuntimeError::new_err(e.to_string()),
+        sgplvm_core::Error::TooLarge { .. } => PyMemoryError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// [`model_error`] for reading `source` (a path, or "bytes"/"pickle"): the message names it.
+fn read_error(source: &str, e: sgplvm_core::Error) -> PyErr {
+    match e {
+        sgplvm_core::Error::Io { .. } => model_error(e),
+        sgplvm_core::Error::TooLarge { .. } => PyMemoryError::new_err(format!("{source}: {e}")),
+        other => PyValueError::new_err(format!("{source}: {other}")),
     }
 }
 
@@ -71,17 +88,56 @@ pub(crate) fn canonical_back_constraint(
     }
 }
 
-/// Runs a training with the GIL released; the Python callback, if any, is called with the GIL
-/// held and may stop training by returning False. An exception in the callback stops training
-/// and is raised once training has returned.
+/// How often, at most, a training looks at Python's signal handlers.
+const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(50);
+
+/// An interrupt that runs Python's signal handlers (`PyErr_CheckSignals`, with the GIL) at
+/// most every [`SIGNAL_CHECK_INTERVAL`]; the first exception a handler raises (a
+/// `KeyboardInterrupt` on Ctrl-C) is kept in `raised` and stops training.
+fn signal_interrupt(raised: Arc<Mutex<Option<PyErr>>>) -> Interrupt {
+    let last = Mutex::new(Instant::now());
+    Interrupt::new(move || {
+        let mut raised = raised.lock().unwrap_or_else(PoisonError::into_inner);
+        if raised.is_some() {
+            return true;
+        }
+        let mut last = last.lock().unwrap_or_else(PoisonError::into_inner);
+        if last.elapsed() < SIGNAL_CHECK_INTERVAL {
+            return false;
+        }
+        *last = Instant::now();
+        match Python::attach(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(e) => {
+                *raised = Some(e);
+                true
+            }
+        }
+    })
+}
+
+/// A training's model and the exception a signal handler raised during it, if one did.
+type Trained = (SharedGplvm, Option<PyErr>);
+
+/// Runs a training with the GIL released, `options` given an interrupt that checks Python's
+/// signal handlers between objective evaluations (so Ctrl-C stops it within about a second).
+/// The Python callback, if any, is called with the GIL held and may stop training by
+/// returning False. An exception in the callback stops training and is raised once training
+/// has returned; an exception from a signal handler (or a `KeyboardInterrupt` raised in the
+/// callback) stops it too and is returned with the model trained so far (its best
+/// parameters, stop reason `interrupted`).
 fn train_detached(
     py: Python<'_>,
     callback: Option<Py<PyAny>>,
-    train: impl FnOnce(Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm> + Send,
-) -> PyResult<SharedGplvm> {
+    options: TrainOptions,
+    train: impl FnOnce(&TrainOptions, Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm>
+        + Send,
+) -> PyResult<Trained> {
+    let signal = Arc::new(Mutex::new(None));
+    let options = options.with_interrupt(signal_interrupt(Arc::clone(&signal)));
     let mut raised: Option<PyErr> = None;
     let result = py.detach(|| match &callback {
-        None => train(None),
+        None => train(&options, None),
         Some(cb) => {
             let mut call = |it: &IterationRecord, _: &SharedGplvm| {
                 Python::attach(|py| match cb.call1(py, (it.iteration, it.objective)) {
@@ -93,19 +149,50 @@ fn train_detached(
                             Control::Stop
                         }
                     },
+                    // Ctrl-C while the callback runs: handled like Ctrl-C between
+                    // evaluations (the interrupt stops training at its next check).
+                    Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
+                        *signal.lock().unwrap_or_else(PoisonError::into_inner) = Some(e);
+                        Control::Continue
+                    }
                     Err(e) => {
                         raised = Some(e);
                         Control::Stop
                     }
                 })
             };
-            train(Some(&mut call))
+            train(&options, Some(&mut call))
         }
     });
     if let Some(e) = raised {
         return Err(e);
     }
-    result.map_err(model_error)
+    let signal = signal.lock().unwrap_or_else(PoisonError::into_inner).take();
+    match (result, signal) {
+        (Ok(model), signal) => Ok((model, signal)),
+        // A signal's exception wins over a training error: the user pressed Ctrl-C.
+        (Err(_), Some(e)) => Err(e),
+        (Err(e), None) => Err(model_error(e)),
+    }
+}
+
+/// `model` as a Python result: the model, or — when a signal handler raised during its
+/// training — that exception, carrying the model as its `_sgplvm_native` attribute (the
+/// Python wrapper keeps it: the best parameters reached before the interrupt).
+fn finish_training(
+    py: Python<'_>,
+    model: NativeModel,
+    signal: Option<PyErr>,
+) -> PyResult<NativeModel> {
+    match signal {
+        None => Ok(model),
+        Some(e) => {
+            let native = Py::new(py, model)?;
+            // An exception type that refuses attributes still propagates, without the model.
+            let _ = e.value(py).setattr("_sgplvm_native", native);
+            Err(e)
+        }
+    }
 }
 
 /// Posterior mean and, when asked for, variance.
@@ -119,9 +206,11 @@ pub struct NativeModel {
 
 #[pymethods]
 impl NativeModel {
-    /// Fits a model on named spaces (one robot: full model; several: multi-robot).
+    /// Fits a model on named spaces (one robot: full model; several: multi-robot). A signal
+    /// handler's exception (Ctrl-C) stops training and is raised carrying the model trained so
+    /// far as its `_sgplvm_native` attribute.
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, callback=None, column_names=None))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -134,37 +223,50 @@ impl NativeModel {
         max_iters: usize,
         validation: Option<Vec<usize>>,
         patience: usize,
+        max_seconds: Option<f64>,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<(String, Vec<String>)>>,
     ) -> PyResult<Self> {
-        let config = ModelConfig::default()
-            .with_latent_dim(latent_dim)
-            .with_back_constraint(parse_back_constraint(back_constraint)?)
-            .with_seed(seed)
-            .with_scale(scale);
-        let mats: Vec<(String, Mat<f64>)> =
-            spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
-        let options = TrainOptions::default().with_max_iters(max_iters);
-        let input = input.to_string();
-        let mut model = train_detached(py, callback, |cb| {
-            let views: Vec<(&str, _)> =
-                mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
-            match validation {
-                Some(rows) => {
-                    let validation = Validation::new(rows).with_patience(patience);
-                    SharedGplvm::fit_validated(&config, &views, &input, &options, &validation, cb)
+        guarded(|| {
+            let config = ModelConfig::default()
+                .with_latent_dim(latent_dim)
+                .with_back_constraint(parse_back_constraint(back_constraint)?)
+                .with_seed(seed)
+                .with_scale(scale);
+            let mats: Vec<(String, Mat<f64>)> =
+                spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
+            let options = TrainOptions::default()
+                .with_max_iters(max_iters)
+                .with_max_seconds(max_seconds);
+            let input = input.to_string();
+            let (mut model, signal) = train_detached(py, callback, options, |options, cb| {
+                let views: Vec<(&str, _)> =
+                    mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
+                match validation {
+                    Some(rows) => {
+                        let validation = Validation::new(rows).with_patience(patience);
+                        SharedGplvm::fit_validated(
+                            &config,
+                            &views,
+                            &input,
+                            options,
+                            &validation,
+                            cb,
+                        )
+                    }
+                    None => SharedGplvm::fit(&config, &views, &input, options, cb),
                 }
-                None => SharedGplvm::fit(&config, &views, &input, &options, cb),
+            })?;
+            for (space, names) in column_names.unwrap_or_default() {
+                model.set_column_names(&space, names).map_err(model_error)?;
             }
-        })?;
-        for (space, names) in column_names.unwrap_or_default() {
-            model.set_column_names(&space, names).map_err(model_error)?;
-        }
-        Ok(NativeModel { inner: model })
+            finish_training(py, NativeModel { inner: model }, signal)
+        })
     }
 
     /// A new model that also predicts for robot `name`, trained only on that robot's kernel.
-    #[pyo3(signature = (name, data, max_iters, validation, patience, callback=None, column_names=None))]
+    /// Ctrl-C as in [`NativeModel::fit`].
+    #[pyo3(signature = (name, data, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None))]
     #[allow(clippy::too_many_arguments)]
     fn transfer(
         &self,
@@ -174,23 +276,41 @@ impl NativeModel {
         max_iters: usize,
         validation: Option<Vec<usize>>,
         patience: usize,
+        max_seconds: Option<f64>,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<String>>,
     ) -> PyResult<Self> {
-        let data = to_mat(&data);
-        let options = TrainOptions::default().with_max_iters(max_iters);
-        let mut model = train_detached(py, callback, |cb| match validation {
-            Some(rows) => {
-                let validation = Validation::new(rows).with_patience(patience);
-                self.inner
-                    .transfer_validated(name, data.as_ref(), None, &options, &validation, cb)
+        guarded(|| {
+            let data = to_mat(&data);
+            let options = TrainOptions::default()
+                .with_max_iters(max_iters)
+                .with_max_seconds(max_seconds);
+            let (mut model, signal) =
+                train_detached(py, callback, options, |options, cb| match validation {
+                    Some(rows) => {
+                        let validation = Validation::new(rows).with_patience(patience);
+                        self.inner.transfer_validated(
+                            name,
+                            data.as_ref(),
+                            None,
+                            options,
+                            &validation,
+                            cb,
+                        )
+                    }
+                    None => self.inner.transfer(name, data.as_ref(), options, cb),
+                })?;
+            if let Some(names) = column_names {
+                model.set_column_names(name, names).map_err(model_error)?;
             }
-            None => self.inner.transfer(name, data.as_ref(), &options, cb),
-        })?;
-        if let Some(names) = column_names {
-            model.set_column_names(name, names).map_err(model_error)?;
-        }
-        Ok(NativeModel { inner: model })
+            finish_training(py, NativeModel { inner: model }, signal)
+        })
+    }
+
+    /// Why the last training stopped (`StopReason::name`), if the model was trained.
+    #[getter]
+    fn stop_reason(&self) -> Option<&'static str> {
+        self.inner.stop_reason().map(|r| r.name())
     }
 
     /// Every third of nine equal blocks of `n` rows: the default validation rows.
@@ -214,12 +334,14 @@ impl NativeModel {
         robot: &str,
         with_variance: bool,
     ) -> PyResult<MeanAndVariance<'py>> {
-        let h = to_mat(&h);
-        let prediction = py
-            .detach(|| self.inner.predict(h.as_ref(), robot, with_variance))
-            .map_err(model_error)?;
-        let variance = prediction.variance.as_ref().map(|v| to_numpy(py, v));
-        Ok((to_numpy(py, &prediction.mean), variance))
+        guarded(|| {
+            let h = to_mat(&h);
+            let prediction = py
+                .detach(|| self.inner.predict(h.as_ref(), robot, with_variance))
+                .map_err(model_error)?;
+            let variance = prediction.variance.as_ref().map(|v| to_numpy(py, v));
+            Ok((to_numpy(py, &prediction.mean), variance))
+        })
     }
 
     /// Latent points of human frames (n × Q).
@@ -228,11 +350,13 @@ impl NativeModel {
         py: Python<'py>,
         h: PyReadonlyArray2<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let h = to_mat(&h);
-        let x = py
-            .detach(|| self.inner.latent(h.as_ref()))
-            .map_err(model_error)?;
-        Ok(to_numpy(py, &x))
+        guarded(|| {
+            let h = to_mat(&h);
+            let x = py
+                .detach(|| self.inner.latent(h.as_ref()))
+                .map_err(model_error)?;
+            Ok(to_numpy(py, &x))
+        })
     }
 
     /// Latent points of the training frames (N × Q).
@@ -302,55 +426,58 @@ impl NativeModel {
 
     /// Parameters in natural units as nested dicts of numpy arrays and floats.
     fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        params_to_dict(py, &self.inner.params())
+        guarded(|| params_to_dict(py, &self.inner.params()))
     }
 
     /// Gradient of the objective, in the structure of `params`.
     fn gradient<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        params_to_dict(py, &self.inner.gradient())
+        guarded(|| params_to_dict(py, &self.inner.gradient()))
     }
 
     /// Negative log marginal likelihood at the current parameters.
-    fn objective(&self) -> f64 {
-        self.inner.objective()
+    fn objective(&self) -> PyResult<f64> {
+        guarded(|| Ok(self.inner.objective()))
     }
 
     /// A copy of the model with the given parameters.
     fn with_params(&self, params: &Bound<'_, PyDict>) -> PyResult<Self> {
-        let current = self.inner.params();
-        let p = params_from_dict(params, &current)?;
-        let mut model = self.inner.clone();
-        model.set_params(&p).map_err(model_error)?;
-        Ok(NativeModel { inner: model })
+        guarded(|| {
+            let current = self.inner.params();
+            let p = params_from_dict(params, &current)?;
+            let mut model = self.inner.clone();
+            model.set_params(&p).map_err(model_error)?;
+            Ok(NativeModel { inner: model })
+        })
     }
 
     /// The versioned model file as bytes.
-    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, &self.inner.to_bytes())
+    fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        guarded(|| Ok(PyBytes::new(py, &self.inner.to_bytes())))
     }
 
     /// Reads a model from bytes (`source` names them in errors).
     #[staticmethod]
-    fn from_bytes(bytes: &[u8], source: &str) -> PyResult<Self> {
-        SharedGplvm::from_bytes(bytes)
-            .map(|inner| NativeModel { inner })
-            .map_err(|e| PyValueError::new_err(format!("{source}: {e}")))
+    fn from_bytes(py: Python<'_>, bytes: &[u8], source: &str) -> PyResult<Self> {
+        guarded(|| {
+            py.detach(|| SharedGplvm::from_bytes(bytes))
+                .map(|inner| NativeModel { inner })
+                .map_err(|e| read_error(source, e))
+        })
     }
 
     /// Writes the model file atomically.
-    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        self.inner.save(&path).map_err(model_error)
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        guarded(|| py.detach(|| self.inner.save(&path)).map_err(model_error))
     }
 
     /// Reads a model file.
     #[staticmethod]
-    fn load(path: std::path::PathBuf) -> PyResult<Self> {
-        SharedGplvm::load(&path)
-            .map(|inner| NativeModel { inner })
-            .map_err(|e| match e {
-                sgplvm_core::Error::Io { .. } => model_error(e),
-                other => PyValueError::new_err(format!("{}: {other}", path.display())),
-            })
+    fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Self> {
+        guarded(|| {
+            py.detach(|| SharedGplvm::load(&path))
+                .map(|inner| NativeModel { inner })
+                .map_err(|e| read_error(&path.display().to_string(), e))
+        })
     }
 }
 

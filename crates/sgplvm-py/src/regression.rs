@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sgplvm_core::{GpRegression, TrainOptions};
 
+use crate::guard::guarded;
 use crate::model::{kernel_to_dict, model_error, to_mat, to_numpy};
 
 /// A trained GP regression (native part; use `sgplvm.GPRegression`).
@@ -25,11 +26,13 @@ impl NativeRegression {
         y: PyReadonlyArray2<'_, f64>,
         max_iters: usize,
     ) -> PyResult<Self> {
-        let (x, y) = (to_mat(&x), to_mat(&y));
-        let options = TrainOptions::default().with_max_iters(max_iters);
-        py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options))
-            .map(|inner| NativeRegression { inner })
-            .map_err(model_error)
+        guarded(|| {
+            let (x, y) = (to_mat(&x), to_mat(&y));
+            let options = TrainOptions::default().with_max_iters(max_iters);
+            py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options))
+                .map(|inner| NativeRegression { inner })
+                .map_err(model_error)
+        })
     }
 
     /// Posterior mean at the input frames `x` (n × D_x).
@@ -38,11 +41,13 @@ impl NativeRegression {
         py: Python<'py>,
         x: PyReadonlyArray2<'_, f64>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let x = to_mat(&x);
-        let mean = py
-            .detach(|| self.inner.predict(x.as_ref()))
-            .map_err(model_error)?;
-        Ok(to_numpy(py, &mean))
+        guarded(|| {
+            let x = to_mat(&x);
+            let mean = py
+                .detach(|| self.inner.predict(x.as_ref()))
+                .map_err(model_error)?;
+            Ok(to_numpy(py, &mean))
+        })
     }
 
     /// The trained hyperparameters: {"variance", "lengthscale", "noise"}.

@@ -1,5 +1,6 @@
 //! `sgplvm.Robot`: URDF bodies and their forward kinematics.
 
+use crate::guard::guarded;
 use numpy::ndarray::Array2;
 use numpy::PyArray2;
 use pyo3::exceptions::{PyOSError, PyValueError};
@@ -28,9 +29,11 @@ impl PyRobot {
     /// One of the shipped bodies: "walkman", "coman", "centauro" or "human".
     #[staticmethod]
     fn builtin(name: &str) -> PyResult<Self> {
-        Ok(PyRobot {
-            robot: Robot::builtin(name).map_err(robot_error)?,
-            chain: None,
+        guarded(|| {
+            Ok(PyRobot {
+                robot: Robot::builtin(name).map_err(robot_error)?,
+                chain: None,
+            })
         })
     }
 
@@ -59,18 +62,22 @@ impl PyRobot {
         base: Option<&str>,
         tip: Option<&str>,
     ) -> PyResult<Self> {
-        let robot = Robot::from_urdf_file(&path).map_err(robot_error)?;
-        let chain = match (base, tip) {
-            (None, None) => None,
-            (Some(base), Some(tip)) => Some(robot.chain(base, tip).map_err(robot_error)?),
-            (None, Some(tip)) => Some(robot.chain(robot.root_link(), tip).map_err(robot_error)?),
-            (Some(_), None) => {
-                return Err(PyValueError::new_err(
-                    "from_urdf: `base` needs a `tip` link as well",
-                ))
-            }
-        };
-        Ok(PyRobot { robot, chain })
+        guarded(|| {
+            let robot = Robot::from_urdf_file(&path).map_err(robot_error)?;
+            let chain = match (base, tip) {
+                (None, None) => None,
+                (Some(base), Some(tip)) => Some(robot.chain(base, tip).map_err(robot_error)?),
+                (None, Some(tip)) => {
+                    Some(robot.chain(robot.root_link(), tip).map_err(robot_error)?)
+                }
+                (Some(_), None) => {
+                    return Err(PyValueError::new_err(
+                        "from_urdf: `base` needs a `tip` link as well",
+                    ))
+                }
+            };
+            Ok(PyRobot { robot, chain })
+        })
     }
 
     /// The robot's name.
@@ -112,7 +119,8 @@ impl PyRobot {
         q: Vec<f64>,
         link: Option<&str>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let pose = match (&self.chain, link) {
+        guarded(|| {
+            let pose = match (&self.chain, link) {
             (Some(chain), Some(other)) if other != chain.tip() => {
                 return Err(PyValueError::new_err(format!(
                     "link {other:?}: this robot is restricted to the chain {} → {}; expected the tip link",
@@ -124,11 +132,12 @@ impl PyRobot {
             (None, Some(link)) => self.robot.forward_kinematics(&q, link).map_err(robot_error)?,
             (None, None) => return Err(PyValueError::new_err("forward_kinematics: name the link")),
         };
-        let m = pose.to_homogeneous();
-        Ok(PyArray2::from_owned_array(
-            py,
-            Array2::from_shape_fn((4, 4), |(i, j)| m[(i, j)]),
-        ))
+            let m = pose.to_homogeneous();
+            Ok(PyArray2::from_owned_array(
+                py,
+                Array2::from_shape_fn((4, 4), |(i, j)| m[(i, j)]),
+            ))
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -69,6 +69,21 @@ def _patience(patience: int) -> int:
     return int(patience)
 
 
+def _max_seconds(max_seconds: Optional[float]) -> Optional[float]:
+    if max_seconds is None:
+        return None
+    seconds = float(max_seconds)
+    if not seconds >= 0.0:
+        raise ValueError(f"max_seconds is {max_seconds!r}; expected a number of seconds >= 0 or None")
+    return seconds
+
+
+def _interrupted_model(error: BaseException) -> "Optional[_sgplvm.NativeModel]":
+    """The model trained until a signal (Ctrl-C) interrupted it, which the native training
+    attaches to the exception the signal handler raised."""
+    return getattr(error, "_sgplvm_native", None)
+
+
 class SharedGPLVM:
     """A shared Gaussian-process latent variable model between a human and one or more robots.
 
@@ -113,6 +128,7 @@ class SharedGPLVM:
         column_names: Optional[Mapping[str, list]] = None,
         validation: Validation = "auto",
         patience: int = DEFAULT_PATIENCE,
+        max_seconds: Optional[float] = None,
     ) -> "SharedGPLVM":
         """Trains the model on named spaces with the same number of rows (frames).
 
@@ -130,6 +146,23 @@ class SharedGPLVM:
         of every training motion — or ``"auto"`` (every third of nine equal blocks of rows,
         for rows in time order), or ``None`` to train on all rows until convergence or
         ``max_iters``.
+
+        ``max_seconds`` bounds the wall-clock time of the whole call (with validation, half of
+        it for choosing the iteration count): when it runs out, training stops and keeps the
+        best parameters so far (:attr:`stop_reason` is ``"time_limit"``).
+
+        Ctrl-C (any exception a signal handler raises) stops training within about a second —
+        signals are checked between evaluations of the objective — and is raised as usual
+        (``KeyboardInterrupt``), but the model keeps the best parameters reached before it:
+        after ``except KeyboardInterrupt``, :attr:`is_fitted` is true and :attr:`stop_reason`
+        is ``"interrupted"`` (interrupted while the iteration count was being chosen on
+        held-out rows, it is the initial model trained on all rows).
+
+        Data whose values are far from unit scale (root mean square after centring outside
+        1e-6…1e6) are standardised internally by a power of two — predictions still come back
+        in your units; beyond 1e-153…1e153 they are refused with a ``ValueError``. A model too
+        large for memory (the exact model holds several N × N matrices) raises ``MemoryError``
+        before allocating them.
         """
         if not isinstance(spaces, Mapping) or not spaces:
             raise ValueError("spaces: expected a non-empty dict of name -> 2-D array")
@@ -138,19 +171,26 @@ class SharedGPLVM:
         arrays = [(str(name), _as_matrix(data, f"spaces[{name!r}]")) for name, data in spaces.items()]
         names = None if column_names is None else [(k, list(v)) for k, v in column_names.items()]
         rows = _validation_rows(validation, len(dict(arrays)[input]))
-        self._native = _sgplvm.NativeModel.fit(
-            arrays,
-            input,
-            self.latent_dim,
-            self.back_constraint,
-            self.seed,
-            self.scale,
-            int(max_iters),
-            rows,
-            _patience(patience),
-            callback,
-            names,
-        )
+        try:
+            self._native = _sgplvm.NativeModel.fit(
+                arrays,
+                input,
+                self.latent_dim,
+                self.back_constraint,
+                self.seed,
+                self.scale,
+                int(max_iters),
+                rows,
+                _patience(patience),
+                _max_seconds(max_seconds),
+                callback,
+                names,
+            )
+        except BaseException as e:
+            interrupted = _interrupted_model(e)
+            if interrupted is not None:
+                self._native = interrupted
+            raise
         return self
 
     def transfer(
@@ -162,25 +202,39 @@ class SharedGPLVM:
         column_names: Optional[list] = None,
         validation: Validation = "auto",
         patience: int = DEFAULT_PATIENCE,
+        max_seconds: Optional[float] = None,
     ) -> "SharedGPLVM":
         """A new model that also predicts robot ``name``: the latent space, the human mapping
         and the existing robots stay frozen; only the new robot's kernel is trained on ``data``
         (the same frames as the human training data). This model is not changed.
 
         ``validation`` and ``patience`` choose the iteration budget as in :meth:`fit` (the
-        held-out rows are predicted from their latent points)."""
+        held-out rows are predicted from their latent points); ``max_seconds`` bounds the
+        call's wall-clock time as in :meth:`fit`.
+
+        Ctrl-C stops training within about a second and raises ``KeyboardInterrupt`` (no model
+        is returned); the new model, with the best parameters reached, is the exception's
+        ``model`` attribute."""
         native = self._require()
         new = SharedGPLVM(self.latent_dim, self.back_constraint, self.seed, self.scale)
         matrix = _as_matrix(data, name)
-        new._native = native.transfer(
-            name,
-            matrix,
-            int(max_iters),
-            _validation_rows(validation, len(matrix)),
-            _patience(patience),
-            callback,
-            None if column_names is None else list(column_names),
-        )
+        try:
+            new._native = native.transfer(
+                name,
+                matrix,
+                int(max_iters),
+                _validation_rows(validation, len(matrix)),
+                _patience(patience),
+                _max_seconds(max_seconds),
+                callback,
+                None if column_names is None else list(column_names),
+            )
+        except BaseException as e:
+            interrupted = _interrupted_model(e)
+            if interrupted is not None:
+                new._native = interrupted
+                setattr(e, "model", new)
+            raise
         return new
 
     # ------------------------------------------------------------------ prediction
@@ -237,6 +291,14 @@ class SharedGPLVM:
         """Per training iteration: ``iteration``, ``objective`` (negative log marginal
         likelihood), ``seconds`` since training started, ``gradient_norm``."""
         return self._require().history()
+
+    @property
+    def stop_reason(self) -> Optional[str]:
+        """Why the last training stopped: ``"gradient_tolerance"``, ``"relative_tolerance"``,
+        ``"max_iterations"``, ``"callback"``, ``"line_search"``, ``"nothing_to_train"``,
+        ``"time_limit"`` (``max_seconds`` ran out), ``"evaluation_limit"`` or ``"interrupted"``
+        (Ctrl-C); ``None`` for a model that was never trained."""
+        return self._require().stop_reason
 
     @property
     def selection(self) -> Optional[dict]:

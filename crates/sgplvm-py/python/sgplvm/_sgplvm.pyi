@@ -12,6 +12,7 @@ __all__ = [
     "NativeRegression",
     "Robot",
     "__version__",
+    "_panic_for_tests",
     "canonical_back_constraint",
     "load_demonstrations",
     "read_joint_states",
@@ -40,6 +41,7 @@ class NativeModel:
         max_iters: int,
         validation: Optional[Sequence[int]],
         patience: int,
+        max_seconds: Optional[float] = None,
         callback: Optional[_Callback] = None,
         column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
     ) -> "NativeModel": ...
@@ -50,9 +52,12 @@ class NativeModel:
         max_iters: int,
         validation: Optional[Sequence[int]],
         patience: int,
+        max_seconds: Optional[float] = None,
         callback: Optional[_Callback] = None,
         column_names: Optional[List[str]] = None,
     ) -> "NativeModel": ...
+    @property
+    def stop_reason(self) -> Optional[str]: ...
     @staticmethod
     def block_validation_rows(n: int) -> List[int]: ...
     def selection_json(self) -> Optional[str]: ...
@@ -113,6 +118,9 @@ class Robot:
         """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
 
 def canonical_back_constraint(value: object) -> Optional[str]: ...
+def _panic_for_tests(message: str) -> None:
+    """Panics in Rust with ``message``: the panic must arrive as a ``RuntimeError``."""
+
 def read_joint_states(path: _Path, topic: str) -> Tuple[npt.NDArray[np.int64], List[str], _F64]:
     """Reads a ``sensor_msgs/msg/JointState`` topic: (times_ns, joint names, positions)."""
 
