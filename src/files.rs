@@ -1,5 +1,8 @@
 //! Output files written whole or not at all: everything goes to a temporary file beside the
-//! target, which is renamed over it only when complete.
+//! target (`.tmp-PID-NAME`, the extension last), which is renamed over it only when complete.
+//! The temporaries a killed writer left beside the target are removed by the next write to it
+//! ([`sgplvm_robots::files::remove_stale_temporaries`]); errors name the target, never the
+//! temporary file.
 
 use std::path::{Path, PathBuf};
 
@@ -37,6 +40,7 @@ pub fn atomic_write_with(
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(fail)?;
     }
+    sgplvm_robots::files::remove_stale_temporaries(path);
     let tmp = temporary_path(path);
     let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
@@ -67,6 +71,31 @@ mod tests {
         assert!(err.to_string().contains("out.txt"));
         assert_eq!(std::fs::read(&target).unwrap(), b"first");
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_next_write_removes_a_killed_writers_temporary() {
+        let dir = std::env::temp_dir().join(format!("sgplvm-files-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("figure.png");
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale = dir.join(format!(".tmp-{dead}-figure.png"));
+        std::fs::write(&stale, b"half").unwrap();
+        atomic_write(&target, b"whole").unwrap();
+        assert!(!stale.exists());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        // A parent that is a file: the error names the target, not the temporary file.
+        let err = atomic_write(&target.join("x.svg"), b"no")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("figure.png/x.svg") && !err.contains(".tmp"),
+            "{err}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

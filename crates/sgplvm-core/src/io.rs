@@ -16,10 +16,11 @@
 //! trained with a validation split, how their iteration budget was chosen. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
-//! Files are written to a temporary file next to the target and renamed into place.
+//! Files are written to a temporary file next to the target and renamed into place (see
+//! `tempfiles`).
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use faer::Mat;
 use serde::{Deserialize, Serialize};
@@ -30,6 +31,7 @@ use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
 use crate::memory;
 use crate::model::{Latent, SharedGplvm, Space};
+use crate::tempfiles;
 use crate::train::{IterationRecord, StopReason};
 use crate::validation::Selection;
 
@@ -392,28 +394,29 @@ impl SharedGplvm {
         Ok(model)
     }
 
-    /// Writes the model to `path` atomically (temporary file in the same directory, then
-    /// rename), so no half-written model file is ever left behind.
+    /// Writes the model to `path` atomically (hidden temporary file `.NAME.tmpPID` in the same
+    /// directory, then rename), so no half-written model file is ever left behind; the
+    /// temporaries of earlier writers of `path` that were killed are removed first. Errors
+    /// name `path`, not the temporary file.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let io = |source: std::io::Error, p: &Path| Error::Io {
-            path: p.to_path_buf(),
+        let io = |source: std::io::Error| Error::Io {
+            path: path.to_path_buf(),
             source,
         };
+        if path.file_name().is_none() {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "the path has no file name",
+            )));
+        }
         let bytes = self.to_bytes();
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let file_name = path
-            .file_name()
-            .map(|f| f.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "model".into());
-        let tmp: PathBuf = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
+        tempfiles::remove_stale_temporaries(path);
+        let tmp = tempfiles::temporary_path(path);
         let result = (|| {
-            let mut f = std::fs::File::create(&tmp).map_err(|e| io(e, &tmp))?;
-            f.write_all(&bytes).map_err(|e| io(e, &tmp))?;
-            f.sync_all().map_err(|e| io(e, &tmp))?;
-            std::fs::rename(&tmp, path).map_err(|e| io(e, path))
+            let mut f = std::fs::File::create(&tmp).map_err(io)?;
+            f.write_all(&bytes).map_err(io)?;
+            f.sync_all().map_err(io)?;
+            std::fs::rename(&tmp, path).map_err(io)
         })();
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);
@@ -562,5 +565,34 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn save_removes_a_killed_writers_temporary_and_names_the_users_path() {
+        let dir = std::env::temp_dir().join(format!("sgplvm-core-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("tmp dir");
+        let path = dir.join("model.sgp");
+        let mut child = std::process::Command::new("true").spawn().expect("spawn");
+        let dead = child.id();
+        child.wait().expect("wait");
+        let stale = dir.join(format!(".model.sgp.tmp{dead}"));
+        let live = dir.join(".model.sgp.tmp1");
+        std::fs::write(&stale, b"half").expect("write");
+        std::fs::write(&live, b"half").expect("write");
+        let m = fit(BackConstraint::Input, 20, 2, 0);
+        m.save(&path).expect("save");
+        assert!(!stale.exists() && live.exists());
+        assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 2);
+        // A directory that is a file: the error names the model file, not a temporary.
+        let e = m
+            .save(&path.join("inside.sgp"))
+            .expect_err("not a directory");
+        let text = e.to_string();
+        assert!(
+            text.contains("model.sgp/inside.sgp") && !text.contains(".tmp"),
+            "{text}"
+        );
+        std::fs::remove_dir_all(&dir).expect("cleanup");
     }
 }

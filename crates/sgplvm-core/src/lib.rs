@@ -45,6 +45,7 @@
 //! | `model.rs` | the [`SharedGplvm`] struct and its accessors |
 //! | `io.rs` | the versioned model file |
 //! | `pool.rs` | the fork-safe thread pool |
+//! | `tempfiles.rs` | temporary files of atomic writes, and the removal of those a killed writer left |
 //! | `memory.rs` | the memory an exact model needs, checked before allocating ([`Error::TooLarge`]) |
 //!
 //! ## Choices made (and where they are documented)
@@ -105,6 +106,7 @@ mod predict;
 mod preprocess;
 mod regression;
 mod simd;
+mod tempfiles;
 #[cfg(test)]
 mod test_support;
 mod train;

@@ -7,6 +7,7 @@ pub mod dataset;
 pub mod joint_state;
 
 pub mod error;
+pub mod files;
 pub mod kinematics;
 pub mod models;
 pub mod physics;

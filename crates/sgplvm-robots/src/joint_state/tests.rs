@@ -99,6 +99,43 @@ fn writing_into_a_missing_directory_fails_cleanly() {
         write_joint_states(dir.file("missing/out.mcap"), "/t", &s, Compression::None).unwrap_err();
     assert!(matches!(err, DemoError::Io { .. }), "{err}");
     assert!(err.to_string().contains("out.mcap"), "{err}");
+    assert!(!err.to_string().contains(".tmp"), "{err}");
+}
+
+/// The id of a process that has exited (and been reaped).
+fn dead_pid() -> u32 {
+    let mut child = std::process::Command::new("true")
+        .spawn()
+        .expect("spawn true");
+    let pid = child.id();
+    child.wait().expect("wait");
+    pid
+}
+
+#[test]
+fn a_killed_writers_temporary_is_removed_by_the_next_write() {
+    let dir = TempDir::new("stale");
+    let target = dir.file("out.mcap");
+    let dead = dead_pid();
+    let stale = dir.file(&format!(".out.mcap.tmp{dead}"));
+    let stale_other_form = dir.file(&format!(".tmp-{dead}-out.mcap"));
+    // A writer that still runs (pid 1), another target's temporary, an unrelated file.
+    let live = dir.file(".out.mcap.tmp1");
+    let other = dir.file(&format!(".other.mcap.tmp{dead}"));
+    let unrelated = dir.file("out.mcap.tmp-notes");
+    for p in [&stale, &stale_other_form, &live, &other, &unrelated] {
+        std::fs::write(p, b"half a file").expect("write");
+    }
+    let s = sample(10, &["a"], 0, 25_000_000, 0.0);
+    write_joint_states(&target, "/t", &s, Compression::Zstd).expect("write");
+    assert!(target.exists());
+    assert!(
+        !stale.exists() && !stale_other_form.exists(),
+        "stale temporaries left"
+    );
+    for kept in [&live, &other, &unrelated] {
+        assert!(kept.exists(), "{} removed", kept.display());
+    }
 }
 
 #[test]

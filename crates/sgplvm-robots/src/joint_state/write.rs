@@ -1,7 +1,8 @@
 //! Writing JointState topics into an MCAP file as ROS 2 records them: profile `ros2`, one
 //! schema per message encoding, messages of all topics interleaved in time order, metadata
-//! records after them. Files are written to a temporary sibling and renamed, and depend only
-//! on their inputs (fixed library string, single-threaded compression).
+//! records after them. Files are written to a temporary sibling and renamed (see
+//! [`crate::files`]: the next write removes what a killed writer left), and depend only on
+//! their inputs (fixed library string, single-threaded compression).
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -98,15 +99,14 @@ pub fn write_topics(
             });
         }
     }
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| JointStateError::InvalidInput {
+    if path.file_name().is_none() {
+        return Err(JointStateError::InvalidInput {
             what: path.display().to_string(),
             detail: "output path has no file name".into(),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
+        });
+    }
+    crate::files::remove_stale_temporaries(path);
+    let tmp = crate::files::temporary_path(path);
     let result = write_topics_to(&tmp, path, topics, settings).and_then(|()| {
         std::fs::rename(&tmp, path).map_err(|source| JointStateError::Io {
             path: path.to_path_buf(),
