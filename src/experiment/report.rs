@@ -125,6 +125,19 @@ fn signed(value: f64, digits: usize) -> String {
     }
 }
 
+/// An integer with a space between groups of three digits: `10 000`.
+fn thousands(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
+}
+
 /// "mean ± sd" of `values` with `digits` decimals (only the mean for a single value).
 fn mean_sd(values: &[f64], digits: usize) -> String {
     let m = stats::mean(values);
@@ -136,12 +149,17 @@ fn mean_sd(values: &[f64], digits: usize) -> String {
     }
 }
 
-/// A point estimate with its interval, or why there is none.
+/// A point estimate with its interval, or why there is none; the estimate alone for results too
+/// small to judge (an interval over so few pairs would look more certain than it is).
 fn with_interval(
+    results: &Results,
     estimate: f64,
     interval: &Result<Interval, StatsError>,
     show: impl Fn(f64) -> String,
 ) -> String {
+    if !judged(results) {
+        return show(estimate);
+    }
     match interval {
         Ok(ci) => format!("{} [{}, {}]", show(estimate), show(ci.low), show(ci.high)),
         Err(e) => format!("{} (no interval: {e})", show(estimate)),
@@ -166,7 +184,7 @@ fn claim_1(results: &Results, boot: &Bootstrap) -> Claim {
             let (o, i) = paired(other, &input);
             let ci = boot.mean_difference(&o, &i);
             let difference = stats::mean(&o) - stats::mean(&i);
-            cells.push(with_interval(difference, &ci, |v| signed(v, 5)));
+            cells.push(with_interval(results, difference, &ci, |v| signed(v, 5)));
             parts.push(match &ci {
                 Err(e) => Finding::Missing(format!("{name} − input: {e}")),
                 Ok(ci) if ci.above(0.0) => Finding::Holds,
@@ -277,9 +295,12 @@ fn claim_2(results: &Results, boot: &Bootstrap) -> Claim {
             b_s.len(),
             mean_sd(&b_s, 3),
             mean_sd(&t_s, 3),
-            with_interval(stats::mean(&b_s) - stats::mean(&t_s), &time_ci, |v| {
-                signed(v, 3)
-            }),
+            with_interval(
+                results,
+                stats::mean(&b_s) - stats::mean(&t_s),
+                &time_ci,
+                |v| { signed(v, 3) }
+            ),
             mean_sd(&b_it, 1),
             mean_sd(&t_it, 1),
             finding_cell(results, &finding),
@@ -288,9 +309,12 @@ fn claim_2(results: &Results, boot: &Bootstrap) -> Claim {
             "| {robot} | {} | {} | {} |\n",
             mean_sd(&b_e, 5),
             mean_sd(&t_e, 5),
-            with_interval(stats::mean(&t_e) - stats::mean(&b_e), &error_ci, |v| {
-                signed(v, 5)
-            }),
+            with_interval(
+                results,
+                stats::mean(&t_e) - stats::mean(&b_e),
+                &error_ci,
+                |v| { signed(v, 5) }
+            ),
         ));
         findings.push((robot.clone(), finding));
     }
@@ -341,7 +365,9 @@ fn claim_3(results: &Results, boot: &Bootstrap) -> Claim {
             b.len(),
             mean_sd(&b, 5),
             mean_sd(&m, 5),
-            with_interval(stats::mean(&m) / stats::mean(&b), &ci, |v| num(v, 2)),
+            with_interval(results, stats::mean(&m) / stats::mean(&b), &ci, |v| num(
+                v, 2
+            )),
             finding_cell(results, &finding),
         ));
         findings.push((robot.clone(), finding));
@@ -378,7 +404,7 @@ fn claim_4(results: &Results, boot: &Bootstrap) -> Claim {
         ));
         let (ratio, finding) = if gp.is_finite() {
             let ci = boot.ratio_of_means(&model, &vec![gp; model.len()]);
-            let ratio = with_interval(stats::mean(&model) / gp, &ci, |v| num(v, 2));
+            let ratio = with_interval(results, stats::mean(&model) / gp, &ci, |v| num(v, 2));
             (ratio, similar(&ci, "the shared GP-LVM"))
         } else {
             let why = "no direct regression in the results";
@@ -524,8 +550,9 @@ pub fn report(results: &Results) -> String {
         out.push_str(&format!(
             "# Experiment report (paper Section IV-B): too small to judge the paper's claims ({} run{} per model)\n\n\
              At least {MIN_RUNS_TO_JUDGE} runs per model are needed before a bootstrap interval \
-             means anything: the statistics below are shown, but no claim is judged. Run \
-             `sgplvm experiment` without `--quick` (10 runs) to judge them.\n\n",
+             means anything: the means, standard deviations and differences below are shown, \
+             but no intervals, and no claim is judged. Run `sgplvm experiment` without \
+             `--quick` (10 runs) to judge them.\n\n",
             config.runs,
             if config.runs == 1 { "" } else { "s" },
         ));
@@ -544,7 +571,7 @@ pub fn report(results: &Results) -> String {
         config.transfer_max_iters,
         config.latent_dim,
         config.direct_max_iters,
-        boot.resamples,
+        thousands(boot.resamples),
         boot.seed,
         boot.level * 100.0,
     ));
@@ -1038,8 +1065,9 @@ mod tests {
         ] {
             assert!(!rep.contains(verdict_word), "{verdict_word}: {rep}");
         }
-        // The numbers are still there.
-        assert!(rep.contains("| 1.20 [1.20, 1.20] | not judged |"), "{rep}");
+        // The numbers are still there, without intervals.
+        assert!(rep.contains("| 1.20 | not judged |"), "{rep}");
+        assert!(!rep.contains("[1.20"), "{rep}");
         // At the threshold, claims are judged.
         r.config.runs = MIN_RUNS_TO_JUDGE;
         assert!(!report(&r).lines().next().unwrap().contains("too small"));
@@ -1070,5 +1098,8 @@ mod tests {
         assert_eq!(signed(f64::NAN, 3), "—");
         assert_eq!(mean_sd(&[0.1], 2), "0.10");
         assert_eq!(mean_sd(&[1.0, 3.0], 2), "2.00 ± 1.41");
+        assert_eq!(thousands(10_000), "10 000");
+        assert_eq!(thousands(999), "999");
+        assert_eq!(thousands(1_234_567), "1 234 567");
     }
 }
