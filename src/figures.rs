@@ -1,6 +1,6 @@
 //! The paper's figures. From an experiment's runs: test error against iterations and training
 //! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
-//! back constraints (Fig. 6). From a trained model, the demo's pictures: the shared latent space
+//! back constraints (Fig. 6), each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
 //! with key poses and test trajectories (Fig. 7) and predicted against desired joint
 //! trajectories (Fig. 8).
 
@@ -82,7 +82,8 @@ pub fn learning_curves(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Pl
 }
 
 /// Fig. 6: per robot, the mean test error of fully trained models with no, input and output
-/// back constraints, against iterations. Returns the SVG and PNG written.
+/// back constraints against iterations, and the direct GP regression's (dashed). Returns the SVG
+/// and PNG written.
 pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
     let curve = |back_constraint, label, color| Curve {
         kind: ModelKind::Baseline,
@@ -104,7 +105,8 @@ pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], P
     )
 }
 
-/// One panel per robot with a mean curve for each of `curves` that has runs.
+/// One panel per robot with a mean curve for each of `curves` that has runs, and the direct GP
+/// regression's test error as a dashed horizontal line across them.
 fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Panel> {
     let x_label = if by_seconds {
         "training seconds"
@@ -114,12 +116,8 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
     results
         .robots
         .iter()
-        .map(|robot| Panel {
-            title: robot.clone(),
-            x_label: x_label.into(),
-            y_label: "test MSE (rad²)".into(),
-            log_y: true,
-            series: curves
+        .map(|robot| {
+            let mut series: Vec<Series> = curves
                 .iter()
                 .filter_map(|c| {
                     let runs = results.select(robot, c.kind, c.back_constraint.name());
@@ -129,10 +127,38 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
                         ..mean_curve(&runs, by_seconds)
                     })
                 })
-                .collect(),
-            markers: vec![],
+                .collect();
+            series.extend(direct_line(&series, results.direct_mse(robot)));
+            Panel {
+                title: robot.clone(),
+                x_label: x_label.into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers: vec![],
+            }
         })
         .collect()
+}
+
+/// The direct GP regression's test error `mse` as a dashed line over the horizontal extent of
+/// `series` (none if `mse` is not finite).
+fn direct_line(series: &[Series], mse: f64) -> Option<Series> {
+    if !mse.is_finite() {
+        return None;
+    }
+    let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    Some(Series {
+        label: "direct GP regression H → R".into(),
+        color: 7,
+        dashed: true,
+        points: vec![(lo, mse), (hi, mse)],
+        band: None,
+    })
 }
 
 /// Mean and standard deviation, per iteration index, of the test error of a group of runs
@@ -406,9 +432,11 @@ mod tests {
             back_constraint: "input".into(),
             run: 0,
             source_robot: None,
+            source_run: None,
             iterations: iterations.to_vec(),
             seconds: seconds.to_vec(),
             test_mse: mse.to_vec(),
+            shipped: None,
         }
     }
 
@@ -447,5 +475,23 @@ mod tests {
         // No runs: an empty curve, no NaN points.
         let s = mean_curve(&[], false);
         assert!(s.points.is_empty());
+    }
+
+    #[test]
+    fn the_direct_regression_spans_the_curves_of_its_panel() {
+        let a = Series {
+            points: vec![(0.0, 1.0), (5.0, 0.5)],
+            ..Series::default()
+        };
+        let b = Series {
+            points: vec![(2.0, 1.0), (12.5, 0.5)],
+            ..Series::default()
+        };
+        let line = direct_line(&[a, b], 0.04).unwrap();
+        assert_eq!(line.points, vec![(0.0, 0.04), (12.5, 0.04)]);
+        assert!(line.dashed && line.label.contains("direct GP"));
+        // No curves: a unit span; no regression: no line.
+        assert_eq!(direct_line(&[], 0.04).unwrap().points[1], (1.0, 0.04));
+        assert!(direct_line(&[], f64::NAN).is_none());
     }
 }

@@ -511,7 +511,7 @@ fn simulate_a_prediction() {
 fn experiment_writes_results_in_the_documented_schema() {
     let f = fixture();
     let out = f.dir.join("experiment");
-    ok(&[
+    let run = sgplvm(&[
         "experiment",
         "--quick",
         "--runs",
@@ -523,6 +523,14 @@ fn experiment_writes_results_in_the_documented_schema() {
         "--out",
         s(&out),
     ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    // stderr is not a terminal here: one progress line per group of runs, no bar.
+    assert!(
+        stderr.contains("baselines, input BC: 3/3 trainings, ") && stderr.contains(" ETA "),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("[="), "{stderr}");
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(
@@ -545,6 +553,12 @@ fn experiment_writes_results_in_the_documented_schema() {
         }
         let n = run["iterations"].as_array().unwrap().len();
         assert!(n >= 1);
+        for key in ["iteration", "seconds", "test_mse"] {
+            assert!(
+                run["shipped"][key].is_number(),
+                "shipped without {key}: {run}"
+            );
+        }
         assert_eq!(run["seconds"].as_array().unwrap().len(), n);
         assert_eq!(run["test_mse"].as_array().unwrap().len(), n);
         kinds.insert((
@@ -565,6 +579,12 @@ fn experiment_writes_results_in_the_documented_schema() {
             kinds.contains(&(model.to_string(), bc.to_string())),
             "missing {model}/{bc}"
         );
+    }
+    // The yardstick: one direct GP regression per robot.
+    let direct = results["direct_regression"].as_array().unwrap();
+    assert_eq!(direct.len(), 3);
+    for d in direct {
+        assert!(d["test_mse"].as_f64().unwrap() > 0.0, "{d}");
     }
     for file in [
         "fig4.svg",

@@ -1,14 +1,15 @@
 //! `sgplvm experiment`: the paper's Section IV-B — every run, Figs. 4–6, results.json and
-//! report.md.
+//! report.md. Progress: a bar on a terminal, else one line per group of runs on stderr.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::{self, ExperimentConfig};
 
 use super::args::DataArg;
-use super::progress::progress_bar;
+use super::progress::{progress_bar, StageLines};
 
 #[derive(Args)]
 pub struct ExperimentArgs {
@@ -55,13 +56,20 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     let config = args.config();
     let demos = args.data.load()?;
     let data = demos.experiment_data()?;
-    let bar = progress_bar(
-        experiment::training_count(&config, data.robots.len()) as u64,
-        "experiment",
-    );
+    let plan = experiment::stages(&config, data.robots.len());
+    let bar = progress_bar(plan.iter().map(|s| s.trainings as u64).sum(), "experiment");
+    // Without a terminal to draw the bar on (a log, CI): one line per finished stage.
+    let mut lines = StageLines::new(plan);
+    let started = Instant::now();
     let results = experiment::run(&data, &config, &mut |p| {
-        bar.set_position(p.done as u64);
-        bar.set_message(p.message.clone());
+        if bar.is_hidden() {
+            if let Some(line) = lines.update(p, started.elapsed()) {
+                eprintln!("{line}");
+            }
+        } else {
+            bar.set_position(p.done as u64);
+            bar.set_message(p.message.clone());
+        }
     })?;
     bar.finish_and_clear();
     let written = experiment::write_outputs(&results, &args.out)?;
