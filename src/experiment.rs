@@ -16,7 +16,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{
     BackConstraint, Control, GpRegression, IterationRecord, Mat, MatRef, ModelConfig, SharedGplvm,
-    TrainOptions,
+    TrainOptions, Validation,
 };
 
 use crate::figures;
@@ -43,6 +43,9 @@ pub struct ExperimentData {
     pub human: SplitData,
     /// The robots' joint commands, by name.
     pub robots: Vec<(String, SplitData)>,
+    /// Rows of the training matrices held out to choose each training's iteration budget
+    /// (see [`ExperimentConfig::patience`]).
+    pub validation: Vec<usize>,
 }
 
 /// How much to run.
@@ -63,6 +66,12 @@ pub struct ExperimentConfig {
     /// Iteration budget of the direct GP regressions H → R (the yardstick).
     #[serde(default = "default_direct_max_iters")]
     pub direct_max_iters: usize,
+    /// `Some(p)`: every training chooses its iteration budget on the held-out training frames
+    /// ([`ExperimentData::validation`]) with patience `p`, as `train` does by default; `None`:
+    /// the paper's fixed budgets (`max_iters`, `transfer_max_iters`). Results written before
+    /// validation existed read as `None`.
+    #[serde(default)]
+    pub patience: Option<usize>,
 }
 
 /// The direct regression's budget in results written before it was recorded.
@@ -81,6 +90,7 @@ impl ExperimentConfig {
             latent_dim: 5,
             seed: 0,
             direct_max_iters: default_direct_max_iters(),
+            patience: Some(Validation::DEFAULT_PATIENCE),
         }
     }
 
@@ -94,6 +104,7 @@ impl ExperimentConfig {
             latent_dim: 5,
             seed: 0,
             direct_max_iters: default_direct_max_iters(),
+            patience: Some(Validation::DEFAULT_PATIENCE),
         }
     }
 }
@@ -287,35 +298,51 @@ impl<'a> Recorder<'a> {
                 })
             })
             .collect::<Result<Vec<_>, sgplvm_core::Error>>()?;
+        // The curve is the final training's; its seconds count the selection run before it. A
+        // budget of 0 iterations (the initial model shipped) has no iterations to record: the
+        // curve is then the shipped point alone.
+        let selection_seconds = model.selection().map_or(0.0, |s| s.seconds);
+        let seconds: Vec<f64> = self.seconds.iter().map(|s| s + selection_seconds).collect();
         Ok(self
             .robots
             .iter()
             .zip(self.mse)
             .zip(shipped)
-            .map(|(((robot, _), test_mse), shipped)| RunRecord {
-                robot: robot.to_string(),
-                model: kind,
-                back_constraint: bc.to_string(),
-                run,
-                source_robot: source.map(|(robot, _)| robot.to_string()),
-                source_run: source.map(|(_, run)| run),
-                iterations: self.iterations.clone(),
-                seconds: self.seconds.clone(),
-                test_mse,
-                shipped: Some(shipped),
+            .map(|(((robot, _), test_mse), shipped)| {
+                let (iterations, seconds, test_mse) = if test_mse.is_empty() {
+                    (
+                        vec![shipped.iteration],
+                        vec![shipped.seconds],
+                        vec![shipped.test_mse],
+                    )
+                } else {
+                    (self.iterations.clone(), seconds.clone(), test_mse)
+                };
+                RunRecord {
+                    robot: robot.to_string(),
+                    model: kind,
+                    back_constraint: bc.to_string(),
+                    run,
+                    source_robot: source.map(|(robot, _)| robot.to_string()),
+                    source_run: source.map(|(_, run)| run),
+                    iterations,
+                    seconds,
+                    test_mse,
+                    shipped: Some(shipped),
+                }
             })
             .collect())
     }
 }
 
 /// Training seconds until `model`'s parameters were reached: the time to the shipped model that
-/// claim 2 compares. Today training hands back its last iterate, so this is the last history
-/// record's time.
+/// claim 2 compares — the selection run on held-out frames, if any, and the final training.
 fn shipped_seconds(model: &SharedGplvm) -> f64 {
-    model.history().last().map_or(0.0, |r| r.seconds)
+    model.training_seconds()
 }
 
-/// The iteration at which `model`'s parameters were reached (see [`shipped_seconds`]).
+/// The iteration at which `model`'s parameters were reached in its final training (see
+/// [`shipped_seconds`]).
 fn shipped_iteration(model: &SharedGplvm) -> usize {
     model.history().last().map_or(0, |r| r.iteration)
 }
@@ -515,6 +542,31 @@ pub fn run(
     })
 }
 
+/// The held-out frames of every training, when budgets are chosen on them.
+fn validation(config: &ExperimentConfig, data: &ExperimentData) -> Option<Validation> {
+    config
+        .patience
+        .map(|p| Validation::new(data.validation.clone()).with_patience(p))
+}
+
+/// A full or multi-robot training of run `run` with back constraint `bc` on `spaces`.
+fn fit(
+    config: &ExperimentConfig,
+    data: &ExperimentData,
+    bc: BackConstraint,
+    run: usize,
+    spaces: &[(&str, MatRef<'_, f64>)],
+    options: &TrainOptions,
+    callback: Option<sgplvm_core::Callback<'_>>,
+) -> sgplvm_core::Result<SharedGplvm> {
+    let model = model_config(config, bc, run);
+    let input = data.input_name.as_str();
+    match validation(config, data) {
+        Some(v) => SharedGplvm::fit_validated(&model, spaces, input, options, &v, callback),
+        None => SharedGplvm::fit(&model, spaces, input, options, callback),
+    }
+}
+
 /// The model configuration of run `run` with back constraint `bc`.
 fn model_config(config: &ExperimentConfig, bc: BackConstraint, run: usize) -> ModelConfig {
     ModelConfig::default()
@@ -579,9 +631,8 @@ impl<'a> Runner<'a, '_> {
                     (input, data.human.train.as_ref()),
                     (robot.as_str(), split.train.as_ref()),
                 ];
-                let model = self.record(spec, |cb| {
-                    SharedGplvm::fit(&model_config(config, bc, run), &spaces, input, &options, cb)
-                })?;
+                let model =
+                    self.record(spec, |cb| fit(config, data, bc, run, &spaces, &options, cb))?;
                 sources.insert((run, r), model);
             }
         }
@@ -617,8 +668,12 @@ impl<'a> Runner<'a, '_> {
                         robots: vec![(target.as_str(), split.test.as_ref())],
                     };
                     let seed = config.seed + index as u64;
-                    self.record(spec, |cb| {
-                        source.transfer_seeded(target, split.train.as_ref(), seed, &options, cb)
+                    let train = split.train.as_ref();
+                    self.record(spec, |cb| match validation(config, data) {
+                        Some(v) => {
+                            source.transfer_validated(target, train, Some(seed), &options, &v, cb)
+                        }
+                        None => source.transfer_seeded(target, train, seed, &options, cb),
                     })?;
                 }
             }
@@ -654,9 +709,7 @@ impl<'a> Runner<'a, '_> {
                     .map(|(n, s)| (n.as_str(), s.test.as_ref()))
                     .collect(),
             };
-            self.record(spec, |cb| {
-                SharedGplvm::fit(&model_config(config, bc, run), &spaces, input, &options, cb)
-            })?;
+            self.record(spec, |cb| fit(config, data, bc, run, &spaces, &options, cb))?;
         }
         Ok(())
     }
@@ -731,6 +784,33 @@ mod tests {
                 test: h_test.clone(),
             },
             robots: vec![("a".into(), robot(1.0)), ("b".into(), robot(0.7))],
+            validation: (0..24).filter(|i| i % 3 == 2).collect(),
+        }
+    }
+
+    /// With budgets chosen on held-out frames, every run ships the final training's last
+    /// iterate, its time counts the selection run, and a budget of 0 still leaves a point.
+    #[test]
+    fn validated_runs_ship_the_chosen_budget() {
+        let config = ExperimentConfig {
+            runs: 1,
+            transfers_per_run: 1,
+            max_iters: 8,
+            transfer_max_iters: 8,
+            latent_dim: 2,
+            seed: 0,
+            direct_max_iters: 20,
+            patience: Some(2),
+        };
+        let results = run(&toy(), &config, &mut |_| {}).unwrap();
+        for r in &results.runs {
+            let shipped = r.shipped.expect("recorded");
+            assert!(shipped.iteration <= 8, "{r:?}");
+            assert_eq!(Some(&shipped.iteration), r.iterations.last(), "{r:?}");
+            assert_eq!(Some(&shipped.seconds), r.seconds.last(), "{r:?}");
+            if r.back_constraint == "input" {
+                assert_eq!(Some(&shipped.test_mse), r.test_mse.last(), "{r:?}");
+            }
         }
     }
 
@@ -744,6 +824,7 @@ mod tests {
             latent_dim: 2,
             seed: 0,
             direct_max_iters: 20,
+            patience: None,
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

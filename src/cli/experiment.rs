@@ -8,7 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::{self, ExperimentConfig};
 
-use super::args::DataArg;
+use super::args::{DataArg, ValidationArg};
 use super::progress::{progress_bar, StageLines};
 
 #[derive(Args)]
@@ -27,6 +27,15 @@ pub struct ExperimentArgs {
     /// Override the iteration budget of every training.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     max_iters: Option<u64>,
+    /// How each training's iteration budget is chosen: `auto` on held-out training frames (as
+    /// `train` does by default; `--max-iters` is then an upper bound), `none` the paper's fixed
+    /// budgets.
+    #[arg(long, value_enum, default_value = "auto")]
+    validation: ValidationArg,
+    /// With `--validation auto`: iterations without a lower validation error before a
+    /// selection run stops.
+    #[arg(long, default_value_t = sgplvm::Validation::DEFAULT_PATIENCE as u64)]
+    patience: u64,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -44,6 +53,8 @@ impl ExperimentArgs {
             config.runs = r as usize;
             config.transfers_per_run = config.transfers_per_run.min(r as usize);
         }
+        config.patience =
+            (self.validation == ValidationArg::Auto).then_some(self.patience as usize);
         if let Some(m) = self.max_iters {
             config.max_iters = m as usize;
             config.transfer_max_iters = m as usize;
