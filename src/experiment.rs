@@ -197,6 +197,10 @@ pub struct Results {
     /// The direct GP regression of every robot (empty in results written before it was).
     #[serde(default)]
     pub direct_regression: Vec<DirectRecord>,
+    /// Joints of each robot, in the order of `robots` (empty in results written before they
+    /// were recorded): which transfers go to a robot of a different kinematic structure.
+    #[serde(default)]
+    pub robot_joints: Vec<usize>,
 }
 
 /// Errors of an experiment.
@@ -539,6 +543,7 @@ pub fn run(
         config: config.clone(),
         runs: runner.runs,
         direct_regression: runner.direct,
+        robot_joints: data.robots.iter().map(|(_, s)| s.train.ncols()).collect(),
     })
 }
 

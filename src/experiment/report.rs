@@ -429,6 +429,103 @@ fn claim_4(results: &Results, boot: &Bootstrap) -> Claim {
     }
 }
 
+/// The transfers of `bc` to `target` from `source`, per source run (mean over its transfers).
+fn transfers_from(
+    results: &Results,
+    source: &str,
+    target: &str,
+    bc: BackConstraint,
+) -> BTreeMap<usize, f64> {
+    let mut groups: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
+    for run in results.select(target, ModelKind::Transfer, bc.name()) {
+        if run.source_robot.as_deref() == Some(source) {
+            groups
+                .entry(pair_key(run, results.config.transfers_per_run))
+                .or_default()
+                .push(run.shipped().test_mse);
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(key, values)| (key, stats::mean(&values)))
+        .collect()
+}
+
+/// Claim 5, the paper's conjecture (Section V): with input back constraints, transfer works
+/// for a robot of a different kinematic structure. Judged for every (source, target) pair whose
+/// joint counts differ; `None` when every robot has the same number of joints.
+fn claim_5(results: &Results, boot: &Bootstrap) -> Option<Claim> {
+    if results.robot_joints.len() != results.robots.len()
+        || results
+            .robot_joints
+            .iter()
+            .all(|&j| j == results.robot_joints[0])
+    {
+        return None;
+    }
+    let joints = |robot: &str| {
+        results
+            .robots
+            .iter()
+            .position(|r| r == robot)
+            .map(|i| results.robot_joints[i])
+    };
+    let mut tables = String::from(
+        "Shipped test MSE (rad², mean ± sd over source runs) of transfers between robots with          different numbers of joints, against the target's baseline with input back constraints;          ratio of means paired by run, 95 % bootstrap interval. Transfers without back          constraints for comparison.
+
+         | source (joints) | target (joints) | transfer, input BC | baseline, input BC | transfer ÷ baseline | transfer, no BC | finding |
+         |---|---|---|---|---|---|---|
+",
+    );
+    let mut findings = Vec::new();
+    for source in &results.robots {
+        for target in &results.robots {
+            if joints(source) == joints(target) {
+                continue;
+            }
+            let input = transfers_from(results, source, target, BackConstraint::Input);
+            let baseline = by_pair(
+                results,
+                target,
+                ModelKind::Baseline,
+                BackConstraint::Input,
+                |s| s.test_mse,
+            );
+            let none = values(&transfers_from(
+                results,
+                source,
+                target,
+                BackConstraint::None,
+            ));
+            let (t, b) = paired(&input, &baseline);
+            let ci = boot.ratio_of_means(&t, &b);
+            let finding = similar(&ci, "the transfer");
+            tables.push_str(&format!(
+                "| {source} ({}) | {target} ({}) | {} | {} | {} | {} | {} |
+",
+                joints(source).unwrap_or(0),
+                joints(target).unwrap_or(0),
+                mean_sd(&t, 5),
+                mean_sd(&b, 5),
+                with_interval(results, stats::mean(&t) / stats::mean(&b), &ci, |v| num(
+                    v, 2
+                )),
+                mean_sd(&none, 5),
+                finding_cell(results, &finding),
+            ));
+            findings.push((format!("{source} → {target}"), finding));
+        }
+    }
+    Some(Claim {
+        statement: "With input back constraints, a model transfers to a robot of a different kinematic structure (the paper's conjecture, Section V)",
+        rule: format!(
+            "for every source and target with different numbers of joints, the 95 % interval of              the transfer's ÷ the target's fully trained model's mean shipped test MSE (input              back constraints, paired by run) lies within 1/{SIMILAR} … {SIMILAR}."
+        ),
+        tables,
+        findings,
+    })
+}
+
 /// Whether these results are large enough to judge claims.
 fn judged(results: &Results) -> bool {
     results.config.runs >= MIN_RUNS_TO_JUDGE
@@ -537,12 +634,13 @@ pub fn report(results: &Results) -> String {
         seed: config.seed,
         ..Bootstrap::default()
     };
-    let claims = [
+    let mut claims = vec![
         claim_1(results, &boot),
         claim_2(results, &boot),
         claim_3(results, &boot),
         claim_4(results, &boot),
     ];
+    claims.extend(claim_5(results, &boot));
     let mut out = String::new();
     if judged(results) {
         out.push_str("# Experiment report (paper Section IV-B)\n\n");
@@ -658,6 +756,7 @@ mod tests {
                 ..ExperimentConfig::paper()
             },
             runs,
+            robot_joints: Vec::new(),
             direct_regression: robots
                 .iter()
                 .map(|r| DirectRecord {
@@ -775,6 +874,60 @@ mod tests {
 
     fn one_robot(levels: &Levels) -> Results {
         results(&["a"], runs_at("a", levels))
+    }
+
+    /// Claim 5 appears only when robots differ in joints, and is judged per (source, target)
+    /// pair: a → b at 1.1× b's baseline holds (paired by run, the jitter cancels), b → a at 3×
+    /// a's baseline is against.
+    #[test]
+    fn claim_5_judges_transfers_between_different_structures() {
+        let mut runs = Vec::new();
+        for run in 0..RUNS {
+            let j = jitter(run);
+            for (robot, source, factor) in [("b", "a", 1.1), ("a", "b", 3.0)] {
+                runs.push(record(
+                    robot,
+                    ModelKind::Baseline,
+                    "input",
+                    run,
+                    None,
+                    1.0,
+                    0.1 * j,
+                ));
+                for k in 0..2 {
+                    let mut t = record(
+                        robot,
+                        ModelKind::Transfer,
+                        "input",
+                        run * 2 + k,
+                        Some(run),
+                        0.2,
+                        0.1 * factor * j,
+                    );
+                    t.source_robot = Some(source.into());
+                    runs.push(t);
+                }
+            }
+        }
+        let mut r = results(&["a", "b"], runs);
+        assert!(
+            !report(&r).contains("Claim 5"),
+            "same structure: no claim 5"
+        );
+        r.robot_joints = vec![14, 12];
+        let rep = report(&r);
+        assert_eq!(verdict_of(&rep, 5), "not supported");
+        assert!(
+            rep.contains(
+                "| a (14) | b (12) | 0.11011 ± 0.00383 | 0.10010 ± 0.00348 | 1.10 [1.10, 1.10]"
+            ),
+            "{rep}"
+        );
+        assert!(
+            rep.contains("against it for b → a (the transfer significantly worse)"),
+            "{rep}"
+        );
+        assert!(!rep.contains("a → b (the transfer"), "{rep}");
     }
 
     #[test]
