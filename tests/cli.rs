@@ -454,6 +454,13 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         // A latent dimension the data cannot support.
         error(&["train", "--data", data, "--robot", "walkman", "--latent-dim", "100000", "--out", out_s],
               &["latent dimension"]),
+        // Generating for an unknown robot names the known ones; a robot twice is refused.
+        Failure {
+            says: vec!["asimo", "walkman, coman, centauro, ur5e"],
+            ..usage(&["generate", "--robots", "walkman,asimo", "--file", "g.mcap", "--out", s(&dir)])
+        },
+        error(&["generate", "--robots", "coman,ur5e,coman", "--file", "g.mcap", "--out", s(&dir)],
+              &["coman", "twice"]),
     ];
     for case in &cases {
         let err = fails(&case.args, case.code);
@@ -476,6 +483,31 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         leftovers.is_empty(),
         "output files left behind: {leftovers:?}"
     );
+}
+
+#[test]
+fn generate_records_the_chosen_robots() {
+    let dir = scratch("generate");
+    let stdout = ok(&[
+        "generate",
+        "--robots",
+        "ur5e,coman",
+        "--file",
+        "two.mcap",
+        "--subsample",
+        "24",
+        "--out",
+        s(&dir),
+    ]);
+    assert!(stdout.contains("robots ur5e, coman"), "{stdout}");
+    let data = sgplvm::robots::dataset::load_demonstrations(dir.join("two.mcap")).unwrap();
+    assert_eq!(data.robot_names(), ["ur5e", "coman"]);
+    assert_eq!(data.robot("ur5e").unwrap().positions.ncols(), 12);
+    assert_eq!(data.human.positions.ncols(), 18);
+    // The human's data does not depend on the robots recorded.
+    let three = sgplvm::robots::dataset::load_demonstrations(&fixture().data).unwrap();
+    assert_eq!(data.human.positions, three.human.positions);
+    assert_eq!(data.robot("coman"), three.robot("coman"));
 }
 
 #[test]
