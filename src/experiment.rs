@@ -757,6 +757,7 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     written.push(path);
     written.extend(figures::learning_curves(results, dir)?);
     written.extend(figures::back_constraints(results, dir)?);
+    written.extend(figures::transfers_by_source(results, dir)?);
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
     written.push(path);

@@ -105,6 +105,102 @@ pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], P
     )
 }
 
+/// Fig. 10: per target robot, the mean shipped test error of the transfers to it from each
+/// other robot (circles: input back constraints, crosses: none; labelled with the source and
+/// its number of joints), against the target's own fully trained model (input back
+/// constraints, solid) and the direct GP regression (dashed). With a robot of a different
+/// kinematic structure in the data, this is the paper's conjecture (Section V) at a glance.
+pub fn transfers_by_source(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let joints = |robot: &str| {
+        results
+            .robots
+            .iter()
+            .position(|r| r == robot)
+            .and_then(|i| results.robot_joints.get(i))
+            .map_or(String::new(), |j| format!(" ({j} joints)"))
+    };
+    let mean_shipped = |runs: Vec<&RunRecord>| {
+        let values: Vec<f64> = runs.iter().map(|r| r.shipped().test_mse).collect();
+        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+    };
+    let panels = results
+        .robots
+        .iter()
+        .map(|target| {
+            let sources: Vec<&String> = results.robots.iter().filter(|r| *r != target).collect();
+            let markers = [
+                (
+                    BackConstraint::Input,
+                    "transfer, input back constraints",
+                    0,
+                    true,
+                ),
+                (
+                    BackConstraint::None,
+                    "transfer, no back constraints",
+                    1,
+                    false,
+                ),
+            ]
+            .into_iter()
+            .map(|(bc, label, color, circles)| {
+                let (points, annotations) = sources
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, source)| {
+                        let runs = results
+                            .select(target, ModelKind::Transfer, bc.name())
+                            .into_iter()
+                            .filter(|r| r.source_robot.as_deref() == Some(source.as_str()))
+                            .collect();
+                        mean_shipped(runs)
+                            .map(|m| ((k as f64 + 1.0, m), format!("{source}{}", joints(source))))
+                    })
+                    .unzip();
+                Markers {
+                    label: label.into(),
+                    color,
+                    circles,
+                    points,
+                    annotations: if circles { annotations } else { Vec::new() },
+                }
+            })
+            .collect();
+            let span = (0.5, sources.len() as f64 + 0.5);
+            let mut series = Vec::new();
+            let baseline =
+                results.select(target, ModelKind::Baseline, BackConstraint::Input.name());
+            if let Some(m) = mean_shipped(baseline) {
+                series.push(Series {
+                    label: "fully trained on the target, input back constraints".into(),
+                    color: 2,
+                    points: vec![(span.0, m), (span.1, m)],
+                    ..Series::default()
+                });
+            }
+            let anchor = Series {
+                points: vec![(span.0, 0.0), (span.1, 0.0)],
+                ..Series::default()
+            };
+            series.extend(direct_line(&[anchor], results.direct_mse(target)));
+            Panel {
+                title: format!("to {target}{}", joints(target)),
+                x_label: "source robot".into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers,
+            }
+        })
+        .collect::<Vec<_>>();
+    write_figure(
+        &dir.join("fig10"),
+        "Fig. 10: transfer to each robot from each other robot",
+        &panels,
+        panels.len(),
+    )
+}
+
 /// One panel per robot with a mean curve for each of `curves` that has runs, and the direct GP
 /// regression's test error as a dashed horizontal line across them.
 fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Panel> {

@@ -698,7 +698,8 @@ pub fn report(results: &Results) -> String {
     }
     out.push_str(
         "\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training \
-         time), fig6.svg/png; the dashed line in each panel is the direct GP regression.\n",
+         time), fig6.svg/png, fig10.svg/png (transfer to each robot from each other robot); the \
+         dashed line in each panel is the direct GP regression.\n",
     );
     out
 }
