@@ -471,11 +471,12 @@ fn claim_5(results: &Results, boot: &Bootstrap) -> Option<Claim> {
             .map(|i| results.robot_joints[i])
     };
     let mut tables = String::from(
-        "Shipped test MSE (rad², mean ± sd over source runs) of transfers between robots with          different numbers of joints, against the target's baseline with input back constraints;          ratio of means paired by run, 95 % bootstrap interval. Transfers without back          constraints for comparison.
-
-         | source (joints) | target (joints) | transfer, input BC | baseline, input BC | transfer ÷ baseline | transfer, no BC | finding |
-         |---|---|---|---|---|---|---|
-",
+        "Shipped test MSE (rad², mean ± sd over source runs) of transfers between robots with \
+         different numbers of joints, against the target's baseline with input back constraints; \
+         ratio of means paired by run, 95 % bootstrap interval. Transfers without back \
+         constraints for comparison.\n\n\
+         | source (joints) | target (joints) | transfer, input BC | baseline, input BC | transfer ÷ baseline | transfer, no BC | finding |\n\
+         |---|---|---|---|---|---|---|\n",
     );
     let mut findings = Vec::new();
     for source in &results.robots {
@@ -519,7 +520,9 @@ fn claim_5(results: &Results, boot: &Bootstrap) -> Option<Claim> {
     Some(Claim {
         statement: "With input back constraints, a model transfers to a robot of a different kinematic structure (the paper's conjecture, Section V)",
         rule: format!(
-            "for every source and target with different numbers of joints, the 95 % interval of              the transfer's ÷ the target's fully trained model's mean shipped test MSE (input              back constraints, paired by run) lies within 1/{SIMILAR} … {SIMILAR}."
+            "for every source and target with different numbers of joints, the 95 % interval of \
+             the transfer's ÷ the target's fully trained model's mean shipped test MSE (input \
+             back constraints, paired by run) lies within 1/{SIMILAR} … {SIMILAR}."
         ),
         tables,
         findings,
