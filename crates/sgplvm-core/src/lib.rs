@@ -37,6 +37,7 @@
 //! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
 //! | `fit.rs` | the full and multi-robot models ([`SharedGplvm::fit`]) |
 //! | `transfer.rs` | transfer to a new robot ([`SharedGplvm::transfer`]) |
+//! | `partial.rs` | transfer with less data: [`SharedGplvm::transfer_partial`], a new robot known on some of the training frames ([`PartialTransfer`]) |
 //! | `validation.rs` | early stopping on held-out frames: [`SharedGplvm::fit_validated`], [`SharedGplvm::transfer_validated`], [`Validation`], [`Selection`] |
 //! | `regression.rs` | [`GpRegression`]: the direct-mapping yardstick, and the regression the input map uses |
 //! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
@@ -91,6 +92,7 @@ mod likelihood;
 mod model;
 mod objective;
 mod params;
+mod partial;
 mod pool;
 mod predict;
 mod preprocess;
@@ -110,6 +112,7 @@ pub use kernel::KernelParams;
 pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
+pub use partial::PartialTransfer;
 pub use predict::Prediction;
 pub use regression::GpRegression;
 pub use train::{Control, IterationRecord, StopReason, TrainOptions};

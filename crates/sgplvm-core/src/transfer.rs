@@ -97,14 +97,25 @@ impl SharedGplvm {
         data: MatRef<'_, f64>,
         seed: Option<u64>,
     ) -> Result<Space> {
+        self.transfer_space_on(name, data, self.n(), seed)
+    }
+
+    /// [`SharedGplvm::transfer_space`] for data of `frames` rows (some of the training frames).
+    pub(crate) fn transfer_space_on(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        frames: usize,
+        seed: Option<u64>,
+    ) -> Result<Space> {
         if self.spaces.iter().any(|s| s.name == name) {
             return Err(Error::DuplicateSpace { name: name.into() });
         }
         check_nonempty(name, data)?;
-        if data.nrows() != self.n() {
+        if data.nrows() != frames {
             return Err(Error::RowCountMismatch {
                 space: name.into(),
-                expected: self.n(),
+                expected: frames,
                 found: data.nrows(),
             });
         }

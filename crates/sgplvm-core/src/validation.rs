@@ -68,7 +68,7 @@ impl Validation {
     }
 
     /// The frames to train on and the held-out frames (both ascending) of `n` frames.
-    fn split(&self, n: usize, latent_dim: usize) -> Result<(Vec<usize>, Vec<usize>)> {
+    pub(crate) fn split(&self, n: usize, latent_dim: usize) -> Result<(Vec<usize>, Vec<usize>)> {
         let bad = |reason: String| Error::InvalidValue {
             what: "validation rows".into(),
             reason,
@@ -131,14 +131,14 @@ pub struct Selection {
 }
 
 /// Tracks the validation error of a selection run and when to stop it.
-struct Tracker {
+pub(crate) struct Tracker {
     curve: Vec<ValidationRecord>,
     best: Option<(usize, f64)>,
     patience: usize,
 }
 
 impl Tracker {
-    fn new(patience: usize) -> Self {
+    pub(crate) fn new(patience: usize) -> Self {
         Self {
             curve: Vec::new(),
             best: None,
@@ -148,7 +148,12 @@ impl Tracker {
 
     /// Records iteration `iteration`'s validation error (skipped when not finite) and says
     /// whether the run should go on.
-    fn record(&mut self, iteration: usize, objective: f64, validation_mse: f64) -> Control {
+    pub(crate) fn record(
+        &mut self,
+        iteration: usize,
+        objective: f64,
+        validation_mse: f64,
+    ) -> Control {
         if validation_mse.is_finite() && objective.is_finite() {
             self.curve.push(ValidationRecord {
                 iteration,
@@ -165,7 +170,12 @@ impl Tracker {
         }
     }
 
-    fn finish(self, fit_frames: usize, validation_frames: usize, start: Instant) -> Selection {
+    pub(crate) fn finish(
+        self,
+        fit_frames: usize,
+        validation_frames: usize,
+        start: Instant,
+    ) -> Selection {
         Selection {
             fit_frames,
             validation_frames,
@@ -178,12 +188,12 @@ impl Tracker {
 }
 
 /// The rows `rows` of `m`.
-fn take_rows(m: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
+pub(crate) fn take_rows(m: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
     Mat::from_fn(rows.len(), m.ncols(), |i, j| m[(rows[i], j)])
 }
 
 /// Mean squared difference of two matrices of the same shape.
-fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
+pub(crate) fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
     let mut sum = 0.0;
     for j in 0..a.ncols() {
         for i in 0..a.nrows() {
