@@ -22,7 +22,9 @@ use sgplvm_core::{
 use crate::figures;
 use crate::files::atomic_write;
 
+mod less_data;
 mod report;
+pub use less_data::{subset, LessDataRecord};
 pub use report::{report, MIN_RUNS_TO_JUDGE};
 
 /// Training and test matrices of one observation space (rows are frames).
@@ -72,6 +74,10 @@ pub struct ExperimentConfig {
     /// validation existed read as `None`.
     #[serde(default)]
     pub patience: Option<usize>,
+    /// Fractions of the training frames of the less-data study (Fig. 9); empty: not run (and
+    /// in results written before it existed).
+    #[serde(default)]
+    pub fractions: Vec<f64>,
 }
 
 /// The direct regression's budget in results written before it was recorded.
@@ -91,6 +97,7 @@ impl ExperimentConfig {
             seed: 0,
             direct_max_iters: default_direct_max_iters(),
             patience: Some(Validation::DEFAULT_PATIENCE),
+            fractions: vec![0.1, 0.25, 0.5, 1.0],
         }
     }
 
@@ -105,6 +112,7 @@ impl ExperimentConfig {
             seed: 0,
             direct_max_iters: default_direct_max_iters(),
             patience: Some(Validation::DEFAULT_PATIENCE),
+            fractions: vec![0.1, 0.25, 0.5, 1.0],
         }
     }
 }
@@ -201,6 +209,9 @@ pub struct Results {
     /// were recorded): which transfers go to a robot of a different kinematic structure.
     #[serde(default)]
     pub robot_joints: Vec<usize>,
+    /// The less-data study (Fig. 9; empty when not run).
+    #[serde(default)]
+    pub less_data: Vec<LessDataRecord>,
 }
 
 /// Errors of an experiment.
@@ -406,6 +417,15 @@ pub fn stages(config: &ExperimentConfig, robots: usize) -> Vec<Stage> {
             robots + 1,
         ));
     }
+    if !config.fractions.is_empty() {
+        plan.push(stage(
+            "less data, input BC".into(),
+            Some(ModelKind::Baseline),
+            less_data::trainings(config, robots),
+            config.max_iters,
+            1,
+        ));
+    }
     plan
 }
 
@@ -530,6 +550,7 @@ pub fn run(
         progress,
     };
     runner.direct_regressions(data, config)?;
+    let mut input_sources = Sources::new();
     for bc in BackConstraint::ALL {
         let sources = runner.baselines(data, config, bc)?;
         if bc == BackConstraint::Output {
@@ -537,13 +558,18 @@ pub fn run(
         }
         runner.transfers(data, config, bc, &sources)?;
         runner.multi_robot(data, config, bc)?;
+        if bc == BackConstraint::Input {
+            input_sources = sources;
+        }
     }
+    let less_data = runner.less_data(data, config, &input_sources)?;
     Ok(Results {
         robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
         config: config.clone(),
         runs: runner.runs,
         direct_regression: runner.direct,
         robot_joints: data.robots.iter().map(|(_, s)| s.train.ncols()).collect(),
+        less_data,
     })
 }
 
@@ -758,6 +784,9 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     written.extend(figures::learning_curves(results, dir)?);
     written.extend(figures::back_constraints(results, dir)?);
     written.extend(figures::transfers_by_source(results, dir)?);
+    if !results.less_data.is_empty() {
+        written.extend(figures::less_data(results, dir)?);
+    }
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
     written.push(path);
@@ -807,8 +836,27 @@ mod tests {
             seed: 0,
             direct_max_iters: 20,
             patience: Some(2),
+            fractions: vec![0.5],
         };
-        let results = run(&toy(), &config, &mut |_| {}).unwrap();
+        let mut trainings = 0;
+        let results = run(&toy(), &config, &mut |_| trainings += 1).unwrap();
+        assert_eq!(trainings, training_count(&config, 2));
+        // Less data: per robot one model trained on half the frames, one transfer to it.
+        let kinds: Vec<(&str, ModelKind, usize)> = results
+            .less_data
+            .iter()
+            .map(|r| (r.robot.as_str(), r.model, r.frames))
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                ("a", ModelKind::Baseline, 12),
+                ("a", ModelKind::Transfer, 12),
+                ("b", ModelKind::Baseline, 12),
+                ("b", ModelKind::Transfer, 12)
+            ]
+        );
+        assert!(results.less_data.iter().all(|r| r.test_mse.is_finite()));
         for r in &results.runs {
             let shipped = r.shipped.expect("recorded");
             assert!(shipped.iteration <= 8, "{r:?}");
@@ -831,6 +879,7 @@ mod tests {
             seed: 0,
             direct_max_iters: 20,
             patience: None,
+            fractions: Vec::new(),
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

@@ -1,6 +1,7 @@
 //! The paper's figures. From an experiment's runs: test error against iterations and training
 //! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
-//! back constraints (Fig. 6), each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
+//! back constraints (Fig. 6), with less data (Fig. 9) and from each robot to each other (Fig. 10),
+//! each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
 //! with key poses and test trajectories (Fig. 7) and predicted against desired joint
 //! trajectories (Fig. 8).
 
@@ -201,6 +202,74 @@ pub fn transfers_by_source(results: &Results, dir: &Path) -> Result<[PathBuf; 2]
     )
 }
 
+/// Fig. 9: per robot, the test error (mean ± one standard deviation over runs and sources)
+/// against the fraction of training frames of the robot trained fully on those frames and of
+/// the transfers to it that learned its mapping from them, with the direct GP regression on all
+/// frames (dashed).
+pub fn less_data(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let panels = results
+        .robots
+        .iter()
+        .map(|robot| {
+            let mut series: Vec<Series> = [
+                (ModelKind::Baseline, "trained fully on those frames", 0),
+                (
+                    ModelKind::Transfer,
+                    "transferred, mapping learned on them",
+                    1,
+                ),
+            ]
+            .into_iter()
+            .filter_map(|(kind, label, color)| {
+                let mut by_fraction: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+                for r in &results.less_data {
+                    if r.robot == *robot && r.model == kind {
+                        by_fraction
+                            .entry(r.fraction.to_bits())
+                            .or_default()
+                            .push(r.test_mse);
+                    }
+                }
+                let mut points = Vec::new();
+                let mut band = Vec::new();
+                let mut fractions: Vec<(f64, Vec<f64>)> = by_fraction
+                    .into_iter()
+                    .map(|(bits, v)| (f64::from_bits(bits), v))
+                    .collect();
+                fractions.sort_by(|a, b| a.0.total_cmp(&b.0));
+                for (fraction, values) in fractions {
+                    let (mean, sd) = mean_sd(&values);
+                    points.push((fraction, mean));
+                    band.push(positive_band(mean, sd));
+                }
+                (!points.is_empty()).then(|| Series {
+                    label: label.into(),
+                    color,
+                    points,
+                    band: Some(band),
+                    ..Series::default()
+                })
+            })
+            .collect();
+            series.extend(direct_line(&series, results.direct_mse(robot)));
+            Panel {
+                title: robot.clone(),
+                x_label: "fraction of the training frames".into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers: vec![],
+            }
+        })
+        .collect::<Vec<_>>();
+    write_figure(
+        &dir.join("fig9"),
+        "Fig. 9: less data (input back constraints)",
+        &panels,
+        panels.len(),
+    )
+}
+
 /// One panel per robot with a mean curve for each of `curves` that has runs, and the direct GP
 /// regression's test error as a dashed horizontal line across them.
 fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Panel> {
@@ -278,17 +347,28 @@ fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
                 .copied()
                 .unwrap_or(i) as f64
         };
-        let n = values.len().max(1) as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let (mean, sd) = mean_sd(&values);
         points.push((x, mean));
-        band.push(((mean - sd).max(mean * 0.05), mean + sd));
+        band.push(positive_band(mean, sd));
     }
     Series {
         points,
         band: Some(band),
         ..Series::default()
     }
+}
+
+/// Mean and population standard deviation (1/n) of `values`.
+fn mean_sd(values: &[f64]) -> (f64, f64) {
+    let n = values.len().max(1) as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    (mean, sd)
+}
+
+/// The band `mean ± sd`, its lower edge kept above zero for a logarithmic axis.
+fn positive_band(mean: f64, sd: f64) -> (f64, f64) {
+    ((mean - sd).max(mean * 0.05), mean + sd)
 }
 
 /// The two latent dimensions that matter most for `robot`: those with the shortest lengthscales.
