@@ -1,6 +1,7 @@
 //! The paper's figures. From an experiment's runs: test error against iterations and training
 //! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
-//! back constraints (Fig. 6). From a trained model, the demo's pictures: the shared latent space
+//! back constraints (Fig. 6), with less data (Fig. 9) and from each robot to each other (Fig. 10),
+//! each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
 //! with key poses and test trajectories (Fig. 7) and predicted against desired joint
 //! trajectories (Fig. 8).
 
@@ -82,7 +83,8 @@ pub fn learning_curves(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Pl
 }
 
 /// Fig. 6: per robot, the mean test error of fully trained models with no, input and output
-/// back constraints, against iterations. Returns the SVG and PNG written.
+/// back constraints against iterations, and the direct GP regression's (dashed). Returns the SVG
+/// and PNG written.
 pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
     let curve = |back_constraint, label, color| Curve {
         kind: ModelKind::Baseline,
@@ -104,7 +106,172 @@ pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], P
     )
 }
 
-/// One panel per robot with a mean curve for each of `curves` that has runs.
+/// Fig. 10: per target robot, the mean shipped test error of the transfers to it from each
+/// other robot (circles: input back constraints, crosses: none; labelled with the source and
+/// its number of joints), against the target's own fully trained model (input back
+/// constraints, solid) and the direct GP regression (dashed). With a robot of a different
+/// kinematic structure in the data, this is the paper's conjecture (Section V) at a glance.
+pub fn transfers_by_source(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let joints = |robot: &str| {
+        results
+            .robots
+            .iter()
+            .position(|r| r == robot)
+            .and_then(|i| results.robot_joints.get(i))
+            .map_or(String::new(), |j| format!(" ({j} joints)"))
+    };
+    let mean_shipped = |runs: Vec<&RunRecord>| {
+        let values: Vec<f64> = runs.iter().map(|r| r.shipped().test_mse).collect();
+        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+    };
+    let panels = results
+        .robots
+        .iter()
+        .map(|target| {
+            let sources: Vec<&String> = results.robots.iter().filter(|r| *r != target).collect();
+            let markers = [
+                (
+                    BackConstraint::Input,
+                    "transfer, input back constraints",
+                    0,
+                    true,
+                ),
+                (
+                    BackConstraint::None,
+                    "transfer, no back constraints",
+                    1,
+                    false,
+                ),
+            ]
+            .into_iter()
+            .map(|(bc, label, color, circles)| {
+                let (points, annotations) = sources
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, source)| {
+                        let runs = results
+                            .select(target, ModelKind::Transfer, bc.name())
+                            .into_iter()
+                            .filter(|r| r.source_robot.as_deref() == Some(source.as_str()))
+                            .collect();
+                        mean_shipped(runs)
+                            .map(|m| ((k as f64 + 1.0, m), format!("{source}{}", joints(source))))
+                    })
+                    .unzip();
+                Markers {
+                    label: label.into(),
+                    color,
+                    circles,
+                    points,
+                    annotations: if circles { annotations } else { Vec::new() },
+                }
+            })
+            .collect();
+            let span = (0.5, sources.len() as f64 + 0.5);
+            let mut series = Vec::new();
+            let baseline =
+                results.select(target, ModelKind::Baseline, BackConstraint::Input.name());
+            if let Some(m) = mean_shipped(baseline) {
+                series.push(Series {
+                    label: "fully trained on the target, input back constraints".into(),
+                    color: 2,
+                    points: vec![(span.0, m), (span.1, m)],
+                    ..Series::default()
+                });
+            }
+            let anchor = Series {
+                points: vec![(span.0, 0.0), (span.1, 0.0)],
+                ..Series::default()
+            };
+            series.extend(direct_line(&[anchor], results.direct_mse(target)));
+            Panel {
+                title: format!("to {target}{}", joints(target)),
+                x_label: "source robot".into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers,
+            }
+        })
+        .collect::<Vec<_>>();
+    write_figure(
+        &dir.join("fig10"),
+        "Fig. 10: transfer to each robot from each other robot",
+        &panels,
+        panels.len(),
+    )
+}
+
+/// Fig. 9: per robot, the test error (mean ± one standard deviation over runs and sources)
+/// against the fraction of training frames of the robot trained fully on those frames and of
+/// the transfers to it that learned its mapping from them, with the direct GP regression on all
+/// frames (dashed).
+pub fn less_data(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let panels = results
+        .robots
+        .iter()
+        .map(|robot| {
+            let mut series: Vec<Series> = [
+                (ModelKind::Baseline, "trained fully on those frames", 0),
+                (
+                    ModelKind::Transfer,
+                    "transferred, mapping learned on them",
+                    1,
+                ),
+            ]
+            .into_iter()
+            .filter_map(|(kind, label, color)| {
+                let mut by_fraction: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+                for r in &results.less_data {
+                    if r.robot == *robot && r.model == kind {
+                        by_fraction
+                            .entry(r.fraction.to_bits())
+                            .or_default()
+                            .push(r.test_mse);
+                    }
+                }
+                let mut points = Vec::new();
+                let mut band = Vec::new();
+                let mut fractions: Vec<(f64, Vec<f64>)> = by_fraction
+                    .into_iter()
+                    .map(|(bits, v)| (f64::from_bits(bits), v))
+                    .collect();
+                fractions.sort_by(|a, b| a.0.total_cmp(&b.0));
+                for (fraction, values) in fractions {
+                    let (mean, sd) = mean_sd(&values);
+                    points.push((fraction, mean));
+                    band.push(positive_band(mean, sd));
+                }
+                (!points.is_empty()).then(|| Series {
+                    label: label.into(),
+                    color,
+                    points,
+                    band: Some(band),
+                    ..Series::default()
+                })
+            })
+            .collect();
+            series.extend(direct_line(&series, results.direct_mse(robot)));
+            Panel {
+                title: robot.clone(),
+                x_label: "fraction of the training frames".into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers: vec![],
+            }
+        })
+        .collect::<Vec<_>>();
+    write_figure(
+        &dir.join("fig9"),
+        "Fig. 9: less data (input back constraints)",
+        &panels,
+        panels.len(),
+    )
+}
+
+/// One panel per robot with a mean curve for each of `curves` that has runs, and the direct GP
+/// regression's test error as a dashed horizontal line across them.
 fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Panel> {
     let x_label = if by_seconds {
         "training seconds"
@@ -114,12 +281,8 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
     results
         .robots
         .iter()
-        .map(|robot| Panel {
-            title: robot.clone(),
-            x_label: x_label.into(),
-            y_label: "test MSE (rad²)".into(),
-            log_y: true,
-            series: curves
+        .map(|robot| {
+            let mut series: Vec<Series> = curves
                 .iter()
                 .filter_map(|c| {
                     let runs = results.select(robot, c.kind, c.back_constraint.name());
@@ -129,10 +292,38 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
                         ..mean_curve(&runs, by_seconds)
                     })
                 })
-                .collect(),
-            markers: vec![],
+                .collect();
+            series.extend(direct_line(&series, results.direct_mse(robot)));
+            Panel {
+                title: robot.clone(),
+                x_label: x_label.into(),
+                y_label: "test MSE (rad²)".into(),
+                log_y: true,
+                series,
+                markers: vec![],
+            }
         })
         .collect()
+}
+
+/// The direct GP regression's test error `mse` as a dashed line over the horizontal extent of
+/// `series` (none if `mse` is not finite).
+fn direct_line(series: &[Series], mse: f64) -> Option<Series> {
+    if !mse.is_finite() {
+        return None;
+    }
+    let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    Some(Series {
+        label: "direct GP regression H → R".into(),
+        color: 7,
+        dashed: true,
+        points: vec![(lo, mse), (hi, mse)],
+        band: None,
+    })
 }
 
 /// Mean and standard deviation, per iteration index, of the test error of a group of runs
@@ -156,17 +347,28 @@ fn mean_curve(runs: &[&RunRecord], by_seconds: bool) -> Series {
                 .copied()
                 .unwrap_or(i) as f64
         };
-        let n = values.len().max(1) as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let (mean, sd) = mean_sd(&values);
         points.push((x, mean));
-        band.push(((mean - sd).max(mean * 0.05), mean + sd));
+        band.push(positive_band(mean, sd));
     }
     Series {
         points,
         band: Some(band),
         ..Series::default()
     }
+}
+
+/// Mean and population standard deviation (1/n) of `values`.
+fn mean_sd(values: &[f64]) -> (f64, f64) {
+    let n = values.len().max(1) as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    (mean, sd)
+}
+
+/// The band `mean ± sd`, its lower edge kept above zero for a logarithmic axis.
+fn positive_band(mean: f64, sd: f64) -> (f64, f64) {
+    ((mean - sd).max(mean * 0.05), mean + sd)
 }
 
 /// The two latent dimensions that matter most for `robot`: those with the shortest lengthscales.
@@ -406,9 +608,11 @@ mod tests {
             back_constraint: "input".into(),
             run: 0,
             source_robot: None,
+            source_run: None,
             iterations: iterations.to_vec(),
             seconds: seconds.to_vec(),
             test_mse: mse.to_vec(),
+            shipped: None,
         }
     }
 
@@ -447,5 +651,23 @@ mod tests {
         // No runs: an empty curve, no NaN points.
         let s = mean_curve(&[], false);
         assert!(s.points.is_empty());
+    }
+
+    #[test]
+    fn the_direct_regression_spans_the_curves_of_its_panel() {
+        let a = Series {
+            points: vec![(0.0, 1.0), (5.0, 0.5)],
+            ..Series::default()
+        };
+        let b = Series {
+            points: vec![(2.0, 1.0), (12.5, 0.5)],
+            ..Series::default()
+        };
+        let line = direct_line(&[a, b], 0.04).unwrap();
+        assert_eq!(line.points, vec![(0.0, 0.04), (12.5, 0.04)]);
+        assert!(line.dashed && line.label.contains("direct GP"));
+        // No curves: a unit span; no regression: no line.
+        assert_eq!(direct_line(&[], 0.04).unwrap().points[1], (1.0, 0.04));
+        assert!(direct_line(&[], f64::NAN).is_none());
     }
 }

@@ -22,3 +22,4 @@ pub mod figures;
 pub mod files;
 pub mod pipeline;
 pub mod plots;
+pub mod stats;

@@ -147,6 +147,7 @@ impl Demonstrations {
                 .iter()
                 .map(|r| (r.name.clone(), split(r)))
                 .collect(),
+            validation: self.validation_split().rows,
         })
     }
 

@@ -454,6 +454,13 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         // A latent dimension the data cannot support.
         error(&["train", "--data", data, "--robot", "walkman", "--latent-dim", "100000", "--out", out_s],
               &["latent dimension"]),
+        // Generating for an unknown robot names the known ones; a robot twice is refused.
+        Failure {
+            says: vec!["asimo", "walkman, coman, centauro, ur5e"],
+            ..usage(&["generate", "--robots", "walkman,asimo", "--file", "g.mcap", "--out", s(&dir)])
+        },
+        error(&["generate", "--robots", "coman,ur5e,coman", "--file", "g.mcap", "--out", s(&dir)],
+              &["coman", "twice"]),
     ];
     for case in &cases {
         let err = fails(&case.args, case.code);
@@ -476,6 +483,31 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         leftovers.is_empty(),
         "output files left behind: {leftovers:?}"
     );
+}
+
+#[test]
+fn generate_records_the_chosen_robots() {
+    let dir = scratch("generate");
+    let stdout = ok(&[
+        "generate",
+        "--robots",
+        "ur5e,coman",
+        "--file",
+        "two.mcap",
+        "--subsample",
+        "24",
+        "--out",
+        s(&dir),
+    ]);
+    assert!(stdout.contains("robots ur5e, coman"), "{stdout}");
+    let data = sgplvm::robots::dataset::load_demonstrations(dir.join("two.mcap")).unwrap();
+    assert_eq!(data.robot_names(), ["ur5e", "coman"]);
+    assert_eq!(data.robot("ur5e").unwrap().positions.ncols(), 12);
+    assert_eq!(data.human.positions.ncols(), 18);
+    // The human's data does not depend on the robots recorded.
+    let three = sgplvm::robots::dataset::load_demonstrations(&fixture().data).unwrap();
+    assert_eq!(data.human.positions, three.human.positions);
+    assert_eq!(data.robot("coman"), three.robot("coman"));
 }
 
 #[test]
@@ -511,7 +543,7 @@ fn simulate_a_prediction() {
 fn experiment_writes_results_in_the_documented_schema() {
     let f = fixture();
     let out = f.dir.join("experiment");
-    ok(&[
+    let run = sgplvm(&[
         "experiment",
         "--quick",
         "--runs",
@@ -523,6 +555,14 @@ fn experiment_writes_results_in_the_documented_schema() {
         "--out",
         s(&out),
     ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    // stderr is not a terminal here: one progress line per group of runs, no bar.
+    assert!(
+        stderr.contains("baselines, input BC: 3/3 trainings, ") && stderr.contains(" ETA "),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("[="), "{stderr}");
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(
@@ -545,6 +585,12 @@ fn experiment_writes_results_in_the_documented_schema() {
         }
         let n = run["iterations"].as_array().unwrap().len();
         assert!(n >= 1);
+        for key in ["iteration", "seconds", "test_mse"] {
+            assert!(
+                run["shipped"][key].is_number(),
+                "shipped without {key}: {run}"
+            );
+        }
         assert_eq!(run["seconds"].as_array().unwrap().len(), n);
         assert_eq!(run["test_mse"].as_array().unwrap().len(), n);
         kinds.insert((
@@ -565,6 +611,12 @@ fn experiment_writes_results_in_the_documented_schema() {
             kinds.contains(&(model.to_string(), bc.to_string())),
             "missing {model}/{bc}"
         );
+    }
+    // The yardstick: one direct GP regression per robot.
+    let direct = results["direct_regression"].as_array().unwrap();
+    assert_eq!(direct.len(), 3);
+    for d in direct {
+        assert!(d["test_mse"].as_f64().unwrap() > 0.0, "{d}");
     }
     for file in [
         "fig4.svg",

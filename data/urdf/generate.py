@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""Writes the four body models of sgplvm (walkman, coman, centauro, human) as URDF files.
+"""Writes the body models of sgplvm (walkman, coman, centauro, human, ur5e) as URDF files.
 
 The kinematic numbers are those of /work/shared/ROBOTS.md (public descriptions of IIT's WALK-MAN,
-COMAN and CENTAURO, and an Xsens-MVN-style 9-joint human arm for a 1.75 m person). Everything
+COMAN and CENTAURO, and an Xsens-MVN-style 9-joint human arm for a 1.75 m person) and, for the
+6-joint ur5e, Universal Robots' published UR5e DH table (see data/urdf/README.md). Everything
 else is ours and deliberately simple:
 
 * the root link is the torso (no waist joint); the only movable joints are the arm joints,
@@ -14,7 +15,8 @@ else is ours and deliberately simple:
 * inertias are those of solid cylinders / boxes of the listed masses, in frames aligned with the
   shapes; shape-less links get 0.1 kg and a 2 cm sphere's inertia;
 * fixed frame links `left_shoulder`/`right_shoulder` (children of the torso, at the point
-  closest to the first three shoulder axes at zero pose -- the shoulder joint centre) and
+  closest to the shoulder axes at zero pose -- the first three; the ur5e's first two, which
+  meet -- the shoulder joint centre) and
   `left_hand`/`right_hand` (at the hand offset below the last wrist joint).
 
 Run from anywhere: `python3 data/urdf/generate.py` rewrites data/urdf/*.urdf (stdlib only).
@@ -25,8 +27,13 @@ import os
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+# Decimal places of every number written (set per robot by build(): 15 for the ur5e, whose DH
+# angles must not be rounded to 1e-9 when its kinematics are checked to 1e-9).
+DIGITS = 9
+
+
 def fmt(x):
-    s = repr(round(float(x), 9))
+    s = repr(round(float(x), DIGITS))
     return "0" if s in ("0.0", "-0.0") else (s[:-2] if s.endswith(".0") else s)
 
 
@@ -120,18 +127,25 @@ def shape_xml(tag, xyz, rpy, geometry, material=None, indent="    "):
     )
 
 
-def link_with_cylinder(name, seg, radius, density, material):
-    """A link whose shape is a cylinder along `seg` (link frame), trimmed at both ends."""
+def link_with_cylinder(name, seg, radius, density, material, mass=None):
+    """A link whose shape is a cylinder along `seg` (link frame), trimmed at both ends.
+
+    `mass` (kg) replaces the cylinder's density-based mass when a data sheet gives one; a link
+    too short for a shape then gets the inertia of a solid sphere of `radius` at its joint."""
     length = norm(seg)
     trim = radius + 0.005
     usable = length - 2 * trim
     if usable < 0.01:
-        mass = 0.1
-        i = 0.4 * mass * 0.02 ** 2
+        if mass is None:
+            mass, r = 0.1, 0.02
+        else:
+            r = radius
+        i = 0.4 * mass * r ** 2
         return f"  <link name=\"{name}\">\n" + inertial_xml(mass, [0, 0, 0], [0, 0, 0], i, i, i) + "  </link>\n"
     mid = [c / 2 for c in seg]
     rpy = rpy_aligning_z(seg)
-    mass = density * math.pi * radius ** 2 * usable
+    if mass is None:
+        mass = density * math.pi * radius ** 2 * usable
     ixx = mass * (3 * radius ** 2 + usable ** 2) / 12
     izz = mass * radius ** 2 / 2
     geom = f"<cylinder radius=\"{fmt(radius)}\" length=\"{fmt(usable)}\"/>"
@@ -144,14 +158,16 @@ def link_with_cylinder(name, seg, radius, density, material):
     )
 
 
-def link_with_hand(name, offset, width, thickness, density, material):
-    """The last arm link: a box from 2 cm past the wrist to the hand point (plus 2 cm)."""
+def link_with_hand(name, offset, width, thickness, density, material, mass=None):
+    """The last arm link: a box from 2 cm past the wrist to the hand point (plus 2 cm); `mass`
+    (kg) replaces the box's density-based mass when a data sheet gives one."""
     length = norm(offset)
     start = 0.02 / length
     mid = [c * (start + 0.5) for c in offset]
     rpy = rpy_aligning_z(offset)
     size = [width, thickness, length]
-    mass = density * width * thickness * length
+    if mass is None:
+        mass = density * width * thickness * length
     ixx = mass * (thickness ** 2 + length ** 2) / 12
     iyy = mass * (width ** 2 + length ** 2) / 12
     izz = mass * (width ** 2 + thickness ** 2) / 12
@@ -196,12 +212,13 @@ def arm_xml(arm, root, radius, density, effort):
             dirs.append(matvec(rot, j["axis"]))
         child = j["link"]
         out += joint_xml(j["name"], "revolute", parent, child, j["xyz"], j.get("rpy", (0, 0, 0)),
-                         j["axis"], (j["lower"], j["upper"]), j["velocity"], effort)
+                         j["axis"], (j["lower"], j["upper"]), j["velocity"], j.get("effort", effort))
         if k + 1 < len(joints):
             seg = joints[k + 1]["xyz"]
-            out += link_with_cylinder(child, seg, j.get("radius", radius), density, "arm")
+            out += link_with_cylinder(child, seg, j.get("radius", radius), density, "arm", j.get("mass"))
         else:
-            out += link_with_hand(child, arm["hand"], arm.get("hand_width", 0.08), 0.03, density, "hand")
+            out += link_with_hand(child, arm["hand"], arm.get("hand_width", 0.08), 0.03, density, "hand",
+                                  j.get("mass"))
         parent = child
     hand = arm["side"] + "_hand"
     out += f"  <link name=\"{hand}\"/>\n"
@@ -215,6 +232,15 @@ def mirror_origin(xyz):
 
 
 def build(robot):
+    global DIGITS
+    DIGITS = robot.get("digits", 9)
+    try:
+        return build_xml(robot)
+    finally:
+        DIGITS = 9
+
+
+def build_xml(robot):
     name = robot["name"]
     root = robot["root"]
     radius = robot["radius"]
@@ -227,7 +253,8 @@ def build(robot):
         centres[arm["side"]] = centre
     # Torso box: clears the hanging arms (half width = shoulder y - radius - 2 cm) and ends 3 cm
     # below the shoulder centres.
-    half_w = min(abs(centres["left"][1]), abs(centres["right"][1])) - radius - 0.02
+    half_w = robot.get("torso_half_width",
+                       min(abs(centres["left"][1]), abs(centres["right"][1])) - radius - 0.02)
     top = min(centres["left"][2], centres["right"][2]) - 0.03 - robot.get("torso_top_clearance", 0.0)
     height = robot["torso_height"]
     depth = robot["torso_depth"]
@@ -250,7 +277,7 @@ def build(robot):
     head = (
         f"<?xml version=\"1.0\"?>\n"
         f"<!-- {robot['comment']}\n"
-        f"     Generated by data/urdf/generate.py from the numbers in ROBOTS.md; do not edit by hand. -->\n"
+        f"     Generated by data/urdf/generate.py from {robot.get('source', 'the numbers in ROBOTS.md')}; do not edit by hand. -->\n"
         f"<robot name=\"{name}\">\n"
         f"  <material name=\"body\"><color rgba=\"0.6 0.6 0.65 1\"/></material>\n"
         f"  <material name=\"arm\"><color rgba=\"0.85 0.45 0.1 1\"/></material>\n"
@@ -384,8 +411,86 @@ def human(height=1.75):
                         "elbow flexion, forearm pronation, wrist flexion/deviation).")
 
 
+# UR5e, from Universal Robots' "Parameters for calculations of kinematics and dynamics" (the
+# standard Denavit-Hartenberg table of the e-Series; theta offsets all 0, so q = the angles the
+# robot's controller reports) and the UR5e user manual's joint limits.
+UR5E_DH = [  # (a, d, alpha) of joints 1-6, metres and radians
+    (0.0, 0.1625, math.pi / 2),
+    (-0.425, 0.0, 0.0),
+    (-0.3922, 0.0, 0.0),
+    (0.0, 0.1333, math.pi / 2),
+    (0.0, 0.0997, -math.pi / 2),
+    (0.0, 0.0996, 0.0),
+]
+UR5E_MASSES = [3.761, 8.058, 2.846, 1.37, 1.3, 0.365]  # kg, links 1-6, same table
+# Pan axes turned this far backward from pointing straight out (see ur5e()).
+UR5E_PAN_TURN = math.radians(-30.0)
+
+
+def ur5e():
+    """Two UR5e arms on the sides of a box torso, written as the DH table itself.
+
+    Each arm's first joint carries the mounting (base frame = DH frame 0); joint k+1's origin is
+    row k of the table, Tz(d) Tx(a) Rx(alpha) = xyz (a, 0, d), rpy (alpha, 0, 0); every axis is
+    the frame's z; the hand is the tool flange (UR's tool0), d6 along the last axis. So link k's
+    frame is DH frame k-1 turned by q_k, and the hand frame is DH frame 6.
+
+    Mounting: base x0 up, so that q = 0 (the DH zero: upper arm and forearm in line along -x0)
+    hangs the arm straight down like the humanoids' arms; base z0 (the shoulder pan axis)
+    horizontal, pointing out of the torso side and turned 30 degrees backward. (Pointing straight
+    out, the left pan joint would have to turn at 3.7 rad/s, beyond the UR5e's 180 deg/s, on the
+    generator's move from `forward_high` to `v_up`; turned 25 to 45 degrees back, every command
+    stays below 3.1 rad/s.) The bases sit at y = +-0.13 m, the torso's half width, placed so
+    that the shoulder centres (where the pan and lift axes cross) are at x = 0; the torso box
+    stands 6 cm behind that (its front face at x = 0.04 m, the bases on brackets at its front
+    corners) and ends 27 cm below the shoulders, so that a forearm reaching in front of the
+    chest clears it. A UR5e has one handedness, so the right arm is not a mirror image of the
+    left one: at q = 0 the left flange sits behind its shoulder, the right one in front of it."""
+    c, s = math.cos(UR5E_PAN_TURN), math.sin(UR5E_PAN_TURN)
+    base_y, shoulder_z = 0.13, 0.2
+    d1 = UR5E_DH[0][1]
+    limits = [2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi]
+    efforts = [150.0, 150.0, 150.0, 28.0, 28.0, 28.0]
+    radii = [0.045, 0.045, 0.04, 0.035, 0.035, 0.035]
+    names = ["shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3"]
+    links = ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
+             "wrist_3_link"]
+
+    def arm(side, sign):
+        # z0 = (s, sign c, 0), x0 = +z, y0 = z0 x x0 = (sign c, -s, 0);
+        # R = Rz(yaw) Ry(-pi/2) has columns (0, 0, 1), (-sin yaw, cos yaw, 0), (-cos yaw, -sin yaw, 0).
+        yaw = math.atan2(-sign * c, -s)
+        pan_axis = [s, sign * c, 0.0]
+        base = [0.0 - d1 * pan_axis[0], sign * base_y, shoulder_z]
+        origins = [(base, [0.0, -math.pi / 2, yaw])]
+        origins += [([a, 0.0, d], [alpha, 0.0, 0.0]) for a, d, alpha in UR5E_DH[:-1]]
+        joints = [dict(name=f"{side}_{names[k]}_joint", link=f"{side}_{links[k]}",
+                       xyz=origins[k][0], rpy=origins[k][1], axis=[0, 0, 1],
+                       lower=-limits[k], upper=limits[k], velocity=math.pi, effort=efforts[k],
+                       radius=radii[k], mass=UR5E_MASSES[k])
+                  for k in range(6)]
+        a6, d6, _ = UR5E_DH[-1]
+        return {"side": side, "shoulder_axes": [0, 1], "hand": [a6, 0.0, d6], "hand_width": 0.075,
+                "joints": joints}
+
+    return dict(name="ur5e", root="torso", radius=0.045, density=1200.0, effort=150.0,
+                torso_height=0.35, torso_depth=0.2, torso_x=-0.06, torso_mass=15.0, torso_half_width=base_y,
+                torso_top_clearance=-0.11, digits=15, arms=[arm("left", 1.0), arm("right", -1.0)],
+                source="Universal Robots' published UR5e DH table and user manual (see data/urdf/README.md)",
+                comment="Two 6-joint UR5e arms (Universal Robots) on a torso. Each arm is UR's standard "
+                        "DH table of the UR5e ('Parameters for calculations of kinematics and "
+                        "dynamics': d1 0.1625, a2 -0.425, a3 -0.3922, d4 0.1333, d5 0.0997, d6 0.0996 m; "
+                        "alpha pi/2, 0, 0, pi/2, -pi/2, 0), joint k+1's origin being row k, with the "
+                        "link masses of the same table; limits from the UR5e user manual (+-360 deg, "
+                        "the elbow +-180 deg as in UR's ROS description; 180 deg/s; 150/150/150/28/28/28 "
+                        "Nm). Bases at y +-0.13 m (brackets at the torso's front corners), x0 up so "
+                        "that q = 0 hangs the arms down, pan axes horizontal and turned 30 deg "
+                        "backward from pointing straight out; shoulder centres at (0, +-0.270729, "
+                        "0.2). Hand = tool flange. A UR5e has one handedness: the right arm is not a "
+                        "mirror image of the left.")
+
 def main():
-    for make in (walkman, coman, centauro, human):
+    for make in (walkman, coman, centauro, human, ur5e):
         robot = make()
         path = os.path.join(HERE, robot["name"] + ".urdf")
         with open(path, "w") as f:

@@ -1,14 +1,15 @@
 //! `sgplvm experiment`: the paper's Section IV-B — every run, Figs. 4–6, results.json and
-//! report.md.
+//! report.md. Progress: a bar on a terminal, else one line per group of runs on stderr.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::{self, ExperimentConfig};
 
-use super::args::DataArg;
-use super::progress::progress_bar;
+use super::args::{DataArg, ValidationArg};
+use super::progress::{progress_bar, StageLines};
 
 #[derive(Args)]
 pub struct ExperimentArgs {
@@ -26,6 +27,15 @@ pub struct ExperimentArgs {
     /// Override the iteration budget of every training.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     max_iters: Option<u64>,
+    /// How each training's iteration budget is chosen: `auto` on held-out training frames (as
+    /// `train` does by default; `--max-iters` is then an upper bound), `none` the paper's fixed
+    /// budgets.
+    #[arg(long, value_enum, default_value = "auto")]
+    validation: ValidationArg,
+    /// With `--validation auto`: iterations without a lower validation error before a
+    /// selection run stops.
+    #[arg(long, default_value_t = sgplvm::Validation::DEFAULT_PATIENCE as u64)]
+    patience: u64,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -43,6 +53,8 @@ impl ExperimentArgs {
             config.runs = r as usize;
             config.transfers_per_run = config.transfers_per_run.min(r as usize);
         }
+        config.patience =
+            (self.validation == ValidationArg::Auto).then_some(self.patience as usize);
         if let Some(m) = self.max_iters {
             config.max_iters = m as usize;
             config.transfer_max_iters = m as usize;
@@ -55,13 +67,20 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     let config = args.config();
     let demos = args.data.load()?;
     let data = demos.experiment_data()?;
-    let bar = progress_bar(
-        experiment::training_count(&config, data.robots.len()) as u64,
-        "experiment",
-    );
+    let plan = experiment::stages(&config, data.robots.len());
+    let bar = progress_bar(plan.iter().map(|s| s.trainings as u64).sum(), "experiment");
+    // Without a terminal to draw the bar on (a log, CI): one line per finished stage.
+    let mut lines = StageLines::new(plan);
+    let started = Instant::now();
     let results = experiment::run(&data, &config, &mut |p| {
-        bar.set_position(p.done as u64);
-        bar.set_message(p.message.clone());
+        if bar.is_hidden() {
+            if let Some(line) = lines.update(p, started.elapsed()) {
+                eprintln!("{line}");
+            }
+        } else {
+            bar.set_position(p.done as u64);
+            bar.set_message(p.message.clone());
+        }
     })?;
     bar.finish_and_clear();
     let written = experiment::write_outputs(&results, &args.out)?;

@@ -3,20 +3,41 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
+use clap::builder::PossibleValuesParser;
 use clap::Args;
-use sgplvm::robots::generator::{generate_to_dir, GeneratorConfig};
+use sgplvm::robots::generator::{generate_to_file, GeneratorConfig, DEMO_FILE_NAME, KEY_POSES};
+use sgplvm::robots::Robot;
 
 #[derive(Args)]
 pub struct GenerateArgs {
-    /// Output folder (bimanual.mcap is written into it).
+    /// Output folder (the file is written into it).
     #[arg(long, default_value = "data/demos")]
     out: PathBuf,
+    /// Name of the file written in the output folder.
+    #[arg(long, default_value = DEMO_FILE_NAME)]
+    file: PathBuf,
+    /// Robots to record, comma-separated, in column order [default: walkman,coman,centauro].
+    /// Motions keep the paper's timing whichever robots are recorded, so adding one changes
+    /// nothing in the human's or the other robots' data.
+    #[arg(long, value_delimiter = ',', value_parser = robot_names())]
+    robots: Option<Vec<String>>,
     /// Seed of every random draw.
     #[arg(long)]
     seed: Option<u64>,
     /// Keep every k-th frame of the training trajectories.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     subsample: Option<u64>,
+}
+
+/// The built-in robot models (every built-in body but the demonstrator).
+fn robot_names() -> PossibleValuesParser {
+    let human = GeneratorConfig::default().human;
+    PossibleValuesParser::new(
+        Robot::builtin_names()
+            .iter()
+            .copied()
+            .filter(move |&n| n != human),
+    )
 }
 
 pub fn run(args: GenerateArgs) -> Result<()> {
@@ -27,7 +48,11 @@ pub fn run(args: GenerateArgs) -> Result<()> {
     if let Some(k) = args.subsample {
         config.train_subsample = k as usize;
     }
-    let (path, generated) = generate_to_dir(&config, &args.out)?;
+    if let Some(robots) = args.robots {
+        config.robots = robots;
+    }
+    let path = args.out.join(&args.file);
+    let generated = generate_to_file(&config, &path)?;
     let ds = &generated.dataset;
     println!(
         "wrote {}: {} frames ({} training, {} test), robots {}",
@@ -37,5 +62,25 @@ pub fn run(args: GenerateArgs) -> Result<()> {
         ds.test.len(),
         ds.robot_names().join(", ")
     );
+    for body in &generated.bodies {
+        let unreached: Vec<String> = body
+            .unreached()
+            .map(|r| {
+                format!(
+                    "{} {} hand {:.1} mm off",
+                    KEY_POSES[r.pose].name,
+                    r.side.as_str(),
+                    r.residual * 1e3
+                )
+            })
+            .collect();
+        if !unreached.is_empty() {
+            println!(
+                "{}: closest reachable posture used for {}",
+                body.name,
+                unreached.join(", ")
+            );
+        }
+    }
     Ok(())
 }

@@ -1,10 +1,13 @@
-//! Progress bars on a terminal (nothing when stderr is not one), and a training run under one.
+//! Progress bars on a terminal (nothing when stderr is not one), a training run under one, and
+//! for long work in stages, one line per finished stage where no bar can be drawn (logs, CI).
 
+use std::collections::BTreeMap;
 use std::io::IsTerminal;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use sgplvm::core::{Callback, Control, IterationRecord};
+use sgplvm::experiment::{ModelKind, Progress, Stage};
 use sgplvm::pipeline::PipelineError;
 use sgplvm::SharedGplvm;
 
@@ -53,4 +56,161 @@ pub fn train_with_progress(
         .last()
         .map_or(started.elapsed().as_secs_f64(), |r| r.seconds);
     Ok((model, seconds))
+}
+
+/// One line per finished stage of an experiment, with the time elapsed and an estimate of the
+/// time left: for a log, where a progress bar cannot be drawn.
+pub struct StageLines {
+    plan: Vec<Stage>,
+    /// Elapsed time when the current stage started.
+    stage_started: Duration,
+    /// Seconds and trainings of finished stages, by kind of model (`None`: direct regressions).
+    timed: BTreeMap<Option<ModelKind>, (f64, usize)>,
+    /// Work (in [`Stage::work`] units) and seconds of the finished stages that train shared
+    /// GP-LVMs (the direct regressions cost far less per unit).
+    work_done: f64,
+    work_seconds: f64,
+}
+
+impl StageLines {
+    /// Lines for the stages of `plan`.
+    pub fn new(plan: Vec<Stage>) -> Self {
+        StageLines {
+            plan,
+            stage_started: Duration::ZERO,
+            timed: BTreeMap::new(),
+            work_done: 0.0,
+            work_seconds: 0.0,
+        }
+    }
+
+    /// The line to print for `progress`, `elapsed` after the start: `Some` when it completes a
+    /// stage.
+    pub fn update(&mut self, progress: &Progress, elapsed: Duration) -> Option<String> {
+        let stage = self.plan.get(progress.stage)?;
+        if progress.stage_done < stage.trainings {
+            return None;
+        }
+        let seconds = (elapsed - self.stage_started.min(elapsed)).as_secs_f64();
+        let entry = self.timed.entry(stage.model).or_insert((0.0, 0));
+        entry.0 += seconds;
+        entry.1 += stage.trainings;
+        if stage.model.is_some() {
+            self.work_done += stage.work * stage.trainings as f64;
+            self.work_seconds += seconds;
+        }
+        self.stage_started = elapsed;
+        let eta = self
+            .time_left(progress.stage)
+            .map_or("unknown yet".to_string(), short_duration);
+        Some(format!(
+            "{}: {}/{} trainings, {} elapsed, ETA {} ({}/{} in all)",
+            stage.name,
+            progress.stage_done,
+            stage.trainings,
+            short_duration(elapsed),
+            eta,
+            progress.done,
+            progress.total,
+        ))
+    }
+
+    /// Estimated time for the stages after `finished`: each at the seconds per training of its
+    /// kind of model once one stage of that kind was timed, else at the rate per unit of work of
+    /// the shared GP-LVMs trained so far; `None` before any was.
+    fn time_left(&self, finished: usize) -> Option<Duration> {
+        let per_work = (self.work_done > 0.0).then(|| self.work_seconds / self.work_done);
+        let mut seconds = 0.0;
+        for s in &self.plan[finished + 1..] {
+            let per_training = match self.timed.get(&s.model) {
+                Some(&(secs, n)) if n > 0 => secs / n as f64,
+                _ => per_work? * s.work,
+            };
+            seconds += per_training * s.trainings as f64;
+        }
+        Some(Duration::from_secs_f64(seconds.max(0.0)))
+    }
+}
+
+/// A duration as `42s`, `3m07s` or `1h05m`.
+pub fn short_duration(d: Duration) -> String {
+    let s = d.as_secs_f64().round() as u64;
+    match s {
+        0..60 => format!("{s}s"),
+        60..3600 => format!("{}m{:02}s", s / 60, s % 60),
+        _ => format!("{}h{:02}m", s / 3600, s % 3600 / 60),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stage(name: &str, model: Option<ModelKind>, trainings: usize, work: f64) -> Stage {
+        Stage {
+            name: name.into(),
+            model,
+            trainings,
+            work,
+        }
+    }
+
+    fn progress(stage: usize, stage_done: usize, done: usize) -> Progress {
+        Progress {
+            done,
+            total: 17,
+            message: String::new(),
+            stage,
+            stage_done,
+        }
+    }
+
+    #[test]
+    fn short_durations() {
+        assert_eq!(short_duration(Duration::from_secs_f64(41.6)), "42s");
+        assert_eq!(short_duration(Duration::from_secs(187)), "3m07s");
+        assert_eq!(short_duration(Duration::from_secs(3900)), "1h05m");
+        assert_eq!(short_duration(Duration::ZERO), "0s");
+    }
+
+    #[test]
+    fn one_line_per_finished_stage_with_an_eta_by_kind_of_model() {
+        use ModelKind::*;
+        let mut lines = StageLines::new(vec![
+            stage("direct GP regression H → R", None, 2, 1000.0),
+            stage("baselines, none BC", Some(Baseline), 4, 600.0),
+            stage("transfers, none BC", Some(Transfer), 10, 300.0),
+            stage("baselines, input BC", Some(Baseline), 2, 600.0),
+            stage("multi-robot, input BC", Some(Multi), 1, 1200.0),
+        ]);
+        let at = |s| Duration::from_secs(s);
+        // The direct regressions say nothing of how long a shared GP-LVM takes.
+        assert_eq!(
+            lines.update(&progress(0, 2, 2), at(2)).as_deref(),
+            Some("direct GP regression H → R: 2/2 trainings, 2s elapsed, ETA unknown yet (2/17 in all)")
+        );
+        // Within a stage: no line.
+        assert_eq!(lines.update(&progress(1, 3, 3), at(30)), None);
+        // Baselines: 4 in 40 s (from 2 s to 42 s), 10 s each, 2400 work units → 1/60 s per unit. Left: 10
+        // transfers (never timed: 300 units → 5 s each) 50 s, 2 baselines at 10 s = 20 s, the
+        // multi-robot model (1200 units) 20 s: 90 s.
+        assert_eq!(
+            lines.update(&progress(1, 4, 4), at(42)).as_deref(),
+            Some("baselines, none BC: 4/4 trainings, 42s elapsed, ETA 1m30s (4/17 in all)")
+        );
+        // Transfers took 20 s (2 s each, faster than the work estimate): left 2 baselines at
+        // 10 s and the multi-robot model at (60 s / 5400 units) × 1200 = 13.3 s: 33 s.
+        assert_eq!(
+            lines.update(&progress(2, 10, 14), at(62)).as_deref(),
+            Some("transfers, none BC: 10/10 trainings, 1m02s elapsed, ETA 33s (14/17 in all)")
+        );
+        // The last stage: nothing left.
+        lines.update(&progress(3, 2, 16), at(82));
+        assert_eq!(
+            lines.update(&progress(4, 1, 17), at(95)).as_deref(),
+            Some("multi-robot, input BC: 1/1 trainings, 1m35s elapsed, ETA 0s (17/17 in all)")
+        );
+        // A stage index outside the plan is ignored.
+        assert_eq!(lines.update(&progress(9, 1, 17), at(99)), None);
+    }
 }

@@ -15,7 +15,7 @@ use super::report;
 
 #[derive(Args)]
 pub struct SimulateArgs {
-    /// A built-in robot (walkman, coman, centauro, human) or the robot of the model.
+    /// A built-in robot (walkman, coman, centauro, human, ur5e) or the robot of the model.
     #[arg(long, required_unless_present = "urdf")]
     robot: Option<String>,
     /// A URDF file instead of a built-in robot.

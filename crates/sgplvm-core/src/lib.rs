@@ -37,6 +37,7 @@
 //! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
 //! | `fit.rs` | the full and multi-robot models ([`SharedGplvm::fit`]) |
 //! | `transfer.rs` | transfer to a new robot ([`SharedGplvm::transfer`]) |
+//! | `partial.rs` | transfer with less data: [`SharedGplvm::transfer_partial`], a new robot known on some of the training frames ([`PartialTransfer`]) |
 //! | `validation.rs` | early stopping on held-out frames: [`SharedGplvm::fit_validated`], [`SharedGplvm::transfer_validated`], [`Validation`], [`Selection`] |
 //! | `regression.rs` | [`GpRegression`]: the direct-mapping yardstick, and the regression the input map uses |
 //! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
@@ -101,6 +102,7 @@ mod memory;
 mod model;
 mod objective;
 mod params;
+mod partial;
 mod pool;
 mod predict;
 mod preprocess;
@@ -122,6 +124,7 @@ pub use memory::{DEFAULT_MEMORY_LIMIT, MEMORY_LIMIT_ENV};
 pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
+pub use partial::PartialTransfer;
 pub use predict::Prediction;
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use regression::GpRegression;

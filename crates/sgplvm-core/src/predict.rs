@@ -378,7 +378,7 @@ fn check_prediction(space: &str, row: usize, values: &[f64]) -> Result<()> {
 }
 
 /// [`check_prediction`] for every frame (row) of `m`.
-fn check_prediction_matrix(space: &str, m: MatRef<'_, f64>) -> Result<()> {
+pub(crate) fn check_prediction_matrix(space: &str, m: MatRef<'_, f64>) -> Result<()> {
     for j in 0..m.ncols() {
         if let Some(row) = (0..m.nrows()).find(|&i| !m[(i, j)].is_finite()) {
             return Err(Error::NonFinitePrediction {

@@ -106,23 +106,39 @@ impl SharedGplvm {
         data: MatRef<'_, f64>,
         seed: Option<u64>,
     ) -> Result<Space> {
+        self.transfer_space_on(name, data, self.n(), seed)
+    }
+
+    /// [`SharedGplvm::transfer_space`] for data of `frames` rows (some of the training frames).
+    pub(crate) fn transfer_space_on(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        frames: usize,
+        seed: Option<u64>,
+    ) -> Result<Space> {
         if self.spaces.iter().any(|s| s.name == name) {
             return Err(Error::DuplicateSpace { name: name.into() });
         }
         check_nonempty(name, data)?;
-        if data.nrows() != self.n() {
+        if data.nrows() != frames {
             return Err(Error::RowCountMismatch {
                 space: name.into(),
-                expected: self.n(),
+                expected: frames,
                 found: data.nrows(),
             });
         }
         check_finite(name, data)?;
-        memory::check(
-            "transfer",
-            self.n(),
-            memory::transfer_matrices(self.spaces.len() + 1),
-        )?;
+        if frames == self.n() {
+            memory::check(
+                "transfer",
+                frames,
+                memory::transfer_matrices(self.spaces.len() + 1),
+            )?;
+        } else {
+            // A partial transfer: a GP regression on its frames beside the model.
+            memory::check("transfer", frames, memory::REGRESSION_MATRICES)?;
+        }
         let mut space = Space::from_data(name, data, &self.config)?;
         // The first robot's lengthscales: the latent space is shared, and so is the scale on
         // which robots vary along it.

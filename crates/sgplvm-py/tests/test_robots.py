@@ -5,7 +5,7 @@ import pytest
 
 import sgplvm
 
-ROBOTS = {"walkman": 14, "coman": 14, "centauro": 14, "human": 18}
+ROBOTS = {"walkman": 14, "coman": 14, "centauro": 14, "ur5e": 12, "human": 18}
 
 
 @pytest.mark.parametrize("name,dof", ROBOTS.items())
@@ -56,7 +56,7 @@ def test_from_urdf_and_errors(tmp_path):
         sgplvm.Robot.from_urdf(str(tmp_path / "missing.urdf"))
 
 
-@pytest.mark.parametrize("name", ["walkman", "coman", "centauro", "human"])
+@pytest.mark.parametrize("name", list(ROBOTS))
 def test_forward_kinematics_matches_pinocchio(name, tmp_path):
     pin = pytest.importorskip("pinocchio")
     robot = sgplvm.Robot.builtin(name)

@@ -1,17 +1,28 @@
-//! Generates the shipped demonstrations: `cargo run --release -p sgplvm-robots --example generate -- data/demos`
+//! Generates the shipped demonstrations:
+//! `cargo run --release -p sgplvm-robots --example generate -- data/demos` writes
+//! `data/demos/bimanual.mcap` (the paper's three robots), and
+//! `cargo run --release -p sgplvm-robots --example generate -- data/demos walkman,coman,centauro,ur5e fleet.mcap`
+//! writes `data/demos/fleet.mcap` (the same with the 6-joint `ur5e`).
 //!
-//! Writes `<dir>/bimanual.mcap` with the default [`GeneratorConfig`] and prints a summary:
-//! frames, training and test set sizes, and every key-pose hand target IK could not reach.
+//! Arguments: the folder, then optionally the robots (comma-separated) and the file name.
+//! Prints a summary: frames, training and test set sizes, how far each body's key postures are
+//! from its neutral one, every key-pose hand target IK could not reach, and each robot's
+//! fastest joint against its URDF velocity limit.
 
-use sgplvm_robots::generator::{generate_to_dir, GeneratorConfig, KEY_POSES};
+use sgplvm_robots::generator::{generate_to_file, GeneratorConfig, DEMO_FILE_NAME, KEY_POSES};
+use sgplvm_robots::Robot;
 
 fn main() {
-    let dir = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "data/demos".to_string());
-    let config = GeneratorConfig::default();
-    match generate_to_dir(&config, &dir) {
-        Ok((path, generated)) => {
+    let mut args = std::env::args().skip(1);
+    let dir = args.next().unwrap_or_else(|| "data/demos".to_string());
+    let mut config = GeneratorConfig::default();
+    if let Some(robots) = args.next() {
+        config.robots = robots.split(',').map(str::to_string).collect();
+    }
+    let file = args.next().unwrap_or_else(|| DEMO_FILE_NAME.to_string());
+    let path = std::path::Path::new(&dir).join(file);
+    match generate_to_file(&config, &path) {
+        Ok(generated) => {
             let ds = &generated.dataset;
             println!(
                 "{}: {} frames at {} Hz, {} segments, train {} frames (every {}th), test {} frames",
@@ -52,8 +63,12 @@ fn main() {
                         )
                     })
                     .collect();
+                let largest = body.reports.iter().map(|r| r.residual).fold(0.0, f64::max);
                 if unreached.is_empty() {
-                    println!("  {}: all 32 hand targets reached", body.name);
+                    println!(
+                        "  {}: all 32 hand targets reached (largest IK residual {largest:.1e} m)",
+                        body.name
+                    );
                 } else {
                     println!(
                         "  {}: closest reachable used for {}",
@@ -61,6 +76,27 @@ fn main() {
                         unreached.join(", ")
                     );
                 }
+            }
+            for robot in &ds.robots {
+                let limits = Robot::builtin(&robot.name)
+                    .map(|r| r.velocity_limits())
+                    .unwrap_or_default();
+                let q = &robot.positions;
+                // (speed / limit, speed, limit) of the fastest joint relative to its limit.
+                let mut worst = (0.0_f64, 0.0_f64, f64::INFINITY);
+                for j in 0..q.ncols() {
+                    let limit = limits.get(j).copied().unwrap_or(f64::INFINITY);
+                    for k in 1..q.nrows() {
+                        let speed = (q[(k, j)] - q[(k - 1, j)]).abs() * config.rate_hz;
+                        if speed / limit > worst.0 {
+                            worst = (speed / limit, speed, limit);
+                        }
+                    }
+                }
+                println!(
+                    "  {}: fastest joint {:.2} rad/s (limit {:.2} rad/s)",
+                    robot.name, worst.1, worst.2
+                );
             }
         }
         Err(e) => {

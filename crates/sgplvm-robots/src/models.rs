@@ -1,5 +1,7 @@
-//! The four body models shipped with sgplvm (WALK-MAN, COMAN and CENTAURO upper bodies and a
-//! 1.75 m human with 9-joint arms), embedded in the binary, and the arm convention they follow.
+//! The body models shipped with sgplvm (WALK-MAN, COMAN and CENTAURO upper bodies and a 1.75 m
+//! human with 9-joint arms, the paper's bodies; and `ur5e`, two 6-joint Universal Robots UR5e
+//! arms on a torso, a robot of a different kinematic structure), embedded in the binary, and the
+//! arm convention they follow.
 //!
 //! Convention (any URDF may follow it): links named `left_shoulder`, `left_hand`,
 //! `right_shoulder` and `right_hand`. The shoulder links are fixed frames on the torso at the
@@ -16,8 +18,9 @@ const WALKMAN: &str = include_str!("../../../data/urdf/walkman.urdf");
 const COMAN: &str = include_str!("../../../data/urdf/coman.urdf");
 const CENTAURO: &str = include_str!("../../../data/urdf/centauro.urdf");
 const HUMAN: &str = include_str!("../../../data/urdf/human.urdf");
+const UR5E: &str = include_str!("../../../data/urdf/ur5e.urdf");
 
-const NAMES: &[&str] = &["walkman", "coman", "centauro", "human"];
+const NAMES: &[&str] = &["walkman", "coman", "centauro", "human", "ur5e"];
 
 /// Which arm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -55,7 +58,8 @@ pub struct Arm {
 }
 
 impl Robot {
-    /// One of the shipped models by name: `"walkman"`, `"coman"`, `"centauro"` or `"human"`.
+    /// One of the shipped models by name: `"walkman"`, `"coman"`, `"centauro"`, `"human"` or
+    /// `"ur5e"`.
     pub fn builtin(name: &str) -> RobotResult<Robot> {
         let xml = Robot::builtin_urdf(name).ok_or_else(|| RobotError::UnknownBuiltin {
             name: name.to_string(),
@@ -76,6 +80,7 @@ impl Robot {
             "coman" => Some(COMAN),
             "centauro" => Some(CENTAURO),
             "human" => Some(HUMAN),
+            "ur5e" => Some(UR5E),
             _ => None,
         }
     }
@@ -110,8 +115,15 @@ mod tests {
 
     #[test]
     fn every_builtin_loads_with_its_arm_order() {
-        let expect: [(&str, usize, &str, &str, &str); 4] = [
+        let expect: [(&str, usize, &str, &str, &str); 5] = [
             ("walkman", 14, "DWYTorso", "LShSag", "RWrj2"),
+            (
+                "ur5e",
+                12,
+                "torso",
+                "left_shoulder_pan_joint",
+                "right_wrist_3_joint",
+            ),
             ("coman", 14, "DWYTorso", "LShSag", "RWrj2"),
             ("centauro", 14, "torso_2", "j_arm1_1", "j_arm2_7"),
             (
@@ -160,6 +172,15 @@ mod tests {
                 0.21915 + 0.074 + 0.061 + 0.18 + 0.169 + 0.07,
             ),
             ("human", 0.2 * 1.75, (0.168 + 0.138 + 0.108) * 1.75),
+            // Shoulder centres (pan and lift axes meet) d1 along the pan axis, turned 30° back,
+            // from bases 0.13 m out of the torso's middle; at q = 0 the flange is a2 + a3 below
+            // the shoulder, d4 + d6 to one side and d5 to another (data/urdf/README.md).
+            (
+                "ur5e",
+                2.0 * (0.13 + 0.1625 * 3f64.sqrt() / 2.0),
+                ((0.425f64 + 0.3922).powi(2) + (0.1333f64 + 0.0996).powi(2) + 0.0997f64.powi(2))
+                    .sqrt(),
+            ),
         ];
         for (name, width, length) in expect {
             let r = Robot::builtin(name).unwrap();
@@ -199,6 +220,8 @@ mod tests {
             ("walkman", "LWrMot3", [0.0, -0.0305, -0.21]),
             ("centauro", "arm1_7", [0.0, 0.0, -0.07]),
             ("human", "left_hand_segment", [0.0, 0.0, -0.108 * 1.75]),
+            // The UR5e's hand is its tool flange, d6 along the last joint's axis.
+            ("ur5e", "left_wrist_3_link", [0.0, 0.0, 0.0996]),
         ] {
             let r = Robot::builtin(name).unwrap();
             let q: Vec<f64> = (0..r.dof()).map(|i| 0.1 * (i as f64 + 1.0).sin()).collect();
@@ -273,6 +296,15 @@ mod tests {
         let lim = h.joint_limits();
         assert!((lim[5].1 - 150f64.to_radians()).abs() < 1e-9);
         assert!((lim[2].0 + 60f64.to_radians()).abs() < 1e-9);
+        // UR5e user manual: ±360° per joint, the elbow ±180° (UR's ROS description), 180°/s.
+        let u = Robot::builtin("ur5e").unwrap();
+        for (j, &(lo, hi)) in u.joint_limits().iter().enumerate() {
+            let half = if j % 6 == 2 { 180f64 } else { 360f64 }.to_radians();
+            assert!((lo + half).abs() < 1e-9 && (hi - half).abs() < 1e-9, "{j}");
+        }
+        for v in u.velocity_limits() {
+            assert!((v - 180f64.to_radians()).abs() < 1e-9);
+        }
     }
 
     #[test]
@@ -280,9 +312,9 @@ mod tests {
         let e = Robot::builtin("asimo").unwrap_err().to_string();
         assert_eq!(
             e,
-            "unknown built-in robot \"asimo\"; expected one of: walkman, coman, centauro, human"
+            "unknown built-in robot \"asimo\"; expected one of: walkman, coman, centauro, human, ur5e"
         );
-        assert_eq!(Robot::builtin_names().len(), 4);
+        assert_eq!(Robot::builtin_names().len(), 5);
         assert!(Robot::builtin_urdf("coman").unwrap().contains("LShSag"));
         assert!(Robot::builtin_urdf("nao").is_none());
     }

@@ -2,8 +2,18 @@
 //! poses, joint limits, and the train/test split of Section IV-A.
 
 use sgplvm_robots::dataset::load_demonstrations;
-use sgplvm_robots::generator::{generate, generate_to_dir, GeneratorConfig, KEY_POSES, NEUTRAL};
+use sgplvm_robots::generator::{
+    generate, generate_to_dir, generate_to_file, GeneratorConfig, FLEET_FILE_NAME, KEY_POSES,
+    NEUTRAL,
+};
 use sgplvm_robots::{Robot, Side};
+
+/// The configuration of `data/demos/fleet.mcap`: the paper's robots and the 6-joint `ur5e`.
+fn fleet() -> GeneratorConfig {
+    let mut config = GeneratorConfig::default();
+    config.robots.push("ur5e".into());
+    config
+}
 
 fn temp(tag: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("sgplvm-gen-{tag}-{}", std::process::id()));
@@ -148,5 +158,107 @@ fn shipped_demonstrations_are_what_the_generator_makes_today() {
         same,
         "data/demos/bimanual.mcap is stale: regenerate it with \
          `cargo run --release -p sgplvm-robots --example generate -- data/demos`"
+    );
+}
+
+#[test]
+fn a_fourth_robot_leaves_the_human_and_the_paper_robots_bit_identical() {
+    let three = generate(&GeneratorConfig::default())
+        .expect("three robots")
+        .dataset;
+    let four = generate(&fleet()).expect("four robots").dataset;
+    assert_eq!(four.robot_names(), ["walkman", "coman", "centauro", "ur5e"]);
+    let bits = |m: &nalgebra::DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(three.times_ns, four.times_ns);
+    assert_eq!(three.human.joint_names, four.human.joint_names);
+    assert_eq!(bits(&three.human.positions), bits(&four.human.positions));
+    for (a, b) in three.robots.iter().zip(&four.robots) {
+        assert_eq!(
+            (&a.name, &a.topic, &a.joint_names),
+            (&b.name, &b.topic, &b.joint_names)
+        );
+        assert_eq!(bits(&a.positions), bits(&b.positions), "{}", a.name);
+    }
+    assert_eq!(three.pose_names, four.pose_names);
+    assert_eq!(three.segments, four.segments);
+    assert_eq!((&three.train, &three.test), (&four.train, &four.test));
+    let ur = four.robot("ur5e").expect("ur5e");
+    assert_eq!(ur.topic, "/ur5e/joint_command");
+    assert_eq!(ur.positions.shape(), (four.len(), 12));
+}
+
+#[test]
+fn ur5e_reaches_every_key_pose_within_its_limits() {
+    let generated = generate(&fleet()).expect("generate");
+    let body = generated
+        .bodies
+        .iter()
+        .find(|b| b.name == "ur5e")
+        .expect("ur5e solved");
+    let robot = Robot::builtin("ur5e").expect("model");
+    assert_eq!(body.reports.len(), 2 * KEY_POSES.len());
+    let unreached: Vec<_> = body.unreached().collect();
+    assert!(unreached.is_empty(), "{unreached:?}");
+    // The hands are at the targets scaled by the UR5e's own arm length (FK of the postures).
+    let arms = robot.arms().expect("arms");
+    let zero = vec![0.0; 12];
+    let mut worst: f64 = 0.0;
+    for (p, pose) in KEY_POSES.iter().enumerate() {
+        for arm in &arms {
+            let shoulder = robot
+                .forward_kinematics(&zero, &arm.shoulder_link)
+                .expect("shoulder")
+                .translation
+                .vector;
+            let hand = robot
+                .forward_kinematics(&body.postures[p], &arm.hand_link)
+                .expect("hand")
+                .translation
+                .vector;
+            let rel = if arm.side == Side::Left {
+                pose.left
+            } else {
+                pose.right
+            };
+            let target = shoulder + arm.length * nalgebra::Vector3::from(rel);
+            worst = worst.max((hand - target).norm());
+        }
+    }
+    assert!(worst < 1e-6, "{worst} m off");
+    // Every command within the joint limits and the UR5e's 180°/s.
+    let ds = &generated.dataset;
+    let q = &ds.robot("ur5e").expect("ur5e data").positions;
+    let velocity = robot.velocity_limits();
+    for (j, &(lo, hi)) in robot.joint_limits().iter().enumerate() {
+        let col = q.column(j);
+        assert!(col.min() >= lo && col.max() <= hi, "joint {j}");
+        let fastest = (1..q.nrows())
+            .map(|k| (q[(k, j)] - q[(k - 1, j)]).abs() * GeneratorConfig::default().rate_hz)
+            .fold(0.0, f64::max);
+        assert!(fastest < velocity[j], "joint {j}: {fastest} rad/s");
+    }
+    // No wrapped-around joint: key postures within 3.5 rad of the neutral one.
+    for q in &body.postures {
+        for (a, b) in q.iter().zip(&body.postures[NEUTRAL]) {
+            assert!((a - b).abs() < 3.5, "{a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn shipped_fleet_demonstrations_are_what_the_generator_makes_today() {
+    let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/demos")
+        .join(FLEET_FILE_NAME);
+    let dir = temp("fleet");
+    let fresh = dir.join(FLEET_FILE_NAME);
+    generate_to_file(&fleet(), &fresh).expect("generate");
+    let same = std::fs::read(&shipped).expect("data/demos/fleet.mcap is shipped")
+        == std::fs::read(&fresh).expect("fresh file");
+    let _ = std::fs::remove_dir_all(dir);
+    assert!(
+        same,
+        "data/demos/fleet.mcap is stale: regenerate it with `cargo run --release -p \
+         sgplvm-robots --example generate -- data/demos walkman,coman,centauro,ur5e fleet.mcap`"
     );
 }

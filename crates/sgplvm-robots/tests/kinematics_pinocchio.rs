@@ -21,8 +21,8 @@ fn forward_kinematics_matches_pinocchio() {
     let robots = fixture["robots"].as_array().expect("robots array");
     assert_eq!(
         robots.len(),
-        6,
-        "four shipped models and two third-party arms"
+        7,
+        "five shipped models and two third-party arms"
     );
     let root = manifest().join("../..");
     let mut compared = 0;

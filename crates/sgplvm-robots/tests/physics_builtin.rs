@@ -1,4 +1,4 @@
-//! Physics replay of the four shipped body models: a gentle motion around the neutral pose
+//! Physics replay of the five shipped body models: a gentle motion around the neutral pose
 //! stays inside the limits, tracks within a few milliradians and touches nothing.
 
 use sgplvm_robots::physics::{replay, replay_urdf, ReplayOptions, Trajectory};
@@ -146,4 +146,36 @@ fn the_shipped_demonstrations_replay_within_limits() {
         }
         println!("{}: collisions {:?}", body.name, report.collisions);
     }
+}
+
+#[test]
+fn the_shipped_fleet_replays_on_the_six_joint_ur5e() {
+    // Seconds 0-40 of data/demos/fleet.mcap (neutral to forward, forward_high, lateral and
+    // overhead, three times each): the ur5e follows its IK commands closely, inside its
+    // joint limits and its 180°/s, touching nothing.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/demos/fleet.mcap");
+    let data = sgplvm_robots::dataset::load_demonstrations(path).unwrap();
+    let t0 = data.times_ns[0];
+    let seconds = |i: usize| (data.times_ns[i] - t0) as f64 * 1e-9;
+    let frames: Vec<usize> = (0..data.len()).filter(|&i| seconds(i) <= 40.0).collect();
+    let times: Vec<f64> = frames.iter().map(|&i| seconds(i)).collect();
+    let body = data.robot("ur5e").expect("the fleet has the ur5e");
+    let trajectory = body.to_trajectory(&frames, times).unwrap();
+    let xml = Robot::builtin_urdf("ur5e").unwrap();
+    let report = replay(xml, "ur5e", &trajectory, &ReplayOptions::default()).unwrap();
+    assert_eq!(report.joints.len(), 12);
+    for joint in &report.joints {
+        assert!(joint.rms_error < 0.01, "{joint:?}");
+    }
+    assert!(
+        report.limit_violations.is_empty(),
+        "{:?}",
+        report.limit_violations
+    );
+    assert!(
+        report.velocity_violations.is_empty(),
+        "{:?}",
+        report.velocity_violations
+    );
+    assert!(report.collisions.is_empty(), "{:?}", report.collisions);
 }

@@ -15,7 +15,11 @@
 //! 4. Training set: the trajectories that start from the neutral pose, subsampled; test set: the
 //!    trajectories between two non-neutral poses ([`GeneratorConfig::test_pairs`]).
 //!
-//! Everything is seeded: the same configuration gives the same dataset, bit for bit.
+//! Everything is seeded: the same configuration gives the same dataset, bit for bit. Which
+//! robots are recorded ([`GeneratorConfig::robots`]) changes nothing else: the clock of every
+//! motion follows the human and the pace robots ([`GeneratorConfig::pace_robots`], the paper's
+//! three), so a file recorded with a fourth robot holds the human's data and the other robots'
+//! commands of the three-robot file, bit for bit.
 
 //!
 //! The module is laid out along these steps: `poses.rs` holds the key poses and their IK
@@ -35,7 +39,7 @@ mod synthesize;
 pub use poses::{
     solve_key_poses, solve_key_poses_for, BodyPoses, KeyPose, PoseReport, KEY_POSES, NEUTRAL,
 };
-pub use synthesize::{quintic, quintic_derivatives, split, synthesize};
+pub use synthesize::{quintic, quintic_derivatives, split, synthesize, synthesize_paced};
 
 #[cfg(test)]
 use crate::dataset::Segment;
@@ -73,6 +77,10 @@ impl Default for HumanMimic {
     }
 }
 
+/// The robots of the paper's experiments, in the column order of the shipped data: the default
+/// [`GeneratorConfig::robots`] and [`GeneratorConfig::pace_robots`].
+pub const PAPER_ROBOTS: [&str; 3] = ["walkman", "coman", "centauro"];
+
 /// Everything that shapes a generated dataset.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GeneratorConfig {
@@ -80,8 +88,16 @@ pub struct GeneratorConfig {
     pub seed: u64,
     /// Sampling rate of the recording, Hz.
     pub rate_hz: f64,
-    /// Built-in robot models to record, in column order of the dataset.
+    /// Built-in robot models to record, in column order of the dataset (at least one, each
+    /// once, not the human).
     pub robots: Vec<String>,
+    /// Built-in robot models whose key postures set, with the human's, the duration of every
+    /// motion (the largest joint displacement at [`GeneratorConfig::peak_speed`]); they need not
+    /// be recorded. Default: the paper's three ([`PAPER_ROBOTS`]), so that recording another
+    /// robot leaves the clock, the human's data and the other robots' commands unchanged. A
+    /// recorded robot outside this list moves on their clock: its joints may move faster than
+    /// `peak_speed`.
+    pub pace_robots: Vec<String>,
     /// Built-in model of the demonstrator.
     pub human: String,
     /// How many times the human goes back and forth between the two poses of a pair.
@@ -109,7 +125,8 @@ impl Default for GeneratorConfig {
         Self {
             seed: 0,
             rate_hz: 40.0,
-            robots: vec!["walkman".into(), "coman".into(), "centauro".into()],
+            robots: PAPER_ROBOTS.iter().map(|r| r.to_string()).collect(),
+            pace_robots: PAPER_ROBOTS.iter().map(|r| r.to_string()).collect(),
             human: "human".into(),
             repetitions: 3,
             train_subsample: 12,
@@ -142,6 +159,14 @@ pub enum GenerateError {
         /// Body name.
         body: String,
     },
+    /// A robot name that is not one of the built-in robot models.
+    #[error("unknown robot `{name}`; the built-in robots are: {}", .known.join(", "))]
+    UnknownRobot {
+        /// The name asked for.
+        name: String,
+        /// The built-in robot models (every built-in body but the human).
+        known: Vec<String>,
+    },
     /// The configuration is unusable.
     #[error("invalid generator configuration: {0}")]
     Config(String),
@@ -159,22 +184,68 @@ pub struct Generated {
     pub bodies: Vec<BodyPoses>,
 }
 
-/// Solves the key poses of every body and synthesizes the demonstrations.
+/// Solves the key poses of every body (the human, the recorded robots and the pace robots) and
+/// synthesizes the demonstrations.
 pub fn generate(config: &GeneratorConfig) -> Result<Generated, GenerateError> {
+    check_robot_names(config)?;
     let human = solve_key_poses(&config.human)?;
-    let robots = config
-        .robots
-        .iter()
-        .map(|r| solve_key_poses(r))
-        .collect::<Result<Vec<_>, _>>()?;
-    let dataset = synthesize(config, &human, &robots)?;
+    let mut solved: Vec<BodyPoses> = Vec::new();
+    for name in config.robots.iter().chain(&config.pace_robots) {
+        if !solved.iter().any(|b| &b.name == name) {
+            solved.push(solve_key_poses(name)?);
+        }
+    }
+    let pick = |names: &[String]| -> Vec<BodyPoses> {
+        names
+            .iter()
+            .filter_map(|n| solved.iter().find(|b| &b.name == n).cloned())
+            .collect()
+    };
+    let robots = pick(&config.robots);
+    let pace = pick(&config.pace_robots);
+    let dataset = synthesize_paced(config, &human, &robots, &pace)?;
     let mut bodies = vec![human];
     bodies.extend(robots);
     Ok(Generated { dataset, bodies })
 }
 
-/// Name of the file [`generate_to_dir`] writes.
+/// Every recorded and pace robot must be a built-in robot model (not the human), and the
+/// recorded ones must be at least one and each listed once.
+fn check_robot_names(config: &GeneratorConfig) -> Result<(), GenerateError> {
+    let known: Vec<String> = crate::Robot::builtin_names()
+        .iter()
+        .filter(|&&n| n != config.human)
+        .map(|n| n.to_string())
+        .collect();
+    for name in config.robots.iter().chain(&config.pace_robots) {
+        if !known.contains(name) {
+            return Err(GenerateError::UnknownRobot {
+                name: name.clone(),
+                known,
+            });
+        }
+    }
+    if config.robots.is_empty() {
+        return Err(GenerateError::Config(
+            "no robot to record; name at least one".into(),
+        ));
+    }
+    for (i, name) in config.robots.iter().enumerate() {
+        if config.robots[..i].contains(name) {
+            return Err(GenerateError::Config(format!(
+                "robot `{name}` is listed twice; each robot is recorded once"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Name of the file [`generate_to_dir`] writes: the paper's demonstrations.
 pub const DEMO_FILE_NAME: &str = "bimanual.mcap";
+
+/// Name of the shipped file with a fourth robot of a different kinematic structure
+/// (`data/demos/fleet.mcap`: the paper's three robots and `ur5e`).
+pub const FLEET_FILE_NAME: &str = "fleet.mcap";
 
 /// Generates with `config` and writes `dir/bimanual.mcap` (zstd, ROS 2 JointState topics
 /// `/human/joint_states` and `/<robot>/joint_command`, labels and split as metadata).
@@ -182,16 +253,28 @@ pub fn generate_to_dir(
     config: &GeneratorConfig,
     dir: impl AsRef<Path>,
 ) -> Result<(PathBuf, Generated), GenerateError> {
-    let dir = dir.as_ref();
-    std::fs::create_dir_all(dir).map_err(|source| JointStateError::Io {
-        path: dir.to_path_buf(),
-        action: "create the directory",
-        source,
-    })?;
-    let generated = generate(config)?;
-    let path = dir.join(DEMO_FILE_NAME);
-    write_demonstrations(&path, &generated.dataset)?;
+    let path = dir.as_ref().join(DEMO_FILE_NAME);
+    let generated = generate_to_file(config, &path)?;
     Ok((path, generated))
+}
+
+/// Generates with `config` and writes the demonstrations to `path` (as [`generate_to_dir`]
+/// does), creating its folder if needed.
+pub fn generate_to_file(
+    config: &GeneratorConfig,
+    path: impl AsRef<Path>,
+) -> Result<Generated, GenerateError> {
+    let path = path.as_ref();
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| JointStateError::Io {
+            path: dir.to_path_buf(),
+            action: "create the directory",
+            source,
+        })?;
+    }
+    let generated = generate(config)?;
+    write_demonstrations(path, &generated.dataset)?;
+    Ok(generated)
 }
 
 #[cfg(test)]

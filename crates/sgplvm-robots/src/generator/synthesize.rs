@@ -78,6 +78,7 @@ fn check_config(
     config: &GeneratorConfig,
     human: &BodyPoses,
     robots: &[BodyPoses],
+    pace: &[BodyPoses],
 ) -> Result<(), GenerateError> {
     let bad = |m: String| Err(GenerateError::Config(m));
     if !(config.rate_hz.is_finite() && config.rate_hz > 0.0) {
@@ -119,7 +120,7 @@ fn check_config(
             ));
         }
     }
-    for b in std::iter::once(human).chain(robots) {
+    for b in std::iter::once(human).chain(robots).chain(pace) {
         if b.postures.len() != KEY_POSES.len()
             || b.postures.iter().any(|q| q.len() != b.joint_names.len())
             || b.limits.len() != b.joint_names.len()
@@ -130,13 +131,26 @@ fn check_config(
     Ok(())
 }
 
-/// Builds the demonstrations from solved key postures (deterministic given `config.seed`).
+/// Builds the demonstrations from solved key postures (deterministic given `config.seed`); the
+/// duration of each motion follows the largest joint displacement of the human and `robots`.
 pub fn synthesize(
     config: &GeneratorConfig,
     human: &BodyPoses,
     robots: &[BodyPoses],
 ) -> Result<Dataset, GenerateError> {
-    check_config(config, human, robots)?;
+    synthesize_paced(config, human, robots, robots)
+}
+
+/// [`synthesize`] with the duration of each motion set by the human and the `pace` bodies
+/// instead of the recorded `robots`: the human's data and the recorded robots' commands then do
+/// not depend on which other robots are recorded.
+pub fn synthesize_paced(
+    config: &GeneratorConfig,
+    human: &BodyPoses,
+    robots: &[BodyPoses],
+    pace: &[BodyPoses],
+) -> Result<Dataset, GenerateError> {
+    check_config(config, human, robots, pace)?;
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
     let dt = 1.0 / config.rate_hz;
     let moves = plan(config);
@@ -149,7 +163,7 @@ pub fn synthesize(
     let mut human_now = human.postures[moves.first().map_or(NEUTRAL, |mv| mv.from)].clone();
     let mut frames = 0usize;
     for mv in &moves {
-        let (duration, n) = move_timing(config, human, robots, mv);
+        let (duration, n) = move_timing(config, human, pace, mv);
         // The human's version of this motion.
         let motion = HumanMotion::draw(
             &config.mimic,
@@ -211,17 +225,17 @@ fn clamp(q: &mut [f64], limits: &[(f64, f64)]) {
     }
 }
 
-/// Duration of the robots' motion `mv` (from the largest joint displacement over all bodies
-/// at the configured peak speed, within the configured range) and its frame count, hold
-/// included.
+/// Duration of the robots' motion `mv` (from the largest joint displacement over the human
+/// and the `pace` bodies at the configured peak speed, within the configured range) and its
+/// frame count, hold included.
 fn move_timing(
     config: &GeneratorConfig,
     human: &BodyPoses,
-    robots: &[BodyPoses],
+    pace: &[BodyPoses],
     mv: &Move,
 ) -> (f64, usize) {
     let mut max_disp: f64 = 0.0;
-    for b in std::iter::once(human).chain(robots) {
+    for b in std::iter::once(human).chain(pace) {
         for (x, y) in b.postures[mv.from].iter().zip(&b.postures[mv.to]) {
             max_disp = max_disp.max((x - y).abs());
         }

@@ -280,3 +280,79 @@ fn bad_configurations_are_rejected() {
     broken.postures.pop();
     assert!(synthesize(&base, &broken, &r).is_err());
 }
+
+#[test]
+fn recording_another_robot_changes_nothing_else() {
+    let (h, r) = bodies();
+    // A robot whose key postures are far apart: were it pacing, the motions would be slower.
+    let mut far = fake_body("ur", 12, 4);
+    for (p, q) in far.postures.iter_mut().enumerate() {
+        q.iter_mut()
+            .for_each(|v| *v = if p % 2 == 0 { -1.5 } else { 1.2 });
+    }
+    let cfg = GeneratorConfig::default();
+    let three = synthesize_paced(&cfg, &h, &r, &r).expect("without");
+    let mut with = r.clone();
+    with.push(far.clone());
+    let four = synthesize_paced(&cfg, &h, &with, &r).expect("with");
+    assert_eq!(four.robots.len(), 3);
+    assert_eq!(four.robots[2].name, "ur");
+    let bits = |m: &nalgebra::DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(three.times_ns, four.times_ns);
+    assert_eq!(bits(&three.human.positions), bits(&four.human.positions));
+    for (a, b) in three.robots.iter().zip(&four.robots) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(bits(&a.positions), bits(&b.positions));
+    }
+    assert_eq!(three.segments, four.segments);
+    assert_eq!((&three.train, &three.test), (&four.train, &four.test));
+    // The new robot still starts and ends every motion exactly at its key postures.
+    for s in &four.segments {
+        let q = &four.robots[2].positions;
+        let (from, to) = (s.from_pose.expect("labelled"), s.to_pose.expect("labelled"));
+        for j in 0..12 {
+            assert_eq!(q[(s.start, j)], far.postures[from][j]);
+            assert!((q[(s.end - 1, j)] - far.postures[to][j]).abs() < 1e-12);
+        }
+    }
+    // Pacing by every recorded robot (`synthesize`) would have slowed the motions down.
+    let paced_by_all = synthesize(&cfg, &h, &with).expect("paced by all");
+    assert!(paced_by_all.len() > four.len());
+}
+
+#[test]
+fn robot_lists_name_built_in_robots_once() {
+    let with = |robots: &[&str], pace: &[&str]| GeneratorConfig {
+        robots: robots.iter().map(|r| r.to_string()).collect(),
+        pace_robots: pace.iter().map(|r| r.to_string()).collect(),
+        ..GeneratorConfig::default()
+    };
+    let paper = &PAPER_ROBOTS[..];
+    for (robots, pace, unknown) in [
+        (&["walkman", "asimo"][..], paper, "asimo"),
+        (&["human"][..], paper, "human"),
+        (&["coman"][..], &["nao"][..], "nao"),
+    ] {
+        match generate(&with(robots, pace)) {
+            Err(GenerateError::UnknownRobot { name, known }) => {
+                assert_eq!(name, unknown);
+                assert_eq!(known, ["walkman", "coman", "centauro", "ur5e"]);
+            }
+            other => panic!("{robots:?}: {other:?}"),
+        }
+    }
+    let e = generate(&with(&["walkman", "asimo"], paper)).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "unknown robot `asimo`; the built-in robots are: walkman, coman, centauro, ur5e"
+    );
+    for robots in [&[][..], &["coman", "ur5e", "coman"][..]] {
+        assert!(
+            matches!(
+                generate(&with(robots, paper)),
+                Err(GenerateError::Config(_))
+            ),
+            "{robots:?}"
+        );
+    }
+}

@@ -1,5 +1,5 @@
 use super::*;
-use nalgebra::{Matrix3, Rotation3};
+use nalgebra::{Matrix3, Matrix4, Rotation3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::FRAC_PI_2;
@@ -313,4 +313,149 @@ fn public_types_are_send_and_sync() {
     check::<Robot>();
     check::<Chain>();
     check::<IkSolution>();
+}
+
+/// The UR5e's standard DH table as Universal Robots publish it: (a, d, α) per joint, θ = q.
+const UR5E_DH: [(f64, f64, f64); 6] = [
+    (0.0, 0.1625, FRAC_PI_2),
+    (-0.425, 0.0, 0.0),
+    (-0.3922, 0.0, 0.0),
+    (0.0, 0.1333, FRAC_PI_2),
+    (0.0, 0.0997, -FRAC_PI_2),
+    (0.0, 0.0996, 0.0),
+];
+
+/// The mounting of a UR5e arm on the ur5e torso (`sign` +1 left, −1 right): base x0 up, z0
+/// (the pan axis) horizontal, out of the torso side and turned 30° backward, base origin
+/// 0.13 m out and d1 sin 30° forward of the torso's middle, 0.2 m up.
+fn ur5e_mount(sign: f64) -> Matrix4<f64> {
+    let (c, s) = (3f64.sqrt() / 2.0, -0.5);
+    // Columns x0 = (0, 0, 1), y0 = z0 × x0 = (sign c, −s, 0), z0 = (s, sign c, 0).
+    #[rustfmt::skip]
+    let m = Matrix4::new(
+        0.0, sign * c, s, 0.08125,
+        0.0, -s, sign * c, sign * 0.13,
+        1.0, 0.0, 0.0, 0.2,
+        0.0, 0.0, 0.0, 1.0,
+    );
+    m
+}
+
+#[test]
+fn ur5e_forward_kinematics_matches_poses_worked_out_from_the_dh_table() {
+    // In the arm's base frame (DH frame 0; our `*_shoulder_link` frame at q1 = 0): frame
+    // i = frame i−1 · Rz(q_i) Tz(d_i) Tx(a_i) Rx(α_i). At q = 0 the joint axes are z0 = +z,
+    // z1 = z2 = z3 = −y, z4 = −z, z5 = −y, and the origins step by d1 z0 = (0, 0, .1625),
+    // a2 x1 = (−.425, 0, 0), a3 x2 = (−.3922, 0, 0), d4 z3 = (0, −.1333, 0), d5 z4 =
+    // (0, 0, −.0997), d6 z5 = (0, −.0996, 0) to the flange; the tool axes are x6 = +x, z6 = −y.
+    let r = Robot::builtin("ur5e").unwrap();
+    let h = FRAC_PI_2;
+    // (q, flange position, x6, z6), worked out by hand:
+    type Case = ([f64; 6], [f64; 3], [f64; 3], [f64; 3]);
+    let cases: [Case; 3] = [
+        // q = 0: (a2 + a3, −d4 − d6, d1 − d5).
+        (
+            [0.0; 6],
+            [-0.8172, -0.2329, 0.0628],
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ),
+        // Shoulder lift −π/2 about −y, i.e. Ry(π/2): (x, y, z) → (z, y, −x), turns the arm
+        // below the shoulder, (−.8172, −.2329, −.0997), into (−.0997, −.2329, .8172): the arm
+        // points up; x6 → (0, 0, −1), z6 unchanged.
+        (
+            [0.0, -h, 0.0, 0.0, 0.0, 0.0],
+            [-0.0997, -0.2329, 0.9797],
+            [0.0, 0.0, -1.0],
+            [0.0, -1.0, 0.0],
+        ),
+        // q1 = q3 = q5 = π/2, inside out: wrist 2 (about −z: (x, y, z) → (y, −x, z)) turns
+        // d5 z4 + d6 z5 = (0, −.0996, −.0997) into (−.0996, 0, −.0997); with d4 z3 and a3 x2
+        // the elbow (about −y: (x, y, z) → (−z, y, x)) turns (−.4918, −.1333, −.0997) into
+        // (.0997, −.1333, −.4918); with a2 x1 and d1 z0 the pan (about +z: (x, y, z) →
+        // (−y, x, z)) turns (−.3253, −.1333, −.3293) into (.1333, −.3253, −.3293).
+        // Tool axes: x6 = +x, z6 = −z.
+        (
+            [h, 0.0, h, 0.0, h, 0.0],
+            [0.1333, -0.3253, -0.3293],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, -1.0],
+        ),
+    ];
+    let zero = vec![0.0; 12];
+    for (side, offset) in [("left", 0), ("right", 6)] {
+        // Both arms are the same UR5e: the same poses in their own base frames.
+        let base = r
+            .forward_kinematics(&zero, &format!("{side}_shoulder_link"))
+            .unwrap();
+        for (q_arm, p, x6, z6) in cases {
+            let mut q = vec![0.0; 12];
+            q[offset..offset + 6].copy_from_slice(&q_arm);
+            let hand = r.forward_kinematics(&q, &format!("{side}_hand")).unwrap();
+            let rel = base.inverse() * hand;
+            for (got, want) in [
+                (rel.translation.vector, p),
+                (rel.rotation * Vector3::x(), x6),
+                (rel.rotation * Vector3::z(), z6),
+            ] {
+                assert!(
+                    (got - Vector3::from(want)).norm() < 1e-9,
+                    "{side} {q_arm:?}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        // The mounting: base origin and axes x0 = +z, z0 = (−1/2, ±√3/2, 0) in the torso.
+        let sign = if side == "left" { 1.0 } else { -1.0 };
+        let mount = ur5e_mount(sign);
+        let got = base.to_homogeneous();
+        assert!((got - mount).norm() < 1e-12, "{side}: {got} vs {mount}");
+        // The shoulder centre is where the pan and lift axes cross, d1 along z0: x = 0.
+        let centre = r
+            .forward_kinematics(&zero, &format!("{side}_shoulder"))
+            .unwrap()
+            .translation
+            .vector;
+        let want = Vector3::new(0.0, sign * (0.13 + 0.1625 * 3f64.sqrt() / 2.0), 0.2);
+        assert!((centre - want).norm() < 1e-12, "{side}: {centre}");
+    }
+}
+
+#[test]
+fn ur5e_forward_kinematics_equals_the_dh_product_everywhere() {
+    // The textbook product T = M · Π Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i), written out here (not
+    // with the chain code), at random configurations within the limits of both arms; the hand
+    // frame is DH frame 6, the tool flange.
+    fn dh(mount: &Matrix4<f64>, q: &[f64]) -> Matrix4<f64> {
+        let mut t = *mount;
+        for (&(a, d, alpha), &th) in UR5E_DH.iter().zip(q) {
+            let (st, ct, sa, ca) = (th.sin(), th.cos(), alpha.sin(), alpha.cos());
+            #[rustfmt::skip]
+            let step = Matrix4::new(
+                ct, -st * ca, st * sa, a * ct,
+                st, ct * ca, -ct * sa, a * st,
+                0.0, sa, ca, d,
+                0.0, 0.0, 0.0, 1.0,
+            );
+            t *= step;
+        }
+        t
+    }
+    let r = Robot::builtin("ur5e").unwrap();
+    let limits = r.joint_limits();
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    for _ in 0..50 {
+        let q: Vec<f64> = limits
+            .iter()
+            .map(|&(lo, hi)| rng.random_range(lo..=hi))
+            .collect();
+        for (side, sign, arm_q) in [("left", 1.0, &q[..6]), ("right", -1.0, &q[6..])] {
+            let want = dh(&ur5e_mount(sign), arm_q);
+            let got = r
+                .forward_kinematics(&q, &format!("{side}_hand"))
+                .unwrap()
+                .to_homogeneous();
+            let err = (got - want).abs().max();
+            assert!(err < 1e-12, "{side} {arm_q:?}: {err}");
+        }
+    }
 }
