@@ -50,6 +50,23 @@ impl Space {
     }
 }
 
+impl Space {
+    /// Predictions `p` of this space (centred and scaled, one column per data column) back in
+    /// the user's units.
+    pub(crate) fn unscale(&self, p: &mut Mat<f64>) {
+        unscale(p, &self.offset, &self.scale);
+    }
+}
+
+/// `p · scale + offset`, column by column.
+pub(crate) fn unscale(p: &mut Mat<f64>, offset: &[f64], scale: &[f64]) {
+    for j in 0..p.ncols() {
+        for i in 0..p.nrows() {
+            p[(i, j)] = p[(i, j)] * scale[j] + offset[j];
+        }
+    }
+}
+
 /// Latent representation.
 #[derive(Clone, Debug)]
 pub(crate) enum Latent {

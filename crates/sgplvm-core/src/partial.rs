@@ -13,11 +13,11 @@ use faer::{Mat, MatRef};
 
 use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
-use crate::model::SharedGplvm;
+use crate::model::{unscale, SharedGplvm};
 use crate::predict::check_prediction_matrix;
 use crate::regression::{fit_kernel, GpRegression};
 use crate::train::{Control, Limits, TrainOptions};
-use crate::validation::{mse, take_rows, Selection, Tracker, Validation, SELECTION_SHARE};
+use crate::validation::{select_kernel_budget, take_rows, Selection, Validation};
 
 /// A robot's latent → joints mapping learned from some of a model's training frames (see the
 /// module docs); predicts through the model it was transferred from.
@@ -69,49 +69,9 @@ impl SharedGplvm {
         }
         let space = self.transfer_space_on(name, data, rows.len(), seed)?;
         let x = take_rows(self.x.as_ref(), rows);
-        let selection = match validation {
-            None => None,
-            Some(v) => {
-                let (fit, held) = v.split(rows.len(), self.q())?;
-                let x_fit = take_rows(x.as_ref(), &fit);
-                let y_fit = take_rows(space.data.as_ref(), &fit);
-                let x_held = take_rows(x.as_ref(), &held);
-                let desired = take_rows(data, &held);
-                let score = |kernel: &KernelParams| {
-                    let model = GpRegression::with_kernel(
-                        x_fit.as_ref(),
-                        vec![0.0; y_fit.ncols()],
-                        y_fit.as_ref(),
-                        kernel.clone(),
-                        name,
-                    );
-                    match model.and_then(|m| Ok((m.objective(), m.predict(x_held.as_ref())?))) {
-                        Ok((objective, mut p)) => {
-                            unscale(&mut p, &space.offset, &space.scale);
-                            (objective, mse(p.as_ref(), desired.as_ref()))
-                        }
-                        Err(_) => (f64::NAN, f64::NAN),
-                    }
-                };
-                let mut tracker = Tracker::new(v.patience);
-                let start = std::time::Instant::now();
-                let (objective0, error0) = score(&space.kernel);
-                if tracker.record(0, objective0, error0) == Control::Continue
-                    && options.max_iters > 0
-                {
-                    fit_kernel(
-                        x_fit.as_ref(),
-                        y_fit.as_ref(),
-                        space.kernel.clone(),
-                        options,
-                        &limits.share(SELECTION_SHARE),
-                        name,
-                        |rec, kernel| tracker.record(rec.iteration, rec.objective, score(kernel).1),
-                    )?;
-                }
-                Some(tracker.finish(fit.len(), held.len(), start))
-            }
-        };
+        let selection = validation
+            .map(|v| select_kernel_budget(x.as_ref(), &space, data, v, options, &limits))
+            .transpose()?;
         let budget = match &selection {
             Some(s) => options.clone().with_max_iters(s.best_iteration),
             None => options.clone(),
@@ -140,15 +100,6 @@ impl SharedGplvm {
             scale: space.scale,
             selection,
         })
-    }
-}
-
-/// `p · scale + offset`, column by column: back to the user's units.
-fn unscale(p: &mut Mat<f64>, offset: &[f64], scale: &[f64]) {
-    for j in 0..p.ncols() {
-        for i in 0..p.nrows() {
-            p[(i, j)] = p[(i, j)] * scale[j] + offset[j];
-        }
     }
 }
 

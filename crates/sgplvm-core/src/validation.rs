@@ -26,14 +26,14 @@ use serde::{Deserialize, Serialize};
 use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
-use crate::model::{Callback, SharedGplvm};
+use crate::model::{Callback, SharedGplvm, Space};
 use crate::objective::Mode;
 use crate::regression::{fit_kernel, GpRegression};
 use crate::train::{Control, IterationRecord, Limits, TrainOptions};
 
 /// The share of the time left that a selection run may use under
 /// [`TrainOptions::max_seconds`]; the final training gets the rest.
-pub(crate) const SELECTION_SHARE: f64 = 0.5;
+const SELECTION_SHARE: f64 = 0.5;
 
 /// Frames held out of training to choose the iteration budget (see the module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -135,14 +135,14 @@ pub struct Selection {
 }
 
 /// Tracks the validation error of a selection run and when to stop it.
-pub(crate) struct Tracker {
+struct Tracker {
     curve: Vec<ValidationRecord>,
     best: Option<(usize, f64)>,
     patience: usize,
 }
 
 impl Tracker {
-    pub(crate) fn new(patience: usize) -> Self {
+    fn new(patience: usize) -> Self {
         Self {
             curve: Vec::new(),
             best: None,
@@ -152,12 +152,7 @@ impl Tracker {
 
     /// Records iteration `iteration`'s validation error (skipped when not finite) and says
     /// whether the run should go on.
-    pub(crate) fn record(
-        &mut self,
-        iteration: usize,
-        objective: f64,
-        validation_mse: f64,
-    ) -> Control {
+    fn record(&mut self, iteration: usize, objective: f64, validation_mse: f64) -> Control {
         if validation_mse.is_finite() && objective.is_finite() {
             self.curve.push(ValidationRecord {
                 iteration,
@@ -174,12 +169,7 @@ impl Tracker {
         }
     }
 
-    pub(crate) fn finish(
-        self,
-        fit_frames: usize,
-        validation_frames: usize,
-        start: Instant,
-    ) -> Selection {
+    fn finish(self, fit_frames: usize, validation_frames: usize, start: Instant) -> Selection {
         Selection {
             fit_frames,
             validation_frames,
@@ -197,7 +187,7 @@ pub(crate) fn take_rows(m: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
 }
 
 /// Mean squared difference of two matrices of the same shape.
-pub(crate) fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
+fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
     let mut sum = 0.0;
     for j in 0..a.ncols() {
         for i in 0..a.nrows() {
@@ -205,6 +195,54 @@ pub(crate) fn mse(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
         }
     }
     sum / (a.nrows() * a.ncols()).max(1) as f64
+}
+
+/// The selection run of a transfer: the kernel of the new robot's `space` (preprocessed `data`,
+/// its rows those of latent points `x`) trained from its starting point on the rows not held
+/// out by `validation`, its GP posterior mean at the held-out rows' latent points scored after
+/// every iteration (within half of `limits`).
+pub(crate) fn select_kernel_budget(
+    x: MatRef<'_, f64>,
+    space: &Space,
+    data: MatRef<'_, f64>,
+    validation: &Validation,
+    options: &TrainOptions,
+    limits: &Limits,
+) -> Result<Selection> {
+    let (fit, held) = validation.split(x.nrows(), x.ncols())?;
+    let start = Instant::now();
+    let x_fit = take_rows(x, &fit);
+    let x_held = take_rows(x, &held);
+    let y_fit = take_rows(space.data.as_ref(), &fit);
+    let desired = take_rows(data, &held);
+    let name = space.name.as_str();
+    // (objective on the fit rows, validation error) at `kernel`.
+    let score = |kernel: &KernelParams| -> (f64, f64) {
+        let zero = vec![0.0; y_fit.ncols()];
+        let gp =
+            GpRegression::with_kernel(x_fit.as_ref(), zero, y_fit.as_ref(), kernel.clone(), name);
+        match gp.and_then(|gp| Ok((gp.objective(), gp.predict(x_held.as_ref())?))) {
+            Ok((objective, mut p)) => {
+                space.unscale(&mut p);
+                (objective, mse(p.as_ref(), desired.as_ref()))
+            }
+            Err(_) => (f64::NAN, f64::NAN),
+        }
+    };
+    let mut tracker = Tracker::new(validation.patience);
+    let (objective0, error0) = score(&space.kernel);
+    if tracker.record(0, objective0, error0) == Control::Continue && options.max_iters > 0 {
+        fit_kernel(
+            x_fit.as_ref(),
+            y_fit.as_ref(),
+            space.kernel.clone(),
+            options,
+            &limits.share(SELECTION_SHARE),
+            name,
+            |rec, kernel| tracker.record(rec.iteration, rec.objective, score(kernel).1),
+        )?;
+    }
+    Ok(tracker.finish(fit.len(), held.len(), start))
 }
 
 impl SharedGplvm {
@@ -307,48 +345,8 @@ impl SharedGplvm {
         options.check()?;
         let limits = Limits::start(options);
         let space = self.transfer_space(name, data, seed)?;
-        let (fit, held) = validation.split(self.n(), self.q())?;
-        let start = Instant::now();
-        let x_fit = take_rows(self.x.as_ref(), &fit);
-        let x_held = take_rows(self.x.as_ref(), &held);
-        let y_fit = take_rows(space.data.as_ref(), &fit);
-        let desired = take_rows(data, &held);
-        // (objective on the fit frames, validation error) at `kernel`.
-        let score = |kernel: &KernelParams| -> (f64, f64) {
-            let zero = vec![0.0; y_fit.ncols()];
-            let Ok(gp) = GpRegression::with_kernel(
-                x_fit.as_ref(),
-                zero,
-                y_fit.as_ref(),
-                kernel.clone(),
-                name,
-            ) else {
-                return (f64::NAN, f64::NAN);
-            };
-            let Ok(mut p) = gp.predict(x_held.as_ref()) else {
-                return (f64::NAN, f64::NAN);
-            };
-            for j in 0..p.ncols() {
-                for i in 0..p.nrows() {
-                    p[(i, j)] = p[(i, j)] * space.scale[j] + space.offset[j];
-                }
-            }
-            (gp.objective(), mse(p.as_ref(), desired.as_ref()))
-        };
-        let mut tracker = Tracker::new(validation.patience);
-        let (objective0, error0) = score(&space.kernel);
-        if tracker.record(0, objective0, error0) == Control::Continue && options.max_iters > 0 {
-            fit_kernel(
-                x_fit.as_ref(),
-                y_fit.as_ref(),
-                space.kernel.clone(),
-                options,
-                &limits.share(SELECTION_SHARE),
-                name,
-                |rec, kernel| tracker.record(rec.iteration, rec.objective, score(kernel).1),
-            )?;
-        }
-        let chosen = tracker.finish(fit.len(), held.len(), start);
+        let chosen =
+            select_kernel_budget(self.x.as_ref(), &space, data, validation, options, &limits)?;
         let budget = options.clone().with_max_iters(chosen.best_iteration);
         let mut model = self.transfer_impl(name, data, seed, &budget, &limits, callback)?;
         model.selection = Some(chosen);
