@@ -56,6 +56,21 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
 
 #[cfg(test)]
 mod tests {
+    /// The core keeps a copy of the robots crate's temporary-file rules for model files (neither
+    /// crate depends on the other); the two must not drift apart.
+    #[test]
+    fn the_two_copies_of_the_temporary_file_rules_agree() {
+        let body = |source: &str| -> String {
+            let start = source.find("use std::path").expect("imports");
+            let end = source.find("#[cfg(test)]").unwrap_or(source.len());
+            source[start..end].replace("pub(crate) fn", "pub fn")
+        };
+        assert_eq!(
+            body(include_str!("../crates/sgplvm-core/src/tempfiles.rs")),
+            body(include_str!("../crates/sgplvm-robots/src/files.rs"))
+        );
+    }
+
     use super::*;
 
     #[test]

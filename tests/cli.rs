@@ -4,49 +4,11 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
-fn sgplvm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sgplvm"))
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the sgplvm binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = sgplvm(args);
-    assert!(
-        out.status.success(),
-        "sgplvm {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8 output")
-}
-
-/// Runs a command that must fail with exit code `code`; returns its stderr.
-fn fails(args: &[&str], code: i32) -> String {
-    let out = sgplvm(args);
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(code), "sgplvm {args:?}: {stderr}");
-    assert!(
-        !stderr.contains("panicked"),
-        "sgplvm {args:?} panicked: {stderr}"
-    );
-    stderr
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sgplvm-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{fails, ok, s, scratch, sgplvm};
 
 /// Generated data and a model trained on WALK-MAN, shared by the tests.
 struct Fixture {

@@ -2,20 +2,14 @@
 //! nested 25,000 levels deep must end with exit code 1 and one plain line naming the file,
 //! never an abort, a stack overflow or a panic. The files are made by the test.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::Path;
+
+mod common;
+use common::{s, scratch, sgplvm};
 
 use sgplvm::robots::joint_state::{
     write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
 };
-
-fn sgplvm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sgplvm"))
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the sgplvm binary runs")
-}
 
 /// Runs a command that must fail cleanly; returns its stderr.
 fn fails_on_one_line(args: &[&str], file: &Path) -> String {
@@ -31,18 +25,6 @@ fn fails_on_one_line(args: &[&str], file: &Path) -> String {
     let name = file.file_name().and_then(|n| n.to_str()).expect("name");
     assert!(stderr.contains(name), "{stderr}");
     stderr
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("sgplvm-hostile-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 #[test]

@@ -3,54 +3,15 @@
 //! killed write. Each ends with a correct result or exit code 1 and one plain line, never a
 //! stall, a panic or an allocation failure. The files are made by the test.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::Path;
+use std::process::Command;
+
+mod common;
+use common::{fails_on_one_line, ok, s, scratch, sgplvm};
 
 use sgplvm::robots::dataset::{load_demonstrations, write_demonstrations};
 
 const SHIPPED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/data/demos/bimanual.mcap");
-
-fn sgplvm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sgplvm"))
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("the sgplvm binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = sgplvm(args);
-    assert!(
-        out.status.success(),
-        "sgplvm {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8 output")
-}
-
-/// Runs a command that must fail with exit code 1 and one plain line; returns it.
-fn fails_on_one_line(args: &[&str]) -> String {
-    let out = sgplvm(args);
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "sgplvm {args:?}: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    stderr
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "sgplvm-hostile-training-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
 
 /// The shipped demonstrations with every joint value multiplied by `factor`, written to `path`.
 fn scaled_demonstrations(factor: f64, path: &Path) {
