@@ -3,10 +3,29 @@
 
 use sgplvm_robots::dataset::load_demonstrations;
 use sgplvm_robots::generator::{
-    generate, generate_to_dir, generate_to_file, GeneratorConfig, FLEET_FILE_NAME, KEY_POSES,
-    NEUTRAL,
+    generate, generate_to_dir, generate_to_file, GeneratorConfig, KeyPose, FLEET_FILE_NAME,
+    KEY_POSES, NEUTRAL,
 };
-use sgplvm_robots::{Robot, Side};
+use sgplvm_robots::{Arm, Robot, Side};
+
+/// How far (m) `arm`'s hand at posture `q` is from `pose`'s target for it: the target relative
+/// to the shoulder at the `zero` posture, in units of the arm's length.
+fn hand_off_target(robot: &Robot, arm: &Arm, zero: &[f64], q: &[f64], pose: &KeyPose) -> f64 {
+    let position = |q: &[f64], link: &str| {
+        robot
+            .forward_kinematics(q, link)
+            .expect("link")
+            .translation
+            .vector
+    };
+    let rel = if arm.side == Side::Left {
+        pose.left
+    } else {
+        pose.right
+    };
+    let target = position(zero, &arm.shoulder_link) + arm.length * nalgebra::Vector3::from(rel);
+    (position(q, &arm.hand_link) - target).norm()
+}
 
 /// The configuration of `data/demos/fleet.mcap`: the paper's robots and the 6-joint `ur5e`.
 fn fleet() -> GeneratorConfig {
@@ -57,29 +76,14 @@ fn every_body_reaches_every_key_pose_within_limits() {
         for (p, pose) in KEY_POSES.iter().enumerate() {
             let q = &body.postures[p];
             for arm in &arms {
-                let shoulder = robot
-                    .forward_kinematics(&zero, &arm.shoulder_link)
-                    .expect("shoulder")
-                    .translation
-                    .vector;
-                let hand = robot
-                    .forward_kinematics(q, &arm.hand_link)
-                    .expect("hand")
-                    .translation
-                    .vector;
-                let rel = if arm.side == Side::Left {
-                    pose.left
-                } else {
-                    pose.right
-                };
-                let target = shoulder + arm.length * nalgebra::Vector3::from(rel);
+                let off = hand_off_target(&robot, arm, &zero, q, pose);
                 assert!(
-                    (hand - target).norm() < 1e-4,
+                    off < 1e-4,
                     "{} {} {:?}: {} m off",
                     body.name,
                     pose.name,
                     arm.side,
-                    (hand - target).norm()
+                    off
                 );
             }
         }
@@ -205,23 +209,7 @@ fn ur5e_reaches_every_key_pose_within_its_limits() {
     let mut worst: f64 = 0.0;
     for (p, pose) in KEY_POSES.iter().enumerate() {
         for arm in &arms {
-            let shoulder = robot
-                .forward_kinematics(&zero, &arm.shoulder_link)
-                .expect("shoulder")
-                .translation
-                .vector;
-            let hand = robot
-                .forward_kinematics(&body.postures[p], &arm.hand_link)
-                .expect("hand")
-                .translation
-                .vector;
-            let rel = if arm.side == Side::Left {
-                pose.left
-            } else {
-                pose.right
-            };
-            let target = shoulder + arm.length * nalgebra::Vector3::from(rel);
-            worst = worst.max((hand - target).norm());
+            worst = worst.max(hand_off_target(&robot, arm, &zero, &body.postures[p], pose));
         }
     }
     assert!(worst < 1e-6, "{worst} m off");
