@@ -680,6 +680,7 @@ impl<'a> Runner<'a, '_> {
         sources: &Sources,
     ) -> Result<(), ExperimentError> {
         let options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
+        let validation = validation(config, data);
         for ((run, s), source) in sources {
             let source_name = data.robots[*s].0.as_str();
             for (t, (target, split)) in data.robots.iter().enumerate() {
@@ -700,9 +701,9 @@ impl<'a> Runner<'a, '_> {
                     };
                     let seed = config.seed + index as u64;
                     let train = split.train.as_ref();
-                    self.record(spec, |cb| match validation(config, data) {
+                    self.record(spec, |cb| match &validation {
                         Some(v) => {
-                            source.transfer_validated(target, train, Some(seed), &options, &v, cb)
+                            source.transfer_validated(target, train, Some(seed), &options, v, cb)
                         }
                         None => source.transfer_seeded(target, train, seed, &options, cb),
                     })?;
