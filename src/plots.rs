@@ -264,7 +264,10 @@ where
         }
         let style = ShapeStyle::from(&color).stroke_width(2);
         let points = s.points.iter().copied().filter(|p| p.1.is_finite());
-        let drawn = if s.dashed {
+        let drawn = if s.points.len() == 1 {
+            // A line of one point draws nothing (e.g. a model shipped at iteration 0).
+            chart.draw_series(points.map(|p| Circle::new(p, 4, color.filled())))?
+        } else if s.dashed {
             chart.draw_series(DashedLineSeries::new(points, 6, 4, style))?
         } else {
             chart.draw_series(LineSeries::new(points, style))?
