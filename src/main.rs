@@ -27,11 +27,28 @@ struct Cli {
 }
 
 fn main() {
+    quiet_panics();
     let cli = Cli::parse();
     if let Err(e) = cli.command.run() {
         eprintln!("error: {}", one_line(&e));
         std::process::exit(1);
     }
+}
+
+/// Panics that a reader catches and turns into an error (inside mcap's reader or rapier) print
+/// nothing — the error that follows says what happened, on one line; any other panic is
+/// reported once, on one line, instead of Rust's several lines of panic text.
+fn quiet_panics() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static REPORTED: AtomicBool = AtomicBool::new(false);
+    sgplvm_robots::panics::install_hook(Box::new(|info| {
+        if !REPORTED.swap(true, Ordering::SeqCst) {
+            eprintln!(
+                "error: internal error in sgplvm (please report it): {}",
+                sgplvm_robots::panics::describe(info)
+            );
+        }
+    }));
 }
 
 /// The chain of causes on one line, outermost first, leaving out causes that the message before

@@ -83,3 +83,71 @@ fn a_urdf_nested_25000_levels_is_one_line() {
     assert!(err.contains("nest deeper than"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The offset of the length field of the last record inside the first chunk of an MCAP
+/// written without compression.
+fn last_record_in_first_chunk(bytes: &[u8]) -> usize {
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
+    let mut i = 8;
+    while bytes[i] != 0x06 {
+        i += 9 + u64_at(i + 1) as usize;
+    }
+    let body = i + 9;
+    let clen = u32::from_le_bytes(bytes[body + 28..body + 32].try_into().expect("4")) as usize;
+    assert_eq!(clen, 0, "an uncompressed chunk");
+    let size = u64_at(body + 32) as usize;
+    let (start, end) = (body + 40, body + 40 + size);
+    let mut r = start;
+    let mut last = None;
+    while r < end {
+        last = Some(r + 1);
+        r += 9 + u64_at(r + 1) as usize;
+    }
+    assert_eq!(r, end, "the chunk's records fill it");
+    last.expect("records in the chunk")
+}
+
+/// mcap 0.26 panics (an overflowing subtraction, checked in release builds too by the
+/// workspace profile) on a record that claims more bytes than its uncompressed chunk holds when
+/// the chunk has no CRC; the reader catches it. The user sees one line, not Rust's panic text.
+#[test]
+fn a_panic_caught_inside_the_mcap_reader_prints_one_line() {
+    let dir = scratch("caught");
+    let path = dir.join("caught.mcap");
+    let states = JointStates::new(
+        (0..40).map(|k| k * 25_000_000).collect(),
+        vec!["j0".into(), "j1".into()],
+        vec![0.1; 80],
+    )
+    .expect("valid");
+    write_topics(
+        &path,
+        &[TopicData {
+            topic: "/walkman/joint_command",
+            states: &states,
+            encoding: MessageEncoding::Cdr,
+        }],
+        &WriteSettings {
+            compression: Compression::None,
+            ..WriteSettings::default()
+        },
+    )
+    .expect("write");
+    let mut bytes = std::fs::read(&path).expect("read");
+    // The first chunk's CRC zeroed (not recorded), and its last record one byte longer.
+    let mut i = 8;
+    while bytes[i] != 0x06 {
+        i += 9 + u64::from_le_bytes(bytes[i + 1..i + 9].try_into().expect("8")) as usize;
+    }
+    bytes[i + 9 + 24..i + 9 + 28].fill(0);
+    let at = last_record_in_first_chunk(&bytes);
+    let len = u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8"));
+    bytes[at..at + 8].copy_from_slice(&(len + 1).to_le_bytes());
+    std::fs::write(&path, &bytes).expect("write");
+    let err = fails_on_one_line(
+        &["simulate", "--robot", "walkman", "--trajectory", s(&path)],
+        &path,
+    );
+    assert!(err.contains("the mcap reader stopped"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

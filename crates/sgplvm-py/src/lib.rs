@@ -15,6 +15,7 @@ mod robots;
 /// The native part of the `sgplvm` Python package.
 #[pymodule]
 fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    guard::quiet_hook();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add(
         "DEFAULT_PATIENCE",

@@ -10,6 +10,7 @@ pub mod error;
 pub mod files;
 pub mod kinematics;
 pub mod models;
+pub mod panics;
 pub mod physics;
 pub mod series;
 pub mod urdf;

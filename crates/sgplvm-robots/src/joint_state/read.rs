@@ -431,16 +431,11 @@ impl<'a> Stream<'a> {
 fn next_event(
     reader: &mut LinearReader,
 ) -> std::result::Result<Option<std::result::Result<LinearReadEvent<'_>, McapError>>, String> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+    crate::panics::catch(move || {
         let reader = reader;
         reader.next_event()
-    }))
-    .map_err(|payload| {
-        let what = payload
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| payload.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "a panic".to_string());
+    })
+    .map_err(|what| {
         format!(
             "inconsistent chunk contents (the mcap reader stopped: {})",
             plain_line(&what)

@@ -54,8 +54,6 @@ mod options;
 mod report;
 mod trajectory;
 
-use std::panic::{catch_unwind, AssertUnwindSafe};
-
 use rapier3d_urdf::urdf_rs;
 
 pub use error::PhysicsError;
@@ -89,21 +87,12 @@ pub fn replay_urdf(
     let model = model::prepare_model(robot, source)?;
     // rapier asserts a few invariants of its own; anything we did not foresee becomes an
     // error value instead of tearing down the caller.
-    match catch_unwind(AssertUnwindSafe(|| {
-        control::simulate(&model, source, trajectory, options)
-    })) {
+    match crate::panics::catch(|| control::simulate(&model, source, trajectory, options)) {
         Ok(result) => result,
-        Err(panic) => {
-            let message = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_string());
-            Err(PhysicsError::Engine {
-                file: source.to_string(),
-                message,
-            })
-        }
+        Err(message) => Err(PhysicsError::Engine {
+            file: source.to_string(),
+            message: crate::panics::one_line(&message),
+        }),
     }
 }
 
