@@ -104,6 +104,22 @@ fn standardising_unit(name: &str, c: &Mat<f64>) -> Result<f64> {
     Ok(pow2(log2_rms.round() as i32))
 }
 
+/// `m` divided by the power of two that brings its centred values to unit scale (see
+/// [`STANDARD_SCALES`]; 1, and `m` unchanged, inside them), and that power; refused like
+/// [`preprocess`] beyond [`ACCEPTED_SCALES`]. `m` itself is not centred (for data whose
+/// offset matters, such as a regression's inputs).
+pub(crate) fn unit_scaled(name: &str, m: MatRef<'_, f64>) -> Result<(Mat<f64>, f64)> {
+    let (n, d) = (m.nrows(), m.ncols());
+    let mean: Vec<f64> = (0..d)
+        .map(|j| (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64)
+        .collect();
+    let centred = Mat::from_fn(n, d, |i, j| m[(i, j)] - mean[j]);
+    let unit = standardising_unit(name, &centred)?;
+    let scaled = Mat::from_fn(n, d, |i, j| m[(i, j)] / unit);
+    check_finite(name, scaled.as_ref())?;
+    Ok((scaled, unit))
+}
+
 /// Centres (and optionally scales) the data matrix of space `name`, returning (data, offset,
 /// scale): `data = (m − offset) / scale`. A space far from unit scale is also divided by a
 /// power of two (see [`STANDARD_SCALES`]; folded into `scale`); one beyond

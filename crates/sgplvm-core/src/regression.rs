@@ -18,8 +18,10 @@ use crate::memory;
 use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
 use crate::pool::{in_pool, lock, PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
-use crate::preprocess::{check_finite, check_nonempty, mean_col_var};
-use crate::train::{minimise, Control, IterationRecord, Limits, Objective, TrainOptions};
+use crate::preprocess::{check_finite, check_nonempty, mean_col_var, unit_scaled};
+use crate::train::{
+    minimise, Control, IterationRecord, Limits, Objective, StopReason, TrainOptions,
+};
 
 /// The kernel a regression starts from: variance = the targets' mean column variance v, every
 /// lengthscale the median pairwise distance of the inputs, noise = v / 100.
@@ -42,8 +44,21 @@ pub(crate) fn fit_kernel(
     options: &TrainOptions,
     limits: &Limits,
     what: &str,
-    mut on_iter: impl FnMut(&IterationRecord, &KernelParams) -> Control,
+    on_iter: impl FnMut(&IterationRecord, &KernelParams) -> Control,
 ) -> Result<KernelParams> {
+    fit_kernel_why(x, y, start, options, limits, what, on_iter).map(|(k, _)| k)
+}
+
+/// [`fit_kernel`], and why training stopped.
+fn fit_kernel_why(
+    x: MatRef<'_, f64>,
+    y: MatRef<'_, f64>,
+    start: KernelParams,
+    options: &TrainOptions,
+    limits: &Limits,
+    what: &str,
+    mut on_iter: impl FnMut(&IterationRecord, &KernelParams) -> Control,
+) -> Result<(KernelParams, StopReason)> {
     let (n, d) = (y.nrows(), y.ncols());
     let obj = RegressionObjective {
         x_rows: row_major(x),
@@ -63,7 +78,7 @@ pub(crate) fn fit_kernel(
         limits,
         |rec, theta| on_iter(rec, &decode_kernel(theta, dx)),
     )?;
-    Ok(decode_kernel(&out.theta, dx))
+    Ok((decode_kernel(&out.theta, dx), out.reason))
 }
 
 /// The regression's negative log marginal likelihood (inputs fixed), θ = log kernel parameters.
@@ -124,14 +139,29 @@ impl RegressionObjective<'_> {
 /// assert!((pred[(3, 0)] - y[(3, 0)]).abs() < 0.05);
 /// # Ok::<(), sgplvm_core::Error>(())
 /// ```
+///
+/// Data far from unit scale is standardised as the shared model's spaces are (see
+/// [`crate::STANDARD_SCALES`]): inputs and outputs are each divided by a power of two, exactly,
+/// so that such data trains like the same data at unit scale; data beyond
+/// [`crate::ACCEPTED_SCALES`] is refused with [`Error::DataScale`]. Training is bounded like
+/// the shared model's: [`TrainOptions::max_seconds`], the interrupt and the evaluation caps
+/// stop it at the best point so far, and [`GpRegression::stop_reason`] says why it stopped.
 #[derive(Clone, Debug)]
 pub struct GpRegression {
-    /// Training inputs, row-major N×D_x.
+    /// Training inputs divided by `x_unit`, row-major N×D_x.
     x_rows: Vec<f64>,
+    /// The power of two the inputs were divided by (1 for data near unit scale).
+    x_unit: f64,
     /// Column means of the training outputs (added back in prediction).
     y_mean: Vec<f64>,
-    /// Trained hyperparameters.
+    /// The power of two the centred outputs were divided by (1 for data near unit scale).
+    y_unit: f64,
+    /// Trained hyperparameters (in the standardised units).
     kernel: KernelParams,
+    /// The same in the units of the data given to `fit`.
+    user_kernel: KernelParams,
+    /// Why training stopped (`None` for a regression made with given hyperparameters).
+    stop_reason: Option<StopReason>,
     /// K⁻¹(Y − mean), N×D_y.
     alpha: Mat<f64>,
     /// Negative log marginal likelihood at `kernel`.
@@ -139,10 +169,11 @@ pub struct GpRegression {
 }
 
 impl GpRegression {
-    /// Fits a regression of `y` (N×D_y) on `x` (N×D_x): outputs centred, hyperparameters by
-    /// L-BFGS (`options.max_iters` iterations at most) from [`GpRegression`]'s starting kernel
-    /// (variance = the mean output variance, lengthscales = the median input distance, noise =
-    /// 1 % of the variance).
+    /// Fits a regression of `y` (N×D_y) on `x` (N×D_x): outputs centred, inputs and outputs
+    /// far from unit scale standardised, hyperparameters by L-BFGS (`options.max_iters`
+    /// iterations at most, within `options.max_seconds` and its interrupt) from
+    /// [`GpRegression`]'s starting kernel (variance = the mean output variance, lengthscales =
+    /// the median input distance, noise = 1 % of the variance).
     pub fn fit(x: MatRef<'_, f64>, y: MatRef<'_, f64>, options: &TrainOptions) -> Result<Self> {
         options.check()?;
         check_nonempty("regression inputs", x)?;
@@ -162,16 +193,33 @@ impl GpRegression {
             .map(|j| (0..n).map(|i| y[(i, j)]).sum::<f64>() / n as f64)
             .collect();
         let yc = Mat::from_fn(n, d, |i, j| y[(i, j)] - y_mean[j]);
-        let kernel = fit_kernel(
-            x,
-            yc.as_ref(),
-            starting_kernel(x, yc.as_ref()),
+        let (xs, x_unit) = unit_scaled("regression inputs", x)?;
+        let (ys, y_unit) = unit_scaled("regression outputs", yc.as_ref())?;
+        let (kernel, reason) = fit_kernel_why(
+            xs.as_ref(),
+            ys.as_ref(),
+            starting_kernel(xs.as_ref(), ys.as_ref()),
             options,
             &Limits::start(options),
             "regression",
             |_, _| Control::Continue,
         )?;
-        Self::with_kernel(x, y_mean, yc.as_ref(), kernel, "regression")
+        let mut fitted = Self::with_kernel(xs.as_ref(), y_mean, ys.as_ref(), kernel, "regression")?;
+        let y2 = y_unit * y_unit;
+        fitted.user_kernel = KernelParams {
+            variance: fitted.kernel.variance * y2,
+            lengthscale: fitted
+                .kernel
+                .lengthscale
+                .iter()
+                .map(|l| l * x_unit)
+                .collect(),
+            noise: fitted.kernel.noise * y2,
+        };
+        fitted.x_unit = x_unit;
+        fitted.y_unit = y_unit;
+        fitted.stop_reason = Some(reason);
+        Ok(fitted)
     }
 
     /// The regression of centred `yc` (whose column means were `y_mean`) on `x` with the given
@@ -190,8 +238,12 @@ impl GpRegression {
             .map_err(|e| e.in_space(what))?;
         Ok(GpRegression {
             x_rows,
+            x_unit: 1.0,
             y_mean,
+            y_unit: 1.0,
+            user_kernel: kernel.clone(),
             kernel,
+            stop_reason: None,
             alpha: work.alpha().to_owned(),
             objective: e.nll,
         })
@@ -208,14 +260,24 @@ impl GpRegression {
             });
         }
         check_finite("regression inputs", x)?;
+        let x_unit = self.x_unit;
         let (train, queries) = scaled_about_mean(
             &self.x_rows,
             dx,
             &half_inv_l2(&self.kernel),
             x.nrows(),
-            |r, t| x[(r, t)],
+            |r, t| x[(r, t)] / x_unit,
         );
-        let mut mean = Mat::from_fn(x.nrows(), self.y_mean.len(), |_, j| self.y_mean[j]);
+        // At unit scale the means are the starting point of the sum, as they always were; a
+        // standardised regression sums in its units and then goes back to the user's.
+        let standardised = self.y_unit != 1.0;
+        let mut mean = Mat::from_fn(x.nrows(), self.y_mean.len(), |_, j| {
+            if standardised {
+                0.0
+            } else {
+                self.y_mean[j]
+            }
+        });
         for_each_kernel_block(queries.as_ref(), train.as_ref(), |r0, kb| {
             faer::linalg::matmul::matmul(
                 mean.as_mut().subrows_mut(r0, kb.nrows()),
@@ -226,17 +288,34 @@ impl GpRegression {
                 Par::Seq,
             );
         });
+        if standardised {
+            for j in 0..mean.ncols() {
+                for v in mean.col_as_slice_mut(j) {
+                    *v = *v * self.y_unit + self.y_mean[j];
+                }
+            }
+        }
         Ok(mean)
     }
 
-    /// The trained hyperparameters (one lengthscale per input column).
+    /// The trained hyperparameters (one lengthscale per input column), in the units of the
+    /// data given to [`GpRegression::fit`].
     pub fn kernel(&self) -> &KernelParams {
-        &self.kernel
+        &self.user_kernel
     }
 
-    /// Negative log marginal likelihood of the training outputs at the trained hyperparameters.
+    /// Negative log marginal likelihood of the training outputs at the trained
+    /// hyperparameters (of the outputs in the user's units: standardising by `u` adds
+    /// `N·D_y·ln u`).
     pub fn objective(&self) -> f64 {
-        self.objective
+        let (n, d) = (self.alpha.nrows(), self.alpha.ncols());
+        self.objective + (n * d) as f64 * self.y_unit.ln()
+    }
+
+    /// Why training stopped (converged, iteration budget, `max_seconds`, interrupt, ...);
+    /// `None` for a regression made with given hyperparameters.
+    pub fn stop_reason(&self) -> Option<&StopReason> {
+        self.stop_reason.as_ref()
     }
 }
 
@@ -290,6 +369,121 @@ mod tests {
             / n as f64;
         let var: f64 = (0..n).map(|i| (r[(i, 0)] - mean[0]).powi(2)).sum::<f64>() / n as f64;
         assert!(err < 0.01 * var, "training MSE {err} vs variance {var}");
+    }
+
+    /// `m` times `f`.
+    fn times(m: &Mat<f64>, f: f64) -> Mat<f64> {
+        Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)] * f)
+    }
+
+    /// `m` divided by the power of two nearest its centred root mean square, so that `m · 2^k`
+    /// is standardised by exactly `2^k`.
+    fn unit_scale(m: &Mat<f64>) -> Mat<f64> {
+        let (n, d) = (m.nrows(), m.ncols());
+        let mut ss = 0.0;
+        for j in 0..d {
+            let mu = (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64;
+            ss += (0..n).map(|i| (m[(i, j)] - mu).powi(2)).sum::<f64>();
+        }
+        let rms = (ss / (n * d) as f64).sqrt();
+        times(m, 2f64.powi(-(rms.log2().round() as i32)))
+    }
+
+    /// Inputs and outputs ×2^±500 (≈ 3·10^∓151) train exactly as at unit scale: the same
+    /// hyperparameters in the data's units, the same predictions (inputs scaled) or the same
+    /// predictions times the factor (outputs scaled).
+    #[test]
+    fn data_far_from_unit_scale_is_standardised_exactly() {
+        let (h, r, _, _) = demo(40, 5);
+        let (h, r) = (unit_scale(&h), unit_scale(&r));
+        let (hq, _, _, _) = demo(15, 8);
+        let opts = TrainOptions::default().with_max_iters(60);
+        let unit = GpRegression::fit(h.as_ref(), r.as_ref(), &opts).unwrap();
+        let p1 = unit.predict(hq.as_ref()).unwrap();
+        let k1 = unit.kernel().clone();
+        let mut by_output_factor = Vec::new();
+        for f in [2f64.powi(-500), 2f64.powi(500)] {
+            // Inputs scaled: identical hyperparameters (lengthscales ×f) and predictions.
+            let gp = GpRegression::fit(times(&h, f).as_ref(), r.as_ref(), &opts).unwrap();
+            let k = gp.kernel();
+            assert_eq!(k.variance, k1.variance, "×{f:e}");
+            assert_eq!(k.noise, k1.noise, "×{f:e}");
+            let ls: Vec<f64> = k1.lengthscale.iter().map(|l| l * f).collect();
+            assert_eq!(k.lengthscale, ls, "×{f:e}");
+            assert_eq!(gp.predict(times(&hq, f).as_ref()).unwrap(), p1, "×{f:e}");
+            assert_eq!(gp.stop_reason(), unit.stop_reason());
+            // Outputs scaled: variances ×f², predictions ×f.
+            let gp = GpRegression::fit(h.as_ref(), times(&r, f).as_ref(), &opts).unwrap();
+            assert_eq!(gp.kernel().variance, k1.variance * f * f, "×{f:e}");
+            assert_eq!(gp.kernel().lengthscale, k1.lengthscale, "×{f:e}");
+            let p = gp.predict(hq.as_ref()).unwrap();
+            let back = times(&p, 1.0 / f);
+            for i in 0..p.nrows() {
+                for j in 0..p.ncols() {
+                    assert!((back[(i, j)] - p1[(i, j)]).abs() < 1e-12, "×{f:e}");
+                }
+            }
+            let n_d = (r.nrows() * r.ncols()) as f64;
+            let objective = unit.objective() + n_d * f.ln();
+            assert!((gp.objective() - objective).abs() < 1e-9 * objective.abs());
+            by_output_factor.push(back);
+        }
+        // The two factors sum in the same standardised units: bit for bit the same.
+        assert_eq!(by_output_factor[0], by_output_factor[1]);
+    }
+
+    #[test]
+    fn data_beyond_the_accepted_scales_is_refused_naming_inputs_or_outputs() {
+        let (h, r, _, _) = demo(20, 3);
+        let opts = TrainOptions::default().with_max_iters(5);
+        for (x, y, what) in [
+            (times(&h, 1e-160), r.clone(), "regression inputs"),
+            (h.clone(), times(&r, 1e160), "regression outputs"),
+        ] {
+            let e = GpRegression::fit(x.as_ref(), y.as_ref(), &opts).expect_err("refused");
+            assert!(matches!(e, Error::DataScale { .. }), "{e:?}");
+            let text = e.to_string();
+            assert!(text.starts_with(&format!("space '{what}'")), "{text}");
+            assert!(
+                text.contains("expected a scale between 1e-153 and 1e153"),
+                "{text}"
+            );
+        }
+    }
+
+    /// Training is bounded like the shared model's, and says why it stopped.
+    #[test]
+    fn max_seconds_and_the_interrupt_stop_training_and_say_so() {
+        let (h, r, _, _) = demo(40, 2);
+        let opts = TrainOptions::default().with_max_iters(200);
+        let full = GpRegression::fit(h.as_ref(), r.as_ref(), &opts).unwrap();
+        assert!(
+            matches!(
+                full.stop_reason(),
+                Some(
+                    StopReason::GradientTolerance
+                        | StopReason::RelativeTolerance
+                        | StopReason::MaxIterations
+                        | StopReason::LineSearch(_)
+                )
+            ),
+            "{:?}",
+            full.stop_reason()
+        );
+        let timed = GpRegression::fit(
+            h.as_ref(),
+            r.as_ref(),
+            &opts.clone().with_max_seconds(Some(0.0)),
+        )
+        .unwrap();
+        assert_eq!(timed.stop_reason(), Some(&StopReason::TimeLimit));
+        let stop = crate::train::Interrupt::new(|| true);
+        let stopped =
+            GpRegression::fit(h.as_ref(), r.as_ref(), &opts.with_interrupt(stop)).unwrap();
+        assert_eq!(stopped.stop_reason(), Some(&StopReason::Interrupted));
+        // Stopped at once, they keep the starting kernel: their predictions still exist.
+        assert!(stopped.predict(h.as_ref()).is_ok());
+        assert_eq!(stopped.kernel(), timed.kernel());
     }
 
     #[test]
