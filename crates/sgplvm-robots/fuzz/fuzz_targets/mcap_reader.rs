@@ -10,11 +10,11 @@ use libfuzzer_sys::fuzz_target;
 use sgplvm_robots_fuzz::{read_everything, without_chunk_crcs};
 
 fuzz_target!(
-    // libfuzzer-sys aborts on any panic, even one the reader catches and turns into an error
-    // (it does so for panics inside the mcap crate); the default hook lets those through, while
-    // a panic that escapes still aborts the run.
+    // libfuzzer-sys's hook aborts on any panic, even one the reader catches and turns into an
+    // error (it does so for panics inside the mcap crate): ours is quiet for those and still
+    // aborts on any other.
     init: {
-        drop(std::panic::take_hook());
+        sgplvm_robots_fuzz::install_panic_hook();
     },
     |data: &[u8]| {
         read_everything(data);

@@ -40,6 +40,18 @@ pub fn without_chunk_crcs(data: &[u8]) -> Vec<u8> {
     out
 }
 
+/// The fuzz targets' panic hook: quiet for the panics the readers catch (inside mcap's reader,
+/// rapier) — Rust's default hook would print them, with a backtrace under `cargo fuzz`'s
+/// `RUST_BACKTRACE=1` whose first symbolisation alone takes over a second (run 1 of
+/// `mcap_structured` reported that as a timeout) — and an abort, which libFuzzer records as a
+/// crash, for any other panic.
+pub fn install_panic_hook() {
+    sgplvm_robots::panics::install_hook(Box::new(|info| {
+        eprintln!("{}", sgplvm_robots::panics::describe(info));
+        std::process::abort();
+    }));
+}
+
 /// Writes `bytes` to the scratch file and runs every MCAP reader on it: `list_channels`,
 /// `read_topics` (all joints, and by joint name), `read_aligned` at 40 Hz and
 /// `load_demonstrations`. Results are ignored; only panics, aborts, time and memory matter.
