@@ -78,6 +78,12 @@ pub struct ExperimentConfig {
     /// in results written before it existed).
     #[serde(default)]
     pub fractions: Vec<f64>,
+    /// Wall-clock budget of each training in seconds (every direct regression, full,
+    /// multi-robot, transfer and less-data training; a validated one spends half of it choosing
+    /// its budget): when it runs out the training keeps its best parameters so far. `None`: no
+    /// limit (and in results written before it existed).
+    #[serde(default)]
+    pub max_seconds: Option<f64>,
 }
 
 /// The direct regression's budget in results written before it was recorded.
@@ -86,6 +92,14 @@ fn default_direct_max_iters() -> usize {
 }
 
 impl ExperimentConfig {
+    /// The options of one training of at most `max_iters` iterations, within
+    /// [`ExperimentConfig::max_seconds`].
+    pub fn options(&self, max_iters: usize) -> TrainOptions {
+        TrainOptions::default()
+            .with_max_iters(max_iters)
+            .with_max_seconds(self.max_seconds)
+    }
+
     /// The paper's protocol: 10 runs, 10 transfers per source run.
     pub fn paper() -> Self {
         ExperimentConfig {
@@ -98,6 +112,7 @@ impl ExperimentConfig {
             direct_max_iters: default_direct_max_iters(),
             patience: Some(Validation::DEFAULT_PATIENCE),
             fractions: vec![0.1, 0.25, 0.5, 1.0],
+            max_seconds: None,
         }
     }
 
@@ -113,6 +128,7 @@ impl ExperimentConfig {
             direct_max_iters: default_direct_max_iters(),
             patience: Some(Validation::DEFAULT_PATIENCE),
             fractions: vec![0.1, 0.25, 0.5, 1.0],
+            max_seconds: None,
         }
     }
 }
@@ -616,7 +632,7 @@ impl<'a> Runner<'a, '_> {
         data: &'a ExperimentData,
         config: &ExperimentConfig,
     ) -> Result<(), ExperimentError> {
-        let options = TrainOptions::default().with_max_iters(config.direct_max_iters);
+        let options = config.options(config.direct_max_iters);
         for (robot, split) in &data.robots {
             let context = format!("direct GP regression H → {robot}");
             let fail = |source| ExperimentError::Model {
@@ -645,7 +661,7 @@ impl<'a> Runner<'a, '_> {
         config: &ExperimentConfig,
         bc: BackConstraint,
     ) -> Result<Sources, ExperimentError> {
-        let options = TrainOptions::default().with_max_iters(config.max_iters);
+        let options = config.options(config.max_iters);
         let input = data.input_name.as_str();
         let mut sources = Sources::new();
         for run in 0..config.runs {
@@ -679,7 +695,7 @@ impl<'a> Runner<'a, '_> {
         bc: BackConstraint,
         sources: &Sources,
     ) -> Result<(), ExperimentError> {
-        let options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
+        let options = config.options(config.transfer_max_iters);
         let validation = validation(config, data);
         for ((run, s), source) in sources {
             let source_name = data.robots[*s].0.as_str();
@@ -720,7 +736,7 @@ impl<'a> Runner<'a, '_> {
         config: &ExperimentConfig,
         bc: BackConstraint,
     ) -> Result<(), ExperimentError> {
-        let options = TrainOptions::default().with_max_iters(config.max_iters);
+        let options = config.options(config.max_iters);
         let input = data.input_name.as_str();
         let mut spaces = vec![(input, data.human.train.as_ref())];
         spaces.extend(
@@ -838,6 +854,7 @@ mod tests {
             direct_max_iters: 20,
             patience: Some(2),
             fractions: vec![0.5],
+            max_seconds: None,
         };
         let mut trainings = 0;
         let results = run(&toy(), &config, &mut |_| trainings += 1).unwrap();
@@ -881,6 +898,7 @@ mod tests {
             direct_max_iters: 20,
             patience: None,
             fractions: Vec::new(),
+            max_seconds: None,
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

@@ -259,3 +259,36 @@ fn the_next_write_removes_what_a_killed_write_left() {
         "{err}"
     );
 }
+
+/// `experiment --max-seconds` bounds every training as `train --max-seconds` does: at 0 every
+/// run ships its starting point, and results.json records the bound.
+#[test]
+fn experiment_max_seconds_bounds_every_training() {
+    let dir = scratch("experiment-seconds");
+    let out = dir.join("out");
+    ok(&[
+        "experiment",
+        "--quick",
+        "--runs",
+        "1",
+        "--max-seconds",
+        "0",
+        "--out",
+        s(&out),
+    ]);
+    let results: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("results.json")).expect("results.json"),
+    )
+    .expect("json");
+    assert_eq!(results["config"]["max_seconds"], 0.0);
+    let runs = results["runs"].as_array().expect("runs");
+    assert!(runs.len() > 5, "{} runs", runs.len());
+    for run in runs {
+        assert_eq!(run["shipped"]["iteration"], 0, "{run}");
+    }
+    for bad in ["-1", "nan", "soon"] {
+        let out = sgplvm(&["experiment", "--quick", "--max-seconds", bad]);
+        assert_eq!(out.status.code(), Some(2), "--max-seconds {bad}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

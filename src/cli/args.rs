@@ -83,7 +83,7 @@ pub struct BudgetArg {
 }
 
 /// A `--max-seconds` value: a number of seconds ≥ 0.
-fn parse_seconds(text: &str) -> Result<f64, String> {
+pub fn parse_seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(s) if s >= 0.0 => Ok(s),
         _ => Err(format!("expected a number of seconds ≥ 0, got '{text}'")),

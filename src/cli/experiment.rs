@@ -8,7 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::{self, ExperimentConfig};
 
-use super::args::{DataArg, ValidationArg};
+use super::args::{parse_seconds, DataArg, ValidationArg};
 use super::progress::{progress_bar, StageLines};
 
 #[derive(Args)]
@@ -36,6 +36,12 @@ pub struct ExperimentArgs {
     /// selection run stops.
     #[arg(long, default_value_t = sgplvm::Validation::DEFAULT_PATIENCE as u64)]
     patience: u64,
+    /// Wall-clock budget of each training in seconds, as for `train` (every direct
+    /// regression, full, multi-robot, transfer and less-data training; with `--validation
+    /// auto` half of it chooses the iteration count): when it runs out, the training keeps its
+    /// best parameters so far. results.json records it. Default: no limit.
+    #[arg(long, value_parser = parse_seconds)]
+    max_seconds: Option<f64>,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -59,6 +65,7 @@ impl ExperimentArgs {
             config.max_iters = m as usize;
             config.transfer_max_iters = m as usize;
         }
+        config.max_seconds = self.max_seconds;
         config
     }
 }

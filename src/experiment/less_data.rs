@@ -10,7 +10,7 @@
 //! among them, as everywhere else in the experiment.
 
 use serde::{Deserialize, Serialize};
-use sgplvm_core::{BackConstraint, Mat, MatRef, SharedGplvm, TrainOptions, Validation};
+use sgplvm_core::{BackConstraint, Mat, MatRef, SharedGplvm, Validation};
 
 use super::{
     mean_squared_error, model_config, ExperimentConfig, ExperimentData, ExperimentError, ModelKind,
@@ -66,8 +66,8 @@ impl<'a> Runner<'a, '_> {
     ) -> Result<Vec<LessDataRecord>, ExperimentError> {
         let bc = BackConstraint::Input;
         let input = data.input_name.as_str();
-        let options = TrainOptions::default().with_max_iters(config.max_iters);
-        let transfer_options = TrainOptions::default().with_max_iters(config.transfer_max_iters);
+        let options = config.options(config.max_iters);
+        let transfer_options = config.options(config.transfer_max_iters);
         let n = data.human.train.nrows();
         let mut records = Vec::new();
         for &fraction in &config.fractions {
