@@ -94,7 +94,7 @@ const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(50);
 /// An interrupt that runs Python's signal handlers (`PyErr_CheckSignals`, with the GIL) at
 /// most every [`SIGNAL_CHECK_INTERVAL`]; the first exception a handler raises (a
 /// `KeyboardInterrupt` on Ctrl-C) is kept in `raised` and stops training.
-fn signal_interrupt(raised: Arc<Mutex<Option<PyErr>>>) -> Interrupt {
+pub(crate) fn signal_interrupt(raised: Arc<Mutex<Option<PyErr>>>) -> Interrupt {
     let last = Mutex::new(Instant::now());
     Interrupt::new(move || {
         let mut raised = raised.lock().unwrap_or_else(PoisonError::into_inner);

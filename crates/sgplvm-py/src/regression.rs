@@ -1,13 +1,15 @@
 //! The native class behind `sgplvm.GPRegression`: the direct GP regression human → robot that
 //! the shared model is measured against (see `sgplvm_core::GpRegression`).
 
+use std::sync::{Arc, Mutex, PoisonError};
+
 use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sgplvm_core::{GpRegression, TrainOptions};
 
 use crate::guard::guarded;
-use crate::model::{kernel_to_dict, model_error, to_mat, to_numpy};
+use crate::model::{kernel_to_dict, model_error, signal_interrupt, to_mat, to_numpy};
 
 /// A trained GP regression (native part; use `sgplvm.GPRegression`).
 #[pyclass(module = "sgplvm._sgplvm", name = "NativeRegression", frozen)]
@@ -18,21 +20,45 @@ pub struct NativeRegression {
 #[pymethods]
 impl NativeRegression {
     /// Fits outputs `y` (n × D_y) on inputs `x` (n × D_x), at most `max_iters` L-BFGS
-    /// iterations for the hyperparameters; the GIL is released while training.
+    /// iterations and `max_seconds` seconds for the hyperparameters; the GIL is released while
+    /// training. A signal handler's exception (Ctrl-C) stops training, as for the shared model,
+    /// and is raised carrying the regression trained so far as its `_sgplvm_native` attribute.
     #[staticmethod]
+    #[pyo3(signature = (x, y, max_iters, max_seconds=None))]
     fn fit(
         py: Python<'_>,
         x: PyReadonlyArray2<'_, f64>,
         y: PyReadonlyArray2<'_, f64>,
         max_iters: usize,
+        max_seconds: Option<f64>,
     ) -> PyResult<Self> {
         guarded(|| {
             let (x, y) = (to_mat(&x), to_mat(&y));
-            let options = TrainOptions::default().with_max_iters(max_iters);
-            py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options))
-                .map(|inner| NativeRegression { inner })
-                .map_err(model_error)
+            let signal = Arc::new(Mutex::new(None));
+            let options = TrainOptions::default()
+                .with_max_iters(max_iters)
+                .with_max_seconds(max_seconds)
+                .with_interrupt(signal_interrupt(Arc::clone(&signal)));
+            let result = py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options));
+            let signal = signal.lock().unwrap_or_else(PoisonError::into_inner).take();
+            match (result, signal) {
+                (Ok(inner), None) => Ok(NativeRegression { inner }),
+                (Ok(inner), Some(e)) => {
+                    let native = Py::new(py, NativeRegression { inner })?;
+                    let _ = e.value(py).setattr("_sgplvm_native", native);
+                    Err(e)
+                }
+                // A signal's exception wins over a training error: the user pressed Ctrl-C.
+                (Err(_), Some(e)) => Err(e),
+                (Err(e), None) => Err(model_error(e)),
+            }
         })
+    }
+
+    /// Why training stopped (`StopReason::name`: e.g. `time_limit`, `interrupted`).
+    #[getter]
+    fn stop_reason(&self) -> Option<&'static str> {
+        self.inner.stop_reason().map(|r| r.name())
     }
 
     /// Posterior mean at the input frames `x` (n × D_x).

@@ -12,6 +12,19 @@ from . import _sgplvm
 PathLike = Union[str, os.PathLike]
 
 
+def _real(value: Any, what: str, dtype: Any) -> np.ndarray:
+    """``value`` as a C-contiguous array of ``dtype``, refusing what the conversion would
+    change silently: complex values (the imaginary part dropped) and, for integer
+    ``dtype``, numbers with a fraction (truncated)."""
+    probe = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if np.iscomplexobj(probe):
+        raise ValueError(f"{what}: expected real numbers, got a {probe.dtype} array")
+    if np.issubdtype(dtype, np.integer) and probe.dtype.kind == "f":
+        if not np.all(np.isfinite(probe)) or not np.all(probe == np.trunc(probe)):
+            raise ValueError(f"{what}: expected integers, got {probe.dtype} values with a fraction or NaN")
+    return np.ascontiguousarray(probe, dtype=dtype)
+
+
 def read_joint_states(path: PathLike, topic: str) -> Tuple[np.ndarray, List[str], np.ndarray]:
     """Reads one ``sensor_msgs/msg/JointState`` topic (CDR or JSON) of an MCAP file.
 
@@ -31,8 +44,8 @@ def write_joint_states(
     """Writes one JointState topic (CDR, ROS 2 profile) to an MCAP file, atomically.
 
     ``compression`` is ``"zstd"`` (ROS 2's default), ``"lz4"`` or ``"none"``."""
-    times = np.ascontiguousarray(times_ns, dtype=np.int64).reshape(-1)
-    values = np.ascontiguousarray(positions, dtype=np.float64)
+    times = _real(times_ns, "times_ns", np.int64).reshape(-1)
+    values = _real(positions, "positions", np.float64)
     if values.ndim != 2:
         raise ValueError(f"positions: expected a 2-D array (frames × joints), got {values.ndim}-D")
     _sgplvm.write_joint_states(os.fspath(path), topic, times, list(names), values, compression)
@@ -56,8 +69,8 @@ def simulate(robot: Union[str, PathLike], joint_names: Sequence[str], times: Any
     ``positions`` (n, len(joint_names)). PD position control at 1 kHz with the base fixed.
     Returns a dict: ``joints`` (rms_error, max_error per joint), ``limit_violations``,
     ``collisions``, ``duration``, ``physics_steps``, ``wall_seconds``, ``warnings``."""
-    t = np.ascontiguousarray(times, dtype=np.float64).reshape(-1)
-    q = np.ascontiguousarray(positions, dtype=np.float64)
+    t = _real(times, "times", np.float64).reshape(-1)
+    q = _real(positions, "positions", np.float64)
     if q.ndim != 2:
         raise ValueError(f"positions: expected a 2-D array (frames × joints), got {q.ndim}-D")
     return _sgplvm.simulate(os.fspath(robot), list(joint_names), t, q)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import operator
 import os
 from typing import Callable, Dict, Mapping, Optional, Tuple, Union
 
@@ -13,8 +14,29 @@ from . import _sgplvm
 ArrayLike = Union[np.ndarray, list, tuple]
 
 
+def _refuse_complex(value: object, what: str) -> None:
+    """Complex values would lose their imaginary part in the float64 conversion: refused."""
+    probe = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if np.iscomplexobj(probe):
+        raise ValueError(f"{what}: expected real numbers, got a {probe.dtype} array")
+
+
+def _integer(value: object, what: str, minimum: int) -> int:
+    """``value`` as an int (a Python or numpy integer, not a bool or a float like 2.7)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{what} is {value!r}; expected an integer >= {minimum}")
+    try:
+        number = operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise ValueError(f"{what} is {value!r}; expected an integer >= {minimum}") from None
+    if number < minimum:
+        raise ValueError(f"{what} is {value!r}; expected an integer >= {minimum}")
+    return number
+
+
 def _as_matrix(value: ArrayLike, what: str) -> np.ndarray:
-    """A C-contiguous float64 2-D array from anything numpy can convert."""
+    """A C-contiguous float64 2-D array from anything numpy can convert (not complex)."""
+    _refuse_complex(value, what)
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as e:
@@ -26,6 +48,7 @@ def _as_matrix(value: ArrayLike, what: str) -> np.ndarray:
 
 def _as_frames(value: ArrayLike, what: str) -> Tuple[np.ndarray, bool]:
     """2-D frames; a single 1-D frame is accepted and flagged so results can be squeezed."""
+    _refuse_complex(value, what)
     array = np.asarray(value, dtype=np.float64) if not isinstance(value, np.ndarray) else value
     if array.ndim == 1:
         return _as_matrix(array[None, :], what), True
@@ -64,9 +87,7 @@ def _validation_rows(validation: Validation, n: int) -> Optional[list]:
 
 
 def _patience(patience: int) -> int:
-    if int(patience) < 0:
-        raise ValueError(f"patience is {patience}; expected an integer >= 0")
-    return int(patience)
+    return _integer(patience, "patience", 0)
 
 
 def _max_seconds(max_seconds: Optional[float]) -> Optional[float]:
@@ -109,11 +130,9 @@ class SharedGPLVM:
         scale: bool = False,
     ) -> None:
         canonical = _sgplvm.canonical_back_constraint(back_constraint)
-        if int(latent_dim) < 1:
-            raise ValueError(f"latent_dim is {latent_dim}; expected an integer >= 1")
-        self.latent_dim = int(latent_dim)
+        self.latent_dim = _integer(latent_dim, "latent_dim", 1)
         self.back_constraint = canonical
-        self.seed = int(seed)
+        self.seed = _integer(seed, "seed", 0)
         self.scale = bool(scale)
         self._native: Optional[_sgplvm.NativeModel] = None
 
@@ -179,7 +198,7 @@ class SharedGPLVM:
                 self.back_constraint,
                 self.seed,
                 self.scale,
-                int(max_iters),
+                _integer(max_iters, "max_iters", 0),
                 rows,
                 _patience(patience),
                 _max_seconds(max_seconds),
@@ -222,7 +241,7 @@ class SharedGPLVM:
             new._native = native.transfer(
                 name,
                 matrix,
-                int(max_iters),
+                _integer(max_iters, "max_iters", 0),
                 _validation_rows(validation, len(matrix)),
                 _patience(patience),
                 _max_seconds(max_seconds),
@@ -389,17 +408,34 @@ class GPRegression:
     """
 
     def __init__(self, max_iters: int = 1000) -> None:
-        if int(max_iters) < 0:
-            raise ValueError(f"max_iters is {max_iters}; expected an integer >= 0")
-        self.max_iters = int(max_iters)
+        self.max_iters = _integer(max_iters, "max_iters", 0)
         self._native: Optional[_sgplvm.NativeRegression] = None
 
-    def fit(self, X: ArrayLike, Y: ArrayLike) -> "GPRegression":
-        """Trains on inputs ``X`` (n × D_x) and outputs ``Y`` (n × D_y). Returns ``self``."""
-        self._native = _sgplvm.NativeRegression.fit(
-            _as_matrix(X, "X"), _as_matrix(Y, "Y"), self.max_iters
-        )
+    def fit(self, X: ArrayLike, Y: ArrayLike, max_seconds: Optional[float] = None) -> "GPRegression":
+        """Trains on inputs ``X`` (n × D_x) and outputs ``Y`` (n × D_y). Returns ``self``.
+
+        Data far from unit scale is standardised (by a power of two, exactly), as the shared
+        model's is. ``max_seconds`` bounds the wall-clock time of training: when it runs out
+        the best hyperparameters so far are kept (:attr:`stop_reason` is ``"time_limit"``).
+        Ctrl-C stops training within about a second and raises ``KeyboardInterrupt``; the
+        regression keeps the best hyperparameters reached (:attr:`stop_reason`
+        ``"interrupted"``)."""
+        x, y, seconds = _as_matrix(X, "X"), _as_matrix(Y, "Y"), _max_seconds(max_seconds)
+        try:
+            self._native = _sgplvm.NativeRegression.fit(x, y, self.max_iters, seconds)
+        except BaseException as e:
+            native = getattr(e, "_sgplvm_native", None)
+            if native is not None:
+                self._native = native
+            raise
         return self
+
+    @property
+    def stop_reason(self) -> Optional[str]:
+        """Why training stopped: ``"gradient_tolerance"``, ``"relative_tolerance"``,
+        ``"max_iterations"``, ``"line_search"``, ``"time_limit"`` (``max_seconds`` ran out),
+        ``"evaluation_limit"`` or ``"interrupted"`` (Ctrl-C)."""
+        return self._require().stop_reason
 
     def predict(self, X: ArrayLike) -> np.ndarray:
         """Posterior mean (n × D_y) at input frames ``X`` (n × D_x, or one frame of D_x)."""
