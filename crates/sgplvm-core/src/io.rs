@@ -80,6 +80,16 @@ impl MatData {
                 reason: format!("{what}: non-finite value {v}"),
             });
         }
+        // Training stores standardised data, latent points and weights of order 1 (fit refuses
+        // data beyond these scales): larger values only make predictions overflow to NaN.
+        let max = crate::preprocess::ACCEPTED_SCALES.1;
+        if let Some(v) = self.data.iter().find(|v| v.abs() > max) {
+            return Err(Error::Corrupt {
+                reason: format!(
+                    "{what}: value {v:e} beyond ±{max:e} (a trained model's are of order 1)"
+                ),
+            });
+        }
         Ok(Mat::from_fn(self.rows, self.cols, |i, j| {
             self.data[j * self.rows + i]
         }))
@@ -515,7 +525,7 @@ mod tests {
         let same = with_payload(&bytes, |_| {});
         assert!(SharedGplvm::from_bytes(&same).is_ok());
         type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
-        let cases: [(&str, Edit); 3] = [
+        let cases: [(&str, Edit); 5] = [
             (
                 "appears twice",
                 Box::new(|j| {
@@ -530,6 +540,15 @@ mod tests {
             (
                 "input map",
                 Box::new(|j| j["map"]["kernel"]["lengthscale"][0] = 1e200.into()),
+            ),
+            // Finite, but predictions from them overflow to NaN (they did, naming no file).
+            (
+                "latent x: value 1e308 beyond ±1e153",
+                Box::new(|j| j["latent"]["Free"]["x"]["data"][0] = 1e308.into()),
+            ),
+            (
+                "space 'walkman' data: value -1e200 beyond",
+                Box::new(|j| j["spaces"][1]["data"]["data"][3] = (-1e200).into()),
             ),
         ];
         for (expected, edit) in cases {
