@@ -151,3 +151,118 @@ fn a_panic_caught_inside_the_mcap_reader_prints_one_line() {
     assert!(err.contains("the mcap reader stopped"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The shipped demonstrations' first `n` human frames, and a model trained for two iterations.
+fn human_frames_and_model(dir: &Path, n: usize) -> (JointStates, std::path::PathBuf) {
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/data/demos/bimanual.mcap");
+    let all = sgplvm::robots::joint_state::read_joint_states(shipped, "/human/joint_states")
+        .expect("shipped data");
+    let d = all.names.len();
+    let human = JointStates::new(
+        all.times_ns[..n].to_vec(),
+        all.names.clone(),
+        all.positions[..n * d].to_vec(),
+    )
+    .expect("valid");
+    let model = dir.join("m.sgp");
+    common::ok(&[
+        "train",
+        "--robot",
+        "walkman",
+        "--max-iters",
+        "2",
+        "--validation",
+        "none",
+        "--out",
+        s(&model),
+    ]);
+    (human, model)
+}
+
+/// A NaN in a human MCAP given to `predict` is refused naming the file, topic and joint (the
+/// model's own check named only its space 'human').
+#[test]
+fn a_nan_in_a_human_mcap_names_the_file_and_joint() {
+    let dir = scratch("nan-mcap");
+    let (mut human, model) = human_frames_and_model(&dir, 12);
+    let d = human.names.len();
+    human.positions[3 * d + 2] = f64::NAN;
+    let input = dir.join("human-nan.mcap");
+    write_topics(
+        &input,
+        &[TopicData {
+            topic: "/human/joint_states",
+            states: &human,
+            encoding: MessageEncoding::Cdr,
+        }],
+        &WriteSettings::default(),
+    )
+    .expect("write");
+    let err = fails_on_one_line(
+        &[
+            "predict",
+            "--model",
+            s(&model),
+            "--input",
+            s(&input),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&dir.join("o.csv")),
+        ],
+        &input,
+    );
+    let joint = &human.names[2];
+    assert!(
+        err.contains("topic /human/joint_states")
+            && err.contains(&format!("joint '{joint}' is NaN in message 4")),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A CSV whose times are negative predicts to CSV, but to MCAP (unsigned nanoseconds) it is
+/// refused naming the output, the input and the frame — not "invalid data for joint states".
+#[test]
+fn negative_csv_times_into_an_mcap_output_name_both_files() {
+    let dir = scratch("negative");
+    let (human, model) = human_frames_and_model(&dir, 6);
+    let d = human.names.len();
+    let mut csv = format!("time,{}\n", human.names.join(","));
+    for i in 0..human.len() {
+        let row: Vec<String> = human.positions[i * d..(i + 1) * d]
+            .iter()
+            .map(|v| v.to_string())
+            .collect();
+        csv.push_str(&format!("{},{}\n", -1.0 + 0.025 * i as f64, row.join(",")));
+    }
+    let input = dir.join("negative.csv");
+    std::fs::write(&input, csv).expect("write");
+    let out = dir.join("out.mcap");
+    let args = |out: &Path| {
+        vec![
+            "predict".to_string(),
+            "--model".into(),
+            s(&model).into(),
+            "--input".into(),
+            s(&input).into(),
+            "--robot".into(),
+            "walkman".into(),
+            "--out".into(),
+            s(out).into(),
+        ]
+    };
+    let mcap_args = args(&out);
+    let argv: Vec<&str> = mcap_args.iter().map(String::as_str).collect();
+    let err = fails_on_one_line(&argv, &out);
+    assert!(
+        err.contains("negative.csv") && err.contains("frame 1 ") && err.contains("-1 s"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let csv_out = dir.join("out.csv");
+    let csv_args = args(&csv_out);
+    let argv: Vec<&str> = csv_args.iter().map(String::as_str).collect();
+    common::ok(&argv);
+    std::fs::remove_dir_all(&dir).ok();
+}

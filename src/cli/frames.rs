@@ -100,8 +100,21 @@ pub fn read_human_frames(
     let wanted = model_joint_names(model, model.input_name());
     if input.ends_with(".mcap") {
         let topic = pick_topic(input, topic, "human", "human", false)?;
-        let read = read_topics(input, &[TopicRequest::joints(topic, &wanted)])?;
+        let read = read_topics(input, &[TopicRequest::joints(&topic, &wanted)])?;
         let states = &read.states[0];
+        // The model would refuse them naming only its space: name the file, topic and joint.
+        for i in 0..states.len() {
+            if let Some(j) = states.row(i).iter().position(|v| !v.is_finite()) {
+                bail!(
+                    "{input}: topic {topic}: joint '{}' is {} in message {} (t = {} s); \
+                     expected a finite number",
+                    wanted[j],
+                    states.row(i)[j],
+                    i + 1,
+                    states.times_ns[i] as f64 * 1e-9
+                );
+            }
+        }
         let frames = Mat::from_fn(states.len(), wanted.len(), |i, j| states.row(i)[j]);
         return Ok(HumanFrames {
             times_ns: states.times_ns.clone(),

@@ -57,7 +57,10 @@ pub fn run(args: PredictArgs) -> Result<()> {
         return predict_stream(&model, robot, &robot_joints, &args.out, args.std);
     }
     let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
-    let prediction = model.predict(human.frames.as_ref(), robot, args.std)?;
+    // A model that cannot predict finite values for this input says so naming its file.
+    let prediction = model
+        .predict(human.frames.as_ref(), robot, args.std)
+        .with_context(|| args.model.model.display().to_string())?;
     let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
         (0..m.nrows())
             .flat_map(|i| (0..m.ncols()).map(move |j| (i, j)))
@@ -71,14 +74,22 @@ pub fn run(args: PredictArgs) -> Result<()> {
         times_ns: human.times_ns,
     };
     if args.out.ends_with(".mcap") {
-        write_mcap(&predicted, robot, &robot_joints, &args.out)
+        write_mcap(&predicted, robot, &robot_joints, &args.input, &args.out)
     } else {
         write_csv(&predicted, robot, &robot_joints, &args.out, args.std)
     }
 }
 
 /// Writes the prediction as JointState messages on /ROBOT/joint_command (and _std).
-fn write_mcap(p: &Predicted, robot: &str, joints: &[String], out: &str) -> Result<()> {
+fn write_mcap(p: &Predicted, robot: &str, joints: &[String], input: &str, out: &str) -> Result<()> {
+    if let Some(i) = p.times_ns.iter().position(|t| *t < 0) {
+        bail!(
+            "{out}: frame {} of {input} has the negative time {} s; an MCAP output needs times \
+             ≥ 0 (shift the input's times, or write CSV)",
+            i + 1,
+            p.times_ns[i] as f64 * 1e-9
+        );
+    }
     let states =
         |values: &Vec<f64>| JointStates::new(p.times_ns.clone(), joints.to_vec(), values.clone());
     let command = states(&p.mean)?;
