@@ -157,9 +157,9 @@ pub struct GpRegression {
     /// The power of two the centred outputs were divided by (1 for data near unit scale).
     y_unit: f64,
     /// Trained hyperparameters (in the standardised units).
-    kernel: KernelParams,
+    std_kernel: KernelParams,
     /// The same in the units of the data given to `fit`.
-    user_kernel: KernelParams,
+    kernel: KernelParams,
     /// Why training stopped (`None` for a regression made with given hyperparameters).
     stop_reason: Option<StopReason>,
     /// K⁻¹(Y − mean), N×D_y.
@@ -206,15 +206,15 @@ impl GpRegression {
         )?;
         let mut fitted = Self::with_kernel(xs.as_ref(), y_mean, ys.as_ref(), kernel, "regression")?;
         let y2 = y_unit * y_unit;
-        fitted.user_kernel = KernelParams {
-            variance: fitted.kernel.variance * y2,
+        fitted.kernel = KernelParams {
+            variance: fitted.std_kernel.variance * y2,
             lengthscale: fitted
-                .kernel
+                .std_kernel
                 .lengthscale
                 .iter()
                 .map(|l| l * x_unit)
                 .collect(),
-            noise: fitted.kernel.noise * y2,
+            noise: fitted.std_kernel.noise * y2,
         };
         fitted.x_unit = x_unit;
         fitted.y_unit = y_unit;
@@ -241,7 +241,7 @@ impl GpRegression {
             x_unit: 1.0,
             y_mean,
             y_unit: 1.0,
-            user_kernel: kernel.clone(),
+            std_kernel: kernel.clone(),
             kernel,
             stop_reason: None,
             alpha: work.alpha().to_owned(),
@@ -251,7 +251,7 @@ impl GpRegression {
 
     /// Posterior mean at the input frames in the rows of `x` (n×D_y).
     pub fn predict(&self, x: MatRef<'_, f64>) -> Result<Mat<f64>> {
-        let dx = self.kernel.lengthscale.len();
+        let dx = self.std_kernel.lengthscale.len();
         if x.ncols() != dx {
             return Err(Error::DimensionMismatch {
                 what: "regression input columns".into(),
@@ -264,7 +264,7 @@ impl GpRegression {
         let (train, queries) = scaled_about_mean(
             &self.x_rows,
             dx,
-            &half_inv_l2(&self.kernel),
+            &half_inv_l2(&self.std_kernel),
             x.nrows(),
             |r, t| x[(r, t)] / x_unit,
         );
@@ -284,7 +284,7 @@ impl GpRegression {
                 Accum::Add,
                 kb,
                 self.alpha.as_ref(),
-                self.kernel.variance,
+                self.std_kernel.variance,
                 Par::Seq,
             );
         });
@@ -301,7 +301,7 @@ impl GpRegression {
     /// The trained hyperparameters (one lengthscale per input column), in the units of the
     /// data given to [`GpRegression::fit`].
     pub fn kernel(&self) -> &KernelParams {
-        &self.user_kernel
+        &self.kernel
     }
 
     /// Negative log marginal likelihood of the training outputs at the trained
