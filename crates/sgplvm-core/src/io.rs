@@ -131,9 +131,13 @@ fn corrupt(reason: String) -> Error {
 
 /// True when `k` holds finite positive values whose squared lengthscales and their inverses are
 /// finite and normal: the kernel computes −d²/(2ℓ²) from them, and a file with ℓ = 10⁻²⁰⁰ (valid
-/// as a number) would otherwise predict NaN.
+/// as a number) would otherwise predict NaN. Variance and noise are those of standardised data
+/// (of order 1): beyond ±10¹⁵³ they only overflow the covariance.
 fn kernel_is_usable(k: &KernelParams) -> bool {
+    let max = crate::preprocess::ACCEPTED_SCALES.1;
     k.is_valid()
+        && k.variance <= max
+        && k.noise <= max
         && k.lengthscale
             .iter()
             .all(|l| (l * l).is_normal() && (1.0 / (l * l)).is_normal())
@@ -525,7 +529,7 @@ mod tests {
         let same = with_payload(&bytes, |_| {});
         assert!(SharedGplvm::from_bytes(&same).is_ok());
         type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
-        let cases: [(&str, Edit); 5] = [
+        let cases: [(&str, Edit); 6] = [
             (
                 "appears twice",
                 Box::new(|j| {
@@ -545,6 +549,11 @@ mod tests {
             (
                 "latent x: value 1e308 beyond ±1e153",
                 Box::new(|j| j["latent"]["Free"]["x"]["data"][0] = 1e308.into()),
+            ),
+            // Gave "not positive definite even with jitter 0e0" instead of naming the kernel.
+            (
+                "space 'walkman': invalid kernel",
+                Box::new(|j| j["spaces"][1]["kernel"]["variance"] = 1e308.into()),
             ),
             (
                 "space 'walkman' data: value -1e200 beyond",
