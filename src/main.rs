@@ -27,11 +27,42 @@ struct Cli {
 }
 
 fn main() {
+    quiet_on_closed_stdout();
     let cli = Cli::parse();
     if let Err(e) = cli.command.run() {
+        if is_broken_pipe(&e) {
+            // `sgplvm … | head`: the reader has all it wanted.
+            std::process::exit(0);
+        }
         eprintln!("error: {}", one_line(&e));
         std::process::exit(1);
     }
+}
+
+/// `println!` panics when the reader of stdout went away (`sgplvm simulate … | head`): end
+/// quietly with exit code 0 instead, as a Unix filter does. Other panics keep the default hook.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
+/// Whether `e` comes from writing to a closed pipe (a stream to stdout whose reader is gone).
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// The chain of causes on one line, outermost first, leaving out causes that the message before

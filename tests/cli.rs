@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 mod common;
-use common::{fails, ok, s, scratch, sgplvm};
+use common::{fails, fails_on_one_line, ok, s, scratch, sgplvm};
 
 /// Generated data and a model trained on WALK-MAN, shared by the tests.
 struct Fixture {
@@ -590,4 +590,150 @@ fn experiment_writes_results_in_the_documented_schema() {
     ] {
         assert!(out.join(file).exists(), "missing {file}");
     }
+}
+
+#[test]
+fn messages_say_what_happened() {
+    let f = fixture();
+    let dir = scratch("messages");
+    let (data, model) = (s(&f.data), s(&f.model));
+    // A robot the model does not know: named, with the robots it knows.
+    let err = fails_on_one_line(&[
+        "evaluate", "--model", model, "--data", data, "--robot", "coman",
+    ]);
+    assert!(
+        err.contains("does not know robot 'coman'") && err.contains("[\"walkman\"]"),
+        "{err}"
+    );
+    // A transfer says only the new robot's kernel was trained, on whose latent space.
+    let coman = dir.join("coman.sgp");
+    let args = [
+        "transfer",
+        "--model",
+        model,
+        "--data",
+        data,
+        "--robot",
+        "coman",
+        "--max-iters",
+        "5",
+        "--out",
+        s(&coman),
+    ];
+    let said = ok(&args);
+    assert!(
+        said.starts_with(
+            "transferred to coman (its kernel only; shared latent space from walkman) in "
+        ),
+        "{said}"
+    );
+    assert!(!said.contains("trained walkman + coman"), "{said}");
+    // Transferring to a robot the model already has.
+    let err = fails_on_one_line(&[
+        "transfer",
+        "--model",
+        s(&coman),
+        "--data",
+        data,
+        "--robot",
+        "coman",
+        "--out",
+        s(&dir.join("again.sgp")),
+    ]);
+    assert!(err.contains("already predicts for 'coman'"), "{err}");
+    // A missing folder: the error names the user's path, not a temporary file.
+    let missing = dir.join("no-such-folder").join("x.sgp");
+    let err = fails_on_one_line(&[
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--max-iters",
+        "2",
+        "--out",
+        s(&missing),
+    ]);
+    assert!(err.contains(s(&missing)) && !err.contains(".tmp"), "{err}");
+}
+
+/// Runs `sgplvm args…` with its stdout closed before it writes anything: the command must end
+/// quietly with exit code 0.
+fn closed_stdout_ends_quietly(args: &[&str]) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sgplvm"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "sgplvm {args:?}: {stderr}");
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("error"),
+        "sgplvm {args:?}: {stderr}"
+    );
+}
+
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    let f = fixture();
+    let (data, model) = (s(&f.data), s(&f.model));
+    // Printed with println! (a table), and written through an io::Write (a CSV to stdout).
+    closed_stdout_ends_quietly(&[
+        "evaluate", "--model", model, "--data", data, "--robot", "walkman",
+    ]);
+    closed_stdout_ends_quietly(&[
+        "predict", "--model", model, "--input", data, "--robot", "walkman", "--out", "-",
+    ]);
+    closed_stdout_ends_quietly(&[
+        "simulate", "--model", model, "--input", data, "--robot", "walkman",
+    ]);
+}
+
+#[test]
+fn simulate_prints_a_summary_and_details_on_request() {
+    let f = fixture();
+    let args = [
+        "simulate",
+        "--model",
+        s(&f.model),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "walkman",
+    ];
+    let summary = ok(&args);
+    let verbose = ok(&[&args[..], &["--verbose"]].concat());
+    // One line per joint and a few per kind of event, whatever the number of intervals.
+    assert!(summary.lines().count() < 40, "{summary}");
+    assert!(
+        summary.contains("over limit") && summary.contains("too fast"),
+        "{summary}"
+    );
+    for joint in ["LShSag", "RWrj2"] {
+        assert!(summary.contains(joint), "{summary}");
+    }
+    let intervals = summary
+        .lines()
+        .find_map(|l| {
+            l.strip_suffix(
+                " intervals in all: every one with --verbose, the whole report with --json",
+            )
+        })
+        .map(|n| n.trim().parse::<usize>().unwrap());
+    let report: serde_json::Value =
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    let in_json: usize = ["limit_violations", "velocity_violations", "collisions"]
+        .iter()
+        .map(|k| report[k].as_array().unwrap().len())
+        .sum();
+    assert_eq!(intervals.unwrap_or(0), in_json, "{summary}");
+    // --verbose lists each interval on a line of its own.
+    assert!(
+        verbose.lines().count() >= summary.lines().count() + in_json.saturating_sub(10),
+        "{verbose}"
+    );
 }

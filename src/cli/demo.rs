@@ -49,17 +49,24 @@ pub fn run(args: DemoArgs) -> Result<()> {
         .with_back_constraint(BackConstraint::Input);
     let options = args.budget.options();
     let validation = args.budget.validation(&demos);
+    let mut written = Vec::new();
     let models = demos.transfer_study(
         &args.source,
         &config,
         &options,
         validation.as_ref(),
         &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
-            train_and_save(training, train, args.budget.max_iters, &args.out)
+            train_and_save(
+                training,
+                train,
+                args.budget.max_iters,
+                &args.out,
+                &mut written,
+            )
         },
     )?;
     let yardsticks = direct_regressions(&demos, &models, &options)?;
-    let written = draw_figures(&demos, &args.source, &models, &args.out)?;
+    written.extend(draw_figures(&demos, &args.source, &models, &args.out)?);
     report::demo(
         &demos,
         &args.source,
@@ -95,12 +102,13 @@ fn direct_regressions(
 }
 
 /// Runs one training of the study under a progress bar; saves the source model and the
-/// transferred ones into `out`.
+/// transferred ones into `out`, adding their paths to `saved`.
 fn train_and_save(
     training: &StudyTraining<'_>,
     train: &mut TrainFn<'_>,
     max_iters: u64,
     out: &Path,
+    saved: &mut Vec<PathBuf>,
 ) -> Result<(SharedGplvm, f64)> {
     let (robot, source) = (training.robot, training.source);
     let (label, file) = match training.kind {
@@ -116,7 +124,9 @@ fn train_and_save(
     let (model, seconds) = train_with_progress(&label, max_iters, train)?;
     if let Some(file) = file {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        model.save(&out.join(file))?;
+        let path = out.join(file);
+        model.save(&path)?;
+        saved.push(path);
     }
     Ok((model, seconds))
 }

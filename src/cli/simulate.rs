@@ -33,9 +33,12 @@ pub struct SimulateArgs {
     /// Human frames (MCAP or CSV) for --model.
     #[arg(long, requires = "model")]
     input: Option<String>,
-    /// Print the report as JSON.
+    /// Print the whole report as JSON (every violation and collision interval).
     #[arg(long)]
     json: bool,
+    /// List every violation and collision interval, not only the worst.
+    #[arg(long, short)]
+    verbose: bool,
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
@@ -62,7 +65,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
     let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default())?;
-    Ok(report::replay(&source, &report, args.json)?)
+    Ok(report::replay(&source, &report, args.json, args.verbose)?)
 }
 
 /// The trajectory `model` predicts for `robot` from the human frames of `input`.
