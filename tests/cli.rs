@@ -737,3 +737,51 @@ fn simulate_prints_a_summary_and_details_on_request() {
         "{verbose}"
     );
 }
+
+#[test]
+fn predict_std_output_replays_in_simulate() {
+    let f = fixture();
+    let dir = scratch("std-round-trip");
+    for file in ["walkman.csv", "walkman.mcap"] {
+        let out = dir.join(file);
+        ok(&[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&f.data),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&out),
+            "--std",
+        ]);
+        let replay = |extra: &[&str]| -> serde_json::Value {
+            let args = [
+                &[
+                    "simulate",
+                    "--robot",
+                    "walkman",
+                    "--trajectory",
+                    s(&out),
+                    "--json",
+                ],
+                extra,
+            ]
+            .concat();
+            serde_json::from_str(&ok(&args)).unwrap()
+        };
+        let report = replay(&[]);
+        // The 14 joints, not their standard deviations.
+        let joints = report["joints"].as_array().unwrap();
+        assert_eq!(joints.len(), 14, "{file}: {joints:?}");
+        assert!(joints
+            .iter()
+            .all(|j| !j["name"].as_str().unwrap().ends_with("_std")));
+        if file.ends_with(".mcap") {
+            // The same replay as naming the command topic.
+            let named = replay(&["--topic", "/walkman/joint_command"]);
+            assert_eq!(named["joints"], report["joints"]);
+        }
+    }
+}

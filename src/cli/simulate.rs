@@ -21,7 +21,8 @@ pub struct SimulateArgs {
     /// A URDF file instead of a built-in robot.
     #[arg(long, conflicts_with = "model")]
     urdf: Option<PathBuf>,
-    /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column).
+    /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column;
+    /// the `<joint>_std` columns of `sgplvm predict --std` output are ignored).
     #[arg(long, required_unless_present = "model", conflicts_with = "model")]
     trajectory: Option<String>,
     /// Topic of the trajectory (or of the human, with --model) in an MCAP file.
