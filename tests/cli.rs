@@ -785,3 +785,74 @@ fn predict_std_output_replays_in_simulate() {
         }
     }
 }
+
+#[test]
+fn export_and_joints_make_the_inputs_of_predict() {
+    let f = fixture();
+    let dir = scratch("export");
+    // The human's joint names, in the columns' order.
+    let listed = ok(&["joints", "human"]);
+    let names: Vec<&str> = listed
+        .trim()
+        .strip_prefix("human: ")
+        .unwrap()
+        .split(',')
+        .collect();
+    assert_eq!(names.len(), 18, "{listed}");
+    let model_joints = ok(&["joints", "--model", s(&f.model)]);
+    assert!(model_joints.starts_with(listed.trim()), "{model_joints}");
+    for file in ["human.csv", "human.mcap"] {
+        let human = dir.join(file);
+        ok(&[
+            "export",
+            "--demos",
+            s(&f.data),
+            "--body",
+            "human",
+            "--out",
+            s(&human),
+        ]);
+        let out = dir.join(format!("{file}.out.csv"));
+        ok(&[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&human),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&out),
+        ]);
+        let predicted = std::fs::read_to_string(&out).unwrap();
+        let test_frames = sgplvm::robots::dataset::load_demonstrations(&f.data)
+            .unwrap()
+            .test
+            .len();
+        assert_eq!(predicted.lines().count(), test_frames + 1, "{file}");
+        if file.ends_with(".csv") {
+            let csv = std::fs::read_to_string(&human).unwrap();
+            assert_eq!(
+                csv.lines().next().unwrap(),
+                format!("time,{}", names.join(","))
+            );
+            // Times from the first frame written.
+            assert!(
+                csv.lines().nth(1).unwrap().starts_with("0,")
+                    || csv.lines().nth(1).unwrap().starts_with("0.0,"),
+                "{csv:.200}"
+            );
+        }
+    }
+    let err = fails_on_one_line(&[
+        "export",
+        "--data",
+        s(&f.data),
+        "--body",
+        "r2d2",
+        "--out",
+        s(&dir.join("x.csv")),
+    ]);
+    assert!(err.contains("r2d2") && err.contains("walkman"), "{err}");
+    assert!(!dir.join("x.csv").exists());
+}
