@@ -856,3 +856,42 @@ fn export_and_joints_make_the_inputs_of_predict() {
     assert!(err.contains("r2d2") && err.contains("walkman"), "{err}");
     assert!(!dir.join("x.csv").exists());
 }
+
+#[test]
+fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
+    let f = fixture();
+    let out = scratch("demo");
+    let run = sgplvm(&[
+        "demo",
+        "--data",
+        s(&f.data),
+        "--max-iters",
+        "5",
+        "--out",
+        s(&out),
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr),
+    );
+    assert!(run.status.success(), "{stderr}");
+    // stderr is not a terminal here: one line per step with an estimate of the time left.
+    assert!(
+        stderr.contains("demo: walkman full trained (1/9 steps, "),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("demo: figures (9/9 steps, ") && stderr.contains(" ETA "),
+        "{stderr}"
+    );
+    // The closing list names the model files it wrote, and they exist.
+    for model in [
+        "walkman.sgp",
+        "walkman_to_coman.sgp",
+        "walkman_to_centauro.sgp",
+    ] {
+        let path = out.join(model);
+        assert!(stdout.contains(s(&path)), "{stdout}");
+        assert!(path.exists(), "{model}");
+    }
+}

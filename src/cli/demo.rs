@@ -12,7 +12,7 @@ use sgplvm::pipeline::{Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
 
 use super::args::{BudgetArg, DataArg};
-use super::progress::train_with_progress;
+use super::progress::{on_terminal, train_with_progress, StepLines};
 use super::report::{self, Yardstick};
 
 #[derive(Args)]
@@ -49,6 +49,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
         .with_back_constraint(BackConstraint::Input);
     let options = args.budget.options();
     let validation = args.budget.validation(&demos);
+    // The study trains the source fully, each other robot by transfer and fully, then fits
+    // every robot's direct regression and draws the figures.
+    let robots = demos.dataset.robots.len();
+    let mut steps = DemoSteps::new(2 * robots.max(1) - 1 + robots + 1);
     let mut written = Vec::new();
     let models = demos.transfer_study(
         &args.source,
@@ -56,17 +60,21 @@ pub fn run(args: DemoArgs) -> Result<()> {
         &options,
         validation.as_ref(),
         &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
-            train_and_save(
+            let result = train_and_save(
                 training,
                 train,
                 args.budget.max_iters,
                 &args.out,
                 &mut written,
-            )
+            );
+            let label = report::demo_label(training.kind);
+            steps.done(&format!("{} {label} trained", training.robot));
+            result
         },
     )?;
-    let yardsticks = direct_regressions(&demos, &models, &options)?;
+    let yardsticks = direct_regressions(&demos, &models, &options, &mut steps)?;
     written.extend(draw_figures(&demos, &args.source, &models, &args.out)?);
+    steps.done("figures");
     report::demo(
         &demos,
         &args.source,
@@ -79,12 +87,37 @@ pub fn run(args: DemoArgs) -> Result<()> {
     Ok(())
 }
 
+/// The demo's progress where no bar can be drawn (a log): a line per finished step, with an
+/// estimate of the time left.
+struct DemoSteps {
+    lines: Option<StepLines>,
+    started: Instant,
+}
+
+impl DemoSteps {
+    /// Lines for `total` steps when stderr is not a terminal; nothing otherwise.
+    fn new(total: usize) -> Self {
+        DemoSteps {
+            lines: (!on_terminal()).then(|| StepLines::new(total)),
+            started: Instant::now(),
+        }
+    }
+
+    /// Says that `what` is done.
+    fn done(&mut self, what: &str) {
+        if let Some(lines) = &mut self.lines {
+            eprintln!("demo: {}", lines.step(what, self.started.elapsed()));
+        }
+    }
+}
+
 /// The yardstick of every robot of the study, in the study's order: a direct GP regression
 /// human → robot on the same training frames, with its training seconds.
 fn direct_regressions(
     demos: &Demonstrations,
     models: &[StudyModel],
     options: &TrainOptions,
+    steps: &mut DemoSteps,
 ) -> Result<Vec<Yardstick>> {
     let mut robots: Vec<&str> = models.iter().map(|m| m.robot.as_str()).collect();
     robots.dedup();
@@ -93,6 +126,7 @@ fn direct_regressions(
         .map(|robot| {
             let start = Instant::now();
             let (_, evaluation) = demos.direct_regression(robot, options)?;
+            steps.done(&format!("direct GP {robot}"));
             Ok(Yardstick {
                 seconds: start.elapsed().as_secs_f64(),
                 evaluation,

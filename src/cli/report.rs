@@ -107,7 +107,7 @@ pub fn demo_data(demos: &Demonstrations) {
 }
 
 /// How the demo's table names a kind of model.
-fn demo_label(kind: ModelKind) -> &'static str {
+pub fn demo_label(kind: ModelKind) -> &'static str {
     match kind {
         ModelKind::Baseline => "full",
         ModelKind::Transfer => "transfer",

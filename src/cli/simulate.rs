@@ -11,6 +11,7 @@ use super::args::load_model;
 use super::frames::{
     builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
 };
+use super::progress::Activity;
 use super::report;
 
 #[derive(Args)]
@@ -65,7 +66,14 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
-    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default())?;
+    let detail = format!(
+        ", {:.1} s of motion at 1 kHz",
+        trajectory.times.last().copied().unwrap_or(0.0)
+    );
+    let activity = Activity::start(&format!("replaying on {source}"), &detail);
+    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default());
+    activity.finish();
+    let report = report?;
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
 }
 
