@@ -471,6 +471,10 @@ fn draw_side_legend<DB: DrawingBackend>(
 /// A pixel rectangle: left, top, right, bottom.
 type Rect = (f64, f64, f64, f64);
 
+/// Where an annotation goes: the pixel offset of its text from its point, and the end of a
+/// leader line from the point when the text sits away from it.
+type Placement = ((i32, i32), Option<(i32, i32)>);
+
 /// Where each annotation's text goes, as a pixel offset from its point: of the places around
 /// the point, the one that covers the fewest drawn points (`ink`, pixels), stays inside
 /// `bounds` and overlaps no text placed before it, nearer ones preferred. With each offset, the
@@ -481,7 +485,7 @@ fn place_annotations(
     texts: &[String],
     ink: &[(f64, f64)],
     bounds: Rect,
-) -> Vec<((i32, i32), Option<(i32, i32)>)> {
+) -> Vec<Placement> {
     let mut placed: Vec<Rect> = Vec::new();
     let mut offsets = vec![((0, 0), None); anchors.len().min(texts.len())];
     // Points near the chart's edges have the fewest places free: they choose first.

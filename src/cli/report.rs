@@ -233,6 +233,9 @@ pub fn replay(
     Ok(())
 }
 
+/// A violation's amount and limit, formatted with their unit.
+type Units = fn(&LimitViolation) -> (String, String);
+
 /// How many of the worst cases the summary lists.
 const WORST: usize = 3;
 
@@ -305,11 +308,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
         ));
     }
     line(String::new());
-    let kinds: [(
-        &str,
-        &[LimitViolation],
-        fn(&LimitViolation) -> (String, String),
-    ); 2] = [
+    let kinds: [(&str, &[LimitViolation], Units); 2] = [
         ("joint-limit", &report.limit_violations, |v| {
             (
                 format!("{:.2}°", v.amount.to_degrees()),
