@@ -40,6 +40,26 @@ fn fixture() -> &'static Fixture {
     })
 }
 
+/// The human's test frames of the fixture as CSV (a few seconds of motion: physics replays of
+/// it stay short).
+fn human_test_csv(f: &Fixture) -> PathBuf {
+    static CSV: OnceLock<PathBuf> = OnceLock::new();
+    CSV.get_or_init(|| {
+        let path = f.dir.join("human_test.csv");
+        ok(&[
+            "export",
+            "--data",
+            s(&f.data),
+            "--body",
+            "human",
+            "--out",
+            s(&path),
+        ]);
+        path
+    })
+    .clone()
+}
+
 #[test]
 fn train_transfer_predict_evaluate() {
     let f = fixture();
@@ -688,20 +708,28 @@ fn a_closed_stdout_pipe_ends_quietly() {
     closed_stdout_ends_quietly(&[
         "predict", "--model", model, "--input", data, "--robot", "walkman", "--out", "-",
     ]);
+    let human = human_test_csv(f);
     closed_stdout_ends_quietly(&[
-        "simulate", "--model", model, "--input", data, "--robot", "walkman",
+        "simulate",
+        "--model",
+        model,
+        "--input",
+        s(&human),
+        "--robot",
+        "walkman",
     ]);
 }
 
 #[test]
 fn simulate_prints_a_summary_and_details_on_request() {
     let f = fixture();
+    let human = human_test_csv(f);
     let args = [
         "simulate",
         "--model",
         s(&f.model),
         "--input",
-        s(&f.data),
+        s(&human),
         "--robot",
         "walkman",
     ];
@@ -731,6 +759,8 @@ fn simulate_prints_a_summary_and_details_on_request() {
         .map(|k| report[k].as_array().unwrap().len())
         .sum();
     assert_eq!(intervals.unwrap_or(0), in_json, "{summary}");
+    // Enough intervals that listing them all would be long.
+    assert!(in_json > 40, "{in_json} intervals: {summary}");
     // --verbose lists each interval on a line of its own.
     assert!(
         verbose.lines().count() >= summary.lines().count() + in_json.saturating_sub(10),
@@ -741,6 +771,7 @@ fn simulate_prints_a_summary_and_details_on_request() {
 #[test]
 fn predict_std_output_replays_in_simulate() {
     let f = fixture();
+    let human = human_test_csv(f);
     let dir = scratch("std-round-trip");
     for file in ["walkman.csv", "walkman.mcap"] {
         let out = dir.join(file);
@@ -749,7 +780,7 @@ fn predict_std_output_replays_in_simulate() {
             "--model",
             s(&f.model),
             "--input",
-            s(&f.data),
+            s(&human),
             "--robot",
             "walkman",
             "--out",

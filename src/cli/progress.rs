@@ -51,7 +51,7 @@ pub struct Activity {
 
 impl Activity {
     /// How long work may take before lines say it is under way.
-    pub const QUIET: Duration = Duration::from_secs(2);
+    pub const QUIET: Duration = Duration::from_secs(5);
     /// Time between two lines while it lasts.
     pub const EVERY: Duration = Duration::from_secs(30);
 
