@@ -150,7 +150,46 @@ impl CsvFrames {
             (None, _) => (0..self.rows).map(|i| i as f64 / 40.0).collect(),
         }
     }
+
+    /// These frames without the `<joint>_std` columns that `sgplvm predict --std` writes beside
+    /// each `<joint>` (a column named `x_std` with no column `x` is kept: it may be a joint).
+    pub fn without_std_columns(self) -> CsvFrames {
+        let joints = &self.header.joints;
+        let keep: Vec<bool> = joints
+            .iter()
+            .map(|j| {
+                j.strip_suffix(STD_SUFFIX)
+                    .is_none_or(|base| !joints.iter().any(|other| other == base))
+            })
+            .collect();
+        if keep.iter().all(|&k| k) {
+            return self;
+        }
+        let d = joints.len();
+        let values = self
+            .values
+            .chunks(d.max(1))
+            .flat_map(|row| row.iter().zip(&keep).filter(|(_, &k)| k).map(|(&v, _)| v))
+            .collect();
+        let kept = joints
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(j, _)| j.clone())
+            .collect();
+        CsvFrames {
+            header: CsvHeader {
+                joints: kept,
+                ..self.header
+            },
+            values,
+            ..self
+        }
+    }
 }
+
+/// The suffix of the standard-deviation columns `sgplvm predict --std` writes.
+pub const STD_SUFFIX: &str = "_std";
 
 /// Reads lines up to the first non-blank one and parses it as the header; returns it with its
 /// 1-based line number (data lines are numbered on from it in messages).
@@ -226,6 +265,21 @@ pub fn format_line(time: Option<f64>, values: &[f64]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn std_columns_beside_their_joint_are_dropped() {
+        let text = "time,a,b,a_std,b_std,c_std\n0.0,1,2,0.1,0.2,3\n0.1,4,5,0.4,0.5,6\n";
+        let frames = read_frames(text.as_bytes(), "x.csv")
+            .unwrap()
+            .without_std_columns();
+        // c_std has no column c: it is a joint of its own.
+        assert_eq!(frames.header.joints, vec!["a", "b", "c_std"]);
+        assert_eq!(frames.values, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(frames.rows, 2);
+        assert_eq!(frames.times, Some(vec![0.0, 0.1]));
+        let plain = read_frames("a,b\n1,2\n".as_bytes(), "y.csv").unwrap();
+        assert_eq!(plain.without_std_columns().header.joints, vec!["a", "b"]);
+    }
 
     #[test]
     fn reads_header_time_and_values() {

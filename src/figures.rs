@@ -191,6 +191,7 @@ pub fn transfers_by_source(results: &Results, dir: &Path) -> Result<[PathBuf; 2]
                 log_y: true,
                 series,
                 markers,
+                ..Panel::default()
             }
         })
         .collect::<Vec<_>>();
@@ -259,6 +260,7 @@ pub fn less_data(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotErro
                 log_y: true,
                 series,
                 markers: vec![],
+                ..Panel::default()
             }
         })
         .collect::<Vec<_>>();
@@ -301,6 +303,8 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
                 log_y: true,
                 series,
                 markers: vec![],
+                integer_x: !by_seconds,
+                ..Panel::default()
             }
         })
         .collect()
@@ -405,6 +409,7 @@ pub fn latent_space(
         log_y: false,
         series: test_motions(model, ds, (a, b))?,
         markers: vec![training, key_poses(model, ds, (a, b))?],
+        ..Panel::default()
     };
     Ok(write_figure(
         stem,
@@ -499,6 +504,10 @@ pub fn trajectories(
     let ds = &demos.dataset;
     let body = demos.robot(robot)?;
     let frames = first_test_motion(ds);
+    // Where one motion of the selection ends and the next begins: the curves jump there.
+    let joins: Vec<usize> = (1..frames.len())
+        .filter(|&i| ds.segment_of(frames[i]).map(|s| s.start) == Some(frames[i]))
+        .collect();
     let h = to_mat(&ds.human.rows(&frames));
     let predicted = model.predict(h.as_ref(), robot, false)?.mean;
     let desired = body.rows(&frames);
@@ -513,47 +522,54 @@ pub fn trajectories(
     let line = |value: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
         x.iter().enumerate().map(|(i, &t)| (t, value(i))).collect()
     };
+    let vlines: Vec<f64> = joins.iter().map(|&i| (x[i - 1] + x[i]) / 2.0).collect();
     let mut panels = Vec::new();
     for (side, range) in ["left", "right"]
         .into_iter()
         .zip(halves(ds.human.joint_names.len()))
     {
+        let names = legend_names(&ds.human.joint_names[range.clone()]);
         panels.push(arm_panel(
             format!("human {side} arm"),
             range
-                .map(|j| Series {
-                    color: j,
+                .zip(names)
+                .enumerate()
+                .map(|(k, (j, name))| Series {
+                    label: name,
+                    color: k,
+                    dashed: k >= PALETTE_SIZE,
                     points: line(&|i| h[(i, j)]),
                     ..Series::default()
                 })
                 .collect(),
+            &vlines,
         ));
     }
     for (side, range) in ["left", "right"]
         .into_iter()
         .zip(halves(body.joint_names.len()))
     {
+        let names = legend_names(&body.joint_names[range.clone()]);
         let mut series = Vec::new();
-        for (k, j) in range.enumerate() {
-            let label = |name: &str| if k == 0 { name.into() } else { String::new() };
+        for (k, (j, name)) in range.zip(names).enumerate() {
             series.push(Series {
-                label: label("predicted"),
-                color: j,
+                label: name,
+                color: k,
                 points: line(&|i| predicted[(i, j)]),
                 ..Series::default()
             });
             series.push(Series {
-                label: label("desired"),
-                color: j,
+                color: k,
                 dashed: true,
                 points: line(&|i| desired[(i, j)]),
                 ..Series::default()
             });
         }
-        panels.push(arm_panel(format!("{robot} {side} arm"), series));
+        panels.push(arm_panel(format!("{robot} {side} arm"), series, &vlines));
     }
-    let title =
-        format!("{robot}: predicted (solid) and desired (dashed) joints on test motions (Fig. 8)");
+    let title = format!(
+        "{robot} on test motions (Fig. 8): predicted solid, desired dashed; grey lines join motions"
+    );
     Ok(write_figure(stem, &title, &panels, 2)?)
 }
 
@@ -584,13 +600,39 @@ fn halves(d: usize) -> [std::ops::Range<usize>; 2] {
     [(0..d / 2), (d / 2..d)]
 }
 
-/// A panel of joint angles against time.
-fn arm_panel(title: String, series: Vec<Series>) -> Panel {
+/// Colours in the palette: joints beyond them are drawn dashed in the human panels.
+const PALETTE_SIZE: usize = 8;
+
+/// Joint names for a legend: without the prefix they all share (`L`, `jLeft`: the panel's title
+/// names the arm).
+fn legend_names(names: &[String]) -> Vec<String> {
+    let first = names.first().map_or("", String::as_str);
+    let mut common = first.len();
+    for n in names.iter().skip(1) {
+        common = first
+            .char_indices()
+            .zip(n.chars())
+            .take_while(|((_, a), b)| a == b)
+            .last()
+            .map_or(0, |((i, a), _)| i + a.len_utf8())
+            .min(common);
+    }
+    if names.len() < 2 {
+        common = 0;
+    }
+    names.iter().map(|n| n[common..].to_string()).collect()
+}
+
+/// A panel of joint angles against time, a legend of the joints beside it, the joins between
+/// motions at `vlines`.
+fn arm_panel(title: String, series: Vec<Series>, vlines: &[f64]) -> Panel {
     Panel {
         title,
         x_label: "seconds".into(),
         y_label: "joint angle (rad)".into(),
         series,
+        vlines: vlines.to_vec(),
+        side_legend: true,
         ..Panel::default()
     }
 }
@@ -651,6 +693,24 @@ mod tests {
         // No runs: an empty curve, no NaN points.
         let s = mean_curve(&[], false);
         assert!(s.points.is_empty());
+    }
+
+    #[test]
+    fn legend_names_drop_the_prefix_the_arm_shares() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            legend_names(&names(&["LShSag", "LShLat", "LElbj"])),
+            names(&["ShSag", "ShLat", "Elbj"])
+        );
+        assert_eq!(
+            legend_names(&names(&[
+                "jLeftC7Shoulder_elevation",
+                "jLeftShoulder_flexion"
+            ])),
+            names(&["C7Shoulder_elevation", "Shoulder_flexion"])
+        );
+        assert_eq!(legend_names(&names(&["only"])), names(&["only"]));
+        assert!(legend_names(&[]).is_empty());
     }
 
     #[test]

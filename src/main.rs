@@ -30,25 +30,40 @@ fn main() {
     quiet_panics();
     let cli = Cli::parse();
     if let Err(e) = cli.command.run() {
+        if is_broken_pipe(&e) {
+            // `sgplvm … | head`: the reader has all it wanted.
+            std::process::exit(0);
+        }
         eprintln!("error: {}", one_line(&e));
         std::process::exit(1);
     }
 }
 
 /// Panics that a reader catches and turns into an error (inside mcap's reader or rapier) print
-/// nothing — the error that follows says what happened, on one line; any other panic is
-/// reported once, on one line, instead of Rust's several lines of panic text.
+/// nothing — the error that follows says what happened, on one line. `println!` panics when the
+/// reader of stdout went away (`sgplvm simulate … | head`): that ends quietly with exit code 0, as
+/// a Unix filter does. Any other panic is reported once, on one line, instead of Rust's several
+/// lines of panic text.
 fn quiet_panics() {
     use std::sync::atomic::{AtomicBool, Ordering};
     static REPORTED: AtomicBool = AtomicBool::new(false);
     sgplvm_robots::panics::install_hook(Box::new(|info| {
+        let message = sgplvm_robots::panics::describe(info);
+        if message.contains("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
         if !REPORTED.swap(true, Ordering::SeqCst) {
-            eprintln!(
-                "error: internal error in sgplvm (please report it): {}",
-                sgplvm_robots::panics::describe(info)
-            );
+            eprintln!("error: internal error in sgplvm (please report it): {message}");
         }
     }));
+}
+
+/// Whether `e` comes from writing to a closed pipe (a stream to stdout whose reader is gone).
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// The chain of causes on one line, outermost first, leaving out causes that the message before

@@ -58,6 +58,14 @@ pub struct Panel {
     pub series: Vec<Series>,
     /// Scatters.
     pub markers: Vec<Markers>,
+    /// Horizontal positions of thin dashed vertical lines (e.g. the joins between motions
+    /// drawn one after another).
+    pub vlines: Vec<f64>,
+    /// The horizontal axis counts (iterations): ticks between whole numbers are not labelled.
+    pub integer_x: bool,
+    /// Draw the legend in a column to the right of the chart (many entries, e.g. one per
+    /// joint) instead of in the corner of the chart that covers the fewest points.
+    pub side_legend: bool,
 }
 
 /// Errors while drawing a figure.
@@ -185,10 +193,180 @@ fn y_range_values(panel: &Panel) -> impl Iterator<Item = f64> + '_ {
         )
 }
 
+/// Width of a side legend, pixels.
+const SIDE_LEGEND_WIDTH: u32 = 150;
+/// Approximate width of a character of the 12-pixel legend and annotation font, pixels.
+const CHAR_WIDTH: f64 = 6.6;
+/// Height of a legend entry, pixels.
+const ENTRY_HEIGHT: f64 = 17.0;
+
+/// A tick label: the shortest decimal that shows the value (`10` not `10.0`, `0.25`, never
+/// `-0`), scientific for tiny magnitudes.
+pub fn tick_label(v: f64) -> String {
+    // Ticks computed as sums of steps land a rounding error off zero (-1.1e-16).
+    if v.abs() < 1e-10 || !v.is_finite() {
+        return if v.is_finite() {
+            "0".into()
+        } else {
+            v.to_string()
+        };
+    }
+    if v.abs() < 1e-3 || v.abs() >= 1e6 {
+        return format!("{v:.1e}");
+    }
+    let text = format!("{v:.4}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.to_string()
+    }
+}
+
+/// The labelled entries of a panel's legend: label, colour, dashed, circle marker.
+fn legend_entries(panel: &Panel) -> Vec<(&str, usize, bool, bool)> {
+    panel
+        .series
+        .iter()
+        .filter(|s| !s.label.is_empty())
+        .map(|s| (s.label.as_str(), s.color, s.dashed, false))
+        .chain(
+            panel
+                .markers
+                .iter()
+                .filter(|m| !m.label.is_empty())
+                .map(|m| (m.label.as_str(), m.color, false, true)),
+        )
+        .collect()
+}
+
+/// Everything drawn in a panel, as points in `[0, 1]²` of the chart's ranges (lines sampled
+/// between their points, so that a line crossing a corner counts there).
+fn normalised_ink(panel: &Panel, x: (f64, f64), y: (f64, f64), log_y: bool) -> Vec<(f64, f64)> {
+    let fy = |v: f64| {
+        if log_y {
+            (v.max(1e-300).ln() - y.0.ln()) / (y.1.ln() - y.0.ln())
+        } else {
+            (v - y.0) / (y.1 - y.0)
+        }
+    };
+    let norm = |p: &(f64, f64)| ((p.0 - x.0) / (x.1 - x.0), fy(p.1));
+    let mut ink = Vec::new();
+    // Each line, and the edges of its band.
+    let lines = panel.series.iter().flat_map(|s| {
+        let band = s.band.iter().flat_map(|band| {
+            let edge = |upper: bool| {
+                s.points
+                    .iter()
+                    .zip(band)
+                    .map(move |(p, b)| (p.0, if upper { b.1 } else { b.0 }))
+                    .collect::<Vec<_>>()
+            };
+            [edge(false), edge(true)]
+        });
+        std::iter::once(s.points.clone()).chain(band)
+    });
+    for line in lines {
+        let points: Vec<(f64, f64)> = line.iter().filter(|p| p.1.is_finite()).map(norm).collect();
+        ink.extend(points.first().copied());
+        for w in points.windows(2) {
+            for k in 1..=16 {
+                let t = k as f64 / 16.0;
+                ink.push((
+                    w[0].0 + t * (w[1].0 - w[0].0),
+                    w[0].1 + t * (w[1].1 - w[0].1),
+                ));
+            }
+        }
+    }
+    ink.extend(panel.markers.iter().flat_map(|m| m.points.iter().map(norm)));
+    ink
+}
+
+/// Where a legend of `size` (fraction of the chart's width and height) covers the fewest of
+/// `ink`'s points: the corner, and how many it covers there.
+fn best_corner(ink: &[(f64, f64)], size: (f64, f64)) -> (SeriesLabelPosition, usize) {
+    let corners = [
+        (SeriesLabelPosition::UpperRight, true, true),
+        (SeriesLabelPosition::UpperLeft, false, true),
+        (SeriesLabelPosition::LowerRight, true, false),
+        (SeriesLabelPosition::LowerLeft, false, false),
+    ];
+    let (w, h) = (size.0 + 0.03, size.1 + 0.03);
+    let mut best = (SeriesLabelPosition::UpperRight, usize::MAX);
+    for (position, right, upper) in corners {
+        let inside = |p: &&(f64, f64)| {
+            let in_x = if right { p.0 >= 1.0 - w } else { p.0 <= w };
+            let in_y = if upper { p.1 >= 1.0 - h } else { p.1 <= h };
+            in_x && in_y
+        };
+        let covered = ink.iter().filter(inside).count();
+        if covered < best.1 {
+            best = (position, covered);
+        }
+    }
+    best
+}
+
+/// The legend's corner, and the vertical range widened at the top when every corner would
+/// cover a curve (the legend then sits above them all).
+fn place_legend(
+    panel: &Panel,
+    chart_pixels: (f64, f64),
+    x: (f64, f64),
+    y: (f64, f64),
+    log_y: bool,
+) -> (SeriesLabelPosition, (f64, f64)) {
+    let entries = legend_entries(panel);
+    let longest = entries
+        .iter()
+        .map(|e| e.0.chars().count())
+        .max()
+        .unwrap_or(0);
+    let size = (
+        (longest as f64 * CHAR_WIDTH + 40.0) / chart_pixels.0.max(1.0),
+        (entries.len() as f64 * ENTRY_HEIGHT + 12.0) / chart_pixels.1.max(1.0),
+    );
+    let ink = normalised_ink(panel, x, y, log_y);
+    let (corner, covered) = best_corner(&ink, size);
+    if covered == 0 || size.1 >= 0.6 {
+        return (corner, y);
+    }
+    // Room above the highest point: the data keeps the lower (1 - legend height) of the chart.
+    let keep = 1.0 - size.1 - 0.04;
+    let y = if log_y {
+        (y.0, y.0 * (y.1 / y.0).powf(1.0 / keep))
+    } else {
+        (y.0, y.0 + (y.1 - y.0) / keep)
+    };
+    let ink = normalised_ink(panel, x, y, log_y);
+    let upper = [
+        SeriesLabelPosition::UpperRight,
+        SeriesLabelPosition::UpperLeft,
+    ];
+    let (corner, _) = best_corner(&ink, size);
+    let corner = if upper
+        .iter()
+        .any(|u| std::mem::discriminant(u) == std::mem::discriminant(&corner))
+    {
+        corner
+    } else {
+        SeriesLabelPosition::UpperRight
+    };
+    (corner, y)
+}
+
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     panel: &Panel,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (width, height) = area.dim_in_pixel();
+    let (area, legend_area) = if panel.side_legend && width > 2 * SIDE_LEGEND_WIDTH {
+        let (chart, legend) = area.split_horizontally(width - SIDE_LEGEND_WIDTH);
+        (chart, Some(legend))
+    } else {
+        (area.clone(), None)
+    };
     let x_range = padded_range(
         panel
             .series
@@ -206,12 +384,29 @@ fn draw_panel<DB: DrawingBackend>(
     } else {
         y_range
     };
-    let mut builder = ChartBuilder::on(area);
+    // The chart inside the panel: the margins, caption and label areas set below.
+    let chart_pixels = (
+        f64::from(area.dim_in_pixel().0) - 62.0 - 24.0,
+        f64::from(height) - 40.0 - 30.0 - 24.0,
+    );
+    let (corner, y_range) = if legend_area.is_none() && !legend_entries(panel).is_empty() {
+        place_legend(panel, chart_pixels, x_range, y_range, log_y)
+    } else {
+        (SeriesLabelPosition::UpperRight, y_range)
+    };
+    let mut builder = ChartBuilder::on(&area);
     builder
         .caption(&panel.title, ("sans-serif", 17))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(62);
+    let x_label = |v: &f64| {
+        if panel.integer_x && (v - v.round()).abs() > 1e-9 {
+            String::new()
+        } else {
+            tick_label(*v)
+        }
+    };
     if log_y {
         let mut chart =
             builder.build_cartesian_2d(x_range.0..x_range.1, (y_range.0..y_range.1).log_scale())?;
@@ -219,26 +414,146 @@ fn draw_panel<DB: DrawingBackend>(
             .configure_mesh()
             .x_desc(&panel.x_label)
             .y_desc(&panel.y_label)
+            .x_label_formatter(&x_label)
             .y_label_formatter(&|v| format!("{v:.1e}"))
             .label_style(("sans-serif", 12))
             .draw()?;
-        draw_content(&mut chart, panel)?;
+        draw_content(&mut chart, panel, corner, legend_area.is_none())?;
     } else {
         let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
         chart
             .configure_mesh()
             .x_desc(&panel.x_label)
             .y_desc(&panel.y_label)
+            .x_label_formatter(&x_label)
+            .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 12))
             .draw()?;
-        draw_content(&mut chart, panel)?;
+        draw_content(&mut chart, panel, corner, legend_area.is_none())?;
+    }
+    if let Some(legend) = legend_area {
+        draw_side_legend(&legend, panel)?;
     }
     Ok(())
+}
+
+/// The legend as a column beside the chart: a line sample (or dot) and the label per entry.
+fn draw_side_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &Panel,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let font = ("sans-serif", 12).into_font().color(&BLACK);
+    for (k, (label, color, dashed, circle)) in legend_entries(panel).into_iter().enumerate() {
+        let y = 48 + (k as f64 * ENTRY_HEIGHT) as i32;
+        let color = palette(color);
+        if circle {
+            area.draw(&Circle::new((13, y), 4, color.filled()))?;
+        } else if dashed {
+            area.draw(&PathElement::new(
+                vec![(4, y), (10, y)],
+                color.stroke_width(2),
+            ))?;
+            area.draw(&PathElement::new(
+                vec![(15, y), (22, y)],
+                color.stroke_width(2),
+            ))?;
+        } else {
+            area.draw(&PathElement::new(
+                vec![(4, y), (22, y)],
+                color.stroke_width(2),
+            ))?;
+        }
+        area.draw(&Text::new(label.to_string(), (28, y - 7), font.clone()))?;
+    }
+    Ok(())
+}
+
+/// A pixel rectangle: left, top, right, bottom.
+type Rect = (f64, f64, f64, f64);
+
+/// Where an annotation goes: the pixel offset of its text from its point, and the end of a
+/// leader line from the point when the text sits away from it.
+type Placement = ((i32, i32), Option<(i32, i32)>);
+
+/// Where each annotation's text goes, as a pixel offset from its point: of the places around
+/// the point, the one that covers the fewest drawn points (`ink`, pixels), stays inside
+/// `bounds` and overlaps no text placed before it, nearer ones preferred. With each offset, the
+/// point of the text's box nearest to the anchor when the text sits away from it (for a
+/// leader line), else `None`.
+fn place_annotations(
+    anchors: &[(f64, f64)],
+    texts: &[String],
+    ink: &[(f64, f64)],
+    bounds: Rect,
+) -> Vec<Placement> {
+    let mut placed: Vec<Rect> = Vec::new();
+    let mut offsets = vec![((0, 0), None); anchors.len().min(texts.len())];
+    // Points near the chart's edges have the fewest places free: they choose first.
+    let edge = |&(px, py): &(f64, f64)| {
+        (px - bounds.0)
+            .min(bounds.2 - px)
+            .min(py - bounds.1)
+            .min(bounds.3 - py)
+    };
+    let mut order: Vec<usize> = (0..offsets.len()).collect();
+    order.sort_by(|&a, &b| edge(&anchors[a]).total_cmp(&edge(&anchors[b])));
+    for k in order {
+        let ((px, py), text) = (anchors[k], &texts[k]);
+        let w = text.chars().count() as f64 * CHAR_WIDTH;
+        let h = 13.0;
+        let mut best = ((7.0, -h / 2.0), f64::INFINITY, 1.0);
+        for reach in [1.0, 2.0, 3.5] {
+            let r = 7.0 * reach;
+            let candidates = [
+                (r, -h / 2.0),
+                (-w - r, -h / 2.0),
+                (-w / 2.0, -h - r),
+                (-w / 2.0, r),
+                (r * 0.7, -h - r * 0.7),
+                (r * 0.7, r * 0.7),
+                (-w - r * 0.7, -h - r * 0.7),
+                (-w - r * 0.7, r * 0.7),
+            ];
+            for (dx, dy) in candidates {
+                let rect = (px + dx, py + dy, px + dx + w, py + dy + h);
+                let inside = |p: &&(f64, f64)| {
+                    p.0 >= rect.0 - 1.0
+                        && p.0 <= rect.2 + 1.0
+                        && p.1 >= rect.1 - 1.0
+                        && p.1 <= rect.3 + 1.0
+                };
+                let covered = ink.iter().filter(inside).count() as f64;
+                let overlaps = placed
+                    .iter()
+                    .filter(|o| rect.0 < o.2 && o.0 < rect.2 && rect.1 < o.3 && o.1 < rect.3)
+                    .count() as f64;
+                let outside = rect.0 < bounds.0
+                    || rect.2 > bounds.2
+                    || rect.1 < bounds.1
+                    || rect.3 > bounds.3;
+                let cost =
+                    covered + 1000.0 * overlaps + if outside { 500.0 } else { 0.0 } + 6.0 * reach;
+                if cost < best.1 {
+                    best = ((dx, dy), cost, reach);
+                }
+            }
+        }
+        let (dx, dy) = best.0;
+        placed.push((px + dx, py + dy, px + dx + w, py + dy + h));
+        let leader = (best.2 > 1.0).then(|| {
+            let nearest = (0.0f64.clamp(dx, dx + w), 0.0f64.clamp(dy, dy + h));
+            (nearest.0.round() as i32, nearest.1.round() as i32)
+        });
+        offsets[k] = ((dx.round() as i32, dy.round() as i32), leader);
+    }
+    offsets
 }
 
 fn draw_content<'a, DB, X, Y>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     panel: &Panel,
+    corner: SeriesLabelPosition,
+    legend_inside: bool,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
 where
     DB: DrawingBackend + 'a,
@@ -246,6 +561,23 @@ where
     Y: Ranged<ValueType = f64>,
 {
     let mut labelled = false;
+    let (y_low, y_high) = {
+        let values: Vec<f64> = y_range_values(panel).filter(|v| v.is_finite()).collect();
+        (
+            values.iter().copied().fold(f64::INFINITY, f64::min),
+            values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
+    };
+    for &x in &panel.vlines {
+        if y_low.is_finite() && y_high.is_finite() {
+            chart.draw_series(DashedLineSeries::new(
+                [(x, y_low), (x, y_high)],
+                3,
+                3,
+                ShapeStyle::from(&BLACK.mix(0.35)).stroke_width(1),
+            ))?;
+        }
+    }
     for s in &panel.series {
         let color = palette(s.color);
         if let Some(band) = &s.band {
@@ -272,14 +604,64 @@ where
         } else {
             chart.draw_series(LineSeries::new(points, style))?
         };
-        if !s.label.is_empty() {
+        if !s.label.is_empty() && legend_inside {
             labelled = true;
+            let dashed = s.dashed;
             drawn.label(&s.label).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                // A dashed line's sample has a gap.
+                let gap = if dashed { 5 } else { 0 };
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(0, 0), (7, 0)], color.stroke_width(2))
+                    + PathElement::new(vec![(7 + gap, 0), (18, 0)], color.stroke_width(2))
             });
         }
     }
-    for m in &panel.markers {
+    // Pixels of everything drawn so far, for placing the annotations around it.
+    let pixel = |p: &(f64, f64)| {
+        let (x, y) = chart.backend_coord(p);
+        (f64::from(x), f64::from(y))
+    };
+    let mut ink: Vec<(f64, f64)> = Vec::new();
+    for s in &panel.series {
+        let points: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .filter(|p| p.1.is_finite())
+            .map(pixel)
+            .collect();
+        ink.extend(points.first().copied());
+        for w in points.windows(2) {
+            let steps = ((w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) / 3.0)
+                .ceil()
+                .max(1.0) as usize;
+            for k in 1..=steps {
+                let t = k as f64 / steps as f64;
+                ink.push((
+                    w[0].0 + t * (w[1].0 - w[0].0),
+                    w[0].1 + t * (w[1].1 - w[0].1),
+                ));
+            }
+        }
+    }
+    ink.extend(
+        panel
+            .markers
+            .iter()
+            .flat_map(|m| m.points.iter().map(pixel)),
+    );
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let bounds = (
+        f64::from(xs.start),
+        f64::from(ys.start),
+        f64::from(xs.end),
+        f64::from(ys.end),
+    );
+    let anchors: Vec<Vec<(f64, f64)>> = panel
+        .markers
+        .iter()
+        .map(|m| m.points.iter().map(pixel).collect())
+        .collect();
+    for (m, anchors) in panel.markers.iter().zip(&anchors) {
         let color = palette(m.color);
         let drawn = if m.circles {
             chart.draw_series(m.points.iter().map(|&p| Circle::new(p, 5, color.filled())))?
@@ -290,29 +672,37 @@ where
                     .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
             )?
         };
-        if !m.label.is_empty() {
+        if !m.label.is_empty() && legend_inside {
             labelled = true;
             drawn
                 .label(&m.label)
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
         }
-        for (p, text) in m.points.iter().zip(&m.annotations) {
-            if !text.is_empty() {
-                chart.draw_series(std::iter::once(Text::new(
-                    text.clone(),
-                    *p,
-                    ("sans-serif", 12).into_font().color(&BLACK),
-                )))?;
+        let offsets = place_annotations(anchors, &m.annotations, &ink, bounds);
+        for ((p, text), (offset, leader)) in m.points.iter().zip(&m.annotations).zip(offsets) {
+            if text.is_empty() {
+                continue;
             }
+            if let Some(end) = leader {
+                // A text set away from its point: a thin line says whose it is.
+                chart.draw_series(std::iter::once(
+                    EmptyElement::at(*p)
+                        + PathElement::new(vec![(0, 0), end], BLACK.mix(0.5).stroke_width(1)),
+                ))?;
+            }
+            let font = ("sans-serif", 12).into_font().color(&BLACK);
+            chart.draw_series(std::iter::once(
+                EmptyElement::at(*p) + Text::new(text.clone(), offset, font),
+            ))?;
         }
     }
     if labelled {
         chart
             .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
+            .background_style(WHITE.mix(0.9))
             .border_style(BLACK.mix(0.3))
             .label_font(("sans-serif", 12))
-            .position(SeriesLabelPosition::UpperRight)
+            .position(corner)
             .draw()?;
     }
     Ok(())
@@ -344,6 +734,8 @@ mod tests {
                 annotations: vec!["P1".into()],
                 ..Default::default()
             }],
+            vlines: vec![1.5],
+            ..Default::default()
         };
         let [svg, png] =
             write_figure(&dir.join("fig"), "Figure", &[panel.clone(), panel], 2).unwrap();
@@ -359,6 +751,84 @@ mod tests {
             .collect();
         assert!(leftovers.is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn tick_labels_are_the_shortest_decimal() {
+        assert_eq!(tick_label(10.0), "10");
+        assert_eq!(tick_label(0.25), "0.25");
+        assert_eq!(tick_label(-1.1e-16), "0");
+        assert_eq!(tick_label(-0.0), "0");
+        assert_eq!(tick_label(-1.5), "-1.5");
+        assert_eq!(tick_label(2.5e-5), "2.5e-5");
+    }
+
+    #[test]
+    fn annotations_avoid_each_other_and_the_lines() {
+        // Two labels on one point, a line running right of it: neither label on the line, nor
+        // on the other.
+        let ink: Vec<(f64, f64)> = (0..100).map(|i| (100.0 + i as f64, 100.0)).collect();
+        let texts = ["first".to_string(), "second".to_string()];
+        let offsets = place_annotations(
+            &[(100.0, 100.0), (100.0, 100.0)],
+            &texts,
+            &ink,
+            (0.0, 0.0, 400.0, 400.0),
+        );
+        let rect = |k: usize| {
+            let (dx, dy) = (f64::from(offsets[k].0 .0), f64::from(offsets[k].0 .1));
+            let w = texts[k].len() as f64 * CHAR_WIDTH;
+            (100.0 + dx, 100.0 + dy, 100.0 + dx + w, 100.0 + dy + 13.0)
+        };
+        let (a, b) = (rect(0), rect(1));
+        assert!(
+            !(a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3),
+            "{a:?} {b:?}"
+        );
+        for r in [a, b] {
+            assert!(
+                !ink.iter()
+                    .any(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3),
+                "{r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_legend_goes_where_it_covers_no_curve() {
+        // A curve rising to the upper right: the legend goes to the upper left.
+        let panel = Panel {
+            series: vec![Series {
+                label: "rising".into(),
+                points: (0..=10).map(|i| (i as f64, (i * i) as f64)).collect(),
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
+        let (corner, y) = place_legend(&panel, (400.0, 300.0), (0.0, 10.0), (0.0, 100.0), false);
+        assert!(
+            matches!(corner, SeriesLabelPosition::UpperLeft),
+            "{corner:?}"
+        );
+        assert_eq!(y, (0.0, 100.0));
+        // Curves through every corner: the range grows above them.
+        let panel = Panel {
+            series: vec![
+                Series {
+                    label: "a long label for a wide legend".into(),
+                    points: vec![(0.0, 0.0), (10.0, 100.0)],
+                    ..Default::default()
+                },
+                Series {
+                    label: "b".into(),
+                    points: vec![(0.0, 100.0), (10.0, 0.0)],
+                    ..Default::default()
+                },
+            ],
+            ..Default::default()
+        };
+        let (_, y) = place_legend(&panel, (400.0, 300.0), (0.0, 10.0), (0.0, 100.0), false);
+        assert!(y.1 > 110.0, "{y:?}");
     }
 
     #[test]

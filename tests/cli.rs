@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 
 mod common;
-use common::{fails, ok, s, scratch, sgplvm};
+use common::{fails, fails_on_one_line, ok, s, scratch, sgplvm};
 
 /// Generated data and a model trained on WALK-MAN, shared by the tests.
 struct Fixture {
@@ -38,6 +38,26 @@ fn fixture() -> &'static Fixture {
         ]);
         Fixture { dir, data, model }
     })
+}
+
+/// The human's test frames of the fixture as CSV (a few seconds of motion: physics replays of
+/// it stay short).
+fn human_test_csv(f: &Fixture) -> PathBuf {
+    static CSV: OnceLock<PathBuf> = OnceLock::new();
+    CSV.get_or_init(|| {
+        let path = f.dir.join("human_test.csv");
+        ok(&[
+            "export",
+            "--data",
+            s(&f.data),
+            "--body",
+            "human",
+            "--out",
+            s(&path),
+        ]);
+        path
+    })
+    .clone()
 }
 
 #[test]
@@ -589,5 +609,320 @@ fn experiment_writes_results_in_the_documented_schema() {
         "report.md",
     ] {
         assert!(out.join(file).exists(), "missing {file}");
+    }
+}
+
+#[test]
+fn messages_say_what_happened() {
+    let f = fixture();
+    let dir = scratch("messages");
+    let (data, model) = (s(&f.data), s(&f.model));
+    // A robot the model does not know: named, with the robots it knows.
+    let err = fails_on_one_line(&[
+        "evaluate", "--model", model, "--data", data, "--robot", "coman",
+    ]);
+    assert!(
+        err.contains("does not know robot 'coman'") && err.contains("[\"walkman\"]"),
+        "{err}"
+    );
+    // A transfer says only the new robot's kernel was trained, on whose latent space.
+    let coman = dir.join("coman.sgp");
+    let args = [
+        "transfer",
+        "--model",
+        model,
+        "--data",
+        data,
+        "--robot",
+        "coman",
+        "--max-iters",
+        "5",
+        "--out",
+        s(&coman),
+    ];
+    let said = ok(&args);
+    assert!(
+        said.starts_with(
+            "transferred to coman (its kernel only; shared latent space from walkman) in "
+        ),
+        "{said}"
+    );
+    assert!(!said.contains("trained walkman + coman"), "{said}");
+    // Transferring to a robot the model already has.
+    let err = fails_on_one_line(&[
+        "transfer",
+        "--model",
+        s(&coman),
+        "--data",
+        data,
+        "--robot",
+        "coman",
+        "--out",
+        s(&dir.join("again.sgp")),
+    ]);
+    assert!(err.contains("already predicts for 'coman'"), "{err}");
+    // A missing folder: the error names the user's path, not a temporary file.
+    let missing = dir.join("no-such-folder").join("x.sgp");
+    let err = fails_on_one_line(&[
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--max-iters",
+        "2",
+        "--out",
+        s(&missing),
+    ]);
+    assert!(err.contains(s(&missing)) && !err.contains(".tmp"), "{err}");
+}
+
+/// Runs `sgplvm args…` with its stdout closed before it writes anything: the command must end
+/// quietly with exit code 0.
+fn closed_stdout_ends_quietly(args: &[&str]) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sgplvm"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "sgplvm {args:?}: {stderr}");
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("error"),
+        "sgplvm {args:?}: {stderr}"
+    );
+}
+
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    let f = fixture();
+    let (data, model) = (s(&f.data), s(&f.model));
+    // Printed with println! (a table), and written through an io::Write (a CSV to stdout).
+    closed_stdout_ends_quietly(&[
+        "evaluate", "--model", model, "--data", data, "--robot", "walkman",
+    ]);
+    closed_stdout_ends_quietly(&[
+        "predict", "--model", model, "--input", data, "--robot", "walkman", "--out", "-",
+    ]);
+    let human = human_test_csv(f);
+    closed_stdout_ends_quietly(&[
+        "simulate",
+        "--model",
+        model,
+        "--input",
+        s(&human),
+        "--robot",
+        "walkman",
+    ]);
+}
+
+#[test]
+fn simulate_prints_a_summary_and_details_on_request() {
+    let f = fixture();
+    let human = human_test_csv(f);
+    let args = [
+        "simulate",
+        "--model",
+        s(&f.model),
+        "--input",
+        s(&human),
+        "--robot",
+        "walkman",
+    ];
+    let summary = ok(&args);
+    let verbose = ok(&[&args[..], &["--verbose"]].concat());
+    // One line per joint and a few per kind of event, whatever the number of intervals.
+    assert!(summary.lines().count() < 40, "{summary}");
+    assert!(
+        summary.contains("over limit") && summary.contains("too fast"),
+        "{summary}"
+    );
+    for joint in ["LShSag", "RWrj2"] {
+        assert!(summary.contains(joint), "{summary}");
+    }
+    let intervals = summary
+        .lines()
+        .find_map(|l| {
+            l.strip_suffix(
+                " intervals in all: every one with --verbose, the whole report with --json",
+            )
+        })
+        .map(|n| n.trim().parse::<usize>().unwrap());
+    let report: serde_json::Value =
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    let in_json: usize = ["limit_violations", "velocity_violations", "collisions"]
+        .iter()
+        .map(|k| report[k].as_array().unwrap().len())
+        .sum();
+    assert_eq!(intervals.unwrap_or(0), in_json, "{summary}");
+    // Enough intervals that listing them all would be long.
+    assert!(in_json > 40, "{in_json} intervals: {summary}");
+    // --verbose lists each interval on a line of its own.
+    assert!(
+        verbose.lines().count() >= summary.lines().count() + in_json.saturating_sub(10),
+        "{verbose}"
+    );
+}
+
+#[test]
+fn predict_std_output_replays_in_simulate() {
+    let f = fixture();
+    let human = human_test_csv(f);
+    let dir = scratch("std-round-trip");
+    for file in ["walkman.csv", "walkman.mcap"] {
+        let out = dir.join(file);
+        ok(&[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&human),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&out),
+            "--std",
+        ]);
+        let replay = |extra: &[&str]| -> serde_json::Value {
+            let args = [
+                &[
+                    "simulate",
+                    "--robot",
+                    "walkman",
+                    "--trajectory",
+                    s(&out),
+                    "--json",
+                ],
+                extra,
+            ]
+            .concat();
+            serde_json::from_str(&ok(&args)).unwrap()
+        };
+        let report = replay(&[]);
+        // The 14 joints, not their standard deviations.
+        let joints = report["joints"].as_array().unwrap();
+        assert_eq!(joints.len(), 14, "{file}: {joints:?}");
+        assert!(joints
+            .iter()
+            .all(|j| !j["name"].as_str().unwrap().ends_with("_std")));
+        if file.ends_with(".mcap") {
+            // The same replay as naming the command topic.
+            let named = replay(&["--topic", "/walkman/joint_command"]);
+            assert_eq!(named["joints"], report["joints"]);
+        }
+    }
+}
+
+#[test]
+fn export_and_joints_make_the_inputs_of_predict() {
+    let f = fixture();
+    let dir = scratch("export");
+    // The human's joint names, in the columns' order.
+    let listed = ok(&["joints", "human"]);
+    let names: Vec<&str> = listed
+        .trim()
+        .strip_prefix("human: ")
+        .unwrap()
+        .split(',')
+        .collect();
+    assert_eq!(names.len(), 18, "{listed}");
+    let model_joints = ok(&["joints", "--model", s(&f.model)]);
+    assert!(model_joints.starts_with(listed.trim()), "{model_joints}");
+    for file in ["human.csv", "human.mcap"] {
+        let human = dir.join(file);
+        ok(&[
+            "export",
+            "--demos",
+            s(&f.data),
+            "--body",
+            "human",
+            "--out",
+            s(&human),
+        ]);
+        let out = dir.join(format!("{file}.out.csv"));
+        ok(&[
+            "predict",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&human),
+            "--robot",
+            "walkman",
+            "--out",
+            s(&out),
+        ]);
+        let predicted = std::fs::read_to_string(&out).unwrap();
+        let test_frames = sgplvm::robots::dataset::load_demonstrations(&f.data)
+            .unwrap()
+            .test
+            .len();
+        assert_eq!(predicted.lines().count(), test_frames + 1, "{file}");
+        if file.ends_with(".csv") {
+            let csv = std::fs::read_to_string(&human).unwrap();
+            assert_eq!(
+                csv.lines().next().unwrap(),
+                format!("time,{}", names.join(","))
+            );
+            // Times from the first frame written.
+            assert!(
+                csv.lines().nth(1).unwrap().starts_with("0,")
+                    || csv.lines().nth(1).unwrap().starts_with("0.0,"),
+                "{csv:.200}"
+            );
+        }
+    }
+    let err = fails_on_one_line(&[
+        "export",
+        "--data",
+        s(&f.data),
+        "--body",
+        "r2d2",
+        "--out",
+        s(&dir.join("x.csv")),
+    ]);
+    assert!(err.contains("r2d2") && err.contains("walkman"), "{err}");
+    assert!(!dir.join("x.csv").exists());
+}
+
+#[test]
+fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
+    let f = fixture();
+    let out = scratch("demo");
+    let run = sgplvm(&[
+        "demo",
+        "--data",
+        s(&f.data),
+        "--max-iters",
+        "5",
+        "--out",
+        s(&out),
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr),
+    );
+    assert!(run.status.success(), "{stderr}");
+    // stderr is not a terminal here: one line per step with an estimate of the time left.
+    assert!(
+        stderr.contains("demo: walkman full trained (1/9 steps, "),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("demo: figures (9/9 steps, ") && stderr.contains(" ETA "),
+        "{stderr}"
+    );
+    // The closing list names the model files it wrote, and they exist.
+    for model in [
+        "walkman.sgp",
+        "walkman_to_coman.sgp",
+        "walkman_to_centauro.sgp",
+    ] {
+        let path = out.join(model);
+        assert!(stdout.contains(s(&path)), "{stdout}");
+        assert!(path.exists(), "{model}");
     }
 }

@@ -12,7 +12,7 @@ use sgplvm::pipeline::{Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
 
 use super::args::{BudgetArg, DataArg};
-use super::progress::train_with_progress;
+use super::progress::{on_terminal, train_with_progress, StepLines};
 use super::report::{self, Yardstick};
 
 #[derive(Args)]
@@ -49,17 +49,32 @@ pub fn run(args: DemoArgs) -> Result<()> {
         .with_back_constraint(BackConstraint::Input);
     let options = args.budget.options();
     let validation = args.budget.validation(&demos);
+    // The study trains the source fully, each other robot by transfer and fully, then fits
+    // every robot's direct regression and draws the figures.
+    let robots = demos.dataset.robots.len();
+    let mut steps = DemoSteps::new(2 * robots.max(1) - 1 + robots + 1);
+    let mut written = Vec::new();
     let models = demos.transfer_study(
         &args.source,
         &config,
         &options,
         validation.as_ref(),
         &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
-            train_and_save(training, train, args.budget.max_iters, &args.out)
+            let result = train_and_save(
+                training,
+                train,
+                args.budget.max_iters,
+                &args.out,
+                &mut written,
+            );
+            let label = report::demo_label(training.kind);
+            steps.done(&format!("{} {label} trained", training.robot));
+            result
         },
     )?;
-    let yardsticks = direct_regressions(&demos, &models, &options)?;
-    let written = draw_figures(&demos, &args.source, &models, &args.out)?;
+    let yardsticks = direct_regressions(&demos, &models, &options, &mut steps)?;
+    written.extend(draw_figures(&demos, &args.source, &models, &args.out)?);
+    steps.done("figures");
     report::demo(
         &demos,
         &args.source,
@@ -72,12 +87,37 @@ pub fn run(args: DemoArgs) -> Result<()> {
     Ok(())
 }
 
+/// The demo's progress where no bar can be drawn (a log): a line per finished step, with an
+/// estimate of the time left.
+struct DemoSteps {
+    lines: Option<StepLines>,
+    started: Instant,
+}
+
+impl DemoSteps {
+    /// Lines for `total` steps when stderr is not a terminal; nothing otherwise.
+    fn new(total: usize) -> Self {
+        DemoSteps {
+            lines: (!on_terminal()).then(|| StepLines::new(total)),
+            started: Instant::now(),
+        }
+    }
+
+    /// Says that `what` is done.
+    fn done(&mut self, what: &str) {
+        if let Some(lines) = &mut self.lines {
+            eprintln!("demo: {}", lines.step(what, self.started.elapsed()));
+        }
+    }
+}
+
 /// The yardstick of every robot of the study, in the study's order: a direct GP regression
 /// human → robot on the same training frames, with its training seconds.
 fn direct_regressions(
     demos: &Demonstrations,
     models: &[StudyModel],
     options: &TrainOptions,
+    steps: &mut DemoSteps,
 ) -> Result<Vec<Yardstick>> {
     let mut robots: Vec<&str> = models.iter().map(|m| m.robot.as_str()).collect();
     robots.dedup();
@@ -86,6 +126,7 @@ fn direct_regressions(
         .map(|robot| {
             let start = Instant::now();
             let (_, evaluation) = demos.direct_regression(robot, options)?;
+            steps.done(&format!("direct GP {robot}"));
             Ok(Yardstick {
                 seconds: start.elapsed().as_secs_f64(),
                 evaluation,
@@ -95,12 +136,13 @@ fn direct_regressions(
 }
 
 /// Runs one training of the study under a progress bar; saves the source model and the
-/// transferred ones into `out`.
+/// transferred ones into `out`, adding their paths to `saved`.
 fn train_and_save(
     training: &StudyTraining<'_>,
     train: &mut TrainFn<'_>,
     max_iters: u64,
     out: &Path,
+    saved: &mut Vec<PathBuf>,
 ) -> Result<(SharedGplvm, f64)> {
     let (robot, source) = (training.robot, training.source);
     let (label, file) = match training.kind {
@@ -116,7 +158,9 @@ fn train_and_save(
     let (model, seconds) = train_with_progress(&label, max_iters, train)?;
     if let Some(file) = file {
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        model.save(&out.join(file))?;
+        let path = out.join(file);
+        model.save(&path)?;
+        saved.push(path);
     }
     Ok((model, seconds))
 }

@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::Args;
 
 use super::args::{DataArg, JsonArg, ModelFileArg};
+use super::frames::require_robot;
 use super::report;
 
 #[derive(Args)]
@@ -21,6 +22,9 @@ pub struct EvaluateArgs {
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
     let model = args.model.load()?;
+    // Before the data: "the model does not know coman; it predicts for [...]" says more than a
+    // mismatch of joint lists would.
+    require_robot(&model, &args.model.model, &args.robot)?;
     let demos = args.data.load()?;
     let evaluation = demos.evaluate(&model, &args.robot)?;
     Ok(report::evaluation(&evaluation, args.json.json)?)

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
-use sgplvm::csv::{read_frames, CsvFrames};
+use sgplvm::csv::{read_frames, CsvFrames, STD_SUFFIX};
 use sgplvm::robots::joint_state::{list_channels, read_topics, TopicRequest};
 use sgplvm::robots::Trajectory;
 use sgplvm::{Mat, Robot, SharedGplvm};
@@ -60,8 +60,8 @@ pub fn builtin_urdf(name: &str) -> Result<&'static str> {
     })
 }
 
-/// The topic to read in an MCAP file: `given`, else the one channel whose topic contains `hint`
-/// (with `or_only`, also the file's only channel); anything else asks for `--topic`, naming what
+/// The topic to read in an MCAP file: `given`, else the one JointState channel (not a `_std`
+/// one) whose topic contains `hint` (with `or_only`, also the file's only such channel); anything else asks for `--topic`, naming what
 /// was looked for (`what`).
 fn pick_topic(
     path: &str,
@@ -74,8 +74,18 @@ fn pick_topic(
         return Ok(t.to_string());
     }
     let channels = list_channels(path)?;
-    let matching: Vec<_> = channels.iter().filter(|c| c.topic.contains(hint)).collect();
-    match (matching.as_slice(), channels.as_slice()) {
+    // JointState topics only, and not the standard deviations `predict --std` writes beside
+    // the commands (`/ROBOT/joint_command_std`).
+    let joint_states: Vec<_> = channels
+        .iter()
+        .filter(|c| c.schema.is_empty() || c.schema.ends_with("JointState"))
+        .filter(|c| !c.topic.ends_with(STD_SUFFIX))
+        .collect();
+    let matching: Vec<_> = joint_states
+        .iter()
+        .filter(|c| c.topic.contains(hint))
+        .collect();
+    match (matching.as_slice(), joint_states.as_slice()) {
         ([one], _) => Ok(one.topic.clone()),
         ([], [one]) if or_only => Ok(one.topic.clone()),
         _ => bail!(
@@ -140,7 +150,8 @@ pub fn read_trajectory(path: &str, topic: Option<&str>, robot: &str) -> Result<T
         let states = &read_topics(path, &[TopicRequest::all(topic)])?.states[0];
         return Ok(Trajectory::try_from(states)?);
     }
-    let table = read_csv(path)?;
+    // `predict --std` output replays as it is: its `<joint>_std` columns are not joints.
+    let table = read_csv(path)?.without_std_columns();
     let times = table.times_seconds();
     Trajectory::new(table.header.joints, times, table.values).with_context(|| path.to_string())
 }

@@ -6,8 +6,10 @@ mod args;
 mod demo;
 mod evaluate;
 mod experiment;
+mod export;
 mod frames;
 mod generate;
+mod joints;
 mod predict;
 mod progress;
 mod report;
@@ -40,6 +42,11 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// The paper's Section IV-B: Figs. 4, 5 and 6, results.json and report.md.
     Experiment(experiment::ExperimentArgs),
+    /// One body's joint series from a demonstration file as CSV or MCAP (e.g. the human's test
+    /// frames, the input of `predict` and `simulate --model`).
+    Export(export::ExportArgs),
+    /// The joint names of a built-in body (e.g. the human's 18) or of a model, in column order.
+    Joints(joints::JointsArgs),
 }
 
 impl Command {
@@ -54,6 +61,8 @@ impl Command {
             Command::Evaluate(args) => evaluate::run(args),
             Command::Simulate(args) => simulate::run(args),
             Command::Experiment(args) => experiment::run(args),
+            Command::Export(args) => export::run(args),
+            Command::Joints(args) => joints::run(args),
         }
     }
 }

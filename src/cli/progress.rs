@@ -1,8 +1,11 @@
 //! Progress bars on a terminal (nothing when stderr is not one), a training run under one, and
-//! for long work in stages, one line per finished stage where no bar can be drawn (logs, CI).
+//! for long work in stages, one line per finished stage where no bar can be drawn (logs, CI);
+//! work without stages ([`Activity`]) gets a spinner, or lines while it lasts.
 
 use std::collections::BTreeMap;
 use std::io::IsTerminal;
+use std::sync::mpsc;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -30,12 +33,116 @@ pub fn progress_bar(length: u64, prefix: &str) -> ProgressBar {
     bar
 }
 
-/// Runs a training with a progress bar; returns the model and its training seconds.
+/// Whether progress is drawn as bars (stderr is a terminal) rather than written as lines.
+pub fn on_terminal() -> bool {
+    std::io::stderr().is_terminal()
+}
+
+/// Work with no steps to count (a physics replay, a training without a terminal): on a
+/// terminal a spinner with the time elapsed; without one, nothing if it ends within
+/// [`Activity::QUIET`], else a line saying it is under way, another every
+/// [`Activity::EVERY`], and one when it ends.
+pub struct Activity {
+    spinner: ProgressBar,
+    lines: Option<(mpsc::Sender<()>, JoinHandle<bool>)>,
+    label: String,
+    started: Instant,
+}
+
+impl Activity {
+    /// How long work may take before lines say it is under way.
+    pub const QUIET: Duration = Duration::from_secs(5);
+    /// Time between two lines while it lasts.
+    pub const EVERY: Duration = Duration::from_secs(30);
+
+    /// Starts showing `label` (what is being done); `detail` is added to the first line (e.g.
+    /// how much work there is).
+    pub fn start(label: &str, detail: &str) -> Activity {
+        Self::start_with(label, detail, on_terminal(), Self::QUIET, Self::EVERY)
+    }
+
+    fn start_with(
+        label: &str,
+        detail: &str,
+        terminal: bool,
+        quiet: Duration,
+        every: Duration,
+    ) -> Activity {
+        let started = Instant::now();
+        let spinner = if terminal {
+            let s = ProgressBar::new_spinner();
+            s.set_style(
+                ProgressStyle::with_template("{spinner} {prefix} {elapsed} {msg}")
+                    .expect("valid template"),
+            );
+            s.set_prefix(label.to_string());
+            s.enable_steady_tick(Duration::from_millis(120));
+            s
+        } else {
+            ProgressBar::hidden()
+        };
+        let lines = (!terminal).then(|| {
+            let (stop, stopped) = mpsc::channel::<()>();
+            let (label, detail) = (label.to_string(), detail.to_string());
+            let thread = std::thread::spawn(move || {
+                if stopped.recv_timeout(quiet) != Err(mpsc::RecvTimeoutError::Timeout) {
+                    return false;
+                }
+                eprintln!("{label}: under way{detail}");
+                while stopped.recv_timeout(every) == Err(mpsc::RecvTimeoutError::Timeout) {
+                    eprintln!(
+                        "{label}: {} elapsed, still running",
+                        short_duration(started.elapsed())
+                    );
+                }
+                true
+            });
+            (stop, thread)
+        });
+        Activity {
+            spinner,
+            lines,
+            label: label.to_string(),
+            started,
+        }
+    }
+
+    /// Ends it; without a terminal, says so if a line said it was under way.
+    pub fn finish(self) {
+        self.spinner.finish_and_clear();
+        if let Some((stop, thread)) = self.lines {
+            let _ = stop.send(());
+            if thread.join().unwrap_or(false) {
+                eprintln!(
+                    "{}: done in {}",
+                    self.label,
+                    short_duration(self.started.elapsed())
+                );
+            }
+        }
+    }
+}
+
+/// Runs a training with a progress bar (on a terminal; else an [`Activity`]'s lines); returns
+/// the model and its training seconds.
 pub fn train_with_progress(
     label: &str,
     max_iters: u64,
     train: impl FnOnce(Option<Callback<'_>>) -> Result<SharedGplvm, PipelineError>,
 ) -> Result<(SharedGplvm, f64), PipelineError> {
+    if !on_terminal() {
+        // The snapshot the core builds for a callback costs time: lines need none.
+        let activity = Activity::start(label, &format!(", at most {max_iters} iterations"));
+        let started = Instant::now();
+        let result = train(None);
+        activity.finish();
+        let model = result?;
+        let seconds = model
+            .history()
+            .last()
+            .map_or(started.elapsed().as_secs_f64(), |r| r.seconds);
+        return Ok((model, seconds));
+    }
     let bar = progress_bar(max_iters, label);
     let started = Instant::now();
     let mut on_iteration = |record: &IterationRecord, _: &SharedGplvm| {
@@ -43,13 +150,7 @@ pub fn train_with_progress(
         bar.set_message(format!("objective {:.2}", record.objective));
         Control::Continue
     };
-    // The snapshot the core builds for a callback costs time: only ask for it on a terminal.
-    let callback: Option<Callback<'_>> = if bar.is_hidden() {
-        None
-    } else {
-        Some(&mut on_iteration)
-    };
-    let model = train(callback)?;
+    let model = train(Some(&mut on_iteration))?;
     bar.finish_and_clear();
     let seconds = model
         .history()
@@ -132,6 +233,34 @@ impl StageLines {
     }
 }
 
+/// One line per finished step of a fixed number of steps, with the time elapsed and an
+/// estimate of the time left (at the mean time per step so far): the demo's progress in a log.
+pub struct StepLines {
+    total: usize,
+    done: usize,
+}
+
+impl StepLines {
+    /// Lines for `total` steps.
+    pub fn new(total: usize) -> Self {
+        StepLines { total, done: 0 }
+    }
+
+    /// The line for the step just finished (`what`), `elapsed` after the first one started.
+    pub fn step(&mut self, what: &str, elapsed: Duration) -> String {
+        self.done = (self.done + 1).min(self.total.max(1));
+        let left = self.total.saturating_sub(self.done);
+        let eta = elapsed.mul_f64(left as f64 / self.done as f64);
+        format!(
+            "{what} ({}/{} steps, {} elapsed, ETA {})",
+            self.done,
+            self.total,
+            short_duration(elapsed),
+            short_duration(eta)
+        )
+    }
+}
+
 /// A duration as `42s`, `3m07s` or `1h05m`.
 pub fn short_duration(d: Duration) -> String {
     let s = d.as_secs_f64().round() as u64;
@@ -163,6 +292,45 @@ mod tests {
             stage,
             stage_done,
         }
+    }
+
+    #[test]
+    fn an_activity_is_quiet_when_short_and_says_when_long() {
+        let (quiet, every) = (Duration::from_millis(50), Duration::from_millis(40));
+        // Short: the thread stops without a line.
+        let short = Activity::start_with("quick", "", false, Duration::from_secs(60), every);
+        let (stop, thread) = short.lines.expect("lines without a terminal");
+        stop.send(()).expect("thread alive");
+        assert!(!thread.join().expect("no panic"));
+        // Long: it said so.
+        let long = Activity::start_with("slow", "", false, quiet, every);
+        std::thread::sleep(Duration::from_millis(150));
+        let (stop, thread) = long.lines.expect("lines without a terminal");
+        stop.send(()).expect("thread alive");
+        assert!(thread.join().expect("no panic"));
+        // On a terminal: a spinner, no lines.
+        let drawn = Activity::start_with("drawn", "", true, quiet, every);
+        assert!(drawn.lines.is_none());
+        drawn.finish();
+    }
+
+    #[test]
+    fn step_lines_estimate_the_rest_at_the_mean_so_far() {
+        let mut lines = StepLines::new(4);
+        assert_eq!(
+            lines.step("trained walkman", Duration::from_secs(10)),
+            "trained walkman (1/4 steps, 10s elapsed, ETA 30s)"
+        );
+        lines.step("b", Duration::from_secs(12));
+        lines.step("c", Duration::from_secs(15));
+        assert_eq!(
+            lines.step("figures", Duration::from_secs(20)),
+            "figures (4/4 steps, 20s elapsed, ETA 0s)"
+        );
+        // More steps than announced: never a division by zero or a negative estimate.
+        assert!(lines
+            .step("extra", Duration::from_secs(21))
+            .ends_with("ETA 0s)"));
     }
 
     #[test]

@@ -9,8 +9,31 @@ use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel};
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
 use sgplvm::SharedGplvm;
 
-/// After `train` or `transfer`: robots, seconds, iterations, objective and stop reason.
+/// After `train`: robots, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
+    let what = format!("trained {}", model.output_names().join(" + "));
+    trained(&what, model, seconds, out, json);
+}
+
+/// After `transfer`: as [`training`], saying that only `robot`'s kernel was trained, on the
+/// latent space of `source`'s robots.
+pub fn transfer(
+    source: &SharedGplvm,
+    robot: &str,
+    model: &SharedGplvm,
+    seconds: f64,
+    out: &Path,
+    json: bool,
+) {
+    let what = format!(
+        "transferred to {robot} (its kernel only; shared latent space from {})",
+        source.output_names().join(" + ")
+    );
+    trained(&what, model, seconds, out, json);
+}
+
+/// The result line of a training: `what` was done, in `seconds`, then the budget's selection.
+fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
     let history = model.history();
     let objective = history.last().map(|r| r.objective);
     let stop = model
@@ -30,8 +53,7 @@ pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
         println!("{value}");
     } else {
         println!(
-            "trained {} in {:.2} s, {} iterations, objective {:.3} ({stop}); wrote {}",
-            model.output_names().join(" + "),
+            "{what} in {:.2} s, {} iterations, objective {:.3} ({stop}); wrote {}",
             seconds,
             history.last().map_or(0, |r| r.iteration),
             objective.unwrap_or(f64::NAN),
@@ -85,7 +107,7 @@ pub fn demo_data(demos: &Demonstrations) {
 }
 
 /// How the demo's table names a kind of model.
-fn demo_label(kind: ModelKind) -> &'static str {
+pub fn demo_label(kind: ModelKind) -> &'static str {
     match kind {
         ModelKind::Baseline => "full",
         ModelKind::Transfer => "transfer",
@@ -191,52 +213,152 @@ pub fn demo(
     }
 }
 
-/// `simulate`: tracking per joint, limit violations, self-collisions and warnings.
-pub fn replay(source: &str, report: &ReplayReport, json: bool) -> serde_json::Result<()> {
+/// `simulate`: a summary (tracking and violations per joint, the worst cases, collisions per
+/// pair of links); with `verbose` every violation and collision interval as well; with `json`
+/// the whole report.
+pub fn replay(
+    source: &str,
+    report: &ReplayReport,
+    json: bool,
+    verbose: bool,
+) -> serde_json::Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(report)?);
-        return Ok(());
-    }
-    println!(
-        "{source}: {:.1} s of motion, {} physics steps in {:.2} s ({:.0}× real time); times below from the start",
-        report.duration,
-        report.physics_steps,
-        report.wall_seconds,
-        report.duration / report.wall_seconds.max(1e-9)
-    );
-    println!("\n{:<24} {:>12} {:>12}", "joint", "RMS (deg)", "max (deg)");
-    for j in &report.joints {
-        println!(
-            "{:<24} {:>12.3} {:>12.3}",
-            j.name,
-            j.rms_error.to_degrees(),
-            j.max_error.to_degrees()
-        );
-    }
-    if report.limit_violations.is_empty() {
-        println!("\nno joint-limit violations");
     } else {
-        println!("\njoint-limit violations:");
-        for v in &report.limit_violations {
-            let amount = format!("{:.2}°", v.amount.to_degrees());
-            println!("{}", violation(v, &amount, &format!("{:.3}", v.limit)));
-        }
+        print!("{}", replay_text(source, report, verbose));
     }
-    if !report.velocity_violations.is_empty() {
-        println!("velocity-limit violations:");
-        for v in &report.velocity_violations {
-            let amount = format!("{:.2} rad/s", v.amount);
-            println!(
-                "{}",
-                violation(v, &amount, &format!("{:.3} rad/s", v.limit))
-            );
-        }
-    }
-    collisions(&report.collisions);
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
     Ok(())
+}
+
+/// A violation's amount and limit, formatted with their unit.
+type Units = fn(&LimitViolation) -> (String, String);
+
+/// How many of the worst cases the summary lists.
+const WORST: usize = 3;
+
+/// Count and worst amount of the violations of one joint.
+#[derive(Default)]
+struct JointViolations {
+    count: usize,
+    worst: f64,
+}
+
+/// The violations of `violations` on `joint`: how many, and the largest amount.
+fn per_joint(violations: &[LimitViolation], joint: &str) -> JointViolations {
+    violations
+        .iter()
+        .filter(|v| v.joint == joint)
+        .fold(JointViolations::default(), |acc, v| JointViolations {
+            count: acc.count + 1,
+            worst: acc.worst.max(v.amount),
+        })
+}
+
+/// A count and worst amount as a table cell, `-` for none.
+fn cell(v: &JointViolations, scale: f64) -> (String, String) {
+    if v.count == 0 {
+        ("-".into(), "-".into())
+    } else {
+        (v.count.to_string(), format!("{:.2}", v.worst * scale))
+    }
+}
+
+/// The text `simulate` prints (see [`replay`]).
+fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    // Writing to a String cannot fail.
+    let mut line = |text: String| {
+        let _ = writeln!(out, "{text}");
+    };
+    line(format!(
+        "{source}: {:.1} s of motion, {} physics steps in {:.2} s ({:.0}× real time); times from the start",
+        report.duration,
+        report.physics_steps,
+        report.wall_seconds,
+        report.duration / report.wall_seconds.max(1e-9)
+    ));
+    line(String::new());
+    line(format!(
+        "{:<20} {:>9} {:>9} {:>8}  {:>10} {:>11}  {:>8} {:>13}",
+        "joint",
+        "RMS (deg)",
+        "max (deg)",
+        "at (s)",
+        "over limit",
+        "worst (deg)",
+        "too fast",
+        "worst (rad/s)"
+    ));
+    for j in &report.joints {
+        let (lc, lw) = cell(
+            &per_joint(&report.limit_violations, &j.name),
+            180.0 / std::f64::consts::PI,
+        );
+        let (vc, vw) = cell(&per_joint(&report.velocity_violations, &j.name), 1.0);
+        line(format!(
+            "{:<20} {:>9.3} {:>9.3} {:>8.2}  {lc:>10} {lw:>11}  {vc:>8} {vw:>13}",
+            j.name,
+            j.rms_error.to_degrees(),
+            j.max_error.to_degrees(),
+            j.max_error_time,
+        ));
+    }
+    line(String::new());
+    let kinds: [(&str, &[LimitViolation], Units); 2] = [
+        ("joint-limit", &report.limit_violations, |v| {
+            (
+                format!("{:.2}°", v.amount.to_degrees()),
+                format!("{:.3}", v.limit),
+            )
+        }),
+        ("velocity-limit", &report.velocity_violations, |v| {
+            (
+                format!("{:.2} rad/s", v.amount),
+                format!("{:.3} rad/s", v.limit),
+            )
+        }),
+    ];
+    for (kind, violations, units) in kinds {
+        if violations.is_empty() {
+            line(format!("no {kind} violations"));
+            continue;
+        }
+        let commanded = violations.iter().filter(|v| v.commanded).count();
+        let mut joints: Vec<&str> = violations.iter().map(|v| v.joint.as_str()).collect();
+        joints.sort_unstable();
+        joints.dedup();
+        let seconds: f64 = violations.iter().map(|v| v.end_time - v.time).sum();
+        line(format!(
+            "{kind} violations: {} intervals on {} joint(s), {seconds:.2} s in all; {commanded} \
+             commanded (the trajectory itself beyond the limit), {} not",
+            violations.len(),
+            joints.len(),
+            violations.len() - commanded
+        ));
+        let mut worst: Vec<&LimitViolation> = violations.iter().collect();
+        if !verbose {
+            worst.sort_by(|a, b| b.amount.total_cmp(&a.amount));
+            worst.truncate(WORST);
+            line("  worst:".into());
+        }
+        for v in worst {
+            let (amount, limit) = units(v);
+            line(violation(v, &amount, &limit));
+        }
+    }
+    collisions(&report.collisions, verbose, &mut line);
+    let details =
+        report.limit_violations.len() + report.velocity_violations.len() + report.collisions.len();
+    if !verbose && details > 0 {
+        line(format!(
+            "\n{details} intervals in all: every one with --verbose, the whole report with --json"
+        ));
+    }
+    out
 }
 
 /// One line of a limit violation, its amount and limit already formatted with their unit.
@@ -254,20 +376,51 @@ fn violation(v: &LimitViolation, amount: &str, limit: &str) -> String {
     )
 }
 
-fn collisions(collisions: &[Collision]) {
+/// Self-collisions: per pair of links, the count and the deepest; with `verbose` every one.
+fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(String)) {
     if collisions.is_empty() {
-        println!("no self-collisions");
+        line("no self-collisions".into());
         return;
     }
-    println!("self-collisions:");
+    let mut pairs: Vec<(&str, &str, usize, &Collision)> = Vec::new();
     for c in collisions {
-        println!(
-            "  {:>7.3}–{:<7.3} s  {} ↔ {} (deepest {:.1} mm)",
-            c.time,
-            c.end_time,
-            c.link_a,
-            c.link_b,
-            c.max_penetration * 1e3
-        );
+        match pairs
+            .iter_mut()
+            .find(|p| (p.0, p.1) == (c.link_a.as_str(), c.link_b.as_str()))
+        {
+            Some(p) => {
+                p.2 += 1;
+                if c.max_penetration > p.3.max_penetration {
+                    p.3 = c;
+                }
+            }
+            None => pairs.push((&c.link_a, &c.link_b, 1, c)),
+        }
+    }
+    pairs.sort_by(|a, b| b.3.max_penetration.total_cmp(&a.3.max_penetration));
+    line(format!(
+        "self-collisions: {} intervals between {} pair(s) of links; deepest per pair:",
+        collisions.len(),
+        pairs.len()
+    ));
+    for (a, b, n, c) in &pairs {
+        line(format!(
+            "  {a} ↔ {b}: {n} time(s), deepest {:.1} mm at {:.3} s",
+            c.max_penetration * 1e3,
+            c.time
+        ));
+    }
+    if verbose {
+        line("every self-collision:".into());
+        for c in collisions {
+            line(format!(
+                "  {:>7.3}–{:<7.3} s  {} ↔ {} (deepest {:.1} mm)",
+                c.time,
+                c.end_time,
+                c.link_a,
+                c.link_b,
+                c.max_penetration * 1e3
+            ));
+        }
     }
 }

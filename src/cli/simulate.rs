@@ -11,6 +11,7 @@ use super::args::load_model;
 use super::frames::{
     builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
 };
+use super::progress::Activity;
 use super::report;
 
 #[derive(Args)]
@@ -21,7 +22,8 @@ pub struct SimulateArgs {
     /// A URDF file instead of a built-in robot.
     #[arg(long, conflicts_with = "model")]
     urdf: Option<PathBuf>,
-    /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column).
+    /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column;
+    /// the `<joint>_std` columns of `sgplvm predict --std` output are ignored).
     #[arg(long, required_unless_present = "model", conflicts_with = "model")]
     trajectory: Option<String>,
     /// Topic of the trajectory (or of the human, with --model) in an MCAP file.
@@ -33,9 +35,12 @@ pub struct SimulateArgs {
     /// Human frames (MCAP or CSV) for --model.
     #[arg(long, requires = "model")]
     input: Option<String>,
-    /// Print the report as JSON.
+    /// Print the whole report as JSON (every violation and collision interval).
     #[arg(long)]
     json: bool,
+    /// List every violation and collision interval, not only the worst.
+    #[arg(long, short)]
+    verbose: bool,
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
@@ -61,8 +66,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
-    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default())?;
-    Ok(report::replay(&source, &report, args.json)?)
+    let detail = format!(
+        ", {:.1} s of motion at 1 kHz",
+        trajectory.times.last().copied().unwrap_or(0.0)
+    );
+    let activity = Activity::start(&format!("replaying on {source}"), &detail);
+    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default());
+    activity.finish();
+    let report = report?;
+    Ok(report::replay(&source, &report, args.json, args.verbose)?)
 }
 
 /// The trajectory `model` predicts for `robot` from the human frames of `input`.

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::Args;
 
 use super::args::{load_model, BudgetArg, DataArg, TrainOutputArgs};
@@ -31,6 +31,15 @@ pub struct TransferArgs {
 
 pub fn run(args: TransferArgs) -> Result<()> {
     let source = load_model(&args.model)?;
+    if source.output_names().contains(&args.robot.as_str()) {
+        bail!(
+            "{}: the model already predicts for '{}' (it has {:?}); transfer to another robot, \
+             or train it afresh with `sgplvm train`",
+            args.model.display(),
+            args.robot,
+            source.output_names()
+        );
+    }
     let demos = args.data.load()?;
     let options = args.budget.options();
     let validation = args.budget.validation(&demos);
@@ -41,6 +50,13 @@ pub fn run(args: TransferArgs) -> Result<()> {
         |cb| demos.transfer(&source, robot, &options, validation.as_ref(), cb),
     )?;
     model.save(&args.output.out)?;
-    report::training(&model, seconds, &args.output.out, args.output.json.json);
+    report::transfer(
+        &source,
+        robot,
+        &model,
+        seconds,
+        &args.output.out,
+        args.output.json.json,
+    );
     Ok(())
 }

@@ -1,0 +1,213 @@
+//! Every shell command of README.md runs as written: the test parses the README's ```bash
+//! blocks and runs each command line, top to bottom, in one scratch folder holding a copy of the
+//! shipped demonstrations (as a fresh clone would), with the `sgplvm` this build made first on
+//! the PATH (`cargo run --release --` stands for it too). A command is skipped only when an
+//! HTML comment `<!-- readme-test: skip `PREFIX` (reason) -->` just above its block names the
+//! start of the line and says why; a marker that matches no command is an error. The files the
+//! commands write must be ignored by `.gitignore`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod common;
+use common::{s, scratch};
+
+/// One ```bash block of the README: its command lines and the skip markers above it.
+struct Block {
+    /// The line number (1-based) of the opening fence.
+    line: usize,
+    commands: Vec<String>,
+    /// `(prefix, reason)` of each `readme-test: skip` marker just above the block.
+    skips: Vec<(String, String)>,
+}
+
+/// The README's bash blocks. A marker line is `<!-- readme-test: skip `PREFIX` (reason) -->`.
+fn bash_blocks(readme: &str) -> Vec<Block> {
+    let mut blocks = Vec::new();
+    let mut pending: Vec<(String, String)> = Vec::new();
+    let mut lines = readme.lines().enumerate();
+    while let Some((i, line)) = lines.next() {
+        let line = line.trim();
+        if let Some(marker) = line
+            .strip_prefix("<!-- readme-test: skip `")
+            .and_then(|m| m.strip_suffix("-->"))
+        {
+            let (prefix, rest) = marker
+                .split_once('`')
+                .unwrap_or_else(|| panic!("README.md:{}: unclosed ` in {line}", i + 1));
+            let reason = rest.trim().trim_start_matches('(').trim_end_matches(')');
+            assert!(
+                !reason.trim().is_empty(),
+                "README.md:{}: a skip marker must say why: {line}",
+                i + 1
+            );
+            pending.push((prefix.to_string(), reason.to_string()));
+            continue;
+        }
+        if line == "```bash" || line == "```sh" {
+            let mut commands = Vec::new();
+            let mut continued = String::new();
+            for (_, body) in lines.by_ref() {
+                if body.trim() == "```" {
+                    break;
+                }
+                // A trailing backslash continues the command on the next line.
+                if let Some(head) = body.strip_suffix('\\') {
+                    continued.push_str(head);
+                    continue;
+                }
+                let command = format!("{continued}{body}");
+                continued.clear();
+                let command = command.trim();
+                if !command.is_empty() && !command.starts_with('#') {
+                    commands.push(command.to_string());
+                }
+            }
+            blocks.push(Block {
+                line: i + 1,
+                commands,
+                skips: std::mem::take(&mut pending),
+            });
+        } else if !line.is_empty() {
+            // A marker belongs to the block right below it (blank lines and markers between).
+            pending.clear();
+        }
+    }
+    blocks
+}
+
+/// The repository's root (where README.md is).
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A scratch folder laid out like a fresh clone for the commands: `data/demos` with the shipped
+/// demonstration files.
+fn fresh_clone_folder() -> PathBuf {
+    let dir = scratch("readme");
+    let demos = dir.join("data").join("demos");
+    std::fs::create_dir_all(&demos).unwrap();
+    for file in ["bimanual.mcap", "fleet.mcap"] {
+        std::fs::copy(root().join("data/demos").join(file), demos.join(file)).unwrap();
+    }
+    dir
+}
+
+/// Runs one README command line with bash in `dir`, `sgplvm` first on the PATH; panics with its
+/// output unless it succeeds without a panic.
+fn run(command: &str, dir: &Path, block: usize) {
+    let binary = PathBuf::from(env!("CARGO_BIN_EXE_sgplvm"));
+    let bin_dir = binary.parent().unwrap();
+    let path = std::env::join_paths(std::iter::once(bin_dir.to_path_buf()).chain(
+        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
+    ))
+    .unwrap();
+    let line = match command.strip_prefix("cargo run --release --") {
+        Some(rest) => format!("sgplvm{rest}"),
+        None => command.to_string(),
+    };
+    let out = Command::new("bash")
+        .args(["-o", "pipefail", "-c", &line])
+        .current_dir(dir)
+        .env("PATH", path)
+        .output()
+        .expect("bash runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && !stderr.contains("panicked"),
+        "README.md block at line {block}: `{command}` failed ({}):\n{stderr}",
+        out.status
+    );
+}
+
+/// Every file under `dir` (relative paths), leaving out `skip`.
+fn files_under(dir: &Path, skip: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.starts_with(skip) {
+                continue;
+            }
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                found.push(path.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn every_readme_command_runs_as_written() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let blocks = bash_blocks(&readme);
+    let dir = fresh_clone_folder();
+    let mut ran = 0;
+    for block in &blocks {
+        let mut used = vec![false; block.skips.len()];
+        for command in &block.commands {
+            let skip = block.skips.iter().position(|(p, _)| command.starts_with(p));
+            match skip {
+                Some(k) => used[k] = true,
+                None => {
+                    run(command, &dir, block.line);
+                    ran += 1;
+                }
+            }
+        }
+        for ((prefix, _), used) in block.skips.iter().zip(used) {
+            assert!(
+                used,
+                "README.md block at line {}: the skip marker `{prefix}` matches no command",
+                block.line
+            );
+        }
+    }
+    // The demo, the command-line tour: far more than a handful.
+    assert!(ran >= 15, "only {ran} README commands ran");
+    // `generate` rewrote the shipped demonstrations byte for byte, as the README says.
+    for file in ["bimanual.mcap", "fleet.mcap"] {
+        let shipped = std::fs::read(root().join("data/demos").join(file)).unwrap();
+        let made = std::fs::read(dir.join("data/demos").join(file)).unwrap();
+        assert!(shipped == made, "generate did not reproduce {file}");
+    }
+    // What the commands wrote stays out of `git status` in a clone.
+    let written = files_under(&dir, &dir.join("data"));
+    assert!(written.len() >= 10, "{written:?}");
+    let check = Command::new("git")
+        .args(["check-ignore", "--no-index", "--verbose", "--non-matching"])
+        .args(written.iter().map(|p| s(p)))
+        .current_dir(root())
+        .output();
+    let Ok(check) = check else {
+        eprintln!("git is not installed: .gitignore not checked");
+        return;
+    };
+    let listing = String::from_utf8_lossy(&check.stdout);
+    // `--non-matching` prints `::\tPATH` for a path no pattern ignores.
+    let not_ignored: Vec<&str> = listing
+        .lines()
+        .filter_map(|l| l.strip_prefix("::\t"))
+        .collect();
+    assert!(
+        not_ignored.is_empty(),
+        "README outputs not in .gitignore: {not_ignored:?}"
+    );
+}
+
+#[test]
+fn skip_markers_attach_to_the_block_below_them() {
+    let text = "<!-- readme-test: skip `slow` (takes long) -->\n\n```bash\nslow --x\nfast \\\n  --y\n# note\n```\n\ntext\n<!-- readme-test: skip `other` (why) -->\nmore text\n```bash\nother\n```\n";
+    let blocks = bash_blocks(text);
+    assert_eq!(blocks.len(), 2);
+    assert_eq!(blocks[0].commands, vec!["slow --x", "fast   --y"]);
+    assert_eq!(
+        blocks[0].skips,
+        vec![("slow".to_string(), "takes long".to_string())]
+    );
+    // Text between a marker and a block detaches it.
+    assert!(blocks[1].skips.is_empty());
+}
