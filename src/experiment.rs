@@ -589,7 +589,7 @@ mod tests {
     use super::*;
 
     /// A smooth toy problem: 3 inputs, two "robots" of 2 outputs each.
-    fn toy() -> ExperimentData {
+    pub(super) fn toy() -> ExperimentData {
         let frames = |n: usize, offset: f64| {
             Mat::from_fn(n, 3, |i, j| ((i as f64 + offset) * 0.3 + j as f64).sin())
         };

@@ -662,3 +662,97 @@ impl ExperimentData {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The pieces against the serial run: tasks executed out of order (sources first), their
+    //! records assembled, equal the serial results but for the measured seconds.
+
+    use super::*;
+    use crate::experiment::tests::toy;
+
+    fn config() -> ExperimentConfig {
+        ExperimentConfig {
+            runs: 1,
+            transfers_per_run: 1,
+            max_iters: 4,
+            transfer_max_iters: 4,
+            latent_dim: 2,
+            seed: 3,
+            direct_max_iters: 10,
+            patience: Some(2),
+            fractions: vec![0.5],
+        }
+    }
+
+    /// The results as JSON with every `seconds` field removed (wall-clock, never reproducible).
+    fn without_seconds(results: &Results) -> serde_json::Value {
+        fn strip(v: &mut serde_json::Value) {
+            match v {
+                serde_json::Value::Object(map) => {
+                    map.remove("seconds");
+                    map.values_mut().for_each(strip);
+                }
+                serde_json::Value::Array(items) => items.iter_mut().for_each(strip),
+                _ => {}
+            }
+        }
+        let mut v = serde_json::to_value(results).unwrap();
+        strip(&mut v);
+        v
+    }
+
+    #[test]
+    fn tasks_run_in_any_order_from_json_assemble_to_the_serial_results() {
+        let data = toy();
+        let config = config();
+        let serial = crate::experiment::run(&data, &config, &mut |_| {}).unwrap();
+        // The data and every task cross as JSON, as to another process.
+        let data = ExperimentData::from_json(&data.to_json()).unwrap();
+        let tasks: Vec<Task> =
+            serde_json::from_str(&serde_json::to_string(&plan(&config, &data)).unwrap()).unwrap();
+        assert_eq!(tasks.len(), crate::experiment::training_count(&config, 2));
+        // Sources first, then the rest from the last task back.
+        let mut models = std::collections::BTreeMap::new();
+        let mut records = Vec::new();
+        let (sources, rest): (Vec<&Task>, Vec<&Task>) = tasks.iter().partition(|t| t.keep_model);
+        for task in sources.into_iter().chain(rest.into_iter().rev()) {
+            assert!(task
+                .source
+                .is_none_or(|s| s < task.id && tasks[s].keep_model));
+            let source = task.source.map(|s| &models[&s]);
+            let (record, model) = execute(task, &data, &config, source).unwrap();
+            assert_eq!(model.is_some(), task.keep_model, "{}", task.context);
+            if let Some(m) = model {
+                models.insert(task.id, SharedGplvm::from_bytes(&m.to_bytes()).unwrap());
+            }
+            let json = serde_json::to_string(&record).unwrap();
+            records.push(serde_json::from_str::<TaskResult>(&json).unwrap());
+        }
+        let assembled = assemble(&data, &config, records.clone()).unwrap();
+        assert_eq!(without_seconds(&assembled), without_seconds(&serial));
+        // A missing or doubled task is an error, never a partial report.
+        let mut missing = records.clone();
+        missing.pop();
+        assert!(assemble(&data, &config, missing).is_err());
+        let mut doubled = records;
+        doubled.push(doubled[0].clone());
+        assert!(assemble(&data, &config, doubled).is_err());
+    }
+
+    #[test]
+    fn a_transfer_without_its_source_and_bad_data_are_errors() {
+        let data = toy();
+        let config = config();
+        let tasks = plan(&config, &data);
+        let transfer = tasks.iter().find(|t| t.source.is_some()).unwrap();
+        let e = execute(transfer, &data, &config, None).unwrap_err();
+        assert!(e.to_string().contains("source"), "{e}");
+        let e = ExperimentData::from_json(br#"{"input_name": "h"}"#).unwrap_err();
+        assert!(e.to_string().starts_with("experiment data:"), "{e}");
+        let mut json: serde_json::Value = serde_json::from_slice(&data.to_json()).unwrap();
+        json["human"]["train"]["rows"] = 1000.into();
+        let e = ExperimentData::from_json(json.to_string().as_bytes()).unwrap_err();
+        assert!(e.to_string().contains("human.train"), "{e}");
+    }
+}
