@@ -52,7 +52,7 @@ def main() -> int:
     if args.data:
         command += ["--data", args.data]
     started = time.perf_counter()
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     serial = time.perf_counter() - started
     with open(os.path.join(serial_out, "results.json")) as f:
         serial_results = json.load(f)

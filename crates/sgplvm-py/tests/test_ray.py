@@ -199,6 +199,30 @@ def test_transfer_fleet_over_20_variants_equals_serial_transfers(cluster):
         _assert_same_model(transferred[name], expected, human, name)
 
 
+def test_a_task_computes_on_as_many_threads_as_cpus_ray_gave_it(cluster):
+    def pool_threads_after_a_transfer(model_bytes, data):
+        """Runs a transfer as a task does, then counts this worker's numeric pool threads
+        (defined here so that Ray sends it by value: workers cannot import this test file)."""
+        sray._transfer_one(model_bytes, "extra", data, {"max_iters": 3})
+        names = []
+        for tid in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{tid}/comm") as f:
+                names.append(f.read().strip())
+        return sum(1 for n in names if n.startswith("sgplvm-"))
+
+    human, robot = _toy(3)
+    model = sgplvm.SharedGPLVM(latent_dim=2).fit({"human": human, "r": robot}, max_iters=5, validation=None)
+    remote = ray.remote(num_cpus=1)(pool_threads_after_a_transfer)
+    counts = ray.get([remote.remote(model.to_bytes(), robot) for _ in range(4)])
+    assert counts == [1, 1, 1, 1]
+
+
+def test_a_sweep_rejects_unknown_parameters_before_starting_anything(cluster):
+    human, robot = _toy(2)
+    with pytest.raises(ValueError, match="inducing"):
+        sray.sweep({"human": human, "r": robot}, {"latent_dim": [1], "inducing": [10]})
+
+
 def test_sweep_scores_on_held_out_training_rows_and_returns_the_best(cluster):
     human, robot = _toy(2)
     grid = {"latent_dim": [1, 2], "back_constraint": ["input", None]}

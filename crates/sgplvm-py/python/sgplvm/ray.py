@@ -48,10 +48,15 @@ def _ensure_ray(address: Optional[str]) -> Any:
     return ray
 
 
-def _use_cpus(cpus: int) -> None:
-    """Sizes this worker's numeric thread pool to ``cpus`` before its first training (the pool
-    is built once per process, on first use)."""
-    os.environ.setdefault("RAYON_NUM_THREADS", str(max(1, int(cpus))))
+def _use_cpus() -> None:
+    """Sizes this worker's numeric thread pool to the CPUs Ray gave the running task (the pool
+    is built once per process, on its first training, from ``RAYON_NUM_THREADS``)."""
+    cpus = 1.0
+    try:
+        cpus = float(_ray().get_runtime_context().get_assigned_resources().get("CPU", 1.0))
+    except Exception:  # outside a Ray task: one thread
+        pass
+    os.environ["RAYON_NUM_THREADS"] = str(max(1, int(cpus)))
 
 
 def experiment_config(config: Union[str, Mapping[str, Any]] = "quick") -> Dict[str, Any]:
@@ -76,7 +81,7 @@ def _experiment_data(data: Union[None, PathLike, bytes]) -> bytes:
 
 
 def _execute(data: bytes, config: str, task: str, source: Optional[bytes]) -> Tuple[str, Optional[bytes]]:
-    _use_cpus(1)
+    _use_cpus()
     result, model = _sgplvm.experiment_execute(data, config, task, source)
     return result, None if model is None else bytes(model)
 
@@ -149,17 +154,26 @@ def run_experiment_serial(
 _MODEL_KEYS = ("latent_dim", "back_constraint", "seed", "scale")
 
 
+_FIT_KEYS = ("max_iters", "validation", "patience", "max_seconds")
+
+
 def _grid_points(grid: Union[Mapping[str, Sequence[Any]], Sequence[Mapping[str, Any]]]) -> List[Dict[str, Any]]:
     if isinstance(grid, Mapping):
         keys = list(grid)
-        return [dict(zip(keys, values)) for values in itertools.product(*(list(grid[k]) for k in keys))]
-    return [dict(point) for point in grid]
+        points = [dict(zip(keys, values)) for values in itertools.product(*(list(grid[k]) for k in keys))]
+    else:
+        points = [dict(point) for point in grid]
+    for point in points:
+        unknown = sorted(set(point) - set(_MODEL_KEYS) - set(_FIT_KEYS))
+        if unknown:
+            raise ValueError(f"grid: unknown parameters {unknown}; expected some of {sorted(_MODEL_KEYS + _FIT_KEYS)}")
+    return points
 
 
 def _fit_point(
     spaces: Mapping[str, Any], input: str, point: Dict[str, Any], fit_options: Dict[str, Any]
 ) -> Tuple[Dict[str, Any], bytes]:
-    _use_cpus(1)
+    _use_cpus()
     model_args = {k: v for k, v in point.items() if k in _MODEL_KEYS}
     fit_args = dict(fit_options)
     fit_args.update({k: v for k, v in point.items() if k not in _MODEL_KEYS})
@@ -204,19 +218,20 @@ def sweep(
         raise ValueError("grid: no points; expected a dict of lists or a list of dicts")
     spaces_ref = ray.put({k: v for k, v in spaces.items()})
     fit_options = {"max_iters": max_iters, "validation": validation, "patience": patience}
-    remote = ray.remote(num_cpus=1, max_retries=int(max_retries), retry_exceptions=False)(_fit_point)
+    remote = ray.remote(num_cpus=1, num_returns=2, max_retries=int(max_retries), retry_exceptions=False)(_fit_point)
     refs = [remote.remote(spaces_ref, input, point, fit_options) for point in points]
-    done = ray.get(refs)
-    order = sorted(range(len(done)), key=lambda i: (done[i][0]["validation_mse"], i))
-    table = [done[i][0] for i in order]
-    return table, SharedGPLVM.from_bytes(done[order[0]][1])
+    # Only the scores come to the driver; the models stay in the object store but the best.
+    rows = ray.get([row for row, _ in refs])
+    order = sorted(range(len(rows)), key=lambda i: (rows[i]["validation_mse"], i))
+    table = [rows[i] for i in order]
+    return table, SharedGPLVM.from_bytes(ray.get(refs[order[0]][1]))
 
 
 # ---------------------------------------------------------------------------------- fleets
 
 
 def _transfer_one(model: bytes, name: str, data: Any, options: Dict[str, Any]) -> bytes:
-    _use_cpus(1)
+    _use_cpus()
     return SharedGPLVM.from_bytes(model).transfer(name, data, **options).to_bytes()
 
 
