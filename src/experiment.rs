@@ -11,20 +11,21 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{
-    BackConstraint, Control, GpRegression, IterationRecord, Mat, MatRef, ModelConfig, SharedGplvm,
-    TrainOptions, Validation,
+    BackConstraint, Control, IterationRecord, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions,
+    Validation,
 };
 
 use crate::figures;
 use crate::files::atomic_write;
 
 mod less_data;
+mod plan;
 mod report;
 pub use less_data::{subset, LessDataRecord};
+pub use plan::{assemble, execute, plan, Task, TaskResult, TaskSpec};
 pub use report::{report, MIN_RUNS_TO_JUDGE};
 
 /// Training and test matrices of one observation space (rows are frames).
@@ -248,6 +249,14 @@ pub enum ExperimentError {
     /// A figure could not be drawn.
     #[error(transparent)]
     Plot(#[from] crate::plots::PlotError),
+    /// A task of the plan, or its inputs, did not fit the experiment.
+    #[error("{context}: {problem}")]
+    Task {
+        /// Which task (or what was being read).
+        context: String,
+        /// What did not fit, and what was expected.
+        problem: String,
+    },
 }
 
 /// Mean squared error between two matrices of the same shape.
@@ -465,128 +474,47 @@ pub fn training_count(config: &ExperimentConfig, robots: usize) -> usize {
     stages(config, robots).iter().map(|s| s.trainings).sum()
 }
 
-/// Everything one training run of the experiment needs to record its test error.
-struct RunSpec<'a> {
-    context: String,
-    kind: ModelKind,
-    back_constraint: BackConstraint,
-    run: usize,
-    /// For transfers: the source robot and run.
-    source: Option<(&'a str, usize)>,
-    /// Robots whose test error is recorded, with their test frames.
-    robots: Vec<(&'a str, MatRef<'a, f64>)>,
-}
-
-/// The state of a running experiment: records, progress and the human test frames.
-struct Runner<'a, 'p> {
-    human_test: MatRef<'a, f64>,
-    runs: Vec<RunRecord>,
-    direct: Vec<DirectRecord>,
-    plan: Vec<Stage>,
-    stage: usize,
-    stage_done: usize,
-    done: usize,
-    total: usize,
-    progress: &'p mut dyn FnMut(&Progress),
-}
-
-impl<'a> Runner<'a, '_> {
-    /// Counts one finished training and reports it; moves to the next group when this one is
-    /// complete.
-    fn finished(&mut self, message: String) {
-        self.done += 1;
-        self.stage_done += 1;
-        (self.progress)(&Progress {
-            done: self.done,
-            total: self.total,
-            message,
-            stage: self.stage,
-            stage_done: self.stage_done,
-        });
-        let complete = self
-            .plan
-            .get(self.stage)
-            .is_none_or(|s| self.stage_done >= s.trainings);
-        if complete {
-            self.stage += 1;
-            self.stage_done = 0;
-            // Skip empty groups (for example transfers with a single robot).
-            while self.plan.get(self.stage).is_some_and(|s| s.trainings == 0) {
-                self.stage += 1;
-            }
-        }
-    }
-
-    /// Trains with `train`, recording the test error of `spec.robots` at every iteration.
-    fn record(
-        &mut self,
-        spec: RunSpec<'a>,
-        train: impl FnOnce(Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm>,
-    ) -> Result<SharedGplvm, ExperimentError> {
-        let mut recorder = Recorder::new(self.human_test, spec.robots);
-        let fail = |source| ExperimentError::Model {
-            context: spec.context.clone(),
-            source,
-        };
-        let model = train(Some(&mut |it: &IterationRecord, m: &SharedGplvm| {
-            recorder.record(it, m)
-        }))
-        .map_err(fail)?;
-        let records = recorder
-            .into_records(
-                &model,
-                spec.kind,
-                spec.back_constraint,
-                spec.run,
-                spec.source,
-            )
-            .map_err(fail)?;
-        self.runs.extend(records);
-        self.finished(spec.context);
-        Ok(model)
-    }
-}
-
-/// Runs the direct regressions and every model of Figs. 4, 5 and 6.
+/// Runs the direct regressions and every model of Figs. 4, 5 and 6, and the less-data study: the
+/// tasks of [`plan()`] one after another, each by [`execute`], the records joined by
+/// [`assemble`]. `progress` hears of every finished training.
 pub fn run(
     data: &ExperimentData,
     config: &ExperimentConfig,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Results, ExperimentError> {
-    let plan = stages(config, data.robots.len());
-    let mut runner = Runner {
-        human_test: data.human.test.as_ref(),
-        runs: Vec::new(),
-        direct: Vec::new(),
-        total: plan.iter().map(|s| s.trainings).sum(),
-        plan,
-        stage: 0,
-        stage_done: 0,
-        done: 0,
-        progress,
-    };
-    runner.direct_regressions(data, config)?;
-    let mut input_sources = Sources::new();
-    for bc in BackConstraint::ALL {
-        let sources = runner.baselines(data, config, bc)?;
-        if bc == BackConstraint::Output {
-            continue; // Fig. 6 compares fully trained models only.
+    let tasks = plan(config, data);
+    let total = tasks.len();
+    let mut stage_done = vec![0; stages(config, data.robots.len()).len()];
+    // Models later tasks start from, by task id; dropped after their last user.
+    let last_use: BTreeMap<usize, usize> = tasks
+        .iter()
+        .filter_map(|t| t.source.map(|s| (s, t.id)))
+        .collect();
+    let mut models: BTreeMap<usize, SharedGplvm> = BTreeMap::new();
+    let mut records = Vec::with_capacity(total);
+    for (done, task) in tasks.iter().enumerate() {
+        let source = task.source.and_then(|s| models.get(&s));
+        let (record, model) = execute(task, data, config, source)?;
+        records.push(record);
+        if let Some(s) = task.source.filter(|s| last_use.get(s) == Some(&task.id)) {
+            models.remove(&s);
         }
-        runner.transfers(data, config, bc, &sources)?;
-        runner.multi_robot(data, config, bc)?;
-        if bc == BackConstraint::Input {
-            input_sources = sources;
+        if let Some(model) = model.filter(|_| last_use.contains_key(&task.id)) {
+            models.insert(task.id, model);
         }
+        let stage_done = stage_done.get_mut(task.stage).map_or(0, |d| {
+            *d += 1;
+            *d
+        });
+        progress(&Progress {
+            done: done + 1,
+            total,
+            message: task.context.clone(),
+            stage: task.stage,
+            stage_done,
+        });
     }
-    let less_data = runner.less_data(data, config, &input_sources)?;
-    Ok(Results {
-        robots: data.robots.iter().map(|(n, _)| n.clone()).collect(),
-        config: config.clone(),
-        runs: runner.runs,
-        direct_regression: runner.direct,
-        robot_joints: data.robots.iter().map(|(_, s)| s.train.ncols()).collect(),
-        less_data,
-    })
+    assemble(data, config, records)
 }
 
 /// The held-out frames of every training, when budgets are chosen on them.
@@ -620,147 +548,6 @@ fn model_config(config: &ExperimentConfig, bc: BackConstraint, run: usize) -> Mo
         .with_latent_dim(config.latent_dim)
         .with_back_constraint(bc)
         .with_seed(config.seed + run as u64)
-}
-
-/// Fully trained models of one back constraint, by (run, source robot index).
-type Sources = BTreeMap<(usize, usize), SharedGplvm>;
-
-impl<'a> Runner<'a, '_> {
-    /// The yardstick: a GP regression from the human's to each robot's training frames.
-    fn direct_regressions(
-        &mut self,
-        data: &'a ExperimentData,
-        config: &ExperimentConfig,
-    ) -> Result<(), ExperimentError> {
-        let options = config.options(config.direct_max_iters);
-        for (robot, split) in &data.robots {
-            let context = format!("direct GP regression H → {robot}");
-            let fail = |source| ExperimentError::Model {
-                context: context.clone(),
-                source,
-            };
-            let started = Instant::now();
-            let regression =
-                GpRegression::fit(data.human.train.as_ref(), split.train.as_ref(), &options)
-                    .map_err(fail)?;
-            let seconds = started.elapsed().as_secs_f64();
-            let predicted = regression.predict(self.human_test).map_err(fail)?;
-            self.direct.push(DirectRecord {
-                robot: robot.clone(),
-                test_mse: mean_squared_error(predicted.as_ref(), split.test.as_ref()),
-                seconds,
-            });
-            self.finished(context);
-        }
-        Ok(())
-    }
-    /// Baselines: human + one robot, trained fully; kept as transfer sources.
-    fn baselines(
-        &mut self,
-        data: &'a ExperimentData,
-        config: &ExperimentConfig,
-        bc: BackConstraint,
-    ) -> Result<Sources, ExperimentError> {
-        let options = config.options(config.max_iters);
-        let input = data.input_name.as_str();
-        let mut sources = Sources::new();
-        for run in 0..config.runs {
-            for (r, (robot, split)) in data.robots.iter().enumerate() {
-                let spec = RunSpec {
-                    context: format!("baseline {robot}, {bc} back constraints, run {run}"),
-                    kind: ModelKind::Baseline,
-                    back_constraint: bc,
-                    run,
-                    source: None,
-                    robots: vec![(robot.as_str(), split.test.as_ref())],
-                };
-                let spaces = [
-                    (input, data.human.train.as_ref()),
-                    (robot.as_str(), split.train.as_ref()),
-                ];
-                let model =
-                    self.record(spec, |cb| fit(config, data, bc, run, &spaces, &options, cb))?;
-                sources.insert((run, r), model);
-            }
-        }
-        Ok(sources)
-    }
-
-    /// Transfer: from each source robot's model to every other robot, from differently seeded
-    /// initial kernels.
-    fn transfers(
-        &mut self,
-        data: &'a ExperimentData,
-        config: &ExperimentConfig,
-        bc: BackConstraint,
-        sources: &Sources,
-    ) -> Result<(), ExperimentError> {
-        let options = config.options(config.transfer_max_iters);
-        let validation = validation(config, data);
-        for ((run, s), source) in sources {
-            let source_name = data.robots[*s].0.as_str();
-            for (t, (target, split)) in data.robots.iter().enumerate() {
-                if t == *s {
-                    continue;
-                }
-                for k in 0..config.transfers_per_run {
-                    let index = run * config.transfers_per_run + k;
-                    let spec = RunSpec {
-                        context: format!(
-                            "transfer {source_name} → {target}, {bc} back constraints, run {run}.{k}"
-                        ),
-                        kind: ModelKind::Transfer,
-                        back_constraint: bc,
-                        run: index,
-                        source: Some((source_name, *run)),
-                        robots: vec![(target.as_str(), split.test.as_ref())],
-                    };
-                    let seed = config.seed + index as u64;
-                    let train = split.train.as_ref();
-                    self.record(spec, |cb| match &validation {
-                        Some(v) => {
-                            source.transfer_validated(target, train, Some(seed), &options, v, cb)
-                        }
-                        None => source.transfer_seeded(target, train, seed, &options, cb),
-                    })?;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Multi-robot: human + all robots.
-    fn multi_robot(
-        &mut self,
-        data: &'a ExperimentData,
-        config: &ExperimentConfig,
-        bc: BackConstraint,
-    ) -> Result<(), ExperimentError> {
-        let options = config.options(config.max_iters);
-        let input = data.input_name.as_str();
-        let mut spaces = vec![(input, data.human.train.as_ref())];
-        spaces.extend(
-            data.robots
-                .iter()
-                .map(|(n, s)| (n.as_str(), s.train.as_ref())),
-        );
-        for run in 0..config.runs {
-            let spec = RunSpec {
-                context: format!("multi-robot, {bc} back constraints, run {run}"),
-                kind: ModelKind::Multi,
-                back_constraint: bc,
-                run,
-                source: None,
-                robots: data
-                    .robots
-                    .iter()
-                    .map(|(n, s)| (n.as_str(), s.test.as_ref()))
-                    .collect(),
-            };
-            self.record(spec, |cb| fit(config, data, bc, run, &spaces, &options, cb))?;
-        }
-        Ok(())
-    }
 }
 
 impl Results {
@@ -818,7 +605,7 @@ mod tests {
     use super::*;
 
     /// A smooth toy problem: 3 inputs, two "robots" of 2 outputs each.
-    fn toy() -> ExperimentData {
+    pub(super) fn toy() -> ExperimentData {
         let frames = |n: usize, offset: f64| {
             Mat::from_fn(n, 3, |i, j| ((i as f64 + offset) * 0.3 + j as f64).sin())
         };

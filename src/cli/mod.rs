@@ -41,6 +41,10 @@ pub enum Command {
     /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
     Simulate(simulate::SimulateArgs),
     /// The paper's Section IV-B: Figs. 4, 5 and 6, results.json and report.md.
+    ///
+    /// Runs every training here, one after another. On a Ray cluster the same trainings run
+    /// in parallel with identical results: `pip install "sgplvm[ray]"`, then in Python
+    /// `sgplvm.ray.run_experiment(config="paper", out=DIR)` (see the README, "On a Ray cluster").
     Experiment(experiment::ExperimentArgs),
     /// One body's joint series from a demonstration file as CSV or MCAP (e.g. the human's test
     /// frames, the input of `predict` and `simulate --model`).

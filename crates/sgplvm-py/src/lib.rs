@@ -7,6 +7,7 @@
 use pyo3::prelude::*;
 
 mod demos;
+mod experiment;
 mod guard;
 mod model;
 mod regression;
@@ -30,5 +31,13 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;
     m.add_function(wrap_pyfunction!(demos::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(guard::panic_for_tests, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_config, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_data, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_execute, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_assemble, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_run, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_write_outputs, m)?)?;
+    m.add_function(wrap_pyfunction!(experiment::experiment_report, m)?)?;
     Ok(())
 }

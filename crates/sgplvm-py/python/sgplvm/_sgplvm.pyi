@@ -14,6 +14,14 @@ __all__ = [
     "__version__",
     "_panic_for_tests",
     "canonical_back_constraint",
+    "experiment_assemble",
+    "experiment_config",
+    "experiment_data",
+    "experiment_execute",
+    "experiment_plan",
+    "experiment_report",
+    "experiment_run",
+    "experiment_write_outputs",
     "load_demonstrations",
     "read_joint_states",
     "simulate",
@@ -145,3 +153,30 @@ def simulate(
     robot: str, joint_names: List[str], times: _F64, positions: _F64
 ) -> Dict[str, Any]:
     """Replays a joint trajectory in rapier; returns tracking errors, limit violations, collisions."""
+
+# The experiment as tasks (sgplvm.ray schedules them; `sgplvm experiment` runs them in order).
+def experiment_config(name: str) -> str:
+    """The protocol ``"quick"`` or ``"paper"`` as JSON."""
+
+def experiment_data(path: Optional[_Path] = None) -> bytes:
+    """The experiment's data (train/test frames, held-out rows) from demonstrations, as bytes."""
+
+def experiment_plan(data: bytes, config: str) -> str:
+    """Every task of the experiment, in serial order, as a JSON list."""
+
+def experiment_execute(
+    data: bytes, config: str, task: str, source: Optional[bytes] = None
+) -> Tuple[str, Optional[bytes]]:
+    """Performs one task: its records (JSON) and, if later tasks start from it, its model's bytes."""
+
+def experiment_assemble(data: bytes, config: str, results: List[str]) -> str:
+    """The results (``results.json``'s text) from the records of every task."""
+
+def experiment_run(data: bytes, config: str) -> str:
+    """The serial experiment (the code of ``sgplvm experiment``); its results as JSON."""
+
+def experiment_write_outputs(results: str, out: _Path) -> List[str]:
+    """Writes results.json, the figures and report.md into ``out`` (atomically); returns the paths."""
+
+def experiment_report(results: str) -> str:
+    """The Markdown report of results (JSON)."""
