@@ -11,6 +11,7 @@ pub mod files;
 pub mod kinematics;
 pub mod models;
 pub mod physics;
+pub mod scene;
 pub mod series;
 pub mod urdf;
 
