@@ -121,15 +121,53 @@ impl SceneBody {
     }
 }
 
-/// A `std_msgs/msg/Float64MultiArray` topic of a scene (one value per element and frame).
+/// A topic of per-frame values that belongs to no body: a `std_msgs/msg/Float64MultiArray`
+/// (shown by Foxglove's Plot panel as `/topic.data[i]`) or a `sensor_msgs/msg/JointState`.
 #[derive(Debug, Clone)]
 pub struct ArrayTopic {
     /// Topic name, e.g. `/coman/prediction_std`.
     pub topic: String,
-    /// Label of the array's one dimension (`layout.dim[0].label`), e.g. `joint` or `latent`.
-    pub label: String,
     /// Number of values per frame.
     pub len: usize,
+    /// Message type.
+    pub kind: ArrayKind,
+}
+
+/// Message type of an [`ArrayTopic`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum ArrayKind {
+    /// `std_msgs/msg/Float64MultiArray` of one dimension labelled so (`layout.dim[0].label`).
+    Float64MultiArray {
+        /// Label of the dimension, e.g. `joint` or `latent`.
+        label: String,
+    },
+    /// `sensor_msgs/msg/JointState` with these joint names (one per value).
+    JointState {
+        /// Joint names.
+        names: Vec<String>,
+    },
+}
+
+impl ArrayTopic {
+    /// A Float64MultiArray topic of `len` values whose dimension is labelled `label`.
+    pub fn float64(topic: &str, label: &str, len: usize) -> Self {
+        ArrayTopic {
+            topic: topic.to_string(),
+            len,
+            kind: ArrayKind::Float64MultiArray {
+                label: label.to_string(),
+            },
+        }
+    }
+
+    /// A JointState topic with these joint names.
+    pub fn joint_state(topic: &str, names: Vec<String>) -> Self {
+        ArrayTopic {
+            topic: topic.to_string(),
+            len: names.len(),
+            kind: ArrayKind::JointState { names },
+        }
+    }
 }
 
 /// Options of a scene file.
@@ -404,20 +442,28 @@ impl SceneWriter {
             None
         };
         let mut out_arrays = Vec::with_capacity(arrays.len());
-        if !arrays.is_empty() {
-            let s = writer
-                .add_schema(
-                    FLOAT64_MULTI_ARRAY_SCHEMA,
-                    "ros2msg",
-                    FLOAT64_MULTI_ARRAY_MSGDEF.as_bytes(),
-                )
-                .map_err(mcap_err("schema".into()))?;
-            for a in arrays {
-                let id = writer
-                    .add_channel(s, &a.topic, "cdr", &no_meta)
-                    .map_err(mcap_err(format!("channel `{}`", a.topic)))?;
-                out_arrays.push((a, id));
-            }
+        let mut array_schema = None;
+        for a in arrays {
+            let schema = match a.kind {
+                ArrayKind::JointState { .. } => js_schema,
+                ArrayKind::Float64MultiArray { .. } => match array_schema {
+                    Some(s) => s,
+                    None => {
+                        let s = writer
+                            .add_schema(
+                                FLOAT64_MULTI_ARRAY_SCHEMA,
+                                "ros2msg",
+                                FLOAT64_MULTI_ARRAY_MSGDEF.as_bytes(),
+                            )
+                            .map_err(mcap_err("schema".into()))?;
+                        *array_schema.insert(s)
+                    }
+                },
+            };
+            let id = writer
+                .add_channel(schema, &a.topic, "cdr", &no_meta)
+                .map_err(mcap_err(format!("channel `{}`", a.topic)))?;
+            out_arrays.push((a, id));
         }
         let mut all_topics: Vec<&str> = out_bodies
             .iter()
@@ -553,7 +599,20 @@ impl SceneWriter {
         }
         for (k, values) in arrays.iter().enumerate() {
             let (topic, channel) = &self.arrays[k];
-            msgs::encode_float64_array(&mut self.buf, &topic.label, values);
+            match &topic.kind {
+                ArrayKind::Float64MultiArray { label } => {
+                    msgs::encode_float64_array(&mut self.buf, label, values)
+                }
+                ArrayKind::JointState { names } => crate::joint_state::cdr::encode_joint_state(
+                    &mut self.buf,
+                    stamp,
+                    "",
+                    names,
+                    values,
+                    &[],
+                    &[],
+                ),
+            }
             let (channel, name) = (*channel, topic.topic.clone());
             self.write(channel, seq, time_ns, &name)?;
         }

@@ -25,11 +25,7 @@ fn two_bodies(frames: usize) -> (SceneBody, JointStates, SceneBody, JointStates)
 fn a_scene_has_every_topic_and_its_joint_states_read_back() {
     let path = tmp("topics");
     let (human, hs, coman, cs) = two_bodies(5);
-    let std_topic = ArrayTopic {
-        topic: "/coman/prediction_std".into(),
-        label: "joint".into(),
-        len: 14,
-    };
+    let std_topic = ArrayTopic::float64("/coman/prediction_std", "joint", 14);
     let std_values = vec![0.1; 5 * 14];
     write_scene(
         &path,
@@ -106,7 +102,7 @@ fn unknown_joints_and_mismatched_rows_are_errors_naming_the_topic() {
     let err = write_scene(&path, &[SceneSeries { body: &human, states: &wrong }], &[], &SceneOptions::default())
         .expect_err("unknown joint");
     assert!(err.to_string().contains("`nope`") && err.to_string().contains("/human/joint_states"), "{err}");
-    let topic = ArrayTopic { topic: "/x".into(), label: "x".into(), len: 2 };
+    let topic = ArrayTopic::float64("/x", "x", 2);
     let err = write_scene(
         &path,
         &[SceneSeries { body: &human, states: &hs }],
