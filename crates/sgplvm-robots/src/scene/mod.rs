@@ -383,6 +383,9 @@ impl SceneWriter {
                 Compression::None => None,
             })
             .compression_threads(0)
+            // Level 1 rather than the default 3: the transforms are most of a scene's bytes,
+            // compress about as well (7.2 → 7.6 MB for the shipped data) at a third of the time.
+            .compression_level(1)
             .create(BufWriter::new(file_handle))
             .map_err(mcap_err("header".into()))?;
         let no_meta = BTreeMap::new();
