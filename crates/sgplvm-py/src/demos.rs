@@ -76,6 +76,7 @@ pub fn read_joint_states<'py>(
 /// (a built-in body), also its description, `/tf_static` and `/tf` for Foxglove.
 #[pyfunction]
 #[pyo3(signature = (path, topic, times_ns, names, positions, compression="zstd", robot=None))]
+#[allow(clippy::too_many_arguments)] // the Python signature, keyword arguments included
 pub fn write_joint_states(
     py: Python<'_>,
     path: std::path::PathBuf,

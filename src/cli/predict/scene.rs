@@ -5,10 +5,10 @@
 use std::io::BufRead;
 
 use anyhow::{Context, Result};
+use sgplvm::robots::joint_state::JointStates;
 use sgplvm::robots::scene::{
     write_scene, ArraySeries, ArrayTopic, SceneBody, SceneOptions, SceneSeries, SceneWriter,
 };
-use sgplvm::robots::joint_state::JointStates;
 use sgplvm::{Mat, SharedGplvm};
 
 use super::super::frames::{column_order, model_joint_names};
@@ -67,7 +67,11 @@ fn arrays(model: &SharedGplvm, robot: &str, std_topic: Option<&str>) -> Vec<Arra
         "joint",
         d,
     ));
-    arrays.push(ArrayTopic::float64("/latent", "latent", model.latent_points().ncols()));
+    arrays.push(ArrayTopic::float64(
+        "/latent",
+        "latent",
+        model.latent_points().ncols(),
+    ));
     arrays
 }
 
@@ -95,7 +99,13 @@ pub fn write(
     let topics = arrays(model, robot, std_topic);
     let values: Vec<&[f64]> = topics
         .iter()
-        .map(|t| if t.topic == "/latent" { f.latent } else { f.std })
+        .map(|t| {
+            if t.topic == "/latent" {
+                f.latent
+            } else {
+                f.std
+            }
+        })
         .collect();
     let arrays: Vec<ArraySeries<'_>> = topics
         .iter()
@@ -153,6 +163,8 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
     }
     let frames = writer.frames();
     writer.finish()?;
-    eprintln!("wrote {frames} frames of {robot} joint commands to {out} (topic /{robot}/joint_command)");
+    eprintln!(
+        "wrote {frames} frames of {robot} joint commands to {out} (topic /{robot}/joint_command)"
+    );
     Ok(())
 }

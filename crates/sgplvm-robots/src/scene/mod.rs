@@ -417,9 +417,7 @@ impl SceneWriter {
                 }
                 None => None,
             };
-            let frames = (0..body.robot.links.len())
-                .map(|l| body.frame(l))
-                .collect();
+            let frames = (0..body.robot.links.len()).map(|l| body.frame(l)).collect();
             out_bodies.push(BodyChannel {
                 q: body.robot.neutral_configuration(),
                 body,
@@ -522,7 +520,12 @@ impl SceneWriter {
     /// Writes one frame at `time_ns`: `joints[b]` holds body `b`'s values in the order of its
     /// joint names, `arrays[a]` the values of array topic `a`. The first frame also carries the
     /// descriptions and `/tf_static`.
-    pub fn write_frame(&mut self, time_ns: i64, joints: &[&[f64]], arrays: &[&[f64]]) -> Result<()> {
+    pub fn write_frame(
+        &mut self,
+        time_ns: i64,
+        joints: &[&[f64]],
+        arrays: &[&[f64]],
+    ) -> Result<()> {
         let bad = |what: String, detail: String| JointStateError::InvalidInput { what, detail };
         if time_ns < 0 {
             return Err(bad(
@@ -563,14 +566,14 @@ impl SceneWriter {
         if seq == 0 {
             self.write_static(time_ns)?;
         }
-        for b in 0..self.bodies.len() {
+        for (b, values) in joints.iter().enumerate() {
             let body = &self.bodies[b];
             crate::joint_state::cdr::encode_joint_state(
                 &mut self.buf,
                 stamp,
                 "",
                 &body.names,
-                joints[b],
+                values,
                 &[],
                 &[],
             );
@@ -621,9 +624,7 @@ impl SceneWriter {
         }
         self.frames += 1;
         if self.flush_each_frame {
-            self.writer
-                .flush()
-                .map_err(self.mcap_err("flush".into()))?;
+            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
         }
         Ok(())
     }

@@ -13,7 +13,9 @@ fn two_bodies(frames: usize) -> (SceneBody, JointStates, SceneBody, JointStates)
     let series = |b: &SceneBody| {
         let names = b.robot.joint_names();
         let d = names.len();
-        let times = (0..frames as i64).map(|i| 1_000_000_000 + i * 25_000_000).collect();
+        let times = (0..frames as i64)
+            .map(|i| 1_000_000_000 + i * 25_000_000)
+            .collect();
         let values = (0..frames * d).map(|k| 0.01 * (k % 37) as f64).collect();
         JointStates::new(times, names, values).expect("states")
     };
@@ -30,10 +32,19 @@ fn a_scene_has_every_topic_and_its_joint_states_read_back() {
     write_scene(
         &path,
         &[
-            SceneSeries { body: &human, states: &hs },
-            SceneSeries { body: &coman, states: &cs },
+            SceneSeries {
+                body: &human,
+                states: &hs,
+            },
+            SceneSeries {
+                body: &coman,
+                states: &cs,
+            },
         ],
-        &[ArraySeries { topic: &std_topic, values: &std_values }],
+        &[ArraySeries {
+            topic: &std_topic,
+            values: &std_values,
+        }],
         &SceneOptions::default(),
     )
     .expect("writes");
@@ -57,8 +68,14 @@ fn a_scene_has_every_topic_and_its_joint_states_read_back() {
         .map(|(a, b)| (a.to_string(), b.to_string()))
         .collect();
     assert_eq!(topics, expected);
-    assert_eq!(read_joint_states(&path, "/coman/joint_command").expect("reads"), cs);
-    assert_eq!(read_joint_states(&path, "/human/joint_states").expect("reads"), hs);
+    assert_eq!(
+        read_joint_states(&path, "/coman/joint_command").expect("reads"),
+        cs
+    );
+    assert_eq!(
+        read_joint_states(&path, "/human/joint_states").expect("reads"),
+        hs
+    );
     let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
 }
 
@@ -68,12 +85,22 @@ fn without_tf_only_joint_states_and_arrays_are_written() {
     let (human, hs, _, _) = two_bodies(3);
     write_scene(
         &path,
-        &[SceneSeries { body: &human, states: &hs }],
+        &[SceneSeries {
+            body: &human,
+            states: &hs,
+        }],
         &[],
-        &SceneOptions { tf: false, ..SceneOptions::default() },
+        &SceneOptions {
+            tf: false,
+            ..SceneOptions::default()
+        },
     )
     .expect("writes");
-    let topics: Vec<String> = list_channels(&path).expect("lists").into_iter().map(|c| c.topic).collect();
+    let topics: Vec<String> = list_channels(&path)
+        .expect("lists")
+        .into_iter()
+        .map(|c| c.topic)
+        .collect();
     assert_eq!(topics, ["/human/joint_states"]);
     let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
 }
@@ -84,7 +111,12 @@ fn the_prefixed_description_parses_with_the_same_joints_and_prefixed_links() {
     let xml = human.prefixed_urdf().expect("writes");
     let back = Robot::from_urdf_str(&xml, "prefixed").expect("parses");
     assert_eq!(back.joint_names(), human.robot.joint_names());
-    let links: Vec<String> = human.robot.link_names().iter().map(|l| format!("human/{l}")).collect();
+    let links: Vec<String> = human
+        .robot
+        .link_names()
+        .iter()
+        .map(|l| format!("human/{l}"))
+        .collect();
     assert_eq!(back.link_names(), links);
     // Same kinematics: the hand of the prefixed model is where the original's is.
     let q: Vec<f64> = (0..back.dof()).map(|i| 0.1 * i as f64).collect();
@@ -99,14 +131,31 @@ fn unknown_joints_and_mismatched_rows_are_errors_naming_the_topic() {
     let (human, hs, ..) = two_bodies(2);
     let mut wrong = hs.clone();
     wrong.names[0] = "nope".into();
-    let err = write_scene(&path, &[SceneSeries { body: &human, states: &wrong }], &[], &SceneOptions::default())
-        .expect_err("unknown joint");
-    assert!(err.to_string().contains("`nope`") && err.to_string().contains("/human/joint_states"), "{err}");
+    let err = write_scene(
+        &path,
+        &[SceneSeries {
+            body: &human,
+            states: &wrong,
+        }],
+        &[],
+        &SceneOptions::default(),
+    )
+    .expect_err("unknown joint");
+    assert!(
+        err.to_string().contains("`nope`") && err.to_string().contains("/human/joint_states"),
+        "{err}"
+    );
     let topic = ArrayTopic::float64("/x", "x", 2);
     let err = write_scene(
         &path,
-        &[SceneSeries { body: &human, states: &hs }],
-        &[ArraySeries { topic: &topic, values: &[1.0] }],
+        &[SceneSeries {
+            body: &human,
+            states: &hs,
+        }],
+        &[ArraySeries {
+            topic: &topic,
+            values: &[1.0],
+        }],
         &SceneOptions::default(),
     )
     .expect_err("short array");
