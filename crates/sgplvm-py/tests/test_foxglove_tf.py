@@ -5,6 +5,7 @@ Pinocchio and urdf-rs and names the joints of the JointState topic, and schema n
 and stamps are those ROS 2 writes. The CLI is tested too (``predict --out x.mcap``, from a file
 and streamed from stdin, also killed mid-stream) when its binary is built."""
 
+import json
 import os
 import pathlib
 import subprocess
@@ -239,6 +240,13 @@ def test_cli_predict_to_mcap_draws_both_bodies_as_pinocchio_does(tmp_path, model
     sub = {k: (v[::500] if len(v) == n else v) for k, v in scene.items()}
     assert check_transforms(sub, BODIES, {"human": HUMAN_AT, "coman": ROBOT_AT}) > 100
     check_placements(scene)
+    # Every topic the shipped Foxglove layout shows is in the file.
+    layout = json.loads((ROOT / "data" / "foxglove" / "sgplvm.json").read_text())
+    shown = set()
+    for panel in layout["configById"].values():
+        shown |= {layer["topic"] for layer in panel.get("layers", {}).values() if "topic" in layer}
+        shown |= {p["value"].split(".")[0] for p in panel.get("paths", [])}
+    assert shown and shown <= set(scene), shown - set(scene)
     assert all(np.all(np.array(m.data) > 0) for _, _, m in scene["/coman/prediction_std"])
     assert len({len(m.data) for _, _, m in scene["/latent"]}) == 1
     no_tf = tmp_path / "plain.mcap"
