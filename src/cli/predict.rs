@@ -17,6 +17,8 @@ use sgplvm::{Mat, SharedGplvm};
 use super::args::ModelFileArg;
 use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
 
+mod scene;
+
 #[derive(Args)]
 pub struct PredictArgs {
     #[command(flatten)]
@@ -31,9 +33,15 @@ pub struct PredictArgs {
     /// The robot to predict for.
     #[arg(long)]
     robot: String,
-    /// Output: .mcap (JointState on /ROBOT/joint_command), any other name for CSV, `-` for stdout.
+    /// Output: .mcap (JointState on /ROBOT/joint_command, and for Foxglove the human's joint
+    /// states, both robot descriptions, /tf_static, /tf, /ROBOT/prediction_std and /latent),
+    /// any other name for CSV, `-` for stdout. With `--input -` an .mcap is written frame by
+    /// frame (readable up to its last whole frame if the process is killed).
     #[arg(long)]
     out: String,
+    /// MCAP output: only the joint command topics (no descriptions, transforms, std or latent).
+    #[arg(long)]
+    no_tf: bool,
     /// Also write the predictive standard deviation (CSV: `<joint>_std` columns; MCAP: topic
     /// /ROBOT/joint_command_std).
     #[arg(long)]
@@ -53,13 +61,17 @@ pub fn run(args: PredictArgs) -> Result<()> {
     let robot = args.robot.as_str();
     require_robot(&model, &args.model.model, robot)?;
     let robot_joints = model_joint_names(&model, robot);
+    let scene = args.out.ends_with(".mcap") && !args.no_tf;
+    if args.input == "-" && args.out.ends_with(".mcap") {
+        return scene::predict_stream_mcap(&model, robot, &args.out, !args.no_tf);
+    }
     if args.input == "-" {
         return predict_stream(&model, robot, &robot_joints, &args.out, args.std);
     }
     let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
-        .predict(human.frames.as_ref(), robot, args.std)
+        .predict(human.frames.as_ref(), robot, args.std || scene)
         .with_context(|| args.model.model.display().to_string())?;
     let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
         (0..m.nrows())
@@ -71,9 +83,32 @@ pub fn run(args: PredictArgs) -> Result<()> {
         frames: prediction.mean.nrows(),
         mean: rows(&prediction.mean, |v| v),
         std: prediction.variance.as_ref().map(|v| rows(v, f64::sqrt)),
-        times_ns: human.times_ns,
+        times_ns: human.times_ns.clone(),
     };
-    if args.out.ends_with(".mcap") {
+    if scene {
+        let latent = model.latent(human.frames.as_ref())?;
+        let human_rows = rows(&human.frames, |v| v);
+        let latent_rows = rows(&latent, |v| v);
+        let std_topic = args.std.then(|| format!("/{robot}/joint_command_std"));
+        scene::write(
+            &model,
+            robot,
+            &scene::Frames {
+                times_ns: &predicted.times_ns,
+                human: &human_rows,
+                mean: &predicted.mean,
+                std: predicted.std.as_deref().unwrap_or(&[]),
+                latent: &latent_rows,
+            },
+            std_topic.as_deref(),
+            &args.out,
+        )?;
+        eprintln!(
+            "wrote {} frames of {robot} joint commands to {} (topic /{robot}/joint_command, with transforms for Foxglove)",
+            predicted.frames, args.out
+        );
+        Ok(())
+    } else if args.out.ends_with(".mcap") {
         write_mcap(&predicted, robot, &robot_joints, &args.input, &args.out)
     } else {
         write_csv(&predicted, robot, &robot_joints, &args.out, args.std)
@@ -175,7 +210,7 @@ fn predict_stream(
     with_std: bool,
 ) -> Result<()> {
     if out != "-" {
-        bail!("--input - streams to stdout: use --out - as well");
+        bail!("--input - streams to stdout or to an .mcap file: use --out - or --out FILE.mcap");
     }
     let stdin = std::io::stdin();
     let mut lines = stdin.lock().lines();

@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sgplvm_robots::dataset::{load_demonstrations as load_dataset, BodyData};
 use sgplvm_robots::joint_state::{self, Compression, JointStateError, JointStates};
+use sgplvm_robots::scene::{write_scene, SceneBody, SceneOptions, SceneSeries};
 use sgplvm_robots::{ReplayOptions, Robot, Trajectory};
 
 use crate::guard::guarded;
@@ -71,9 +72,11 @@ pub fn read_joint_states<'py>(
     })
 }
 
-/// Writes one JointState topic (CDR, profile ros2) to an MCAP file, atomically.
+/// Writes one JointState topic (CDR, profile ros2) to an MCAP file, atomically; with `robot`
+/// (a built-in body), also its description, `/tf_static` and `/tf` for Foxglove.
 #[pyfunction]
-#[pyo3(signature = (path, topic, times_ns, names, positions, compression="zstd"))]
+#[pyo3(signature = (path, topic, times_ns, names, positions, compression="zstd", robot=None))]
+#[allow(clippy::too_many_arguments)] // the Python signature, keyword arguments included
 pub fn write_joint_states(
     py: Python<'_>,
     path: std::path::PathBuf,
@@ -82,6 +85,7 @@ pub fn write_joint_states(
     names: Vec<String>,
     positions: PyReadonlyArray2<'_, f64>,
     compression: &str,
+    robot: Option<&str>,
 ) -> PyResult<()> {
     guarded(|| {
         let compression = parse_compression(compression)?;
@@ -103,8 +107,26 @@ pub fn write_joint_states(
         }
         let values: Vec<f64> = view.iter().copied().collect();
         let states = JointStates::new(times, names, values).map_err(joint_state_error)?;
-        py.detach(|| joint_state::write_joint_states(&path, topic, &states, compression))
-            .map_err(joint_state_error)
+        let body = robot
+            .map(|name| SceneBody::builtin(name, topic, [0.0; 3]))
+            .transpose()
+            .map_err(joint_state_error)?;
+        py.detach(|| match &body {
+            Some(body) => write_scene(
+                &path,
+                &[SceneSeries {
+                    body,
+                    states: &states,
+                }],
+                &[],
+                &SceneOptions {
+                    compression,
+                    tf: true,
+                },
+            ),
+            None => joint_state::write_joint_states(&path, topic, &states, compression),
+        })
+        .map_err(joint_state_error)
     })
 }
 

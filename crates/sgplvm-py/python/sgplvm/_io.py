@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -40,15 +40,20 @@ def write_joint_states(
     names: Sequence[str],
     positions: Any,
     compression: str = "zstd",
+    robot: Optional[str] = None,
 ) -> None:
     """Writes one JointState topic (CDR, ROS 2 profile) to an MCAP file, atomically.
 
-    ``compression`` is ``"zstd"`` (ROS 2's default), ``"lz4"`` or ``"none"``."""
+    ``compression`` is ``"zstd"`` (ROS 2's default), ``"lz4"`` or ``"none"``. With ``robot`` (a
+    built-in body: ``"coman"``, ``"human"``, …) the file also carries what Foxglove needs to draw
+    it moving: its URDF on ``/ROBOT/robot_description`` (links renamed ``ROBOT/<link>``),
+    ``/tf_static`` and ``/tf`` (every movable joint at every frame); ``names`` must then be
+    joints of that robot."""
     times = _real(times_ns, "times_ns", np.int64).reshape(-1)
     values = _real(positions, "positions", np.float64)
     if values.ndim != 2:
         raise ValueError(f"positions: expected a 2-D array (frames × joints), got {values.ndim}-D")
-    _sgplvm.write_joint_states(os.fspath(path), topic, times, list(names), values, compression)
+    _sgplvm.write_joint_states(os.fspath(path), topic, times, list(names), values, compression, robot)
 
 
 def load_demonstrations(path: PathLike) -> Dict[str, Any]:

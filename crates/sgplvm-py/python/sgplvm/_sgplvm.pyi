@@ -143,8 +143,9 @@ def write_joint_states(
     names: List[str],
     positions: _F64,
     compression: str = "zstd",
+    robot: Optional[str] = None,
 ) -> None:
-    """Writes a JointState topic (CDR, ROS 2 profile) atomically."""
+    """Writes a JointState topic (CDR, ROS 2 profile) atomically; with ``robot``, also TF for Foxglove."""
 
 def load_demonstrations(path: _Path) -> Dict[str, Any]:
     """A demonstration MCAP as numpy arrays (times_ns, human, robots, train, test, segments, pose_names)."""

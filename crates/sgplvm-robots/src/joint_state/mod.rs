@@ -32,7 +32,7 @@
 //! `json`. Every failure is a [`JointStateError`] naming the file and topic (`error`).
 
 mod align;
-mod cdr;
+pub(crate) mod cdr;
 mod error;
 mod json;
 mod read;

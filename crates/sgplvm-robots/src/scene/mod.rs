@@ -1,0 +1,701 @@
+//! MCAP "scene" files that open in Foxglove with the bodies animated: beside each body's
+//! `sensor_msgs/msg/JointState` topic, the robot description (`std_msgs/msg/String`, the URDF
+//! with every link prefixed by the body's name, once at the first frame), `/tf_static` (the
+//! fixed joints, and a transform from `world` placing each body) and `/tf` (every movable joint
+//! of every body at every frame, from [`JointInfo::transform`](crate::JointInfo::transform),
+//! as ROS 2's `robot_state_publisher` publishes them), plus any number of
+//! `std_msgs/msg/Float64MultiArray` topics (the predictive standard deviation, the latent point).
+//!
+//! Frames are named `<body>/<link>` (`human/DWYTorso`...) so that two bodies with equal link
+//! names share one TF tree; the description topic of body `b` is `/b/robot_description`.
+//!
+//! [`SceneWriter`] writes frame by frame straight into the file, flushing a finished chunk
+//! after every frame when asked (teleoperation: a killed process leaves a file readable up to
+//! its last whole frame); [`write_scene`] writes a whole series atomically (temporary file and
+//! rename, as [`crate::joint_state::write_topics`] does).
+//!
+//! # Example
+//! ```
+//! use sgplvm_robots::scene::{write_scene, SceneBody, SceneOptions, SceneSeries};
+//! use sgplvm_robots::joint_state::JointStates;
+//! use sgplvm_robots::Robot;
+//! let dir = std::env::temp_dir().join(format!("sgplvm-doc-scene-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let body = SceneBody::builtin("coman", "/coman/joint_command", [0.0, 0.0, 0.0]).unwrap();
+//! let robot = Robot::builtin("coman").unwrap();
+//! let q = robot.neutral_configuration();
+//! let states = JointStates::new(vec![0, 25_000_000], robot.joint_names(), [q.clone(), q].concat()).unwrap();
+//! write_scene(dir.join("coman.mcap"), &[SceneSeries { body: &body, states: &states }], &[], &SceneOptions::default()).unwrap();
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+
+mod msgs;
+
+pub use msgs::{
+    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA,
+    TF_MESSAGE_MSGDEF, TF_MESSAGE_SCHEMA,
+};
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use ::mcap::records::MessageHeader;
+use ::mcap::WriteOptions;
+use nalgebra::{Isometry3, Translation3};
+
+use crate::joint_state::{
+    Compression, JointStateError, JointStates, Result, JOINT_STATE_MSGDEF, JOINT_STATE_SCHEMA,
+    MCAP_LIBRARY,
+};
+use crate::urdf::Robot;
+use msgs::Transform;
+
+/// The frame every body is placed in.
+pub const WORLD_FRAME: &str = "world";
+
+/// Topic of the static transforms.
+pub const TF_STATIC_TOPIC: &str = "/tf_static";
+
+/// Topic of the moving transforms.
+pub const TF_TOPIC: &str = "/tf";
+
+/// One body of a scene: its kinematic model, where it stands, and the topic and joint order
+/// of its joint states.
+#[derive(Debug, Clone)]
+pub struct SceneBody {
+    /// Name of the body: the prefix of its frames (`<name>/<link>`) and of its description topic.
+    pub name: String,
+    /// The kinematic model.
+    pub robot: Robot,
+    /// Pose of the body's root link in [`WORLD_FRAME`].
+    pub placement: Isometry3<f64>,
+    /// Topic of its joint states, e.g. `/coman/joint_command`.
+    pub joint_topic: String,
+}
+
+impl SceneBody {
+    /// A built-in body (see [`Robot::builtin`]) named after itself, its root link at
+    /// `position` (metres, in [`WORLD_FRAME`]).
+    pub fn builtin(name: &str, joint_topic: &str, position: [f64; 3]) -> Result<Self> {
+        let robot = Robot::builtin(name).map_err(|e| JointStateError::InvalidInput {
+            what: format!("body `{name}`"),
+            detail: e.to_string(),
+        })?;
+        Ok(SceneBody {
+            name: name.to_string(),
+            robot,
+            placement: Isometry3::from_parts(
+                Translation3::new(position[0], position[1], position[2]),
+                nalgebra::UnitQuaternion::identity(),
+            ),
+            joint_topic: joint_topic.to_string(),
+        })
+    }
+
+    /// Topic of the body's description: `/<name>/robot_description`.
+    pub fn description_topic(&self) -> String {
+        format!("/{}/robot_description", self.name)
+    }
+
+    /// The body's URDF with every link renamed `<name>/<link>` (joints keep their names), as
+    /// written on the description topic.
+    pub fn prefixed_urdf(&self) -> Result<String> {
+        let mut urdf = self.robot.urdf().clone();
+        let p = |s: &mut String| *s = format!("{}/{s}", self.name);
+        urdf.links.iter_mut().for_each(|l| p(&mut l.name));
+        for j in &mut urdf.joints {
+            p(&mut j.parent.link);
+            p(&mut j.child.link);
+        }
+        urdf_rs::write_to_string(&urdf).map_err(|e| JointStateError::InvalidInput {
+            what: format!("body `{}`", self.name),
+            detail: format!("cannot write its URDF: {e}"),
+        })
+    }
+
+    /// Frame name of link `link` of this body.
+    fn frame(&self, link: usize) -> String {
+        format!("{}/{}", self.name, self.robot.links[link])
+    }
+}
+
+/// A topic of per-frame values that belongs to no body: a `std_msgs/msg/Float64MultiArray`
+/// (shown by Foxglove's Plot panel as `/topic.data[i]`) or a `sensor_msgs/msg/JointState`.
+#[derive(Debug, Clone)]
+pub struct ArrayTopic {
+    /// Topic name, e.g. `/coman/prediction_std`.
+    pub topic: String,
+    /// Number of values per frame.
+    pub len: usize,
+    /// Message type.
+    pub kind: ArrayKind,
+}
+
+/// Message type of an [`ArrayTopic`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum ArrayKind {
+    /// `std_msgs/msg/Float64MultiArray` of one dimension labelled so (`layout.dim[0].label`).
+    Float64MultiArray {
+        /// Label of the dimension, e.g. `joint` or `latent`.
+        label: String,
+    },
+    /// `sensor_msgs/msg/JointState` with these joint names (one per value).
+    JointState {
+        /// Joint names.
+        names: Vec<String>,
+    },
+}
+
+impl ArrayTopic {
+    /// A Float64MultiArray topic of `len` values whose dimension is labelled `label`.
+    pub fn float64(topic: &str, label: &str, len: usize) -> Self {
+        ArrayTopic {
+            topic: topic.to_string(),
+            len,
+            kind: ArrayKind::Float64MultiArray {
+                label: label.to_string(),
+            },
+        }
+    }
+
+    /// A JointState topic with these joint names.
+    pub fn joint_state(topic: &str, names: Vec<String>) -> Self {
+        ArrayTopic {
+            topic: topic.to_string(),
+            len: names.len(),
+            kind: ArrayKind::JointState { names },
+        }
+    }
+}
+
+/// Options of a scene file.
+#[derive(Debug, Clone, Copy)]
+pub struct SceneOptions {
+    /// Chunk compression.
+    pub compression: Compression,
+    /// Write the descriptions, `/tf_static` and `/tf` (otherwise only joint states and arrays).
+    pub tf: bool,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        SceneOptions {
+            compression: Compression::Zstd,
+            tf: true,
+        }
+    }
+}
+
+/// One body's joint states, for [`write_scene`].
+#[derive(Debug, Clone, Copy)]
+pub struct SceneSeries<'a> {
+    /// The body.
+    pub body: &'a SceneBody,
+    /// Its joint states (the same times for every body of a scene).
+    pub states: &'a JointStates,
+}
+
+/// One array topic's values, for [`write_scene`]: `values` is row-major, `len` per frame.
+#[derive(Debug, Clone, Copy)]
+pub struct ArraySeries<'a> {
+    /// The topic.
+    pub topic: &'a ArrayTopic,
+    /// Row-major values, one row per frame.
+    pub values: &'a [f64],
+}
+
+/// Writes a whole scene to `path` atomically (temporary sibling, then rename). Every body's
+/// series and every array must have one row per frame of the first body's times.
+pub fn write_scene(
+    path: impl AsRef<Path>,
+    series: &[SceneSeries<'_>],
+    arrays: &[ArraySeries<'_>],
+    options: &SceneOptions,
+) -> Result<()> {
+    let path = path.as_ref();
+    let times = series.first().map_or(&[][..], |s| &s.states.times_ns[..]);
+    for s in series {
+        s.states
+            .validate(&format!("topic `{}`", s.body.joint_topic))?;
+        if s.states.times_ns != times {
+            return Err(JointStateError::InvalidInput {
+                what: format!("topic `{}`", s.body.joint_topic),
+                detail: "its times differ from the first body's".into(),
+            });
+        }
+    }
+    for a in arrays {
+        if a.values.len() != times.len() * a.topic.len {
+            return Err(JointStateError::InvalidInput {
+                what: format!("topic `{}`", a.topic.topic),
+                detail: format!(
+                    "{} values for {} frames × {}",
+                    a.values.len(),
+                    times.len(),
+                    a.topic.len
+                ),
+            });
+        }
+    }
+    if path.file_name().is_none() {
+        return Err(JointStateError::InvalidInput {
+            what: path.display().to_string(),
+            detail: "output path has no file name".into(),
+        });
+    }
+    crate::files::remove_stale_temporaries(path);
+    let tmp = crate::files::temporary_path(path);
+    let bodies: Vec<(SceneBody, Vec<String>)> = series
+        .iter()
+        .map(|s| (s.body.clone(), s.states.names.clone()))
+        .collect();
+    let topics: Vec<ArrayTopic> = arrays.iter().map(|a| a.topic.clone()).collect();
+    let result = (|| {
+        let mut w = SceneWriter::create_as(&tmp, path, bodies, topics, options, false)?;
+        let mut joints: Vec<&[f64]> = Vec::with_capacity(series.len());
+        let mut values: Vec<&[f64]> = Vec::with_capacity(arrays.len());
+        for (i, &t) in times.iter().enumerate() {
+            joints.clear();
+            joints.extend(series.iter().map(|s| s.states.row(i)));
+            values.clear();
+            values.extend(
+                arrays
+                    .iter()
+                    .map(|a| &a.values[i * a.topic.len..(i + 1) * a.topic.len]),
+            );
+            w.write_frame(t, &joints, &values)?;
+        }
+        w.finish()?;
+        std::fs::rename(&tmp, path).map_err(|source| JointStateError::Io {
+            path: path.to_path_buf(),
+            action: "rename the temporary file onto",
+            source,
+        })
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// A body being written: its model, where its columns go in the robot's configuration, its
+/// channel and the scratch configuration.
+struct BodyChannel {
+    body: SceneBody,
+    names: Vec<String>,
+    /// For each column of the joint states, its index in the robot's configuration (if any).
+    q_index: Vec<Option<usize>>,
+    q: Vec<f64>,
+    channel: u16,
+    description_channel: Option<u16>,
+    /// Frame names of every link, `<body>/<link>`.
+    frames: Vec<String>,
+}
+
+/// Writes a scene frame by frame straight into its file (see the module documentation).
+pub struct SceneWriter {
+    writer: ::mcap::Writer<BufWriter<File>>,
+    path: PathBuf,
+    bodies: Vec<BodyChannel>,
+    arrays: Vec<(ArrayTopic, u16)>,
+    tf: Option<(u16, u16)>,
+    flush_each_frame: bool,
+    frames: u32,
+    buf: Vec<u8>,
+}
+
+impl SceneWriter {
+    /// Creates `path` (replacing it) and writes the header, schemas and channels. With
+    /// `flush_each_frame`, every frame is a finished chunk on disk when
+    /// [`SceneWriter::write_frame`] returns. `joint_names` of each body are the columns of the
+    /// joint values given per frame; each must be a movable joint of the body's robot (joints
+    /// not given stay at the robot's neutral configuration).
+    pub fn create(
+        path: impl AsRef<Path>,
+        bodies: Vec<(SceneBody, Vec<String>)>,
+        arrays: Vec<ArrayTopic>,
+        options: &SceneOptions,
+        flush_each_frame: bool,
+    ) -> Result<Self> {
+        let path = path.as_ref();
+        Self::create_as(path, path, bodies, arrays, options, flush_each_frame)
+    }
+
+    /// [`SceneWriter::create`] writing `file` while naming `path` in errors.
+    fn create_as(
+        file: &Path,
+        path: &Path,
+        bodies: Vec<(SceneBody, Vec<String>)>,
+        arrays: Vec<ArrayTopic>,
+        options: &SceneOptions,
+        flush_each_frame: bool,
+    ) -> Result<Self> {
+        let mcap_err = |what: String| {
+            move |source| JointStateError::McapWrite {
+                path: path.to_path_buf(),
+                what: what.clone(),
+                source,
+            }
+        };
+        let mut prepared = Vec::with_capacity(bodies.len());
+        for (i, (body, names)) in bodies.into_iter().enumerate() {
+            if prepared
+                .iter()
+                .any(|b: &(SceneBody, Vec<String>, Vec<Option<usize>>)| b.0.name == body.name)
+                || body.name.is_empty()
+                || body.name.contains('/')
+            {
+                return Err(JointStateError::InvalidInput {
+                    what: format!("body {i} `{}`", body.name),
+                    detail: "expected a unique, non-empty body name without `/`".into(),
+                });
+            }
+            let mut q_index = Vec::with_capacity(names.len());
+            for n in &names {
+                let qi = body.robot.joint_index(n);
+                if qi.is_none() && options.tf {
+                    return Err(JointStateError::InvalidInput {
+                        what: format!("topic `{}`", body.joint_topic),
+                        detail: format!(
+                            "joint `{n}` is not a movable joint of robot `{}` (expected one of {:?})",
+                            body.robot.name(),
+                            body.robot.joint_names()
+                        ),
+                    });
+                }
+                q_index.push(qi);
+            }
+            prepared.push((body, names, q_index));
+        }
+        let file_handle = File::create(file).map_err(|source| JointStateError::Io {
+            path: path.to_path_buf(),
+            action: "create",
+            source,
+        })?;
+        let mut writer = WriteOptions::new()
+            .profile("ros2")
+            .library(MCAP_LIBRARY)
+            .compression(match options.compression {
+                Compression::Zstd => Some(::mcap::Compression::Zstd),
+                Compression::Lz4 => Some(::mcap::Compression::Lz4),
+                Compression::None => None,
+            })
+            .compression_threads(0)
+            // Level 1 rather than the default 3: the transforms are most of a scene's bytes,
+            // compress about as well (7.2 → 7.6 MB for the shipped data) at a third of the time.
+            .compression_level(1)
+            .create(BufWriter::new(file_handle))
+            .map_err(mcap_err("header".into()))?;
+        let no_meta = BTreeMap::new();
+        let js_schema = writer
+            .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+            .map_err(mcap_err("schema".into()))?;
+        let mut out_bodies = Vec::with_capacity(prepared.len());
+        let string_schema = if options.tf && !prepared.is_empty() {
+            Some(
+                writer
+                    .add_schema(STRING_SCHEMA, "ros2msg", STRING_MSGDEF.as_bytes())
+                    .map_err(mcap_err("schema".into()))?,
+            )
+        } else {
+            None
+        };
+        for (body, names, q_index) in prepared {
+            let channel = writer
+                .add_channel(js_schema, &body.joint_topic, "cdr", &no_meta)
+                .map_err(mcap_err(format!("channel `{}`", body.joint_topic)))?;
+            let description_channel = match string_schema {
+                Some(s) => {
+                    let topic = body.description_topic();
+                    Some(
+                        writer
+                            .add_channel(s, &topic, "cdr", &no_meta)
+                            .map_err(mcap_err(format!("channel `{topic}`")))?,
+                    )
+                }
+                None => None,
+            };
+            let frames = (0..body.robot.links.len()).map(|l| body.frame(l)).collect();
+            out_bodies.push(BodyChannel {
+                q: body.robot.neutral_configuration(),
+                body,
+                names,
+                q_index,
+                channel,
+                description_channel,
+                frames,
+            });
+        }
+        let tf = if options.tf {
+            let s = writer
+                .add_schema(TF_MESSAGE_SCHEMA, "ros2msg", TF_MESSAGE_MSGDEF.as_bytes())
+                .map_err(mcap_err("schema".into()))?;
+            let stat = writer
+                .add_channel(s, TF_STATIC_TOPIC, "cdr", &no_meta)
+                .map_err(mcap_err(format!("channel `{TF_STATIC_TOPIC}`")))?;
+            let dynamic = writer
+                .add_channel(s, TF_TOPIC, "cdr", &no_meta)
+                .map_err(mcap_err(format!("channel `{TF_TOPIC}`")))?;
+            Some((stat, dynamic))
+        } else {
+            None
+        };
+        let mut out_arrays = Vec::with_capacity(arrays.len());
+        let mut array_schema = None;
+        for a in arrays {
+            let schema = match a.kind {
+                ArrayKind::JointState { .. } => js_schema,
+                ArrayKind::Float64MultiArray { .. } => match array_schema {
+                    Some(s) => s,
+                    None => {
+                        let s = writer
+                            .add_schema(
+                                FLOAT64_MULTI_ARRAY_SCHEMA,
+                                "ros2msg",
+                                FLOAT64_MULTI_ARRAY_MSGDEF.as_bytes(),
+                            )
+                            .map_err(mcap_err("schema".into()))?;
+                        *array_schema.insert(s)
+                    }
+                },
+            };
+            let id = writer
+                .add_channel(schema, &a.topic, "cdr", &no_meta)
+                .map_err(mcap_err(format!("channel `{}`", a.topic)))?;
+            out_arrays.push((a, id));
+        }
+        let mut all_topics: Vec<&str> = out_bodies
+            .iter()
+            .map(|b| b.body.joint_topic.as_str())
+            .chain(out_arrays.iter().map(|a| a.0.topic.as_str()))
+            .collect();
+        all_topics.sort_unstable();
+        if let Some(w) = all_topics.windows(2).find(|w| w[0] == w[1]) {
+            return Err(JointStateError::InvalidInput {
+                what: format!("topic `{}`", w[0]),
+                detail: "topic given twice".into(),
+            });
+        }
+        Ok(SceneWriter {
+            writer,
+            path: path.to_path_buf(),
+            bodies: out_bodies,
+            arrays: out_arrays,
+            tf,
+            flush_each_frame,
+            frames: 0,
+            buf: Vec::with_capacity(4096),
+        })
+    }
+
+    fn mcap_err(&self, what: String) -> impl Fn(::mcap::McapError) -> JointStateError + '_ {
+        move |source| JointStateError::McapWrite {
+            path: self.path.clone(),
+            what: what.clone(),
+            source,
+        }
+    }
+
+    fn write(&mut self, channel: u16, sequence: u32, time_ns: i64, what: &str) -> Result<()> {
+        let header = MessageHeader {
+            channel_id: channel,
+            sequence,
+            log_time: time_ns as u64,
+            publish_time: time_ns as u64,
+        };
+        let Self {
+            writer, buf, path, ..
+        } = self;
+        writer
+            .write_to_known_channel(&header, buf)
+            .map_err(|source| JointStateError::McapWrite {
+                path: path.clone(),
+                what: format!("message on `{what}`"),
+                source,
+            })
+    }
+
+    /// Writes one frame at `time_ns`: `joints[b]` holds body `b`'s values in the order of its
+    /// joint names, `arrays[a]` the values of array topic `a`. The first frame also carries the
+    /// descriptions and `/tf_static`.
+    pub fn write_frame(
+        &mut self,
+        time_ns: i64,
+        joints: &[&[f64]],
+        arrays: &[&[f64]],
+    ) -> Result<()> {
+        let bad = |what: String, detail: String| JointStateError::InvalidInput { what, detail };
+        if time_ns < 0 {
+            return Err(bad(
+                format!("frame {}", self.frames),
+                format!("negative timestamp {time_ns} ns (MCAP times are unsigned)"),
+            ));
+        }
+        if joints.len() != self.bodies.len() || arrays.len() != self.arrays.len() {
+            return Err(bad(
+                format!("frame {}", self.frames),
+                format!(
+                    "{} bodies and {} arrays given; expected {} and {}",
+                    joints.len(),
+                    arrays.len(),
+                    self.bodies.len(),
+                    self.arrays.len()
+                ),
+            ));
+        }
+        for (b, v) in self.bodies.iter().zip(joints) {
+            if v.len() != b.names.len() {
+                return Err(bad(
+                    format!("topic `{}`, frame {}", b.body.joint_topic, self.frames),
+                    format!("{} values for {} joints", v.len(), b.names.len()),
+                ));
+            }
+        }
+        for ((a, _), v) in self.arrays.iter().zip(arrays) {
+            if v.len() != a.len {
+                return Err(bad(
+                    format!("topic `{}`, frame {}", a.topic, self.frames),
+                    format!("{} values; expected {}", v.len(), a.len),
+                ));
+            }
+        }
+        let stamp = msgs::stamp(time_ns);
+        let seq = self.frames;
+        if seq == 0 {
+            self.write_static(time_ns)?;
+        }
+        for (b, values) in joints.iter().enumerate() {
+            let body = &self.bodies[b];
+            crate::joint_state::cdr::encode_joint_state(
+                &mut self.buf,
+                stamp,
+                "",
+                &body.names,
+                values,
+                &[],
+                &[],
+            );
+            let (channel, topic) = (body.channel, body.body.joint_topic.clone());
+            self.write(channel, seq, time_ns, &topic)?;
+        }
+        if let Some((_, tf_channel)) = self.tf {
+            let mut transforms = Vec::new();
+            for (body, values) in self.bodies.iter_mut().zip(joints) {
+                for (qi, &v) in body.q_index.iter().zip(values.iter()) {
+                    if let Some(qi) = *qi {
+                        body.q[qi] = v;
+                    }
+                }
+            }
+            for body in &self.bodies {
+                for joint in body.body.robot.joints() {
+                    if let Some(qi) = joint.q_index {
+                        transforms.push(Transform {
+                            parent: &body.frames[joint.parent],
+                            child: &body.frames[joint.child],
+                            pose: joint.transform(body.q[qi]),
+                        });
+                    }
+                }
+            }
+            msgs::encode_tf_message(&mut self.buf, stamp, &transforms);
+            self.write(tf_channel, seq, time_ns, TF_TOPIC)?;
+        }
+        for (k, values) in arrays.iter().enumerate() {
+            let (topic, channel) = &self.arrays[k];
+            match &topic.kind {
+                ArrayKind::Float64MultiArray { label } => {
+                    msgs::encode_float64_array(&mut self.buf, label, values)
+                }
+                ArrayKind::JointState { names } => crate::joint_state::cdr::encode_joint_state(
+                    &mut self.buf,
+                    stamp,
+                    "",
+                    names,
+                    values,
+                    &[],
+                    &[],
+                ),
+            }
+            let (channel, name) = (*channel, topic.topic.clone());
+            self.write(channel, seq, time_ns, &name)?;
+        }
+        self.frames += 1;
+        if self.flush_each_frame {
+            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
+        }
+        Ok(())
+    }
+
+    /// The descriptions and `/tf_static`, once, at the first frame's time.
+    fn write_static(&mut self, time_ns: i64) -> Result<()> {
+        let Some((static_channel, _)) = self.tf else {
+            return Ok(());
+        };
+        let stamp = msgs::stamp(time_ns);
+        for b in 0..self.bodies.len() {
+            let urdf = self.bodies[b].body.prefixed_urdf()?;
+            if let Some(ch) = self.bodies[b].description_channel {
+                msgs::encode_string(&mut self.buf, &urdf);
+                let topic = self.bodies[b].body.description_topic();
+                self.write(ch, 0, time_ns, &topic)?;
+            }
+        }
+        let mut transforms = Vec::new();
+        for body in &self.bodies {
+            let robot = &body.body.robot;
+            transforms.push(Transform {
+                parent: WORLD_FRAME,
+                child: &body.frames[robot.root],
+                pose: body.body.placement,
+            });
+            for joint in robot.joints() {
+                if joint.q_index.is_none() {
+                    transforms.push(Transform {
+                        parent: &body.frames[joint.parent],
+                        child: &body.frames[joint.child],
+                        pose: joint.transform(0.0),
+                    });
+                }
+            }
+        }
+        msgs::encode_tf_message(&mut self.buf, stamp, &transforms);
+        self.write(static_channel, 0, time_ns, TF_STATIC_TOPIC)
+    }
+
+    /// Number of frames written so far.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    /// Writes the summary and footer and syncs the file.
+    pub fn finish(mut self) -> Result<()> {
+        let path = self.path.clone();
+        self.writer
+            .finish()
+            .map_err(|source| JointStateError::McapWrite {
+                path: path.clone(),
+                what: "summary and footer".into(),
+                source,
+            })?;
+        let file = self
+            .writer
+            .into_inner()
+            .into_inner()
+            .map_err(|e| JointStateError::Io {
+                path: path.clone(),
+                action: "write",
+                source: e.into_error(),
+            })?;
+        file.sync_all().map_err(|source| JointStateError::Io {
+            path,
+            action: "sync",
+            source,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

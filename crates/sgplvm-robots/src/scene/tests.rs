@@ -1,0 +1,165 @@
+use super::*;
+use crate::joint_state::{list_channels, read_joint_states};
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sgplvm-scene-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir.join("scene.mcap")
+}
+
+fn two_bodies(frames: usize) -> (SceneBody, JointStates, SceneBody, JointStates) {
+    let human = SceneBody::builtin("human", "/human/joint_states", [0.0, 0.6, 0.0]).expect("h");
+    let coman = SceneBody::builtin("coman", "/coman/joint_command", [0.0, -0.6, 0.0]).expect("c");
+    let series = |b: &SceneBody| {
+        let names = b.robot.joint_names();
+        let d = names.len();
+        let times = (0..frames as i64)
+            .map(|i| 1_000_000_000 + i * 25_000_000)
+            .collect();
+        let values = (0..frames * d).map(|k| 0.01 * (k % 37) as f64).collect();
+        JointStates::new(times, names, values).expect("states")
+    };
+    let (hs, cs) = (series(&human), series(&coman));
+    (human, hs, coman, cs)
+}
+
+#[test]
+fn a_scene_has_every_topic_and_its_joint_states_read_back() {
+    let path = tmp("topics");
+    let (human, hs, coman, cs) = two_bodies(5);
+    let std_topic = ArrayTopic::float64("/coman/prediction_std", "joint", 14);
+    let std_values = vec![0.1; 5 * 14];
+    write_scene(
+        &path,
+        &[
+            SceneSeries {
+                body: &human,
+                states: &hs,
+            },
+            SceneSeries {
+                body: &coman,
+                states: &cs,
+            },
+        ],
+        &[ArraySeries {
+            topic: &std_topic,
+            values: &std_values,
+        }],
+        &SceneOptions::default(),
+    )
+    .expect("writes");
+    let mut topics: Vec<(String, String)> = list_channels(&path)
+        .expect("lists")
+        .into_iter()
+        .map(|c| (c.topic, c.schema))
+        .collect();
+    topics.sort();
+    let expected = [
+        ("/coman/joint_command", JOINT_STATE_SCHEMA),
+        ("/coman/prediction_std", FLOAT64_MULTI_ARRAY_SCHEMA),
+        ("/coman/robot_description", STRING_SCHEMA),
+        ("/human/joint_states", JOINT_STATE_SCHEMA),
+        ("/human/robot_description", STRING_SCHEMA),
+        ("/tf", TF_MESSAGE_SCHEMA),
+        ("/tf_static", TF_MESSAGE_SCHEMA),
+    ];
+    let expected: Vec<(String, String)> = expected
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    assert_eq!(topics, expected);
+    assert_eq!(
+        read_joint_states(&path, "/coman/joint_command").expect("reads"),
+        cs
+    );
+    assert_eq!(
+        read_joint_states(&path, "/human/joint_states").expect("reads"),
+        hs
+    );
+    let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
+}
+
+#[test]
+fn without_tf_only_joint_states_and_arrays_are_written() {
+    let path = tmp("notf");
+    let (human, hs, _, _) = two_bodies(3);
+    write_scene(
+        &path,
+        &[SceneSeries {
+            body: &human,
+            states: &hs,
+        }],
+        &[],
+        &SceneOptions {
+            tf: false,
+            ..SceneOptions::default()
+        },
+    )
+    .expect("writes");
+    let topics: Vec<String> = list_channels(&path)
+        .expect("lists")
+        .into_iter()
+        .map(|c| c.topic)
+        .collect();
+    assert_eq!(topics, ["/human/joint_states"]);
+    let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
+}
+
+#[test]
+fn the_prefixed_description_parses_with_the_same_joints_and_prefixed_links() {
+    let (human, ..) = two_bodies(1);
+    let xml = human.prefixed_urdf().expect("writes");
+    let back = Robot::from_urdf_str(&xml, "prefixed").expect("parses");
+    assert_eq!(back.joint_names(), human.robot.joint_names());
+    let links: Vec<String> = human
+        .robot
+        .link_names()
+        .iter()
+        .map(|l| format!("human/{l}"))
+        .collect();
+    assert_eq!(back.link_names(), links);
+    // Same kinematics: the hand of the prefixed model is where the original's is.
+    let q: Vec<f64> = (0..back.dof()).map(|i| 0.1 * i as f64).collect();
+    let a = human.robot.forward_kinematics(&q, "left_hand").expect("fk");
+    let b = back.forward_kinematics(&q, "human/left_hand").expect("fk");
+    assert!((a.translation.vector - b.translation.vector).norm() < 1e-12);
+}
+
+#[test]
+fn unknown_joints_and_mismatched_rows_are_errors_naming_the_topic() {
+    let path = tmp("bad");
+    let (human, hs, ..) = two_bodies(2);
+    let mut wrong = hs.clone();
+    wrong.names[0] = "nope".into();
+    let err = write_scene(
+        &path,
+        &[SceneSeries {
+            body: &human,
+            states: &wrong,
+        }],
+        &[],
+        &SceneOptions::default(),
+    )
+    .expect_err("unknown joint");
+    assert!(
+        err.to_string().contains("`nope`") && err.to_string().contains("/human/joint_states"),
+        "{err}"
+    );
+    let topic = ArrayTopic::float64("/x", "x", 2);
+    let err = write_scene(
+        &path,
+        &[SceneSeries {
+            body: &human,
+            states: &hs,
+        }],
+        &[ArraySeries {
+            topic: &topic,
+            values: &[1.0],
+        }],
+        &SceneOptions::default(),
+    )
+    .expect_err("short array");
+    assert!(err.to_string().contains("`/x`"), "{err}");
+    assert!(!path.exists());
+    let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
+}

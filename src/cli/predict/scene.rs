@@ -1,0 +1,170 @@
+//! `predict`'s MCAP output for Foxglove: the human and the robot side by side, animated by
+//! `/tf` from our forward kinematics, with the predictive standard deviation and the latent
+//! point per frame (see `sgplvm::robots::scene`).
+
+use std::io::BufRead;
+
+use anyhow::{Context, Result};
+use sgplvm::robots::joint_state::JointStates;
+use sgplvm::robots::scene::{
+    write_scene, ArraySeries, ArrayTopic, SceneBody, SceneOptions, SceneSeries, SceneWriter,
+};
+use sgplvm::{Mat, SharedGplvm};
+
+use super::super::frames::{column_order, model_joint_names};
+use sgplvm::csv::read_header;
+
+/// Where the human's root link stands in `world` (metres): on the left, seen from the front.
+const HUMAN_AT: [f64; 3] = [0.0, 0.6, 0.0];
+/// Where the robot's root link stands: on the right.
+const ROBOT_AT: [f64; 3] = [0.0, -0.6, 0.0];
+
+/// The values of every frame, row-major.
+pub struct Frames<'a> {
+    /// Frame times, nanoseconds.
+    pub times_ns: &'a [i64],
+    /// Human joint values in the model's human column order.
+    pub human: &'a [f64],
+    /// Predicted robot joint values.
+    pub mean: &'a [f64],
+    /// Their standard deviations.
+    pub std: &'a [f64],
+    /// Latent points.
+    pub latent: &'a [f64],
+}
+
+/// The two bodies (human, robot) with the joint names of their columns.
+fn bodies(model: &SharedGplvm, robot: &str) -> Result<Vec<(SceneBody, Vec<String>)>> {
+    let human = model.input_name();
+    let body = |name: &str, topic: String, at| {
+        SceneBody::builtin(name, &topic, at).with_context(|| {
+            format!("cannot draw '{name}' in the MCAP output: it is not a built-in body; write --no-tf for joint commands only")
+        })
+    };
+    Ok(vec![
+        (
+            body(human, format!("/{human}/joint_states"), HUMAN_AT)?,
+            model_joint_names(model, human),
+        ),
+        (
+            body(robot, format!("/{robot}/joint_command"), ROBOT_AT)?,
+            model_joint_names(model, robot),
+        ),
+    ])
+}
+
+/// The per-frame topics beside the bodies: the `_std` JointState (with `--std`), the standard
+/// deviation and the latent point as Float64MultiArray.
+fn arrays(model: &SharedGplvm, robot: &str, std_topic: Option<&str>) -> Vec<ArrayTopic> {
+    let joints = model_joint_names(model, robot);
+    let d = joints.len();
+    let mut arrays: Vec<ArrayTopic> = std_topic
+        .map(|t| ArrayTopic::joint_state(t, joints))
+        .into_iter()
+        .collect();
+    arrays.push(ArrayTopic::float64(
+        &format!("/{robot}/prediction_std"),
+        "joint",
+        d,
+    ));
+    arrays.push(ArrayTopic::float64(
+        "/latent",
+        "latent",
+        model.latent_points().ncols(),
+    ));
+    arrays
+}
+
+/// Writes a whole prediction as a scene, atomically.
+pub fn write(
+    model: &SharedGplvm,
+    robot: &str,
+    f: &Frames<'_>,
+    std_topic: Option<&str>,
+    out: &str,
+) -> Result<()> {
+    let bodies = bodies(model, robot)?;
+    let states = [f.human, f.mean]
+        .iter()
+        .zip(&bodies)
+        .map(|(values, (_, names))| {
+            JointStates::new(f.times_ns.to_vec(), names.clone(), values.to_vec())
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let series: Vec<SceneSeries<'_>> = bodies
+        .iter()
+        .zip(&states)
+        .map(|((body, _), states)| SceneSeries { body, states })
+        .collect();
+    let topics = arrays(model, robot, std_topic);
+    let values: Vec<&[f64]> = topics
+        .iter()
+        .map(|t| {
+            if t.topic == "/latent" {
+                f.latent
+            } else {
+                f.std
+            }
+        })
+        .collect();
+    let arrays: Vec<ArraySeries<'_>> = topics
+        .iter()
+        .zip(values)
+        .map(|(topic, values)| ArraySeries { topic, values })
+        .collect();
+    write_scene(out, &series, &arrays, &SceneOptions::default())?;
+    Ok(())
+}
+
+/// Teleoperation into an MCAP file: CSV lines in on stdin, one frame written (and flushed as a
+/// finished chunk) per line, so that the file is readable up to its last whole frame even if
+/// the process is killed; summary and footer once the input ends. The file is written in
+/// place, not renamed into place: a recording in progress is meant to be seen.
+pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool) -> Result<()> {
+    let stdin = std::io::stdin();
+    let mut lines = stdin.lock().lines();
+    let (header, header_line) = read_header(&mut lines, "stdin")?;
+    let wanted = model_joint_names(model, model.input_name());
+    let order = column_order(&wanted, &header.joints, "stdin")?;
+    let topics = arrays(model, robot, None);
+    let options = SceneOptions {
+        tf,
+        ..SceneOptions::default()
+    };
+    let mut writer = SceneWriter::create(out, bodies(model, robot)?, topics, &options, true)?;
+    let mut human = vec![0.0; wanted.len()];
+    let d = model_joint_names(model, robot).len();
+    let mut frame = 0i64;
+    for (i, line) in lines.enumerate() {
+        let line = line.context("stdin")?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let (time, values) = header.parse_line(&line, header_line + i + 1, "stdin")?;
+        for (h, &k) in human.iter_mut().zip(&order) {
+            *h = values[k];
+        }
+        let time_ns = match (time, header.time_column.as_deref()) {
+            (Some(t), Some("time_ns")) => t as i64,
+            (Some(t), _) => (t * 1e9).round() as i64,
+            (None, _) => frame * 25_000_000,
+        };
+        let h = Mat::from_fn(1, human.len(), |_, j| human[j]);
+        let p = model.predict(h.as_ref(), robot, true)?;
+        let mean: Vec<f64> = (0..d).map(|j| p.mean[(0, j)]).collect();
+        let std: Vec<f64> = match &p.variance {
+            Some(v) => (0..d).map(|j| v[(0, j)].sqrt()).collect(),
+            None => vec![f64::NAN; d],
+        };
+        let z = model.latent(h.as_ref())?;
+        let latent: Vec<f64> = (0..z.ncols()).map(|j| z[(0, j)]).collect();
+        writer.write_frame(time_ns, &[&human, &mean], &[&std, &latent])?;
+        frame += 1;
+    }
+    let frames = writer.frames();
+    writer.finish()?;
+    eprintln!(
+        "wrote {frames} frames of {robot} joint commands to {out} (topic /{robot}/joint_command)"
+    );
+    Ok(())
+}
