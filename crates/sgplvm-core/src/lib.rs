@@ -108,6 +108,7 @@ mod predict;
 mod preprocess;
 mod regression;
 mod simd;
+mod sparse;
 mod tempfiles;
 #[cfg(test)]
 mod test_support;
