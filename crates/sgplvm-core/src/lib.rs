@@ -131,5 +131,6 @@ pub use predict::Prediction;
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use regression::GpRegression;
 pub use sparse::objective::SparseEvaluator;
+pub use sparse::sparse_bound;
 pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};
 pub use validation::{Selection, Validation, ValidationRecord};

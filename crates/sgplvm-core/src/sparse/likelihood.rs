@@ -30,8 +30,8 @@ use crate::simd::{clear_upper_simd_state, exp_neg_slice};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
-/// Jitter added to K_mm's diagonal, relative to the kernel variance α² (GPy adds an absolute
-/// 1e-6; on data of unit scale the two agree). Because it scales with α², `∂K_mm/∂α² = K_mm/α²`
+/// Jitter added to K_mm's diagonal, relative to the kernel variance α², so that it means the
+/// same at every data scale (GPy's `VarDTC` adds an absolute `const_jitter` = 1e-8). Because it scales with α², `∂K_mm/∂α² = K_mm/α²`
 /// holds exactly and the gradient stays consistent.
 pub(crate) const RELATIVE_JITTER: f64 = 1e-6;
 
