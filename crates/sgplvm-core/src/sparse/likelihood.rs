@@ -19,6 +19,7 @@
 //! give ∂L/∂α², ∂L/∂ℓ, ∂L/∂X and ∂L/∂Z by weighted sums (`chain`).
 
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::BlockStructure;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
@@ -26,7 +27,7 @@ use faer::{Accum, Mat, MatRef, Par};
 
 use crate::kernel::{rbf_lower, KernelParams};
 use crate::likelihood::{cholesky_with_jitter, NotPd};
-use crate::simd::{clear_upper_simd_state, exp_neg_slice};
+use crate::simd::{clear_upper_simd_state, exp_neg, vectorized};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -100,23 +101,32 @@ pub(crate) fn eval_sparse_space(
     }
     // Φ = K_mn, column j the kernel between x_j and every inducing input.
     let phi = cross_kernel(zr, xr, q, kern, m, n);
-    // A = L_m⁻¹ Φ / σ.
+    // A = L_m⁻¹ Φ / σ (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number
+    // in the objective: the central-difference check of ∂L/∂X then failed at 1e-6), then AAᵀ
+    // (lower half).
     let mut a = phi.clone();
     solve_lower_triangular_in_place(lm.as_ref(), a.as_mut(), par);
     clear_upper_simd_state();
     a.col_iter_mut()
         .for_each(|c| c.iter_mut().for_each(|v| *v /= sigma));
-    // AAᵀ and B = I + AAᵀ.
     let mut aat = Mat::zeros(m, m);
-    matmul(
+    faer::linalg::matmul::triangular::matmul(
         aat.as_mut(),
+        BlockStructure::TriangularLower,
         Accum::Replace,
         a.as_ref(),
+        BlockStructure::Rectangular,
         a.transpose(),
+        BlockStructure::Rectangular,
         1.0,
         par,
     );
     clear_upper_simd_state();
+    for j in 0..m {
+        for i in 0..j {
+            aat[(i, j)] = aat[(j, i)];
+        }
+    }
     let mut lb = Mat::zeros(m, m);
     let b = Mat::from_fn(m, m, |i, j| aat[(i, j)] + if i == j { 1.0 } else { 0.0 });
     if cholesky_with_jitter(b.as_ref(), 0.0, lb.as_mut(), par)? > 0.0 {
@@ -199,38 +209,43 @@ pub(crate) fn eval_sparse_space(
     // gmm_t = L_m⁻ᵀ (L_m⁻ᵀ S)ᵀ = L_m⁻ᵀ S L_m⁻¹ (S symmetric): symmetrise the rounding.
     let gmm = Mat::from_fn(m, m, |i, j| 0.5 * (gmm_t[(i, j)] + gmm_t[(j, i)]));
 
-    // ∂L/∂Φ = σ⁻¹ L_m⁻ᵀ ((2G_w − D I) A − βYᵀ/σ²).
-    let two_gw = Mat::from_fn(m, m, |i, j| {
+    // ∂L/∂Φ = σ⁻¹ L_m⁻ᵀ ((2G_w − D I) A − βYᵀ/σ²)
+    //       = σ⁻² [L_m⁻ᵀ (2G_w − D I) L_m⁻¹] Φ − σ⁻³ (L_m⁻ᵀ β) Yᵀ: M×M work, then two products.
+    let mut c2 = Mat::from_fn(m, m, |i, j| {
         2.0 * gw[(i, j)] - if i == j { df } else { 0.0 }
     });
+    solve_upper_triangular_in_place(lm.transpose(), c2.as_mut(), par);
+    let mut c2t = c2.transpose().to_owned();
+    solve_upper_triangular_in_place(lm.transpose(), c2t.as_mut(), par);
+    let c2 = Mat::from_fn(m, m, |i, j| 0.5 * (c2t[(i, j)] + c2t[(j, i)]) / s2);
+    let mut lbeta = beta.clone();
+    solve_upper_triangular_in_place(lm.transpose(), lbeta.as_mut(), par);
+    clear_upper_simd_state();
     let mut gmn = Mat::zeros(m, n);
     matmul(
         gmn.as_mut(),
         Accum::Replace,
-        two_gw.as_ref(),
-        a.as_ref(),
+        c2.as_ref(),
+        phi.as_ref(),
         1.0,
         par,
     );
     matmul(
         gmn.as_mut(),
         Accum::Add,
-        beta.as_ref(),
+        lbeta.as_ref(),
         y.transpose(),
-        -1.0 / s2,
+        -1.0 / (s2 * sigma),
         par,
     );
-    solve_upper_triangular_in_place(lm.transpose(), gmn.as_mut(), par);
     clear_upper_simd_state();
-    gmn.col_iter_mut()
-        .for_each(|c| c.iter_mut().for_each(|v| *v /= sigma));
 
     // W1 = ∂L/∂K_mm ∘ K_mm, W2 = ∂L/∂Φ ∘ Φ.
     let w1 = Mat::from_fn(m, m, |i, j| gmm[(i, j)] * kmm[(i, j)]);
     let mut w2 = gmn;
     for j in 0..n {
-        for i in 0..m {
-            w2[(i, j)] *= phi[(i, j)];
+        for (g, &p) in w2.col_as_slice_mut(j).iter_mut().zip(phi.col_as_slice(j)) {
+            *g *= p;
         }
     }
     let (sum_w, d_l) = chain(w1.as_ref(), w2.as_ref(), xr, zr, q, kern, dx, dz);
@@ -249,22 +264,33 @@ pub(crate) fn cross_kernel(
     n: usize,
 ) -> Mat<f64> {
     let inv_l: Vec<f64> = kern.lengthscale.iter().map(|l| 1.0 / l).collect();
-    let zs: Vec<f64> = (0..m * q).map(|k| zr[k] * inv_l[k % q]).collect();
-    let mut phi = Mat::zeros(m, n);
-    for j in 0..n {
-        let col = phi.col_as_slice_mut(j);
-        let xj: Vec<f64> = (0..q).map(|t| xr[j * q + t] * inv_l[t]).collect();
-        for (i, v) in col.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for t in 0..q {
-                let dd = zs[i * q + t] - xj[t];
-                s += dd * dd;
-            }
-            *v = -0.5 * s;
+    // Z / ℓ dimension by dimension (contiguous over the inducing inputs: the loops vectorise).
+    let mut zs = vec![0.0; m * q];
+    for i in 0..m {
+        for t in 0..q {
+            zs[t * m + i] = zr[i * q + t] * inv_l[t];
         }
-        exp_neg_slice(col);
-        col.iter_mut().for_each(|v| *v *= kern.variance);
     }
+    let mut phi = Mat::zeros(m, n);
+    let var = kern.variance;
+    vectorized(
+        #[inline(always)]
+        || {
+            for j in 0..n {
+                let col = phi.col_as_slice_mut(j);
+                for t in 0..q {
+                    let xj = xr[j * q + t] * inv_l[t];
+                    for (v, &z) in col.iter_mut().zip(&zs[t * m..(t + 1) * m]) {
+                        let dd = z - xj;
+                        *v += dd * dd;
+                    }
+                }
+                for v in col.iter_mut() {
+                    *v = var * exp_neg(-0.5 * *v);
+                }
+            }
+        },
+    );
     phi
 }
 
@@ -289,8 +315,17 @@ fn chain(
     let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
     let xc = Mat::from_fn(n, q, |j, t| xr[j * q + t] - mean[t]);
     let r1: Vec<f64> = (0..m).map(|i| (0..m).map(|j| w1[(i, j)]).sum()).collect();
-    let r2: Vec<f64> = (0..m).map(|i| (0..n).map(|j| w2[(i, j)]).sum()).collect();
-    let c2: Vec<f64> = (0..n).map(|j| (0..m).map(|i| w2[(i, j)]).sum()).collect();
+    let mut r2 = vec![0.0; m];
+    let mut c2 = vec![0.0; n];
+    for j in 0..n {
+        let col = w2.col(j);
+        let mut s = 0.0;
+        for i in 0..m {
+            r2[i] += col[i];
+            s += col[i];
+        }
+        c2[j] = s;
+    }
     let par = Par::Seq;
     let mut w1z = Mat::zeros(m, q);
     matmul(w1z.as_mut(), Accum::Replace, w1, zc.as_ref(), 1.0, par);
