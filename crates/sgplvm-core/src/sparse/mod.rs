@@ -213,7 +213,7 @@ pub fn sparse_bound(
             });
         }
     }
-    if !kernel.is_valid() || !(relative_jitter >= 0.0 && relative_jitter.is_finite()) {
+    if !(kernel.is_valid() && relative_jitter >= 0.0 && relative_jitter.is_finite()) {
         return Err(Error::InvalidValue {
             what: "sparse_bound".into(),
             reason: "expected a kernel of finite values > 0 and a finite jitter ≥ 0".into(),
