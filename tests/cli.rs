@@ -925,4 +925,109 @@ fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
         assert!(stdout.contains(s(&path)), "{stdout}");
         assert!(path.exists(), "{model}");
     }
+fn longer_sessions_and_the_sparse_model_on_every_frame() {
+    // `--repetitions` makes longer sessions of the same protocol; `--inducing` trains the
+    // sparse model on them, a transfer of it is sparse too, and both files say so.
+    let dir = scratch("sparse");
+    let frames = |stdout: &str| -> usize {
+        let (_, after) = stdout.split_once("frames (").expect("frame counts");
+        after
+            .split(' ')
+            .next()
+            .expect("count")
+            .parse()
+            .expect("a number")
+    };
+    let short = ok(&[
+        "generate",
+        "--out",
+        s(&dir),
+        "--subsample",
+        "24",
+        "--file",
+        "short.mcap",
+    ]);
+    let long = ok(&[
+        "generate",
+        "--out",
+        s(&dir),
+        "--subsample",
+        "24",
+        "--repetitions",
+        "6",
+        "--file",
+        "long.mcap",
+    ]);
+    let (n3, n6) = (frames(&short), frames(&long));
+    assert!(
+        n6 > 19 * n3 / 10 && n6 < 21 * n3 / 10,
+        "3 repetitions {n3}, 6 repetitions {n6}"
+    );
+    let data = dir.join("long.mcap");
+    let model = dir.join("sparse.sgp");
+    ok(&[
+        "train",
+        "--data",
+        s(&data),
+        "--robot",
+        "walkman",
+        "--max-iters",
+        "15",
+        "--inducing",
+        "30",
+        "--validation",
+        "none",
+        "--out",
+        s(&model),
+    ]);
+    let coman = dir.join("coman.sgp");
+    ok(&[
+        "transfer",
+        "--model",
+        s(&model),
+        "--data",
+        s(&data),
+        "--robot",
+        "coman",
+        "--max-iters",
+        "10",
+        "--validation",
+        "none",
+        "--out",
+        s(&coman),
+    ]);
+    for path in [&model, &coman] {
+        let m = sgplvm::core::SharedGplvm::load(path).unwrap();
+        assert_eq!(m.config().inducing, Some(30));
+        assert_eq!(m.inducing_inputs().unwrap().nrows(), 30);
+    }
+    let out = dir.join("x.sgp");
+    let e = fails(
+        &[
+            "train",
+            "--data",
+            s(&data),
+            "--robot",
+            "walkman",
+            "--inducing",
+            "0",
+            "--out",
+            s(&out),
+        ],
+        2,
+    );
+    assert!(e.contains("--inducing"), "{e}");
+    let e = fails_on_one_line(&[
+        "train",
+        "--data",
+        s(&data),
+        "--robot",
+        "walkman",
+        "--inducing",
+        "100000",
+        "--out",
+        s(&out),
+    ]);
+    assert!(e.contains("expected at most"), "{e}");
+    assert!(!out.exists());
 }

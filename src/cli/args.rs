@@ -127,6 +127,14 @@ pub struct ModelConfigArgs {
     /// Seed of the initialisation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Train the sparse model with M inducing inputs on every frame (O(N M²) time, O(N M)
+    /// memory; back constraints none or input); without it the exact model (O(N³), O(N²)).
+    /// Models transferred from a sparse model are sparse too.
+    #[arg(long, value_name = "M", value_parser = clap::value_parser!(u64).range(1..))]
+    pub inducing: Option<u64>,
+    /// Keep the inducing inputs where they start (with --inducing) instead of training them.
+    #[arg(long, requires = "inducing")]
+    pub fixed_inducing: bool,
 }
 
 impl ModelConfigArgs {
@@ -136,6 +144,8 @@ impl ModelConfigArgs {
             .with_latent_dim(self.latent_dim as usize)
             .with_back_constraint(self.back_constraint.0)
             .with_seed(self.seed)
+            .with_inducing(self.inducing.map(|m| m as usize))
+            .with_fixed_inducing(self.fixed_inducing)
     }
 }
 

@@ -27,6 +27,12 @@ pub struct GenerateArgs {
     /// Keep every k-th frame of the training trajectories.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     subsample: Option<u64>,
+    /// How many times the human goes back and forth between the two poses of every pair
+    /// [default: 3]: longer sessions of the same protocol (with `--subsample 1`, about 1,000
+    /// training frames per repetition; 20 give the 20,000 frames of the sparse model's
+    /// benchmarks).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    repetitions: Option<u64>,
 }
 
 /// The built-in robot models (every built-in body but the demonstrator).
@@ -47,6 +53,9 @@ pub fn run(args: GenerateArgs) -> Result<()> {
     }
     if let Some(k) = args.subsample {
         config.train_subsample = k as usize;
+    }
+    if let Some(r) = args.repetitions {
+        config.repetitions = r as usize;
     }
     if let Some(robots) = args.robots {
         config.robots = robots;

@@ -54,6 +54,14 @@ pub struct ModelConfig {
     pub bc_ridge: f64,
     /// Initial noise variance of each space as a fraction of its mean column variance.
     pub init_noise_fraction: f64,
+    /// Number M of inducing inputs of the sparse model (Titsias' bound, O(N M²) per
+    /// evaluation; back constraints `none` or `input`); `None`: the exact model (O(N³)).
+    /// Recorded in model files from format 2 (absent in format 1: exact).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inducing: Option<usize>,
+    /// Keep the sparse model's inducing inputs where they start instead of training them.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fixed_inducing: bool,
 }
 
 impl Default for ModelConfig {
@@ -67,6 +75,8 @@ impl Default for ModelConfig {
             init_perturbation: 0.01,
             bc_ridge: 1e-3,
             init_noise_fraction: 0.1,
+            inducing: None,
+            fixed_inducing: false,
         }
     }
 }
@@ -98,6 +108,16 @@ impl ModelConfig {
         self.scale_mode = mode;
         self
     }
+    /// Sets the number of inducing inputs (`Some(M)`: the sparse model; `None`: exact).
+    pub fn with_inducing(mut self, inducing: Option<usize>) -> Self {
+        self.inducing = inducing;
+        self
+    }
+    /// Keeps the inducing inputs fixed at their starting points (sparse model).
+    pub fn with_fixed_inducing(mut self, fixed: bool) -> Self {
+        self.fixed_inducing = fixed;
+        self
+    }
     /// Sets the initial perturbation standard deviation.
     pub fn with_init_perturbation(mut self, s: f64) -> Self {
         self.init_perturbation = s;
@@ -125,6 +145,18 @@ impl ModelConfig {
             return bad(
                 "ModelConfig::init_noise_fraction",
                 "expected a finite number > 0",
+            );
+        }
+        if self.inducing == Some(0) {
+            return bad(
+                "ModelConfig::inducing",
+                "expected at least 1 inducing input",
+            );
+        }
+        if self.inducing.is_some() && self.back_constraint == BackConstraint::Output {
+            return bad(
+                "ModelConfig::inducing",
+                "the sparse model supports back constraints none and input, not output",
             );
         }
         Ok(())

@@ -30,8 +30,9 @@ pub enum Error {
     /// refused before allocating.
     #[error(
         "{what} with N = {n} frames needs about {} ({matrices} N×N matrices of 8-byte floats); \
-         {} is available ({limit_source}): the exact model's memory grows with N², use fewer \
-         frames (e.g. subsample the demonstrations)",
+         {} is available ({limit_source}): the exact model's memory grows with N²; train the \
+         sparse model on every frame (`--inducing M`, e.g. 100; Python `inducing=`) or use \
+         fewer frames (e.g. subsample the demonstrations)",
         crate::memory::human(*needed_bytes),
         crate::memory::human(*available_bytes)
     )]
@@ -172,11 +173,13 @@ pub enum Error {
     #[error("not an sgplvm model file: expected the magic bytes \"SGPLVM\\0\\0\" at the start")]
     BadMagic,
     /// The file was written by another format version.
-    #[error("model file format version {found} is not supported; expected version {supported}")]
+    #[error(
+        "model file format version {found} is not supported; expected version 1 to {supported}"
+    )]
     UnsupportedVersion {
         /// Version in the file.
         found: u32,
-        /// Version this library reads.
+        /// Newest version this library reads (it reads every version from 1 to this one).
         supported: u32,
     },
     /// The file is shorter than its header says.

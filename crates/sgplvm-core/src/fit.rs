@@ -43,16 +43,21 @@ impl SharedGplvm {
     ) -> Result<Self> {
         config.check()?;
         let order = checked_order(spaces, input, config.latent_dim)?;
-        memory::check(
-            "training",
-            spaces[order[0]].1.nrows(),
-            memory::fit_matrices(spaces.len()),
-        )?;
+        if config.inducing.is_none() {
+            memory::check(
+                "training",
+                spaces[order[0]].1.nrows(),
+                memory::fit_matrices(spaces.len()),
+            )?;
+        }
         let sp: Vec<Space> = order
             .iter()
             .map(|&i| Space::from_data(spaces[i].0, spaces[i].1, config))
             .collect::<Result<_>>()?;
         let x0 = initial_latent_points(&sp, config)?;
+        if let Some(m) = config.inducing {
+            return Self::initial_sparse(config, sp, x0, m);
+        }
         let latent = initial_latent(config.back_constraint, &sp, x0.as_ref(), config.bc_ridge)?;
         let mut model = SharedGplvm::new(config.clone(), sp, latent);
         model.update_latent_points();
@@ -63,6 +68,13 @@ impl SharedGplvm {
     pub(crate) fn update_latent_points(&mut self) {
         self.x = match &self.latent {
             Latent::Free { x } => x.clone(),
+            Latent::Back {
+                weights,
+                bandwidth,
+                data,
+            } if self.sparse.is_some() => {
+                self.sparse_latent_points(weights.as_ref(), *bandwidth, data.as_ref())
+            }
             Latent::Back {
                 weights,
                 bandwidth,
@@ -90,6 +102,9 @@ impl SharedGplvm {
         limits: &Limits,
         mut callback: Option<Callback<'_>>,
     ) -> Result<()> {
+        if self.sparse.is_some() {
+            return self.train_sparse(mode, options, limits, callback);
+        }
         let (outcome, mut applied) = {
             let obj = ModelObjective::new(self, mode.clone())?;
             let theta0 = obj.theta0();

@@ -25,12 +25,14 @@ impl SharedGplvm {
         limits: &Limits,
         warm: Option<KernelParams>,
     ) -> Result<()> {
-        let h = self.spaces[0].data.as_ref();
-        let (n, dh, q) = (self.n(), h.ncols(), self.q());
+        // Every training frame, or a sparse model's spread subset of them.
+        let (h, x) = self.map_pairs();
+        let h = h.as_ref();
+        let (n, dh, q) = (h.nrows(), h.ncols(), self.q());
         let x_mean: Vec<f64> = (0..q)
-            .map(|j| (0..n).map(|i| self.x[(i, j)]).sum::<f64>() / n as f64)
+            .map(|j| (0..n).map(|i| x[(i, j)]).sum::<f64>() / n as f64)
             .collect();
-        let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - x_mean[j]);
+        let y = Mat::from_fn(n, q, |i, j| x[(i, j)] - x_mean[j]);
         let start = match warm {
             Some(k) if k.lengthscale.len() == dh && k.is_valid() => k,
             _ => starting_kernel(h, y.as_ref()),

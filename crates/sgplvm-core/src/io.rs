@@ -1,11 +1,11 @@
 //! Model files.
 //!
-//! Format (version 1), all integers little-endian:
+//! Format (version 2; version 1 is read too), all integers little-endian:
 //!
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `b"SGPLVM\0\0"` |
-//! | 8..12 | format version, u32 (= 1) |
+//! | 8..12 | format version, u32 (= 2) |
 //! | 12..20 | payload length L, u64 |
 //! | 20..28 | FNV-1a 64-bit hash of the payload, u64 |
 //! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
@@ -13,7 +13,10 @@
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
-//! trained with a validation split, how their iteration budget was chosen. Caches
+//! trained with a validation split, how their iteration budget was chosen. Version 2 adds the
+//! sparse model (#14): `config.inducing` and the inducing inputs Z (`inducing`); for it the
+//! back-constraint weights and data are those of the M centres. A version-1 file is a version-2
+//! file of an exact model. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
 //! Files are written to a temporary file next to the target and renamed into place (see
@@ -38,7 +41,7 @@ use crate::validation::Selection;
 /// Magic bytes at the start of every model file.
 pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
 /// The format version this library writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 const HEADER: usize = 28;
 
 #[derive(Serialize, Deserialize)]
@@ -185,7 +188,8 @@ impl SpaceFile {
 
 impl LatentFile {
     /// The latent representation, after checking that it is N×Q (and its data N rows).
-    fn into_latent(self, n: usize, q: usize) -> Result<Latent> {
+    /// For a sparse model the back-constraint weights and data have `centres` rows.
+    fn into_latent(self, n: usize, q: usize, centres: usize) -> Result<Latent> {
         let latent = match self {
             LatentFile::Free { x } => Latent::Free {
                 x: x.to_mat("latent x")?,
@@ -205,11 +209,14 @@ impl LatentFile {
                 }
             }
         };
-        let shape = match &latent {
-            Latent::Free { x } => (x.nrows(), x.ncols(), n),
-            Latent::Back { weights, data, .. } => (weights.nrows(), weights.ncols(), data.nrows()),
+        let (shape, expected) = match &latent {
+            Latent::Free { x } => ((x.nrows(), x.ncols(), n), (n, q, n)),
+            Latent::Back { weights, data, .. } => (
+                (weights.nrows(), weights.ncols(), data.nrows()),
+                (centres, q, centres),
+            ),
         };
-        if shape != (n, q, n) {
+        if shape != expected {
             return Err(corrupt("latent parameters have the wrong shape".into()));
         }
         Ok(latent)
@@ -245,6 +252,9 @@ struct ModelFile {
     /// before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     selection: Option<Selection>,
+    /// Inducing inputs Z of a sparse model (format 2; absent for exact models).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    inducing: Option<MatData>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -294,6 +304,7 @@ impl SharedGplvm {
             history: self.history.clone(),
             stop_reason: self.stop_reason.clone(),
             selection: self.selection.clone(),
+            inducing: self.sparse.as_ref().map(|s| MatData::from(&s.z)),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -324,7 +335,7 @@ impl SharedGplvm {
             w
         };
         let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-        if version != FORMAT_VERSION {
+        if version == 0 || version > FORMAT_VERSION {
             return Err(Error::UnsupportedVersion {
                 found: version,
                 supported: FORMAT_VERSION,
@@ -393,13 +404,40 @@ impl SharedGplvm {
         {
             return Err(corrupt("space shapes are inconsistent".into()));
         }
-        memory::check("loading the model", n, memory::load_matrices(spaces.len()))?;
-        let latent = f.latent.into_latent(n, q)?;
+        let inducing = match (f.config.inducing, f.inducing) {
+            (None, None) => None,
+            (Some(m), Some(z)) => {
+                let z = z.to_mat("inducing inputs")?;
+                if z.nrows() != m || z.ncols() != q || m > n {
+                    return Err(corrupt(format!(
+                        "inducing inputs are {}×{}; expected {m}×{q} with {m} ≤ {n} frames",
+                        z.nrows(),
+                        z.ncols()
+                    )));
+                }
+                Some(z)
+            }
+            _ => {
+                return Err(corrupt(
+                    "config.inducing and the inducing inputs must be given together".into(),
+                ))
+            }
+        };
+        let centres = match &inducing {
+            // O(N M) memory: no exact-model check.
+            Some(z) => z.nrows(),
+            None => {
+                memory::check("loading the model", n, memory::load_matrices(spaces.len()))?;
+                n
+            }
+        };
+        let latent = f.latent.into_latent(n, q, centres)?;
         let map = f
             .map
             .map(|m| m.into_map(spaces[0].data.ncols(), q))
             .transpose()?;
         let mut model = SharedGplvm::new(f.config, spaces, latent);
+        model.sparse = inducing.map(crate::sparse::SparseState::new);
         model.map = map;
         model.history = f.history;
         model.stop_reason = f.stop_reason;
@@ -491,7 +529,7 @@ mod tests {
             SharedGplvm::from_bytes(&old),
             Err(Error::UnsupportedVersion {
                 found: 0,
-                supported: 1
+                supported: 2
             })
         ));
         let mut bad = bytes.clone();

@@ -47,6 +47,7 @@
 //! | `io.rs` | the versioned model file |
 //! | `pool.rs` | the fork-safe thread pool |
 //! | `tempfiles.rs` | temporary files of atomic writes, and the removal of those a killed writer left |
+//! | `sparse/` | the sparse model ([`ModelConfig::inducing`]): Titsias' bound per space with shared inducing inputs, its objective, training and prediction caches ([`SparseEvaluator`]) |
 //! | `memory.rs` | the memory an exact model needs, checked before allocating ([`Error::TooLarge`]) |
 //!
 //! ## Choices made (and where they are documented)
@@ -108,6 +109,7 @@ mod predict;
 mod preprocess;
 mod regression;
 mod simd;
+mod sparse;
 mod tempfiles;
 #[cfg(test)]
 mod test_support;
@@ -128,5 +130,7 @@ pub use partial::PartialTransfer;
 pub use predict::Prediction;
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use regression::GpRegression;
+pub use sparse::objective::SparseEvaluator;
+pub use sparse::sparse_bound;
 pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};
 pub use validation::{Selection, Validation, ValidationRecord};

@@ -174,5 +174,9 @@ mod tests {
             "{text}"
         );
         assert!(!text.contains('\n'), "{text}");
+        assert!(
+            text.contains("--inducing"),
+            "the sparse model is suggested: {text}"
+        );
     }
 }

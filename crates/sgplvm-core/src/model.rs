@@ -95,6 +95,8 @@ pub struct SharedGplvm {
     pub(crate) stop_reason: Option<StopReason>,
     /// How the iteration budget was chosen on held-out frames, when it was.
     pub(crate) selection: Option<Selection>,
+    /// Inducing inputs and caches of the sparse model (`None`: the exact model).
+    pub(crate) sparse: Option<crate::sparse::SparseState>,
     // ----- derived, recomputed by `rebuild` -----
     /// Largest jitter the prediction caches' factorisations needed.
     pub(crate) training_jitter: f64,
@@ -158,6 +160,7 @@ impl SharedGplvm {
             history: Vec::new(),
             stop_reason: None,
             selection: None,
+            sparse: None,
             training_jitter: 0.0,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),

@@ -309,6 +309,9 @@ impl SharedGplvm {
     /// Objective and gradient (natural units, same structure as [`SharedGplvm::params`]; the
     /// bandwidth entry holds ∂L/∂bandwidth).
     pub fn evaluate(&self) -> Result<(f64, Params)> {
+        if self.sparse.is_some() {
+            return self.evaluate_sparse();
+        }
         let obj = ModelObjective::new(self, Mode::Full)?;
         let theta = obj.theta0();
         let mut g = vec![0.0; theta.len()];
@@ -412,6 +415,12 @@ impl Evaluator<'_> {
 impl SharedGplvm {
     /// An [`Evaluator`] at the current parameters.
     pub fn evaluator(&self) -> Result<Evaluator<'_>> {
+        if self.sparse.is_some() {
+            return Err(Error::InvalidValue {
+                what: "evaluator".into(),
+                reason: "a sparse model; use sparse_evaluator".into(),
+            });
+        }
         let obj = ModelObjective::new(self, Mode::Full)?;
         let theta = obj.theta0();
         let grad = vec![0.0; theta.len()];

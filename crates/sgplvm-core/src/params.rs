@@ -69,7 +69,8 @@ impl SharedGplvm {
                 *x = nx.clone();
             }
             (Latent::Back { weights, bandwidth, .. }, LatentParams::BackConstrained { weights: nw, bandwidth: nb }) => {
-                check_shape("latent weights", nw.as_ref(), n, q)?;
+                // N rows, or a sparse model's M_c centres.
+                check_shape("latent weights", nw.as_ref(), weights.nrows(), q)?;
                 if !(nb.is_finite() && *nb > 0.0) {
                     return Err(Error::InvalidValue { what: "bandwidth".into(), reason: format!("{nb}; expected a finite number > 0") });
                 }

@@ -84,6 +84,11 @@ impl SharedGplvm {
     /// load and by `set_params`, so that a loaded model predicts bit-identically).
     pub(crate) fn rebuild(&mut self) -> Result<()> {
         self.update_latent_points();
+        if self.sparse.is_some() {
+            self.training_jitter = self.rebuild_sparse()?;
+            self.latent_cache = Some(self.new_latent_cache()?);
+            return Ok(());
+        }
         self.caches = self
             .spaces
             .iter()
@@ -97,23 +102,29 @@ impl SharedGplvm {
     /// The human → latent cache: the back-constraint mapping `x = k_bc(h, H) W` for input back
     /// constraints, else the input map's GP mean `x = x̄ + α² k(h, H) K⁻¹ (X − x̄)`.
     fn new_latent_cache(&self) -> Result<LatentCache> {
-        let (n, q) = (self.n(), self.q());
+        let q = self.q();
         let h = self.spaces[0].data.as_ref();
         match (&self.latent, &self.map) {
             (
                 Latent::Back {
-                    weights, bandwidth, ..
+                    weights,
+                    bandwidth,
+                    data,
                 },
                 _,
             ) if self.config.back_constraint == BackConstraint::Input => Ok(LatentCache {
-                h_rows: row_major(h),
+                // The constrained data: every training frame, or a sparse model's centres.
+                h_rows: row_major(data.as_ref()),
                 weights: row_major(weights.as_ref()),
                 half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); h.ncols()],
                 amplitude: 1.0,
                 offset: vec![0.0; q],
             }),
             (_, Some(map)) => {
-                let y = Mat::from_fn(n, q, |i, j| self.x[(i, j)] - map.x_mean[j]);
+                let (h, x) = self.map_pairs();
+                let h = h.as_ref();
+                let n = h.nrows();
+                let y = Mat::from_fn(n, q, |i, j| x[(i, j)] - map.x_mean[j]);
                 let mut w = SpaceWork::new(n, q);
                 let hr = row_major(h);
                 eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None)
@@ -194,7 +205,7 @@ impl SharedGplvm {
             &lc.half_inv_l2,
             &lc.weights,
             lc.amplitude,
-            self.n(),
+            lc.weights.len() / lc.offset.len().max(1),
             x,
         );
         Ok(())
@@ -203,9 +214,16 @@ impl SharedGplvm {
     /// Mean (original units) of space `si` at latent point `x` into `out`. Allocation-free.
     pub(crate) fn mean_into(&self, si: usize, x: &[f64], out: &mut [f64]) {
         let s = &self.spaces[si];
-        let c = &self.caches[si];
         let d = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
+        if let Some(st) = &self.sparse {
+            Self::sparse_mean_into(st, si, s.kernel.variance, x, out);
+            for t in 0..d {
+                out[t] = out[t] * s.scale[t] + s.offset[t];
+            }
+            return;
+        }
+        let c = &self.caches[si];
         add_kernel_weighted(
             x,
             &self.x_rows,
@@ -274,7 +292,8 @@ impl SharedGplvm {
             });
         };
         let s0 = &self.spaces[0];
-        let (n, dh, q, m_all) = (self.n(), h.ncols(), self.q(), h.nrows());
+        let (dh, q, m_all) = (h.ncols(), self.q(), h.nrows());
+        let n = lc.weights.len() / q.max(1);
         let (train, hs) = scaled_about_mean(&lc.h_rows, dh, &lc.half_inv_l2, m_all, |r, t| {
             (h[(r, t)] - s0.offset[t]) / s0.scale[t]
         });
@@ -307,6 +326,9 @@ impl SharedGplvm {
         self.check_input_matrix(h)?;
         let si = self.output_index(space)?;
         let xs = self.latent_batch(h)?;
+        if let Some(st) = &self.sparse {
+            return self.predict_sparse(st, si, xs.as_ref(), with_variance);
+        }
         let (n_new, q, n) = (h.nrows(), self.q(), self.n());
         let s = &self.spaces[si];
         let c = &self.caches[si];

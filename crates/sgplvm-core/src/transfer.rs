@@ -129,7 +129,9 @@ impl SharedGplvm {
             });
         }
         check_finite(name, data)?;
-        if frames == self.n() {
+        if self.sparse.is_some() {
+            // O(N M) memory, like the model itself.
+        } else if frames == self.n() {
             memory::check(
                 "transfer",
                 frames,

@@ -343,6 +343,15 @@ impl SharedGplvm {
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
+        if self.sparse.is_some() {
+            // The selection runs are exact GP regressions on the training frames (O(N³)).
+            return Err(Error::InvalidValue {
+                what: "validation".into(),
+                reason: "choosing a sparse model's transfer budget on held-out frames is not \
+                         supported yet; transfer without validation (--validation none)"
+                    .into(),
+            });
+        }
         let limits = Limits::start(options);
         let space = self.transfer_space(name, data, seed)?;
         let chosen =

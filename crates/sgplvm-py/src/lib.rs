@@ -26,6 +26,7 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<regression::NativeRegression>()?;
     m.add_class::<robots::PyRobot>()?;
     m.add_function(wrap_pyfunction!(model::canonical_back_constraint, m)?)?;
+    m.add_function(wrap_pyfunction!(model::sparse_bound, m)?)?;
     m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;

@@ -210,7 +210,7 @@ impl NativeModel {
     /// handler's exception (Ctrl-C) stops training and is raised carrying the model trained so
     /// far as its `_sgplvm_native` attribute.
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -226,13 +226,15 @@ impl NativeModel {
         max_seconds: Option<f64>,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<(String, Vec<String>)>>,
+        inducing: Option<usize>,
     ) -> PyResult<Self> {
         guarded(|| {
             let config = ModelConfig::default()
                 .with_latent_dim(latent_dim)
                 .with_back_constraint(parse_back_constraint(back_constraint)?)
                 .with_seed(seed)
-                .with_scale(scale);
+                .with_scale(scale)
+                .with_inducing(inducing);
             let mats: Vec<(String, Mat<f64>)> =
                 spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
             let options = TrainOptions::default()
@@ -390,7 +392,14 @@ impl NativeModel {
         self.inner.space_dim(space)
     }
 
-    /// Configuration as a dict (latent_dim, back_constraint, seed, scale).
+    /// Inducing inputs Z (M×Q) of a sparse model; None for the exact model.
+    fn inducing_inputs<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.inner
+            .inducing_inputs()
+            .map(|z| to_numpy(py, &z.to_owned()))
+    }
+
+    /// Configuration as a dict (latent_dim, back_constraint, seed, scale, inducing).
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = self.inner.config();
         let d = PyDict::new(py);
@@ -398,6 +407,7 @@ impl NativeModel {
         d.set_item("back_constraint", back_constraint_name(c.back_constraint))?;
         d.set_item("seed", c.seed)?;
         d.set_item("scale", c.scale)?;
+        d.set_item("inducing", c.inducing)?;
         Ok(d)
     }
 
@@ -598,4 +608,36 @@ fn params_from_dict(d: &Bound<'_, PyDict>, current: &Params) -> PyResult<Params>
         ));
     }
     Ok(Params { latent, spaces })
+}
+
+/// One space's negative collapsed variational bound of the sparse model (see
+/// `sgplvm_core::sparse_bound`) at latent points `x`, inducing inputs `z`, data `y` and an
+/// RBF-ARD kernel; `relative_jitter × variance` is added to K_mm's diagonal.
+#[pyfunction]
+#[pyo3(signature = (x, z, y, variance, lengthscale, noise, relative_jitter))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sparse_bound(
+    x: PyReadonlyArray2<'_, f64>,
+    z: PyReadonlyArray2<'_, f64>,
+    y: PyReadonlyArray2<'_, f64>,
+    variance: f64,
+    lengthscale: Vec<f64>,
+    noise: f64,
+    relative_jitter: f64,
+) -> PyResult<f64> {
+    guarded(|| {
+        let kernel = KernelParams {
+            variance,
+            lengthscale,
+            noise,
+        };
+        sgplvm_core::sparse_bound(
+            to_mat(&x).as_ref(),
+            to_mat(&z).as_ref(),
+            to_mat(&y).as_ref(),
+            &kernel,
+            relative_jitter,
+        )
+        .map_err(model_error)
+    })
 }

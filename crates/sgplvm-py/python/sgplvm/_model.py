@@ -148,6 +148,7 @@ class SharedGPLVM:
         validation: Validation = "auto",
         patience: int = DEFAULT_PATIENCE,
         max_seconds: Optional[float] = None,
+        inducing: Optional[int] = None,
     ) -> "SharedGPLVM":
         """Trains the model on named spaces with the same number of rows (frames).
 
@@ -182,7 +183,15 @@ class SharedGPLVM:
         in your units; beyond 1e-153…1e153 they are refused with a ``ValueError``. A model too
         large for memory (the exact model holds several N × N matrices) raises ``MemoryError``
         before allocating them.
+
+        ``inducing=M`` trains the sparse model instead (Titsias' variational bound with M
+        inducing inputs shared by all spaces): O(N M²) time and O(N M) memory, so every frame
+        of long demonstrations can be used; back constraints ``"input"`` or ``None``. Models
+        transferred from it are sparse too; :attr:`inducing` and :attr:`inducing_inputs` tell.
+        Without it, the exact model (a few thousand frames at most).
         """
+        if inducing is not None and (isinstance(inducing, bool) or int(inducing) < 1):
+            raise ValueError(f"inducing is {inducing!r}; expected an integer >= 1 or None")
         if not isinstance(spaces, Mapping) or not spaces:
             raise ValueError("spaces: expected a non-empty dict of name -> 2-D array")
         if input not in spaces:
@@ -204,6 +213,7 @@ class SharedGPLVM:
                 _max_seconds(max_seconds),
                 callback,
                 names,
+                None if inducing is None else int(inducing),
             )
         except BaseException as e:
             interrupted = _interrupted_model(e)
@@ -283,6 +293,17 @@ class SharedGPLVM:
     def latent_points(self) -> np.ndarray:
         """Latent points of the training frames (N × Q)."""
         return self._require().latent_points()
+
+    @property
+    def inducing(self) -> Optional[int]:
+        """Number M of inducing inputs of a sparse model (``fit(..., inducing=M)``); None for
+        the exact model."""
+        return self._require().config()["inducing"]
+
+    @property
+    def inducing_inputs(self) -> Optional[np.ndarray]:
+        """Inducing inputs Z (M × Q) of a sparse model; None for the exact model."""
+        return self._require().inducing_inputs()
 
     # ------------------------------------------------------------------ inspection
 

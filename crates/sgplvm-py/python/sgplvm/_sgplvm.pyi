@@ -25,6 +25,7 @@ __all__ = [
     "load_demonstrations",
     "read_joint_states",
     "simulate",
+    "sparse_bound",
     "write_joint_states",
 ]
 __version__: str
@@ -52,6 +53,7 @@ class NativeModel:
         max_seconds: Optional[float] = None,
         callback: Optional[_Callback] = None,
         column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
+        inducing: Optional[int] = None,
     ) -> "NativeModel": ...
     def transfer(
         self,
@@ -79,6 +81,7 @@ class NativeModel:
     def column_names(self, space: str) -> Optional[List[str]]: ...
     def space_dim(self, space: str) -> Optional[int]: ...
     def config(self) -> Dict[str, Any]: ...
+    def inducing_inputs(self) -> Optional[_F64]: ...
     def history(self) -> Dict[str, Any]: ...
     def params(self) -> Dict[str, Any]: ...
     def gradient(self) -> Dict[str, Any]: ...
@@ -130,6 +133,16 @@ class Robot:
         """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
 
 def canonical_back_constraint(value: object) -> Optional[str]: ...
+def sparse_bound(
+    x: _F64,
+    z: _F64,
+    y: _F64,
+    variance: float,
+    lengthscale: Sequence[float],
+    noise: float,
+    relative_jitter: float,
+) -> float:
+    """One space's negative collapsed (Titsias/VarDTC) bound of the sparse model."""
 def _panic_for_tests(message: str) -> None:
     """Panics in Rust with ``message``: the panic must arrive as a ``RuntimeError``."""
 

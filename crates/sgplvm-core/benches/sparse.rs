@@ -1,0 +1,90 @@
+//! Criterion benches of the sparse model (issue 14): one objective + gradient evaluation
+//! (human 18-D + robot 14-D, Q = 5, input back constraints with M centres, Z trained) at
+//! N = 20,000 and M = 100, one-frame and batch prediction at M = 100, and the scaling of one
+//! evaluation over N × M (`SGPLVM_SPARSE_SCALING=1`: N ∈ {1k, 5k, 20k, 100k}, M ∈ {50, 100,
+//! 200}; off by default, it takes minutes).
+//!
+//! Run: `cargo bench -p sgplvm-core --bench sparse`
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
+use std::hint::black_box;
+
+/// Smooth synthetic demonstration: a 2-D phase drives an 18-D human and a 14-D robot.
+fn data(n: usize) -> (Mat<f64>, Mat<f64>) {
+    let h = Mat::from_fn(n, 18, |i, j| {
+        let t = i as f64 / n as f64 * 120.0;
+        (t * (1.0 + 0.05 * j as f64)).sin() + 0.3 * (0.37 * t + j as f64).cos()
+    });
+    let r = Mat::from_fn(n, 14, |i, j| {
+        let t = i as f64 / n as f64 * 120.0;
+        0.8 * (t * (1.0 + 0.07 * j as f64) + 0.1).sin() + 0.2 * (0.41 * t + j as f64).cos()
+    });
+    (h, r)
+}
+
+/// The sparse model at its starting point (no training).
+fn model(n: usize, m: usize) -> SharedGplvm {
+    let (h, r) = data(n);
+    let config = ModelConfig::default().with_inducing(Some(m));
+    let options = TrainOptions {
+        max_iters: 0,
+        ..TrainOptions::default()
+    };
+    SharedGplvm::fit(
+        &config,
+        &[("human", h.as_ref()), ("robot", r.as_ref())],
+        "human",
+        &options,
+        None,
+    )
+    .expect("model builds")
+}
+
+fn bench_eval(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sparse_evaluation");
+    g.sample_size(10);
+    let m = model(20_000, 100);
+    let mut ev = m.sparse_evaluator().expect("evaluator");
+    g.bench_function("n20000_m100", |b| {
+        b.iter(|| black_box(ev.evaluate().expect("evaluates")))
+    });
+    g.finish();
+    if std::env::var_os("SGPLVM_SPARSE_SCALING").is_some() {
+        let mut g = c.benchmark_group("sparse_scaling");
+        g.sample_size(10);
+        for n in [1_000usize, 5_000, 20_000, 100_000] {
+            for mm in [50usize, 100, 200] {
+                let m = model(n, mm);
+                let mut ev = m.sparse_evaluator().expect("evaluator");
+                g.bench_with_input(BenchmarkId::new(format!("m{mm}"), n), &n, |b, _| {
+                    b.iter(|| black_box(ev.evaluate().expect("evaluates")))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
+fn bench_predict(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sparse_prediction");
+    let m = model(5_000, 100);
+    let (h, _) = data(10_000);
+    let frame: Vec<f64> = (0..18).map(|j| h[(123, j)]).collect();
+    let mut out = vec![0.0; 14];
+    g.bench_function("frame_m100", |b| {
+        b.iter(|| {
+            m.predict_frame(black_box(&frame), "robot", &mut out)
+                .expect("predicts");
+            black_box(out[0])
+        })
+    });
+    g.sample_size(10);
+    g.bench_function("batch10000_m100", |b| {
+        b.iter(|| black_box(m.predict(h.as_ref(), "robot", false).expect("predicts")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_eval, bench_predict);
+criterion_main!(benches);

@@ -1,0 +1,386 @@
+//! The sparse training objective: the negative bound summed over spaces on the optimiser's
+//! vector θ — the latent block (X, or the centres' weights W) column-major, then Z
+//! column-major (unless fixed), then per space log α², log ℓ_q, log σ². In transfer
+//! (`Mode::Kernels`) only the listed spaces' kernels move; X, Z and the other spaces are
+//! frozen and add a constant.
+
+use faer::{Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
+
+use super::likelihood::{eval_sparse_space, SparseEval, RELATIVE_JITTER};
+use super::{bc_cross, SparseState};
+use crate::error::{Error, Result};
+use crate::kernel::{row_major, KernelParams};
+use crate::model::{Latent, SharedGplvm};
+use crate::objective::{decode_kernel, encode_kernel, Mode};
+use crate::params::{LatentParams, Params};
+use crate::pool::in_pool;
+use crate::simd::clear_upper_simd_state;
+use crate::train::Objective;
+
+/// Frames from which the spaces of one evaluation run on separate threads.
+const SPACES_IN_PARALLEL_FROM: usize = 2000;
+
+/// The sparse model's objective in `mode`.
+pub(crate) struct SparseObjective<'a> {
+    model: &'a SharedGplvm,
+    mode: Mode,
+    /// `K_bc(C, H)` (M_c×N) for input back constraints in full mode.
+    kcn: Option<Mat<f64>>,
+    /// Sum of the frozen spaces' objective (Kernels mode).
+    constant: f64,
+    /// Whether Z is part of θ.
+    train_z: bool,
+}
+
+fn state(model: &SharedGplvm) -> Result<&SparseState> {
+    model.sparse.as_ref().ok_or_else(|| Error::Corrupt {
+        reason: "the sparse objective of a model without inducing inputs".into(),
+    })
+}
+
+impl<'a> SparseObjective<'a> {
+    pub(crate) fn new(model: &'a SharedGplvm, mode: Mode) -> Result<Self> {
+        let st = state(model)?;
+        let kcn = match (&mode, &model.latent) {
+            (
+                Mode::Full,
+                Latent::Back {
+                    bandwidth, data, ..
+                },
+            ) => Some(bc_cross(
+                model.spaces[0].data.as_ref(),
+                data.as_ref(),
+                *bandwidth,
+            )),
+            _ => None,
+        };
+        let mut constant = 0.0;
+        if let Mode::Kernels(v) = &mode {
+            for (s, space) in model.spaces.iter().enumerate() {
+                if v.contains(&s) {
+                    continue;
+                }
+                constant += eval_sparse_space(
+                    &model.x_rows,
+                    &st.z_rows,
+                    model.q(),
+                    space.data.as_ref(),
+                    &space.kernel,
+                    RELATIVE_JITTER,
+                    false,
+                    None,
+                    None,
+                )
+                .map_err(|e| e.in_space(&space.name))?
+                .nll;
+            }
+        }
+        let train_z = matches!(mode, Mode::Full) && !model.config.fixed_inducing;
+        Ok(Self {
+            model,
+            mode,
+            kcn,
+            constant,
+            train_z,
+        })
+    }
+
+    pub(crate) fn evaluated(&self) -> Vec<usize> {
+        match &self.mode {
+            Mode::Full => (0..self.model.spaces.len()).collect(),
+            Mode::Kernels(v) => v.clone(),
+        }
+    }
+
+    fn latent_rows_count(&self) -> usize {
+        match &self.model.latent {
+            Latent::Free { x } => x.nrows(),
+            Latent::Back { weights, .. } => weights.nrows(),
+        }
+    }
+
+    fn latent_len(&self) -> usize {
+        match self.mode {
+            Mode::Full => self.latent_rows_count() * self.model.q(),
+            Mode::Kernels(_) => 0,
+        }
+    }
+
+    fn z_len(&self) -> usize {
+        if self.train_z {
+            self.model.sparse.as_ref().map_or(0, |s| s.m()) * self.model.q()
+        } else {
+            0
+        }
+    }
+
+    pub(crate) fn theta0(&self) -> Vec<f64> {
+        let m = self.model;
+        let mut t = Vec::new();
+        if let Mode::Full = self.mode {
+            let lat = match &m.latent {
+                Latent::Free { x } => x,
+                Latent::Back { weights, .. } => weights,
+            };
+            push_col_major(lat.as_ref(), &mut t);
+            if self.train_z {
+                if let Some(st) = &m.sparse {
+                    push_col_major(st.z.as_ref(), &mut t);
+                }
+            }
+        }
+        for s in self.evaluated() {
+            encode_kernel(&m.spaces[s].kernel, &mut t);
+        }
+        t
+    }
+
+    /// Writes `theta` into a copy of the model (no caches rebuilt).
+    pub(crate) fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
+        let q = target.q();
+        let (ll, zl) = (self.latent_len(), self.z_len());
+        if ll > 0 {
+            let r = ll / q;
+            let lat = Mat::from_fn(r, q, |i, j| theta[j * r + i]);
+            match &mut target.latent {
+                Latent::Free { x } => *x = lat,
+                Latent::Back { weights, .. } => *weights = lat,
+            }
+        }
+        if zl > 0 {
+            let m = zl / q;
+            let z = Mat::from_fn(m, q, |i, j| theta[ll + j * m + i]);
+            target.sparse = Some(SparseState::new(z));
+        }
+        let mut off = ll + zl;
+        for s in self.evaluated() {
+            target.spaces[s].kernel = decode_kernel(&theta[off..off + q + 2], q);
+            off += q + 2;
+        }
+    }
+
+    /// Objective and gradient; also returns ∂L/∂X (row-major, empty when frozen).
+    fn eval_full(&self, theta: &[f64], grad: &mut [f64]) -> Result<(f64, Vec<f64>)> {
+        let m = self.model;
+        let (n, q) = (m.n(), m.q());
+        let st = state(m)?;
+        let (ll, zl) = (self.latent_len(), self.z_len());
+        let owned_x = (ll > 0).then(|| self.latent_rows(&theta[..ll]));
+        let xr = owned_x.as_deref().unwrap_or(&m.x_rows);
+        let owned_z = (zl > 0).then(|| {
+            let mz = zl / q;
+            let mut r = vec![0.0; zl];
+            for j in 0..q {
+                for i in 0..mz {
+                    r[i * q + j] = theta[ll + j * mz + i];
+                }
+            }
+            r
+        });
+        let zr = owned_z.as_deref().unwrap_or(&st.z_rows);
+        let evaluated = self.evaluated();
+        let mut kernels = Vec::with_capacity(evaluated.len());
+        for (i, &s) in evaluated.iter().enumerate() {
+            let off = ll + zl + i * (q + 2);
+            let k = decode_kernel(&theta[off..off + q + 2], q);
+            if !k.is_valid() {
+                return Err(Error::InvalidValue {
+                    what: format!("kernel of '{}'", m.spaces[s].name),
+                    reason: "overflow".into(),
+                });
+            }
+            kernels.push(k);
+        }
+        let with_x = ll > 0;
+        let with_z = zl > 0;
+        let one = |(&s, k): (&usize, &KernelParams)| -> Result<(SparseEval, Vec<f64>, Vec<f64>)> {
+            let space = &m.spaces[s];
+            let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
+            let mut dz = vec![0.0; if with_z { zl } else { 0 }];
+            let e = eval_sparse_space(
+                xr,
+                zr,
+                q,
+                space.data.as_ref(),
+                k,
+                RELATIVE_JITTER,
+                true,
+                with_x.then_some(&mut dx[..]),
+                with_z.then_some(&mut dz[..]),
+            )
+            .map_err(|e| e.in_space(&space.name))?;
+            Ok((e, dx, dz))
+        };
+        let results: Vec<_> = if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM {
+            in_pool(|| {
+                evaluated
+                    .par_iter()
+                    .zip(kernels.par_iter())
+                    .map(one)
+                    .collect()
+            })
+        } else {
+            evaluated.iter().zip(kernels.iter()).map(one).collect()
+        };
+        let mut total = self.constant;
+        let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
+        let mut dz = vec![0.0; zl];
+        for (i, (r, k)) in results.into_iter().zip(&kernels).enumerate() {
+            let (e, dxs, dzs) = r?;
+            total += e.nll;
+            let off = ll + zl + i * (q + 2);
+            let g = &mut grad[off..off + q + 2];
+            g[0] = e.d_variance * k.variance;
+            for (t, l) in k.lengthscale.iter().enumerate() {
+                g[1 + t] = e.d_lengthscale[t] * l;
+            }
+            g[q + 1] = e.d_noise * k.noise;
+            dx.iter_mut().zip(&dxs).for_each(|(a, b)| *a += b);
+            dz.iter_mut().zip(&dzs).for_each(|(a, b)| *a += b);
+        }
+        if with_z {
+            let mz = zl / q;
+            for j in 0..q {
+                for i in 0..mz {
+                    grad[ll + j * mz + i] = dz[i * q + j];
+                }
+            }
+        }
+        if with_x {
+            let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
+            match &self.kcn {
+                Some(kcn) => {
+                    let r = kcn.nrows();
+                    let out = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], r, q);
+                    faer::linalg::matmul::matmul(
+                        out,
+                        Accum::Replace,
+                        kcn.as_ref(),
+                        dxm.as_ref(),
+                        1.0,
+                        Par::Seq,
+                    );
+                    clear_upper_simd_state();
+                }
+                None => {
+                    for j in 0..q {
+                        for i in 0..n {
+                            grad[j * n + i] = dxm[(i, j)];
+                        }
+                    }
+                }
+            }
+        }
+        Ok((total, dx))
+    }
+
+    /// Latent points row-major from the latent block of θ.
+    fn latent_rows(&self, block: &[f64]) -> Vec<f64> {
+        let q = self.model.q();
+        let r = block.len() / q;
+        let lat = MatRef::from_column_major_slice(block, r, q);
+        match &self.kcn {
+            Some(kcn) => {
+                let mut x = Mat::zeros(kcn.ncols(), q);
+                faer::linalg::matmul::matmul(
+                    x.as_mut(),
+                    Accum::Replace,
+                    kcn.transpose(),
+                    lat,
+                    1.0,
+                    Par::Seq,
+                );
+                clear_upper_simd_state();
+                row_major(x.as_ref())
+            }
+            None => row_major(lat),
+        }
+    }
+}
+
+fn push_col_major(m: MatRef<'_, f64>, out: &mut Vec<f64>) {
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            out.push(m[(i, j)]);
+        }
+    }
+}
+
+impl Objective for SparseObjective<'_> {
+    fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
+        self.eval_full(theta, grad).map(|(f, _)| f)
+    }
+}
+
+/// Repeated objective + gradient evaluation of a sparse model at its parameters (all spaces,
+/// latent block and inducing inputs): the work of one optimiser evaluation in a sparse fit.
+/// Meant for benchmarks and profiling.
+pub struct SparseEvaluator<'a> {
+    obj: SparseObjective<'a>,
+    theta: Vec<f64>,
+    grad: Vec<f64>,
+}
+
+impl SparseEvaluator<'_> {
+    /// Evaluates the objective and the gradient.
+    pub fn evaluate(&mut self) -> Result<f64> {
+        self.obj.eval(&self.theta, &mut self.grad)
+    }
+
+    /// Gradient of the last [`SparseEvaluator::evaluate`] (θ order: latent block, Z, kernels).
+    pub fn gradient(&self) -> &[f64] {
+        &self.grad
+    }
+}
+
+impl SharedGplvm {
+    /// A [`SparseEvaluator`] at the current parameters of a sparse model (error for an exact
+    /// one: use [`SharedGplvm::evaluator`]).
+    pub fn sparse_evaluator(&self) -> Result<SparseEvaluator<'_>> {
+        let obj = SparseObjective::new(self, Mode::Full)?;
+        let theta = obj.theta0();
+        let grad = vec![0.0; theta.len()];
+        Ok(SparseEvaluator { obj, theta, grad })
+    }
+
+    /// Inducing inputs Z (M×Q) of a sparse model; `None` for the exact model.
+    pub fn inducing_inputs(&self) -> Option<MatRef<'_, f64>> {
+        self.sparse.as_ref().map(|s| s.z.as_ref())
+    }
+
+    /// [`SharedGplvm::evaluate`] of a sparse model: the negative bound and its gradient in
+    /// natural units (the bandwidth entry is NaN: not computed for centres).
+    pub(crate) fn evaluate_sparse(&self) -> Result<(f64, Params)> {
+        let obj = SparseObjective::new(self, Mode::Full)?;
+        let theta = obj.theta0();
+        let mut g = vec![0.0; theta.len()];
+        let (f, _) = obj.eval_full(&theta, &mut g)?;
+        let q = self.q();
+        let (ll, zl) = (obj.latent_len(), obj.z_len());
+        let r = ll / q;
+        let lat_g = Mat::from_fn(r, q, |i, j| g[j * r + i]);
+        let latent = match &self.latent {
+            Latent::Free { .. } => LatentParams::Free { x: lat_g },
+            Latent::Back { .. } => LatentParams::BackConstrained {
+                weights: lat_g,
+                bandwidth: f64::NAN,
+            },
+        };
+        let mut spaces = Vec::new();
+        let mut off = ll + zl;
+        for s in &self.spaces {
+            let t = &g[off..off + q + 2];
+            spaces.push((
+                s.name.clone(),
+                KernelParams {
+                    variance: t[0] / s.kernel.variance,
+                    lengthscale: (0..q).map(|i| t[1 + i] / s.kernel.lengthscale[i]).collect(),
+                    noise: t[q + 1] / s.kernel.noise,
+                },
+            ));
+            off += q + 2;
+        }
+        Ok((f, Params { latent, spaces }))
+    }
+}

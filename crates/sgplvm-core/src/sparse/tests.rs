@@ -1,0 +1,183 @@
+use super::objective::SparseObjective;
+use super::*;
+use crate::objective::Mode;
+use crate::test_support::*;
+use crate::train::Objective;
+
+fn sparse_fit(bc: BackConstraint, n: usize, m: usize, iters: usize) -> SharedGplvm {
+    let (h, r1, _, _) = demo(n, 7);
+    let config = ModelConfig::default()
+        .with_latent_dim(2)
+        .with_back_constraint(bc)
+        .with_inducing(Some(m));
+    SharedGplvm::fit(
+        &config,
+        &[("human", h.as_ref()), ("walkman", r1.as_ref())],
+        "human",
+        &quick(iters),
+        None,
+    )
+    .expect("sparse fit")
+}
+
+#[test]
+fn the_objective_gradient_matches_central_differences_on_theta() {
+    // Every block of θ: latent (X or the centres' weights W), Z, every log kernel parameter.
+    let mut worst = 0.0f64;
+    for bc in [BackConstraint::None, BackConstraint::Input] {
+        let mut model = sparse_fit(bc, 40, 8, 5);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for s in &mut model.spaces {
+            s.kernel.noise = rng.random_range(0.05..0.3);
+            for l in &mut s.kernel.lengthscale {
+                *l = rng.random_range(0.5..2.0);
+            }
+        }
+        let obj = SparseObjective::new(&model, Mode::Full).expect("objective");
+        let theta = obj.theta0();
+        let mut g = vec![0.0; theta.len()];
+        obj.eval(&theta, &mut g).expect("eval");
+        let latent = if bc == BackConstraint::None {
+            40 * 2
+        } else {
+            8 * 2
+        };
+        assert_eq!(theta.len(), latent + 8 * 2 + 2 * 4, "θ layout");
+        let mut scratch = vec![0.0; theta.len()];
+        for i in 0..theta.len() {
+            let h = 1e-6 * theta[i].abs().max(1.0);
+            let (mut p, mut m) = (theta.clone(), theta.clone());
+            p[i] += h;
+            m[i] -= h;
+            let fd = (obj.eval(&p, &mut scratch).expect("eval")
+                - obj.eval(&m, &mut scratch).expect("eval"))
+                / (2.0 * h);
+            let err = (g[i] - fd).abs() / (1.0 + fd.abs());
+            worst = worst.max(err);
+            assert!(err < 1e-5, "{bc:?} θ[{i}]: analytic {} vs fd {fd}", g[i]);
+        }
+    }
+    // Measured below 1e-6; tolerance 1e-5.
+    assert!(worst < 1e-5, "{worst:e}");
+}
+
+#[test]
+fn with_every_frame_as_inducing_input_it_predicts_like_the_exact_model() {
+    // The exact model with input back constraints and its sparse twin with Z = X, M = N
+    // (centres = every frame, same W): Q_nn = K_nn, so the predictions agree up to the
+    // relative jitter 1e-6 on K_mm.
+    let exact = fit(BackConstraint::Input, 30, 20, 0);
+    let mut sparse = exact.clone();
+    sparse.config.inducing = Some(30);
+    sparse.sparse = Some(SparseState::new(exact.x.clone()));
+    sparse.rebuild().expect("rebuild");
+    let (h, _, _, _) = demo(45, 3);
+    let a = exact.predict(h.as_ref(), "walkman", true).expect("exact");
+    let b = sparse.predict(h.as_ref(), "walkman", true).expect("sparse");
+    let (va, vb) = (a.variance.expect("v"), b.variance.expect("v"));
+    let mut worst = 0.0f64;
+    for i in 0..45 {
+        for j in 0..4 {
+            worst = worst.max((a.mean[(i, j)] - b.mean[(i, j)]).abs());
+            worst = worst.max((va[(i, j)] - vb[(i, j)]).abs());
+        }
+    }
+    // Measured 1.8e-4, all from the relative jitter 1e-6 on K_mm (ill-conditioned at M = N):
+    // with 1e-13 it is below 1e-4. A wrong weight or variance matrix is off by O(1).
+    assert!(
+        worst < 1e-3,
+        "sparse vs exact prediction differ by {worst:e}"
+    );
+    // One frame at a time gives the batch path's mean.
+    let mut out = [0.0; 4];
+    for i in [0, 17, 44] {
+        let row: Vec<f64> = (0..6).map(|t| h[(i, t)]).collect();
+        sparse
+            .predict_frame(&row, "walkman", &mut out)
+            .expect("frame");
+        for j in 0..4 {
+            assert!((out[j] - b.mean[(i, j)]).abs() < 1e-12, "frame {i}");
+        }
+    }
+}
+
+#[test]
+fn sparse_training_fits_saves_and_transfers() {
+    for bc in [BackConstraint::Input, BackConstraint::None] {
+        let n = 150;
+        let model = sparse_fit(bc, n, 15, 60);
+        let hist = model.history();
+        assert!(hist.len() > 3 && hist.last().expect("h").objective < hist[0].objective);
+        let f = model.objective();
+        assert!((f - hist.last().expect("h").objective).abs() < 1e-9 * f.abs());
+        let z = model.inducing_inputs().expect("sparse").to_owned();
+        assert_eq!((z.nrows(), z.ncols()), (15, 2));
+        let (h, r1, r2, _) = demo(n, 7);
+        let p = model.predict(h.as_ref(), "walkman", true).expect("predict");
+        let mse: f64 = (0..n)
+            .flat_map(|i| (0..4).map(move |j| (i, j)))
+            .map(|(i, j)| (p.mean[(i, j)] - r1[(i, j)]).powi(2))
+            .sum::<f64>()
+            / (4 * n) as f64;
+        assert!(mse < 0.05, "{bc:?} training mse {mse}");
+        // Round trip: bit-identical predictions, Z kept.
+        let back = SharedGplvm::from_bytes(&model.to_bytes()).expect("load");
+        assert_eq!(back.predict(h.as_ref(), "walkman", true).expect("p"), p);
+        assert_eq!(back.inducing_inputs().expect("z").to_owned(), z);
+        // Transfer: X, Z, the latent block and the frozen kernels stay; the new kernel moves.
+        let t = model
+            .transfer("coman", r2.as_ref(), &quick(40), None)
+            .expect("transfer");
+        assert_eq!(t.inducing_inputs().expect("z").to_owned(), z);
+        assert_eq!(t.latent_points(), model.latent_points());
+        assert_eq!(t.params().latent, model.params().latent);
+        assert_eq!(t.kernel("human"), model.kernel("human"));
+        assert_eq!(t.kernel("walkman"), model.kernel("walkman"));
+        assert!(t.history().last().expect("h").objective < t.history()[0].objective);
+        let c = t.predict(h.as_ref(), "coman", false).expect("p");
+        let mse: f64 = (0..n)
+            .flat_map(|i| (0..4).map(move |j| (i, j)))
+            .map(|(i, j)| (c.mean[(i, j)] - r2[(i, j)]).powi(2))
+            .sum::<f64>()
+            / (4 * n) as f64;
+        assert!(mse < 0.05, "{bc:?} transfer training mse {mse}");
+    }
+}
+
+#[test]
+fn fixed_inducing_inputs_do_not_move_and_bad_counts_are_refused() {
+    let (h, r1, r2, _) = demo(60, 7);
+    let config = ModelConfig::default()
+        .with_latent_dim(2)
+        .with_inducing(Some(10))
+        .with_fixed_inducing(true);
+    let spaces = [
+        ("human", h.as_ref()),
+        ("walkman", r1.as_ref()),
+        ("coman", r2.as_ref()),
+    ];
+    let start = SharedGplvm::initial(&config, &spaces, "human").expect("initial");
+    let m = SharedGplvm::fit(&config, &spaces, "human", &quick(20), None).expect("multi-robot");
+    assert_eq!(m.inducing_inputs(), start.inducing_inputs());
+    assert_eq!(m.output_names(), vec!["walkman", "coman"]);
+    // Z starts at the initial latent points of spread frames.
+    let frames = spread(60, 10);
+    for (i, &f) in frames.iter().enumerate() {
+        for t in 0..2 {
+            assert_eq!(start.inducing_inputs().expect("z")[(i, t)], start.x[(f, t)]);
+        }
+    }
+    for (bad, what) in [
+        (config.clone().with_inducing(Some(61)), "at most 60"),
+        (config.clone().with_inducing(Some(0)), "at least 1"),
+        (
+            config.clone().with_back_constraint(BackConstraint::Output),
+            "none and input",
+        ),
+    ] {
+        let e = SharedGplvm::fit(&bad, &spaces, "human", &quick(2), None)
+            .expect_err("refused")
+            .to_string();
+        assert!(e.contains(what), "{e}");
+    }
+}
