@@ -925,6 +925,9 @@ fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
         assert!(stdout.contains(s(&path)), "{stdout}");
         assert!(path.exists(), "{model}");
     }
+}
+
+#[test]
 fn longer_sessions_and_the_sparse_model_on_every_frame() {
     // `--repetitions` makes longer sessions of the same protocol; `--inducing` trains the
     // sparse model on them, a transfer of it is sparse too, and both files say so.
