@@ -86,6 +86,7 @@ pub fn run(args: PredictArgs) -> Result<()> {
         times_ns: human.times_ns.clone(),
     };
     if scene {
+        mcap_times(&predicted.times_ns, &args.input, &args.out)?;
         let latent = model.latent(human.frames.as_ref())?;
         let human_rows = rows(&human.frames, |v| v);
         let latent_rows = rows(&latent, |v| v);
@@ -115,16 +116,22 @@ pub fn run(args: PredictArgs) -> Result<()> {
     }
 }
 
-/// Writes the prediction as JointState messages on /ROBOT/joint_command (and _std).
-fn write_mcap(p: &Predicted, robot: &str, joints: &[String], input: &str, out: &str) -> Result<()> {
-    if let Some(i) = p.times_ns.iter().position(|t| *t < 0) {
+/// Refuses times an MCAP file cannot hold (negative), naming the output, the input and the frame.
+fn mcap_times(times_ns: &[i64], input: &str, out: &str) -> Result<()> {
+    if let Some(i) = times_ns.iter().position(|t| *t < 0) {
         bail!(
             "{out}: frame {} of {input} has the negative time {} s; an MCAP output needs times \
              ≥ 0 (shift the input's times, or write CSV)",
             i + 1,
-            p.times_ns[i] as f64 * 1e-9
+            times_ns[i] as f64 * 1e-9
         );
     }
+    Ok(())
+}
+
+/// Writes the prediction as JointState messages on /ROBOT/joint_command (and _std).
+fn write_mcap(p: &Predicted, robot: &str, joints: &[String], input: &str, out: &str) -> Result<()> {
+    mcap_times(&p.times_ns, input, out)?;
     let states =
         |values: &Vec<f64>| JointStates::new(p.times_ns.clone(), joints.to_vec(), values.clone());
     let command = states(&p.mean)?;
