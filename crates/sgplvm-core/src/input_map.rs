@@ -18,13 +18,26 @@ pub(crate) struct InputMap {
 }
 
 impl SharedGplvm {
-    /// Fits the GP regression human → latent (targets: X minus its mean) within `limits`.
+    /// Fits the GP regression human → latent (targets: X minus its mean) within `limits` and
+    /// stores it.
     pub(crate) fn fit_map(
         &mut self,
         options: &TrainOptions,
         limits: &Limits,
         warm: Option<KernelParams>,
     ) -> Result<()> {
+        self.map = Some(self.fitted_map(options, limits, warm)?);
+        self.map_stale = false;
+        Ok(())
+    }
+
+    /// The GP regression human → latent at the current latent points (see [`Self::fit_map`]).
+    pub(crate) fn fitted_map(
+        &self,
+        options: &TrainOptions,
+        limits: &Limits,
+        warm: Option<KernelParams>,
+    ) -> Result<InputMap> {
         let h = self.spaces[0].data.as_ref();
         let (n, dh, q) = (self.n(), h.ncols(), self.q());
         let x_mean: Vec<f64> = (0..q)
@@ -42,7 +55,6 @@ impl SharedGplvm {
         let kernel = fit_kernel(h, y.as_ref(), start, &opts, limits, "input map", |_, _| {
             Control::Continue
         })?;
-        self.map = Some(InputMap { kernel, x_mean });
-        Ok(())
+        Ok(InputMap { kernel, x_mean })
     }
 }
