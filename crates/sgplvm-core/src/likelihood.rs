@@ -521,6 +521,27 @@ mod tests {
                 MemStack::new(&mut w.mem),
             );
         });
+        time("  of which L^-1", &mut |w| {
+            faer::linalg::triangular_inverse::invert_lower_triangular(
+                w.g.as_mut(),
+                w.l.as_ref(),
+                Par::Seq,
+            );
+        });
+        let mut prod = Mat::<f64>::zeros(n, n);
+        time("  of which L^-T L^-1", &mut |w| {
+            faer::linalg::matmul::triangular::matmul(
+                prod.as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Replace,
+                w.g.transpose(),
+                BlockStructure::TriangularUpper,
+                w.g.as_ref(),
+                BlockStructure::TriangularLower,
+                1.0,
+                Par::Seq,
+            );
+        });
         time("weigh_by_kernel (inv+AAt+o)", &mut |w| {
             weigh_by_kernel(w, d, Par::Seq);
         });

@@ -6,6 +6,7 @@ use std::sync::{Mutex, OnceLock};
 
 use faer::{Mat, MatRef};
 
+use crate::back_constraint::BcCache;
 use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
@@ -105,6 +106,9 @@ pub struct SharedGplvm {
     /// prediction after `set_params` (an optimiser driving the model through `set_params`
     /// and `gradient` never pays for them).
     pub(crate) prepared: OnceLock<Prepared>,
+    /// The back-constraint matrices (empty for free latent points; reset when the bandwidth
+    /// changes).
+    pub(crate) bc: BcCache,
     /// Evaluation buffers kept between calls of [`SharedGplvm::evaluate`] (fresh N×N buffers
     /// cost more than the evaluation itself: page faults on every call).
     pub(crate) workspace: Workspace,
@@ -170,6 +174,7 @@ impl SharedGplvm {
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),
             prepared: OnceLock::new(),
+            bc: BcCache::default(),
             workspace: Workspace::default(),
         }
     }

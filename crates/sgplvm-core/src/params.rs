@@ -126,10 +126,21 @@ impl SharedGplvm {
                 reason: format!("expected each of {known:?} once"),
             });
         }
-        if let (Latent::Back { data: new_data, .. }, Latent::Back { data, .. }) =
-            (&mut latent, &mut self.latent)
+        if let (
+            Latent::Back {
+                data: new_data,
+                bandwidth: new_bw,
+                ..
+            },
+            Latent::Back {
+                data, bandwidth, ..
+            },
+        ) = (&mut latent, &mut self.latent)
         {
             std::mem::swap(new_data, data);
+            if new_bw.to_bits() != bandwidth.to_bits() {
+                self.bc = Default::default();
+            }
         }
         self.latent = latent;
         for (s, k) in self.spaces.iter_mut().zip(kernels.into_iter().flatten()) {
@@ -164,6 +175,7 @@ impl SharedGplvm {
             x: self.x.clone(),
             x_rows: self.x_rows.clone(),
             prepared: OnceLock::new(),
+            bc: self.bc.clone(),
             workspace: Workspace::default(),
         };
         if self.map_stale {
