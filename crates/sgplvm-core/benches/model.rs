@@ -1,6 +1,6 @@
 //! Criterion benches of the core: one objective+gradient evaluation (human 18-D + robot 14-D,
 //! Q = 5) at N = 300 and 1000, the Cholesky + inverse floor of the same matrices, one-frame
-//! prediction and batch prediction.
+//! prediction and batch prediction, and `set_params` + `evaluate` against `evaluate` alone.
 //!
 //! Run: `cargo bench -p sgplvm-core --bench model`
 
@@ -95,6 +95,27 @@ fn bench_eval(c: &mut Criterion) {
     g.finish();
 }
 
+/// A user's own optimiser driving the model: `set_params` then `evaluate` (objective and
+/// gradient in natural units), against `evaluate` alone (issue 18: within 1.3×).
+fn bench_set_params(c: &mut Criterion) {
+    let mut g = c.benchmark_group("set_params");
+    g.sample_size(20);
+    for bc in [BackConstraint::None, BackConstraint::Input] {
+        let mut m = model(300, bc);
+        let p = m.params();
+        g.bench_function(format!("evaluate N=300 {bc:?}"), |b| {
+            b.iter(|| black_box(m.evaluate().expect("evaluates")))
+        });
+        g.bench_function(format!("set_params+evaluate N=300 {bc:?}"), |b| {
+            b.iter(|| {
+                m.set_params(&p).expect("valid");
+                black_box(m.evaluate().expect("evaluates"))
+            })
+        });
+    }
+    g.finish();
+}
+
 fn bench_predict(c: &mut Criterion) {
     let mut g = c.benchmark_group("prediction");
     let n = 300;
@@ -122,5 +143,5 @@ fn bench_predict(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_eval, bench_predict);
+criterion_group!(benches, bench_eval, bench_set_params, bench_predict);
 criterion_main!(benches);

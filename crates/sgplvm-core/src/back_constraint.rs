@@ -4,6 +4,8 @@
 //! the median pairwise distance of D (not trained); W starts at `(K_bc + λI)⁻¹ X_init` and
 //! is trained through `∂L/∂W = K_bcᵀ ∂L/∂X`.
 
+use std::sync::{Arc, OnceLock};
+
 use faer::dyn_stack::MemStack;
 use faer::linalg::cholesky::llt;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
@@ -78,43 +80,83 @@ pub(crate) fn weights_gradient(
     faer::linalg::matmul::matmul(out, Accum::Replace, kbc.transpose(), latent_grad, 1.0, par);
 }
 
-/// `∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³`, with `K_ij = exp(−d²_ij / 2bw²)` the
-/// back-constraint kernel and `d_ij` the distance between rows i and j of the constrained
-/// data. Reported with the gradient; the bandwidth itself is not trained.
+/// `∂L/∂bw = Σ_ij (∂L/∂X Wᵀ)_ij K_ij d²_ij / bw³ = Σ_it (∂L/∂X)_it ((K∘D²) W)_it / bw³`,
+/// with `K_ij = exp(−d²_ij / 2bw²)` the back-constraint kernel, `d_ij` the distance between
+/// rows i and j of the constrained data and `K∘D²` (symmetric, `kd2`) from [`BcCache`].
+/// Reported with the gradient; the bandwidth itself is not trained.
 pub(crate) fn bandwidth_gradient(
     latent_grad: MatRef<'_, f64>,
     weights: MatRef<'_, f64>,
-    kbc: MatRef<'_, f64>,
-    data: MatRef<'_, f64>,
+    kd2: MatRef<'_, f64>,
     bandwidth: f64,
 ) -> f64 {
     let n = weights.nrows();
-    let mut a = Mat::zeros(n, n);
-    faer::linalg::matmul::matmul(
-        a.as_mut(),
-        Accum::Replace,
-        latent_grad,
-        weights.transpose(),
-        1.0,
-        par_for(n),
-    );
-    let c = data.ncols();
-    let mut d2 = Mat::zeros(n, n);
-    map_sqdist_lower(
-        &row_major(data),
-        c,
-        &vec![1.0; c],
-        &mut d2,
-        #[inline(always)]
-        |v| v,
-    );
+    let kw = latent_points(kd2, weights, par_for(n));
     let mut db = 0.0;
-    for j in 0..n {
-        for i in j + 1..n {
-            db += (a[(i, j)] + a[(j, i)]) * kbc[(i, j)] * d2[(i, j)];
+    for t in 0..weights.ncols() {
+        for i in 0..n {
+            db += latent_grad[(i, t)] * kw[(i, t)];
         }
     }
     db / bandwidth.powi(3)
+}
+
+/// The back-constraint matrices of a model, built on first use and kept (they depend only on
+/// the constrained data and the bandwidth): `K_bc` for the latent points and their gradient,
+/// `K_bc ∘ D²` for the bandwidth's gradient. A model's clone shares them. Each is kept with
+/// the bandwidth it was built for: asked for another one (a bandwidth changed without
+/// resetting the cache), it is computed afresh and not kept. The data must not change.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct BcCache {
+    kbc: OnceLock<(u64, Arc<Mat<f64>>)>,
+    kd2: OnceLock<(u64, Arc<Mat<f64>>)>,
+}
+
+/// The kept matrix if it was built for `bandwidth`, else `build()` (kept if nothing was).
+fn cached(
+    cell: &OnceLock<(u64, Arc<Mat<f64>>)>,
+    bandwidth: f64,
+    build: impl FnOnce() -> Mat<f64>,
+) -> Arc<Mat<f64>> {
+    let bits = bandwidth.to_bits();
+    match cell.get() {
+        Some((b, m)) if *b == bits => Arc::clone(m),
+        Some(_) => Arc::new(build()),
+        None => Arc::clone(&cell.get_or_init(|| (bits, Arc::new(build()))).1),
+    }
+}
+
+impl BcCache {
+    /// `K_bc` of `data` at `bandwidth`.
+    pub(crate) fn kbc(&self, data: MatRef<'_, f64>, bandwidth: f64) -> Arc<Mat<f64>> {
+        cached(&self.kbc, bandwidth, || bc_kernel(data, bandwidth))
+    }
+
+    /// `K_bc ∘ D²` (full, symmetric), see [`bandwidth_gradient`].
+    pub(crate) fn kd2(&self, data: MatRef<'_, f64>, bandwidth: f64) -> Arc<Mat<f64>> {
+        let kbc = self.kbc(data, bandwidth);
+        cached(&self.kd2, bandwidth, || {
+            let (n, c) = (data.nrows(), data.ncols());
+            let mut d2 = Mat::zeros(n, n);
+            map_sqdist_lower(
+                &row_major(data),
+                c,
+                &vec![1.0; c],
+                &mut d2,
+                #[inline(always)]
+                |v| v,
+            );
+            for j in 0..n {
+                for i in j..n {
+                    d2[(i, j)] *= kbc[(i, j)];
+                }
+                for i in 0..j {
+                    d2[(i, j)] = d2[(j, i)];
+                }
+            }
+            d2
+        })
+    }
 }
 
 /// Median of the pairwise Euclidean distances between the rows of `m` (zero distances

@@ -3,7 +3,7 @@
 
 use faer::MatRef;
 
-use crate::back_constraint::{bc_kernel, initial_latent, latent_points};
+use crate::back_constraint::{initial_latent, latent_points};
 use crate::config::{BackConstraint, ModelConfig};
 use crate::error::Result;
 use crate::init::initial_latent_points;
@@ -80,7 +80,7 @@ impl SharedGplvm {
                 bandwidth,
                 data,
             } => latent_points(
-                bc_kernel(data.as_ref(), *bandwidth).as_ref(),
+                self.bc.kbc(data.as_ref(), *bandwidth).as_ref().as_ref(),
                 weights.as_ref(),
                 par_for(weights.nrows()),
             ),

@@ -18,13 +18,26 @@ pub(crate) struct InputMap {
 }
 
 impl SharedGplvm {
-    /// Fits the GP regression human → latent (targets: X minus its mean) within `limits`.
+    /// Fits the GP regression human → latent (targets: X minus its mean) within `limits` and
+    /// stores it.
     pub(crate) fn fit_map(
         &mut self,
         options: &TrainOptions,
         limits: &Limits,
         warm: Option<KernelParams>,
     ) -> Result<()> {
+        self.map = Some(self.fitted_map(options, limits, warm)?);
+        self.map_stale = false;
+        Ok(())
+    }
+
+    /// The GP regression human → latent at the current latent points (see [`Self::fit_map`]).
+    pub(crate) fn fitted_map(
+        &self,
+        options: &TrainOptions,
+        limits: &Limits,
+        warm: Option<KernelParams>,
+    ) -> Result<InputMap> {
         // Every training frame, or a sparse model's spread subset of them.
         let (h, x) = self.map_pairs();
         let h = h.as_ref();
@@ -44,7 +57,6 @@ impl SharedGplvm {
         let kernel = fit_kernel(h, y.as_ref(), start, &opts, limits, "input map", |_, _| {
             Control::Continue
         })?;
-        self.map = Some(InputMap { kernel, x_mean });
-        Ok(())
+        Ok(InputMap { kernel, x_mean })
     }
 }

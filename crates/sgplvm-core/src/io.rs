@@ -297,7 +297,13 @@ impl SharedGplvm {
                     data: MatData::from(data),
                 },
             },
-            map: self.map.as_ref().map(|m| MapFile {
+            // After `set_params`, the refitted map (the stored one if that refit fails, when
+            // the model cannot predict either).
+            map: match self.current_map() {
+                Ok(m) => m,
+                Err(_) => self.map.as_ref(),
+            }
+            .map(|m| MapFile {
                 kernel: m.kernel.clone(),
                 x_mean: m.x_mean.clone(),
             }),

@@ -53,7 +53,20 @@ pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat
         &kern.lengthscale,
         out,
         #[inline(always)]
-        |d2| var * exp_neg(-0.5 * d2),
+        |d2| d2,
+    );
+    // The exp in a pass of its own: inlined into the distance loop above it was not
+    // vectorised (LLVM kept it scalar; 270 against 90 µs at N = 300).
+    let n = out.nrows();
+    vectorized(
+        #[inline(always)]
+        || {
+            for j in 0..n {
+                for v in &mut out.col_as_slice_mut(j)[j..] {
+                    *v = var * exp_neg(-0.5 * *v);
+                }
+            }
+        },
     );
 }
 

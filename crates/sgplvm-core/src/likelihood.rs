@@ -453,6 +453,103 @@ mod tests {
         assert!(err < 2e-15, "L·Lᵀ off by {err:e}");
     }
 
+    /// Per-step times of one space's evaluation (profiling aid, no assertion):
+    /// `cargo test --release -p sgplvm-core --lib step_times -- --ignored --nocapture`
+    /// (`STEP_N=1000` for another size). The fastest of 20 runs of each step, on the buffers
+    /// the evaluation uses (Q = 5, D = 18).
+    #[test]
+    #[ignore = "profiling aid: prints times"]
+    fn step_times() {
+        use std::time::Instant;
+        let n: usize = std::env::var("STEP_N")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(300);
+        let (q, d, reps) = (5, 18, 20);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let x = Mat::from_fn(n, q, |i, t| {
+            (i as f64 * 0.01 * (t + 1) as f64).sin() + 0.01 * rng.random_range(-1.0..1.0)
+        });
+        let y = random(n, d, &mut rng);
+        let k = KernelParams {
+            variance: 1.0,
+            lengthscale: vec![1.0; q],
+            noise: 0.01,
+        };
+        let xr = row_major(x.as_ref());
+        let mut w = SpaceWork::new(n, d);
+        let mut dx = vec![0.0; n * q];
+        let mut time = |what: &str, f: &mut dyn FnMut(&mut SpaceWork)| {
+            f(&mut w);
+            let mut best = f64::INFINITY;
+            for _ in 0..reps {
+                let t = Instant::now();
+                f(&mut w);
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            println!("{what:<28} {:>9.1} us (fastest of {reps})", best * 1e6);
+        };
+        time("whole eval_space", &mut |w| {
+            eval_space(&xr, q, y.as_ref(), &k, w, true, Some(&mut dx)).expect("pd");
+        });
+        time("rbf_lower", &mut |w| rbf_lower(&xr, q, &k, &mut w.kf));
+        let mut tri = vec![-0.3; n * (n + 1) / 2];
+        time("exp_neg_slice, N(N+1)/2", &mut |_| {
+            tri.iter_mut().for_each(|v| *v = -0.3);
+            crate::simd::exp_neg_slice(&mut tri);
+        });
+        time("squared distances only", &mut |w| {
+            crate::kernel::map_sqdist_lower(&xr, q, &k.lengthscale, &mut w.g, |v| v)
+        });
+        time("cholesky_with_jitter", &mut |w| {
+            cholesky_with_jitter(w.kf.as_ref(), k.noise, w.l.as_mut(), Par::Seq).expect("pd");
+        });
+        time("solve (A = K^-1 Y)", &mut |w| {
+            w.a.copy_from(&y);
+            llt::solve::solve_in_place(
+                w.l.as_ref(),
+                w.a.as_mut(),
+                Par::Seq,
+                MemStack::new(&mut []),
+            );
+        });
+        time("inverse from factor", &mut |w| {
+            llt::inverse::inverse(
+                w.g.as_mut(),
+                w.l.as_ref(),
+                Par::Seq,
+                MemStack::new(&mut w.mem),
+            );
+        });
+        time("  of which L^-1", &mut |w| {
+            faer::linalg::triangular_inverse::invert_lower_triangular(
+                w.g.as_mut(),
+                w.l.as_ref(),
+                Par::Seq,
+            );
+        });
+        let mut prod = Mat::<f64>::zeros(n, n);
+        time("  of which L^-T L^-1", &mut |w| {
+            faer::linalg::matmul::triangular::matmul(
+                prod.as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Replace,
+                w.g.transpose(),
+                BlockStructure::TriangularUpper,
+                w.g.as_ref(),
+                BlockStructure::TriangularLower,
+                1.0,
+                Par::Seq,
+            );
+        });
+        time("weigh_by_kernel (inv+AAt+o)", &mut |w| {
+            weigh_by_kernel(w, d, Par::Seq);
+        });
+        time("pair_sums", &mut |w| {
+            pair_sums(&w.g, &xr, q, &k, Some(&mut dx), Par::Seq);
+        });
+    }
+
     #[test]
     fn jitter_rescues_singular_matrix() {
         // Duplicate points and zero noise: K is singular, jitter must make it factorisable.

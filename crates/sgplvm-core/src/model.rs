@@ -2,17 +2,18 @@
 //! prediction caches) and its read-only accessors. Training lives in `fit` and `transfer`,
 //! prediction in `predict`, parameters in `params`, files in `io`.
 
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 use faer::{Mat, MatRef};
 
+use crate::back_constraint::BcCache;
 use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
 use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
 use crate::pool::lock;
-use crate::predict::{LatentCache, SpaceCache};
+use crate::predict::Prepared;
 use crate::train::{Control, IterationRecord, StopReason};
 use crate::validation::Selection;
 
@@ -97,13 +98,19 @@ pub struct SharedGplvm {
     pub(crate) selection: Option<Selection>,
     /// Inducing inputs and caches of the sparse model (`None`: the exact model).
     pub(crate) sparse: Option<crate::sparse::SparseState>,
-    // ----- derived, recomputed by `rebuild` -----
-    /// Largest jitter the prediction caches' factorisations needed.
-    pub(crate) training_jitter: f64,
+    /// True after `set_params` until the input map is refitted to the new latent points: the
+    /// refitted map then lives in `prepared` (the stored one is only its warm start).
+    pub(crate) map_stale: bool,
+    // ----- derived -----
     pub(crate) x: Mat<f64>,
     pub(crate) x_rows: Vec<f64>,
-    pub(crate) caches: Vec<SpaceCache>,
-    pub(crate) latent_cache: Option<LatentCache>,
+    /// Prediction caches, built by `rebuild` (after training, on load) or on the first
+    /// prediction after `set_params` (an optimiser driving the model through `set_params`
+    /// and `gradient` never pays for them).
+    pub(crate) prepared: OnceLock<Prepared>,
+    /// The back-constraint matrices (empty for free latent points; reset when the bandwidth
+    /// changes).
+    pub(crate) bc: BcCache,
     /// Evaluation buffers kept between calls of [`SharedGplvm::evaluate`] (fresh N×N buffers
     /// cost more than the evaluation itself: page faults on every call).
     pub(crate) workspace: Workspace,
@@ -122,6 +129,11 @@ impl Workspace {
         } else {
             dims.iter().map(|&d| SpaceWork::new(n, d)).collect()
         }
+    }
+
+    /// Every kept buffer, leaving none.
+    pub(crate) fn take_all(&self) -> Vec<SpaceWork> {
+        std::mem::take(&mut *lock(&self.0))
     }
 
     /// Keeps `works` for the next evaluation.
@@ -161,11 +173,11 @@ impl SharedGplvm {
             stop_reason: None,
             selection: None,
             sparse: None,
-            training_jitter: 0.0,
+            map_stale: false,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),
-            caches: Vec::new(),
-            latent_cache: None,
+            prepared: OnceLock::new(),
+            bc: BcCache::default(),
             workspace: Workspace::default(),
         }
     }
@@ -227,8 +239,10 @@ impl SharedGplvm {
     }
 
     /// Largest diagonal jitter the final kernel matrices needed (0 when none).
+    /// NaN when a kernel matrix cannot be factorised (after `set_params`; see
+    /// [`SharedGplvm::predict`] for the error).
     pub fn jitter(&self) -> f64 {
-        self.training_jitter
+        self.prepared().map_or(f64::NAN, |p| p.training_jitter)
     }
 
     /// The configuration the model was built with.
@@ -252,7 +266,10 @@ impl SharedGplvm {
     /// Hyperparameters of the human → latent GP regression (models without input back
     /// constraints), with the latent mean it adds back.
     pub fn input_map(&self) -> Option<(&KernelParams, &[f64])> {
-        self.map.as_ref().map(|m| (&m.kernel, m.x_mean.as_slice()))
+        self.current_map()
+            .ok()
+            .flatten()
+            .map(|m| (&m.kernel, m.x_mean.as_slice()))
     }
 
     /// Column (joint) names of a space, if set.

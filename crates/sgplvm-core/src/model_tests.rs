@@ -218,9 +218,15 @@ fn jitter_is_reported_when_the_factors_needed_it_and_only_then() {
     assert!(jitter > 0.0, "no jitter reported");
     // jitter() is the largest jitter of the caches, and each cache's factor is that of
     // K + (noise + its jitter) I (measured ≤ 2e-16 relative).
-    let used: Vec<f64> = m.caches.iter().map(|c| c.jitter).collect();
+    let used: Vec<f64> = m
+        .prepared()
+        .expect("caches")
+        .caches
+        .iter()
+        .map(|c| c.jitter)
+        .collect();
     assert_eq!(jitter, used.iter().copied().fold(0.0, f64::max));
-    for (s, c) in m.caches.iter().enumerate() {
+    for (s, c) in m.prepared().expect("caches").caches.iter().enumerate() {
         // The factorisation the caches are built from (`SpaceCache::new`), redone.
         let space = &m.spaces[s];
         let mut work = crate::likelihood::SpaceWork::new(m.n(), space.data.ncols());
@@ -260,16 +266,37 @@ fn a_kernel_that_cannot_be_factorised_is_a_typed_error_from_every_path() {
     // A finite, valid variance whose K cannot be factorised (the diagonal's sum overflows).
     let mut p = m.params();
     p.spaces[1].1.variance = 1e308;
+    // set_params takes them (it factorises nothing); every use reports the failure.
     let mut broken = m.clone();
-    not_pd(broken.set_params(&p).map(|()| m.clone()), "walkman");
-    assert!(
-        broken.to_bytes() == m.to_bytes(),
-        "a failed set_params changed the model"
+    broken.set_params(&p).expect("checked when used");
+    not_pd(broken.evaluate().map(|_| m.clone()), "walkman");
+    assert!(broken.objective().is_nan());
+    not_pd(
+        broken
+            .predict(h.as_ref(), "walkman", false)
+            .map(|_| m.clone()),
+        "walkman",
     );
-    // The same parameters in a model file: loading fails the same way.
+    let mut out = [0.0; 4];
+    let row: Vec<f64> = (0..6).map(|j| h[(0, j)]).collect();
+    not_pd(
+        broken
+            .predict_frame(&row, "walkman", &mut out)
+            .map(|()| m.clone()),
+        "walkman",
+    );
+    not_pd(broken.latent(h.as_ref()).map(|_| m.clone()), "walkman");
+    assert!(broken.jitter().is_nan());
+    // The same parameters in a model file: refused on load, before any factorisation, as a
+    // kernel no training on standardised data produces.
     let mut raw = m.clone();
     raw.spaces[1].kernel.variance = 1e308;
-    not_pd(SharedGplvm::from_bytes(&raw.to_bytes()), "walkman");
+    match SharedGplvm::from_bytes(&raw.to_bytes()) {
+        Err(Error::Corrupt { reason }) => {
+            assert!(reason.contains("'walkman': invalid kernel"), "{reason}")
+        }
+        other => panic!("expected an invalid kernel, got {other:?}"),
+    }
     // Transfer: the new robot trains, then the final rebuild factorises every space.
     let mut source = m.clone();
     source.spaces[0].kernel.variance = 1e308;

@@ -4,12 +4,12 @@
 //! space log α², log ℓ_q, log σ². In transfer (`Mode::Kernels`) only the new robot's kernel
 //! moves and the frozen spaces add a constant.
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
-use crate::back_constraint::{bandwidth_gradient, bc_kernel, latent_points, weights_gradient};
+use crate::back_constraint::{bandwidth_gradient, latent_points, weights_gradient};
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
@@ -59,7 +59,7 @@ pub(crate) struct ModelObjective<'a> {
     model: &'a SharedGplvm,
     mode: Mode,
     /// K_bc for back-constrained models in full mode.
-    kbc: Option<Mat<f64>>,
+    kbc: Option<Arc<Mat<f64>>>,
     /// Sum of the frozen spaces' objective (Kernels mode).
     constant: f64,
     /// Latent points row-major (Kernels mode).
@@ -87,7 +87,7 @@ impl<'a> ModelObjective<'a> {
                 Latent::Back {
                     data, bandwidth, ..
                 },
-            ) => Some(bc_kernel(data.as_ref(), *bandwidth)),
+            ) => Some(model.bc.kbc(data.as_ref(), *bandwidth)),
             _ => None,
         };
         let mut constant = 0.0;
@@ -222,7 +222,7 @@ impl ModelObjective<'_> {
         let (n, q) = (self.model.n(), self.model.q());
         let lat = MatRef::from_column_major_slice(block, n, q);
         let x = match &self.kbc {
-            Some(k) => latent_points(k.as_ref(), lat, par_for(n)),
+            Some(k) => latent_points(k.as_ref().as_ref(), lat, par_for(n)),
             None => lat.to_owned(),
         };
         clear_upper_simd_state();
@@ -291,7 +291,7 @@ impl ModelObjective<'_> {
         match &self.kbc {
             Some(k) => {
                 let gm = faer::MatMut::from_column_major_slice_mut(out, n, q);
-                weights_gradient(k.as_ref(), dxm.as_ref(), gm, par_for(n));
+                weights_gradient(k.as_ref().as_ref(), dxm.as_ref(), gm, par_for(n));
                 *lock(&self.latent_grad) = Some(dxm);
             }
             None => {
@@ -326,14 +326,14 @@ impl SharedGplvm {
                 bandwidth,
                 data,
             } => {
-                let (Some(dx), Some(k)) = (lock(&obj.latent_grad).take(), &obj.kbc) else {
-                    unreachable!("a full evaluation of a back-constrained model sets both");
+                let Some(dx) = lock(&obj.latent_grad).take() else {
+                    unreachable!("a full evaluation of a back-constrained model sets it");
                 };
+                let kd2 = self.bc.kd2(data.as_ref(), *bandwidth);
                 let db = bandwidth_gradient(
                     dx.as_ref(),
                     weights.as_ref(),
-                    k.as_ref(),
-                    data.as_ref(),
+                    kd2.as_ref().as_ref(),
                     *bandwidth,
                 );
                 LatentParams::BackConstrained {

@@ -1,11 +1,13 @@
 //! The model's parameters in natural units, as users read and set them: the latent block
 //! (X, or W and the bandwidth) and each space's kernel. The same structure carries gradients.
 
+use std::sync::OnceLock;
+
 use faer::Mat;
 
 use crate::error::{Error, Result};
 use crate::kernel::KernelParams;
-use crate::model::{Latent, SharedGplvm};
+use crate::model::{Latent, SharedGplvm, Workspace};
 use crate::preprocess::check_shape;
 use crate::train::{Limits, TrainOptions};
 
@@ -58,24 +60,46 @@ impl SharedGplvm {
     }
 
     /// Replaces the parameters (same structure as [`SharedGplvm::params`]; spaces are matched by
-    /// name and must all be given) and recomputes the caches. For models with a GP regression
-    /// human → latent the regression is refitted (warm-started, default options).
+    /// name and must all be given; on an error nothing changes). The prediction caches are
+    /// rebuilt on the first prediction that needs them, and for models with a GP regression
+    /// human → latent the regression is then refitted (warm-started, default options): an
+    /// optimiser that drives the model through `set_params` and [`SharedGplvm::evaluate`]
+    /// pays only for the evaluations. A kernel matrix that cannot be factorised is reported
+    /// by `evaluate` and by that prediction. A sparse model's caches (M×M, M×D) are rebuilt at
+    /// once, as after training, and their errors reported here.
     pub fn set_params(&mut self, p: &Params) -> Result<()> {
-        let (n, q) = (self.n(), self.q());
+        if self.sparse.is_none() {
+            return self.replace_params(p);
+        }
         let mut next = self.clone();
-        match (&mut next.latent, &p.latent) {
-            (Latent::Free { x }, LatentParams::Free { x: nx }) => {
+        next.replace_params(p)?;
+        if next.map_stale {
+            let warm = next.map.as_ref().map(|m| m.kernel.clone());
+            next.fit_map(&TrainOptions::default(), &Limits::default(), warm)?;
+        }
+        next.rebuild()?;
+        *self = next;
+        Ok(())
+    }
+
+    /// [`SharedGplvm::set_params`] of the exact model: checks, then replaces the parameters and
+    /// leaves the prediction caches to be built on first use.
+    fn replace_params(&mut self, p: &Params) -> Result<()> {
+        let (n, q) = (self.n(), self.q());
+        // Everything is checked on copies of the small parts before the model changes; the
+        // model itself (its data and evaluation buffers) is not copied.
+        let mut latent = match (&self.latent, &p.latent) {
+            (Latent::Free { .. }, LatentParams::Free { x: nx }) => {
                 check_shape("latent x", nx.as_ref(), n, q)?;
-                *x = nx.clone();
+                Latent::Free { x: nx.clone() }
             }
-            (Latent::Back { weights, bandwidth, .. }, LatentParams::BackConstrained { weights: nw, bandwidth: nb }) => {
+            (Latent::Back { weights, .. }, LatentParams::BackConstrained { weights: nw, bandwidth: nb }) => {
                 // N rows, or a sparse model's M_c centres.
                 check_shape("latent weights", nw.as_ref(), weights.nrows(), q)?;
                 if !(nb.is_finite() && *nb > 0.0) {
                     return Err(Error::InvalidValue { what: "bandwidth".into(), reason: format!("{nb}; expected a finite number > 0") });
                 }
-                *weights = nw.clone();
-                *bandwidth = *nb;
+                Latent::Back { weights: nw.clone(), bandwidth: *nb, data: Mat::zeros(0, 0) }
             }
             _ => {
                 return Err(Error::InvalidValue {
@@ -83,17 +107,18 @@ impl SharedGplvm {
                     reason: "kind does not match the model's back constraint (Free for None, BackConstrained otherwise)".into(),
                 })
             }
-        }
-        if p.spaces.len() != next.spaces.len() {
+        };
+        if p.spaces.len() != self.spaces.len() {
             return Err(Error::DimensionMismatch {
                 what: "params.spaces".into(),
-                expected: next.spaces.len(),
+                expected: self.spaces.len(),
                 found: p.spaces.len(),
             });
         }
-        let known: Vec<String> = next.spaces.iter().map(|s| s.name.clone()).collect();
+        let known: Vec<String> = self.spaces.iter().map(|s| s.name.clone()).collect();
+        let mut kernels: Vec<Option<KernelParams>> = vec![None; self.spaces.len()];
         for (name, k) in &p.spaces {
-            let Some(s) = next.spaces.iter_mut().find(|s| &s.name == name) else {
+            let Some(s) = self.spaces.iter().position(|s| &s.name == name) else {
                 return Err(Error::UnknownSpace {
                     name: name.clone(),
                     known,
@@ -112,16 +137,76 @@ impl SharedGplvm {
                     reason: "expected finite values > 0".into(),
                 });
             }
-            s.kernel = k.clone();
+            kernels[s] = Some(k.clone());
         }
-        next.update_latent_points();
-        if next.needs_map() {
-            let warm = next.map.as_ref().map(|m| m.kernel.clone());
-            next.fit_map(&TrainOptions::default(), &Limits::default(), warm)?;
+        if kernels.iter().any(Option::is_none) {
+            // A space named twice leaves another one out.
+            return Err(Error::InvalidValue {
+                what: "params.spaces".into(),
+                reason: format!("expected each of {known:?} once"),
+            });
         }
-        next.rebuild()?;
-        *self = next;
+        if let (
+            Latent::Back {
+                data: new_data,
+                bandwidth: new_bw,
+                ..
+            },
+            Latent::Back {
+                data, bandwidth, ..
+            },
+        ) = (&mut latent, &mut self.latent)
+        {
+            std::mem::swap(new_data, data);
+            if new_bw.to_bits() != bandwidth.to_bits() {
+                self.bc = Default::default();
+            }
+        }
+        self.latent = latent;
+        for (s, k) in self.spaces.iter_mut().zip(kernels.into_iter().flatten()) {
+            s.kernel = k;
+        }
+        self.update_latent_points();
+        if let Some(refitted) = self.prepared.take().and_then(|p| p.map) {
+            // The map refitted after an earlier `set_params` is the better warm start.
+            self.map = Some(refitted);
+        }
+        self.map_stale = self.needs_map();
         Ok(())
+    }
+}
+
+impl SharedGplvm {
+    /// A copy of the model with parameters `p` (see [`SharedGplvm::set_params`]). The copy
+    /// takes over this model's evaluation buffers (this model gets new ones if evaluated
+    /// again) and not its prediction caches: for a caller that replaces a model by its copy
+    /// on every step of an optimiser, as the Python binding does, a step costs little more
+    /// than the evaluation.
+    pub fn with_params(&self, p: &Params) -> Result<SharedGplvm> {
+        let mut next = SharedGplvm {
+            config: self.config.clone(),
+            spaces: self.spaces.clone(),
+            latent: self.latent.clone(),
+            map: self.map.clone(),
+            history: self.history.clone(),
+            stop_reason: self.stop_reason.clone(),
+            selection: self.selection.clone(),
+            sparse: self.sparse.clone(),
+            map_stale: self.map_stale,
+            x: self.x.clone(),
+            x_rows: self.x_rows.clone(),
+            prepared: OnceLock::new(),
+            bc: self.bc.clone(),
+            workspace: Workspace::default(),
+        };
+        if self.map_stale {
+            if let Some(m) = self.prepared.get().and_then(|p| p.map.clone()) {
+                next.map = Some(m);
+            }
+        }
+        next.set_params(p)?;
+        next.workspace.put(self.workspace.take_all());
+        Ok(next)
     }
 }
 
@@ -166,6 +251,54 @@ mod tests {
             let mut m2 = m.clone();
             m2.set_params(&m.params()).expect("set");
             assert_eq!(m2.predict(h.as_ref(), "r", false).expect("p"), p);
+        }
+    }
+
+    #[test]
+    fn set_params_defers_the_caches_and_predicts_what_a_rebuilt_model_predicts() {
+        let (h, _, _, _) = demo(30, 7);
+        for bc in [
+            BackConstraint::None,
+            BackConstraint::Input,
+            BackConstraint::Output,
+        ] {
+            let m = fit(bc, 30, 5, 1);
+            let mut p = m.params();
+            match &mut p.latent {
+                LatentParams::Free { x } => *x = x.clone() * faer::Scale(1.3),
+                LatentParams::BackConstrained { weights, .. } => {
+                    *weights = weights.clone() * faer::Scale(1.3)
+                }
+            }
+            p.spaces[1].1.noise *= 2.0;
+            m.evaluate().expect("evaluates");
+            let moved = m.with_params(&p).expect("valid");
+            // The copy took the evaluation buffers, and has no caches until a prediction.
+            assert_eq!(moved.workspace.take_all().len(), 2);
+            assert!(moved.prepared.get().is_none());
+            let mut in_place = m.clone();
+            in_place.set_params(&p).expect("valid");
+            assert!(in_place.prepared.get().is_none());
+            let lazy = in_place
+                .predict(h.as_ref(), "walkman", true)
+                .expect("predicts");
+            assert_ne!(lazy, m.predict(h.as_ref(), "walkman", true).expect("p"));
+            // A model loaded from the file (its caches built at once, with the map as saved)
+            // predicts the same bits; so does the copy.
+            let loaded = SharedGplvm::from_bytes(&in_place.to_bytes()).expect("loads");
+            assert_eq!(loaded.params(), p);
+            assert_eq!(
+                loaded.predict(h.as_ref(), "walkman", true).expect("p"),
+                lazy
+            );
+            assert_eq!(moved.predict(h.as_ref(), "walkman", true).expect("p"), lazy);
+            assert_eq!(loaded.input_map().is_some(), bc != BackConstraint::Input);
+            assert_eq!(loaded.input_map(), in_place.input_map());
+            // Parameters that are refused change nothing.
+            let mut bad = p.clone();
+            bad.spaces[0].0 = "walkman".into();
+            assert!(in_place.set_params(&bad).is_err());
+            assert_eq!(in_place.params(), p);
         }
     }
 }

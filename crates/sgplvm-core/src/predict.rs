@@ -6,14 +6,18 @@
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatRef, Par};
 
+use std::sync::OnceLock;
+
 use crate::config::BackConstraint;
 use crate::error::{Error, Result};
+use crate::input_map::InputMap;
 use crate::kernel::{rbf_block, row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
 use crate::model::{Latent, SharedGplvm, Space};
 use crate::pool::par_for;
 use crate::preprocess::check_finite;
 use crate::simd::{clear_upper_simd_state, exp_neg_slice, weighted_sqdist};
+use crate::train::{Limits, TrainOptions};
 
 /// Training points per block in the prediction loops (stack buffer size).
 pub(crate) const BLOCK: usize = 64;
@@ -79,32 +83,92 @@ pub(crate) fn half_inv_l2(kernel: &KernelParams) -> Vec<f64> {
     kernel.lengthscale.iter().map(|l| -0.5 / (l * l)).collect()
 }
 
+/// Everything prediction needs that is derived from the parameters: one cache per space, the
+/// human → latent cache and, after `set_params`, the input map refitted to the new latent
+/// points.
+#[derive(Clone, Debug)]
+pub(crate) struct Prepared {
+    pub(crate) caches: Vec<SpaceCache>,
+    pub(crate) latent_cache: LatentCache,
+    /// Largest jitter the spaces' factorisations needed.
+    pub(crate) training_jitter: f64,
+    /// The refitted input map when the stored one was stale (`map_stale`), else `None`.
+    pub(crate) map: Option<InputMap>,
+}
+
 impl SharedGplvm {
-    /// Recomputes every prediction cache from the stored parameters (used after training, on
-    /// load and by `set_params`, so that a loaded model predicts bit-identically).
+    /// Recomputes every prediction cache from the stored parameters now (after training and on
+    /// load, so that errors surface there and a loaded model predicts bit-identically).
     pub(crate) fn rebuild(&mut self) -> Result<()> {
         self.update_latent_points();
         if self.sparse.is_some() {
-            self.training_jitter = self.rebuild_sparse()?;
-            self.latent_cache = Some(self.new_latent_cache()?);
+            let training_jitter = self.rebuild_sparse()?;
+            let latent_cache = self.new_latent_cache(self.map.as_ref())?;
+            self.prepared = OnceLock::from(Prepared {
+                caches: Vec::new(),
+                latent_cache,
+                training_jitter,
+                map: None,
+            });
             return Ok(());
         }
-        self.caches = self
+        let prepared = self.build_prepared()?;
+        self.prepared = OnceLock::from(prepared);
+        Ok(())
+    }
+
+    /// The prediction caches, built on first use after `set_params`.
+    pub(crate) fn prepared(&self) -> Result<&Prepared> {
+        if let Some(p) = self.prepared.get() {
+            return Ok(p);
+        }
+        let p = self.build_prepared()?;
+        // Two threads racing here build the same caches (deterministic); one is kept.
+        Ok(self.prepared.get_or_init(|| p))
+    }
+
+    /// The input map at the current latent points: the stored one, or after `set_params` the
+    /// one refitted (warm-started from it, default options) on first use.
+    pub(crate) fn current_map(&self) -> Result<Option<&InputMap>> {
+        if self.map_stale {
+            Ok(self.prepared()?.map.as_ref())
+        } else {
+            Ok(self.map.as_ref())
+        }
+    }
+
+    fn build_prepared(&self) -> Result<Prepared> {
+        let refitted = if self.map_stale && self.needs_map() {
+            let warm = self.map.as_ref().map(|m| m.kernel.clone());
+            Some(self.fitted_map(&TrainOptions::default(), &Limits::default(), warm)?)
+        } else {
+            None
+        };
+        let map = if self.map_stale {
+            refitted.as_ref()
+        } else {
+            self.map.as_ref()
+        };
+        let caches = self
             .spaces
             .iter()
             .map(|s| SpaceCache::new(s, &self.x_rows, self.q()))
-            .collect::<Result<_>>()?;
-        self.latent_cache = Some(self.new_latent_cache()?);
-        self.training_jitter = self.caches.iter().fold(0.0, |m, c| m.max(c.jitter));
-        Ok(())
+            .collect::<Result<Vec<_>>>()?;
+        let latent_cache = self.new_latent_cache(map)?;
+        Ok(Prepared {
+            training_jitter: caches.iter().fold(0.0, |m, c| m.max(c.jitter)),
+            caches,
+            latent_cache,
+            map: refitted,
+        })
     }
 
     /// The human → latent cache: the back-constraint mapping `x = k_bc(h, H) W` for input back
     /// constraints, else the input map's GP mean `x = x̄ + α² k(h, H) K⁻¹ (X − x̄)`.
-    fn new_latent_cache(&self) -> Result<LatentCache> {
+    fn new_latent_cache(&self, map: Option<&InputMap>) -> Result<LatentCache> {
         let q = self.q();
         let h = self.spaces[0].data.as_ref();
-        match (&self.latent, &self.map) {
+        match (&self.latent, map) {
             (
                 Latent::Back {
                     weights,
@@ -179,12 +243,8 @@ impl SharedGplvm {
     /// D_H ≤ 64: training points are processed in blocks of [`BLOCK`] (distances, then a
     /// vectorised exp, then the weighted sum).
     pub(crate) fn latent_into(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
+        let lc = &self.prepared()?.latent_cache;
         clear_upper_simd_state();
-        let Some(lc) = &self.latent_cache else {
-            return Err(Error::Corrupt {
-                reason: "prediction caches missing".into(),
-            });
-        };
         let s0 = &self.spaces[0];
         let dh = h.len();
         let mut hs_stack = [0.0f64; 64];
@@ -212,7 +272,7 @@ impl SharedGplvm {
     }
 
     /// Mean (original units) of space `si` at latent point `x` into `out`. Allocation-free.
-    pub(crate) fn mean_into(&self, si: usize, x: &[f64], out: &mut [f64]) {
+    pub(crate) fn mean_into(&self, si: usize, x: &[f64], out: &mut [f64]) -> Result<()> {
         let s = &self.spaces[si];
         let d = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
@@ -221,9 +281,9 @@ impl SharedGplvm {
             for t in 0..d {
                 out[t] = out[t] * s.scale[t] + s.offset[t];
             }
-            return;
+            return Ok(());
         }
-        let c = &self.caches[si];
+        let c = &self.prepared()?.caches[si];
         add_kernel_weighted(
             x,
             &self.x_rows,
@@ -236,6 +296,7 @@ impl SharedGplvm {
         for t in 0..d {
             out[t] = out[t] * s.scale[t] + s.offset[t];
         }
+        Ok(())
     }
 
     /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (length
@@ -261,7 +322,7 @@ impl SharedGplvm {
             &mut heap
         };
         self.latent_into(h, x)?;
-        self.mean_into(si, x, out);
+        self.mean_into(si, x, out)?;
         check_prediction(space, 0, out)
     }
 
@@ -286,11 +347,7 @@ impl SharedGplvm {
 
     /// [`SharedGplvm::latent`] without the input checks (the output is checked).
     pub(crate) fn latent_batch(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
-        let Some(lc) = &self.latent_cache else {
-            return Err(Error::Corrupt {
-                reason: "prediction caches missing".into(),
-            });
-        };
+        let lc = &self.prepared()?.latent_cache;
         let s0 = &self.spaces[0];
         let (dh, q, m_all) = (h.ncols(), self.q(), h.nrows());
         let n = lc.weights.len() / q.max(1);
@@ -331,7 +388,7 @@ impl SharedGplvm {
         }
         let (n_new, q, n) = (h.nrows(), self.q(), self.n());
         let s = &self.spaces[si];
-        let c = &self.caches[si];
+        let c = &self.prepared()?.caches[si];
         let d = s.data.ncols();
         let (train, xsc) =
             scaled_about_mean(&self.x_rows, q, &c.half_inv_l2, n_new, |r, t| xs[(r, t)]);
@@ -502,7 +559,7 @@ mod tests {
     fn non_finite_predictions_are_an_error() {
         let (h, _, _, _) = demo(30, 2);
         let mut m = fit(BackConstraint::Input, 30, 5, 0);
-        m.caches[1].alpha_rows[3] = f64::INFINITY;
+        m.prepared.get_mut().expect("caches").caches[1].alpha_rows[3] = f64::INFINITY;
         let is_refused = |r: Result<()>| matches!(r, Err(Error::NonFinitePrediction { ref space, .. }) if space == "walkman");
         assert!(is_refused(
             m.predict(h.as_ref(), "walkman", false).map(|_| ())
@@ -514,7 +571,7 @@ mod tests {
             &mut out
         )));
         let mut m = fit(BackConstraint::Input, 30, 5, 0);
-        m.latent_cache.as_mut().expect("cache").weights[0] = f64::NAN;
+        m.prepared.get_mut().expect("caches").latent_cache.weights[0] = f64::NAN;
         let err = m.latent(h.as_ref()).expect_err("NaN latent points");
         assert!(err.to_string().contains("prediction for 'latent'"), "{err}");
     }

@@ -249,6 +249,10 @@ pub struct IterationRecord {
     pub seconds: f64,
     /// Largest absolute gradient component (unconstrained parametrisation).
     pub gradient_norm: f64,
+    /// Objective + gradient evaluations since training started, the initial point's
+    /// included (the line searches' trials count; 0 in files written before it was recorded).
+    #[serde(default)]
+    pub evaluations: usize,
 }
 
 /// What a training callback wants.
@@ -372,6 +376,11 @@ impl<'a> Guard<'a> {
         s.total += 1;
         s.in_line_search += 1;
         Ok(())
+    }
+
+    /// Evaluations so far, the initial point's included.
+    fn evaluations(&self) -> usize {
+        crate::pool::lock(&self.state).total
     }
 
     /// Starts counting the evaluations of a new line search.
@@ -500,6 +509,7 @@ pub(crate) fn minimise<O: Objective>(
             objective: f0,
             seconds: start.elapsed().as_secs_f64(),
             gradient_norm: max_abs(&g0),
+            evaluations: 1,
         }],
         best: theta0,
         best_f: f0,
@@ -561,7 +571,9 @@ pub(crate) fn minimise<O: Objective>(
         );
         if let Some((param, f, g)) = accepted {
             restarted = false;
-            if let Some(reason) = run.accept(param, f, g, options, &mut on_iter) {
+            if let Some(reason) =
+                run.accept(param, f, g, guard.evaluations(), options, &mut on_iter)
+            {
                 return Ok(run.finish(reason));
             }
         }
@@ -662,6 +674,7 @@ impl Run {
         param: Vec<f64>,
         f: f64,
         g: Vec<f64>,
+        evaluations: usize,
         options: &TrainOptions,
         on_iter: &mut impl FnMut(&IterationRecord, &[f64]) -> Control,
     ) -> Option<StopReason> {
@@ -673,6 +686,7 @@ impl Run {
             objective: f,
             seconds: self.start.elapsed().as_secs_f64() - self.paused,
             gradient_norm: max_abs(&g),
+            evaluations,
         };
         self.best_g = g;
         self.history.push(record.clone());
@@ -767,6 +781,13 @@ mod tests {
             "{} evaluations for {iterations} iterations",
             points.len()
         );
+        // The history counts them: one at the start, never fewer than one per iteration, and
+        // at the last iteration (the budget's) every evaluation made.
+        assert_eq!(out.history[0].evaluations, 1);
+        for w in out.history.windows(2) {
+            assert!(w[1].evaluations > w[0].evaluations, "{w:?}");
+        }
+        assert_eq!(out.history[iterations].evaluations, points.len());
     }
 
     /// x² shifted, undefined (an error, like a non-PD kernel) left of −0.5.

@@ -411,7 +411,8 @@ impl NativeModel {
         Ok(d)
     }
 
-    /// Training history: iteration, objective, seconds and gradient norm per iteration.
+    /// Training history: iteration, objective, seconds, gradient norm and evaluations so far
+    /// (objective + gradient, the line searches' trials included) per iteration.
     fn history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let h = self.inner.history();
         let d = PyDict::new(py);
@@ -430,6 +431,10 @@ impl NativeModel {
         d.set_item(
             "gradient_norm",
             PyArray1::from_vec(py, h.iter().map(|r| r.gradient_norm).collect()),
+        )?;
+        d.set_item(
+            "evaluations",
+            h.iter().map(|r| r.evaluations).collect::<Vec<_>>(),
         )?;
         Ok(d)
     }
@@ -454,8 +459,7 @@ impl NativeModel {
         guarded(|| {
             let current = self.inner.params();
             let p = params_from_dict(params, &current)?;
-            let mut model = self.inner.clone();
-            model.set_params(&p).map_err(model_error)?;
+            let model = self.inner.with_params(&p).map_err(model_error)?;
             Ok(NativeModel { inner: model })
         })
     }

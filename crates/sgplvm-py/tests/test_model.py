@@ -107,6 +107,27 @@ def test_fit_reduces_objective_and_records_history(trained):
     assert h["objective"][-1] < h["objective"][0]
     assert all(b <= a + 1e-9 for a, b in zip(h["objective"], h["objective"][1:]))
     assert all(s >= 0 for s in h["seconds"])
+    # Evaluations so far: one at the start, at least one more per iteration.
+    assert h["evaluations"][0] == 1
+    assert all(b > a for a, b in zip(h["evaluations"], h["evaluations"][1:]))
+
+
+def test_predictions_follow_set_params_and_the_map_is_refitted(data):
+    """set_params defers the prediction caches and the input map's refit to the first
+    prediction: what it then predicts equals a model loaded with those parameters."""
+    human, r1, _ = data
+    m = sgplvm.SharedGPLVM(latent_dim=Q, back_constraint=None, seed=3)
+    m.fit({"human": human, "walkman": r1}, input="human", max_iters=5, validation=None)
+    before = m.predict(human[:7], robot="walkman")
+    p = m.params
+    p["latent"] = p["latent"] * 1.3 + 0.1
+    m.set_params(p)
+    m.gradient()
+    after = m.predict(human[:7], robot="walkman")
+    assert not np.allclose(after, before)
+    reloaded = sgplvm.SharedGPLVM.from_bytes(m.to_bytes())
+    np.testing.assert_array_equal(reloaded.predict(human[:7], robot="walkman"), after)
+    np.testing.assert_array_equal(reloaded.params["latent"], p["latent"])
 
 
 def test_predict_shapes_and_accuracy(trained, data):

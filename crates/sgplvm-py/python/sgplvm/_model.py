@@ -329,7 +329,9 @@ class SharedGPLVM:
     @property
     def history(self) -> Dict[str, np.ndarray]:
         """Per training iteration: ``iteration``, ``objective`` (negative log marginal
-        likelihood), ``seconds`` since training started, ``gradient_norm``."""
+        likelihood), ``seconds`` since training started, ``gradient_norm``, ``evaluations``
+        (objective + gradient evaluations since training started, the line searches' trials
+        included: ``evaluations[-1] / iteration[-1]`` is the cost of an iteration)."""
         return self._require().history()
 
     @property
