@@ -181,3 +181,40 @@ fn fixed_inducing_inputs_do_not_move_and_bad_counts_are_refused() {
         assert!(e.contains(what), "{e}");
     }
 }
+
+#[test]
+fn set_params_rebuilds_a_sparse_models_caches_or_changes_nothing() {
+    for bc in [BackConstraint::Input, BackConstraint::None] {
+        let model = sparse_fit(bc, 80, 10, 20);
+        let (h, _, _, _) = demo(80, 7);
+        let before = model.predict(h.as_ref(), "walkman", true).expect("p");
+        // The same parameters: the same predictions, bit for bit (free latent points refit
+        // their input map, warm-started, as the exact model does).
+        let mut same = model.clone();
+        same.set_params(&model.params()).expect("set_params");
+        if bc == BackConstraint::Input {
+            assert_eq!(
+                same.predict(h.as_ref(), "walkman", true).expect("p"),
+                before
+            );
+        }
+        // New parameters: predictions follow them at once (no stale sparse cache), as a
+        // model loaded with them does.
+        let mut p = model.params();
+        p.spaces[1].1.variance *= 2.0;
+        let mut moved = model.clone();
+        moved.set_params(&p).expect("set_params");
+        let after = moved.predict(h.as_ref(), "walkman", true).expect("p");
+        assert_ne!(after, before, "{bc:?}: stale caches");
+        let loaded = SharedGplvm::from_bytes(&moved.to_bytes()).expect("load");
+        assert_eq!(
+            loaded.predict(h.as_ref(), "walkman", true).expect("p"),
+            after
+        );
+        // A kernel that cannot be factorised: an error, and the model is unchanged.
+        p.spaces[1].1.variance = 1e308;
+        let mut broken = model.clone();
+        assert!(broken.set_params(&p).is_err(), "{bc:?}");
+        assert_eq!(broken.to_bytes(), model.to_bytes());
+    }
+}
