@@ -13,7 +13,8 @@ use crate::model::{Callback, Latent, SharedGplvm, Space};
 use crate::objective::{Mode, ModelObjective};
 use crate::pool::par_for;
 use crate::preprocess::checked_order;
-use crate::train::{minimise, Control, Limits, TrainOptions};
+use crate::sparse::objective::SparseObjective;
+use crate::train::{minimise, Control, Limits, Objective, TrainOptions};
 
 impl SharedGplvm {
     /// Fits a shared GP-LVM. `spaces` are named data matrices with the same number of rows;
@@ -94,55 +95,70 @@ impl SharedGplvm {
     }
 
     /// Runs the optimiser in `mode` within `limits` (the calling training's deadline and
-    /// interrupt), then fits the input map (full mode) and rebuilds caches.
+    /// interrupt), then fits the input map (full mode) and rebuilds caches. The exact and the
+    /// sparse model differ only in their objective.
     pub(crate) fn train(
         &mut self,
         mode: Mode,
         options: &TrainOptions,
         limits: &Limits,
-        mut callback: Option<Callback<'_>>,
+        callback: Option<Callback<'_>>,
     ) -> Result<()> {
-        if self.sparse.is_some() {
-            return self.train_sparse(mode, options, limits, callback);
-        }
-        let (outcome, mut applied) = {
+        let applied = if self.sparse.is_some() {
+            let obj = SparseObjective::new(self, mode.clone())?;
+            self.optimised(&obj, &mode, options, limits, callback)?
+        } else {
             let obj = ModelObjective::new(self, mode.clone())?;
-            let theta0 = obj.theta0();
-            let d_total: usize = obj
-                .evaluated()
-                .iter()
-                .map(|&s| self.spaces[s].data.ncols())
-                .sum();
-            let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
-            let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
-            let outcome = minimise(&obj, theta0, scale, options, limits, |rec, theta| {
-                let Some(cb) = callback.as_mut() else {
-                    return Control::Continue;
-                };
-                let mut snap = self.clone();
-                obj.apply(theta, &mut snap);
-                snap.update_latent_points();
-                // The snapshot's map starts from the previous snapshot's (a cold start costs a
-                // whole regression per iteration, 3× the experiment's time); the returned model
-                // fits its map from a cold start, so a snapshot of a model with an input map
-                // predicts what the model stopped there predicts only to the map's convergence
-                // (relative 1e-6 on the shipped data; on small problems the two optima can differ).
-                if matches!(mode, Mode::Full) && snap.needs_map() {
-                    if snap.fit_map(options, limits, prev_map.clone()).is_err() {
-                        return Control::Continue;
-                    }
-                    prev_map = snap.map.as_ref().map(|m| m.kernel.clone());
-                }
-                if snap.rebuild().is_err() {
-                    return Control::Continue;
-                }
-                snap.history = Vec::new();
-                cb(rec, &snap)
-            })?;
-            let mut applied = self.clone();
-            obj.apply(&outcome.theta, &mut applied);
-            (outcome, applied)
+            self.optimised(&obj, &mode, options, limits, callback)?
         };
+        *self = applied;
+        Ok(())
+    }
+
+    /// The model trained by minimising `obj` (built on this model in `mode`), with its input
+    /// map fitted (full mode) and caches rebuilt.
+    fn optimised(
+        &self,
+        obj: &impl ParameterObjective,
+        mode: &Mode,
+        options: &TrainOptions,
+        limits: &Limits,
+        mut callback: Option<Callback<'_>>,
+    ) -> Result<SharedGplvm> {
+        let theta0 = obj.theta0();
+        let d_total: usize = obj
+            .evaluated()
+            .iter()
+            .map(|&s| self.spaces[s].data.ncols())
+            .sum();
+        let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
+        let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
+        let outcome = minimise(obj, theta0, scale, options, limits, |rec, theta| {
+            let Some(cb) = callback.as_mut() else {
+                return Control::Continue;
+            };
+            let mut snap = self.clone();
+            obj.apply(theta, &mut snap);
+            snap.update_latent_points();
+            // The snapshot's map starts from the previous snapshot's (a cold start costs a
+            // whole regression per iteration, 3× the experiment's time); the returned model
+            // fits its map from a cold start, so a snapshot of a model with an input map
+            // predicts what the model stopped there predicts only to the map's convergence
+            // (relative 1e-6 on the shipped data; on small problems the two optima can differ).
+            if matches!(mode, Mode::Full) && snap.needs_map() {
+                if snap.fit_map(options, limits, prev_map.clone()).is_err() {
+                    return Control::Continue;
+                }
+                prev_map = snap.map.as_ref().map(|m| m.kernel.clone());
+            }
+            if snap.rebuild().is_err() {
+                return Control::Continue;
+            }
+            snap.history = Vec::new();
+            cb(rec, &snap)
+        })?;
+        let mut applied = self.clone();
+        obj.apply(&outcome.theta, &mut applied);
         applied.update_latent_points();
         if matches!(mode, Mode::Full) && applied.needs_map() {
             applied.fit_map(options, limits, None)?;
@@ -150,8 +166,42 @@ impl SharedGplvm {
         applied.rebuild()?;
         applied.history = outcome.history;
         applied.stop_reason = Some(outcome.reason);
-        *self = applied;
-        Ok(())
+        Ok(applied)
+    }
+}
+
+/// What [`SharedGplvm::train`] needs of an objective besides its value and gradient: the
+/// spaces it evaluates, its starting point and how its parameters go back into a model.
+pub(crate) trait ParameterObjective: Objective {
+    /// Indices of the spaces whose likelihood the objective sums.
+    fn evaluated(&self) -> Vec<usize>;
+    /// The parameter vector of the model the objective was built on.
+    fn theta0(&self) -> Vec<f64>;
+    /// Writes `theta` into `target` (no caches rebuilt).
+    fn apply(&self, theta: &[f64], target: &mut SharedGplvm);
+}
+
+impl ParameterObjective for ModelObjective<'_> {
+    fn evaluated(&self) -> Vec<usize> {
+        ModelObjective::evaluated(self)
+    }
+    fn theta0(&self) -> Vec<f64> {
+        ModelObjective::theta0(self)
+    }
+    fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
+        ModelObjective::apply(self, theta, target)
+    }
+}
+
+impl ParameterObjective for SparseObjective<'_> {
+    fn evaluated(&self) -> Vec<usize> {
+        SparseObjective::evaluated(self)
+    }
+    fn theta0(&self) -> Vec<f64> {
+        SparseObjective::theta0(self)
+    }
+    fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
+        SparseObjective::apply(self, theta, target)
     }
 }
 

@@ -20,7 +20,6 @@
 pub(crate) mod likelihood;
 pub(crate) mod objective;
 pub(crate) mod predict;
-pub(crate) mod train;
 
 use faer::{Mat, MatRef};
 
