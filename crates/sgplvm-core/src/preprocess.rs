@@ -247,24 +247,6 @@ mod tests {
     use crate::test_support::*;
     use crate::validation::Validation;
 
-    /// `m` times `f`.
-    fn times(m: &Mat<f64>, f: f64) -> Mat<f64> {
-        Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)] * f)
-    }
-
-    /// `m` divided by the power of two nearest its scale: a scale in [1/√2, √2], so that
-    /// `m · 2^k` is standardised by exactly `2^k`.
-    fn unit_scale(m: &Mat<f64>) -> Mat<f64> {
-        let (n, d) = (m.nrows(), m.ncols());
-        let mut ss = 0.0;
-        for j in 0..d {
-            let mu = (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64;
-            ss += (0..n).map(|i| (m[(i, j)] - mu).powi(2)).sum::<f64>();
-        }
-        let rms = (ss / (n * d) as f64).sqrt();
-        times(m, pow2(-(rms.log2().round() as i32)))
-    }
-
     /// Data ×2^±500 (≈ 3·10^∓151) trains exactly like the same data at unit scale: the same
     /// parameters bit for bit and predictions in the user's units, exactly 2^±500 times
     /// those at unit scale — through `fit`, `fit_validated` and `transfer`.

@@ -160,3 +160,21 @@ pub(crate) fn reconstruction_error(kf: MatRef<'_, f64>, l: MatRef<'_, f64>, adde
     }
     worst / top
 }
+
+/// `m` times `f`.
+pub(crate) fn times(m: &Mat<f64>, f: f64) -> Mat<f64> {
+    Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)] * f)
+}
+
+/// `m` divided by the power of two nearest its centred root mean square (a scale in
+/// [1/√2, √2]), so that `m · 2^k` is standardised by exactly `2^k`.
+pub(crate) fn unit_scale(m: &Mat<f64>) -> Mat<f64> {
+    let (n, d) = (m.nrows(), m.ncols());
+    let mut ss = 0.0;
+    for j in 0..d {
+        let mu = (0..n).map(|i| m[(i, j)]).sum::<f64>() / n as f64;
+        ss += (0..n).map(|i| (m[(i, j)] - mu).powi(2)).sum::<f64>();
+    }
+    let rms = (ss / (n * d) as f64).sqrt();
+    times(m, 2f64.powi(-(rms.log2().round() as i32)))
+}
