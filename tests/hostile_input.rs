@@ -237,7 +237,7 @@ fn negative_csv_times_into_an_mcap_output_name_both_files() {
         csv.push_str(&format!("{},{}\n", -1.0 + 0.025 * i as f64, row.join(",")));
     }
     let input = dir.join("negative.csv");
-    std::fs::write(&input, csv).expect("write");
+    std::fs::write(&input, &csv).expect("write");
     let out = dir.join("out.mcap");
     let args = |out: &Path| {
         vec![
@@ -264,5 +264,52 @@ fn negative_csv_times_into_an_mcap_output_name_both_files() {
     let csv_args = args(&csv_out);
     let argv: Vec<&str> = csv_args.iter().map(String::as_str).collect();
     common::ok(&argv);
+    // Streaming (teleoperation: CSV lines on stdin) into an MCAP: the same refusal, naming the
+    // output and the line; the frames before it stay readable in the output.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sgplvm"))
+        .args([
+            "predict",
+            "--model",
+            s(&model),
+            "--input",
+            "-",
+            "--robot",
+            "walkman",
+            "--out",
+            s(&out),
+        ])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    {
+        use std::io::Write;
+        let mut stdin = child.stdin.take().expect("stdin");
+        let mut lines = csv.lines();
+        let header = lines.next().expect("header");
+        let rows: Vec<&str> = lines.collect();
+        // Two frames at t ≥ 0, then the first row again (t = −1 s).
+        let shift = |row: &str, t: f64| format!("{t},{}", row.split_once(',').expect("row").1);
+        writeln!(
+            stdin,
+            "{header}\n{}\n{}\n{}",
+            shift(rows[0], 0.0),
+            shift(rows[1], 0.025),
+            rows[0]
+        )
+        .expect("write");
+    }
+    let output = child.wait_with_output().expect("wait");
+    assert_eq!(output.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(s(&out)) && err.contains("line 4 of stdin") && err.contains("-1 s"),
+        "{err}"
+    );
+    let kept = sgplvm::robots::joint_state::read_joint_states(&out, "/walkman/joint_command")
+        .expect("the frames before the bad line");
+    assert_eq!(kept.len(), 2);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -4,7 +4,7 @@
 
 use std::io::BufRead;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use sgplvm::robots::joint_state::JointStates;
 use sgplvm::robots::scene::{
     write_scene, ArraySeries, ArrayTopic, SceneBody, SceneOptions, SceneSeries, SceneWriter,
@@ -149,6 +149,14 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
             (Some(t), _) => (t * 1e9).round() as i64,
             (None, _) => frame * 25_000_000,
         };
+        if time_ns < 0 {
+            bail!(
+                "{out}: line {} of stdin has the negative time {} s; an MCAP output needs times ≥ 0 \
+                 (shift the input's times, or write CSV); the {frame} frames before it are in {out}",
+                header_line + i + 1,
+                time_ns as f64 * 1e-9
+            );
+        }
         let h = Mat::from_fn(1, human.len(), |_, j| human[j]);
         let p = model.predict(h.as_ref(), robot, true)?;
         let mean: Vec<f64> = (0..d).map(|j| p.mean[(0, j)]).collect();
