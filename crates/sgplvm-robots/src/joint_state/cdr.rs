@@ -50,44 +50,64 @@ pub(crate) fn encode_joint_state(
     velocity: &[f64],
     effort: &[f64],
 ) {
-    buf.clear();
-    buf.extend_from_slice(&CDR_LE);
-    let mut w = Writer { buf };
-    w.align(4);
-    w.buf.extend_from_slice(&stamp.0.to_le_bytes());
-    w.buf.extend_from_slice(&stamp.1.to_le_bytes());
-    w.string(frame_id);
+    let mut w = Cdr::begin(buf);
+    w.header(stamp, frame_id);
     w.u32(names.len() as u32);
     for name in names {
         w.string(name);
     }
     for seq in [position, velocity, effort] {
         w.u32(seq.len() as u32);
-        for v in seq {
-            w.align(8);
-            w.buf.extend_from_slice(&v.to_le_bytes());
+        for &v in seq {
+            w.f64(v);
         }
     }
 }
 
-struct Writer<'a> {
+/// A CDR payload being written into a reused buffer.
+pub(crate) struct Cdr<'a> {
     buf: &'a mut Vec<u8>,
 }
 
-impl Writer<'_> {
+impl<'a> Cdr<'a> {
+    /// Clears `buf` and writes the encapsulation header.
+    pub(crate) fn begin(buf: &'a mut Vec<u8>) -> Self {
+        buf.clear();
+        buf.extend_from_slice(&CDR_LE);
+        Cdr { buf }
+    }
+    /// Pads to a multiple of `n` bytes from the start of the payload (after the header).
     fn align(&mut self, n: usize) {
         let off = self.buf.len() - 4;
         let pad = (n - off % n) % n;
         self.buf.extend(std::iter::repeat_n(0u8, pad));
     }
-    fn u32(&mut self, v: u32) {
+    /// A `uint32`.
+    pub(crate) fn u32(&mut self, v: u32) {
         self.align(4);
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
-    fn string(&mut self, s: &str) {
+    /// An `int32`.
+    pub(crate) fn i32(&mut self, v: i32) {
+        self.align(4);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    /// A `float64`.
+    pub(crate) fn f64(&mut self, v: f64) {
+        self.align(8);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    /// A `string`: length with its NUL, bytes, NUL.
+    pub(crate) fn string(&mut self, s: &str) {
         self.u32(s.len() as u32 + 1);
         self.buf.extend_from_slice(s.as_bytes());
         self.buf.push(0);
+    }
+    /// A `std_msgs/Header`: stamp (sec, nanosec) and frame id.
+    pub(crate) fn header(&mut self, stamp: (i32, u32), frame_id: &str) {
+        self.i32(stamp.0);
+        self.u32(stamp.1);
+        self.string(frame_id);
     }
 }
 

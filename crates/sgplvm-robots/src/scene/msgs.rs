@@ -10,6 +10,8 @@
 
 use nalgebra::Isometry3;
 
+use crate::joint_state::cdr::Cdr;
+
 /// Schema name of a TF message.
 pub const TF_MESSAGE_SCHEMA: &str = "tf2_msgs/msg/TFMessage";
 /// Schema name of a string message.
@@ -156,50 +158,6 @@ string label   # label of given dimension
 uint32 size    # size of given dimension (in type units)
 uint32 stride  # stride of given dimension
 ";
-
-/// Encapsulation header of a little-endian plain CDR payload.
-const CDR_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
-
-/// A CDR payload being written into a reused buffer.
-pub(crate) struct Cdr<'a> {
-    buf: &'a mut Vec<u8>,
-}
-
-impl<'a> Cdr<'a> {
-    /// Clears `buf` and writes the encapsulation header.
-    pub fn begin(buf: &'a mut Vec<u8>) -> Self {
-        buf.clear();
-        buf.extend_from_slice(&CDR_LE);
-        Cdr { buf }
-    }
-    fn align(&mut self, n: usize) {
-        let off = self.buf.len() - 4;
-        let pad = (n - off % n) % n;
-        self.buf.extend(std::iter::repeat_n(0u8, pad));
-    }
-    fn u32(&mut self, v: u32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-    fn i32(&mut self, v: i32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-    fn f64(&mut self, v: f64) {
-        self.align(8);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-    fn string(&mut self, s: &str) {
-        self.u32(s.len() as u32 + 1);
-        self.buf.extend_from_slice(s.as_bytes());
-        self.buf.push(0);
-    }
-    fn header(&mut self, stamp: (i32, u32), frame_id: &str) {
-        self.i32(stamp.0);
-        self.u32(stamp.1);
-        self.string(frame_id);
-    }
-}
 
 /// `builtin_interfaces/Time` of a log time in nanoseconds.
 pub(crate) fn stamp(time_ns: i64) -> (i32, u32) {
