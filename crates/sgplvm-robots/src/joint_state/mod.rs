@@ -38,6 +38,7 @@ mod json;
 mod read;
 mod states;
 mod write;
+pub(crate) use write::write_atomically;
 
 pub use align::{align_onto_clock, read_aligned};
 pub use cdr::JOINT_STATE_MSGDEF;

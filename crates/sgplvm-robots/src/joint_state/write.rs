@@ -99,6 +99,13 @@ pub fn write_topics(
             });
         }
     }
+    write_atomically(path, |tmp| write_topics_to(tmp, path, topics, settings))
+}
+
+/// Runs `write` on a temporary sibling of `path` (after removing those a killed run left) and
+/// renames it onto `path`; on an error the temporary file is removed and `path` untouched, so
+/// readers never see a partial file.
+pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     if path.file_name().is_none() {
         return Err(JointStateError::InvalidInput {
             what: path.display().to_string(),
@@ -107,7 +114,7 @@ pub fn write_topics(
     }
     crate::files::remove_stale_temporaries(path);
     let tmp = crate::files::temporary_path(path);
-    let result = write_topics_to(&tmp, path, topics, settings).and_then(|()| {
+    let result = write(&tmp).and_then(|()| {
         std::fs::rename(&tmp, path).map_err(|source| JointStateError::Io {
             path: path.to_path_buf(),
             action: "rename the temporary file onto",

@@ -46,8 +46,8 @@ use ::mcap::WriteOptions;
 use nalgebra::{Isometry3, Translation3};
 
 use crate::joint_state::{
-    Compression, JointStateError, JointStates, Result, JOINT_STATE_MSGDEF, JOINT_STATE_SCHEMA,
-    MCAP_LIBRARY,
+    write_atomically, Compression, JointStateError, JointStates, Result, JOINT_STATE_MSGDEF,
+    JOINT_STATE_SCHEMA, MCAP_LIBRARY,
 };
 use crate::urdf::Robot;
 use msgs::Transform;
@@ -239,21 +239,13 @@ pub fn write_scene(
             });
         }
     }
-    if path.file_name().is_none() {
-        return Err(JointStateError::InvalidInput {
-            what: path.display().to_string(),
-            detail: "output path has no file name".into(),
-        });
-    }
-    crate::files::remove_stale_temporaries(path);
-    let tmp = crate::files::temporary_path(path);
     let bodies: Vec<(SceneBody, Vec<String>)> = series
         .iter()
         .map(|s| (s.body.clone(), s.states.names.clone()))
         .collect();
     let topics: Vec<ArrayTopic> = arrays.iter().map(|a| a.topic.clone()).collect();
-    let result = (|| {
-        let mut w = SceneWriter::create_as(&tmp, path, bodies, topics, options, false)?;
+    write_atomically(path, |tmp| {
+        let mut w = SceneWriter::create_as(tmp, path, bodies, topics, options, false)?;
         let mut joints: Vec<&[f64]> = Vec::with_capacity(series.len());
         let mut values: Vec<&[f64]> = Vec::with_capacity(arrays.len());
         for (i, &t) in times.iter().enumerate() {
@@ -267,17 +259,8 @@ pub fn write_scene(
             );
             w.write_frame(t, &joints, &values)?;
         }
-        w.finish()?;
-        std::fs::rename(&tmp, path).map_err(|source| JointStateError::Io {
-            path: path.to_path_buf(),
-            action: "rename the temporary file onto",
-            source,
-        })
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+        w.finish()
+    })
 }
 
 /// A body being written: its model, where its columns go in the robot's configuration, its
