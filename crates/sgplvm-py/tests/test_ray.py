@@ -220,8 +220,8 @@ def test_a_task_computes_on_as_many_threads_as_cpus_ray_gave_it(cluster):
 
 def test_a_sweep_rejects_unknown_parameters_before_starting_anything(cluster):
     human, robot = _toy(2)
-    with pytest.raises(ValueError, match="inducing"):
-        sray.sweep({"human": human, "r": robot}, {"latent_dim": [1], "inducing": [10]})
+    with pytest.raises(ValueError, match="bandwidth"):
+        sray.sweep({"human": human, "r": robot}, {"latent_dim": [1], "bandwidth": [0.5]})
 
 
 def test_sweep_scores_on_held_out_training_rows_and_returns_the_best(cluster):
@@ -240,3 +240,72 @@ def test_sweep_scores_on_held_out_training_rows_and_returns_the_best(cluster):
     _assert_same_model(best, serial, human, "r")
     curve = {r["iteration"]: r["validation_mse"] for r in serial.selection["curve"]}
     assert top["validation_mse"] == curve[serial.selection["best_iteration"]]
+
+
+# ---------------------------------------------------------------------------------- Ray Tune
+
+TUNE_ITERS, TUNE_PATIENCE = 40, 8
+
+
+def test_a_tune_asha_search_stops_poor_trials_and_its_best_equals_a_serial_fit(cluster, tmp_path):
+    tune = pytest.importorskip("ray.tune", reason='Ray Tune is not installed (pip install "sgplvm[tune]")')
+    from ray.tune.schedulers import ASHAScheduler
+
+    human, robot = _toy(5)
+    data = {"human": human, "r": robot}
+    grid = {"latent_dim": [1, 2], "back_constraint": ["input", None]}
+    serial = {
+        (q, bc): sgplvm.SharedGPLVM(latent_dim=q, back_constraint=bc).fit(
+            data, max_iters=TUNE_ITERS, patience=TUNE_PATIENCE
+        )
+        for q in grid["latent_dim"]
+        for bc in grid["back_constraint"]
+    }
+    tuner = tune.Tuner(
+        sray.tune_trainable(data, max_iters=TUNE_ITERS, patience=TUNE_PATIENCE),
+        param_space={k: tune.grid_search(v) for k, v in grid.items()},
+        tune_config=tune.TuneConfig(
+            metric="validation_mse",
+            mode="min",
+            scheduler=ASHAScheduler(grace_period=1, reduction_factor=2, max_t=10 * TUNE_ITERS),
+            # One trial at a time: ASHA's decisions then depend only on the (deterministic)
+            # reported values, not on which trial reached a rung first.
+            max_concurrent_trials=1,
+        ),
+        run_config=tune.RunConfig(storage_path=str(tmp_path), name="asha", verbose=0),
+    )
+    results = tuner.fit()
+    assert results.num_errors == 0 and len(results) == 4
+    finished, stopped = [], []
+    for result in results:
+        key = (result.config["latent_dim"], result.config["back_constraint"])
+        curve = serial[key].selection["curve"]
+        reports = result.metrics_dataframe
+        # A trial stopped by ASHA never reported `done_training` (no such column).
+        final = reports["done_training"] if "done_training" in reports else None
+        heard = reports if final is None else reports[final.isna()]
+        # Every iteration of the selection run was reported, in order, with its held-out error
+        # (the CSV keeps 15+ digits: compared to rounding; the final metrics below exactly).
+        assert list(heard["iteration"]) == [r["iteration"] for r in curve[: len(heard)]]
+        np.testing.assert_allclose(
+            heard["validation_mse"], [r["validation_mse"] for r in curve[: len(heard)]], rtol=1e-12
+        )
+        print(key, "reports", len(reports), "curve", len(curve))
+        if result.metrics.get("done_training"):
+            assert len(heard) == len(curve) == len(reports) - 1, key
+            assert result.checkpoint is not None
+            finished.append(result)
+        else:
+            assert len(heard) < len(curve), f"{key}: not finished, yet every iteration was reported"
+            assert result.checkpoint is None
+            stopped.append(result)
+    assert stopped, "ASHA stopped no trial: nothing was tested of early stopping"
+    assert finished, "ASHA stopped every trial"
+    best = min(finished, key=lambda r: r.metrics["best_validation_mse"])
+    key = (best.config["latent_dim"], best.config["back_constraint"])
+    expected = serial[key]
+    sel = expected.selection
+    score = next(r["validation_mse"] for r in sel["curve"] if r["iteration"] == sel["best_iteration"])
+    assert best.metrics["best_validation_mse"] == score
+    assert best.metrics["best_iteration"] == sel["best_iteration"]
+    _assert_same_model(sray.tune_model(best.checkpoint), expected, human, "r")
