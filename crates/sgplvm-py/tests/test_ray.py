@@ -271,6 +271,8 @@ def test_a_tune_asha_search_stops_poor_trials_and_its_best_equals_a_serial_fit(c
             # One trial at a time: ASHA's decisions then depend only on the (deterministic)
             # reported values, not on which trial reached a rung first.
             max_concurrent_trials=1,
+            # A stopped trial's actor runs the next one: its training must end when stopped.
+            reuse_actors=True,
         ),
         run_config=tune.RunConfig(storage_path=str(tmp_path), name="asha", verbose=0),
     )
