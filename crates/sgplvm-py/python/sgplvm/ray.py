@@ -353,7 +353,7 @@ def tune_trainable(
         tuner = tune.Tuner(
             sgplvm.ray.tune_trainable({"human": H, "walkman": R}),
             param_space={"latent_dim": tune.grid_search([2, 3, 5]), "back_constraint": "input"},
-            tune_config=tune.TuneConfig(metric="validation_mse", mode="min",
+            tune_config=tune.TuneConfig(metric="validation_mse", mode="min", reuse_actors=True,
                                         scheduler=ASHAScheduler(grace_period=2)),
         )
         best = sgplvm.ray.tune_model(tuner.fit().get_best_result(
@@ -363,7 +363,9 @@ def tune_trainable(
     ``back_constraint``, ``seed``, ``scale``) and :meth:`~sgplvm.SharedGPLVM.fit` arguments
     (``inducing``, ``max_iters``, ``patience``, ``max_seconds``, ``validation``), overriding
     the ones given here; another key is a ``ValueError``. ``spaces`` go to the cluster once
-    (``tune.with_parameters``); a trial takes one CPU and computes on one thread.
+    (``tune.with_parameters``); a trial takes one CPU and computes on one thread. Pass
+    ``reuse_actors=True`` to ``TuneConfig``: a new actor per trial (Ray's default) costs
+    seconds, more than a small training (BENCHMARKS.md).
 
     Each trial is scored on held-out rows of the *training* data as :meth:`~sgplvm.SharedGPLVM.fit`
     chooses its iteration budget (``validation``; never a test set). After the initial model and
