@@ -201,20 +201,22 @@ def test_transfer_fleet_over_20_variants_equals_serial_transfers(cluster):
 
 
 def test_a_task_computes_on_as_many_threads_as_cpus_ray_gave_it(cluster):
-    def pool_threads_after_a_transfer(model_bytes, data):
-        """Runs a transfer as a task does, then counts this worker's numeric pool threads
+    def pool_threads_after_a_fit(human, robot):
+        """Sizes the pool as a task does and trains a model whose two spaces are evaluated on
+        the pool (64 rows or more: a transfer's one space, or fewer rows, stay on the calling
+        thread and would start no pool), then counts this worker's numeric pool threads
         (defined here so that Ray sends it by value: workers cannot import this test file)."""
-        sray._transfer_one(model_bytes, "extra", data, {"max_iters": 3})
+        sray._use_cpus()
+        sgplvm.SharedGPLVM(latent_dim=2).fit({"human": human, "r": robot}, max_iters=3, validation=None)
         names = []
         for tid in os.listdir("/proc/self/task"):
             with open(f"/proc/self/task/{tid}/comm") as f:
                 names.append(f.read().strip())
         return sum(1 for n in names if n.startswith("sgplvm-"))
 
-    human, robot = _toy(3)
-    model = sgplvm.SharedGPLVM(latent_dim=2).fit({"human": human, "r": robot}, max_iters=5, validation=None)
-    remote = ray.remote(num_cpus=1)(pool_threads_after_a_transfer)
-    counts = ray.get([remote.remote(model.to_bytes(), robot) for _ in range(4)])
+    human, robot = _toy(3, n=90)
+    remote = ray.remote(num_cpus=1)(pool_threads_after_a_fit)
+    counts = ray.get([remote.remote(human, robot) for _ in range(4)])
     assert counts == [1, 1, 1, 1]
 
 
