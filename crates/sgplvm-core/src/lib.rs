@@ -133,4 +133,4 @@ pub use regression::GpRegression;
 pub use sparse::objective::SparseEvaluator;
 pub use sparse::sparse_bound;
 pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};
-pub use validation::{Selection, Validation, ValidationRecord};
+pub use validation::{Selection, SelectionCallback, Validation, ValidationRecord};

@@ -134,36 +134,49 @@ pub struct Selection {
     pub seconds: f64,
 }
 
+/// Callback of a selection run: sees every iteration's validation error (iteration 0, the
+/// initial model, first; not finite when that model could not predict) and may end the run
+/// early with [`Control::Stop`] — the budget is then the best iteration seen so far.
+pub type SelectionCallback<'c> = &'c mut dyn FnMut(&ValidationRecord) -> Control;
+
 /// Tracks the validation error of a selection run and when to stop it.
-struct Tracker {
+struct Tracker<'c> {
     curve: Vec<ValidationRecord>,
     best: Option<(usize, f64)>,
     patience: usize,
+    observer: Option<SelectionCallback<'c>>,
 }
 
-impl Tracker {
-    fn new(patience: usize) -> Self {
+impl<'c> Tracker<'c> {
+    fn new(patience: usize, observer: Option<SelectionCallback<'c>>) -> Self {
         Self {
             curve: Vec::new(),
             best: None,
             patience,
+            observer,
         }
     }
 
-    /// Records iteration `iteration`'s validation error (skipped when not finite) and says
-    /// whether the run should go on.
+    /// Records iteration `iteration`'s validation error (skipped when not finite), tells the
+    /// observer, and says whether the run should go on.
     fn record(&mut self, iteration: usize, objective: f64, validation_mse: f64) -> Control {
+        let record = ValidationRecord {
+            iteration,
+            objective,
+            validation_mse,
+        };
+        let observed = match self.observer.as_mut() {
+            Some(observer) => observer(&record),
+            None => Control::Continue,
+        };
         if validation_mse.is_finite() && objective.is_finite() {
-            self.curve.push(ValidationRecord {
-                iteration,
-                objective,
-                validation_mse,
-            });
+            self.curve.push(record);
             if self.best.is_none_or(|(_, m)| validation_mse < m) {
                 self.best = Some((iteration, validation_mse));
             }
         }
         match self.best {
+            _ if observed == Control::Stop => Control::Stop,
             Some((b, _)) if iteration >= b + self.patience => Control::Stop,
             _ => Control::Continue,
         }
@@ -209,6 +222,19 @@ pub(crate) fn select_kernel_budget(
     options: &TrainOptions,
     limits: &Limits,
 ) -> Result<Selection> {
+    select_kernel_budget_observed(x, space, data, validation, options, limits, None)
+}
+
+/// [`select_kernel_budget`] with `observer` seeing every iteration's validation error.
+fn select_kernel_budget_observed(
+    x: MatRef<'_, f64>,
+    space: &Space,
+    data: MatRef<'_, f64>,
+    validation: &Validation,
+    options: &TrainOptions,
+    limits: &Limits,
+    observer: Option<SelectionCallback<'_>>,
+) -> Result<Selection> {
     let (fit, held) = validation.split(x.nrows(), x.ncols())?;
     let start = Instant::now();
     let x_fit = take_rows(x, &fit);
@@ -229,7 +255,7 @@ pub(crate) fn select_kernel_budget(
             Err(_) => (f64::NAN, f64::NAN),
         }
     };
-    let mut tracker = Tracker::new(validation.patience);
+    let mut tracker = Tracker::new(validation.patience, observer);
     let (objective0, error0) = score(&space.kernel);
     if tracker.record(0, objective0, error0) == Control::Continue && options.max_iters > 0 {
         fit_kernel(
@@ -258,6 +284,21 @@ impl SharedGplvm {
         input: &str,
         options: &TrainOptions,
         validation: &Validation,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
+        Self::fit_validated_observed(config, spaces, input, options, validation, None, callback)
+    }
+
+    /// [`SharedGplvm::fit_validated`] with `on_selection` seeing every iteration of the
+    /// selection run (its validation error: the values of the returned model's selection
+    /// curve) and able to end that run early, as a tuner that stops poor runs does.
+    pub fn fit_validated_observed(
+        config: &ModelConfig,
+        spaces: &[(&str, MatRef<'_, f64>)],
+        input: &str,
+        options: &TrainOptions,
+        validation: &Validation,
+        on_selection: Option<SelectionCallback<'_>>,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
         options.check()?;
@@ -290,7 +331,7 @@ impl SharedGplvm {
             }
             total / outputs.len() as f64
         };
-        let mut tracker = Tracker::new(validation.patience);
+        let mut tracker = Tracker::new(validation.patience, on_selection);
         let seed_model = Self::initial(config, &fit_spaces, input)?;
         // Scored and dropped before the other runs: its buffers would add a third to the peak
         // memory of the final run.
@@ -342,6 +383,23 @@ impl SharedGplvm {
         validation: &Validation,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
+        self.transfer_validated_observed(name, data, seed, options, validation, None, callback)
+    }
+
+    /// [`SharedGplvm::transfer_validated`] with `on_selection` seeing every iteration of the
+    /// selection run and able to end it early (as in
+    /// [`SharedGplvm::fit_validated_observed`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn transfer_validated_observed(
+        &self,
+        name: &str,
+        data: MatRef<'_, f64>,
+        seed: Option<u64>,
+        options: &TrainOptions,
+        validation: &Validation,
+        on_selection: Option<SelectionCallback<'_>>,
+        callback: Option<Callback<'_>>,
+    ) -> Result<Self> {
         options.check()?;
         if self.sparse.is_some() {
             // The selection runs are exact GP regressions on the training frames (O(N³)).
@@ -354,8 +412,15 @@ impl SharedGplvm {
         }
         let limits = Limits::start(options);
         let space = self.transfer_space(name, data, seed)?;
-        let chosen =
-            select_kernel_budget(self.x.as_ref(), &space, data, validation, options, &limits)?;
+        let chosen = select_kernel_budget_observed(
+            self.x.as_ref(),
+            &space,
+            data,
+            validation,
+            options,
+            &limits,
+            on_selection,
+        )?;
         let budget = options.clone().with_max_iters(chosen.best_iteration);
         let mut model = self.transfer_impl(name, data, seed, &budget, &limits, callback)?;
         model.selection = Some(chosen);
@@ -473,6 +538,97 @@ mod tests {
             assert_eq!(back.selection(), Some(&s));
             assert!(m.training_seconds() >= s.seconds);
         }
+    }
+
+    /// The selection observer hears exactly the curve the model records, and stopping it
+    /// ends the selection run there: the budget is the best iteration seen so far, and the
+    /// model is the plain fit for that budget.
+    #[test]
+    fn the_selection_observer_hears_the_curve_and_can_end_the_run() {
+        let n = 45;
+        let (h, r, r2, _) = demo(n, 3);
+        let spaces = [("human", h.as_ref()), ("walkman", r.as_ref())];
+        let config = ModelConfig::default().with_latent_dim(2);
+        let validation = every_third(n).with_patience(6);
+        let options = quick(40);
+        let mut heard = Vec::new();
+        let m = SharedGplvm::fit_validated_observed(
+            &config,
+            &spaces,
+            "human",
+            &options,
+            &validation,
+            Some(&mut |rec: &ValidationRecord| {
+                heard.push(rec.clone());
+                Control::Continue
+            }),
+            None,
+        )
+        .expect("fit");
+        let s = m.selection().expect("selection").clone();
+        assert!(heard.len() > 2);
+        assert_eq!(heard, s.curve);
+        let plain =
+            SharedGplvm::fit_validated(&config, &spaces, "human", &options, &validation, None)
+                .expect("fit");
+        assert_eq!(plain.params(), m.params());
+
+        let stop_at = 2;
+        let mut last = None;
+        let stopped = SharedGplvm::fit_validated_observed(
+            &config,
+            &spaces,
+            "human",
+            &options,
+            &validation,
+            Some(&mut |rec: &ValidationRecord| {
+                last = Some(rec.iteration);
+                if rec.iteration >= stop_at {
+                    Control::Stop
+                } else {
+                    Control::Continue
+                }
+            }),
+            None,
+        )
+        .expect("fit");
+        let st = stopped.selection().expect("selection");
+        assert_eq!(last, Some(stop_at));
+        assert_eq!(st.curve[..], s.curve[..=stop_at]);
+        let best = st
+            .curve
+            .iter()
+            .min_by(|a, b| a.validation_mse.total_cmp(&b.validation_mse))
+            .expect("curve")
+            .iteration;
+        assert_eq!(st.best_iteration, best);
+        let budget = SharedGplvm::fit(
+            &config,
+            &spaces,
+            "human",
+            &options.clone().with_max_iters(best),
+            None,
+        )
+        .expect("fit");
+        assert_eq!(stopped.params(), budget.params());
+
+        // A transfer's selection run is heard the same way.
+        let mut heard = Vec::new();
+        let t = m
+            .transfer_validated_observed(
+                "coman",
+                r2.as_ref(),
+                None,
+                &options,
+                &validation,
+                Some(&mut |rec: &ValidationRecord| {
+                    heard.push(rec.clone());
+                    Control::Continue
+                }),
+                None,
+            )
+            .expect("transfer");
+        assert_eq!(heard, t.selection().expect("selection").curve);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The native model class behind `sgplvm.SharedGPLVM` (the Python wrapper in
 //! `python/sgplvm/_model.py` converts arguments and adds pickling).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -11,7 +12,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use sgplvm_core::{
     BackConstraint, Control, Interrupt, IterationRecord, KernelParams, LatentParams, Mat,
-    ModelConfig, Params, SharedGplvm, TrainOptions, Validation,
+    ModelConfig, Params, SelectionCallback, SharedGplvm, TrainOptions, Validation,
+    ValidationRecord,
 };
 
 use crate::guard::guarded;
@@ -119,55 +121,120 @@ pub(crate) fn signal_interrupt(raised: Arc<Mutex<Option<PyErr>>>) -> Interrupt {
 /// A training's model and the exception a signal handler raised during it, if one did.
 type Trained = (SharedGplvm, Option<PyErr>);
 
+/// The Python callbacks of one training: `callback(iteration, objective)` for the final run and
+/// `validation_callback(record)` (a dict) for the selection run on held-out rows.
+#[derive(Default)]
+pub(crate) struct PyCallbacks {
+    /// Hears each iteration of the final training.
+    pub(crate) callback: Option<Py<PyAny>>,
+    /// Hears each iteration of the selection run with its validation error.
+    pub(crate) validation_callback: Option<Py<PyAny>>,
+}
+
+/// Where the Python callbacks of a training report what they raised: `raised` an exception
+/// to raise after training, `signal` a `KeyboardInterrupt` to handle like Ctrl-C.
+struct Outcome {
+    raised: Mutex<Option<PyErr>>,
+    abort: AtomicBool,
+    signal: Arc<Mutex<Option<PyErr>>>,
+}
+
+impl Outcome {
+    /// Runs `call` (a callback's call, GIL held): its returning False (not None) stops the
+    /// run; an exception stops it too and aborts the whole training (kept in `raised`), except
+    /// a `KeyboardInterrupt`, which is handled like Ctrl-C between evaluations (the interrupt
+    /// stops training at its next check).
+    fn call(&self, call: impl FnOnce(Python<'_>) -> PyResult<Py<PyAny>>) -> Control {
+        Python::attach(|py| match call(py) {
+            Ok(value) => match value.is_truthy(py) {
+                Ok(false) if !value.is_none(py) => Control::Stop,
+                Ok(_) => Control::Continue,
+                Err(e) => self.fail(e),
+            },
+            Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
+                *self.signal.lock().unwrap_or_else(PoisonError::into_inner) = Some(e);
+                Control::Continue
+            }
+            Err(e) => self.fail(e),
+        })
+    }
+
+    /// Keeps the first exception a callback raised and stops the training.
+    fn fail(&self, e: PyErr) -> Control {
+        let mut raised = self.raised.lock().unwrap_or_else(PoisonError::into_inner);
+        if raised.is_none() {
+            *raised = Some(e);
+        }
+        self.abort.store(true, Ordering::SeqCst);
+        Control::Stop
+    }
+}
+
 /// Runs a training with the GIL released, `options` given an interrupt that checks Python's
 /// signal handlers between objective evaluations (so Ctrl-C stops it within about a second).
-/// The Python callback, if any, is called with the GIL held and may stop training by
-/// returning False. An exception in the callback stops training and is raised once training
-/// has returned; an exception from a signal handler (or a `KeyboardInterrupt` raised in the
-/// callback) stops it too and is returned with the model trained so far (its best
-/// parameters, stop reason `interrupted`).
+/// The Python callbacks, if any, are called with the GIL held and may stop their run by
+/// returning False (the validation callback: the selection run, whose best iteration so far
+/// becomes the budget). An exception in a callback stops training (both runs) and is raised
+/// once training has returned; an exception from a signal handler (or a `KeyboardInterrupt`
+/// raised in a callback) stops it too and is returned with the model trained so far (its
+/// best parameters, stop reason `interrupted`).
 fn train_detached(
     py: Python<'_>,
-    callback: Option<Py<PyAny>>,
+    callbacks: PyCallbacks,
     options: TrainOptions,
-    train: impl FnOnce(&TrainOptions, Option<sgplvm_core::Callback<'_>>) -> sgplvm_core::Result<SharedGplvm>
+    train: impl FnOnce(
+            &TrainOptions,
+            Option<sgplvm_core::Callback<'_>>,
+            Option<SelectionCallback<'_>>,
+        ) -> sgplvm_core::Result<SharedGplvm>
         + Send,
 ) -> PyResult<Trained> {
-    let signal = Arc::new(Mutex::new(None));
-    let options = options.with_interrupt(signal_interrupt(Arc::clone(&signal)));
-    let mut raised: Option<PyErr> = None;
-    let result = py.detach(|| match &callback {
-        None => train(&options, None),
-        Some(cb) => {
-            let mut call = |it: &IterationRecord, _: &SharedGplvm| {
-                Python::attach(|py| match cb.call1(py, (it.iteration, it.objective)) {
-                    Ok(value) => match value.is_truthy(py) {
-                        Ok(false) if !value.is_none(py) => Control::Stop,
-                        Ok(_) => Control::Continue,
-                        Err(e) => {
-                            raised = Some(e);
-                            Control::Stop
-                        }
-                    },
-                    // Ctrl-C while the callback runs: handled like Ctrl-C between
-                    // evaluations (the interrupt stops training at its next check).
-                    Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
-                        *signal.lock().unwrap_or_else(PoisonError::into_inner) = Some(e);
-                        Control::Continue
-                    }
-                    Err(e) => {
-                        raised = Some(e);
-                        Control::Stop
-                    }
-                })
-            };
-            train(&options, Some(&mut call))
-        }
+    let outcome = Arc::new(Outcome {
+        raised: Mutex::new(None),
+        abort: AtomicBool::new(false),
+        signal: Arc::new(Mutex::new(None)),
     });
-    if let Some(e) = raised {
+    let signals = signal_interrupt(Arc::clone(&outcome.signal));
+    let aborted = Arc::clone(&outcome);
+    let options = options.with_interrupt(Interrupt::new(move || {
+        aborted.abort.load(Ordering::SeqCst) || signals.should_stop()
+    }));
+    let result = py.detach(|| {
+        let mut final_run = callbacks.callback.as_ref().map(|cb| {
+            |it: &IterationRecord, _: &SharedGplvm| {
+                outcome.call(|py| cb.call1(py, (it.iteration, it.objective)))
+            }
+        });
+        let mut selection = callbacks.validation_callback.as_ref().map(|cb| {
+            |rec: &ValidationRecord| {
+                outcome.call(|py| {
+                    let record = PyDict::new(py);
+                    record.set_item("iteration", rec.iteration)?;
+                    record.set_item("objective", rec.objective)?;
+                    record.set_item("validation_mse", rec.validation_mse)?;
+                    cb.call1(py, (record,))
+                })
+            }
+        });
+        train(
+            &options,
+            final_run.as_mut().map(|f| f as sgplvm_core::Callback<'_>),
+            selection.as_mut().map(|f| f as SelectionCallback<'_>),
+        )
+    });
+    if let Some(e) = outcome
+        .raised
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .take()
+    {
         return Err(e);
     }
-    let signal = signal.lock().unwrap_or_else(PoisonError::into_inner).take();
+    let signal = outcome
+        .signal
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .take();
     match (result, signal) {
         (Ok(model), signal) => Ok((model, signal)),
         // A signal's exception wins over a training error: the user pressed Ctrl-C.
@@ -210,7 +277,7 @@ impl NativeModel {
     /// handler's exception (Ctrl-C) stops training and is raised carrying the model trained so
     /// far as its `_sgplvm_native` attribute.
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None, validation_callback=None))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -227,6 +294,7 @@ impl NativeModel {
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<(String, Vec<String>)>>,
         inducing: Option<usize>,
+        validation_callback: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         guarded(|| {
             let config = ModelConfig::default()
@@ -241,24 +309,30 @@ impl NativeModel {
                 .with_max_iters(max_iters)
                 .with_max_seconds(max_seconds);
             let input = input.to_string();
-            let (mut model, signal) = train_detached(py, callback, options, |options, cb| {
-                let views: Vec<(&str, _)> =
-                    mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
-                match validation {
-                    Some(rows) => {
-                        let validation = Validation::new(rows).with_patience(patience);
-                        SharedGplvm::fit_validated(
-                            &config,
-                            &views,
-                            &input,
-                            options,
-                            &validation,
-                            cb,
-                        )
+            let callbacks = PyCallbacks {
+                callback,
+                validation_callback,
+            };
+            let (mut model, signal) =
+                train_detached(py, callbacks, options, |options, cb, on_selection| {
+                    let views: Vec<(&str, _)> =
+                        mats.iter().map(|(n, m)| (n.as_str(), m.as_ref())).collect();
+                    match validation {
+                        Some(rows) => {
+                            let validation = Validation::new(rows).with_patience(patience);
+                            SharedGplvm::fit_validated_observed(
+                                &config,
+                                &views,
+                                &input,
+                                options,
+                                &validation,
+                                on_selection,
+                                cb,
+                            )
+                        }
+                        None => SharedGplvm::fit(&config, &views, &input, options, cb),
                     }
-                    None => SharedGplvm::fit(&config, &views, &input, options, cb),
-                }
-            })?;
+                })?;
             for (space, names) in column_names.unwrap_or_default() {
                 model.set_column_names(&space, names).map_err(model_error)?;
             }
@@ -268,7 +342,7 @@ impl NativeModel {
 
     /// A new model that also predicts for robot `name`, trained only on that robot's kernel.
     /// Ctrl-C as in [`NativeModel::fit`].
-    #[pyo3(signature = (name, data, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None))]
+    #[pyo3(signature = (name, data, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, validation_callback=None))]
     #[allow(clippy::too_many_arguments)]
     fn transfer(
         &self,
@@ -281,27 +355,37 @@ impl NativeModel {
         max_seconds: Option<f64>,
         callback: Option<Py<PyAny>>,
         column_names: Option<Vec<String>>,
+        validation_callback: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         guarded(|| {
             let data = to_mat(&data);
             let options = TrainOptions::default()
                 .with_max_iters(max_iters)
                 .with_max_seconds(max_seconds);
-            let (mut model, signal) =
-                train_detached(py, callback, options, |options, cb| match validation {
+            let callbacks = PyCallbacks {
+                callback,
+                validation_callback,
+            };
+            let (mut model, signal) = train_detached(
+                py,
+                callbacks,
+                options,
+                |options, cb, on_selection| match validation {
                     Some(rows) => {
                         let validation = Validation::new(rows).with_patience(patience);
-                        self.inner.transfer_validated(
+                        self.inner.transfer_validated_observed(
                             name,
                             data.as_ref(),
                             None,
                             options,
                             &validation,
+                            on_selection,
                             cb,
                         )
                     }
                     None => self.inner.transfer(name, data.as_ref(), options, cb),
-                })?;
+                },
+            )?;
             if let Some(names) = column_names {
                 model.set_column_names(name, names).map_err(model_error)?;
             }

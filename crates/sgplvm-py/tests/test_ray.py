@@ -201,27 +201,29 @@ def test_transfer_fleet_over_20_variants_equals_serial_transfers(cluster):
 
 
 def test_a_task_computes_on_as_many_threads_as_cpus_ray_gave_it(cluster):
-    def pool_threads_after_a_transfer(model_bytes, data):
-        """Runs a transfer as a task does, then counts this worker's numeric pool threads
+    def pool_threads_after_a_fit(human, robot):
+        """Sizes the pool as a task does and trains a model whose two spaces are evaluated on
+        the pool (64 rows or more: a transfer's one space, or fewer rows, stay on the calling
+        thread and would start no pool), then counts this worker's numeric pool threads
         (defined here so that Ray sends it by value: workers cannot import this test file)."""
-        sray._transfer_one(model_bytes, "extra", data, {"max_iters": 3})
+        sray._use_cpus()
+        sgplvm.SharedGPLVM(latent_dim=2).fit({"human": human, "r": robot}, max_iters=3, validation=None)
         names = []
         for tid in os.listdir("/proc/self/task"):
             with open(f"/proc/self/task/{tid}/comm") as f:
                 names.append(f.read().strip())
         return sum(1 for n in names if n.startswith("sgplvm-"))
 
-    human, robot = _toy(3)
-    model = sgplvm.SharedGPLVM(latent_dim=2).fit({"human": human, "r": robot}, max_iters=5, validation=None)
-    remote = ray.remote(num_cpus=1)(pool_threads_after_a_transfer)
-    counts = ray.get([remote.remote(model.to_bytes(), robot) for _ in range(4)])
+    human, robot = _toy(3, n=90)
+    remote = ray.remote(num_cpus=1)(pool_threads_after_a_fit)
+    counts = ray.get([remote.remote(human, robot) for _ in range(4)])
     assert counts == [1, 1, 1, 1]
 
 
 def test_a_sweep_rejects_unknown_parameters_before_starting_anything(cluster):
     human, robot = _toy(2)
-    with pytest.raises(ValueError, match="inducing"):
-        sray.sweep({"human": human, "r": robot}, {"latent_dim": [1], "inducing": [10]})
+    with pytest.raises(ValueError, match="bandwidth"):
+        sray.sweep({"human": human, "r": robot}, {"latent_dim": [1], "bandwidth": [0.5]})
 
 
 def test_sweep_scores_on_held_out_training_rows_and_returns_the_best(cluster):
@@ -240,3 +242,74 @@ def test_sweep_scores_on_held_out_training_rows_and_returns_the_best(cluster):
     _assert_same_model(best, serial, human, "r")
     curve = {r["iteration"]: r["validation_mse"] for r in serial.selection["curve"]}
     assert top["validation_mse"] == curve[serial.selection["best_iteration"]]
+
+
+# ---------------------------------------------------------------------------------- Ray Tune
+
+TUNE_ITERS, TUNE_PATIENCE = 40, 8
+
+
+def test_a_tune_asha_search_stops_poor_trials_and_its_best_equals_a_serial_fit(cluster, tmp_path):
+    tune = pytest.importorskip("ray.tune", reason='Ray Tune is not installed (pip install "sgplvm[tune]")')
+    from ray.tune.schedulers import ASHAScheduler
+
+    human, robot = _toy(5)
+    data = {"human": human, "r": robot}
+    grid = {"latent_dim": [1, 2], "back_constraint": ["input", None]}
+    serial = {
+        (q, bc): sgplvm.SharedGPLVM(latent_dim=q, back_constraint=bc).fit(
+            data, max_iters=TUNE_ITERS, patience=TUNE_PATIENCE
+        )
+        for q in grid["latent_dim"]
+        for bc in grid["back_constraint"]
+    }
+    tuner = tune.Tuner(
+        sray.tune_trainable(data, max_iters=TUNE_ITERS, patience=TUNE_PATIENCE),
+        param_space={k: tune.grid_search(v) for k, v in grid.items()},
+        tune_config=tune.TuneConfig(
+            metric="validation_mse",
+            mode="min",
+            scheduler=ASHAScheduler(grace_period=1, reduction_factor=2, max_t=10 * TUNE_ITERS),
+            # One trial at a time: ASHA's decisions then depend only on the (deterministic)
+            # reported values, not on which trial reached a rung first.
+            max_concurrent_trials=1,
+            # A stopped trial's actor runs the next one: its training must end when stopped.
+            reuse_actors=True,
+        ),
+        run_config=tune.RunConfig(storage_path=str(tmp_path), name="asha", verbose=0),
+    )
+    results = tuner.fit()
+    assert results.num_errors == 0 and len(results) == 4
+    finished, stopped = [], []
+    for result in results:
+        key = (result.config["latent_dim"], result.config["back_constraint"])
+        curve = serial[key].selection["curve"]
+        reports = result.metrics_dataframe
+        # A trial stopped by ASHA never reported `done_training` (no such column).
+        final = reports["done_training"] if "done_training" in reports else None
+        heard = reports if final is None else reports[final.isna()]
+        # Every iteration of the selection run was reported, in order, with its held-out error
+        # (the CSV keeps 15+ digits: compared to rounding; the final metrics below exactly).
+        assert list(heard["iteration"]) == [r["iteration"] for r in curve[: len(heard)]]
+        np.testing.assert_allclose(
+            heard["validation_mse"], [r["validation_mse"] for r in curve[: len(heard)]], rtol=1e-12
+        )
+        print(key, "reports", len(reports), "curve", len(curve))
+        if result.metrics.get("done_training"):
+            assert len(heard) == len(curve) == len(reports) - 1, key
+            assert result.checkpoint is not None
+            finished.append(result)
+        else:
+            assert len(heard) < len(curve), f"{key}: not finished, yet every iteration was reported"
+            assert result.checkpoint is None
+            stopped.append(result)
+    assert stopped, "ASHA stopped no trial: nothing was tested of early stopping"
+    assert finished, "ASHA stopped every trial"
+    best = min(finished, key=lambda r: r.metrics["best_validation_mse"])
+    key = (best.config["latent_dim"], best.config["back_constraint"])
+    expected = serial[key]
+    sel = expected.selection
+    score = next(r["validation_mse"] for r in sel["curve"] if r["iteration"] == sel["best_iteration"])
+    assert best.metrics["best_validation_mse"] == score
+    assert best.metrics["best_iteration"] == sel["best_iteration"]
+    _assert_same_model(sray.tune_model(best.checkpoint), expected, human, "r")

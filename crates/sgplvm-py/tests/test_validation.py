@@ -98,3 +98,88 @@ def test_bad_validation_arguments_are_errors(demo, validation, message):
 def test_negative_patience_is_an_error(demo):
     with pytest.raises(ValueError, match="patience"):
         sgplvm.SharedGPLVM(5, "input").fit(spaces(demo), max_iters=5, patience=-1)
+
+
+# ------------------------------------------------------------- validation_callback
+
+
+def _toy(n=45, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 3.0, n)[:, None]
+    human = np.hstack([np.sin(t + k) for k in range(4)]) + 0.01 * rng.standard_normal((n, 4))
+    robot = np.hstack([np.cos(t + 0.5 * k) for k in range(3)])
+    return {"human": human, "r": robot}
+
+
+def test_the_validation_callback_hears_the_selection_curve():
+    data = _toy()
+    heard, final = [], []
+    model = sgplvm.SharedGPLVM(2, "input").fit(
+        data,
+        max_iters=30,
+        patience=5,
+        validation_callback=heard.append,
+        callback=lambda i, f: final.append(i),
+    )
+    sel = model.selection
+    assert len(heard) > 2
+    # Exactly the curve the model reports (every value bit for bit), iteration 0 first.
+    assert heard == sel["curve"]
+    assert [r["iteration"] for r in heard] == list(range(len(heard)))
+    best = min(heard, key=lambda r: r["validation_mse"])
+    assert best["iteration"] == sel["best_iteration"]
+    # The final run on all rows is what `callback` hears; listening changes nothing.
+    assert final == list(range(1, sel["best_iteration"] + 1))
+    plain = sgplvm.SharedGPLVM(2, "input").fit(data, max_iters=30, patience=5)
+    np.testing.assert_array_equal(model.predict(data["human"], "r"), plain.predict(data["human"], "r"))
+    assert plain.selection == {**sel, "seconds": plain.selection["seconds"]}
+
+
+def test_returning_false_ends_the_selection_at_the_best_iteration_so_far():
+    data = _toy()
+    heard = []
+
+    def stop_at_3(record):
+        heard.append(record["iteration"])
+        return record["iteration"] < 3
+
+    model = sgplvm.SharedGPLVM(2, None).fit(data, max_iters=30, patience=20, validation_callback=stop_at_3)
+    sel = model.selection
+    assert heard == [0, 1, 2, 3]
+    assert [r["iteration"] for r in sel["curve"]] == [0, 1, 2, 3]
+    full = sgplvm.SharedGPLVM(2, None).fit(data, max_iters=30, patience=20).selection
+    assert len(full["curve"]) > 4, "the run would have gone on"
+    assert sel["curve"] == full["curve"][:4]
+    chosen = min(sel["curve"], key=lambda r: r["validation_mse"])["iteration"]
+    assert sel["best_iteration"] == chosen
+    plain = sgplvm.SharedGPLVM(2, None).fit(data, max_iters=chosen, validation=None)
+    np.testing.assert_array_equal(model.predict(data["human"], "r"), plain.predict(data["human"], "r"))
+
+
+def test_an_exception_in_the_validation_callback_stops_training_and_is_raised():
+    data = _toy()
+    final = []
+
+    def fail(record):
+        # Past the first iterations, so the best so far is not 0: a final run would be heard.
+        if record["iteration"] == 8:
+            raise RuntimeError("enough")
+
+    with pytest.raises(RuntimeError, match="enough"):
+        sgplvm.SharedGPLVM(2, "input").fit(
+            data, max_iters=30, patience=20, validation_callback=fail, callback=lambda i, f: final.append(i)
+        )
+    assert final == [], "the final run went on after the callback raised"
+
+
+def test_a_transfer_validation_callback_hears_its_curve():
+    data = _toy()
+    model = sgplvm.SharedGPLVM(2, "input").fit(data, max_iters=10, validation=None)
+    heard = []
+    new = model.transfer("r2", data["r"][:, ::-1] * 2.0, max_iters=20, validation_callback=heard.append)
+    assert heard == new.selection["curve"] and len(heard) > 1
+
+
+def test_a_validation_callback_needs_held_out_rows():
+    with pytest.raises(ValueError, match="validation_callback is given but validation is None"):
+        sgplvm.SharedGPLVM(2).fit(_toy(), max_iters=3, validation=None, validation_callback=print)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import operator
 import os
-from typing import Callable, Dict, Mapping, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -99,6 +99,23 @@ def _max_seconds(max_seconds: Optional[float]) -> Optional[float]:
     return seconds
 
 
+#: ``validation_callback(record)`` of :meth:`SharedGPLVM.fit`: ``record`` is
+#: ``{"iteration": int, "objective": float, "validation_mse": float}``; ``False`` stops.
+ValidationCallback = Callable[[Dict[str, Any]], Optional[bool]]
+
+
+def _check_validation_callback(validation_callback: Any, validation: Any) -> None:
+    if validation_callback is None:
+        return
+    if not callable(validation_callback):
+        raise ValueError(f"validation_callback is {validation_callback!r}; expected a function of one dict")
+    if validation is None:
+        raise ValueError(
+            "validation_callback is given but validation is None: there are no held-out rows to "
+            "score; give validation='auto' or the rows to hold out"
+        )
+
+
 def _interrupted_model(error: BaseException) -> "Optional[_sgplvm.NativeModel]":
     """The model trained until a signal (Ctrl-C) interrupted it, which the native training
     attaches to the exception the signal handler raised."""
@@ -149,6 +166,7 @@ class SharedGPLVM:
         patience: int = DEFAULT_PATIENCE,
         max_seconds: Optional[float] = None,
         inducing: Optional[int] = None,
+        validation_callback: Optional[ValidationCallback] = None,
     ) -> "SharedGPLVM":
         """Trains the model on named spaces with the same number of rows (frames).
 
@@ -166,6 +184,16 @@ class SharedGPLVM:
         of every training motion — or ``"auto"`` (every third of nine equal blocks of rows,
         for rows in time order), or ``None`` to train on all rows until convergence or
         ``max_iters``.
+
+        ``validation_callback(record)`` hears that choice: after the initial model and every
+        iteration of the run on the other rows, a dict ``{"iteration", "objective",
+        "validation_mse"}`` — the held-out rows' error (mean over output spaces of the mean
+        squared error, your units; ``nan`` when that model could not predict): the values of
+        :attr:`selection`'s ``curve``. It costs nothing extra (the error is computed for the
+        choice anyway). Returning ``False`` ends the choice there, as a tuner stopping a poor
+        run does: the model is then trained on all rows for the best iteration seen so far.
+        An exception it raises stops training and is raised. It needs ``validation``; Ray Tune
+        users get it wrapped in :func:`sgplvm.ray.tune_trainable`.
 
         ``max_seconds`` bounds the wall-clock time of the whole call (with validation, half of
         it for choosing the iteration count): when it runs out, training stops and keeps the
@@ -192,6 +220,7 @@ class SharedGPLVM:
         """
         if inducing is not None and (isinstance(inducing, bool) or int(inducing) < 1):
             raise ValueError(f"inducing is {inducing!r}; expected an integer >= 1 or None")
+        _check_validation_callback(validation_callback, validation)
         if not isinstance(spaces, Mapping) or not spaces:
             raise ValueError("spaces: expected a non-empty dict of name -> 2-D array")
         if input not in spaces:
@@ -214,6 +243,7 @@ class SharedGPLVM:
                 callback,
                 names,
                 None if inducing is None else int(inducing),
+                validation_callback,
             )
         except BaseException as e:
             interrupted = _interrupted_model(e)
@@ -232,19 +262,22 @@ class SharedGPLVM:
         validation: Validation = "auto",
         patience: int = DEFAULT_PATIENCE,
         max_seconds: Optional[float] = None,
+        validation_callback: Optional[ValidationCallback] = None,
     ) -> "SharedGPLVM":
         """A new model that also predicts robot ``name``: the latent space, the human mapping
         and the existing robots stay frozen; only the new robot's kernel is trained on ``data``
         (the same frames as the human training data). This model is not changed.
 
         ``validation`` and ``patience`` choose the iteration budget as in :meth:`fit` (the
-        held-out rows are predicted from their latent points); ``max_seconds`` bounds the
-        call's wall-clock time as in :meth:`fit`.
+        held-out rows are predicted from their latent points), and ``validation_callback``
+        hears it as in :meth:`fit`; ``max_seconds`` bounds the call's wall-clock time as in
+        :meth:`fit`.
 
         Ctrl-C stops training within about a second and raises ``KeyboardInterrupt`` (no model
         is returned); the new model, with the best parameters reached, is the exception's
         ``model`` attribute."""
         native = self._require()
+        _check_validation_callback(validation_callback, validation)
         new = SharedGPLVM(self.latent_dim, self.back_constraint, self.seed, self.scale)
         matrix = _as_matrix(data, name)
         try:
@@ -257,6 +290,7 @@ class SharedGPLVM:
                 _max_seconds(max_seconds),
                 callback,
                 None if column_names is None else list(column_names),
+                validation_callback,
             )
         except BaseException as e:
             interrupted = _interrupted_model(e)

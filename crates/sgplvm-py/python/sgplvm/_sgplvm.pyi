@@ -34,6 +34,7 @@ DEFAULT_PATIENCE: int
 _Path = Union[str, PathLike]
 _F64 = npt.NDArray[np.float64]
 _Callback = Callable[[int, float], Optional[bool]]
+_ValidationCallback = Callable[[Dict[str, Any]], Optional[bool]]
 
 @final
 class NativeModel:
@@ -54,6 +55,7 @@ class NativeModel:
         callback: Optional[_Callback] = None,
         column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
         inducing: Optional[int] = None,
+        validation_callback: Optional[_ValidationCallback] = None,
     ) -> "NativeModel": ...
     def transfer(
         self,
@@ -65,6 +67,7 @@ class NativeModel:
         max_seconds: Optional[float] = None,
         callback: Optional[_Callback] = None,
         column_names: Optional[List[str]] = None,
+        validation_callback: Optional[_ValidationCallback] = None,
     ) -> "NativeModel": ...
     @property
     def stop_reason(self) -> Optional[str]: ...

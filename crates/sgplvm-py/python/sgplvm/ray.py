@@ -10,6 +10,10 @@ Needs Ray (``pip install "sgplvm[ray]"``); ``address=None`` starts or joins a lo
 * :func:`sweep` trains one model per grid point and scores it on held-out rows of the training
   data (never a test set: it is not given one).
 * :func:`transfer_fleet` transfers one trained model to many robots at once.
+* :func:`tune_trainable` is a Ray Tune function trainable (``pip install "sgplvm[tune]"``): each
+  trial trains one model and reports its validation error after every iteration of the
+  selection run, so that Tune's schedulers (ASHA) can stop poor runs early;
+  :func:`tune_model` loads a trial's model from its checkpoint.
 
 Each task's numeric thread pool is sized to the CPUs Ray gave it (``RAYON_NUM_THREADS``, set in
 the worker before its first training), so N tasks on N cores do not oversubscribe them.
@@ -24,7 +28,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 from . import _sgplvm
 from ._model import DEFAULT_PATIENCE, SharedGPLVM
 
-__all__ = ["run_experiment", "sweep", "transfer_fleet", "experiment_config"]
+__all__ = ["run_experiment", "sweep", "transfer_fleet", "experiment_config", "tune_trainable", "tune_model"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -154,7 +158,7 @@ def run_experiment_serial(
 _MODEL_KEYS = ("latent_dim", "back_constraint", "seed", "scale")
 
 
-_FIT_KEYS = ("max_iters", "validation", "patience", "max_seconds")
+_FIT_KEYS = ("max_iters", "validation", "patience", "max_seconds", "inducing")
 
 
 def _grid_points(grid: Union[Mapping[str, Sequence[Any]], Sequence[Mapping[str, Any]]]) -> List[Dict[str, Any]]:
@@ -208,7 +212,8 @@ def sweep(
 
     ``grid``: a dict of lists (every combination) or a list of dicts; keys are
     :class:`~sgplvm.SharedGPLVM` arguments (``latent_dim``, ``back_constraint``, ``seed``,
-    ``scale``) or :meth:`~sgplvm.SharedGPLVM.fit` arguments (``max_iters``, ``patience``, …).
+    ``scale``) or :meth:`~sgplvm.SharedGPLVM.fit` arguments (``max_iters``, ``patience``,
+    ``inducing``, …).
     Returns the table (one dict per point, best first: its parameters, ``validation_mse``,
     ``best_iteration``, ``seconds``) and the best model (trained on all training rows with
     the chosen budget). Ties keep grid order."""
@@ -254,3 +259,150 @@ def transfer_fleet(
     names = list(refs)
     models = ray.get([refs[n] for n in names])
     return {n: SharedGPLVM.from_bytes(b) for n, b in zip(names, models)}
+
+
+# ---------------------------------------------------------------------------------- Ray Tune
+
+#: The file of a trial's checkpoint that holds its model (:meth:`SharedGPLVM.to_bytes`).
+TUNE_MODEL_FILE = "model.sgplvm"
+
+
+def _tune() -> Any:
+    try:
+        from ray import tune
+    except ImportError as e:  # pragma: no cover - depends on the installation
+        raise ImportError('sgplvm.ray.tune_trainable needs Ray Tune: pip install "sgplvm[tune]"') from e
+    return tune
+
+
+def _tune_trial(
+    config: Dict[str, Any],
+    spaces: Optional[Mapping[str, Any]] = None,
+    input: str = "human",
+    fit_options: Optional[Dict[str, Any]] = None,
+    report_every: int = 1,
+    checkpoint: bool = True,
+) -> None:
+    """One Tune trial: trains the model of ``config`` (see :func:`tune_trainable`)."""
+    import math
+    import tempfile
+
+    tune = _tune()
+    _use_cpus()
+    assert spaces is not None, "tune.with_parameters passes the data"
+    (point,) = _grid_points([config])
+    model_args = {k: v for k, v in point.items() if k in _MODEL_KEYS}
+    fit_args = dict(fit_options or {})
+    fit_args.update({k: v for k, v in point.items() if k not in _MODEL_KEYS})
+    if fit_args.get("validation", "auto") is None:
+        raise ValueError("tune_trainable: validation=None given; a trial is scored on held-out rows")
+    best: Dict[str, Any] = {"validation_mse": math.inf, "iteration": 0}
+
+    def hear(record: Dict[str, Any]) -> None:
+        error = record["validation_mse"]
+        if math.isfinite(error) and error < best["validation_mse"]:
+            best.update(validation_mse=error, iteration=record["iteration"])
+        if record["iteration"] % report_every == 0:
+            tune.report(
+                {
+                    "iteration": record["iteration"],
+                    "objective": record["objective"],
+                    "validation_mse": error,
+                    "best_validation_mse": best["validation_mse"],
+                    "best_iteration": best["iteration"],
+                }
+            )
+
+    model = SharedGPLVM(**model_args).fit(spaces, input=input, validation_callback=hear, **fit_args)
+    selection = model.selection
+    assert selection is not None, "a fit with validation records its selection"
+    chosen = selection["best_iteration"]
+    objective = model.history["objective"]
+    score = next((r["validation_mse"] for r in selection["curve"] if r["iteration"] == chosen), math.nan)
+    final = {
+        "iteration": selection["curve"][-1]["iteration"] if selection["curve"] else 0,
+        # The final run's objective: trained on all rows for the chosen budget.
+        "objective": float(objective[-1]) if len(objective) else math.nan,
+        "validation_mse": score,
+        "best_validation_mse": score,
+        "best_iteration": chosen,
+        "done_training": True,
+    }
+    if not checkpoint:
+        tune.report(final)
+        return
+    with tempfile.TemporaryDirectory() as directory:
+        with open(os.path.join(directory, TUNE_MODEL_FILE), "wb") as f:
+            f.write(model.to_bytes())
+        tune.report(final, checkpoint=tune.Checkpoint.from_directory(directory))
+
+
+def tune_trainable(
+    spaces: Mapping[str, Any],
+    input: str = "human",
+    max_iters: int = 1000,
+    validation: Any = "auto",
+    patience: int = DEFAULT_PATIENCE,
+    report_every: int = 1,
+    checkpoint: bool = True,
+) -> Any:
+    """A Ray Tune function trainable that trains one model per trial on ``spaces``.
+
+    Use it as any function trainable::
+
+        tuner = tune.Tuner(
+            sgplvm.ray.tune_trainable({"human": H, "walkman": R}),
+            param_space={"latent_dim": tune.grid_search([2, 3, 5]), "back_constraint": "input"},
+            tune_config=tune.TuneConfig(metric="validation_mse", mode="min", reuse_actors=True,
+                                        scheduler=ASHAScheduler(grace_period=2)),
+        )
+        best = sgplvm.ray.tune_model(tuner.fit().get_best_result(
+            metric="best_validation_mse", mode="min", scope="last").checkpoint)
+
+    A trial's config holds :class:`~sgplvm.SharedGPLVM` arguments (``latent_dim``,
+    ``back_constraint``, ``seed``, ``scale``) and :meth:`~sgplvm.SharedGPLVM.fit` arguments
+    (``inducing``, ``max_iters``, ``patience``, ``max_seconds``, ``validation``), overriding
+    the ones given here; another key is a ``ValueError``. ``spaces`` go to the cluster once
+    (``tune.with_parameters``); a trial takes one CPU and computes on one thread. Pass
+    ``reuse_actors=True`` to ``TuneConfig``: a new actor per trial (Ray's default) costs
+    seconds, more than a small training (BENCHMARKS.md).
+
+    Each trial is scored on held-out rows of the *training* data as :meth:`~sgplvm.SharedGPLVM.fit`
+    chooses its iteration budget (``validation``; never a test set). After the initial model and
+    every ``report_every``-th iteration of that selection run it calls ``ray.tune.report`` with
+    ``iteration``, ``objective``, ``validation_mse`` (that iteration's held-out error; ``nan``
+    when the model could not predict), ``best_validation_mse`` and ``best_iteration`` (so far):
+    a scheduler stops poor trials there. Tune counts reports as ``training_iteration``; with
+    ``report_every`` > 1 use ``time_attr="iteration"`` to count iterations. A trial that runs to
+    the end trains the model on all rows for its best iteration and reports once more —
+    ``validation_mse`` and ``best_validation_mse`` the chosen score, ``done_training`` True —
+    with the model as its checkpoint (``checkpoint=False``: none); :func:`tune_model` loads it.
+    """
+    tune = _tune()
+    if isinstance(report_every, bool) or int(report_every) < 1:
+        raise ValueError(f"report_every is {report_every!r}; expected an integer >= 1")
+    if validation is None:
+        raise ValueError("tune_trainable: validation=None given; every trial needs held-out rows to be scored")
+    fit_options = {"max_iters": max_iters, "validation": validation, "patience": patience}
+    trainable = tune.with_parameters(
+        _tune_trial,
+        spaces={k: v for k, v in spaces.items()},
+        input=input,
+        fit_options=fit_options,
+        report_every=int(report_every),
+        checkpoint=bool(checkpoint),
+    )
+    return tune.with_resources(trainable, {"cpu": 1})
+
+
+def tune_model(checkpoint: Any) -> SharedGPLVM:
+    """The model of a :func:`tune_trainable` trial's checkpoint (``result.checkpoint``),
+    bit-identical to the one the trial trained."""
+    if checkpoint is None:
+        raise ValueError("tune_model: no checkpoint; a trial stopped early by the scheduler has none")
+    with checkpoint.as_directory() as directory:
+        path = os.path.join(directory, TUNE_MODEL_FILE)
+        if not os.path.exists(path):
+            raise ValueError(f"{path}: no model in this checkpoint; expected a tune_trainable trial's")
+        with open(path, "rb") as f:
+            return SharedGPLVM.from_bytes(f.read())
