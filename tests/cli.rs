@@ -419,6 +419,9 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         // Unknown robots.
         error(&["train", "--data", data, "--robot", "r2d2", "--out", out_s],
               &["r2d2", "walkman"]),
+        // A replay for Foxglove is MCAP only.
+        error(&["simulate", "--model", model, "--input", data, "--robot", "walkman", "--out", p_csv],
+              &[p_csv, "expected a name ending in .mcap"]),
         error(&["predict", "--model", model, "--input", data, "--robot", "coman", "--out", p_csv],
               &["coman"]),
         // Model and data with different joints.
