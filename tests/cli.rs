@@ -419,6 +419,9 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         // Unknown robots.
         error(&["train", "--data", data, "--robot", "r2d2", "--out", out_s],
               &["r2d2", "walkman"]),
+        // A replay for Foxglove is MCAP only.
+        error(&["simulate", "--model", model, "--input", data, "--robot", "walkman", "--out", p_csv],
+              &[p_csv, "expected a name ending in .mcap"]),
         error(&["predict", "--model", model, "--input", data, "--robot", "coman", "--out", p_csv],
               &["coman"]),
         // Model and data with different joints.
@@ -924,6 +927,48 @@ fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
         let path = out.join(model);
         assert!(stdout.contains(s(&path)), "{stdout}");
         assert!(path.exists(), "{model}");
+    }
+    // The test frames as each model predicts them, with predict's Foxglove topics.
+    let test_frames = sgplvm::robots::dataset::load_demonstrations(&f.data)
+        .unwrap()
+        .test
+        .len();
+    for (file, robot) in [
+        ("walkman_test.mcap", "walkman"),
+        ("walkman_to_coman_test.mcap", "coman"),
+        ("walkman_to_centauro_test.mcap", "centauro"),
+    ] {
+        let path = out.join(file);
+        assert!(stdout.contains(s(&path)), "{stdout}");
+        let mut topics: Vec<String> = sgplvm::robots::joint_state::list_channels(&path)
+            .unwrap()
+            .into_iter()
+            .map(|c| c.topic)
+            .collect();
+        topics.sort();
+        let mut expected: Vec<String> = [
+            "/human/joint_states",
+            "/human/robot_description",
+            "/latent",
+            "/tf",
+            "/tf_static",
+        ]
+        .iter()
+        .map(|t| t.to_string())
+        .chain(
+            ["joint_command", "prediction_std", "robot_description"]
+                .iter()
+                .map(|t| format!("/{robot}/{t}")),
+        )
+        .collect();
+        expected.sort();
+        assert_eq!(topics, expected, "{file}");
+        let command = sgplvm::robots::joint_state::read_joint_states(
+            &path,
+            &format!("/{robot}/joint_command"),
+        )
+        .unwrap();
+        assert_eq!(command.times_ns.len(), test_frames, "{file}");
     }
 }
 

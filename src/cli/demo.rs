@@ -1,6 +1,7 @@
 //! `sgplvm demo`: the library's transfer study on the demonstrations — one robot trained fully,
 //! the others transferred to and trained from scratch — beside the yardstick of each robot (a
-//! direct GP regression human → robot), its models saved, Figs. 7 and 8 drawn.
+//! direct GP regression human → robot), its models saved, Figs. 7 and 8 drawn, and the test
+//! frames predicted by the source model and each transfer written as MCAP for Foxglove.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,8 +9,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use sgplvm::experiment::ModelKind;
-use sgplvm::pipeline::{Demonstrations, StudyModel, StudyTraining, TrainFn};
-use sgplvm::{figures, BackConstraint, ModelConfig, SharedGplvm, TrainOptions};
+use sgplvm::pipeline::{to_mat, Demonstrations, StudyModel, StudyTraining, TrainFn};
+use sgplvm::{figures, BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 
 use super::args::{BudgetArg, DataArg};
 use super::progress::{on_terminal, train_with_progress, StepLines};
@@ -74,6 +75,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     )?;
     let yardsticks = direct_regressions(&demos, &models, &options, &mut steps)?;
     written.extend(draw_figures(&demos, &args.source, &models, &args.out)?);
+    written.extend(write_scenes(&demos, &models, &args.out)?);
     steps.done("figures");
     report::demo(
         &demos,
@@ -192,6 +194,58 @@ fn draw_figures(
             &t.robot,
             &out.join(format!("{}_trajectories", t.robot)),
         )?);
+    }
+    Ok(written)
+}
+
+/// The test frames predicted by the source model and by each transfer, one MCAP file each
+/// (`<robot>_test.mcap`, `<source>_to_<robot>_test.mcap`) with the same topics as
+/// `predict --out x.mcap`: the human and the robot side by side, animated by `/tf`, with the
+/// predictive standard deviation and the latent point.
+fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Result<Vec<PathBuf>> {
+    let ds = &demos.dataset;
+    let times_ns: Vec<i64> = ds.test.iter().map(|&i| ds.times_ns[i]).collect();
+    let human = to_mat(&ds.human.rows(&ds.test));
+    let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
+        (0..m.nrows())
+            .flat_map(|i| (0..m.ncols()).map(move |j| (i, j)))
+            .map(|(i, j)| f(m[(i, j)]))
+            .collect()
+    };
+    let human_rows = rows(&human, |v| v);
+    let mut written = Vec::new();
+    for (k, m) in models.iter().enumerate() {
+        let file = match m.kind {
+            ModelKind::Transfer => {
+                let source = models.first().map_or("source", |s| s.robot.as_str());
+                format!("{source}_to_{}_test.mcap", m.robot)
+            }
+            _ if k == 0 => format!("{}_test.mcap", m.robot),
+            _ => continue,
+        };
+        let prediction = m.model.predict(human.as_ref(), &m.robot, true)?;
+        let latent = m.model.latent(human.as_ref())?;
+        let std = prediction
+            .variance
+            .as_ref()
+            .map(|v| rows(v, f64::sqrt))
+            .unwrap_or_default();
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        let path = out.join(file);
+        super::predict::scene::write(
+            &m.model,
+            &m.robot,
+            &super::predict::scene::Frames {
+                times_ns: &times_ns,
+                human: &human_rows,
+                mean: &rows(&prediction.mean, |v| v),
+                std: &std,
+                latent: &rows(&latent, |v| v),
+            },
+            None,
+            &path.display().to_string(),
+        )?;
+        written.push(path);
     }
     Ok(written)
 }

@@ -17,7 +17,7 @@ use sgplvm::{Mat, SharedGplvm};
 use super::args::ModelFileArg;
 use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
 
-mod scene;
+pub(super) mod scene;
 
 #[derive(Args)]
 pub struct PredictArgs {

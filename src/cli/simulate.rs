@@ -14,6 +14,8 @@ use super::frames::{
 use super::progress::Activity;
 use super::report;
 
+mod scene;
+
 #[derive(Args)]
 pub struct SimulateArgs {
     /// A built-in robot (walkman, coman, centauro, human, ur5e) or the robot of the model.
@@ -41,6 +43,11 @@ pub struct SimulateArgs {
     /// List every violation and collision interval, not only the worst.
     #[arg(long, short)]
     verbose: bool,
+    /// Also write the replay to this .mcap file for Foxglove: commanded and simulated joints
+    /// (/ROBOT/joint_command, /ROBOT/joint_states), the robot's description, /tf_static and /tf
+    /// of the simulated robot, and the limit and collision events as markers (/ROBOT/events).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
@@ -63,17 +70,32 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         (None, Some(path)) => read_trajectory(path, topic, robot)?,
         (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
     };
+    if let Some(out) = &args.out {
+        if out.extension().and_then(|e| e.to_str()) != Some("mcap") {
+            bail!(
+                "{}: --out writes MCAP; expected a name ending in .mcap",
+                out.display()
+            );
+        }
+    }
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
+    let options = ReplayOptions {
+        record_simulated: args.out.is_some(),
+        ..ReplayOptions::default()
+    };
     let detail = format!(
         ", {:.1} s of motion at 1 kHz",
         trajectory.times.last().copied().unwrap_or(0.0)
     );
     let activity = Activity::start(&format!("replaying on {source}"), &detail);
-    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &ReplayOptions::default());
+    let report = sgplvm::robots::replay(&xml, &source, &trajectory, &options);
     activity.finish();
     let report = report?;
+    if let Some(out) = &args.out {
+        scene::write(out, &xml, &source, robot, &trajectory, t0, &report)?;
+    }
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
 }
 

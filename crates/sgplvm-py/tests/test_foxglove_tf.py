@@ -323,3 +323,92 @@ def test_cli_streaming_killed_mid_stream_leaves_a_file_readable_to_its_last_fram
     assert len(topics["/human/robot_description"]) == 1
     stamps = [t for t, _ in topics["/tf"]]
     assert stamps == [stamp_ns(demo, k) for k in range(0, 10 * sent, 10)]
+
+
+def coman_reach_csv(path):
+    """Two seconds at 40 Hz of COMAN's left arm swung across its chest: the shoulder roll
+    commanded 0.29 rad past its lower limit and the elbow bent into the torso."""
+    left = ["LShSag", "LShLat", "LShYaw", "LElbj", "LForearmPlate", "LWrj1", "LWrj2"]
+    right = ["R" + n[1:] for n in left]
+    t = np.arange(81) * 0.025
+    s = np.sin(np.pi * t / 2)
+    q = np.zeros((len(t), 14))
+    q[:, :4] = np.outer(s, [-0.3, -0.6, 1.2, -2.2])
+    lines = ["time," + ",".join(left + right)]
+    lines += [",".join(repr(float(v)) for v in [ti, *row]) for ti, row in zip(t, q)]
+    path.write_text("\n".join(lines) + "\n")
+    return left + right, t, q
+
+
+def test_cli_simulate_to_mcap_draws_the_simulated_robot_and_its_events(tmp_path):
+    binary = sgplvm_binary()
+    names, t, q = coman_reach_csv(tmp_path / "reach.csv")
+    out = tmp_path / "replay.mcap"
+    done = subprocess.run([str(binary), "simulate", "--robot", "coman", "--trajectory",
+                           str(tmp_path / "reach.csv"), "--json", "--out", str(out)],
+                          check=True, capture_output=True, text=True)
+    report = json.loads(done.stdout)
+    scene = read_scene(out)
+    by_topic = check_schemas(out)
+    assert by_topic["/coman/events"][0] == "visualization_msgs/msg/MarkerArray"
+    assert by_topic["/coman/joint_command"][0] == "sensor_msgs/msg/JointState"
+    events_text = by_topic["/coman/events"][1]
+    assert events_text.startswith("Marker[] markers\n")
+    assert f"\n{'=' * 80}\nMSG: visualization_msgs/Marker\n" in events_text
+    # The commanded joints as given, the simulated ones at the same stamps.
+    command = scene["/coman/joint_command"]
+    assert [m.name for _, _, m in command[:1]] == [names]
+    np.testing.assert_array_equal([m.position for _, _, m in command], q)
+    stamps = [round(x * 1e9) for x in t]
+    assert [s for _, s, _ in command] == stamps
+    assert [s for _, s, _ in scene["/coman/joint_states"]] == stamps
+    # The robot drawn by /tf is the simulated one, link for link as Pinocchio has it.
+    simulated = np.array([m.position for _, _, m in scene["/coman/joint_states"]])
+    assert np.abs(simulated - q).max() > 0.05  # the torso and the limit stop the arm
+    assert check_transforms(scene, {"coman": "/coman/joint_states"}, {"coman": np.eye(4)}) > 1000
+    # One marker array per event, at its start, lasting as long as it does.
+    events = scene["/coman/events"]
+    kinds = {"joint_limit": "limit_violations", "velocity_limit": "velocity_violations",
+             "collision": "collisions"}
+    assert report["collisions"] and report["limit_violations"]
+    assert len(events) == sum(len(report[k]) for k in kinds.values())
+    seen = {k: [] for k in kinds}
+    for log_time, _, msg in events:
+        sphere, label = msg.markers
+        assert (sphere.type, label.type) == (2, 9) and sphere.action == 0
+        assert label.ns == sphere.ns + "_label" and label.id == sphere.id and label.text
+        assert sphere.header.stamp.sec * 10**9 + sphere.header.stamp.nanosec == log_time
+        seen[sphere.ns].append((log_time, sphere))
+    # The joint's child link, from the description in the file (Pinocchio: the frame whose
+    # parent joint is that joint and that is a body).
+    model = pin.buildModelFromXML(scene["/coman/robot_description"][0][2].data)
+    child = {}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY and f.parentJoint > 0:
+            child.setdefault(model.names[f.parentJoint], f.name)
+    for ns, key in kinds.items():
+        assert len(seen[ns]) == len(report[key])
+        for (log_time, sphere), event in zip(seen[ns], report[key]):
+            assert log_time == round(event["time"] * 1e9)
+            life = sphere.lifetime.sec * 10**9 + sphere.lifetime.nanosec
+            assert life == max(round((event["end_time"] - event["time"]) * 1e9), 50_000_000)
+            p = sphere.pose.position
+            if ns == "collision":
+                # At the contact point rapier reported, in the root (torso) frame.
+                assert sphere.header.frame_id == "coman/DWYTorso"
+                np.testing.assert_allclose([p.x, p.y, p.z], event["point"], rtol=0, atol=1e-12)
+                assert event["link_a"] in label_text(events, sphere)
+            else:
+                # At the offending joint: the origin of its child link, which /tf moves.
+                assert sphere.header.frame_id == child[event["joint"]]
+                assert [p.x, p.y, p.z] == [0, 0, 0]
+                assert event["joint"] in label_text(events, sphere)
+
+
+def label_text(events, sphere):
+    """The text of the label beside `sphere`."""
+    for _, _, msg in events:
+        s, label = msg.markers
+        if (s.ns, s.id) == (sphere.ns, sphere.id):
+            return label.text
+    raise AssertionError(f"no label for {sphere.ns} {sphere.id}")

@@ -156,6 +156,11 @@ fn driving_the_hand_into_the_torso_reports_that_collision() {
     assert!(event.time > 0.5 && event.time < 0.9, "{event:?}");
     assert!(event.end_time > 2.1 && event.end_time < 2.6, "{event:?}");
     assert!(event.max_penetration < 0.05, "{event:?}");
+    // Where: on the torso's front face (x = 0.1), in its middle plane (y = 0), at the height of
+    // the hand's centre (0.3 below the elbow, which is at z = 0, tilted by about 0.3 rad).
+    let [x, y, z] = event.point;
+    assert!((x - 0.1).abs() < 0.03 && y.abs() < 0.02, "{event:?}");
+    assert!(z > -0.33 && z < -0.24, "{event:?}");
     // The torso stops the hand: the elbow falls far behind its reference.
     let elbow = &report.joints[2];
     assert!(elbow.max_error > 0.1, "{elbow:?}");

@@ -97,6 +97,15 @@ impl<'a> Cdr<'a> {
         self.align(8);
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
+    /// A `float32`.
+    pub(crate) fn f32(&mut self, v: f32) {
+        self.align(4);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    /// A `bool` (one byte, 0 or 1).
+    pub(crate) fn bool(&mut self, v: bool) {
+        self.buf.push(u8::from(v));
+    }
     /// A `string`: length with its NUL, bytes, NUL.
     pub(crate) fn string(&mut self, s: &str) {
         self.u32(s.len() as u32 + 1);

@@ -229,12 +229,13 @@ fn measure_joints(
 }
 
 /// Records the contacts between links that the filter checks and that are closer than
-/// [`ReplayOptions::contact_distance`].
+/// [`ReplayOptions::contact_distance`], each with the midpoint of its deepest contact's two
+/// points.
 fn measure_contacts(scene: &Scene, at: StepTime, options: &ReplayOptions, recorder: &mut Recorder) {
     let world = &scene.world;
     let (n_links, skip) = (scene.hooks.n_links, &scene.hooks.skip);
     for pair in world.narrow_phase.contact_pairs() {
-        let Some((_, contact)) = pair.find_deepest_contact() else {
+        let Some((manifold, contact)) = pair.find_deepest_contact() else {
             continue;
         };
         if (contact.dist as f64) > options.contact_distance {
@@ -248,6 +249,19 @@ fn measure_contacts(scene: &Scene, at: StepTime, options: &ReplayOptions, record
             continue;
         }
         let depth = (-contact.dist as f64).max(0.0);
-        recorder.contact((a, b), depth, at);
+        // The contact's two points in the world (= the fixed root link's frame): each is in
+        // its collider's frame, or its sub-shape's for a composite shape.
+        let (Some(c1), Some(c2)) = (
+            world.colliders.get(pair.collider1),
+            world.colliders.get(pair.collider2),
+        ) else {
+            continue;
+        };
+        let local = |sub: Option<&rapier3d::math::Pose>, p| sub.map_or(p, |s| *s * p);
+        let p1 = *c1.position() * local(manifold.subshape_pos1(), contact.local_p1);
+        let p2 = *c2.position() * local(manifold.subshape_pos2(), contact.local_p2);
+        let mid = (p1 + p2) * 0.5;
+        let point = [mid.x as f64, mid.y as f64, mid.z as f64];
+        recorder.contact((a, b), depth, point, at);
     }
 }

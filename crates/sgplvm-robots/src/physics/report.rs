@@ -55,6 +55,10 @@ pub struct Collision {
     pub link_b: String,
     /// The deepest penetration seen, metres (0 for a touch).
     pub max_penetration: f64,
+    /// Where it was: the midpoint of the two links' contact points at the deepest penetration
+    /// (at the first contact for a touch), metres, in the root link's frame (the root is
+    /// fixed at the world's origin).
+    pub point: [f64; 3],
 }
 
 /// Everything a replay measured.
@@ -101,15 +105,18 @@ pub(super) struct OpenEvent {
     amount: f64,
     limit: f64,
     last_step: usize,
+    /// Where the event was when it was deepest (contacts only).
+    point: [f64; 3],
 }
 
-/// Opens or extends the event `key` at step `at` with excess `beyond` over `limit`.
+/// Opens or extends the event `key` at step `at` with excess `beyond` over `limit` at
+/// `point` (kept from the opening step and from each deeper step).
 fn extend_event<K: Eq + Hash>(
     open: &mut HashMap<K, OpenEvent>,
     key: K,
     at: StepTime,
-    beyond: f64,
-    limit: f64,
+    (beyond, limit): (f64, f64),
+    point: [f64; 3],
 ) {
     let StepTime { step, t } = at;
     let event = open.entry(key).or_insert(OpenEvent {
@@ -118,12 +125,14 @@ fn extend_event<K: Eq + Hash>(
         amount: 0.0,
         limit,
         last_step: step,
+        point,
     });
     event.end = t;
     event.last_step = step;
     if beyond > event.amount {
         event.amount = beyond;
         event.limit = limit;
+        event.point = point;
     }
 }
 
@@ -194,6 +203,7 @@ impl Events {
                 link_a: links[a].clone(),
                 link_b: links[b].clone(),
                 max_penetration: e.amount,
+                point: e.point,
             })
         });
     }
@@ -306,7 +316,7 @@ impl Recorder {
             };
             if beyond > tol {
                 let open = &mut self.events.open_limits;
-                extend_event(open, (i, commanded), at, beyond, limit);
+                extend_event(open, (i, commanded), at, (beyond, limit), [0.0; 3]);
             }
         }
     }
@@ -327,16 +337,22 @@ impl Recorder {
             if beyond > tol {
                 let limit = max_speed.copysign(value);
                 let open = &mut self.events.open_speeds;
-                extend_event(open, (i, commanded), at, beyond, limit);
+                extend_event(open, (i, commanded), at, (beyond, limit), [0.0; 3]);
             }
         }
     }
 
     /// Opens or extends the collision event of links `a` and `b` with penetration `depth`
-    /// (>= 0).
-    pub(super) fn contact(&mut self, (a, b): (usize, usize), depth: f64, at: StepTime) {
+    /// (>= 0) at `point` (root frame).
+    pub(super) fn contact(
+        &mut self,
+        (a, b): (usize, usize),
+        depth: f64,
+        point: [f64; 3],
+        at: StepTime,
+    ) {
         let key = (a.min(b), a.max(b));
-        extend_event(&mut self.events.open_contacts, key, at, depth, 0.0);
+        extend_event(&mut self.events.open_contacts, key, at, (depth, 0.0), point);
     }
 
     /// Closes the events not extended during the last `gap` steps before `step`.
@@ -424,6 +440,7 @@ mod tests {
             amount: 0.5,
             limit: 1.0,
             last_step: step,
+            point: [0.0; 3],
         };
         open.insert(1usize, event(7));
         open.insert(2usize, event(8));

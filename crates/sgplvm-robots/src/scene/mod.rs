@@ -4,7 +4,9 @@
 //! fixed joints, and a transform from `world` placing each body) and `/tf` (every movable joint
 //! of every body at every frame, from [`JointInfo::transform`](crate::JointInfo::transform),
 //! as ROS 2's `robot_state_publisher` publishes them), plus any number of
-//! `std_msgs/msg/Float64MultiArray` topics (the predictive standard deviation, the latent point).
+//! `std_msgs/msg/Float64MultiArray` topics (the predictive standard deviation, the latent point)
+//! and `visualization_msgs/msg/MarkerArray` topics of events (a joint beyond its limit, a
+//! collision), each published at the event's time with the event's duration as lifetime.
 //!
 //! Frames are named `<body>/<link>` (`human/DWYTorso`...) so that two bodies with equal link
 //! names share one TF tree; the description topic of body `b` is `/b/robot_description`.
@@ -29,11 +31,16 @@
 //! # std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 
+mod events;
 mod msgs;
 
+pub use events::{
+    replay_markers, COLLISION_NS, JOINT_LIMIT_NS, MIN_MARKER_LIFETIME_NS, VELOCITY_LIMIT_NS,
+};
+
 pub use msgs::{
-    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA,
-    TF_MESSAGE_MSGDEF, TF_MESSAGE_SCHEMA,
+    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, MARKER_ARRAY_MSGDEF,
+    MARKER_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA, TF_MESSAGE_MSGDEF, TF_MESSAGE_SCHEMA,
 };
 
 use std::collections::BTreeMap;
@@ -170,6 +177,48 @@ impl ArrayTopic {
     }
 }
 
+/// What a [`SceneMarker`] draws.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MarkerShape {
+    /// A sphere (`SPHERE`) of diameters `scale`.
+    Sphere,
+    /// A text facing the viewer (`TEXT_VIEW_FACING`), `scale[2]` high.
+    Text(String),
+}
+
+/// One `visualization_msgs/msg/Marker` (action ADD, orientation identity).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneMarker {
+    /// Frame it is drawn in, e.g. `coman/LElb` or [`WORLD_FRAME`].
+    pub frame: String,
+    /// Namespace (`ns`): with `id`, what names the marker.
+    pub ns: String,
+    /// Identifier within the namespace.
+    pub id: i32,
+    /// What it draws.
+    pub shape: MarkerShape,
+    /// Position in `frame`, metres.
+    pub position: [f64; 3],
+    /// Size, metres.
+    pub scale: [f64; 3],
+    /// Colour (red, green, blue, alpha in [0, 1]).
+    pub color: [f32; 4],
+    /// How long it stays after its time, nanoseconds (0: forever).
+    pub lifetime_ns: i64,
+}
+
+/// Markers published together (one `visualization_msgs/msg/MarkerArray`) on `topic` at
+/// `time_ns` (log time and every marker's stamp).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimedMarkers {
+    /// Topic, e.g. `/coman/events`.
+    pub topic: String,
+    /// Time, nanoseconds (≥ 0).
+    pub time_ns: i64,
+    /// The markers.
+    pub markers: Vec<SceneMarker>,
+}
+
 /// Options of a scene file.
 #[derive(Debug, Clone, Copy)]
 pub struct SceneOptions {
@@ -214,7 +263,22 @@ pub fn write_scene(
     arrays: &[ArraySeries<'_>],
     options: &SceneOptions,
 ) -> Result<()> {
+    write_scene_with_markers(path, series, arrays, &[], options)
+}
+
+/// [`write_scene`] with marker arrays besides, each written after the last frame before its
+/// time (so that a file read in log-time order meets the descriptions and `/tf_static`
+/// first).
+pub fn write_scene_with_markers(
+    path: impl AsRef<Path>,
+    series: &[SceneSeries<'_>],
+    arrays: &[ArraySeries<'_>],
+    markers: &[TimedMarkers],
+    options: &SceneOptions,
+) -> Result<()> {
     let path = path.as_ref();
+    let mut order: Vec<&TimedMarkers> = markers.iter().collect();
+    order.sort_by_key(|m| m.time_ns);
     let times = series.first().map_or(&[][..], |s| &s.states.times_ns[..]);
     for s in series {
         s.states
@@ -258,6 +322,17 @@ pub fn write_scene(
                     .map(|a| &a.values[i * a.topic.len..(i + 1) * a.topic.len]),
             );
             w.write_frame(t, &joints, &values)?;
+            let until = times.get(i + 1).copied().unwrap_or(i64::MAX);
+            while let Some(m) = order.first().filter(|m| m.time_ns < until) {
+                w.write_markers(m)?;
+                order.remove(0);
+            }
+        }
+        if let Some(m) = order.first() {
+            return Err(JointStateError::InvalidInput {
+                what: format!("topic `{}`", m.topic),
+                detail: "markers in a scene without frames".into(),
+            });
         }
         w.finish()
     })
@@ -287,6 +362,9 @@ pub struct SceneWriter {
     flush_each_frame: bool,
     frames: u32,
     buf: Vec<u8>,
+    /// The MarkerArray schema and the channel of each marker topic, added at first use.
+    marker_schema: Option<u16>,
+    marker_channels: BTreeMap<String, (u16, u32)>,
 }
 
 impl SceneWriter {
@@ -470,6 +548,8 @@ impl SceneWriter {
             flush_each_frame,
             frames: 0,
             buf: Vec::with_capacity(4096),
+            marker_schema: None,
+            marker_channels: BTreeMap::new(),
         })
     }
 
@@ -606,6 +686,83 @@ impl SceneWriter {
             self.write(channel, seq, time_ns, &name)?;
         }
         self.frames += 1;
+        if self.flush_each_frame {
+            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
+        }
+        Ok(())
+    }
+
+    /// Writes one `visualization_msgs/msg/MarkerArray` on `m.topic` at `m.time_ns` (the
+    /// topic's channel is added at its first use; it must not be a joint or array topic).
+    pub fn write_markers(&mut self, m: &TimedMarkers) -> Result<()> {
+        let bad = |detail: String| JointStateError::InvalidInput {
+            what: format!("topic `{}`", m.topic),
+            detail,
+        };
+        if m.time_ns < 0 {
+            return Err(bad(format!(
+                "negative timestamp {} ns (MCAP times are unsigned)",
+                m.time_ns
+            )));
+        }
+        let taken = self
+            .bodies
+            .iter()
+            .any(|b| b.body.joint_topic == m.topic || b.body.description_topic() == m.topic)
+            || self.arrays.iter().any(|(a, _)| a.topic == m.topic)
+            || [TF_TOPIC, TF_STATIC_TOPIC].contains(&m.topic.as_str());
+        if taken {
+            return Err(bad("already a topic of another type in this scene".into()));
+        }
+        let (channel, seq) = match self.marker_channels.get(&m.topic) {
+            Some(&c) => c,
+            None => {
+                let schema = match self.marker_schema {
+                    Some(s) => s,
+                    None => {
+                        let s = self
+                            .writer
+                            .add_schema(
+                                MARKER_ARRAY_SCHEMA,
+                                "ros2msg",
+                                MARKER_ARRAY_MSGDEF.as_bytes(),
+                            )
+                            .map_err(self.mcap_err("schema".into()))?;
+                        *self.marker_schema.insert(s)
+                    }
+                };
+                let channel = self
+                    .writer
+                    .add_channel(schema, &m.topic, "cdr", &BTreeMap::new())
+                    .map_err(self.mcap_err(format!("channel `{}`", m.topic)))?;
+                (channel, 0)
+            }
+        };
+        let fields: Vec<msgs::MarkerFields<'_>> = m
+            .markers
+            .iter()
+            .map(|k| {
+                let (kind, text) = match &k.shape {
+                    MarkerShape::Sphere => (msgs::MARKER_SPHERE, ""),
+                    MarkerShape::Text(t) => (msgs::MARKER_TEXT_VIEW_FACING, t.as_str()),
+                };
+                msgs::MarkerFields {
+                    frame: &k.frame,
+                    ns: &k.ns,
+                    id: k.id,
+                    kind,
+                    position: k.position,
+                    scale: k.scale,
+                    color: k.color,
+                    lifetime_ns: k.lifetime_ns,
+                    text,
+                }
+            })
+            .collect();
+        msgs::encode_marker_array(&mut self.buf, msgs::stamp(m.time_ns), &fields);
+        self.write(channel, seq, m.time_ns, &m.topic)?;
+        self.marker_channels
+            .insert(m.topic.clone(), (channel, seq.wrapping_add(1)));
         if self.flush_each_frame {
             self.writer.flush().map_err(self.mcap_err("flush".into()))?;
         }

@@ -1,12 +1,22 @@
 //! CDR encoders (XCDR1 little-endian, as ROS 2's Fast-CDR writes them) and the `ros2msg`
 //! schema texts of the messages a scene file carries beside its joint states:
-//! `tf2_msgs/msg/TFMessage`, `std_msgs/msg/String` and `std_msgs/msg/Float64MultiArray`.
+//! `tf2_msgs/msg/TFMessage`, `std_msgs/msg/String`, `std_msgs/msg/Float64MultiArray` and
+//! `visualization_msgs/msg/MarkerArray`.
 //!
-//! The schema texts are in the concatenated form rosbag2 stores: the message's own definition,
-//! then every type it depends on (depth first, each once) after a line of 80 `=` and a
-//! `MSG: pkg/Type` line. The layout rules are those of [`crate::joint_state`]'s JointState
-//! codec: a 4-byte encapsulation header, alignment counted from byte 4, strings as a `uint32`
-//! length including the NUL, sequences as a `uint32` count.
+//! The schema texts are in the concatenated form rosbag2 stores (ros2/rosbag2,
+//! `rosbag2_cpp/src/rosbag2_cpp/message_definitions/local_message_definition_source.cpp`,
+//! `get_full_text`): the message's own `.msg` file, then each type it depends on, once, depth
+//! first, the dependencies of one file in sorted order (a `std::set`), each after a newline, a
+//! line of 80 `=` and a `MSG: pkg/Type` line. The `.msg` files under `msg/` are verbatim copies
+//! of the ROS 2 (rolling) definitions: ros2/common_interfaces (`geometry_msgs`, `std_msgs`,
+//! `sensor_msgs`, `visualization_msgs`: TransformStamped and Marker at commit 9da4a197, the
+//! `std_msgs` multi-arrays at 72dfe423), ros2/rcl_interfaces (`builtin_interfaces` Time and
+//! Duration) and ros2/geometry2 (`tf2_msgs/msg/TFMessage.msg`). The unit tests rebuild every
+//! text with rosbag2's algorithm from those files and pin their bytes.
+//!
+//! The layout rules are those of [`crate::joint_state`]'s JointState codec: a 4-byte
+//! encapsulation header, alignment counted from byte 4, strings as a `uint32` length including
+//! the NUL, sequences as a `uint32` count.
 
 use nalgebra::Isometry3;
 
@@ -18,148 +28,70 @@ pub const TF_MESSAGE_SCHEMA: &str = "tf2_msgs/msg/TFMessage";
 pub const STRING_SCHEMA: &str = "std_msgs/msg/String";
 /// Schema name of an array of float64.
 pub const FLOAT64_MULTI_ARRAY_SCHEMA: &str = "std_msgs/msg/Float64MultiArray";
+/// Schema name of an array of markers.
+pub const MARKER_ARRAY_SCHEMA: &str = "visualization_msgs/msg/MarkerArray";
+
+/// The text of `msg/<pkg>/<Type>.msg`.
+macro_rules! msg {
+    ($name:literal) => {
+        include_str!(concat!("msg/", $name, ".msg"))
+    };
+}
+
+/// A dependency as rosbag2 appends it: newline, 80 `=`, `MSG: pkg/Type`, its `.msg` text.
+macro_rules! dep {
+    ($name:literal) => {
+        concat!(
+            "\n",
+            "================================================================================\n",
+            "MSG: ",
+            $name,
+            "\n",
+            msg!($name)
+        )
+    };
+}
 
 /// The `ros2msg` definition of `tf2_msgs/msg/TFMessage` with its dependencies.
-pub const TF_MESSAGE_MSGDEF: &str = "\
-geometry_msgs/TransformStamped[] transforms
-
-================================================================================
-MSG: geometry_msgs/TransformStamped
-# This expresses a transform from coordinate frame header.frame_id
-# to the coordinate frame child_frame_id at the time of header.stamp
-#
-# This message is mostly used by the
-# <a href=\"https://docs.ros.org/en/rolling/p/tf2/\">tf2</a> package.
-# See its documentation for more information.
-#
-# The child_frame_id is necessary in addition to the frame_id
-# in the Header to communicate the full reference for the transform
-# in a self contained message.
-
-# The frame id in the header is used as the reference frame of this transform.
-std_msgs/Header header
-
-# The frame id of the child frame to which this transform points.
-string child_frame_id
-
-# Translation and rotation in 3-dimensions of child_frame_id from header.frame_id.
-Transform transform
-
-================================================================================
-MSG: std_msgs/Header
-# Standard metadata for higher-level stamped data types.
-# This is generally used to communicate timestamped data
-# in a particular coordinate frame.
-
-# Two-integer timestamp that is expressed as seconds and nanoseconds.
-builtin_interfaces/Time stamp
-
-# Transform frame with which this data is associated.
-string frame_id
-
-================================================================================
-MSG: builtin_interfaces/Time
-# This message communicates ROS Time defined here:
-# https://design.ros2.org/articles/clock_and_time.html
-
-# The seconds component, valid over all int32 values.
-int32 sec
-
-# The nanoseconds component, valid in the range [0, 1e9), to be added to the seconds component.
-# e.g.
-# The time -1.7 seconds is represented as {sec: -2, nanosec: 3e8}
-# The time 1.7 seconds is represented as {sec: 1, nanosec: 7e8}
-uint32 nanosec
-
-================================================================================
-MSG: geometry_msgs/Transform
-# This represents the transform between two coordinate frames in free space.
-
-Vector3 translation
-Quaternion rotation
-
-================================================================================
-MSG: geometry_msgs/Vector3
-# This represents a vector in free space.
-
-# This is semantically different than a point.
-# A vector is always anchored at the origin.
-# When a transform is applied to a vector, only the rotational component is applied.
-
-float64 x
-float64 y
-float64 z
-
-================================================================================
-MSG: geometry_msgs/Quaternion
-# This represents an orientation in free space in quaternion form.
-
-float64 x 0
-float64 y 0
-float64 z 0
-float64 w 1
-";
+pub const TF_MESSAGE_MSGDEF: &str = concat!(
+    msg!("tf2_msgs/TFMessage"),
+    dep!("geometry_msgs/TransformStamped"),
+    dep!("geometry_msgs/Transform"),
+    dep!("geometry_msgs/Quaternion"),
+    dep!("geometry_msgs/Vector3"),
+    dep!("std_msgs/Header"),
+    dep!("builtin_interfaces/Time"),
+);
 
 /// The `ros2msg` definition of `std_msgs/msg/String` (no dependencies).
-pub const STRING_MSGDEF: &str = "\
-# This was originally provided as an example message.
-# It is deprecated as of Foxy
-# It is recommended to create your own semantically meaningful message.
-# However if you would like to continue using this please use the equivalent in example_msgs.
-
-string data
-";
+pub const STRING_MSGDEF: &str = msg!("std_msgs/String");
 
 /// The `ros2msg` definition of `std_msgs/msg/Float64MultiArray` with its dependencies.
-pub const FLOAT64_MULTI_ARRAY_MSGDEF: &str = "\
-# This was originally provided as an example message.
-# It is deprecated as of Foxy
-# It is recommended to create your own semantically meaningful message.
-# However if you would like to continue using this please use the equivalent in example_msgs.
+pub const FLOAT64_MULTI_ARRAY_MSGDEF: &str = concat!(
+    msg!("std_msgs/Float64MultiArray"),
+    dep!("std_msgs/MultiArrayLayout"),
+    dep!("std_msgs/MultiArrayDimension"),
+);
 
-# Please look at the MultiArrayLayout message definition for
-# documentation on all multiarrays.
-
-MultiArrayLayout  layout        # specification of data layout
-float64[]         data          # array of data
-
-================================================================================
-MSG: std_msgs/MultiArrayLayout
-# The multiarray declares a generic multi-dimensional array of a
-# particular data type.  Dimensions are ordered from outer most
-# to inner most.
-#
-# Accessors should ALWAYS be written in terms of dimension stride
-# and specified outer-most dimension first.
-#
-# multiarray(i,j,k) = data[data_offset + dim_stride[1]*i + dim_stride[2]*j + k]
-#
-# A standard, 3-channel 640x480 image with interleaved color channels
-# would be specified as:
-#
-# dim[0].label  = \"height\"
-# dim[0].size   = 480
-# dim[0].stride = 3*640*480 = 921600  (note dim[0] stride is just size of image)
-# dim[1].label  = \"width\"
-# dim[1].size   = 640
-# dim[1].stride = 3*640 = 1920
-# dim[2].label  = \"channel\"
-# dim[2].size   = 3
-# dim[2].stride = 3
-#
-# multiarray(i,j,k) refers to the ith row, jth column, and kth channel.
-
-MultiArrayDimension[] dim # Array of dimension properties
-uint32 data_offset        # padding elements at front of data
-
-================================================================================
-MSG: std_msgs/MultiArrayDimension
-string label   # label of given dimension
-uint32 size    # size of given dimension (in type units)
-uint32 stride  # stride of given dimension
-";
+/// The `ros2msg` definition of `visualization_msgs/msg/MarkerArray` with its dependencies.
+pub const MARKER_ARRAY_MSGDEF: &str = concat!(
+    msg!("visualization_msgs/MarkerArray"),
+    dep!("visualization_msgs/Marker"),
+    dep!("builtin_interfaces/Duration"),
+    dep!("geometry_msgs/Point"),
+    dep!("geometry_msgs/Pose"),
+    dep!("geometry_msgs/Quaternion"),
+    dep!("geometry_msgs/Vector3"),
+    dep!("sensor_msgs/CompressedImage"),
+    dep!("std_msgs/Header"),
+    dep!("builtin_interfaces/Time"),
+    dep!("std_msgs/ColorRGBA"),
+    dep!("visualization_msgs/MeshFile"),
+    dep!("visualization_msgs/UVCoordinate"),
+);
 
 /// `builtin_interfaces/Time` of a log time in nanoseconds.
+/// (A duration's `builtin_interfaces/Duration` likewise.)
 pub(crate) fn stamp(time_ns: i64) -> (i32, u32) {
     (
         time_ns
@@ -192,6 +124,79 @@ pub(crate) fn encode_tf_message(buf: &mut Vec<u8>, stamp: (i32, u32), transforms
         for v in [p.x, p.y, p.z, q.i, q.j, q.k, q.w] {
             w.f64(v);
         }
+    }
+}
+
+/// `visualization_msgs/msg/Marker` types this crate writes.
+pub(crate) const MARKER_SPHERE: i32 = 2;
+/// A text that always faces the viewer.
+pub(crate) const MARKER_TEXT_VIEW_FACING: i32 = 9;
+
+/// One `visualization_msgs/msg/Marker` (action ADD, no points, texture or mesh).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct MarkerFields<'a> {
+    /// `header.frame_id`.
+    pub frame: &'a str,
+    /// `ns`.
+    pub ns: &'a str,
+    /// `id`.
+    pub id: i32,
+    /// `type`.
+    pub kind: i32,
+    /// `pose.position` (orientation identity).
+    pub position: [f64; 3],
+    /// `scale`.
+    pub scale: [f64; 3],
+    /// `color` (r, g, b, a).
+    pub color: [f32; 4],
+    /// `lifetime`, nanoseconds.
+    pub lifetime_ns: i64,
+    /// `text`.
+    pub text: &'a str,
+}
+
+/// Encodes a `visualization_msgs/msg/MarkerArray`, every marker stamped `stamp`.
+pub(crate) fn encode_marker_array(
+    buf: &mut Vec<u8>,
+    stamp: (i32, u32),
+    markers: &[MarkerFields<'_>],
+) {
+    let mut w = Cdr::begin(buf);
+    w.u32(markers.len() as u32);
+    for m in markers {
+        w.header(stamp, m.frame);
+        w.string(m.ns);
+        w.i32(m.id);
+        w.i32(m.kind);
+        w.i32(0); // action ADD
+        for v in m.position {
+            w.f64(v);
+        }
+        for v in [0.0, 0.0, 0.0, 1.0] {
+            w.f64(v); // orientation x, y, z, w
+        }
+        for v in m.scale {
+            w.f64(v);
+        }
+        for v in m.color {
+            w.f32(v);
+        }
+        let (sec, nanosec) = self::stamp(m.lifetime_ns);
+        w.i32(sec);
+        w.u32(nanosec);
+        w.bool(false); // frame_locked
+        w.u32(0); // points
+        w.u32(0); // colors
+        w.string(""); // texture_resource
+        w.header((0, 0), ""); // texture.header
+        w.string(""); // texture.format
+        w.u32(0); // texture.data
+        w.u32(0); // uv_coordinates
+        w.string(m.text);
+        w.string(""); // mesh_resource
+        w.string(""); // mesh_file.filename
+        w.u32(0); // mesh_file.data
+        w.bool(false); // mesh_use_embedded_materials
     }
 }
 
@@ -282,15 +287,168 @@ mod tests {
         assert_eq!(stamp(0), (0, 0));
     }
 
-    #[test]
-    fn schema_texts_separate_dependencies_as_rosbag2_does() {
-        let sep = format!("\n{}\nMSG: ", "=".repeat(80));
-        for (def, deps) in [
-            (TF_MESSAGE_MSGDEF, 6),
-            (FLOAT64_MULTI_ARRAY_MSGDEF, 2),
-            (STRING_MSGDEF, 0),
-        ] {
-            assert_eq!(def.matches(&sep).count(), deps);
+    /// Every `.msg` file under `msg/`, by `pkg/Type`.
+    const FILES: &[(&str, &str)] = &[
+        ("tf2_msgs/TFMessage", msg!("tf2_msgs/TFMessage")),
+        (
+            "geometry_msgs/TransformStamped",
+            msg!("geometry_msgs/TransformStamped"),
+        ),
+        ("geometry_msgs/Transform", msg!("geometry_msgs/Transform")),
+        ("geometry_msgs/Quaternion", msg!("geometry_msgs/Quaternion")),
+        ("geometry_msgs/Vector3", msg!("geometry_msgs/Vector3")),
+        ("geometry_msgs/Point", msg!("geometry_msgs/Point")),
+        ("geometry_msgs/Pose", msg!("geometry_msgs/Pose")),
+        ("std_msgs/Header", msg!("std_msgs/Header")),
+        ("std_msgs/String", msg!("std_msgs/String")),
+        ("std_msgs/ColorRGBA", msg!("std_msgs/ColorRGBA")),
+        (
+            "std_msgs/Float64MultiArray",
+            msg!("std_msgs/Float64MultiArray"),
+        ),
+        (
+            "std_msgs/MultiArrayLayout",
+            msg!("std_msgs/MultiArrayLayout"),
+        ),
+        (
+            "std_msgs/MultiArrayDimension",
+            msg!("std_msgs/MultiArrayDimension"),
+        ),
+        ("builtin_interfaces/Time", msg!("builtin_interfaces/Time")),
+        (
+            "builtin_interfaces/Duration",
+            msg!("builtin_interfaces/Duration"),
+        ),
+        (
+            "sensor_msgs/CompressedImage",
+            msg!("sensor_msgs/CompressedImage"),
+        ),
+        (
+            "visualization_msgs/MarkerArray",
+            msg!("visualization_msgs/MarkerArray"),
+        ),
+        (
+            "visualization_msgs/Marker",
+            msg!("visualization_msgs/Marker"),
+        ),
+        (
+            "visualization_msgs/MeshFile",
+            msg!("visualization_msgs/MeshFile"),
+        ),
+        (
+            "visualization_msgs/UVCoordinate",
+            msg!("visualization_msgs/UVCoordinate"),
+        ),
+    ];
+
+    /// rosbag2's `parse_msg_dependencies`: the first word of every line that is a type
+    /// (`[a-zA-Z0-9_/]+`, an optional `[...]`, then white space), primitives left out, names
+    /// without a package completed with the file's own; sorted (a `std::set`).
+    fn dependencies(text: &str, package: &str) -> std::collections::BTreeSet<String> {
+        const PRIMITIVES: [&str; 14] = [
+            "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16",
+            "int32", "uint32", "int64", "uint64", "string",
+        ];
+        let mut out = std::collections::BTreeSet::new();
+        for line in text.lines() {
+            let line = line.trim_start();
+            let end = line
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '/'))
+                .unwrap_or(line.len());
+            let (word, rest) = line.split_at(end);
+            let rest = match rest.strip_prefix('[') {
+                Some(r) => r.split_once(']').map_or("", |(_, after)| after),
+                None => rest,
+            };
+            if word.is_empty() || !rest.starts_with(char::is_whitespace) {
+                continue;
+            }
+            if PRIMITIVES.contains(&word) {
+                continue;
+            }
+            out.insert(if word.contains('/') {
+                word.to_string()
+            } else {
+                format!("{package}/{word}")
+            });
         }
+        out
+    }
+
+    /// rosbag2's `get_full_text` for a `.msg` root: its text, then each dependency not yet
+    /// seen, depth first, after a newline and the two-line delimiter.
+    fn full_text(name: &str, seen: &mut std::collections::BTreeSet<String>) -> String {
+        let text = FILES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .unwrap_or_else(|| panic!("no msg/{name}.msg"))
+            .1;
+        let package = name.split('/').next().expect("package");
+        let mut out = text.to_string();
+        for dep in dependencies(text, package) {
+            if seen.insert(dep.clone()) {
+                out += &format!("\n{}\nMSG: {dep}\n", "=".repeat(80));
+                out += &full_text(&dep, seen);
+            }
+        }
+        out
+    }
+
+    /// FNV-1a, 64 bits: a fixed fingerprint of the bytes.
+    fn fnv1a(bytes: &[u8]) -> u64 {
+        bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+        })
+    }
+
+    #[test]
+    fn schema_texts_are_what_rosbag2_builds_from_the_ros2_msg_files() {
+        for (schema, def) in [
+            (TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
+            (STRING_SCHEMA, STRING_MSGDEF),
+            (FLOAT64_MULTI_ARRAY_SCHEMA, FLOAT64_MULTI_ARRAY_MSGDEF),
+            (MARKER_ARRAY_SCHEMA, MARKER_ARRAY_MSGDEF),
+        ] {
+            let root = schema.replace("/msg/", "/");
+            assert_eq!(def, full_text(&root, &mut Default::default()), "{schema}");
+        }
+        // As a rosbag2 recording orders TFMessage's dependencies.
+        let order: Vec<&str> = TF_MESSAGE_MSGDEF
+            .lines()
+            .filter_map(|l| l.strip_prefix("MSG: "))
+            .collect();
+        assert_eq!(
+            order,
+            [
+                "geometry_msgs/TransformStamped",
+                "geometry_msgs/Transform",
+                "geometry_msgs/Quaternion",
+                "geometry_msgs/Vector3",
+                "std_msgs/Header",
+                "builtin_interfaces/Time"
+            ]
+        );
+    }
+
+    /// (length, FNV-1a) of TFMessage, String, Float64MultiArray and MarkerArray.
+    const PINNED: [(usize, u64); 4] = [
+        (2683, 0xe9bb_e709_f5e9_0018),
+        (263, 0xbc47_e64e_7647_4eae),
+        (2241, 0x6d76_9c22_7dc2_0db9),
+        (9256, 0xbdb1_ea18_c962_5e52),
+    ];
+
+    #[test]
+    fn schema_text_bytes_are_pinned() {
+        let pinned: Vec<(usize, u64)> = [
+            TF_MESSAGE_MSGDEF,
+            STRING_MSGDEF,
+            FLOAT64_MULTI_ARRAY_MSGDEF,
+            MARKER_ARRAY_MSGDEF,
+        ]
+        .iter()
+        .map(|d| (d.len(), fnv1a(d.as_bytes())))
+        .collect();
+        assert_eq!(pinned, PINNED, "{pinned:#x?}");
     }
 }

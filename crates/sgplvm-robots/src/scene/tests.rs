@@ -163,3 +163,58 @@ fn unknown_joints_and_mismatched_rows_are_errors_naming_the_topic() {
     assert!(!path.exists());
     let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
 }
+
+#[test]
+fn markers_get_their_own_topic_and_bad_ones_are_refused_naming_it() {
+    let path = tmp("markers");
+    let (human, hs, ..) = two_bodies(3);
+    let marker = |topic: &str, time_ns| TimedMarkers {
+        topic: topic.to_string(),
+        time_ns,
+        markers: vec![SceneMarker {
+            frame: "human/DWYTorso".into(),
+            ns: "collision".into(),
+            id: 0,
+            shape: MarkerShape::Sphere,
+            position: [0.1, 0.2, 0.3],
+            scale: [0.05; 3],
+            color: [1.0, 0.0, 1.0, 1.0],
+            lifetime_ns: 50_000_000,
+        }],
+    };
+    let series = [SceneSeries {
+        body: &human,
+        states: &hs,
+    }];
+    let options = SceneOptions::default();
+    write_scene_with_markers(
+        &path,
+        &series,
+        &[],
+        &[marker("/human/events", 1_030_000_000)],
+        &options,
+    )
+    .expect("writes");
+    let events: Vec<_> = list_channels(&path)
+        .expect("lists")
+        .into_iter()
+        .filter(|c| c.topic == "/human/events")
+        .collect();
+    assert_eq!(events.len(), 1);
+    assert_eq!(events[0].schema, MARKER_ARRAY_SCHEMA);
+    for (bad, what) in [
+        (marker("/human/joint_states", 1_000_000_000), "another type"),
+        (marker("/tf", 1_000_000_000), "another type"),
+        (marker("/human/events", -1), "negative"),
+    ] {
+        let err =
+            write_scene_with_markers(&path, &series, &[], std::slice::from_ref(&bad), &options)
+                .expect_err("refused");
+        let text = err.to_string();
+        assert!(
+            text.contains(&format!("`{}`", bad.topic)) && text.contains(what),
+            "{text}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
+}
