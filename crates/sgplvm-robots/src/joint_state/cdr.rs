@@ -11,32 +11,9 @@
 const CDR_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
 
 /// The `ros2msg` definition of `sensor_msgs/msg/JointState` with its dependencies, in the
-/// concatenated form rosbag2 stores (each dependency after a line of 80 `=` and `MSG: pkg/Type`).
-pub const JOINT_STATE_MSGDEF: &str = "\
-# This is a message that holds data to describe the state of a set of torque controlled joints.
-std_msgs/Header header
-
-string[] name
-float64[] position
-float64[] velocity
-float64[] effort
-
-================================================================================
-MSG: std_msgs/Header
-# Standard metadata for higher-level stamped data types.
-builtin_interfaces/Time stamp
-
-# Transform frame with which this data is associated.
-string frame_id
-
-================================================================================
-MSG: builtin_interfaces/Time
-# The seconds component, valid over all int32 values.
-int32 sec
-
-# The nanoseconds component, valid in the range [0, 10e9).
-uint32 nanosec
-";
+/// concatenated form rosbag2 stores (built from the ROS 2 `.msg` files with the scene's
+/// other schema texts).
+pub use crate::scene::JOINT_STATE_MSGDEF;
 
 /// Appends one CDR-encoded JointState to `buf` (cleared first).
 ///

@@ -39,8 +39,9 @@ pub use events::{
 };
 
 pub use msgs::{
-    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, MARKER_ARRAY_MSGDEF,
-    MARKER_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA, TF_MESSAGE_MSGDEF, TF_MESSAGE_SCHEMA,
+    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, JOINT_STATE_MSGDEF,
+    MARKER_ARRAY_MSGDEF, MARKER_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA, TF_MESSAGE_MSGDEF,
+    TF_MESSAGE_SCHEMA,
 };
 
 use std::collections::BTreeMap;
@@ -53,8 +54,8 @@ use ::mcap::WriteOptions;
 use nalgebra::{Isometry3, Translation3};
 
 use crate::joint_state::{
-    write_atomically, Compression, JointStateError, JointStates, Result, JOINT_STATE_MSGDEF,
-    JOINT_STATE_SCHEMA, MCAP_LIBRARY,
+    write_atomically, Compression, JointStateError, JointStates, Result, JOINT_STATE_SCHEMA,
+    MCAP_LIBRARY,
 };
 use crate::urdf::Robot;
 use msgs::Transform;

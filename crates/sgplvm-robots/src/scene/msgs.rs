@@ -1,6 +1,8 @@
 //! CDR encoders (XCDR1 little-endian, as ROS 2's Fast-CDR writes them) and the `ros2msg`
-//! schema texts of the messages a scene file carries beside its joint states:
-//! `tf2_msgs/msg/TFMessage`, `std_msgs/msg/String`, `std_msgs/msg/Float64MultiArray` and
+//! schema texts of the messages a scene file carries — `sensor_msgs/msg/JointState` (the text
+//! every JointState file of this crate records; its `.msg` follows ros2/common_interfaces as
+//! roslibrust's generated ROS 2 definitions carry it, that repository's copy not being in our
+//! index), `tf2_msgs/msg/TFMessage`, `std_msgs/msg/String`, `std_msgs/msg/Float64MultiArray` and
 //! `visualization_msgs/msg/MarkerArray`.
 //!
 //! The schema texts are in the concatenated form rosbag2 stores (ros2/rosbag2,
@@ -59,6 +61,13 @@ pub const TF_MESSAGE_MSGDEF: &str = concat!(
     dep!("geometry_msgs/Transform"),
     dep!("geometry_msgs/Quaternion"),
     dep!("geometry_msgs/Vector3"),
+    dep!("std_msgs/Header"),
+    dep!("builtin_interfaces/Time"),
+);
+
+/// The `ros2msg` definition of `sensor_msgs/msg/JointState` with its dependencies.
+pub const JOINT_STATE_MSGDEF: &str = concat!(
+    msg!("sensor_msgs/JointState"),
     dep!("std_msgs/Header"),
     dep!("builtin_interfaces/Time"),
 );
@@ -323,6 +332,7 @@ mod tests {
             "sensor_msgs/CompressedImage",
             msg!("sensor_msgs/CompressedImage"),
         ),
+        ("sensor_msgs/JointState", msg!("sensor_msgs/JointState")),
         (
             "visualization_msgs/MarkerArray",
             msg!("visualization_msgs/MarkerArray"),
@@ -405,6 +415,7 @@ mod tests {
     fn schema_texts_are_what_rosbag2_builds_from_the_ros2_msg_files() {
         for (schema, def) in [
             (TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
+            (crate::joint_state::JOINT_STATE_SCHEMA, JOINT_STATE_MSGDEF),
             (STRING_SCHEMA, STRING_MSGDEF),
             (FLOAT64_MULTI_ARRAY_SCHEMA, FLOAT64_MULTI_ARRAY_MSGDEF),
             (MARKER_ARRAY_SCHEMA, MARKER_ARRAY_MSGDEF),
@@ -430,12 +441,13 @@ mod tests {
         );
     }
 
-    /// (length, FNV-1a) of TFMessage, String, Float64MultiArray and MarkerArray.
-    const PINNED: [(usize, u64); 4] = [
+    /// (length, FNV-1a) of TFMessage, String, Float64MultiArray, MarkerArray and JointState.
+    const PINNED: [(usize, u64); 5] = [
         (2683, 0xe9bb_e709_f5e9_0018),
         (263, 0xbc47_e64e_7647_4eae),
         (2241, 0x6d76_9c22_7dc2_0db9),
         (9256, 0xbdb1_ea18_c962_5e52),
+        (1955, 0xa5d6_f35c_30d0_4f48),
     ];
 
     #[test]
@@ -445,6 +457,7 @@ mod tests {
             STRING_MSGDEF,
             FLOAT64_MULTI_ARRAY_MSGDEF,
             MARKER_ARRAY_MSGDEF,
+            JOINT_STATE_MSGDEF,
         ]
         .iter()
         .map(|d| (d.len(), fnv1a(d.as_bytes())))
