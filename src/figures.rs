@@ -655,6 +655,7 @@ mod tests {
             seconds: seconds.to_vec(),
             test_mse: mse.to_vec(),
             shipped: None,
+            stop_reason: None,
         }
     }
 

@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use sgplvm_core::BackConstraint;
 
-use super::{ModelKind, Results, RunRecord, Shipped};
+use super::{AllFramesRecord, ModelKind, Results, RunRecord, Shipped};
 use crate::stats::{self, Bootstrap, Interval, StatsError};
 
 /// Runs per model below which the report shows its statistics but judges no claim (a bootstrap
@@ -724,6 +724,147 @@ fn final_table(results: &Results) -> String {
     out
 }
 
+/// Per run, the all-frames records of `robot` and back constraint `bc`, by `value`.
+fn all_frames_by_run(
+    results: &Results,
+    robot: &str,
+    bc: &str,
+    value: impl Fn(&AllFramesRecord) -> f64,
+) -> BTreeMap<usize, f64> {
+    results
+        .all_frames
+        .iter()
+        .filter(|r| r.robot == robot && r.back_constraint == bc)
+        .map(|r| (r.run, value(r)))
+        .collect()
+}
+
+/// "Does using all the data help?": the sparse model on every training frame against the exact
+/// model on the subsample, per robot, paired by run; `None` when the study was not run.
+fn all_frames_section(results: &Results, boot: &Bootstrap) -> Option<String> {
+    let first = results.all_frames.first()?;
+    let mut out = format!(
+        "## Does using all the data help? (the sparse model on every training frame)\n\n\
+         Per run and robot, the sparse model (M = {} inducing inputs, input back constraints) \
+         trained on every training frame at the recording's full rate ({} frames) beside the \
+         exact model of the same run trained on the subsampled training frames ({} frames, the \
+         baseline above): same seed, Q and iteration budget, each budget chosen the same way \
+         (on the held-out training frames unless `--validation none`), the same test frames. \
+         The sparse rows cover input back constraints only: the sparse model refuses output \
+         back constraints; without back constraints its human → latent map is a GP regression \
+         refitted at every step of a budget selection (seconds per iteration); transfer and \
+         multi-robot models are not trained on all frames. Test MSE in rad², mean ± sd over \
+         runs; sparse − exact paired by run with its 95 % bootstrap interval; seconds are \
+         training time (budget selection included).\n\n\
+         | robot | runs | exact, subsampled | sparse, all frames | sparse − exact | exact seconds | sparse seconds | finding |\n\
+         |---|---|---|---|---|---|---|---|\n",
+        first.inducing, first.frames, first.subsampled_frames,
+    );
+    let mut answers: Vec<String> = Vec::new();
+    let mut helps = Vec::new();
+    for robot in &results.robots {
+        let bc = first.back_constraint.as_str();
+        let sparse = all_frames_by_run(results, robot, bc, |r| r.test_mse);
+        let Ok(bc_kind) = bc.parse::<BackConstraint>() else {
+            continue;
+        };
+        let exact = by_pair(results, robot, ModelKind::Baseline, bc_kind, |s| s.test_mse);
+        let (s, e) = paired(&sparse, &exact);
+        let sparse_seconds = values(&all_frames_by_run(results, robot, bc, |r| r.seconds));
+        let exact_seconds = values(&by_pair(
+            results,
+            robot,
+            ModelKind::Baseline,
+            bc_kind,
+            |s| s.seconds,
+        ));
+        let ci = boot.mean_difference(&s, &e);
+        let difference = stats::mean(&s) - stats::mean(&e);
+        let finding = match &ci {
+            Err(e) => Finding::Missing(e.to_string()),
+            Ok(ci) if ci.below(0.0) => Finding::Holds,
+            Ok(ci) if ci.above(0.0) => Finding::Against("all frames significantly worse".into()),
+            Ok(_) => Finding::NotSignificant("all frames against the subsample".into()),
+        };
+        out.push_str(&format!(
+            "| {robot} | {} | {} | {} | {} | {} | {} | {} |\n",
+            s.len(),
+            mean_sd(&e, 5),
+            mean_sd(&s, 5),
+            with_interval(results, difference, &ci, |v| signed(v, 5)),
+            mean_sd(&exact_seconds, 2),
+            mean_sd(&sparse_seconds, 2),
+            finding_cell(results, &finding),
+        ));
+        let answer = if !judged(results) {
+            let direction = if difference < 0.0 {
+                "lower"
+            } else {
+                "not lower"
+            };
+            format!("{robot}: not judged (too few runs); the sparse model's mean is {direction}")
+        } else {
+            match &finding {
+                Finding::Holds => {
+                    helps.push(robot.clone());
+                    format!("{robot}: helps (significantly lower test error)")
+                }
+                Finding::Against(_) => format!("{robot}: hurts (significantly higher test error)"),
+                Finding::NotSignificant(_) => {
+                    format!("{robot}: no significant difference")
+                }
+                Finding::Missing(why) => format!("{robot}: not computed ({why})"),
+            }
+        };
+        answers.push(answer);
+    }
+    let verdict = if !judged(results) {
+        "not judged".to_string()
+    } else if helps.len() == results.robots.len() {
+        "**yes** for every robot".to_string()
+    } else if helps.is_empty() {
+        "**no** for any robot".to_string()
+    } else {
+        format!("**only for {}**", helps.join(", "))
+    };
+    out.push_str(&format!(
+        "\n**Does using all the data help?** {verdict} — {}.\n",
+        answers.join("; ")
+    ));
+    Some(out)
+}
+
+/// The trainings whose final run was cut short by the wall-clock budget, as a sentence
+/// (`None` when there were none).
+fn time_limited(results: &Results) -> Option<String> {
+    let limited = |reason: &Option<String>| reason.as_deref() == Some("time_limit");
+    let runs = results
+        .runs
+        .iter()
+        .filter(|r| limited(&r.stop_reason))
+        .count();
+    let all = results
+        .all_frames
+        .iter()
+        .filter(|r| limited(&r.stop_reason))
+        .count();
+    if runs + all == 0 {
+        return None;
+    }
+    let budget = results
+        .config
+        .max_seconds
+        .map_or(String::new(), |s| format!(" of {s} s"));
+    Some(format!(
+        "**Cut short:** the time limit{budget} (`--max-seconds`) stopped the final training of \
+         {runs} of {} recorded runs and {all} of {} all-frames models (stop reason \
+         `time_limit` in results.json): their errors are those of models not trained to their \
+         budget.\n\n",
+        results.runs.len(),
+        results.all_frames.len(),
+    ))
+}
+
 /// The report: which claims hold, the table of shipped test errors and, per claim, its rule,
 /// statistics and verdict. Results with fewer than [`MIN_RUNS_TO_JUDGE`] runs per model say so in
 /// the first line and judge nothing.
@@ -779,6 +920,9 @@ pub fn report(results: &Results) -> String {
         boot.seed,
         boot.level * 100.0,
     ));
+    if let Some(line) = time_limited(results) {
+        out.push_str(&line);
+    }
     out.push_str("## Which of the paper's claims hold on our data\n\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -791,6 +935,10 @@ pub fn report(results: &Results) -> String {
     }
     out.push('\n');
     out.push_str(&final_table(results));
+    if let Some(section) = all_frames_section(results, &boot) {
+        out.push('\n');
+        out.push_str(&section);
+    }
     out.push_str("\n## The paper's claims, one by one\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -816,7 +964,7 @@ mod tests {
     //! are known. Differences that are the same in every pair have a degenerate bootstrap
     //! interval (every resample has the same mean), so their intervals are known exactly.
 
-    use super::super::{DirectRecord, ExperimentConfig, LessDataRecord};
+    use super::super::{AllFramesRecord, DirectRecord, ExperimentConfig, LessDataRecord};
     use super::*;
 
     const RUNS: usize = 10;
@@ -851,6 +999,7 @@ mod tests {
                 seconds,
                 test_mse: mse,
             }),
+            stop_reason: Some("max_iterations".into()),
         }
     }
 
@@ -865,6 +1014,7 @@ mod tests {
             runs,
             robot_joints: Vec::new(),
             less_data: Vec::new(),
+            all_frames: Vec::new(),
             direct_regression: robots
                 .iter()
                 .map(|r| DirectRecord {
@@ -1036,6 +1186,83 @@ mod tests {
             "{rep}"
         );
         assert!(!rep.contains("a → b (the transfer"), "{rep}");
+    }
+
+    /// The sparse model on all frames of `robot`, at `factor` × the input baseline's level
+    /// (0.1 × the run's jitter) in every run.
+    fn all_frames_at(robot: &str, factor: f64) -> Vec<AllFramesRecord> {
+        (0..RUNS)
+            .map(|run| AllFramesRecord {
+                robot: robot.into(),
+                back_constraint: "input".into(),
+                run,
+                frames: 2988,
+                subsampled_frames: 249,
+                inducing: 100,
+                iteration: 10,
+                seconds: 20.0,
+                test_mse: 0.1 * factor * jitter(run),
+                stop_reason: Some("max_iterations".into()),
+            })
+            .collect()
+    }
+
+    /// "Does using all the data help?" is answered per robot from the paired difference with
+    /// the exact input baseline of the same run: lower in every run helps, higher hurts; the
+    /// section is absent when the study was not run.
+    #[test]
+    fn all_frames_answer_follows_the_paired_difference() {
+        let mut runs = runs_at("a", &SUPPORTING);
+        runs.extend(runs_at("b", &SUPPORTING));
+        let mut r = results(&["a", "b"], runs);
+        assert!(!report(&r).contains("Does using all the data help?"));
+        r.all_frames = all_frames_at("a", 0.9);
+        r.all_frames.extend(all_frames_at("b", 0.8));
+        let rep = report(&r);
+        assert!(
+            rep.contains("**Does using all the data help?** **yes** for every robot"),
+            "{rep}"
+        );
+        // a: 0.09 × jitter against 0.1 × jitter, a degenerate interval.
+        assert!(
+            rep.contains("| a | 10 | 0.10010 ± 0.00348 | 0.09009 ± 0.00313 | −0.01001 ["),
+            "{rep}"
+        );
+        assert!(
+            rep.contains("(2988 frames)") && rep.contains("(249 frames,"),
+            "{rep}"
+        );
+        r.all_frames = all_frames_at("a", 0.9);
+        r.all_frames.extend(all_frames_at("b", 1.2));
+        let rep = report(&r);
+        assert!(
+            rep.contains("**only for a** — a: helps (significantly lower test error); b: hurts"),
+            "{rep}"
+        );
+        // Too few runs: the means, no answer.
+        r.config.runs = 2;
+        let rep = report(&r);
+        assert!(
+            rep.contains("**Does using all the data help?** not judged — a: not judged"),
+            "{rep}"
+        );
+    }
+
+    /// A run cut short by the time limit is said so at the top of the report.
+    #[test]
+    fn runs_cut_short_by_the_time_limit_are_marked() {
+        let mut r = results(&["a"], runs_at("a", &SUPPORTING));
+        assert!(!report(&r).contains("Cut short"));
+        r.config.max_seconds = Some(5.0);
+        r.runs[3].stop_reason = Some("time_limit".into());
+        r.all_frames = all_frames_at("a", 1.0);
+        r.all_frames[0].stop_reason = Some("time_limit".into());
+        let rep = report(&r);
+        let expected = format!(
+            "**Cut short:** the time limit of 5 s (`--max-seconds`) stopped the final training of 1 of {} recorded runs and 1 of 10 all-frames models",
+            r.runs.len()
+        );
+        assert!(rep.contains(&expected), "{rep}");
     }
 
     /// Claim 6 is judged at the smallest fraction: transfers 0.05 below the baseline in every
