@@ -479,13 +479,15 @@ pub fn stages(config: &ExperimentConfig, robots: usize) -> Vec<Stage> {
     }
     if config.inducing.is_some() {
         for bc in all_frames::BACK_CONSTRAINTS {
-            plan.push(stage(
-                all_frames::stage_name(config, bc),
-                Some(ModelKind::Baseline),
-                config.runs * robots,
-                config.max_iters,
-                2,
-            ));
+            for full_rate in [false, true] {
+                plan.push(stage(
+                    all_frames::stage_name(config, bc, full_rate),
+                    Some(ModelKind::Baseline),
+                    config.runs * robots,
+                    config.max_iters,
+                    2,
+                ));
+            }
         }
     }
     plan
@@ -713,16 +715,25 @@ mod tests {
             ]
         );
         assert!(results.less_data.iter().all(|r| r.test_mse.is_finite()));
-        // All frames: per robot one sparse model (input back constraints) on the 48 frames.
-        let all: Vec<(&str, &str, usize, usize, usize)> = results
+        // All frames: per robot one sparse model (input back constraints) on the 24 subsampled
+        // frames (the control), then one on the 48 frames.
+        let all: Vec<(&str, &str, bool, usize, usize)> = results
             .all_frames
             .iter()
             .map(|r| {
                 let kind = (r.robot.as_str(), r.back_constraint.as_str());
-                (kind.0, kind.1, r.frames, r.subsampled_frames, r.inducing)
+                (kind.0, kind.1, r.full_rate, r.frames, r.inducing)
             })
             .collect();
-        assert_eq!(all, [("a", "input", 48, 24, 6), ("b", "input", 48, 24, 6)]);
+        assert_eq!(
+            all,
+            [
+                ("a", "input", false, 24, 6),
+                ("b", "input", false, 24, 6),
+                ("a", "input", true, 48, 6),
+                ("b", "input", true, 48, 6)
+            ]
+        );
         for r in &results.all_frames {
             assert!(r.test_mse.is_finite() && r.test_mse > 0.0, "{r:?}");
             assert!(r.iteration <= 8 && r.stop_reason.is_some(), "{r:?}");

@@ -656,17 +656,26 @@ fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
     let first = run("a");
     assert_eq!(first["config"]["inducing"], 20);
     let records = first["all_frames"].as_array().unwrap();
-    let robots: Vec<&str> = records
+    // Per robot the control (the sparse model on the 83 subsampled frames), then all 996.
+    let robots: Vec<(&str, u64)> = records
         .iter()
-        .map(|r| r["robot"].as_str().unwrap())
+        .map(|r| (r["robot"].as_str().unwrap(), r["frames"].as_u64().unwrap()))
         .collect();
-    assert_eq!(robots, ["walkman", "coman", "centauro"]);
+    assert_eq!(
+        robots,
+        [
+            ("walkman", 83),
+            ("coman", 83),
+            ("centauro", 83),
+            ("walkman", 996),
+            ("coman", 996),
+            ("centauro", 996)
+        ]
+    );
     for r in records {
         assert_eq!(r["back_constraint"], "input", "{r}");
-        assert_eq!(
-            (r["frames"].as_u64(), r["subsampled_frames"].as_u64()),
-            (Some(996), Some(83))
-        );
+        assert_eq!(r["full_rate"], r["frames"] == 996, "{r}");
+        assert_eq!(r["subsampled_frames"], 83, "{r}");
         let mse = r["test_mse"].as_f64().unwrap();
         assert!(mse.is_finite() && mse > 0.0, "{r}");
         assert!(r["seconds"].as_f64().unwrap().is_finite(), "{r}");

@@ -49,7 +49,10 @@ pub struct AllFramesRecord {
     pub back_constraint: String,
     /// Run (seed) index: the exact baseline of the same run shares its seed.
     pub run: usize,
-    /// Training frames used (all of them).
+    /// `true`: trained on every training frame; `false`: the control, the sparse model on the
+    /// subsampled training frames of the exact baseline.
+    pub full_rate: bool,
+    /// Training frames used.
     pub frames: usize,
     /// Training frames of the exact baseline it is compared with (the subsample).
     pub subsampled_frames: usize,
@@ -66,10 +69,16 @@ pub struct AllFramesRecord {
     pub stop_reason: Option<String>,
 }
 
-/// The name of the study's stage for back constraint `bc`.
-pub(super) fn stage_name(config: &ExperimentConfig, bc: BackConstraint) -> String {
+/// The name of the study's stage for back constraint `bc`, on every frame (`full_rate`) or
+/// on the subsample.
+pub(super) fn stage_name(config: &ExperimentConfig, bc: BackConstraint, full_rate: bool) -> String {
+    let frames = if full_rate {
+        "all frames"
+    } else {
+        "the subsample"
+    };
     format!(
-        "all frames, sparse M = {}, {bc} BC",
+        "sparse M = {} on {frames}, {bc} BC",
         config.inducing.unwrap_or(0)
     )
 }

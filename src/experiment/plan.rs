@@ -83,10 +83,14 @@ pub enum TaskSpec {
         source: usize,
     },
     /// All frames: human + `robot` trained fully by the sparse model on every training frame
-    /// ([`ExperimentData::all_frames`]), seed `config.seed + run`.
+    /// ([`ExperimentData::all_frames`]) or, as the control, on the subsampled training frames;
+    /// seed `config.seed + run`.
     AllFrames {
-        /// Back constraint (none or input).
+        /// Back constraint (input: see [`all_frames::BACK_CONSTRAINTS`]).
         back_constraint: BackConstraint,
+        /// `true`: every training frame; `false`: the subsampled ones (the control that
+        /// separates the effect of the data from that of the approximation).
+        full_rate: bool,
         /// Run (seed) index.
         run: usize,
         /// The robot.
@@ -272,22 +276,26 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
     if let Some(m) = config.inducing {
         let all = data.all_frames.as_ref().map_or(0, |a| a.human.nrows());
         for bc in all_frames::BACK_CONSTRAINTS {
-            let stage = stage_of(&all_frames::stage_name(config, bc));
-            for run in 0..config.runs {
-                for (r, robot) in robots.iter().enumerate() {
-                    push(
-                        stage,
-                        format!(
-                            "all frames: {robot} on {all} frames (sparse, M = {m}), {bc} back constraints, run {run}"
-                        ),
-                        TaskSpec::AllFrames {
-                            back_constraint: bc,
-                            run,
-                            robot: r,
-                        },
-                        None,
-                        false,
-                    );
+            for full_rate in [false, true] {
+                let stage = stage_of(&all_frames::stage_name(config, bc, full_rate));
+                let count = if full_rate { all } else { frames };
+                for run in 0..config.runs {
+                    for (r, robot) in robots.iter().enumerate() {
+                        push(
+                            stage,
+                            format!(
+                                "sparse (M = {m}): {robot} on {count} frames, {bc} back constraints, run {run}"
+                            ),
+                            TaskSpec::AllFrames {
+                                back_constraint: bc,
+                                full_rate,
+                                run,
+                                robot: r,
+                            },
+                            None,
+                            false,
+                        );
+                    }
                 }
             }
         }
@@ -487,12 +495,20 @@ pub fn execute(
         }
         TaskSpec::AllFrames {
             back_constraint: bc,
+            full_rate,
             run,
             robot: r,
         } => {
             let (name, split) = robot(r)?;
             result.all_frames = Some(all_frames_record(
-                task, data, config, bc, run, r, name, split,
+                task,
+                data,
+                config,
+                (bc, full_rate),
+                run,
+                r,
+                name,
+                split,
             )?);
         }
     }
@@ -506,7 +522,7 @@ fn all_frames_record(
     task: &Task,
     data: &ExperimentData,
     config: &ExperimentConfig,
-    bc: BackConstraint,
+    (bc, full_rate): (BackConstraint, bool),
     run: usize,
     r: usize,
     name: &str,
@@ -523,22 +539,35 @@ fn all_frames_record(
     let inducing = config
         .inducing
         .ok_or_else(|| missing("the configuration sets no inducing inputs".into()))?;
-    let all: &AllFrames = data.all_frames.as_ref().ok_or_else(|| {
-        missing("the experiment data holds no full-rate training frames (all_frames)".into())
-    })?;
-    let joints = all.robots.get(r).ok_or_else(|| {
-        missing(format!(
-            "robot {r} of the {} robots of the full-rate frames",
-            all.robots.len()
-        ))
-    })?;
+    let (human, joints, held) = if full_rate {
+        let all: &AllFrames = data.all_frames.as_ref().ok_or_else(|| {
+            missing("the experiment data holds no full-rate training frames (all_frames)".into())
+        })?;
+        let joints = all.robots.get(r).ok_or_else(|| {
+            missing(format!(
+                "robot {r} of the {} robots of the full-rate frames",
+                all.robots.len()
+            ))
+        })?;
+        (all.human.as_ref(), joints.as_ref(), &all.validation)
+    } else {
+        let (_, split) = data
+            .robots
+            .get(r)
+            .ok_or_else(|| missing(format!("robot {r} of {} robots", data.robots.len())))?;
+        (
+            data.human.train.as_ref(),
+            split.train.as_ref(),
+            &data.validation,
+        )
+    };
     let input = data.input_name.as_str();
-    let spaces = [(input, all.human.as_ref()), (name, joints.as_ref())];
+    let spaces = [(input, human), (name, joints)];
     let model = model_config(config, bc, run).with_inducing(Some(inducing));
     let options = config.options(config.max_iters);
     let m = match config.patience {
         Some(p) => {
-            let v = Validation::new(all.validation.clone()).with_patience(p);
+            let v = Validation::new(held.clone()).with_patience(p);
             SharedGplvm::fit_validated(&model, &spaces, input, &options, &v, None)
         }
         None => SharedGplvm::fit(&model, &spaces, input, &options, None),
@@ -552,7 +581,8 @@ fn all_frames_record(
         robot: name.to_string(),
         back_constraint: bc.to_string(),
         run,
-        frames: all.human.nrows(),
+        full_rate,
+        frames: human.nrows(),
         subsampled_frames: data.human.train.nrows(),
         inducing,
         iteration: super::shipped_iteration(&m),
@@ -907,7 +937,15 @@ mod tests {
         // The all-frames study without full-rate frames is an error naming them.
         let all = tasks
             .iter()
-            .find(|t| matches!(t.spec, TaskSpec::AllFrames { .. }))
+            .find(|t| {
+                matches!(
+                    t.spec,
+                    TaskSpec::AllFrames {
+                        full_rate: true,
+                        ..
+                    }
+                )
+            })
             .unwrap();
         let without = ExperimentData {
             all_frames: None,
