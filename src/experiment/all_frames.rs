@@ -25,7 +25,7 @@ use sgplvm_core::{BackConstraint, Mat};
 use super::ExperimentConfig;
 
 /// The back constraints of the all-frames study: the ones the sparse model supports.
-pub const BACK_CONSTRAINTS: [BackConstraint; 1] = [BackConstraint::Input];
+pub(super) const BACK_CONSTRAINTS: [BackConstraint; 1] = [BackConstraint::Input];
 
 /// The training frames at full rate: every frame of the training motions (test frames are the
 /// experiment's usual ones).
@@ -45,7 +45,7 @@ pub struct AllFrames {
 pub struct AllFramesRecord {
     /// The robot.
     pub robot: String,
-    /// The back constraint (`input`: see [`BACK_CONSTRAINTS`]).
+    /// The back constraint: `input` (the only one the study trains; see the module docs).
     pub back_constraint: String,
     /// Run (seed) index: the exact baseline of the same run shares its seed.
     pub run: usize,

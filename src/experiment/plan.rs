@@ -86,7 +86,7 @@ pub enum TaskSpec {
     /// ([`ExperimentData::all_frames`]) or, as the control, on the subsampled training frames;
     /// seed `config.seed + run`.
     AllFrames {
-        /// Back constraint (input: see [`all_frames::BACK_CONSTRAINTS`]).
+        /// Back constraint (the study trains `input` only).
         back_constraint: BackConstraint,
         /// `true`: every training frame; `false`: the subsampled ones (the control that
         /// separates the effect of the data from that of the approximation).
