@@ -521,6 +521,7 @@ pub fn run(
     config: &ExperimentConfig,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Results, ExperimentError> {
+    all_frames::check(config, data)?;
     let tasks = plan(config, data);
     let total = tasks.len();
     let mut stage_done = vec![0; stages(config, data.robots.len()).len()];
@@ -725,6 +726,20 @@ mod tests {
                 (kind.0, kind.1, r.full_rate, r.frames, r.inducing)
             })
             .collect();
+        // An M the control's frames cannot hold is refused before anything is trained.
+        let too_many = ExperimentConfig {
+            inducing: Some(17),
+            ..config.clone()
+        };
+        let mut trained = 0;
+        let e = run(&toy(), &too_many, &mut |_| trained += 1).unwrap_err();
+        assert_eq!(trained, 0);
+        assert!(
+            e.to_string().contains(
+                "17 inducing inputs, but its control trains the sparse model on the 16 subsampled training frames not held out; expected at most 16"
+            ),
+            "{e}"
+        );
         assert_eq!(
             all,
             [

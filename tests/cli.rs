@@ -693,6 +693,23 @@ fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
         records
     };
     assert_eq!(without_seconds(&run("b")), without_seconds(&first));
+    // An M larger than the control's training frames is refused before anything is trained.
+    let err = fails_on_one_line(&[
+        "experiment",
+        "--quick",
+        "--all-frames",
+        "--inducing",
+        "1000",
+        "--data",
+        s(&data),
+        "--out",
+        s(&dir.join("c")),
+    ]);
+    assert!(
+        err.contains("1000 inducing inputs") && err.contains("expected at most"),
+        "{err}"
+    );
+    assert!(!dir.join("c").join("results.json").exists());
     // --inducing belongs to --all-frames.
     let err = fails(&["experiment", "--inducing", "20", "--data", s(&data)], 2);
     assert!(err.contains("--all-frames"), "{err}");

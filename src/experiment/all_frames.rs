@@ -22,7 +22,7 @@
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{BackConstraint, Mat};
 
-use super::ExperimentConfig;
+use super::{ExperimentConfig, ExperimentData, ExperimentError};
 
 /// The back constraints of the all-frames study: the ones the sparse model supports.
 pub(super) const BACK_CONSTRAINTS: [BackConstraint; 1] = [BackConstraint::Input];
@@ -67,6 +67,50 @@ pub struct AllFramesRecord {
     /// Why the final training stopped (`time_limit`: cut short by `--max-seconds`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stop_reason: Option<String>,
+}
+
+/// Checks, before anything is trained, that the study can run on `data`: the full-rate frames
+/// are there, and M fits the smallest training set of the study (the control's subsampled
+/// frames, less the held-out ones when budgets are chosen on them).
+pub(super) fn check(
+    config: &ExperimentConfig,
+    data: &ExperimentData,
+) -> Result<(), ExperimentError> {
+    let Some(m) = config.inducing else {
+        return Ok(());
+    };
+    let bad = |problem: String| ExperimentError::Task {
+        context: "the all-frames study".into(),
+        problem,
+    };
+    let all = data.all_frames.as_ref().ok_or_else(|| {
+        bad("the experiment data holds no full-rate training frames (all_frames)".into())
+    })?;
+    if all.robots.len() != data.robots.len() || all.human.nrows() < data.human.train.nrows() {
+        return Err(bad(format!(
+            "the full-rate frames hold {} robots and {} frames; expected the {} robots and at \
+             least the {} subsampled frames",
+            all.robots.len(),
+            all.human.nrows(),
+            data.robots.len(),
+            data.human.train.nrows()
+        )));
+    }
+    let subsampled = data.human.train.nrows();
+    let (fit, held) = match config.patience {
+        Some(_) => (
+            subsampled.saturating_sub(data.validation.len()),
+            " not held out",
+        ),
+        None => (subsampled, ""),
+    };
+    if m > fit {
+        return Err(bad(format!(
+            "{m} inducing inputs, but its control trains the sparse model on the {fit} \
+             subsampled training frames{held}; expected at most {fit} (--inducing)"
+        )));
+    }
+    Ok(())
 }
 
 /// The name of the study's stage for back constraint `bc`, on every frame (`full_rate`) or
