@@ -631,6 +631,9 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     if !results.less_data.is_empty() {
         written.extend(figures::less_data(results, dir)?);
     }
+    if !results.all_frames.is_empty() {
+        written.extend(figures::all_frames(results, dir)?);
+    }
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
     written.push(path);

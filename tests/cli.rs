@@ -646,6 +646,7 @@ fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
             "--out",
             s(&out),
         ]);
+        assert!(out.join("fig11.svg").exists() && out.join("fig11.png").exists());
         let report = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(
             report.contains("**Does using all the data help?**") && report.contains("(996 frames)"),

@@ -981,8 +981,12 @@ pub fn report(results: &Results) -> String {
     out.push_str(
         "\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training \
          time), fig6.svg/png, fig9.svg/png (less data), fig10.svg/png (transfer to each robot \
-         from each other robot); the dashed line in each panel is the direct GP regression.\n",
+         from each other robot)",
     );
+    if !results.all_frames.is_empty() {
+        out.push_str(", fig11.svg/png (every frame against a subsample)");
+    }
+    out.push_str("; the dashed line in each panel is the direct GP regression.\n");
     out
 }
 
