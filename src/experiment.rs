@@ -21,9 +21,11 @@ use sgplvm_core::{
 use crate::figures;
 use crate::files::atomic_write;
 
+mod all_frames;
 mod less_data;
 mod plan;
 mod report;
+pub use all_frames::{AllFrames, AllFramesRecord};
 pub use less_data::{subset, LessDataRecord};
 pub use plan::{assemble, execute, plan, Task, TaskResult, TaskSpec};
 pub use report::{report, MIN_RUNS_TO_JUDGE};
@@ -49,6 +51,9 @@ pub struct ExperimentData {
     /// Rows of the training matrices held out to choose each training's iteration budget
     /// (see [`ExperimentConfig::patience`]).
     pub validation: Vec<usize>,
+    /// The training frames at full rate, for the all-frames study
+    /// ([`ExperimentConfig::inducing`]); `None` when it is not run.
+    pub all_frames: Option<AllFrames>,
 }
 
 /// How much to run.
@@ -85,6 +90,11 @@ pub struct ExperimentConfig {
     /// limit (and in results written before it existed).
     #[serde(default)]
     pub max_seconds: Option<f64>,
+    /// `Some(M)`: the all-frames study — per run and robot, the sparse model with M inducing
+    /// inputs trained on every training frame ([`ExperimentData::all_frames`]) beside the
+    /// subsampled exact baseline. `None`: not run (and in results written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inducing: Option<usize>,
 }
 
 /// The direct regression's budget in results written before it was recorded.
@@ -114,6 +124,7 @@ impl ExperimentConfig {
             patience: Some(Validation::DEFAULT_PATIENCE),
             fractions: vec![0.1, 0.25, 0.5, 1.0],
             max_seconds: None,
+            inducing: None,
         }
     }
 
@@ -130,6 +141,7 @@ impl ExperimentConfig {
             patience: Some(Validation::DEFAULT_PATIENCE),
             fractions: vec![0.1, 0.25, 0.5, 1.0],
             max_seconds: None,
+            inducing: None,
         }
     }
 }
@@ -173,6 +185,10 @@ pub struct RunRecord {
     /// see [`RunRecord::shipped`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shipped: Option<Shipped>,
+    /// Why the final training stopped ([`sgplvm_core::StopReason::name`]; `time_limit`: cut
+    /// short by `--max-seconds`). Absent in results written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_reason: Option<String>,
 }
 
 /// The model a training hands back, which the report judges: when training reached its
@@ -229,6 +245,9 @@ pub struct Results {
     /// The less-data study (Fig. 9; empty when not run).
     #[serde(default)]
     pub less_data: Vec<LessDataRecord>,
+    /// The all-frames study (the sparse model on every training frame; empty when not run).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub all_frames: Vec<AllFramesRecord>,
 }
 
 /// Errors of an experiment.
@@ -342,6 +361,7 @@ impl<'a> Recorder<'a> {
         // budget of 0 iterations (the initial model shipped) has no iterations to record: the
         // curve is then the shipped point alone.
         let selection_seconds = model.selection().map_or(0.0, |s| s.seconds);
+        let stop_reason = stop_reason(model);
         let seconds: Vec<f64> = self.seconds.iter().map(|s| s + selection_seconds).collect();
         Ok(self
             .robots
@@ -369,6 +389,7 @@ impl<'a> Recorder<'a> {
                     seconds,
                     test_mse,
                     shipped: Some(shipped),
+                    stop_reason: stop_reason.clone(),
                 }
             })
             .collect())
@@ -377,13 +398,18 @@ impl<'a> Recorder<'a> {
 
 /// Training seconds until `model`'s parameters were reached: the time to the shipped model that
 /// claim 2 compares — the selection run on held-out frames, if any, and the final training.
-fn shipped_seconds(model: &SharedGplvm) -> f64 {
+pub(super) fn shipped_seconds(model: &SharedGplvm) -> f64 {
     model.training_seconds()
+}
+
+/// Why `model`'s final training stopped, by name.
+pub(super) fn stop_reason(model: &SharedGplvm) -> Option<String> {
+    model.stop_reason().map(|r| r.name().to_string())
 }
 
 /// The iteration at which `model`'s parameters were reached in its final training (see
 /// [`shipped_seconds`]).
-fn shipped_iteration(model: &SharedGplvm) -> usize {
+pub(super) fn shipped_iteration(model: &SharedGplvm) -> usize {
     model.history().last().map_or(0, |r| r.iteration)
 }
 
@@ -451,6 +477,19 @@ pub fn stages(config: &ExperimentConfig, robots: usize) -> Vec<Stage> {
             1,
         ));
     }
+    if config.inducing.is_some() {
+        for bc in all_frames::BACK_CONSTRAINTS {
+            for full_rate in [false, true] {
+                plan.push(stage(
+                    all_frames::stage_name(config, bc, full_rate),
+                    Some(ModelKind::Baseline),
+                    config.runs * robots,
+                    config.max_iters,
+                    2,
+                ));
+            }
+        }
+    }
     plan
 }
 
@@ -482,6 +521,7 @@ pub fn run(
     config: &ExperimentConfig,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Results, ExperimentError> {
+    all_frames::check(config, data)?;
     let tasks = plan(config, data);
     let total = tasks.len();
     let mut stage_done = vec![0; stages(config, data.robots.len()).len()];
@@ -591,6 +631,9 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     if !results.less_data.is_empty() {
         written.extend(figures::less_data(results, dir)?);
     }
+    if !results.all_frames.is_empty() {
+        written.extend(figures::all_frames(results, dir)?);
+    }
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
     written.push(path);
@@ -604,10 +647,22 @@ mod tests {
 
     use super::*;
 
-    /// A smooth toy problem: 3 inputs, two "robots" of 2 outputs each.
+    /// A smooth toy problem: 3 inputs, two "robots" of 2 outputs each; the training frames
+    /// every other frame of the "full-rate" ones.
     pub(super) fn toy() -> ExperimentData {
         let frames = |n: usize, offset: f64| {
             Mat::from_fn(n, 3, |i, j| ((i as f64 + offset) * 0.3 + j as f64).sin())
+        };
+        let full_human = Mat::from_fn(48, 3, |i, j| (i as f64 * 0.15 + j as f64).sin());
+        let full_robot = |scale: f64| {
+            Mat::from_fn(48, 2, |i, j| {
+                scale * (full_human[(i, j)] + 0.5 * full_human[(i, 2)])
+            })
+        };
+        let all_frames = AllFrames {
+            robots: vec![full_robot(1.0), full_robot(0.7)],
+            human: full_human.clone(),
+            validation: (0..48).filter(|i| (i / 2) % 3 == 2).collect(),
         };
         let (h_train, h_test) = (frames(24, 0.0), frames(8, 0.45));
         let robot = |scale: f64| SplitData {
@@ -624,6 +679,7 @@ mod tests {
             },
             robots: vec![("a".into(), robot(1.0)), ("b".into(), robot(0.7))],
             validation: (0..24).filter(|i| i % 3 == 2).collect(),
+            all_frames: Some(all_frames),
         }
     }
 
@@ -642,6 +698,7 @@ mod tests {
             patience: Some(2),
             fractions: vec![0.5],
             max_seconds: None,
+            inducing: Some(6),
         };
         let mut trainings = 0;
         let results = run(&toy(), &config, &mut |_| trainings += 1).unwrap();
@@ -662,6 +719,43 @@ mod tests {
             ]
         );
         assert!(results.less_data.iter().all(|r| r.test_mse.is_finite()));
+        // All frames: per robot one sparse model (input back constraints) on the 24 subsampled
+        // frames (the control), then one on the 48 frames.
+        let all: Vec<(&str, &str, bool, usize, usize)> = results
+            .all_frames
+            .iter()
+            .map(|r| {
+                let kind = (r.robot.as_str(), r.back_constraint.as_str());
+                (kind.0, kind.1, r.full_rate, r.frames, r.inducing)
+            })
+            .collect();
+        // An M the control's frames cannot hold is refused before anything is trained.
+        let too_many = ExperimentConfig {
+            inducing: Some(17),
+            ..config.clone()
+        };
+        let mut trained = 0;
+        let e = run(&toy(), &too_many, &mut |_| trained += 1).unwrap_err();
+        assert_eq!(trained, 0);
+        assert!(
+            e.to_string().contains(
+                "17 inducing inputs, but its control trains the sparse model on the 16 subsampled training frames not held out; expected at most 16"
+            ),
+            "{e}"
+        );
+        assert_eq!(
+            all,
+            [
+                ("a", "input", false, 24, 6),
+                ("b", "input", false, 24, 6),
+                ("a", "input", true, 48, 6),
+                ("b", "input", true, 48, 6)
+            ]
+        );
+        for r in &results.all_frames {
+            assert!(r.test_mse.is_finite() && r.test_mse > 0.0, "{r:?}");
+            assert!(r.iteration <= 8 && r.stop_reason.is_some(), "{r:?}");
+        }
         for r in &results.runs {
             let shipped = r.shipped.expect("recorded");
             assert!(shipped.iteration <= 8, "{r:?}");
@@ -686,6 +780,7 @@ mod tests {
             patience: None,
             fractions: Vec::new(),
             max_seconds: None,
+            inducing: None,
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

@@ -1,7 +1,7 @@
 //! The paper's figures. From an experiment's runs: test error against iterations and training
 //! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
-//! back constraints (Fig. 6), with less data (Fig. 9) and from each robot to each other (Fig. 10),
-//! each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
+//! back constraints (Fig. 6), with less data (Fig. 9), from each robot to each other (Fig. 10)
+//! and on every frame against a subsample (Fig. 11), each panel with the direct GP regression's error as a yardstick. From a trained model, the demo's pictures: the shared latent space
 //! with key poses and test trajectories (Fig. 7) and predicted against desired joint
 //! trajectories (Fig. 8).
 
@@ -267,6 +267,74 @@ pub fn less_data(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotErro
     write_figure(
         &dir.join("fig9"),
         "Fig. 9: less data (input back constraints)",
+        &panels,
+        panels.len(),
+    )
+}
+
+/// Fig. 11 (issue 14, "does using all the data help?"): per robot, the test error (mean ± one
+/// standard deviation over runs) against the number of training frames: the sparse model on the
+/// subsample and on every frame (line and band), the exact model on the subsample (circle) and
+/// the direct GP regression (dashed). Input back constraints.
+pub fn all_frames(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
+    let panels = results
+        .robots
+        .iter()
+        .map(|robot| {
+            let mut by_frames: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
+            for r in results.all_frames.iter().filter(|r| r.robot == *robot) {
+                by_frames.entry(r.frames).or_default().push(r.test_mse);
+            }
+            let (points, band): (Vec<_>, Vec<_>) = by_frames
+                .iter()
+                .map(|(&frames, values)| {
+                    let (mean, sd) = mean_sd(values);
+                    ((frames as f64, mean), positive_band(mean, sd))
+                })
+                .unzip();
+            let inducing = results.all_frames.first().map_or(0, |r| r.inducing);
+            let mut series = vec![Series {
+                label: format!("sparse model, M = {inducing}"),
+                color: 1,
+                points,
+                band: Some(band),
+                ..Series::default()
+            }];
+            series.extend(direct_line(&series, results.direct_mse(robot)));
+            let exact: Vec<f64> = results
+                .select(robot, ModelKind::Baseline, BackConstraint::Input.name())
+                .iter()
+                .map(|r| r.shipped().test_mse)
+                .collect();
+            let subsampled = results
+                .all_frames
+                .iter()
+                .find(|r| r.robot == *robot)
+                .map_or(0, |r| r.subsampled_frames);
+            let markers = if exact.is_empty() {
+                vec![]
+            } else {
+                vec![Markers {
+                    label: "exact model".into(),
+                    color: 0,
+                    circles: true,
+                    points: vec![(subsampled as f64, mean_sd(&exact).0)],
+                    annotations: vec![],
+                }]
+            };
+            Panel {
+                title: robot.clone(),
+                x_label: "training frames".into(),
+                y_label: "test MSE (rad²)".into(),
+                series,
+                markers,
+                ..Panel::default()
+            }
+        })
+        .collect::<Vec<_>>();
+    write_figure(
+        &dir.join("fig11"),
+        "Fig. 11: every frame or a subsample (input back constraints)",
         &panels,
         panels.len(),
     )
@@ -655,6 +723,7 @@ mod tests {
             seconds: seconds.to_vec(),
             test_mse: mse.to_vec(),
             shipped: None,
+            stop_reason: None,
         }
     }
 

@@ -10,7 +10,7 @@ use sgplvm_core::{
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset, ValidationSplit};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
-use crate::experiment::{mean_squared_error, ExperimentData, ModelKind, SplitData};
+use crate::experiment::{mean_squared_error, AllFrames, ExperimentData, ModelKind, SplitData};
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
@@ -148,6 +148,61 @@ impl Demonstrations {
                 .map(|r| (r.name.clone(), split(r)))
                 .collect(),
             validation: self.validation_split().rows,
+            all_frames: None,
+        })
+    }
+
+    /// Every training frame at the recording's full rate, for the experiment's all-frames study:
+    /// every frame of every segment that holds a training frame and no test frame (for the
+    /// shipped and generated demonstrations, the 40 Hz frames of the training motions, of which
+    /// the training set is every 12th). A segment holding test frames too contributes its
+    /// training frames only, so no frame near a test frame is added. Increasing frame numbers.
+    pub fn all_training_frames(&self) -> Vec<usize> {
+        let ds = &self.dataset;
+        if ds.segments.is_empty() {
+            return ds.train.clone();
+        }
+        let mut frames = Vec::new();
+        let mut train = ds.train.iter().copied().peekable();
+        for segment in &ds.segments {
+            let mut own = Vec::new();
+            while let Some(f) = train.next_if(|&f| f < segment.end) {
+                if f >= segment.start {
+                    own.push(f);
+                }
+            }
+            if own.is_empty() {
+                continue;
+            }
+            let start = ds.test.partition_point(|&t| t < segment.start);
+            let holds_test = ds.test.get(start).is_some_and(|&t| t < segment.end);
+            if holds_test {
+                frames.extend(own);
+            } else {
+                frames.extend(segment.start..segment.end);
+            }
+        }
+        frames
+    }
+
+    /// The training frames at full rate ([`Demonstrations::all_training_frames`]) of the
+    /// human and every robot, and the frames held out of them to choose iteration budgets
+    /// (the same rule, hence the same motions, as [`Demonstrations::validation_split`]).
+    pub fn all_frames_data(&self) -> Result<AllFrames, PipelineError> {
+        self.check_splits()?;
+        let frames = self.all_training_frames();
+        let full = Dataset {
+            train: frames,
+            ..self.dataset.clone()
+        };
+        Ok(AllFrames {
+            human: to_mat(&full.human.rows(&full.train)),
+            robots: full
+                .robots
+                .iter()
+                .map(|r| to_mat(&r.rows(&full.train)))
+                .collect(),
+            validation: full.validation_split().rows,
         })
     }
 
@@ -422,4 +477,66 @@ pub struct Evaluation {
     pub mse: f64,
     /// Mean squared error of each joint (rad²).
     pub per_joint: Vec<(String, f64)>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn generated(train_subsample: usize) -> Demonstrations {
+        let config = GeneratorConfig {
+            repetitions: 2,
+            train_subsample,
+            ..GeneratorConfig::default()
+        };
+        Demonstrations {
+            dataset: generate(&config).expect("generates").dataset,
+            source_name: "test".into(),
+        }
+    }
+
+    /// The full-rate training frames of subsampled demonstrations are the training set the
+    /// generator writes with `--subsample 1`: every frame of the training motions, a superset of
+    /// the subsample, no test frame; their held-out frames are the same motions'.
+    #[test]
+    fn all_training_frames_are_the_training_motions_at_full_rate() {
+        let sub = generated(12);
+        let full = generated(1);
+        let frames = sub.all_training_frames();
+        assert_eq!(frames, full.dataset.train);
+        assert!(frames.len() > 11 * sub.dataset.train.len());
+        assert!(sub
+            .dataset
+            .train
+            .iter()
+            .all(|f| frames.binary_search(f).is_ok()));
+        assert!(sub
+            .dataset
+            .test
+            .iter()
+            .all(|f| frames.binary_search(f).is_err()));
+        let data = sub.all_frames_data().expect("all frames");
+        assert_eq!(data.human.nrows(), frames.len());
+        assert_eq!(data.robots.len(), 3);
+        assert_eq!(data.validation, full.validation_split().rows);
+        // A segment with test frames in it gives only its training frames.
+        let mut mixed = sub.clone();
+        let segment = mixed
+            .dataset
+            .segment_of(sub.dataset.train[0])
+            .expect("segment")
+            .clone();
+        mixed.dataset.test.insert(0, segment.end - 1);
+        mixed.dataset.test.sort_unstable();
+        let own: Vec<usize> = sub
+            .dataset
+            .train
+            .iter()
+            .copied()
+            .filter(|&f| f < segment.end)
+            .collect();
+        let frames = mixed.all_training_frames();
+        assert_eq!(&frames[..own.len()], own.as_slice());
+        assert!(frames[own.len()] >= segment.end);
+    }
 }

@@ -615,6 +615,110 @@ fn experiment_writes_results_in_the_documented_schema() {
     }
 }
 
+/// `experiment --all-frames`: beside the subsampled exact baselines, per robot one sparse
+/// model on every full-rate training frame, finite, in results.json and report.md; the same
+/// seed gives the same records (the measured seconds aside).
+#[test]
+fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
+    let dir = scratch("all-frames");
+    // One repetition, every 12th frame: 83 training frames of 996 at full rate.
+    ok(&[
+        "generate",
+        "--out",
+        s(&dir),
+        "--subsample",
+        "12",
+        "--repetitions",
+        "1",
+    ]);
+    let data = dir.join("bimanual.mcap");
+    let run = |out: &str| -> serde_json::Value {
+        let out = dir.join(out);
+        ok(&[
+            "experiment",
+            "--quick",
+            "--runs",
+            "1",
+            "--max-iters",
+            "3",
+            "--all-frames",
+            "--inducing",
+            "20",
+            "--data",
+            s(&data),
+            "--out",
+            s(&out),
+        ]);
+        assert!(out.join("fig11.svg").exists() && out.join("fig11.png").exists());
+        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(
+            report.contains("**Does using all the data help?**") && report.contains("(996 frames)"),
+            "{report}"
+        );
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+    };
+    let first = run("a");
+    assert_eq!(first["config"]["inducing"], 20);
+    let records = first["all_frames"].as_array().unwrap();
+    // Per robot the control (the sparse model on the 83 subsampled frames), then all 996.
+    let robots: Vec<(&str, u64)> = records
+        .iter()
+        .map(|r| (r["robot"].as_str().unwrap(), r["frames"].as_u64().unwrap()))
+        .collect();
+    assert_eq!(
+        robots,
+        [
+            ("walkman", 83),
+            ("coman", 83),
+            ("centauro", 83),
+            ("walkman", 996),
+            ("coman", 996),
+            ("centauro", 996)
+        ]
+    );
+    for r in records {
+        assert_eq!(r["back_constraint"], "input", "{r}");
+        assert_eq!(r["full_rate"], r["frames"] == 996, "{r}");
+        assert_eq!(r["subsampled_frames"], 83, "{r}");
+        let mse = r["test_mse"].as_f64().unwrap();
+        assert!(mse.is_finite() && mse > 0.0, "{r}");
+        assert!(r["seconds"].as_f64().unwrap().is_finite(), "{r}");
+        assert!(r["stop_reason"].is_string(), "{r}");
+    }
+    // Every run records why its training stopped.
+    for r in first["runs"].as_array().unwrap() {
+        assert!(r["stop_reason"].is_string(), "{r}");
+    }
+    let without_seconds = |v: &serde_json::Value| {
+        let mut records = v["all_frames"].clone();
+        for r in records.as_array_mut().unwrap() {
+            r.as_object_mut().unwrap().remove("seconds");
+        }
+        records
+    };
+    assert_eq!(without_seconds(&run("b")), without_seconds(&first));
+    // An M larger than the control's training frames is refused before anything is trained.
+    let err = fails_on_one_line(&[
+        "experiment",
+        "--quick",
+        "--all-frames",
+        "--inducing",
+        "1000",
+        "--data",
+        s(&data),
+        "--out",
+        s(&dir.join("c")),
+    ]);
+    assert!(
+        err.contains("1000 inducing inputs") && err.contains("expected at most"),
+        "{err}"
+    );
+    assert!(!dir.join("c").join("results.json").exists());
+    // --inducing belongs to --all-frames.
+    let err = fails(&["experiment", "--inducing", "20", "--data", s(&data)], 2);
+    assert!(err.contains("--all-frames"), "{err}");
+}
+
 #[test]
 fn messages_say_what_happened() {
     let f = fixture();

@@ -11,6 +11,10 @@ use sgplvm::experiment::{self, ExperimentConfig};
 use super::args::{parse_seconds, DataArg, ValidationArg};
 use super::progress::{progress_bar, StageLines};
 
+/// Inducing inputs of `--all-frames` without `--inducing` (the M = 100, as in
+/// BENCHMARKS.md's sparse section).
+const DEFAULT_INDUCING: usize = 100;
+
 #[derive(Args)]
 pub struct ExperimentArgs {
     /// Fewer runs and iterations: a few minutes.
@@ -42,6 +46,14 @@ pub struct ExperimentArgs {
     /// best parameters so far. results.json records it. Default: no limit.
     #[arg(long, value_parser = parse_seconds)]
     max_seconds: Option<f64>,
+    /// Also train the sparse model on every training frame at the recording's full rate (not
+    /// the every-12th-frame subsample), per run and robot with input back constraints, and
+    /// report its test error beside the subsampled exact model's: does using all the data help?
+    #[arg(long)]
+    all_frames: bool,
+    /// With `--all-frames`: the sparse model's number of inducing inputs M.
+    #[arg(long, requires = "all_frames", value_parser = clap::value_parser!(u64).range(1..))]
+    inducing: Option<u64>,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -66,6 +78,9 @@ impl ExperimentArgs {
             config.transfer_max_iters = m as usize;
         }
         config.max_seconds = self.max_seconds;
+        config.inducing = self
+            .all_frames
+            .then(|| self.inducing.map_or(DEFAULT_INDUCING, |m| m as usize));
         config
     }
 }
@@ -73,7 +88,10 @@ impl ExperimentArgs {
 pub fn run(args: ExperimentArgs) -> Result<()> {
     let config = args.config();
     let demos = args.data.load()?;
-    let data = demos.experiment_data()?;
+    let mut data = demos.experiment_data()?;
+    if config.inducing.is_some() {
+        data.all_frames = Some(demos.all_frames_data()?);
+    }
     let plan = experiment::stages(&config, data.robots.len());
     let bar = progress_bar(plan.iter().map(|s| s.trainings as u64).sum(), "experiment");
     // Without a terminal to draw the bar on (a log, CI): one line per finished stage.

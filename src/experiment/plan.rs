@@ -14,11 +14,12 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{BackConstraint, GpRegression, Mat, MatRef, SharedGplvm, Validation};
 
+use super::all_frames::{self, AllFrames, AllFramesRecord};
 use super::less_data::{rows_of, subset};
 use super::{
-    fit, mean_squared_error, model_config, stages, validation, DirectRecord, ExperimentConfig,
-    ExperimentData, ExperimentError, LessDataRecord, ModelKind, Recorder, Results, RunRecord,
-    SplitData,
+    fit, mean_squared_error, model_config, stages, stop_reason, validation, DirectRecord,
+    ExperimentConfig, ExperimentData, ExperimentError, LessDataRecord, ModelKind, Recorder,
+    Results, RunRecord, SplitData,
 };
 
 /// What one task trains. Robots are indices into [`ExperimentData::robots`], fractions into
@@ -81,6 +82,20 @@ pub enum TaskSpec {
         /// The source robot.
         source: usize,
     },
+    /// All frames: human + `robot` trained fully by the sparse model on every training frame
+    /// ([`ExperimentData::all_frames`]) or, as the control, on the subsampled training frames;
+    /// seed `config.seed + run`.
+    AllFrames {
+        /// Back constraint (the study trains `input` only).
+        back_constraint: BackConstraint,
+        /// `true`: every training frame; `false`: the subsampled ones (the control that
+        /// separates the effect of the data from that of the approximation).
+        full_rate: bool,
+        /// Run (seed) index.
+        run: usize,
+        /// The robot.
+        robot: usize,
+    },
 }
 
 /// One training of the experiment.
@@ -114,6 +129,9 @@ pub struct TaskResult {
     /// A model of the less-data study.
     #[serde(default)]
     pub less_data: Option<LessDataRecord>,
+    /// A model of the all-frames study.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub all_frames: Option<AllFramesRecord>,
 }
 
 /// Every task of the experiment on `data`, in the order the serial run performs them.
@@ -248,6 +266,33 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                                 source: s,
                             },
                             Some(ids[s]),
+                            false,
+                        );
+                    }
+                }
+            }
+        }
+    }
+    if let Some(m) = config.inducing {
+        let all = data.all_frames.as_ref().map_or(0, |a| a.human.nrows());
+        for bc in all_frames::BACK_CONSTRAINTS {
+            for full_rate in [false, true] {
+                let stage = stage_of(&all_frames::stage_name(config, bc, full_rate));
+                let count = if full_rate { all } else { frames };
+                for run in 0..config.runs {
+                    for (r, robot) in robots.iter().enumerate() {
+                        push(
+                            stage,
+                            format!(
+                                "sparse (M = {m}): {robot} on {count} frames, {bc} back constraints, run {run}"
+                            ),
+                            TaskSpec::AllFrames {
+                                back_constraint: bc,
+                                full_rate,
+                                run,
+                                robot: r,
+                            },
+                            None,
                             false,
                         );
                     }
@@ -448,8 +493,103 @@ pub fn execute(
             let predicted = partial.predict(source, human_test).map_err(fail)?;
             result.less_data = Some(less.record(target, split, run, Some(source_name), predicted));
         }
+        TaskSpec::AllFrames {
+            back_constraint: bc,
+            full_rate,
+            run,
+            robot: r,
+        } => {
+            let (name, split) = robot(r)?;
+            result.all_frames = Some(all_frames_record(
+                task,
+                data,
+                config,
+                (bc, full_rate),
+                run,
+                r,
+                name,
+                split,
+            )?);
+        }
     }
     Ok((result, model.filter(|_| task.keep_model)))
+}
+
+/// Trains the sparse model of the all-frames study for robot `r` (`name`, test frames in
+/// `split`) and records its test error.
+#[allow(clippy::too_many_arguments)]
+fn all_frames_record(
+    task: &Task,
+    data: &ExperimentData,
+    config: &ExperimentConfig,
+    (bc, full_rate): (BackConstraint, bool),
+    run: usize,
+    r: usize,
+    name: &str,
+    split: &SplitData,
+) -> Result<AllFramesRecord, ExperimentError> {
+    let missing = |problem: String| ExperimentError::Task {
+        context: task.context.clone(),
+        problem,
+    };
+    let fail = |source| ExperimentError::Model {
+        context: task.context.clone(),
+        source,
+    };
+    let inducing = config
+        .inducing
+        .ok_or_else(|| missing("the configuration sets no inducing inputs".into()))?;
+    let (human, joints, held) = if full_rate {
+        let all: &AllFrames = data.all_frames.as_ref().ok_or_else(|| {
+            missing("the experiment data holds no full-rate training frames (all_frames)".into())
+        })?;
+        let joints = all.robots.get(r).ok_or_else(|| {
+            missing(format!(
+                "robot {r} of the {} robots of the full-rate frames",
+                all.robots.len()
+            ))
+        })?;
+        (all.human.as_ref(), joints.as_ref(), &all.validation)
+    } else {
+        let (_, split) = data
+            .robots
+            .get(r)
+            .ok_or_else(|| missing(format!("robot {r} of {} robots", data.robots.len())))?;
+        (
+            data.human.train.as_ref(),
+            split.train.as_ref(),
+            &data.validation,
+        )
+    };
+    let input = data.input_name.as_str();
+    let spaces = [(input, human), (name, joints)];
+    let model = model_config(config, bc, run).with_inducing(Some(inducing));
+    let options = config.options(config.max_iters);
+    let m = match config.patience {
+        Some(p) => {
+            let v = Validation::new(held.clone()).with_patience(p);
+            SharedGplvm::fit_validated(&model, &spaces, input, &options, &v, None)
+        }
+        None => SharedGplvm::fit(&model, &spaces, input, &options, None),
+    }
+    .map_err(fail)?;
+    let predicted = m
+        .predict(data.human.test.as_ref(), name, false)
+        .map_err(fail)?
+        .mean;
+    Ok(AllFramesRecord {
+        robot: name.to_string(),
+        back_constraint: bc.to_string(),
+        run,
+        full_rate,
+        frames: human.nrows(),
+        subsampled_frames: data.human.train.nrows(),
+        inducing,
+        iteration: super::shipped_iteration(&m),
+        seconds: super::shipped_seconds(&m),
+        test_mse: mean_squared_error(predicted.as_ref(), split.test.as_ref()),
+        stop_reason: stop_reason(&m),
+    })
 }
 
 /// The frames of one fraction of the less-data study.
@@ -545,11 +685,13 @@ pub fn assemble(
         direct_regression: Vec::new(),
         robot_joints: data.robots.iter().map(|(_, s)| s.train.ncols()).collect(),
         less_data: Vec::new(),
+        all_frames: Vec::new(),
     };
     for r in results {
         out.runs.extend(r.runs);
         out.direct_regression.extend(r.direct);
         out.less_data.extend(r.less_data);
+        out.all_frames.extend(r.all_frames);
     }
     Ok(out)
 }
@@ -601,6 +743,43 @@ struct DataJson {
     human: SplitJson,
     robots: Vec<(String, SplitJson)>,
     validation: Vec<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    all_frames: Option<AllFramesJson>,
+}
+
+/// [`AllFrames`] as it travels in JSON.
+#[derive(Serialize, Deserialize)]
+struct AllFramesJson {
+    human: MatrixJson,
+    robots: Vec<MatrixJson>,
+    validation: Vec<usize>,
+}
+
+impl AllFramesJson {
+    fn from(a: &AllFrames) -> Self {
+        AllFramesJson {
+            human: MatrixJson::from(a.human.as_ref()),
+            robots: a
+                .robots
+                .iter()
+                .map(|m| MatrixJson::from(m.as_ref()))
+                .collect(),
+            validation: a.validation.clone(),
+        }
+    }
+
+    fn into_all_frames(self) -> Result<AllFrames, String> {
+        Ok(AllFrames {
+            human: self.human.into_mat("all_frames.human")?,
+            robots: self
+                .robots
+                .into_iter()
+                .enumerate()
+                .map(|(k, m)| m.into_mat(&format!("all_frames.robots[{k}]")))
+                .collect::<Result<_, String>>()?,
+            validation: self.validation,
+        })
+    }
 }
 
 impl SplitJson {
@@ -631,6 +810,7 @@ impl ExperimentData {
                 .map(|(n, s)| (n.clone(), SplitJson::from(s)))
                 .collect(),
             validation: self.validation.clone(),
+            all_frames: self.all_frames.as_ref().map(AllFramesJson::from),
         };
         // Finite matrices and plain fields: serialising cannot fail.
         serde_json::to_vec(&data).unwrap_or_default()
@@ -652,11 +832,17 @@ impl ExperimentData {
             })
             .collect::<Result<Vec<_>, String>>()
             .map_err(bad)?;
+        let all_frames = data
+            .all_frames
+            .map(AllFramesJson::into_all_frames)
+            .transpose()
+            .map_err(bad)?;
         Ok(ExperimentData {
             input_name: data.input_name,
             human: data.human.into_split("human").map_err(bad)?,
             robots,
             validation: data.validation,
+            all_frames,
         })
     }
 }
@@ -681,6 +867,7 @@ mod tests {
             patience: Some(2),
             fractions: vec![0.5],
             max_seconds: None,
+            inducing: Some(6),
         }
     }
 
@@ -747,6 +934,25 @@ mod tests {
         let transfer = tasks.iter().find(|t| t.source.is_some()).unwrap();
         let e = execute(transfer, &data, &config, None).unwrap_err();
         assert!(e.to_string().contains("source"), "{e}");
+        // The all-frames study without full-rate frames is an error naming them.
+        let all = tasks
+            .iter()
+            .find(|t| {
+                matches!(
+                    t.spec,
+                    TaskSpec::AllFrames {
+                        full_rate: true,
+                        ..
+                    }
+                )
+            })
+            .unwrap();
+        let without = ExperimentData {
+            all_frames: None,
+            ..data.clone()
+        };
+        let e = execute(all, &without, &config, None).unwrap_err();
+        assert!(e.to_string().contains("full-rate training frames"), "{e}");
         let e = ExperimentData::from_json(br#"{"input_name": "h"}"#).unwrap_err();
         assert!(e.to_string().starts_with("experiment data:"), "{e}");
         let mut json: serde_json::Value = serde_json::from_slice(&data.to_json()).unwrap();

@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use sgplvm_core::BackConstraint;
 
-use super::{ModelKind, Results, RunRecord, Shipped};
+use super::{AllFramesRecord, ModelKind, Results, RunRecord, Shipped};
 use crate::stats::{self, Bootstrap, Interval, StatsError};
 
 /// Runs per model below which the report shows its statistics but judges no claim (a bootstrap
@@ -724,6 +724,175 @@ fn final_table(results: &Results) -> String {
     out
 }
 
+/// Per run, the all-frames study's records of `robot` and back constraint `bc` on every frame
+/// (`full_rate`) or on the subsample, by `value`.
+fn all_frames_by_run(
+    results: &Results,
+    robot: &str,
+    (bc, full_rate): (&str, bool),
+    value: impl Fn(&AllFramesRecord) -> f64,
+) -> BTreeMap<usize, f64> {
+    results
+        .all_frames
+        .iter()
+        .filter(|r| r.robot == robot && r.back_constraint == bc && r.full_rate == full_rate)
+        .map(|r| (r.run, value(r)))
+        .collect()
+}
+
+/// A paired difference a − b as a finding: lower is what "helps" means.
+fn lower_is_better(ci: &Result<Interval, StatsError>) -> Finding {
+    match ci {
+        Err(e) => Finding::Missing(e.to_string()),
+        Ok(ci) if ci.below(0.0) => Finding::Holds,
+        Ok(ci) if ci.above(0.0) => Finding::Against("significantly higher test error".into()),
+        Ok(_) => Finding::NotSignificant("no significant difference".into()),
+    }
+}
+
+/// One robot's answer: what the finding says, or, too small to judge, which way the means go.
+fn answer(results: &Results, robot: &str, finding: &Finding, difference: f64) -> String {
+    if !judged(results) {
+        let direction = if difference < 0.0 {
+            "lower"
+        } else {
+            "not lower"
+        };
+        return format!("{robot}: not judged (too few runs), mean {direction}");
+    }
+    match finding {
+        Finding::Holds => format!("{robot}: helps (significantly lower test error)"),
+        Finding::Against(_) => format!("{robot}: hurts (significantly higher test error)"),
+        Finding::NotSignificant(_) => format!("{robot}: no significant difference"),
+        Finding::Missing(why) => format!("{robot}: not computed ({why})"),
+    }
+}
+
+/// "Does using all the data help?": the sparse model on every training frame against the exact
+/// model on the subsample, per robot, paired by run, and the sparse model on the subsample as
+/// the control; `None` when the study was not run.
+fn all_frames_section(results: &Results, boot: &Bootstrap) -> Option<String> {
+    let first = results.all_frames.first()?;
+    let all_count = results
+        .all_frames
+        .iter()
+        .find(|r| r.full_rate)
+        .map_or(0, |r| r.frames);
+    let mut out = format!(
+        "## Does using all the data help? (the sparse model on every training frame)\n\n\
+         Per run and robot, the sparse model (M = {} inducing inputs, input back constraints) \
+         trained on every training frame at the recording's full rate ({all_count} frames) \
+         beside the exact model of the same run trained on the subsampled training frames \
+         ({} frames, the baseline above), and, as the control that separates the data from \
+         the approximation, the sparse model on those subsampled frames: same seed, Q and \
+         iteration budget, each budget chosen the same way (on the held-out training frames \
+         unless `--validation none`), the same test frames. The sparse rows cover input back \
+         constraints only: the sparse model refuses output back constraints; without back \
+         constraints its human → latent map is a GP regression refitted at every step of a \
+         budget selection (seconds per iteration); transfer and multi-robot models are not \
+         trained on all frames. Test MSE in rad², mean ± sd over runs; differences paired by \
+         run with their 95 % bootstrap interval; seconds are training time (budget selection \
+         included), exact / sparse on the subsample / sparse on all frames. The finding is on \
+         all frames − exact.\n\n\
+         | robot | runs | exact, subsample | sparse, subsample | sparse, all frames | all frames − exact | all frames − subsample (both sparse) | seconds | finding |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+        first.inducing, first.subsampled_frames,
+    );
+    let bc = first.back_constraint.as_str();
+    let bc_kind = bc.parse::<BackConstraint>().ok()?;
+    let (mut answers, mut controls, mut helps) = (Vec::new(), Vec::new(), Vec::new());
+    for robot in &results.robots {
+        let all = all_frames_by_run(results, robot, (bc, true), |r| r.test_mse);
+        let sub = all_frames_by_run(results, robot, (bc, false), |r| r.test_mse);
+        let exact = by_pair(results, robot, ModelKind::Baseline, bc_kind, |s| s.test_mse);
+        let (a, e) = paired(&all, &exact);
+        let (a_c, s_c) = paired(&all, &sub);
+        let ci = boot.mean_difference(&a, &e);
+        let ci_control = boot.mean_difference(&a_c, &s_c);
+        let difference = stats::mean(&a) - stats::mean(&e);
+        let control = stats::mean(&a_c) - stats::mean(&s_c);
+        let finding = lower_is_better(&ci);
+        let seconds = |v: &BTreeMap<usize, f64>| num(stats::mean(&values(v)), 2);
+        out.push_str(&format!(
+            "| {robot} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} |\n",
+            a.len(),
+            mean_sd(&values(&exact), 5),
+            mean_sd(&values(&sub), 5),
+            mean_sd(&values(&all), 5),
+            with_interval(results, difference, &ci, |v| signed(v, 5)),
+            with_interval(results, control, &ci_control, |v| signed(v, 5)),
+            seconds(&by_pair(
+                results,
+                robot,
+                ModelKind::Baseline,
+                bc_kind,
+                |s| s.seconds
+            )),
+            seconds(&all_frames_by_run(results, robot, (bc, false), |r| r.seconds)),
+            seconds(&all_frames_by_run(results, robot, (bc, true), |r| r.seconds)),
+            finding_cell(results, &finding),
+        ));
+        if judged(results) && finding == Finding::Holds {
+            helps.push(robot.clone());
+        }
+        answers.push(answer(results, robot, &finding, difference));
+        controls.push(answer(
+            results,
+            robot,
+            &lower_is_better(&ci_control),
+            control,
+        ));
+    }
+    let verdict = if !judged(results) {
+        "not judged".to_string()
+    } else if helps.len() == results.robots.len() {
+        "**yes** for every robot".to_string()
+    } else if helps.is_empty() {
+        "**no** for any robot".to_string()
+    } else {
+        format!("**only for {}**", helps.join(", "))
+    };
+    out.push_str(&format!(
+        "\n**Does using all the data help?** Against the exact model on the subsample: {verdict} \
+         — {}. With the approximation held fixed (the sparse model on all frames against the \
+         sparse model on the subsample): {}.\n",
+        answers.join("; "),
+        controls.join("; "),
+    ));
+    Some(out)
+}
+
+/// The trainings whose final run was cut short by the wall-clock budget, as a sentence
+/// (`None` when there were none).
+fn time_limited(results: &Results) -> Option<String> {
+    let limited = |reason: &Option<String>| reason.as_deref() == Some("time_limit");
+    let runs = results
+        .runs
+        .iter()
+        .filter(|r| limited(&r.stop_reason))
+        .count();
+    let all = results
+        .all_frames
+        .iter()
+        .filter(|r| limited(&r.stop_reason))
+        .count();
+    if runs + all == 0 {
+        return None;
+    }
+    let budget = results
+        .config
+        .max_seconds
+        .map_or(String::new(), |s| format!(" of {s} s"));
+    Some(format!(
+        "**Cut short:** the time limit{budget} (`--max-seconds`) stopped the final training of \
+         {runs} of {} recorded runs and {all} of {} all-frames models (stop reason \
+         `time_limit` in results.json): their errors are those of models not trained to their \
+         budget.\n\n",
+        results.runs.len(),
+        results.all_frames.len(),
+    ))
+}
+
 /// The report: which claims hold, the table of shipped test errors and, per claim, its rule,
 /// statistics and verdict. Results with fewer than [`MIN_RUNS_TO_JUDGE`] runs per model say so in
 /// the first line and judge nothing.
@@ -779,6 +948,9 @@ pub fn report(results: &Results) -> String {
         boot.seed,
         boot.level * 100.0,
     ));
+    if let Some(line) = time_limited(results) {
+        out.push_str(&line);
+    }
     out.push_str("## Which of the paper's claims hold on our data\n\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -791,6 +963,10 @@ pub fn report(results: &Results) -> String {
     }
     out.push('\n');
     out.push_str(&final_table(results));
+    if let Some(section) = all_frames_section(results, &boot) {
+        out.push('\n');
+        out.push_str(&section);
+    }
     out.push_str("\n## The paper's claims, one by one\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -805,8 +981,12 @@ pub fn report(results: &Results) -> String {
     out.push_str(
         "\nFigures: fig4.svg/png, fig5.svg/png (against iterations; `_seconds` against training \
          time), fig6.svg/png, fig9.svg/png (less data), fig10.svg/png (transfer to each robot \
-         from each other robot); the dashed line in each panel is the direct GP regression.\n",
+         from each other robot)",
     );
+    if !results.all_frames.is_empty() {
+        out.push_str(", fig11.svg/png (every frame against a subsample)");
+    }
+    out.push_str("; the dashed line in each panel is the direct GP regression.\n");
     out
 }
 
@@ -816,7 +996,7 @@ mod tests {
     //! are known. Differences that are the same in every pair have a degenerate bootstrap
     //! interval (every resample has the same mean), so their intervals are known exactly.
 
-    use super::super::{DirectRecord, ExperimentConfig, LessDataRecord};
+    use super::super::{AllFramesRecord, DirectRecord, ExperimentConfig, LessDataRecord};
     use super::*;
 
     const RUNS: usize = 10;
@@ -851,6 +1031,7 @@ mod tests {
                 seconds,
                 test_mse: mse,
             }),
+            stop_reason: Some("max_iterations".into()),
         }
     }
 
@@ -865,6 +1046,7 @@ mod tests {
             runs,
             robot_joints: Vec::new(),
             less_data: Vec::new(),
+            all_frames: Vec::new(),
             direct_regression: robots
                 .iter()
                 .map(|r| DirectRecord {
@@ -1036,6 +1218,98 @@ mod tests {
             "{rep}"
         );
         assert!(!rep.contains("a → b (the transfer"), "{rep}");
+    }
+
+    /// The sparse model of `robot` on all frames at `factor` × the input baseline's level
+    /// (0.1 × the run's jitter) in every run, and on the subsample (the control) at 1.1 ×.
+    fn all_frames_at(robot: &str, factor: f64) -> Vec<AllFramesRecord> {
+        (0..2 * RUNS)
+            .map(|k| (k % RUNS, k >= RUNS))
+            .map(|(run, full_rate)| AllFramesRecord {
+                robot: robot.into(),
+                back_constraint: "input".into(),
+                run,
+                full_rate,
+                frames: if full_rate { 2988 } else { 249 },
+                subsampled_frames: 249,
+                inducing: 100,
+                iteration: 10,
+                seconds: 20.0,
+                test_mse: 0.1 * if full_rate { factor } else { 1.1 } * jitter(run),
+                stop_reason: Some("max_iterations".into()),
+            })
+            .collect()
+    }
+
+    /// "Does using all the data help?" is answered per robot from the paired difference with
+    /// the exact input baseline of the same run (lower in every run helps, higher hurts), and
+    /// with the approximation held fixed from the sparse model on the subsample; the section is
+    /// absent when the study was not run.
+    #[test]
+    fn all_frames_answer_follows_the_paired_difference() {
+        let mut runs = runs_at("a", &SUPPORTING);
+        runs.extend(runs_at("b", &SUPPORTING));
+        let mut r = results(&["a", "b"], runs);
+        assert!(!report(&r).contains("Does using all the data help?"));
+        r.all_frames = all_frames_at("a", 0.9);
+        r.all_frames.extend(all_frames_at("b", 0.8));
+        let rep = report(&r);
+        assert!(
+            rep.contains(
+                "**Does using all the data help?** Against the exact model on the subsample: **yes** for every robot"
+            ),
+            "{rep}"
+        );
+        // a: 0.09 × jitter against 0.1 × jitter (exact) and 0.11 × jitter (sparse on the
+        // subsample).
+        assert!(
+            rep.contains(
+                "| a | 10 | 0.10010 ± 0.00348 | 0.11011 ± 0.00383 | 0.09009 ± 0.00313 | −0.01001 [−0.01021, −0.00980] | −0.02002 [−0.02042, −0.01960] | 3.00 / 20.00 / 20.00 | holds |"
+            ),
+            "{rep}"
+        );
+        assert!(
+            rep.contains("(2988 frames)") && rep.contains("(249 frames,"),
+            "{rep}"
+        );
+        r.all_frames = all_frames_at("a", 0.9);
+        r.all_frames.extend(all_frames_at("b", 1.2));
+        let rep = report(&r);
+        assert!(
+            rep.contains("**only for a** — a: helps (significantly lower test error); b: hurts"),
+            "{rep}"
+        );
+        // b at 1.2 against its control at 1.1: the data hurts with the approximation fixed.
+        assert!(
+            rep.contains("(the sparse model on all frames against the sparse model on the subsample): a: helps (significantly lower test error); b: hurts"),
+            "{rep}"
+        );
+        // Too few runs: the means, no answer.
+        r.config.runs = 2;
+        let rep = report(&r);
+        assert!(
+            rep.contains(
+                "**Does using all the data help?** Against the exact model on the subsample: not judged — a: not judged (too few runs), mean lower"
+            ),
+            "{rep}"
+        );
+    }
+
+    /// A run cut short by the time limit is said so at the top of the report.
+    #[test]
+    fn runs_cut_short_by_the_time_limit_are_marked() {
+        let mut r = results(&["a"], runs_at("a", &SUPPORTING));
+        assert!(!report(&r).contains("Cut short"));
+        r.config.max_seconds = Some(5.0);
+        r.runs[3].stop_reason = Some("time_limit".into());
+        r.all_frames = all_frames_at("a", 1.0);
+        r.all_frames[0].stop_reason = Some("time_limit".into());
+        let rep = report(&r);
+        let expected = format!(
+            "**Cut short:** the time limit of 5 s (`--max-seconds`) stopped the final training of 1 of {} recorded runs and 1 of 20 all-frames models",
+            r.runs.len()
+        );
+        assert!(rep.contains(&expected), "{rep}");
     }
 
     /// Claim 6 is judged at the smallest fraction: transfers 0.05 below the baseline in every

@@ -67,17 +67,24 @@ pub fn experiment_config(name: &str) -> PyResult<String> {
 
 /// The experiment's data (training/test frames of the human and every robot, the held-out
 /// rows) from a demonstrations file, or the shipped/generated default with `None`, as bytes.
+/// With `all_frames`, also every training frame at full rate (for a config with `inducing`:
+/// the all-frames study of `sgplvm experiment --all-frames`).
 #[pyfunction]
-#[pyo3(signature = (path=None))]
+#[pyo3(signature = (path=None, all_frames=false))]
 pub fn experiment_data<'py>(
     py: Python<'py>,
     path: Option<PathBuf>,
+    all_frames: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
     guarded(|| {
         let bytes = py
             .detach(|| -> Result<Vec<u8>, PipelineError> {
                 let demos = pipeline::load(path.as_deref())?;
-                Ok(demos.experiment_data()?.to_json())
+                let mut data = demos.experiment_data()?;
+                if all_frames {
+                    data.all_frames = Some(demos.all_frames_data()?);
+                }
+                Ok(data.to_json())
             })
             .map_err(pipeline_error)?;
         Ok(PyBytes::new(py, &bytes))

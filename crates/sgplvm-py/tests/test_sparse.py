@@ -69,3 +69,29 @@ def test_bad_inducing_counts_are_refused(bad):
 def test_more_inducing_inputs_than_frames_is_a_value_error():
     with pytest.raises(ValueError, match="at most 50"):
         sgplvm.SharedGPLVM(latent_dim=2).fit(_spaces(50), max_iters=2, validation=None, inducing=51)
+
+
+def test_the_experiment_trains_the_sparse_model_on_every_frame():
+    """``experiment_data(all_frames=True)`` with ``inducing`` in the config: the plan gains, per
+    run and robot, the sparse model on the subsample and on every full-rate training frame of
+    the default data; without the frames such a task is refused by name."""
+    import json
+
+    config = json.loads(_sgplvm.experiment_config("quick"))
+    config.update(runs=1, transfers_per_run=1, max_iters=3, transfer_max_iters=3, fractions=[], inducing=10)
+    config = json.dumps(config)
+    data = _sgplvm.experiment_data(all_frames=True)
+    tasks = [t for t in json.loads(_sgplvm.experiment_plan(data, config)) if t["spec"]["kind"] == "all_frames"]
+    # Per robot the control (the sparse model on the subsample), then every frame.
+    assert [(t["spec"]["robot"], t["spec"]["full_rate"]) for t in tasks] == [
+        (0, False), (1, False), (2, False), (0, True), (1, True), (2, True)
+    ]
+    tasks = tasks[3:]
+    records, model = _sgplvm.experiment_execute(data, config, json.dumps(tasks[0]))
+    assert model is None
+    record = json.loads(records)["all_frames"]
+    assert record["robot"] == "walkman" and record["inducing"] == 10
+    assert record["frames"] > 11 * record["subsampled_frames"]
+    assert np.isfinite(record["test_mse"]) and record["test_mse"] > 0
+    with pytest.raises(Exception, match="full-rate training frames"):
+        _sgplvm.experiment_execute(_sgplvm.experiment_data(), config, json.dumps(tasks[0]))

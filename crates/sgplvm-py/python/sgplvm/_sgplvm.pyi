@@ -175,8 +175,10 @@ def simulate(
 def experiment_config(name: str) -> str:
     """The protocol ``"quick"`` or ``"paper"`` as JSON."""
 
-def experiment_data(path: Optional[_Path] = None) -> bytes:
-    """The experiment's data (train/test frames, held-out rows) from demonstrations, as bytes."""
+def experiment_data(path: Optional[_Path] = None, all_frames: bool = False) -> bytes:
+    """The experiment's data (train/test frames, held-out rows) from demonstrations, as bytes;
+    with ``all_frames``, also every training frame at full rate (for a config with ``inducing``:
+    the sparse model on every frame, as ``sgplvm experiment --all-frames``)."""
 
 def experiment_plan(data: bytes, config: str) -> str:
     """Every task of the experiment, in serial order, as a JSON list."""
