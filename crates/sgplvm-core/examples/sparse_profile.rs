@@ -1,0 +1,53 @@
+//! Times repeated objective+gradient evaluations of the sparse model (issue 14's benchmark
+//! problem: human 18-D + robot 14-D, Q = 5, input back constraints with M centres, Z trained)
+//! and prints the fastest, for profiling with `perf record` on a shared machine.
+//!
+//! Run: `cargo run --release -p sgplvm-core --example sparse_profile -- 20000 100 20`
+//! (N, M, repetitions; `RAYON_NUM_THREADS=1` for one core).
+use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let n = args.first().copied().unwrap_or(20_000);
+    let m = args.get(1).copied().unwrap_or(100);
+    let reps = args.get(2).copied().unwrap_or(20);
+    // The data of `benches/sparse.rs`.
+    let h = Mat::from_fn(n, 18, |i, j| {
+        let t = i as f64 / n as f64 * 120.0;
+        (t * (1.0 + 0.05 * j as f64)).sin() + 0.3 * (0.37 * t + j as f64).cos()
+    });
+    let r = Mat::from_fn(n, 14, |i, j| {
+        let t = i as f64 / n as f64 * 120.0;
+        0.8 * (t * (1.0 + 0.07 * j as f64) + 0.1).sin() + 0.2 * (0.41 * t + j as f64).cos()
+    });
+    let options = TrainOptions {
+        max_iters: 0,
+        ..TrainOptions::default()
+    };
+    let model = SharedGplvm::fit(
+        &ModelConfig::default().with_inducing(Some(m)),
+        &[("human", h.as_ref()), ("robot", r.as_ref())],
+        "human",
+        &options,
+        None,
+    )?;
+    let mut ev = model.sparse_evaluator()?;
+    let mut best = f64::INFINITY;
+    let mut f = 0.0;
+    for _ in 0..reps {
+        let t = Instant::now();
+        f = ev.evaluate()?;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    let g = ev.gradient();
+    let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+    println!(
+        "N = {n}, M = {m}: objective {f:.10e}, |gradient| {norm:.10e}, fastest of {reps}: {:.2} ms",
+        best * 1e3
+    );
+    Ok(())
+}
