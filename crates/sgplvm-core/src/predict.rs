@@ -6,6 +6,7 @@
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatRef, Par};
 
+use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use crate::config::BackConstraint;
@@ -14,13 +15,16 @@ use crate::input_map::InputMap;
 use crate::kernel::{rbf_block, row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
 use crate::model::{Latent, SharedGplvm, Space};
-use crate::pool::par_for;
+use crate::pool::{in_pool, par_for};
 use crate::preprocess::check_finite;
 use crate::simd::{clear_upper_simd_state, exp_neg, vectorized};
 use crate::train::{Limits, TrainOptions};
 
 /// Frames per block in the batch paths ([`SharedGplvm::latent`], [`SharedGplvm::predict`]).
 pub(crate) const BATCH: usize = 256;
+
+/// Frames per parallel task of [`SharedGplvm::predict`], a multiple of [`BATCH`].
+pub(crate) const PARALLEL_CHUNK: usize = 4 * BATCH;
 
 /// Result of [`SharedGplvm::predict`].
 #[derive(Clone, Debug, PartialEq)]
@@ -381,7 +385,9 @@ impl SharedGplvm {
     /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
     /// raw human frames in the rows of `h`. Frames go in blocks of 256: kernel blocks
     /// from matrix products, the mean as `K* (K⁻¹Y)`, the variance as
-    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block.
+    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block. From
+    /// 2 × [`PARALLEL_CHUNK`] frames, chunks of frames run on the pool's threads (the same
+    /// blocks as on one thread: the same results).
     pub fn predict(
         &self,
         h: MatRef<'_, f64>,
@@ -390,6 +396,45 @@ impl SharedGplvm {
     ) -> Result<Prediction> {
         self.check_input_matrix(h)?;
         let si = self.output_index(space)?;
+        let n_new = h.nrows();
+        if n_new < 2 * PARALLEL_CHUNK {
+            return self.predict_rows(h, si, with_variance);
+        }
+        let starts: Vec<usize> = (0..n_new).step_by(PARALLEL_CHUNK).collect();
+        let parts: Result<Vec<Prediction>> = in_pool(|| {
+            starts
+                .par_iter()
+                .map(|&r0| {
+                    let rows = PARALLEL_CHUNK.min(n_new - r0);
+                    self.predict_rows(h.subrows(r0, rows), si, with_variance)
+                })
+                .collect()
+        });
+        let Ok(parts) = parts else {
+            // The error the whole matrix gives (its first bad frame, numbered in it).
+            return self.predict_rows(h, si, with_variance);
+        };
+        let d = self.spaces[si].data.ncols();
+        let mut mean = Mat::zeros(n_new, d);
+        let mut variance = with_variance.then(|| Mat::zeros(n_new, d));
+        for (p, &r0) in parts.iter().zip(&starts) {
+            let rows = p.mean.nrows();
+            mean.as_mut().subrows_mut(r0, rows).copy_from(&p.mean);
+            if let (Some(v), Some(pv)) = (variance.as_mut(), p.variance.as_ref()) {
+                v.as_mut().subrows_mut(r0, rows).copy_from(pv);
+            }
+        }
+        Ok(Prediction { mean, variance })
+    }
+
+    /// [`SharedGplvm::predict`] of output space `si` on one thread, inputs checked.
+    pub(crate) fn predict_rows(
+        &self,
+        h: MatRef<'_, f64>,
+        si: usize,
+        with_variance: bool,
+    ) -> Result<Prediction> {
+        let space = self.spaces[si].name.as_str();
         let xs = self.latent_batch(h)?;
         if let Some(st) = &self.sparse {
             return self.predict_sparse(st, si, xs.as_ref(), with_variance);

@@ -218,3 +218,26 @@ fn set_params_rebuilds_a_sparse_models_caches_or_changes_nothing() {
         assert_eq!(broken.to_bytes(), model.to_bytes());
     }
 }
+
+#[test]
+fn batches_on_threads_predict_what_one_thread_predicts() {
+    // Over two chunks of frames `predict` runs on the pool; the blocks are the same, so the
+    // results must be the same bits — for the sparse model and the exact one, with variance.
+    let (h, _, _, _) = demo(40, 3);
+    let n = 2 * crate::predict::PARALLEL_CHUNK + 37;
+    let hh = Mat::from_fn(n, h.ncols(), |i, j| h[(i % 40, j)] + 1e-3 * (i / 40) as f64);
+    for model in [
+        sparse_fit(BackConstraint::Input, 40, 8, 5),
+        sparse_fit(BackConstraint::None, 40, 8, 5),
+        fit(BackConstraint::Input, 40, 5, 0),
+    ] {
+        let si = model.output_index("walkman").expect("output");
+        let par = model
+            .predict(hh.as_ref(), "walkman", true)
+            .expect("predicts");
+        let seq = model.predict_rows(hh.as_ref(), si, true).expect("predicts");
+        assert_eq!(par.mean, seq.mean);
+        assert_eq!(par.variance, seq.variance);
+        assert_eq!(par.mean.nrows(), n);
+    }
+}
