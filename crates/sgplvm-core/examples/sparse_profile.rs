@@ -1,6 +1,7 @@
 //! Times repeated objective+gradient evaluations of the sparse model (issue 14's benchmark
 //! problem: human 18-D + robot 14-D, Q = 5, input back constraints with M centres, Z trained)
-//! and prints the fastest and the CPU time per evaluation, for profiling with `perf record` on
+//! and prints the fastest and the CPU time per evaluation (then of prediction, in batch and
+//! frame by frame), for profiling with `perf record` on
 //! a shared machine.
 //!
 //! Run: `cargo run --release -p sgplvm-core --example sparse_profile -- 20000 100 20`
@@ -55,6 +56,45 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(cpu) = cpu {
         println!("CPU time (all threads) per evaluation: {:.1} ms", cpu * 1e3);
     }
+    // Prediction (the bench's: M inducing inputs, frames of the same demonstration): a batch
+    // of 10,000 frames and one frame at a time.
+    let frames = 10_000.min(n);
+    let batch = h.as_ref().subrows(0, frames);
+    let (mut best, reps) = (f64::INFINITY, 20);
+    let cpu0 = cpu_seconds();
+    for _ in 0..reps {
+        let t = Instant::now();
+        std::hint::black_box(model.predict(batch, "robot", false)?);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| (b - a) / reps as f64);
+    println!(
+        "batch of {frames} frames: fastest {:.2} ms ({:.0} frames/s), CPU time {:.2} ms",
+        best * 1e3,
+        frames as f64 / best,
+        cpu.unwrap_or(f64::NAN) * 1e3
+    );
+    let mut out = vec![0.0; 14];
+    let mut row = vec![0.0; 18];
+    let (mut best, per) = (f64::INFINITY, 1000);
+    let cpu0 = cpu_seconds();
+    for r in 0..reps {
+        let t = Instant::now();
+        for i in 0..per {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = h[((r * per + i) % n, j)];
+            }
+            model.predict_frame(&row, "robot", &mut out)?;
+            std::hint::black_box(out[0]);
+        }
+        best = best.min(t.elapsed().as_secs_f64() / per as f64);
+    }
+    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| (b - a) / (reps * per) as f64);
+    println!(
+        "one frame: fastest {:.2} µs, CPU time {:.2} µs",
+        best * 1e6,
+        cpu.unwrap_or(f64::NAN) * 1e6
+    );
     Ok(())
 }
 
