@@ -89,7 +89,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         best = best.min(t.elapsed().as_secs_f64() / per as f64);
     }
-    let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| (b - a) / (reps * per) as f64);
+    let cpu = cpu_seconds()
+        .zip(cpu0)
+        .map(|(b, a)| (b - a) / (reps * per) as f64);
     println!(
         "one frame: fastest {:.2} µs, CPU time {:.2} µs",
         best * 1e6,
