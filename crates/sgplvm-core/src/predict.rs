@@ -386,8 +386,8 @@ impl SharedGplvm {
     /// raw human frames in the rows of `h`. Frames go in blocks of 256: kernel blocks
     /// from matrix products, the mean as `K* (K⁻¹Y)`, the variance as
     /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block. From
-    /// 2 × [`PARALLEL_CHUNK`] frames, chunks of frames run on the pool's threads (the same
-    /// blocks as on one thread: the same results).
+    /// 2,048 frames, chunks of 1,024 frames run on the pool's threads (the same blocks as on
+    /// one thread: the same results).
     pub fn predict(
         &self,
         h: MatRef<'_, f64>,
