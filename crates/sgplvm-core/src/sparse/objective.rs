@@ -94,7 +94,7 @@ impl<'a> SparseObjective<'a> {
             kcn,
             constant,
             train_z,
-            works: Mutex::new((0..spaces).map(|_| SparseWork::default()).collect()),
+            works: Mutex::new(st.work.take(spaces)),
         })
     }
 
@@ -326,6 +326,14 @@ fn push_col_major(m: MatRef<'_, f64>, out: &mut Vec<f64>) {
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
             out.push(m[(i, j)]);
+        }
+    }
+}
+
+impl Drop for SparseObjective<'_> {
+    fn drop(&mut self) {
+        if let Some(st) = &self.model.sparse {
+            st.work.put(std::mem::take(&mut *lock(&self.works)));
         }
     }
 }

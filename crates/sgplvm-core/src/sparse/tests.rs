@@ -241,3 +241,29 @@ fn batches_on_threads_predict_what_one_thread_predicts() {
         assert_eq!(par.mean.nrows(), n);
     }
 }
+
+#[test]
+fn evaluations_reuse_the_models_buffers_and_give_the_same_bits() {
+    let model = sparse_fit(BackConstraint::Input, 40, 8, 5);
+    let st = model.sparse.as_ref().expect("sparse");
+    assert!(crate::pool::lock(&st.work.0).is_empty());
+    let first = model.evaluate_sparse().expect("evaluates");
+    // The objective handed its buffers (one per space, Φ filled) back to the model.
+    let kept = crate::pool::lock(&st.work.0).len();
+    assert_eq!(kept, model.spaces.len());
+    let second = model.evaluate_sparse().expect("evaluates");
+    assert_eq!(first.0, second.0);
+    // (The gradient's bandwidth entry is NaN: not computed for centres.)
+    match (&first.1.latent, &second.1.latent) {
+        (
+            LatentParams::BackConstrained { weights: a, .. },
+            LatentParams::BackConstrained { weights: b, .. },
+        ) => assert_eq!(a, b),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(first.1.spaces, second.1.spaces);
+    // A clone starts without buffers.
+    let copy = model.clone();
+    let cst = copy.sparse.as_ref().expect("sparse");
+    assert!(crate::pool::lock(&cst.work.0).is_empty());
+}
