@@ -6,6 +6,7 @@
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatRef, Par};
 
+use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use crate::config::BackConstraint;
@@ -14,15 +15,16 @@ use crate::input_map::InputMap;
 use crate::kernel::{rbf_block, row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork};
 use crate::model::{Latent, SharedGplvm, Space};
-use crate::pool::par_for;
+use crate::pool::{in_pool, par_for};
 use crate::preprocess::check_finite;
-use crate::simd::{clear_upper_simd_state, exp_neg_slice, weighted_sqdist};
+use crate::simd::{clear_upper_simd_state, exp_neg, vectorized};
 use crate::train::{Limits, TrainOptions};
 
-/// Training points per block in the prediction loops (stack buffer size).
-pub(crate) const BLOCK: usize = 64;
 /// Frames per block in the batch paths ([`SharedGplvm::latent`], [`SharedGplvm::predict`]).
 pub(crate) const BATCH: usize = 256;
+
+/// Frames per parallel task of [`SharedGplvm::predict`], a multiple of [`BATCH`].
+pub(crate) const PARALLEL_CHUNK: usize = 4 * BATCH;
 
 /// Result of [`SharedGplvm::predict`].
 #[derive(Clone, Debug, PartialEq)]
@@ -41,6 +43,8 @@ pub struct Prediction {
 pub(crate) struct SpaceCache {
     /// K⁻¹Y row-major N×D.
     alpha_rows: Vec<f64>,
+    /// The training latent points and K⁻¹Y laid out for one frame at a time.
+    pub(crate) frame: FrameKernel,
     /// Cholesky factor of K (lower).
     factor: Mat<f64>,
     /// −1/(2 l²) per latent dimension.
@@ -57,10 +61,32 @@ pub(crate) struct LatentCache {
     weights: Vec<f64>,
     /// −1/(2 l²) per input dimension.
     half_inv_l2: Vec<f64>,
+    /// `h_rows` and `weights` laid out for one frame at a time.
+    frame: FrameKernel,
     /// Kernel amplitude (1 for back constraints).
     amplitude: f64,
     /// Added to every latent point.
     offset: Vec<f64>,
+}
+
+impl LatentCache {
+    fn new(
+        h_rows: Vec<f64>,
+        weights: Vec<f64>,
+        half_inv_l2: Vec<f64>,
+        amplitude: f64,
+        offset: Vec<f64>,
+    ) -> Self {
+        let frame = FrameKernel::new(&h_rows, half_inv_l2.len(), &weights, offset.len());
+        Self {
+            h_rows,
+            weights,
+            frame,
+            half_inv_l2,
+            amplitude,
+            offset,
+        }
+    }
 }
 
 impl SpaceCache {
@@ -69,8 +95,10 @@ impl SpaceCache {
     fn new(space: &Space, x_rows: &[f64], q: usize) -> Result<Self> {
         let mut w = SpaceWork::new(x_rows.len() / q, space.data.ncols());
         let e = space.factorise(x_rows, q, &mut w)?;
+        let alpha_rows = row_major(w.alpha());
         Ok(SpaceCache {
-            alpha_rows: row_major(w.alpha()),
+            frame: FrameKernel::new(x_rows, q, &alpha_rows, space.data.ncols()),
+            alpha_rows,
             factor: w.factor().to_owned(),
             half_inv_l2: half_inv_l2(&space.kernel),
             jitter: e.jitter,
@@ -176,14 +204,14 @@ impl SharedGplvm {
                     data,
                 },
                 _,
-            ) if self.config.back_constraint == BackConstraint::Input => Ok(LatentCache {
+            ) if self.config.back_constraint == BackConstraint::Input => Ok(LatentCache::new(
                 // The constrained data: every training frame, or a sparse model's centres.
-                h_rows: row_major(data.as_ref()),
-                weights: row_major(weights.as_ref()),
-                half_inv_l2: vec![-0.5 / (bandwidth * bandwidth); h.ncols()],
-                amplitude: 1.0,
-                offset: vec![0.0; q],
-            }),
+                row_major(data.as_ref()),
+                row_major(weights.as_ref()),
+                vec![-0.5 / (bandwidth * bandwidth); h.ncols()],
+                1.0,
+                vec![0.0; q],
+            )),
             (_, Some(map)) => {
                 let (h, x) = self.map_pairs();
                 let h = h.as_ref();
@@ -193,13 +221,13 @@ impl SharedGplvm {
                 let hr = row_major(h);
                 eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None)
                     .map_err(|e| e.in_space("input map"))?;
-                Ok(LatentCache {
-                    h_rows: hr,
-                    weights: row_major(w.alpha()),
-                    half_inv_l2: half_inv_l2(&map.kernel),
-                    amplitude: map.kernel.variance,
-                    offset: map.x_mean.clone(),
-                })
+                Ok(LatentCache::new(
+                    hr,
+                    row_major(w.alpha()),
+                    half_inv_l2(&map.kernel),
+                    map.kernel.variance,
+                    map.x_mean.clone(),
+                ))
             }
             _ => Err(Error::Corrupt {
                 reason: "model without input back constraint has no input map".into(),
@@ -240,7 +268,7 @@ impl SharedGplvm {
     }
 
     /// Latent point of one raw input frame into `x` (length Q). Allocation-free for
-    /// D_H ≤ 64: training points are processed in blocks of [`BLOCK`] (distances, then a
+    /// D_H ≤ 64: training points are processed in blocks of [`FRAME_BLOCK`] (distances, then a
     /// vectorised exp, then the weighted sum).
     pub(crate) fn latent_into(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
         let lc = &self.prepared()?.latent_cache;
@@ -259,15 +287,7 @@ impl SharedGplvm {
             hs[t] = (h[t] - s0.offset[t]) / s0.scale[t];
         }
         x.copy_from_slice(&lc.offset);
-        add_kernel_weighted(
-            hs,
-            &lc.h_rows,
-            &lc.half_inv_l2,
-            &lc.weights,
-            lc.amplitude,
-            lc.weights.len() / lc.offset.len().max(1),
-            x,
-        );
+        add_kernel_weighted(hs, &lc.frame, &lc.half_inv_l2, lc.amplitude, x);
         Ok(())
     }
 
@@ -284,15 +304,7 @@ impl SharedGplvm {
             return Ok(());
         }
         let c = &self.prepared()?.caches[si];
-        add_kernel_weighted(
-            x,
-            &self.x_rows,
-            &c.half_inv_l2,
-            &c.alpha_rows,
-            s.kernel.variance,
-            self.n(),
-            out,
-        );
+        add_kernel_weighted(x, &c.frame, &c.half_inv_l2, s.kernel.variance, out);
         for t in 0..d {
             out[t] = out[t] * s.scale[t] + s.offset[t];
         }
@@ -373,7 +385,9 @@ impl SharedGplvm {
     /// Posterior mean (and optionally variance, see [`Prediction`]) of robot `space` for the
     /// raw human frames in the rows of `h`. Frames go in blocks of 256: kernel blocks
     /// from matrix products, the mean as `K* (K⁻¹Y)`, the variance as
-    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block.
+    /// `k** − |L⁻¹k*|²` with one multi-right-hand-side triangular solve per block. From
+    /// 2,048 frames, chunks of 1,024 frames run on the pool's threads (the same blocks as on
+    /// one thread: the same results).
     pub fn predict(
         &self,
         h: MatRef<'_, f64>,
@@ -382,6 +396,45 @@ impl SharedGplvm {
     ) -> Result<Prediction> {
         self.check_input_matrix(h)?;
         let si = self.output_index(space)?;
+        let n_new = h.nrows();
+        if n_new < 2 * PARALLEL_CHUNK {
+            return self.predict_rows(h, si, with_variance);
+        }
+        let starts: Vec<usize> = (0..n_new).step_by(PARALLEL_CHUNK).collect();
+        let parts: Result<Vec<Prediction>> = in_pool(|| {
+            starts
+                .par_iter()
+                .map(|&r0| {
+                    let rows = PARALLEL_CHUNK.min(n_new - r0);
+                    self.predict_rows(h.subrows(r0, rows), si, with_variance)
+                })
+                .collect()
+        });
+        let Ok(parts) = parts else {
+            // The error the whole matrix gives (its first bad frame, numbered in it).
+            return self.predict_rows(h, si, with_variance);
+        };
+        let d = self.spaces[si].data.ncols();
+        let mut mean = Mat::zeros(n_new, d);
+        let mut variance = with_variance.then(|| Mat::zeros(n_new, d));
+        for (p, &r0) in parts.iter().zip(&starts) {
+            let rows = p.mean.nrows();
+            mean.as_mut().subrows_mut(r0, rows).copy_from(&p.mean);
+            if let (Some(v), Some(pv)) = (variance.as_mut(), p.variance.as_ref()) {
+                v.as_mut().subrows_mut(r0, rows).copy_from(pv);
+            }
+        }
+        Ok(Prediction { mean, variance })
+    }
+
+    /// [`SharedGplvm::predict`] of output space `si` on one thread, inputs checked.
+    pub(crate) fn predict_rows(
+        &self,
+        h: MatRef<'_, f64>,
+        si: usize,
+        with_variance: bool,
+    ) -> Result<Prediction> {
+        let space = self.spaces[si].name.as_str();
         let xs = self.latent_batch(h)?;
         if let Some(st) = &self.sparse {
             return self.predict_sparse(st, si, xs.as_ref(), with_variance);
@@ -512,40 +565,108 @@ pub(crate) fn for_each_kernel_block(
     }
 }
 
-/// Adds `scale · Σ_i exp(−Σ_t (p_t − r_it)² · w_t) · weights_i` to `out` over the `n` rows `r_i`
-/// of `rows` (row-major, `p.len()` columns; `weights` row-major, `out.len()` columns). Rows are
-/// taken in blocks of [`BLOCK`] so that the exponentials vectorise; allocation-free. The
-/// per-frame kernel-row product shared by the human → latent step and the latent → robot mean.
+/// Training inputs and weights of a kernel-weighted sum laid out for one frame at a time:
+/// the inputs dimension by dimension and the weights output by output, each contiguous over
+/// the training points, so that every loop of [`add_kernel_weighted`] runs over a slice (8
+/// wide with AVX-512) instead of over a row of a few dimensions.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FrameKernel {
+    /// Inputs, `cols[s * n + i]` = dimension s of training point i.
+    cols: Vec<f64>,
+    /// Weights, `weights[t * n + i]` = output t of training point i.
+    weights: Vec<f64>,
+    /// Training points.
+    n: usize,
+}
+
+impl FrameKernel {
+    /// From inputs row-major n×`dim` and weights row-major n×`wdim`.
+    pub(crate) fn new(rows: &[f64], dim: usize, weights: &[f64], wdim: usize) -> Self {
+        let n = rows.len() / dim.max(1);
+        let transpose = |m: &[f64], c: usize| {
+            let mut out = vec![0.0; m.len()];
+            for i in 0..n {
+                for t in 0..c {
+                    out[t * n + i] = m[i * c + t];
+                }
+            }
+            out
+        };
+        Self {
+            cols: transpose(rows, dim),
+            weights: transpose(weights, wdim),
+            n,
+        }
+    }
+
+    /// Sets weight `t` of training point `i` (tests: a corrupted cache).
+    #[cfg(test)]
+    pub(crate) fn set_weight(&mut self, i: usize, t: usize, v: f64) {
+        self.weights[t * self.n + i] = v;
+    }
+}
+
+/// Training points per block of [`add_kernel_weighted`] (kernel values on the stack).
+const FRAME_BLOCK: usize = 128;
+
+/// `out[t] += scale · Σ_i exp(Σ_s (p_s − x_is)² h_s) w_it` over the training points of `fk`,
+/// `h` = −1/(2ℓ²) per dimension: one frame's kernel-weighted sum, allocation-free. Blocks of
+/// [`FRAME_BLOCK`] training points: distances dimension by dimension, the exp, then one dot
+/// product per output with eight partial sums — all over contiguous slices, vectorised.
 pub(crate) fn add_kernel_weighted(
     p: &[f64],
-    rows: &[f64],
+    fk: &FrameKernel,
     half_inv_l2: &[f64],
-    weights: &[f64],
     scale: f64,
-    n: usize,
     out: &mut [f64],
 ) {
-    let (dim, wdim) = (p.len(), out.len());
-    let mut kb = [0.0f64; BLOCK];
-    let mut start = 0;
-    while start < n {
-        let end = (start + BLOCK).min(n);
-        let k = &mut kb[..end - start];
-        for (o, v) in k.iter_mut().enumerate() {
-            let i = start + o;
-            *v = weighted_sqdist(p, &rows[i * dim..(i + 1) * dim], half_inv_l2);
-        }
-        exp_neg_slice(k);
-        for (o, &kv) in k.iter().enumerate() {
-            let i = start + o;
-            let wi = &weights[i * wdim..(i + 1) * wdim];
-            let kv = scale * kv;
-            for t in 0..wdim {
-                out[t] += kv * wi[t];
+    let n = fk.n;
+    vectorized(
+        #[inline(always)]
+        || {
+            let mut kb = [0.0f64; FRAME_BLOCK];
+            let mut start = 0;
+            while start < n {
+                let end = (start + FRAME_BLOCK).min(n);
+                let k = &mut kb[..end - start];
+                k.fill(0.0);
+                for (s, (&ps, &hs)) in p.iter().zip(half_inv_l2).enumerate() {
+                    let col = &fk.cols[s * n + start..s * n + end];
+                    for (v, &c) in k.iter_mut().zip(col) {
+                        let d = c - ps;
+                        *v += d * d * hs;
+                    }
+                }
+                for v in k.iter_mut() {
+                    *v = exp_neg(*v);
+                }
+                for (t, o) in out.iter_mut().enumerate() {
+                    let w = &fk.weights[t * n + start..t * n + end];
+                    *o += scale * dot(k, w);
+                }
+                start = end;
             }
+        },
+    );
+}
+
+/// Σ a_i b_i with eight partial sums (a loop the compiler vectorises; one running sum would
+/// stay scalar without reassociation).
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 8];
+    let (ac, bc) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    for (x, y) in ac.zip(bc) {
+        for l in 0..8 {
+            lanes[l] += x[l] * y[l];
         }
-        start = end;
     }
+    for (l, (x, y)) in ar.iter().zip(br).enumerate() {
+        lanes[l] += x * y;
+    }
+    ((lanes[0] + lanes[4]) + (lanes[2] + lanes[6]))
+        + ((lanes[1] + lanes[5]) + (lanes[3] + lanes[7]))
 }
 
 #[cfg(test)]
@@ -559,7 +680,9 @@ mod tests {
     fn non_finite_predictions_are_an_error() {
         let (h, _, _, _) = demo(30, 2);
         let mut m = fit(BackConstraint::Input, 30, 5, 0);
-        m.prepared.get_mut().expect("caches").caches[1].alpha_rows[3] = f64::INFINITY;
+        let cache = &mut m.prepared.get_mut().expect("caches").caches[1];
+        cache.alpha_rows[3] = f64::INFINITY;
+        cache.frame.set_weight(0, 3, f64::INFINITY);
         let is_refused = |r: Result<()>| matches!(r, Err(Error::NonFinitePrediction { ref space, .. }) if space == "walkman");
         assert!(is_refused(
             m.predict(h.as_ref(), "walkman", false).map(|_| ())

@@ -1,5 +1,4 @@
-//! Element-wise numerics compiled for the CPU's widest SIMD: the `exp` of kernel values and the
-//! weighted squared distance of the per-frame paths.
+//! Element-wise numerics compiled for the CPU's widest SIMD: the `exp` of kernel values.
 //!
 //! `exp_neg(x) = eˣ` for x ≤ 0 to a few ulp (Cody–Waite reduction, degree-13 polynomial in
 //! Estrin's scheme); [`vectorized`] runs a closure under pulp's runtime dispatch (AVX-512, AVX2
@@ -92,27 +91,6 @@ pub(crate) fn exp_neg_slice(v: &mut [f64]) {
     )
 }
 
-/// Σ_t (a_t − b_t)² w_t with four partial sums (shorter dependency chains).
-#[inline(always)]
-pub(crate) fn weighted_sqdist(a: &[f64], b: &[f64], w: &[f64]) -> f64 {
-    let n = a.len().min(b.len()).min(w.len());
-    let (a, b, w) = (&a[..n], &b[..n], &w[..n]);
-    let mut s = [0.0f64; 4];
-    let chunks = n / 4;
-    for c in 0..chunks {
-        for l in 0..4 {
-            let i = c * 4 + l;
-            let d = a[i] - b[i];
-            s[l] += d * d * w[i];
-        }
-    }
-    for i in chunks * 4..n {
-        let d = a[i] - b[i];
-        s[0] += d * d * w[i];
-    }
-    (s[0] + s[1]) + (s[2] + s[3])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -130,8 +108,5 @@ mod tests {
         assert!(worst < 4.0 * f64::EPSILON, "worst relative error {worst:e}");
         assert_eq!(exp_neg(0.0), 1.0);
         assert!(exp_neg(-1e6) < 1e-307 && exp_neg(-1e6) >= 0.0);
-        let w = [1.0, 0.5, 2.0, 1.0, 3.0];
-        let (a, b) = ([1.0, 2.0, 3.0, 4.0, 5.0], [0.0, 1.0, 1.0, 2.0, 3.0]);
-        assert_eq!(weighted_sqdist(&a, &b, &w), 1.0 + 0.5 + 8.0 + 4.0 + 12.0);
     }
 }

@@ -24,6 +24,7 @@ use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
 use faer::{Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
 
 use crate::kernel::{rbf_lower, KernelParams};
 use crate::likelihood::{cholesky_with_jitter, NotPd};
@@ -64,6 +65,20 @@ pub(crate) struct SparseEval {
     pub factors: SparseFactors,
 }
 
+/// Columns of Φ per block. A block's Φ, A and ∂L/∂Φ (M×BLOCK each, 400 kB at M = 100) stay in
+/// the core's cache between the steps that use them, and blocks are the unit of parallel work.
+/// Results do not depend on the number of threads: the blocks and the order in which their
+/// partial sums are added are fixed.
+const BLOCK: usize = 512;
+
+/// Buffers one space's evaluations keep between calls: Φ = K_mn (M×N, column-major), which
+/// the gradient pass reads again (allocated anew per evaluation it cost page faults: 16 MB at
+/// N = 20,000, M = 100).
+#[derive(Debug, Default)]
+pub(crate) struct SparseWork {
+    phi: Vec<f64>,
+}
+
 /// Evaluates one space. `xr` (N×Q) and `zr` (M×Q) are row-major; `y` is the centred data;
 /// `rel_jitter` times α² is added to K_mm's diagonal. With `grad` the kernel derivatives are
 /// computed, and ∂L/∂X, ∂L/∂Z are *added* to `dx`, `dz` (row-major) when given.
@@ -79,6 +94,60 @@ pub(crate) fn eval_sparse_space(
     dx: Option<&mut [f64]>,
     dz: Option<&mut [f64]>,
 ) -> Result<SparseEval, NotPd> {
+    eval_sparse_space_in(
+        xr,
+        zr,
+        q,
+        y,
+        kern,
+        rel_jitter,
+        grad,
+        dx,
+        dz,
+        &mut SparseWork::default(),
+    )
+}
+
+/// Runs `f` on every item with its index, on the pool's threads when `parallel`; results in
+/// the items' order either way.
+fn map_blocks<T: Send, R: Send>(
+    items: Vec<T>,
+    parallel: bool,
+    f: impl Fn(usize, T) -> R + Sync + Send,
+) -> Vec<R> {
+    if parallel {
+        items
+            .into_par_iter()
+            .enumerate()
+            .map(|(b, t)| f(b, t))
+            .collect()
+    } else {
+        items
+            .into_iter()
+            .enumerate()
+            .map(|(b, t)| f(b, t))
+            .collect()
+    }
+}
+
+/// [`eval_sparse_space`] with buffers kept in `work`. The N-dimension is processed in blocks
+/// of [`BLOCK`] columns (on the pool's threads when called on one): a first pass forms Φ, A =
+/// L_m⁻¹Φ/σ and the partial sums of AAᵀ and AY block by block; after the M×M algebra a second
+/// pass forms ∂L/∂Φ ∘ Φ block by block and reduces it at once to the X, Z and lengthscale
+/// gradients, so that no M×N matrix but Φ is ever formed.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn eval_sparse_space_in(
+    xr: &[f64],
+    zr: &[f64],
+    q: usize,
+    y: MatRef<'_, f64>,
+    kern: &KernelParams,
+    rel_jitter: f64,
+    grad: bool,
+    dx: Option<&mut [f64]>,
+    dz: Option<&mut [f64]>,
+    work: &mut SparseWork,
+) -> Result<SparseEval, NotPd> {
     let (n, d) = (y.nrows(), y.ncols());
     let m = zr.len() / q.max(1);
     let (df, nf) = (d as f64, n as f64);
@@ -86,6 +155,8 @@ pub(crate) fn eval_sparse_space(
     let s2 = kern.noise;
     let sigma = s2.sqrt();
     let par = Par::Seq;
+    let blocks = n.div_ceil(BLOCK);
+    let parallel = blocks > 1 && crate::pool::on_pool_thread();
 
     // K_mm and its factor.
     let mut kmm = Mat::zeros(m, m);
@@ -99,29 +170,86 @@ pub(crate) fn eval_sparse_space(
             lm[(i, j)] = 0.0;
         }
     }
-    // Φ = K_mn, column j the kernel between x_j and every inducing input.
-    let phi = cross_kernel(zr, xr, q, kern, m, n);
-    // A = L_m⁻¹ Φ / σ (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number
-    // in the objective: the central-difference check of ∂L/∂X then failed at 1e-6), then AAᵀ
-    // (lower half).
-    let mut a = phi.clone();
-    solve_lower_triangular_in_place(lm.as_ref(), a.as_mut(), par);
+    // L_m⁻¹/σ, lower triangular: A = L_m⁻¹ Φ/σ is then a triangular matrix product per block
+    // (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number in the objective:
+    // the central-difference check of ∂L/∂X then failed at 1e-6).
+    let mut linv = Mat::<f64>::identity(m, m);
+    solve_lower_triangular_in_place(lm.as_ref(), linv.as_mut(), par);
     clear_upper_simd_state();
-    a.col_iter_mut()
-        .for_each(|c| c.iter_mut().for_each(|v| *v /= sigma));
-    let mut aat = Mat::zeros(m, m);
-    faer::linalg::matmul::triangular::matmul(
-        aat.as_mut(),
-        BlockStructure::TriangularLower,
-        Accum::Replace,
-        a.as_ref(),
-        BlockStructure::Rectangular,
-        a.transpose(),
-        BlockStructure::Rectangular,
-        1.0,
-        par,
-    );
-    clear_upper_simd_state();
+    for j in 0..m {
+        for i in 0..m {
+            linv[(i, j)] = if i >= j { linv[(i, j)] / sigma } else { 0.0 };
+        }
+    }
+    let scaled = ScaledZ::new(zr, q, kern);
+
+    // First pass: Φ (kept for the second when `grad`), and per block AAᵀ (lower) and AY.
+    let chunks: Vec<Option<&mut [f64]>> = if grad {
+        work.phi.resize(m * n, 0.0);
+        work.phi.chunks_mut(m * BLOCK).map(Some).collect()
+    } else {
+        (0..blocks).map(|_| None).collect()
+    };
+    let first = |b: usize, chunk: Option<&mut [f64]>| {
+        let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
+        let mut local = Vec::new();
+        let phi_b = match chunk {
+            Some(c) => c,
+            None => {
+                local.resize(m * nb, 0.0);
+                &mut local[..]
+            }
+        };
+        scaled.fill(&xr[j0 * q..(j0 + nb) * q], var, phi_b);
+        let phi_b = MatRef::from_column_major_slice(&phi_b[..m * nb], m, nb);
+        let mut a = Mat::zeros(m, nb);
+        faer::linalg::matmul::triangular::matmul(
+            a.as_mut(),
+            BlockStructure::Rectangular,
+            Accum::Replace,
+            linv.as_ref(),
+            BlockStructure::TriangularLower,
+            phi_b,
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+        let mut aat = Mat::zeros(m, m);
+        faer::linalg::matmul::triangular::matmul(
+            aat.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            a.as_ref(),
+            BlockStructure::Rectangular,
+            a.transpose(),
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+        let mut ay = Mat::zeros(m, d);
+        matmul(
+            ay.as_mut(),
+            Accum::Replace,
+            a.as_ref(),
+            y.subrows(j0, nb),
+            1.0,
+            Par::Seq,
+        );
+        clear_upper_simd_state();
+        (aat, ay)
+    };
+    let parts = map_blocks(chunks, parallel, first);
+    let mut aat = Mat::<f64>::zeros(m, m);
+    let mut ay = Mat::<f64>::zeros(m, d);
+    for (pa, py) in &parts {
+        for j in 0..m {
+            for i in j..m {
+                aat[(i, j)] += pa[(i, j)];
+            }
+        }
+        ay += py;
+    }
+    drop(parts);
     for j in 0..m {
         for i in 0..j {
             aat[(i, j)] = aat[(j, i)];
@@ -139,9 +267,7 @@ pub(crate) fn eval_sparse_space(
         }
     }
     // c = L_B⁻¹ A Y, β = L_B⁻ᵀ c.
-    let mut cy = Mat::zeros(m, d);
-    matmul(cy.as_mut(), Accum::Replace, a.as_ref(), y, 1.0, par);
-    clear_upper_simd_state();
+    let mut cy = ay;
     solve_lower_triangular_in_place(lb.as_ref(), cy.as_mut(), par);
     let mut beta = cy.clone();
     solve_upper_triangular_in_place(lb.transpose(), beta.as_mut(), par);
@@ -221,37 +347,106 @@ pub(crate) fn eval_sparse_space(
     let mut lbeta = beta.clone();
     solve_upper_triangular_in_place(lm.transpose(), lbeta.as_mut(), par);
     clear_upper_simd_state();
-    let mut gmn = Mat::zeros(m, n);
-    matmul(
-        gmn.as_mut(),
-        Accum::Replace,
-        c2.as_ref(),
-        phi.as_ref(),
-        1.0,
-        par,
-    );
-    matmul(
-        gmn.as_mut(),
-        Accum::Add,
-        lbeta.as_ref(),
-        y.transpose(),
-        -1.0 / (s2 * sigma),
-        par,
-    );
-    clear_upper_simd_state();
+    lbeta
+        .col_iter_mut()
+        .for_each(|c| c.iter_mut().for_each(|v| *v *= -1.0 / (s2 * sigma)));
 
-    // W1 = ∂L/∂K_mm ∘ K_mm, W2 = ∂L/∂Φ ∘ Φ.
+    // W1 = ∂L/∂K_mm ∘ K_mm; W2 = ∂L/∂Φ ∘ Φ block by block (second pass).
     let w1 = Mat::from_fn(m, m, |i, j| gmm[(i, j)] * kmm[(i, j)]);
-    let mut w2 = gmn;
-    for j in 0..n {
-        for (g, &p) in w2.col_as_slice_mut(j).iter_mut().zip(phi.col_as_slice(j)) {
-            *g *= p;
+    let mean: Vec<f64> = (0..q)
+        .map(|t| (0..m).map(|i| zr[i * q + t]).sum::<f64>() / m.max(1) as f64)
+        .collect();
+    let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
+    let dx_chunks: Vec<Option<&mut [f64]>> = match dx {
+        Some(dx) => dx.chunks_mut(BLOCK * q).map(Some).collect(),
+        None => (0..blocks).map(|_| None).collect(),
+    };
+    let phi = &work.phi;
+    let second = |b: usize, dx_b: Option<&mut [f64]>| {
+        let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
+        let phi_b = MatRef::from_column_major_slice(&phi[j0 * m..(j0 + nb) * m], m, nb);
+        let mut w2 = Mat::zeros(m, nb);
+        matmul(
+            w2.as_mut(),
+            Accum::Replace,
+            c2.as_ref(),
+            phi_b,
+            1.0,
+            Par::Seq,
+        );
+        matmul(
+            w2.as_mut(),
+            Accum::Add,
+            lbeta.as_ref(),
+            y.subrows(j0, nb).transpose(),
+            1.0,
+            Par::Seq,
+        );
+        clear_upper_simd_state();
+        for j in 0..nb {
+            for (g, p) in w2.col_as_slice_mut(j).iter_mut().zip(phi_b.col(j).iter()) {
+                *g *= p;
+            }
         }
+        let xc = Mat::from_fn(nb, q, |j, t| xr[(j0 + j) * q + t] - mean[t]);
+        w2_block(w2.as_ref(), xc.as_ref(), zc.as_ref(), kern, dx_b)
+    };
+    let parts = map_blocks(dx_chunks, parallel, second);
+    let mut total = W2Sums::zeros(m, q);
+    for p in &parts {
+        total.add(p);
     }
-    let (sum_w, d_l) = chain(w1.as_ref(), w2.as_ref(), xr, zr, q, kern, dx, dz);
+    let (sum_w, d_l) = chain(w1.as_ref(), &total, zc.as_ref(), kern, dz);
     out.d_variance = sum_w / var + 0.5 * df * nf / s2;
     out.d_lengthscale = d_l;
     Ok(out)
+}
+
+/// Inducing inputs divided by the lengthscales, dimension by dimension (contiguous over the
+/// inducing inputs: the distance loops vectorise), for filling columns of Φ.
+struct ScaledZ {
+    zs: Vec<f64>,
+    inv_l: Vec<f64>,
+    m: usize,
+}
+
+impl ScaledZ {
+    fn new(zr: &[f64], q: usize, kern: &KernelParams) -> Self {
+        let m = zr.len() / q.max(1);
+        let inv_l: Vec<f64> = kern.lengthscale.iter().map(|l| 1.0 / l).collect();
+        let mut zs = vec![0.0; m * q];
+        for i in 0..m {
+            for t in 0..q {
+                zs[t * m + i] = zr[i * q + t] * inv_l[t];
+            }
+        }
+        Self { zs, inv_l, m }
+    }
+
+    /// Writes `k(Z, x_j)` (no noise, variance `var`) into column j of `out` (M rows,
+    /// column-major) for every row x_j of `xr` (row-major).
+    fn fill(&self, xr: &[f64], var: f64, out: &mut [f64]) {
+        let (m, q) = (self.m, self.inv_l.len());
+        let cols = xr.len() / q.max(1);
+        vectorized(
+            #[inline(always)]
+            || {
+                for (j, col) in out.chunks_exact_mut(m).take(cols).enumerate() {
+                    col.fill(0.0);
+                    for t in 0..q {
+                        let xj = xr[j * q + t] * self.inv_l[t];
+                        for (v, &z) in col.iter_mut().zip(&self.zs[t * m..(t + 1) * m]) {
+                            let dd = z - xj;
+                            *v += dd * dd;
+                        }
+                    }
+                    for v in col.iter_mut() {
+                        *v = var * exp_neg(-0.5 * *v);
+                    }
+                }
+            },
+        );
+    }
 }
 
 /// `Φ = k(Z, X)` (M×N) without noise: squared scaled distances, then the vectorised exp.
@@ -263,83 +458,105 @@ pub(crate) fn cross_kernel(
     m: usize,
     n: usize,
 ) -> Mat<f64> {
-    let inv_l: Vec<f64> = kern.lengthscale.iter().map(|l| 1.0 / l).collect();
-    // Z / ℓ dimension by dimension (contiguous over the inducing inputs: the loops vectorise).
-    let mut zs = vec![0.0; m * q];
-    for i in 0..m {
-        for t in 0..q {
-            zs[t * m + i] = zr[i * q + t] * inv_l[t];
-        }
-    }
-    let mut phi = Mat::zeros(m, n);
-    let var = kern.variance;
-    vectorized(
-        #[inline(always)]
-        || {
-            for j in 0..n {
-                let col = phi.col_as_slice_mut(j);
-                for t in 0..q {
-                    let xj = xr[j * q + t] * inv_l[t];
-                    for (v, &z) in col.iter_mut().zip(&zs[t * m..(t + 1) * m]) {
-                        let dd = z - xj;
-                        *v += dd * dd;
-                    }
-                }
-                for v in col.iter_mut() {
-                    *v = var * exp_neg(-0.5 * *v);
-                }
-            }
-        },
-    );
-    phi
+    let mut phi = vec![0.0; m * n];
+    ScaledZ::new(zr, q, kern).fill(&xr[..n * q], kern.variance, &mut phi);
+    MatRef::from_column_major_slice(&phi, m, n).to_owned()
 }
 
-/// From W1 (M×M, symmetric) and W2 (M×N): Σ W1 + Σ W2 (for ∂L/∂α²), ∂L/∂ℓ_t, and ∂L/∂X,
-/// ∂L/∂Z added to `dx`, `dz` (row-major) when given. Coordinates are centred on Z's mean
-/// first (the kernel is translation invariant) to limit cancellation.
-#[allow(clippy::too_many_arguments)]
-fn chain(
-    w1: MatRef<'_, f64>,
+/// What one block of W2 = ∂L/∂Φ ∘ Φ contributes to the gradients (coordinates centred on Z's
+/// mean): its row sums, W2 X_c (M×Q) and per dimension Σ_j x_j (c_j x_j − (W2ᵀ Z_c)_j).
+struct W2Sums {
+    rows: Vec<f64>,
+    w2x: Mat<f64>,
+    from_x: Vec<f64>,
+}
+
+impl W2Sums {
+    fn zeros(m: usize, q: usize) -> Self {
+        Self {
+            rows: vec![0.0; m],
+            w2x: Mat::zeros(m, q),
+            from_x: vec![0.0; q],
+        }
+    }
+
+    fn add(&mut self, o: &W2Sums) {
+        self.rows.iter_mut().zip(&o.rows).for_each(|(a, b)| *a += b);
+        self.w2x += &o.w2x;
+        self.from_x
+            .iter_mut()
+            .zip(&o.from_x)
+            .for_each(|(a, b)| *a += b);
+    }
+}
+
+/// The sums of one block of W2 (M×b) at centred latent points `xc` (b×Q); ∂L/∂X of the block
+/// added to `dx` (row-major b×Q) when given.
+fn w2_block(
     w2: MatRef<'_, f64>,
-    xr: &[f64],
-    zr: &[f64],
-    q: usize,
+    xc: MatRef<'_, f64>,
+    zc: MatRef<'_, f64>,
     kern: &KernelParams,
-    mut dx: Option<&mut [f64]>,
-    mut dz: Option<&mut [f64]>,
-) -> (f64, Vec<f64>) {
-    let (m, n) = (w2.nrows(), w2.ncols());
-    let mean: Vec<f64> = (0..q)
-        .map(|t| (0..m).map(|i| zr[i * q + t]).sum::<f64>() / m.max(1) as f64)
-        .collect();
-    let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
-    let xc = Mat::from_fn(n, q, |j, t| xr[j * q + t] - mean[t]);
-    let r1: Vec<f64> = (0..m).map(|i| (0..m).map(|j| w1[(i, j)]).sum()).collect();
-    let mut r2 = vec![0.0; m];
-    let mut c2 = vec![0.0; n];
-    for j in 0..n {
+    dx: Option<&mut [f64]>,
+) -> W2Sums {
+    let (m, nb, q) = (w2.nrows(), w2.ncols(), xc.ncols());
+    let mut out = W2Sums::zeros(m, q);
+    let mut cols = vec![0.0; nb];
+    for (j, c) in cols.iter_mut().enumerate() {
         let col = w2.col(j);
         let mut s = 0.0;
-        for i in 0..m {
-            r2[i] += col[i];
-            s += col[i];
+        for (r, &v) in out.rows.iter_mut().zip(col.iter()) {
+            *r += v;
+            s += v;
         }
-        c2[j] = s;
+        *c = s;
     }
-    let par = Par::Seq;
-    let mut w1z = Mat::zeros(m, q);
-    matmul(w1z.as_mut(), Accum::Replace, w1, zc.as_ref(), 1.0, par);
-    let mut w2x = Mat::zeros(m, q);
-    matmul(w2x.as_mut(), Accum::Replace, w2, xc.as_ref(), 1.0, par);
-    let mut w2tz = Mat::zeros(n, q);
+    matmul(out.w2x.as_mut(), Accum::Replace, w2, xc, 1.0, Par::Seq);
+    let mut w2tz = Mat::zeros(nb, q);
     matmul(
         w2tz.as_mut(),
         Accum::Replace,
         w2.transpose(),
-        zc.as_ref(),
+        zc,
         1.0,
-        par,
+        Par::Seq,
     );
+    clear_upper_simd_state();
+    let mut dx = dx;
+    for t in 0..q {
+        let l2 = kern.lengthscale[t] * kern.lengthscale[t];
+        // Σ_ij W2_ij (z_i − x_j)² = Σ_i z_i (r2_i z_i − (W2 X)_i) + Σ_j x_j (c2_j x_j − (W2ᵀZ)_j).
+        let mut s = 0.0;
+        for j in 0..nb {
+            s += xc[(j, t)] * (cols[j] * xc[(j, t)] - w2tz[(j, t)]);
+        }
+        out.from_x[t] = s;
+        if let Some(dx) = dx.as_deref_mut() {
+            // ∂k(z_i, x_j)/∂x_j = k (z_i − x_j)/ℓ².
+            for j in 0..nb {
+                dx[j * q + t] += (w2tz[(j, t)] - cols[j] * xc[(j, t)]) / l2;
+            }
+        }
+    }
+    out
+}
+
+/// From W1 = ∂L/∂K_mm ∘ K_mm (M×M, symmetric) and the summed blocks of W2 = ∂L/∂Φ ∘ Φ:
+/// Σ W1 + Σ W2 (for ∂L/∂α²) and ∂L/∂ℓ_t; ∂L/∂Z added to `dz` (row-major) when given.
+/// Coordinates are centred on Z's mean (`zc`; the kernel is translation invariant) to limit
+/// cancellation.
+fn chain(
+    w1: MatRef<'_, f64>,
+    w2: &W2Sums,
+    zc: MatRef<'_, f64>,
+    kern: &KernelParams,
+    mut dz: Option<&mut [f64]>,
+) -> (f64, Vec<f64>) {
+    let (m, q) = (zc.nrows(), zc.ncols());
+    let r1: Vec<f64> = (0..m).map(|i| (0..m).map(|j| w1[(i, j)]).sum()).collect();
+    let r2 = &w2.rows;
+    let mut w1z = Mat::zeros(m, q);
+    matmul(w1z.as_mut(), Accum::Replace, w1, zc, 1.0, Par::Seq);
     clear_upper_simd_state();
     let sum_w = r1.iter().sum::<f64>() + r2.iter().sum::<f64>();
     let mut d_l = vec![0.0; q];
@@ -351,24 +568,15 @@ fn chain(
         for i in 0..m {
             s += 2.0 * zc[(i, t)] * (r1[i] * zc[(i, t)] - w1z[(i, t)]);
         }
-        // Σ_ij W2_ij (z_i − x_j)² = Σ_i z_i (r2_i z_i − (W2 X)_i) + Σ_j x_j (c2_j x_j − (W2ᵀZ)_j).
         for i in 0..m {
-            s += zc[(i, t)] * (r2[i] * zc[(i, t)] - w2x[(i, t)]);
+            s += zc[(i, t)] * (r2[i] * zc[(i, t)] - w2.w2x[(i, t)]);
         }
-        for j in 0..n {
-            s += xc[(j, t)] * (c2[j] * xc[(j, t)] - w2tz[(j, t)]);
-        }
+        s += w2.from_x[t];
         d_l[t] = s / (l2 * l);
-        if let Some(dx) = dx.as_deref_mut() {
-            // ∂k(z_i, x_j)/∂x_j = k (z_i − x_j)/ℓ².
-            for j in 0..n {
-                dx[j * q + t] += (w2tz[(j, t)] - c2[j] * xc[(j, t)]) / l2;
-            }
-        }
         if let Some(dz) = dz.as_deref_mut() {
             for i in 0..m {
                 let from_kmm = -2.0 * (r1[i] * zc[(i, t)] - w1z[(i, t)]);
-                let from_kmn = -(r2[i] * zc[(i, t)] - w2x[(i, t)]);
+                let from_kmn = -(r2[i] * zc[(i, t)] - w2.w2x[(i, t)]);
                 dz[i * q + t] += (from_kmm + from_kmn) / l2;
             }
         }
@@ -582,5 +790,67 @@ mod tests {
         )
         .expect("pd");
         assert!(s.nll > exact, "{} ≤ {exact}", s.nll);
+    }
+
+    #[test]
+    fn blocks_on_threads_give_the_same_bits_and_a_correct_gradient() {
+        // N over two block boundaries (the tests above fit in one block), evaluated on the
+        // calling thread (blocks in turn) and on the pool (blocks in parallel).
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let (n, m, q, d) = (2 * BLOCK + 77, 15, 2, 3);
+        let x = random(n, q, &mut rng);
+        let z = random(m, q, &mut rng);
+        let y = random(n, d, &mut rng);
+        let k = kernel(q, &mut rng);
+        let (xr, zr) = (row_major(x.as_ref()), row_major(z.as_ref()));
+        let run = || {
+            let (mut dx, mut dz) = (vec![0.0; n * q], vec![0.0; m * q]);
+            let e = eval_sparse_space(
+                &xr,
+                &zr,
+                q,
+                y.as_ref(),
+                &k,
+                RELATIVE_JITTER,
+                true,
+                Some(&mut dx),
+                Some(&mut dz),
+            )
+            .expect("pd");
+            (e.nll, e.d_variance, e.d_noise, e.d_lengthscale, dx, dz)
+        };
+        let seq = run();
+        let par = crate::pool::in_pool(run);
+        assert_eq!(seq, par);
+        let f = |xr: &[f64], zr: &[f64], k: &KernelParams| {
+            eval_sparse_space(xr, zr, q, y.as_ref(), k, RELATIVE_JITTER, false, None, None)
+                .expect("pd")
+                .nll
+        };
+        assert_eq!(f(&xr, &zr, &k), seq.0);
+        let h = 1e-5;
+        let close = |an: f64, fd: f64| (an - fd).abs() / (1.0 + fd.abs()) < 1e-6;
+        // Points in the first, second and last block, and every coordinate of two of Z's.
+        for i in [3 * q, (BLOCK + 5) * q + 1, (n - 1) * q] {
+            let (mut p, mut mi) = (xr.clone(), xr.clone());
+            p[i] += h;
+            mi[i] -= h;
+            let fd = (f(&p, &zr, &k) - f(&mi, &zr, &k)) / (2.0 * h);
+            assert!(close(seq.4[i], fd), "x[{i}]: {} vs {fd}", seq.4[i]);
+        }
+        for i in [0, 1, 2 * q, 2 * q + 1] {
+            let (mut p, mut mi) = (zr.clone(), zr.clone());
+            p[i] += h;
+            mi[i] -= h;
+            let fd = (f(&xr, &p, &k) - f(&xr, &mi, &k)) / (2.0 * h);
+            assert!(close(seq.5[i], fd), "z[{i}]: {} vs {fd}", seq.5[i]);
+        }
+        for t in 0..q {
+            let (mut p, mut mi) = (k.clone(), k.clone());
+            p.lengthscale[t] += h;
+            mi.lengthscale[t] -= h;
+            let fd = (f(&xr, &zr, &p) - f(&xr, &zr, &mi)) / (2.0 * h);
+            assert!(close(seq.3[t], fd), "lengthscale {t}: {} vs {fd}", seq.3[t]);
+        }
     }
 }

@@ -42,6 +42,44 @@ pub(crate) struct SparseState {
     pub z_rows: Vec<f64>,
     /// Per space, its prediction cache (derived by `rebuild`).
     pub caches: Vec<predict::SparseCache>,
+    /// Evaluation buffers kept between objectives built on this model (`evaluate` after
+    /// `set_params` builds a new one each time); a clone starts without.
+    pub work: SparseWorkspace,
+}
+
+/// Evaluation buffers of a sparse model, one per space, kept between objectives.
+#[derive(Default)]
+pub(crate) struct SparseWorkspace(std::sync::Mutex<Vec<likelihood::SparseWork>>);
+
+impl SparseWorkspace {
+    /// `spaces` buffers: the kept ones when there are as many, else new (empty) ones.
+    pub(crate) fn take(&self, spaces: usize) -> Vec<likelihood::SparseWork> {
+        let kept = std::mem::take(&mut *crate::pool::lock(&self.0));
+        if kept.len() == spaces {
+            kept
+        } else {
+            (0..spaces)
+                .map(|_| likelihood::SparseWork::default())
+                .collect()
+        }
+    }
+
+    /// Keeps `works` for the next objective.
+    pub(crate) fn put(&self, works: Vec<likelihood::SparseWork>) {
+        *crate::pool::lock(&self.0) = works;
+    }
+}
+
+impl Clone for SparseWorkspace {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for SparseWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SparseWorkspace")
+    }
 }
 
 impl SparseState {
@@ -52,6 +90,7 @@ impl SparseState {
             z,
             z_rows,
             caches: Vec::new(),
+            work: SparseWorkspace::default(),
         }
     }
 

@@ -4,22 +4,27 @@
 //! (`Mode::Kernels`) only the listed spaces' kernels move; X, Z and the other spaces are
 //! frozen and add a constant.
 
+use std::sync::Mutex;
+
 use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 
-use super::likelihood::{eval_sparse_space, SparseEval, RELATIVE_JITTER};
+use super::likelihood::{
+    eval_sparse_space, eval_sparse_space_in, SparseEval, SparseWork, RELATIVE_JITTER,
+};
 use super::{bc_cross, SparseState};
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
 use crate::model::{Latent, SharedGplvm};
 use crate::objective::{decode_kernel, encode_kernel, Mode};
 use crate::params::{LatentParams, Params};
-use crate::pool::in_pool;
+use crate::pool::{in_pool, lock};
 use crate::simd::clear_upper_simd_state;
 use crate::train::Objective;
 
-/// Frames from which the spaces of one evaluation run on separate threads.
-const SPACES_IN_PARALLEL_FROM: usize = 2000;
+/// Frames from which one evaluation runs on the pool's threads (its spaces, and the blocks of
+/// frames within each space, in parallel).
+const PARALLEL_FROM: usize = 2000;
 
 /// The sparse model's objective in `mode`.
 pub(crate) struct SparseObjective<'a> {
@@ -31,6 +36,8 @@ pub(crate) struct SparseObjective<'a> {
     constant: f64,
     /// Whether Z is part of θ.
     train_z: bool,
+    /// Per evaluated space, the buffers its evaluations reuse.
+    works: Mutex<Vec<SparseWork>>,
 }
 
 fn state(model: &SharedGplvm) -> Result<&SparseState> {
@@ -77,12 +84,17 @@ impl<'a> SparseObjective<'a> {
             }
         }
         let train_z = matches!(mode, Mode::Full) && !model.config.fixed_inducing;
+        let spaces = match &mode {
+            Mode::Full => model.spaces.len(),
+            Mode::Kernels(v) => v.len(),
+        };
         Ok(Self {
             model,
             mode,
             kcn,
             constant,
             train_z,
+            works: Mutex::new(st.work.take(spaces)),
         })
     }
 
@@ -194,11 +206,12 @@ impl<'a> SparseObjective<'a> {
         }
         let with_x = ll > 0;
         let with_z = zl > 0;
-        let one = |(&s, k): (&usize, &KernelParams)| -> Result<(SparseEval, Vec<f64>, Vec<f64>)> {
+        type SpaceResult = Result<(SparseEval, Vec<f64>, Vec<f64>)>;
+        let one = |((&s, k), work): ((&usize, &KernelParams), &mut SparseWork)| -> SpaceResult {
             let space = &m.spaces[s];
             let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
             let mut dz = vec![0.0; if with_z { zl } else { 0 }];
-            let e = eval_sparse_space(
+            let e = eval_sparse_space_in(
                 xr,
                 zr,
                 q,
@@ -208,21 +221,31 @@ impl<'a> SparseObjective<'a> {
                 true,
                 with_x.then_some(&mut dx[..]),
                 with_z.then_some(&mut dz[..]),
+                work,
             )
             .map_err(|e| e.in_space(&space.name))?;
             Ok((e, dx, dz))
         };
-        let results: Vec<_> = if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM {
+        let mut guard = lock(&self.works);
+        let works: &mut Vec<SparseWork> = &mut guard;
+        let results: Vec<_> = if n >= PARALLEL_FROM {
             in_pool(|| {
                 evaluated
                     .par_iter()
                     .zip(kernels.par_iter())
+                    .zip(works.par_iter_mut())
                     .map(one)
                     .collect()
             })
         } else {
-            evaluated.iter().zip(kernels.iter()).map(one).collect()
+            evaluated
+                .iter()
+                .zip(kernels.iter())
+                .zip(works.iter_mut())
+                .map(one)
+                .collect()
         };
+        drop(guard);
         let mut total = self.constant;
         let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
         let mut dz = vec![0.0; zl];
@@ -303,6 +326,14 @@ fn push_col_major(m: MatRef<'_, f64>, out: &mut Vec<f64>) {
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
             out.push(m[(i, j)]);
+        }
+    }
+}
+
+impl Drop for SparseObjective<'_> {
+    fn drop(&mut self) {
+        if let Some(st) = &self.model.sparse {
+            st.work.put(std::mem::take(&mut *lock(&self.works)));
         }
     }
 }

@@ -15,7 +15,7 @@ use crate::kernel::row_major;
 use crate::model::{SharedGplvm, Space};
 use crate::predict::{
     add_kernel_weighted, check_prediction_matrix, for_each_kernel_block, half_inv_l2,
-    scaled_about_mean, Prediction,
+    scaled_about_mean, FrameKernel, Prediction,
 };
 use crate::simd::clear_upper_simd_state;
 
@@ -24,6 +24,8 @@ use crate::simd::clear_upper_simd_state;
 pub(crate) struct SparseCache {
     /// Mean weights row-major M×D.
     weights_rows: Vec<f64>,
+    /// Z and the mean weights laid out for one frame at a time.
+    frame: FrameKernel,
     /// `K_mm⁻¹ − (K_mm + σ⁻² K_mn K_nm)⁻¹` (M×M).
     cvar: Mat<f64>,
     /// −1/(2ℓ²) per latent dimension.
@@ -66,8 +68,10 @@ impl SparseCache {
         solve_upper_triangular_in_place(f.lm.transpose(), ct.as_mut(), Par::Seq);
         clear_upper_simd_state();
         let cvar = Mat::from_fn(m, m, |i, j| 0.5 * (ct[(i, j)] + ct[(j, i)]));
+        let weights_rows = row_major(w.as_ref());
         Ok(Self {
-            weights_rows: row_major(w.as_ref()),
+            frame: FrameKernel::new(z_rows, q, &weights_rows, w.ncols()),
+            weights_rows,
             cvar,
             half_inv_l2: half_inv_l2(&space.kernel),
             jitter: e.jitter,
@@ -104,15 +108,7 @@ impl SharedGplvm {
         out: &mut [f64],
     ) {
         let c = &st.caches[si];
-        add_kernel_weighted(
-            x,
-            &st.z_rows,
-            &c.half_inv_l2,
-            &c.weights_rows,
-            variance,
-            st.m(),
-            out,
-        );
+        add_kernel_weighted(x, &c.frame, &c.half_inv_l2, variance, out);
     }
 
     /// Batch prediction of space `si` of a sparse model at latent points `xs` (n×Q).

@@ -218,3 +218,52 @@ fn set_params_rebuilds_a_sparse_models_caches_or_changes_nothing() {
         assert_eq!(broken.to_bytes(), model.to_bytes());
     }
 }
+
+#[test]
+fn batches_on_threads_predict_what_one_thread_predicts() {
+    // Over two chunks of frames `predict` runs on the pool; the blocks are the same, so the
+    // results must be the same bits — for the sparse model and the exact one, with variance.
+    let (h, _, _, _) = demo(40, 3);
+    let n = 2 * crate::predict::PARALLEL_CHUNK + 37;
+    let hh = Mat::from_fn(n, h.ncols(), |i, j| h[(i % 40, j)] + 1e-3 * (i / 40) as f64);
+    for model in [
+        sparse_fit(BackConstraint::Input, 40, 8, 5),
+        sparse_fit(BackConstraint::None, 40, 8, 5),
+        fit(BackConstraint::Input, 40, 5, 0),
+    ] {
+        let si = model.output_index("walkman").expect("output");
+        let par = model
+            .predict(hh.as_ref(), "walkman", true)
+            .expect("predicts");
+        let seq = model.predict_rows(hh.as_ref(), si, true).expect("predicts");
+        assert_eq!(par.mean, seq.mean);
+        assert_eq!(par.variance, seq.variance);
+        assert_eq!(par.mean.nrows(), n);
+    }
+}
+
+#[test]
+fn evaluations_reuse_the_models_buffers_and_give_the_same_bits() {
+    let model = sparse_fit(BackConstraint::Input, 40, 8, 5);
+    let st = model.sparse.as_ref().expect("sparse");
+    assert!(crate::pool::lock(&st.work.0).is_empty());
+    let first = model.evaluate_sparse().expect("evaluates");
+    // The objective handed its buffers (one per space, Φ filled) back to the model.
+    let kept = crate::pool::lock(&st.work.0).len();
+    assert_eq!(kept, model.spaces.len());
+    let second = model.evaluate_sparse().expect("evaluates");
+    assert_eq!(first.0, second.0);
+    // (The gradient's bandwidth entry is NaN: not computed for centres.)
+    match (&first.1.latent, &second.1.latent) {
+        (
+            LatentParams::BackConstrained { weights: a, .. },
+            LatentParams::BackConstrained { weights: b, .. },
+        ) => assert_eq!(a, b),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(first.1.spaces, second.1.spaces);
+    // A clone starts without buffers.
+    let copy = model.clone();
+    let cst = copy.sparse.as_ref().expect("sparse");
+    assert!(crate::pool::lock(&cst.work.0).is_empty());
+}
