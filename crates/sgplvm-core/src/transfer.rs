@@ -265,4 +265,51 @@ mod tests {
         assert_eq!(a.latent_points(), source.latent_points());
         assert_eq!(a.kernel("walkman"), source.kernel("walkman"));
     }
+
+    #[test]
+    fn transfer_reuses_the_source_caches_bit_for_bit() {
+        // A source with its prediction caches built lends the frozen spaces' likelihood and
+        // caches to the transfer; one without them factorises everything: same model.
+        for bc in [BackConstraint::Input, BackConstraint::None] {
+            let (h, _, r2, _) = demo(40, 7);
+            let warm = fit(bc, 40, 20, 0);
+            assert!(
+                warm.prepared.get().is_some(),
+                "a fitted model has its caches"
+            );
+            let mut cold = warm.clone();
+            cold.prepared = std::sync::OnceLock::new();
+            let run = |source: &SharedGplvm| {
+                let mut seen = Vec::new();
+                let mut cb = |r: &IterationRecord, m: &SharedGplvm| {
+                    let p = m
+                        .predict(h.as_ref(), "coman", true)
+                        .expect("snapshot predicts");
+                    seen.push((r.objective.to_bits(), p));
+                    crate::train::Control::Continue
+                };
+                let t = source
+                    .transfer("coman", r2.as_ref(), &quick(30), Some(&mut cb))
+                    .expect("transfer");
+                (t, seen)
+            };
+            let (a, seen_a) = run(&warm);
+            let (b, seen_b) = run(&cold);
+            assert!(
+                seen_a.len() > 2 && seen_a == seen_b,
+                "{bc:?}: snapshots differ"
+            );
+            let objs = |m: &SharedGplvm| -> Vec<u64> {
+                m.history().iter().map(|r| r.objective.to_bits()).collect()
+            };
+            assert!(a.params() == b.params(), "{bc:?}: parameters differ");
+            assert_eq!(objs(&a), objs(&b), "{bc:?}: histories differ");
+            assert_eq!(a.jitter().to_bits(), b.jitter().to_bits());
+            for robot in ["walkman", "coman"] {
+                let pa = a.predict(h.as_ref(), robot, true).expect("predict");
+                let pb = b.predict(h.as_ref(), robot, true).expect("predict");
+                assert!(pa == pb, "{bc:?} {robot}: predictions differ");
+            }
+        }
+    }
 }
