@@ -4,6 +4,7 @@ Prints each figure for both and their ratio (GPy's time / ours).
 
     python benches/bench_vs_gpy.py            # every row (about 10 minutes on 2 cores)
     python benches/bench_vs_gpy.py --quick    # N = 300 only, fewer repetitions
+    python benches/bench_vs_gpy.py --quick --transfer-only   # the transfer and prediction rows
     RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \\
         python benches/bench_vs_gpy.py --evaluation-only   # the one-core evaluation rows
 
@@ -84,7 +85,7 @@ class GPySharedGPLVM(GPy.core.Model):
             self.X = None
         for name, Y in spaces.items():
             p = params["spaces"][name]
-            kern = GPy.kern.RBF(q, variance=p["variance"], lengthscale=np.asarray(p["lengthscale"]),
+            kern = GPy.kern.RBF(q, variance=p["variance"], lengthscale=np.array(p["lengthscale"], dtype=float),
                                 ARD=True, name=f"rbf_{name}")
             lik = GPy.likelihoods.Gaussian(variance=p["noise"] - 1e-8, name=f"noise_{name}")
             self.link_parameters(kern, lik)
@@ -297,26 +298,33 @@ def transfer_and_prediction(trained, human, coman, repeat, pooled_too):
     frozen = trained.objective()
 
     settle()
-    t0 = time.perf_counter()
-    transferred = trained.transfer("coman", coman, max_iters=100_000, validation=None)
-    t_call = time.perf_counter() - t0
+    # The fastest of `repeat` calls (each one deterministic: the same iterations every time).
+    transferred, t_call = None, float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        candidate = trained.transfer("coman", coman, max_iters=100_000, validation=None)
+        t_call = min(t_call, time.perf_counter() - t0)
+        if transferred is None or candidate.history["seconds"][-1] < transferred.history["seconds"][-1]:
+            transferred = candidate
     h = transferred.history
     ours_trace = [(t, f - frozen) for t, f in zip(h["seconds"], h["objective"])]
 
     def gpy_run():
         gp = TracedGP(X, coman - coman.mean(axis=0),
-                      GPy.kern.RBF(5, variance=p0["variance"], lengthscale=np.asarray(p0["lengthscale"]),
+                      GPy.kern.RBF(5, variance=p0["variance"], lengthscale=np.array(p0["lengthscale"], dtype=float),
                                    ARD=True),
                       noise_var=p0["noise"] - 1e-8)
         check_same(start.objective() - frozen, gp.objective_function(), "transfer start")
         return run_gpy(gp, ours_trace[-1][1])
 
-    gp, _, threads = gpy_best(gpy_run, pooled_too)
-    level = max(ours_trace[-1][1], min(f for _, f in gp.trace))
+    # GPy too the fastest of `repeat` runs (its runs are deterministic as well).
+    runs = [gpy_best(gpy_run, pooled_too) for _ in range(repeat)]
+    level = max(ours_trace[-1][1], min(f for _, f in runs[0][0].trace))
+    gp, _, threads = min(runs, key=lambda r: reached(r[0].trace, level))
     row(f"transfer time to solution, N = {n} [{threads}]", reached(ours_trace, level),
         reached(gp.trace, level), "s", 1.0)
     print(f"{'':<4}sgplvm: {int(h['iteration'][-1])} iterations, {int(h['evaluations'][-1])} "
-          f"evaluations, whole transfer() call {t_call:.3f} s; GPy: {len(gp.trace)} evaluations",
+          f"evaluations, whole transfer() call {t_call:.3f} s (fastest of {repeat}); GPy: {len(gp.trace)} evaluations",
           flush=True)
 
     # Batch prediction, human frames in: ours human → latent → robot in one call; GPy a GP
@@ -342,6 +350,9 @@ def main():
     parser.add_argument("--quick", action="store_true",
                         help="N = 300 only, GPy with one BLAS thread, fewer repetitions")
     parser.add_argument("--evaluation-only", action="store_true", help="only the evaluation rows")
+    parser.add_argument("--transfer-only", action="store_true",
+                        help="only the transfer and batch-prediction rows (N = 300; the source "
+                             "model is our free-latent training, without GPy's time to solution)")
     args = parser.parse_args()
     repeat = 3 if args.quick else 10
     sizes = (300,) if args.quick else (300, 1000)
@@ -353,6 +364,13 @@ def main():
     print("GPy: the faster of one BLAS thread and the default pool; [n] = BLAS threads of that time")
     print(f"{'':<52} {'sgplvm':>10} {'GPy':>10} {'':<3} {'GPy/ours':>8}", flush=True)
 
+    if args.transfer_only:
+        human, walkman, coman = smooth_data(300, seed=1)
+        trained = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=None, seed=0)
+        trained.fit({"human": human, "walkman": walkman}, input="human", max_iters=100_000,
+                    validation=None)
+        transfer_and_prediction(trained, human, coman, repeat, pooled_too)
+        return
     evaluation_rows(sizes, repeat, pooled_too)
     if args.evaluation_only:
         return

@@ -108,7 +108,10 @@ impl SharedGplvm {
             let obj = SparseObjective::new(self, mode.clone())?;
             self.optimised(&obj, &mode, options, limits, callback)?
         } else {
-            let obj = ModelObjective::new(self, mode.clone())?;
+            let mut obj = ModelObjective::new(self, mode.clone())?;
+            if options.whiten_back_constraint {
+                obj = obj.whitened()?;
+            }
             self.optimised(&obj, &mode, options, limits, callback)?
         };
         *self = applied;
@@ -151,7 +154,7 @@ impl SharedGplvm {
                 }
                 prev_map = snap.map.as_ref().map(|m| m.kernel.clone());
             }
-            if snap.rebuild().is_err() {
+            if snap.rebuild_for(mode).is_err() {
                 return Control::Continue;
             }
             snap.history = Vec::new();
@@ -163,10 +166,20 @@ impl SharedGplvm {
         if matches!(mode, Mode::Full) && applied.needs_map() {
             applied.fit_map(options, limits, None)?;
         }
-        applied.rebuild()?;
+        applied.rebuild_for(mode)?;
         applied.history = outcome.history;
         applied.stop_reason = Some(outcome.reason);
         Ok(applied)
+    }
+}
+
+impl SharedGplvm {
+    /// The caches after training in `mode` (see [`SharedGplvm::rebuild_kernels`]).
+    fn rebuild_for(&mut self, mode: &Mode) -> Result<()> {
+        match mode {
+            Mode::Full => self.rebuild(),
+            Mode::Kernels(changed) => self.rebuild_kernels(changed),
+        }
     }
 }
 

@@ -297,9 +297,13 @@ fn a_kernel_that_cannot_be_factorised_is_a_typed_error_from_every_path() {
         }
         other => panic!("expected an invalid kernel, got {other:?}"),
     }
-    // Transfer: the new robot trains, then the final rebuild factorises every space.
+    // Transfer: a source without caches (set_params drops them) has its frozen spaces
+    // factorised for the objective's constant. (A source with caches lends them: its
+    // factorisations succeeded.)
     let mut source = m.clone();
-    source.spaces[0].kernel.variance = 1e308;
+    let mut p0 = m.params();
+    p0.spaces[0].1.variance = 1e308;
+    source.set_params(&p0).expect("checked when used");
     not_pd(
         source.transfer("coman", r2.as_ref(), &quick(3), None),
         "human",

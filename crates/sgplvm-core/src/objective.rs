@@ -6,7 +6,7 @@
 
 use std::sync::{Arc, Mutex};
 
-use faer::{Mat, MatRef};
+use faer::{Accum, Mat, MatRef};
 use rayon::prelude::*;
 
 use crate::back_constraint::{bandwidth_gradient, latent_points, weights_gradient};
@@ -58,8 +58,11 @@ pub(crate) fn kernel_grad_log(k: &KernelParams, e: &SpaceEval, out: &mut [f64]) 
 pub(crate) struct ModelObjective<'a> {
     model: &'a SharedGplvm,
     mode: Mode,
-    /// K_bc for back-constrained models in full mode.
+    /// The matrix that maps the latent block to X for back-constrained models in full mode:
+    /// K_bc (block W), or `K_bc P` when whitened (block V, see [`Whitening`]).
     kbc: Option<Arc<Mat<f64>>>,
+    /// The whitened parametrisation of the weights, when [`ModelObjective::whitened`] set it.
+    whitening: Option<Whitening>,
     /// Sum of the frozen spaces' objective (Kernels mode).
     constant: f64,
     /// Latent points row-major (Kernels mode).
@@ -92,9 +95,16 @@ impl<'a> ModelObjective<'a> {
         };
         let mut constant = 0.0;
         if let Mode::Kernels(v) = &mode {
+            // A frozen space's likelihood is in the model's prediction caches when it has
+            // them (a transfer's source model): the same factorisation, not made again.
+            let cached = model.prepared.get().map(|p| &p.caches);
             let mut w = SpaceWork::new(n, 1);
             for (s, space) in model.spaces.iter().enumerate() {
                 if v.contains(&s) {
+                    continue;
+                }
+                if let Some(c) = cached.and_then(|c| c.get(s)) {
+                    constant += c.nll;
                     continue;
                 }
                 if w.alpha().ncols() != space.data.ncols() {
@@ -107,6 +117,7 @@ impl<'a> ModelObjective<'a> {
             model,
             mode,
             kbc,
+            whitening: None,
             constant,
             x_rows: model.x_rows.clone(),
             works: Mutex::new(works),
@@ -125,9 +136,14 @@ impl<'a> ModelObjective<'a> {
         let m = self.model;
         let mut t = Vec::new();
         if let Mode::Full = self.mode {
-            let lat = match &m.latent {
-                Latent::Free { x } => x,
-                Latent::Back { weights, .. } => weights,
+            let whitened;
+            let lat = match (&m.latent, &self.whitening) {
+                (Latent::Free { x }, _) => x,
+                (Latent::Back { weights, .. }, None) => weights,
+                (Latent::Back { weights, .. }, Some(w)) => {
+                    whitened = w.to_block(weights.as_ref());
+                    &whitened
+                }
             };
             for j in 0..lat.ncols() {
                 for i in 0..lat.nrows() {
@@ -148,6 +164,17 @@ impl<'a> ModelObjective<'a> {
         }
     }
 
+    /// This objective in the whitened parametrisation of the back-constraint weights (see
+    /// [`Whitening`]); unchanged for free latent points and in `Mode::Kernels`.
+    pub(crate) fn whitened(mut self) -> Result<Self> {
+        if let (Some(kbc), Latent::Back { .. }) = (&self.kbc, &self.model.latent) {
+            let w = Whitening::new(kbc.as_ref().as_ref())?;
+            self.kbc = Some(Arc::new(w.map.clone()));
+            self.whitening = Some(w);
+        }
+        Ok(self)
+    }
+
     /// Writes `theta` into a copy of the model (no caches rebuilt).
     pub(crate) fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
         let (n, q) = (target.n(), target.q());
@@ -156,7 +183,12 @@ impl<'a> ModelObjective<'a> {
             let lat = Mat::from_fn(n, q, |i, j| theta[j * n + i]);
             match &mut target.latent {
                 Latent::Free { x } => *x = lat,
-                Latent::Back { weights, .. } => *weights = lat,
+                Latent::Back { weights, .. } => {
+                    *weights = match &self.whitening {
+                        Some(w) => w.to_weights(lat.as_ref()),
+                        None => lat,
+                    }
+                }
             }
         }
         let mut off = ll;
@@ -164,6 +196,90 @@ impl<'a> ModelObjective<'a> {
             target.spaces[s].kernel = decode_kernel(&theta[off..off + q + 2], q);
             off += q + 2;
         }
+    }
+}
+
+/// Relative floor of the eigenvalues of K_bc in [`Whitening`]: directions below
+/// `WHITEN_FLOOR · λ_max` (duplicate frames make K_bc singular) are scaled as if their
+/// eigenvalue were the floor.
+const WHITEN_FLOOR: f64 = 1e-10;
+
+/// The whitened parametrisation of back-constraint weights: `W = P V` with
+/// `P = U Λ^(−1/2) Uᵀ` from the eigendecomposition `K_bc = U Λ Uᵀ` (eigenvalues floored at
+/// [`WHITEN_FLOOR`] λ_max), so that `X = K_bc P V ≈ K_bc^(1/2) V` and the optimiser moves V.
+/// P is invertible, so the latent points reachable are the same as with W; what changes is
+/// the conditioning: the Hessian in W is `K_bc H_X K_bc` (condition number up to cond(K_bc)²
+/// times that of the free-latent Hessian H_X), in V it is `K_bc^(1/2) H_X K_bc^(1/2)`.
+/// (V's squared norm is the RKHS norm WᵀK_bcW of the mapping: the "whitening" of GP
+/// literature.)
+pub(crate) struct Whitening {
+    /// `P = K_bc^(−1/2)`: V → W.
+    p: Mat<f64>,
+    /// `P⁻¹ = K_bc^(1/2)`: W → V.
+    p_inv: Mat<f64>,
+    /// `K_bc P`: V → X, computed as this product so that X is the model's `K_bc W` up to
+    /// rounding.
+    map: Mat<f64>,
+}
+
+impl Whitening {
+    /// The whitening of `kbc` (symmetric positive semi-definite).
+    pub(crate) fn new(kbc: MatRef<'_, f64>) -> Result<Self> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::evd;
+        let n = kbc.nrows();
+        let par = par_for(n);
+        let mut u = Mat::zeros(n, n);
+        let mut s = faer::diag::Diag::zeros(n);
+        evd::self_adjoint_evd(
+            kbc,
+            s.as_mut(),
+            Some(u.as_mut()),
+            par,
+            MemStack::new(&mut MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+                n,
+                evd::ComputeEigenvectors::Yes,
+                par,
+                Default::default(),
+            ))),
+            Default::default(),
+        )
+        .map_err(|e| Error::InvalidValue {
+            what: "back-constraint kernel matrix".into(),
+            reason: format!("eigendecomposition failed ({e:?})"),
+        })?;
+        let s = s.column_vector();
+        let top = (0..n).fold(0.0f64, |m, i| m.max(s[i]));
+        let floor = (WHITEN_FLOOR * top).max(f64::MIN_POSITIVE);
+        let root: Vec<f64> = (0..n).map(|i| s[i].max(floor).sqrt()).collect();
+        let scaled = |f: &dyn Fn(f64) -> f64| {
+            let us = Mat::from_fn(n, n, |i, j| u[(i, j)] * f(root[j]));
+            let mut out = Mat::zeros(n, n);
+            faer::linalg::matmul::matmul(
+                out.as_mut(),
+                Accum::Replace,
+                us.as_ref(),
+                u.transpose(),
+                1.0,
+                par,
+            );
+            out
+        };
+        let p = scaled(&|r| 1.0 / r);
+        let p_inv = scaled(&|r| r);
+        let mut map = Mat::zeros(n, n);
+        faer::linalg::matmul::matmul(map.as_mut(), Accum::Replace, kbc, p.as_ref(), 1.0, par);
+        Ok(Self { p, p_inv, map })
+    }
+
+    /// The weights `W = P V` of the block V.
+    pub(crate) fn to_weights(&self, v: MatRef<'_, f64>) -> Mat<f64> {
+        latent_points(self.p.as_ref(), v, par_for(v.nrows()))
+    }
+
+    /// The block `V = P⁻¹ W` of the weights W.
+    pub(crate) fn to_block(&self, w: MatRef<'_, f64>) -> Mat<f64> {
+        latent_points(self.p_inv.as_ref(), w, par_for(w.nrows()))
     }
 }
 
@@ -485,5 +601,147 @@ mod tests {
         }
         // Measured 8.2e-8 (central differences, h = 1e-6 relative); tolerance 1e-6 above.
         assert!(worst < 1e-6, "{worst:e}");
+    }
+
+    #[test]
+    fn whitened_weights_have_finite_difference_gradients_and_reach_the_same_points() {
+        use crate::objective::{Mode, ModelObjective};
+        use crate::train::Objective;
+        for bc in [BackConstraint::Input, BackConstraint::Output] {
+            let model = fit(bc, 24, 3, 5);
+            let plain = ModelObjective::new(&model, Mode::Full).expect("objective");
+            let white = ModelObjective::new(&model, Mode::Full)
+                .expect("objective")
+                .whitened()
+                .expect("whitened");
+            let (t_plain, t_white) = (plain.theta0(), white.theta0());
+            assert_ne!(t_plain, t_white, "{bc:?}: the block did not change");
+            // The same model, so the same objective and the same kernel gradients.
+            let mut g_plain = vec![0.0; t_plain.len()];
+            let mut g = vec![0.0; t_white.len()];
+            let f_plain = plain.eval(&t_plain, &mut g_plain).expect("eval");
+            let f = white.eval(&t_white, &mut g).expect("eval");
+            assert!(
+                (f - f_plain).abs() < 1e-9 * f.abs(),
+                "{bc:?}: {f} vs {f_plain}"
+            );
+            let ll = 24 * 2;
+            for k in ll..g.len() {
+                assert!(
+                    (g[k] - g_plain[k]).abs() < 1e-7 * (1.0 + g[k].abs()),
+                    "{bc:?} {k}"
+                );
+            }
+            // V → W → V round trip, and the model written from V has the evaluated X.
+            let mut m = model.clone();
+            white.apply(&t_white, &mut m);
+            m.update_latent_points();
+            for (a, b) in
+                m.x.col_iter()
+                    .flat_map(|c| c.iter().copied().collect::<Vec<_>>())
+                    .zip(
+                        model
+                            .x
+                            .col_iter()
+                            .flat_map(|c| c.iter().copied().collect::<Vec<_>>()),
+                    )
+            {
+                assert!(
+                    (a - b).abs() < 1e-8 * (1.0 + b.abs()),
+                    "{bc:?}: X {a} vs {b}"
+                );
+            }
+            // Central differences on every entry of V.
+            let mut worst = 0.0f64;
+            for k in 0..ll {
+                let h = 1e-6 * t_white[k].abs().max(1.0);
+                let at = |d: f64| {
+                    let mut t = t_white.clone();
+                    t[k] += d;
+                    let mut gg = vec![0.0; t.len()];
+                    white.eval(&t, &mut gg).expect("eval")
+                };
+                let fd = (at(h) - at(-h)) / (2.0 * h);
+                let err = (g[k] - fd).abs() / (1.0 + fd.abs());
+                worst = worst.max(err);
+                assert!(err < 1e-6, "{bc:?} V[{k}]: analytic {} vs fd {fd}", g[k]);
+            }
+            assert!(worst < 1e-6, "{worst:e}");
+        }
+    }
+
+    /// Time to solution of back-constrained training on the bench's data, plain and whitened
+    /// weights (issue 18). `BC_DATA` names a file of little-endian f64: n, d_human, d_robot,
+    /// then the human rows and the robot rows (benches' smooth_data, written by Python);
+    /// `BC_LEVEL` the objective level to reach; `BC_MEMORY` the L-BFGS memory sizes to try.
+    /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib whitened_time -- --ignored --nocapture`
+    #[test]
+    #[ignore]
+    fn whitened_time_to_solution() {
+        let Ok(path) = std::env::var("BC_DATA") else {
+            return;
+        };
+        let bytes = std::fs::read(path).expect("BC_DATA reads");
+        let v: Vec<f64> = bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect();
+        let (n, dh, dr) = (v[0] as usize, v[1] as usize, v[2] as usize);
+        let h = Mat::from_fn(n, dh, |i, j| v[3 + i * dh + j]);
+        let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
+        let level: f64 = std::env::var("BC_LEVEL").map_or(f64::NEG_INFINITY, |s| {
+            s.parse().expect("BC_LEVEL is a number")
+        });
+        let memories: Vec<usize> = std::env::var("BC_MEMORY").map_or(vec![10], |s| {
+            s.split(',').map(|m| m.parse().expect("memory")).collect()
+        });
+        let whitens: Vec<bool> = std::env::var("BC_WHITEN").map_or(vec![false, true], |s| {
+            s.split(',').map(|m| m == "1").collect()
+        });
+        let config = ModelConfig::default()
+            .with_latent_dim(5)
+            .with_back_constraint(BackConstraint::Input);
+        for &memory in &memories {
+            for &whiten in &whitens {
+                let options = TrainOptions::default()
+                    .with_max_iters(100_000)
+                    .with_memory(memory)
+                    .with_whiten_back_constraint(whiten);
+                let t = std::time::Instant::now();
+                let m = SharedGplvm::fit(
+                    &config,
+                    &[("human", h.as_ref()), ("robot", r.as_ref())],
+                    "human",
+                    &options,
+                    None,
+                )
+                .expect("fit");
+                let hist = m.history();
+                let last = hist.last().expect("history");
+                let target = level + 1e-4 * level.abs();
+                let reached = hist.iter().find(|r| r.objective <= target);
+                println!(
+                    "memory {memory} whiten {whiten}: {} iterations, {} evaluations, final {:.4}, \
+                     {:?}, fit {:.2} s; level {level} reached at {}",
+                    last.iteration,
+                    last.evaluations,
+                    last.objective,
+                    m.stop_reason(),
+                    t.elapsed().as_secs_f64(),
+                    reached.map_or("never".into(), |r| format!(
+                        "iteration {} ({} evaluations, {:.2} s)",
+                        r.iteration, r.evaluations, r.seconds
+                    )),
+                );
+                for k in [0usize, 10, 100, 1000, 3000, 10000, 30000] {
+                    if let Some(r) = hist.get(k) {
+                        println!(
+                            "    iteration {k}: {:.4} (|g| {:.3e})",
+                            r.objective, r.gradient_norm
+                        );
+                    }
+                }
+            }
+        }
     }
 }

@@ -50,6 +50,9 @@ pub(crate) struct SpaceCache {
     /// −1/(2 l²) per latent dimension.
     half_inv_l2: Vec<f64>,
     pub(crate) jitter: f64,
+    /// The space's negative log marginal likelihood at these parameters (what
+    /// `Space::factorise` returns; reused as a transfer's frozen constant).
+    pub(crate) nll: f64,
 }
 
 /// Caches of the human → latent step.
@@ -102,6 +105,7 @@ impl SpaceCache {
             factor: w.factor().to_owned(),
             half_inv_l2: half_inv_l2(&space.kernel),
             jitter: e.jitter,
+            nll: e.nll,
         })
     }
 }
@@ -142,6 +146,38 @@ impl SharedGplvm {
         }
         let prepared = self.build_prepared()?;
         self.prepared = OnceLock::from(prepared);
+        Ok(())
+    }
+
+    /// [`SharedGplvm::rebuild`] after training that changed only the kernels of the spaces
+    /// `changed` (a transfer): the latent points, the input map and every other space's cache
+    /// are kept from the caches the model already has (the source model's, for a transfer),
+    /// so only the changed spaces are factorised. The same caches as `rebuild`, bit for bit
+    /// (each is the same computation on the same parameters); `rebuild` itself when the model
+    /// has no caches to keep.
+    pub(crate) fn rebuild_kernels(&mut self, changed: &[usize]) -> Result<()> {
+        if self.sparse.is_some() || self.map_stale {
+            return self.rebuild();
+        }
+        let Some(old) = self.prepared.take() else {
+            return self.rebuild();
+        };
+        let mut kept = old.caches.into_iter().map(Some).collect::<Vec<_>>();
+        let caches = self
+            .spaces
+            .iter()
+            .enumerate()
+            .map(|(s, space)| match kept.get_mut(s).and_then(Option::take) {
+                Some(c) if !changed.contains(&s) => Ok(c),
+                _ => SpaceCache::new(space, &self.x_rows, self.q()),
+            })
+            .collect::<Result<Vec<_>>>()?;
+        self.prepared = OnceLock::from(Prepared {
+            training_jitter: caches.iter().fold(0.0, |m, c| m.max(c.jitter)),
+            caches,
+            latent_cache: old.latent_cache,
+            map: old.map,
+        });
         Ok(())
     }
 

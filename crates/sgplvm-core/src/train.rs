@@ -60,6 +60,14 @@ pub struct TrainOptions {
     /// [`StopReason::Interrupted`], keeping the best parameters. Not serialised.
     #[serde(skip)]
     pub interrupt: Option<Interrupt>,
+    /// Train back-constraint weights in the whitened parametrisation `W = K_bc^(−1/2) V`
+    /// (the optimiser moves V): the same latent points are reachable, but the problem is far
+    /// better conditioned (K_bc's condition number enters once instead of squared), so L-BFGS
+    /// needs fewer iterations. A different path through a non-convex objective ends at a
+    /// different optimum; off by default (see BENCHMARKS.md, issue 18). No effect on free
+    /// latent points, transfer or sparse models.
+    #[serde(default)]
+    pub whiten_back_constraint: bool,
 }
 
 /// serde's default of [`TrainOptions::max_line_search_evaluations`].
@@ -79,6 +87,7 @@ impl Default for TrainOptions {
             max_line_search_evaluations: Self::DEFAULT_LINE_SEARCH_EVALUATIONS,
             max_evaluations: None,
             interrupt: None,
+            whiten_back_constraint: false,
         }
     }
 }
@@ -148,6 +157,12 @@ impl TrainOptions {
     /// Sets the cap on objective evaluations per training run (`None`: no cap of its own).
     pub fn with_max_evaluations(mut self, n: Option<usize>) -> Self {
         self.max_evaluations = n;
+        self
+    }
+    /// Sets whether back-constraint weights are trained whitened (see
+    /// [`TrainOptions::whiten_back_constraint`]).
+    pub fn with_whiten_back_constraint(mut self, whiten: bool) -> Self {
+        self.whiten_back_constraint = whiten;
         self
     }
     /// Sets the interrupt check.

@@ -265,4 +265,113 @@ mod tests {
         assert_eq!(a.latent_points(), source.latent_points());
         assert_eq!(a.kernel("walkman"), source.kernel("walkman"));
     }
+
+    #[test]
+    fn transfer_reuses_the_source_caches_bit_for_bit() {
+        // A source with its prediction caches built lends the frozen spaces' likelihood and
+        // caches to the transfer; one without them factorises everything: same model.
+        for bc in [BackConstraint::Input, BackConstraint::None] {
+            let (h, _, r2, _) = demo(40, 7);
+            let warm = fit(bc, 40, 20, 0);
+            assert!(
+                warm.prepared.get().is_some(),
+                "a fitted model has its caches"
+            );
+            let mut cold = warm.clone();
+            cold.prepared = std::sync::OnceLock::new();
+            let run = |source: &SharedGplvm| {
+                let mut seen = Vec::new();
+                let mut cb = |r: &IterationRecord, m: &SharedGplvm| {
+                    let p = m
+                        .predict(h.as_ref(), "coman", true)
+                        .expect("snapshot predicts");
+                    seen.push((r.objective.to_bits(), p));
+                    crate::train::Control::Continue
+                };
+                let t = source
+                    .transfer("coman", r2.as_ref(), &quick(30), Some(&mut cb))
+                    .expect("transfer");
+                (t, seen)
+            };
+            let (a, seen_a) = run(&warm);
+            let (b, seen_b) = run(&cold);
+            assert!(
+                seen_a.len() > 2 && seen_a == seen_b,
+                "{bc:?}: snapshots differ"
+            );
+            let objs = |m: &SharedGplvm| -> Vec<u64> {
+                m.history().iter().map(|r| r.objective.to_bits()).collect()
+            };
+            assert!(a.params() == b.params(), "{bc:?}: parameters differ");
+            assert_eq!(objs(&a), objs(&b), "{bc:?}: histories differ");
+            assert_eq!(a.jitter().to_bits(), b.jitter().to_bits());
+            for robot in ["walkman", "coman"] {
+                let pa = a.predict(h.as_ref(), robot, true).expect("predict");
+                let pb = b.predict(h.as_ref(), robot, true).expect("predict");
+                assert!(pa == pb, "{bc:?} {robot}: predictions differ");
+            }
+        }
+    }
+
+    /// Where a transfer's time goes at N = 300 (issue 18), fastest of 20 per figure: the whole
+    /// call, the call without iterations (fixed costs and one evaluation), the training loop
+    /// (the history's clock), from a source with its caches ("warm", as after `fit`) and one
+    /// without ("cold": every space factorised again, as before the caches were reused).
+    /// `BC_DATA` as for `whitened_time_to_solution` (its robot is both source and new robot).
+    /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib transfer_times -- --ignored --nocapture`
+    #[test]
+    #[ignore]
+    fn transfer_times() {
+        let Ok(path) = std::env::var("BC_DATA") else {
+            return;
+        };
+        let bytes = std::fs::read(path).expect("BC_DATA reads");
+        let v: Vec<f64> = bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect();
+        let (n, dh, dr) = (v[0] as usize, v[1] as usize, v[2] as usize);
+        let h = Mat::from_fn(n, dh, |i, j| v[3 + i * dh + j]);
+        let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
+        for bc in [BackConstraint::None, BackConstraint::Input] {
+            let config = ModelConfig::default()
+                .with_latent_dim(5)
+                .with_back_constraint(bc);
+            let warm = SharedGplvm::fit(
+                &config,
+                &[("human", h.as_ref()), ("walkman", r.as_ref())],
+                "human",
+                &TrainOptions::default().with_max_iters(300),
+                None,
+            )
+            .expect("fit");
+            let mut cold = warm.clone();
+            cold.prepared = std::sync::OnceLock::new();
+            for (what, source) in [("warm", &warm), ("cold", &cold)] {
+                let time = |iters: usize| {
+                    let mut best = (f64::INFINITY, f64::INFINITY, 0);
+                    for _ in 0..20 {
+                        let t = std::time::Instant::now();
+                        let m = source
+                            .transfer("coman", r.as_ref(), &quick(iters), None)
+                            .expect("transfer");
+                        let call = t.elapsed().as_secs_f64();
+                        let last = m.history().last().expect("history");
+                        best = (best.0.min(call), best.1.min(last.seconds), last.evaluations);
+                    }
+                    best
+                };
+                let (call, looped, evals) = time(100_000);
+                let (fixed, one, _) = time(0);
+                println!(
+                    "{bc:?} {what}: whole call {:.2} ms, training loop {:.2} ms ({evals} \
+                     evaluations); max_iters = 0: call {:.2} ms, its one evaluation {:.2} ms",
+                    call * 1e3,
+                    looped * 1e3,
+                    fixed * 1e3,
+                    one * 1e3
+                );
+            }
+        }
+    }
 }
