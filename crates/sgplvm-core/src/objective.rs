@@ -678,17 +678,9 @@ mod tests {
     #[test]
     #[ignore]
     fn whitened_time_to_solution() {
-        let Ok(path) = std::env::var("BC_DATA") else {
+        let Some((h, r)) = bench_data_from_env() else {
             return;
         };
-        let bytes = std::fs::read(path).expect("BC_DATA reads");
-        let v: Vec<f64> = bytes
-            .chunks_exact(8)
-            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-            .collect();
-        let (n, dh, dr) = (v[0] as usize, v[1] as usize, v[2] as usize);
-        let h = Mat::from_fn(n, dh, |i, j| v[3 + i * dh + j]);
-        let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
         let level: f64 = std::env::var("BC_LEVEL").map_or(f64::NEG_INFINITY, |s| {
             s.parse().expect("BC_LEVEL is a number")
         });

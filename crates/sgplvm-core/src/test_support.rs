@@ -178,3 +178,19 @@ pub(crate) fn unit_scale(m: &Mat<f64>) -> Mat<f64> {
     let rms = (ss / (n * d) as f64).sqrt();
     times(m, 2f64.powi(-(rms.log2().round() as i32)))
 }
+
+/// The bench's human and robot data for the ignored timing tests, from the file `BC_DATA`
+/// names (little-endian f64: n, d_human, d_robot, then the human rows and the robot rows, as
+/// `benches/bench_vs_gpy.py`'s smooth_data writes them); `None` when `BC_DATA` is not set.
+pub(crate) fn bench_data_from_env() -> Option<(Mat<f64>, Mat<f64>)> {
+    let path = std::env::var("BC_DATA").ok()?;
+    let bytes = std::fs::read(path).expect("BC_DATA reads");
+    let v: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
+    let (n, dh, dr) = (v[0] as usize, v[1] as usize, v[2] as usize);
+    let h = Mat::from_fn(n, dh, |i, j| v[3 + i * dh + j]);
+    let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
+    Some((h, r))
+}

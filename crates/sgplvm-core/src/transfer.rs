@@ -322,17 +322,9 @@ mod tests {
     #[test]
     #[ignore]
     fn transfer_times() {
-        let Ok(path) = std::env::var("BC_DATA") else {
+        let Some((h, r)) = bench_data_from_env() else {
             return;
         };
-        let bytes = std::fs::read(path).expect("BC_DATA reads");
-        let v: Vec<f64> = bytes
-            .chunks_exact(8)
-            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-            .collect();
-        let (n, dh, dr) = (v[0] as usize, v[1] as usize, v[2] as usize);
-        let h = Mat::from_fn(n, dh, |i, j| v[3 + i * dh + j]);
-        let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
         for bc in [BackConstraint::None, BackConstraint::Input] {
             let config = ModelConfig::default()
                 .with_latent_dim(5)
