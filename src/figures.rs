@@ -274,7 +274,7 @@ pub fn less_data(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotErro
 
 /// Fig. 11 (issue 14, "does using all the data help?"): per robot, the test error (mean ± one
 /// standard deviation over runs) against the number of training frames: the sparse model on the
-/// subsample and on every frame (line and band), the exact model on the subsample (circle) and
+/// subsample and on every frame (circles joined by a line, and a band), the exact model on the subsample (circle) and
 /// the direct GP regression (dashed). Input back constraints.
 pub fn all_frames(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotError> {
     let panels = results
@@ -311,17 +311,24 @@ pub fn all_frames(results: &Results, dir: &Path) -> Result<[PathBuf; 2], PlotErr
                 .iter()
                 .find(|r| r.robot == *robot)
                 .map_or(0, |r| r.subsampled_frames);
-            let markers = if exact.is_empty() {
-                vec![]
-            } else {
-                vec![Markers {
+            // The sparse model is measured at two sizes only: mark them, so the line between
+            // them does not read as measured in between.
+            let mut markers = vec![Markers {
+                label: String::new(),
+                color: 1,
+                circles: true,
+                points: series[0].points.clone(),
+                annotations: vec![],
+            }];
+            if !exact.is_empty() {
+                markers.push(Markers {
                     label: "exact model".into(),
                     color: 0,
                     circles: true,
                     points: vec![(subsampled as f64, mean_sd(&exact).0)],
                     annotations: vec![],
-                }]
-            };
+                });
+            }
             Panel {
                 title: robot.clone(),
                 x_label: "training frames".into(),
