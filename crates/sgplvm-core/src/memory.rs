@@ -29,6 +29,10 @@ pub(crate) fn fit_matrices(spaces: usize) -> usize {
     4 * spaces + 7
 }
 
+/// N×N matrices whitened back-constraint weights add to a fit's: P, P⁻¹ and K_bc P kept for
+/// the training, and the eigenvectors and one scaled copy of them while those are built.
+pub(crate) const WHITENING_MATRICES: usize = 5;
+
 /// N×N matrices a transfer to a model of `spaces` spaces (the new one included) holds at its
 /// peak besides the source model: the copied and the new factors, the new space's training
 /// buffers and the transient ones (measured: 8.2 for three spaces, estimate 12).

@@ -168,6 +168,12 @@ impl<'a> ModelObjective<'a> {
     /// [`Whitening`]); unchanged for free latent points and in `Mode::Kernels`.
     pub(crate) fn whitened(mut self) -> Result<Self> {
         if let (Some(kbc), Latent::Back { .. }) = (&self.kbc, &self.model.latent) {
+            crate::memory::check(
+                "training with whitened back-constraint weights",
+                kbc.nrows(),
+                crate::memory::fit_matrices(self.model.spaces.len())
+                    + crate::memory::WHITENING_MATRICES,
+            )?;
             let w = Whitening::new(kbc.as_ref().as_ref())?;
             self.kbc = Some(Arc::new(w.map.clone()));
             self.whitening = Some(w);
