@@ -49,6 +49,14 @@ fn config_from(config: &str) -> PyResult<ExperimentConfig> {
     from_json(config.as_bytes(), "config", "an ExperimentConfig as JSON")
 }
 
+fn results_from(results: &str) -> PyResult<experiment::Results> {
+    from_json(
+        results.as_bytes(),
+        "results",
+        "the JSON of experiment_assemble",
+    )
+}
+
 fn data_from(data: &[u8]) -> PyResult<ExperimentData> {
     ExperimentData::from_json(data).map_err(experiment_error)
 }
@@ -174,11 +182,7 @@ pub fn experiment_write_outputs(
     out: PathBuf,
 ) -> PyResult<Vec<String>> {
     guarded(|| {
-        let results: experiment::Results = from_json(
-            results.as_bytes(),
-            "results",
-            "the JSON of experiment_assemble",
-        )?;
+        let results = results_from(results)?;
         let written = py
             .detach(|| experiment::write_outputs(&results, &out))
             .map_err(experiment_error)?;
@@ -190,11 +194,7 @@ pub fn experiment_write_outputs(
 #[pyfunction]
 pub fn experiment_report(results: &str) -> PyResult<String> {
     guarded(|| {
-        let results: experiment::Results = from_json(
-            results.as_bytes(),
-            "results",
-            "the JSON of experiment_assemble",
-        )?;
+        let results = results_from(results)?;
         Ok(experiment::report(&results))
     })
 }
