@@ -41,8 +41,8 @@ pub struct Prediction {
 /// Prediction caches of one space.
 #[derive(Clone, Debug)]
 pub(crate) struct SpaceCache {
-    /// K⁻¹Y row-major N×D.
-    alpha_rows: Vec<f64>,
+    /// K⁻¹Y, N×D.
+    alpha: Mat<f64>,
     /// The training latent points and K⁻¹Y laid out for one frame at a time.
     pub(crate) frame: FrameKernel,
     /// Cholesky factor of K (lower).
@@ -60,8 +60,8 @@ pub(crate) struct SpaceCache {
 pub(crate) struct LatentCache {
     /// Training inputs of the mapping (centred/scaled H) row-major N×D_H.
     h_rows: Vec<f64>,
-    /// Weights row-major N×Q (W, or K⁻¹(X − mean) for the regression).
-    weights: Vec<f64>,
+    /// Weights N×Q (W, or K⁻¹(X − mean) for the regression).
+    weights: Mat<f64>,
     /// −1/(2 l²) per input dimension.
     half_inv_l2: Vec<f64>,
     /// `h_rows` and `weights` laid out for one frame at a time.
@@ -80,10 +80,12 @@ impl LatentCache {
         amplitude: f64,
         offset: Vec<f64>,
     ) -> Self {
-        let frame = FrameKernel::new(&h_rows, half_inv_l2.len(), &weights, offset.len());
+        let q = offset.len();
+        let frame = FrameKernel::new(&h_rows, half_inv_l2.len(), &weights, q);
+        let n = weights.len() / q.max(1);
         Self {
             h_rows,
-            weights,
+            weights: Mat::from_fn(n, q, |i, t| weights[i * q + t]),
             frame,
             half_inv_l2,
             amplitude,
@@ -98,10 +100,9 @@ impl SpaceCache {
     fn new(space: &Space, x_rows: &[f64], q: usize) -> Result<Self> {
         let mut w = SpaceWork::new(x_rows.len() / q, space.data.ncols());
         let e = space.factorise(x_rows, q, &mut w)?;
-        let alpha_rows = row_major(w.alpha());
         Ok(SpaceCache {
-            frame: FrameKernel::new(x_rows, q, &alpha_rows, space.data.ncols()),
-            alpha_rows,
+            frame: FrameKernel::new(x_rows, q, &row_major(w.alpha()), space.data.ncols()),
+            alpha: w.alpha().to_owned(),
             factor: w.factor().to_owned(),
             half_inv_l2: half_inv_l2(&space.kernel),
             jitter: e.jitter,
@@ -398,18 +399,16 @@ impl SharedGplvm {
         let lc = &self.prepared()?.latent_cache;
         let s0 = &self.spaces[0];
         let (dh, q, m_all) = (h.ncols(), self.q(), h.nrows());
-        let n = lc.weights.len() / q.max(1);
         let (train, hs) = scaled_about_mean(&lc.h_rows, dh, &lc.half_inv_l2, m_all, |r, t| {
             (h[(r, t)] - s0.offset[t]) / s0.scale[t]
         });
-        let w = Mat::from_fn(n, q, |i, t| lc.weights[i * q + t]);
         let mut out = Mat::from_fn(m_all, q, |_, t| lc.offset[t]);
         for_each_kernel_block(hs.as_ref(), train.as_ref(), |r0, kb| {
             faer::linalg::matmul::matmul(
                 out.as_mut().subrows_mut(r0, kb.nrows()),
                 Accum::Add,
                 kb,
-                w.as_ref(),
+                lc.weights.as_ref(),
                 lc.amplitude,
                 Par::Seq,
             );
@@ -481,7 +480,6 @@ impl SharedGplvm {
         let d = s.data.ncols();
         let (train, xsc) =
             scaled_about_mean(&self.x_rows, q, &c.half_inv_l2, n_new, |r, t| xs[(r, t)]);
-        let alpha = Mat::from_fn(n, d, |i, t| c.alpha_rows[i * d + t]);
         let mut mean = Mat::zeros(n_new, d);
         let mut variance = if with_variance {
             Some(Mat::zeros(n_new, d))
@@ -495,7 +493,7 @@ impl SharedGplvm {
                 mean.as_mut().subrows_mut(r0, m),
                 Accum::Replace,
                 kb,
-                alpha.as_ref(),
+                c.alpha.as_ref(),
                 s.kernel.variance,
                 Par::Seq,
             );
@@ -717,7 +715,7 @@ mod tests {
         let (h, _, _, _) = demo(30, 2);
         let mut m = fit(BackConstraint::Input, 30, 5, 0);
         let cache = &mut m.prepared.get_mut().expect("caches").caches[1];
-        cache.alpha_rows[3] = f64::INFINITY;
+        cache.alpha[(0, 3)] = f64::INFINITY;
         cache.frame.set_weight(0, 3, f64::INFINITY);
         let is_refused = |r: Result<()>| matches!(r, Err(Error::NonFinitePrediction { ref space, .. }) if space == "walkman");
         assert!(is_refused(
@@ -730,7 +728,7 @@ mod tests {
             &mut out
         )));
         let mut m = fit(BackConstraint::Input, 30, 5, 0);
-        m.prepared.get_mut().expect("caches").latent_cache.weights[0] = f64::NAN;
+        m.prepared.get_mut().expect("caches").latent_cache.weights[(0, 0)] = f64::NAN;
         let err = m.latent(h.as_ref()).expect_err("NaN latent points");
         assert!(err.to_string().contains("prediction for 'latent'"), "{err}");
     }
