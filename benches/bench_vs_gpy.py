@@ -353,7 +353,18 @@ def main():
     parser.add_argument("--transfer-only", action="store_true",
                         help="only the transfer and batch-prediction rows (N = 300; the source "
                              "model is our free-latent training, without GPy's time to solution)")
+    parser.add_argument("--write-bc-data", metavar="FILE",
+                        help="write the N = 300 bench data for the core's ignored timing tests "
+                             "(BC_DATA=FILE: n, 18, 14, then the human and the walkman rows as "
+                             "little-endian f64) and exit")
     args = parser.parse_args()
+    if args.write_bc_data:
+        human, walkman, _ = smooth_data(300, seed=1)
+        header = np.array([len(human), human.shape[1], walkman.shape[1]], dtype="<f8")
+        with open(args.write_bc_data, "wb") as f:
+            for part in (header, human, walkman):
+                f.write(np.ascontiguousarray(part, dtype="<f8").tobytes())
+        return
     repeat = 3 if args.quick else 10
     sizes = (300,) if args.quick else (300, 1000)
     pooled_too = not args.quick
