@@ -18,6 +18,8 @@ import sys
 import tempfile
 import time
 
+from loopback import refuse_unless_loopback_only
+
 
 def without_seconds(value):
     if isinstance(value, dict):
@@ -34,10 +36,7 @@ def main() -> int:
     parser.add_argument("--data", default=None, help="demonstrations MCAP (default: the shipped one)")
     parser.add_argument("--cpus", type=int, default=2)
     args = parser.parse_args()
-    with open("/proc/net/dev") as f:  # this namespace's devices (not /sys/class/net's)
-        devices = sorted(line.split(":")[0].strip() for line in f.readlines()[2:])
-    if devices != ["lo"]:
-        print("refusing to start Ray: run in a loopback-only network namespace (unshare -n, see --help)", file=sys.stderr)
+    if refuse_unless_loopback_only():
         return 2
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     import ray

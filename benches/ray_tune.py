@@ -22,16 +22,15 @@ import sys
 import tempfile
 import time
 
+from loopback import refuse_unless_loopback_only
+
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cpus", type=int, default=2)
     parser.add_argument("--max-iters", type=int, default=300)
     args = parser.parse_args()
-    with open("/proc/net/dev") as f:  # this namespace's devices (not /sys/class/net's)
-        devices = sorted(line.split(":")[0].strip() for line in f.readlines()[2:])
-    if devices != ["lo"]:
-        print("refusing to start Ray: run in a loopback-only network namespace (unshare -n, see --help)", file=sys.stderr)
+    if refuse_unless_loopback_only():
         return 2
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     os.environ["RAYON_NUM_THREADS"] = "1"  # the serial reference on one thread, as a trial
