@@ -57,7 +57,8 @@ impl<'a> Cdr<'a> {
     fn align(&mut self, n: usize) {
         let off = self.buf.len() - 4;
         let pad = (n - off % n) % n;
-        self.buf.extend(std::iter::repeat_n(0u8, pad));
+        // A slice copy: `extend(repeat_n(0, pad))` called memset for these few bytes.
+        self.buf.extend_from_slice(&[0u8; 8][..pad]);
     }
     /// A `uint32`.
     pub(crate) fn u32(&mut self, v: u32) {
@@ -85,6 +86,7 @@ impl<'a> Cdr<'a> {
     }
     /// A `string`: length with its NUL, bytes, NUL.
     pub(crate) fn string(&mut self, s: &str) {
+        self.buf.reserve(s.len() + 8);
         self.u32(s.len() as u32 + 1);
         self.buf.extend_from_slice(s.as_bytes());
         self.buf.push(0);
