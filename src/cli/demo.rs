@@ -224,7 +224,6 @@ fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Re
             _ => continue,
         };
         let prediction = m.model.predict(human.as_ref(), &m.robot, true)?;
-        let latent = m.model.latent(human.as_ref())?;
         let std = prediction
             .variance
             .as_ref()
@@ -240,7 +239,7 @@ fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Re
                 human: &human_rows,
                 mean: &rows(&prediction.mean, |v| v),
                 std: &std,
-                latent: &rows(&latent, |v| v),
+                latent: &rows(&prediction.latent, |v| v),
             },
             None,
             &path.display().to_string(),

@@ -87,9 +87,8 @@ pub fn run(args: PredictArgs) -> Result<()> {
     };
     if scene {
         mcap_times(&predicted.times_ns, &args.input, &args.out)?;
-        let latent = model.latent(human.frames.as_ref())?;
         let human_rows = rows(&human.frames, |v| v);
-        let latent_rows = rows(&latent, |v| v);
+        let latent_rows = rows(&prediction.latent, |v| v);
         let std_topic = args.std.then(|| format!("/{robot}/joint_command_std"));
         scene::write(
             &model,

@@ -36,6 +36,8 @@ pub struct Prediction {
     /// GPy's `include_likelihood=True` semantics. Uncertainty of the latent point is not
     /// propagated.
     pub variance: Option<Mat<f64>>,
+    /// The frames' latent points, n×Q (what [`SharedGplvm::latent`] gives for them).
+    pub latent: Mat<f64>,
 }
 
 /// Prediction caches of one space.
@@ -452,14 +454,20 @@ impl SharedGplvm {
         let d = self.spaces[si].data.ncols();
         let mut mean = Mat::zeros(n_new, d);
         let mut variance = with_variance.then(|| Mat::zeros(n_new, d));
+        let mut latent = Mat::zeros(n_new, self.q());
         for (p, &r0) in parts.iter().zip(&starts) {
             let rows = p.mean.nrows();
             mean.as_mut().subrows_mut(r0, rows).copy_from(&p.mean);
+            latent.as_mut().subrows_mut(r0, rows).copy_from(&p.latent);
             if let (Some(v), Some(pv)) = (variance.as_mut(), p.variance.as_ref()) {
                 v.as_mut().subrows_mut(r0, rows).copy_from(pv);
             }
         }
-        Ok(Prediction { mean, variance })
+        Ok(Prediction {
+            mean,
+            variance,
+            latent,
+        })
     }
 
     /// [`SharedGplvm::predict`] of output space `si` on one thread, inputs checked.
@@ -472,7 +480,7 @@ impl SharedGplvm {
         let space = self.spaces[si].name.as_str();
         let xs = self.latent_batch(h)?;
         if let Some(st) = &self.sparse {
-            return self.predict_sparse(st, si, xs.as_ref(), with_variance);
+            return self.predict_sparse(st, si, xs, with_variance);
         }
         let (n_new, q, n) = (h.nrows(), self.q(), self.n());
         let s = &self.spaces[si];
@@ -526,7 +534,11 @@ impl SharedGplvm {
         if let Some(v) = &variance {
             check_prediction_matrix(space, v.as_ref())?;
         }
-        Ok(Prediction { mean, variance })
+        Ok(Prediction {
+            mean,
+            variance,
+            latent: xs,
+        })
     }
 }
 

@@ -164,8 +164,7 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
             Some(v) => (0..d).map(|j| v[(0, j)].sqrt()).collect(),
             None => vec![f64::NAN; d],
         };
-        let z = model.latent(h.as_ref())?;
-        let latent: Vec<f64> = (0..z.ncols()).map(|j| z[(0, j)]).collect();
+        let latent: Vec<f64> = (0..p.latent.ncols()).map(|j| p.latent[(0, j)]).collect();
         writer.write_frame(time_ns, &[&human, &mean], &[&std, &latent])?;
         frame += 1;
     }

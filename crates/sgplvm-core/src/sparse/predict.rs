@@ -6,7 +6,7 @@ use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Accum, Mat, Par};
 
 use super::likelihood::{eval_sparse_space, RELATIVE_JITTER};
 use super::SparseState;
@@ -116,7 +116,7 @@ impl SharedGplvm {
         &self,
         st: &SparseState,
         si: usize,
-        xs: MatRef<'_, f64>,
+        xs: Mat<f64>,
         with_variance: bool,
     ) -> Result<Prediction> {
         let (n_new, q, m) = (xs.nrows(), self.q(), st.m());
@@ -178,6 +178,10 @@ impl SharedGplvm {
         if let Some(v) = &variance {
             check_prediction_matrix(&s.name, v.as_ref())?;
         }
-        Ok(Prediction { mean, variance })
+        Ok(Prediction {
+            mean,
+            variance,
+            latent: xs,
+        })
     }
 }

@@ -222,7 +222,8 @@ fn set_params_rebuilds_a_sparse_models_caches_or_changes_nothing() {
 #[test]
 fn batches_on_threads_predict_what_one_thread_predicts() {
     // Over two chunks of frames `predict` runs on the pool; the blocks are the same, so the
-    // results must be the same bits — for the sparse model and the exact one, with variance.
+    // results must be the same bits — for the sparse model and the exact one, with variance
+    // and latent points.
     let (h, _, _, _) = demo(40, 3);
     let n = 2 * crate::predict::PARALLEL_CHUNK + 37;
     let hh = Mat::from_fn(n, h.ncols(), |i, j| h[(i % 40, j)] + 1e-3 * (i / 40) as f64);
@@ -239,6 +240,9 @@ fn batches_on_threads_predict_what_one_thread_predicts() {
         assert_eq!(par.mean, seq.mean);
         assert_eq!(par.variance, seq.variance);
         assert_eq!(par.mean.nrows(), n);
+        // The latent points come with the prediction, those `latent` gives.
+        assert_eq!(par.latent, seq.latent);
+        assert_eq!(par.latent, model.latent(hh.as_ref()).expect("latent"));
     }
 }
 
