@@ -14,7 +14,8 @@
 //! [`SceneWriter`] writes frame by frame straight into the file, flushing a finished chunk
 //! after every frame when asked (teleoperation: a killed process leaves a file readable up to
 //! its last whole frame); [`write_scene`] writes a whole series atomically (temporary file and
-//! rename, as [`crate::joint_state::write_topics`] does).
+//! rename, as [`crate::joint_state::write_topics`] does), encoding frames on a thread of its own
+//! while the calling thread compresses and writes them.
 //!
 //! # Example
 //! ```
@@ -44,10 +45,11 @@ pub use msgs::{
     TF_MESSAGE_SCHEMA,
 };
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc;
 
 use ::mcap::records::MessageHeader;
 use ::mcap::WriteOptions;
@@ -256,6 +258,9 @@ pub struct ArraySeries<'a> {
     pub values: &'a [f64],
 }
 
+/// Frames encoded per batch while [`write_scene_with_markers`] writes the batch before.
+const ENCODE_BATCH: usize = 64;
+
 /// Writes a whole scene to `path` atomically (temporary sibling, then rename). Every body's
 /// series and every array must have one row per frame of the first body's times.
 pub fn write_scene(
@@ -311,24 +316,60 @@ pub fn write_scene_with_markers(
     let topics: Vec<ArrayTopic> = arrays.iter().map(|a| a.topic.clone()).collect();
     write_atomically(path, |tmp| {
         let mut w = SceneWriter::create_as(tmp, path, bodies, topics, options, false)?;
-        let mut joints: Vec<&[f64]> = Vec::with_capacity(series.len());
-        let mut values: Vec<&[f64]> = Vec::with_capacity(arrays.len());
-        for (i, &t) in times.iter().enumerate() {
-            joints.clear();
-            joints.extend(series.iter().map(|s| s.states.row(i)));
-            values.clear();
-            values.extend(
-                arrays
-                    .iter()
-                    .map(|a| &a.values[i * a.topic.len..(i + 1) * a.topic.len]),
-            );
-            w.write_frame(t, &joints, &values)?;
-            let until = times.get(i + 1).copied().unwrap_or(i64::MAX);
-            while let Some(m) = order.first().filter(|m| m.time_ns < until) {
-                w.write_markers(m)?;
-                order.remove(0);
-            }
+        if let Some(&t0) = times.first() {
+            w.write_static(t0)?;
         }
+        let SceneWriter { encoder, sink, .. } = &mut w;
+        // One thread encodes batches of frames while this one writes (and compresses) them;
+        // written batches go back to be refilled, so the buffers are allocated once.
+        let (batches, encoded) = mpsc::sync_channel::<Result<Vec<EncodedFrame>>>(2);
+        let (recycle, written) = mpsc::channel::<Vec<EncodedFrame>>();
+        std::thread::scope(|scope| {
+            scope.spawn(move || {
+                let mut joints: Vec<&[f64]> = Vec::with_capacity(series.len());
+                let mut values: Vec<&[f64]> = Vec::with_capacity(arrays.len());
+                for start in (0..times.len()).step_by(ENCODE_BATCH) {
+                    let end = (start + ENCODE_BATCH).min(times.len());
+                    let mut batch = written.try_recv().unwrap_or_default();
+                    batch.resize_with(end - start, EncodedFrame::default);
+                    let mut done = Ok(());
+                    for (i, frame) in (start..end).zip(batch.iter_mut()) {
+                        joints.clear();
+                        joints.extend(series.iter().map(|s| s.states.row(i)));
+                        values.clear();
+                        values.extend(
+                            arrays
+                                .iter()
+                                .map(|a| &a.values[i * a.topic.len..(i + 1) * a.topic.len]),
+                        );
+                        done = encoder.encode(i as u32, times[i], &joints, &values, frame);
+                        if done.is_err() {
+                            break;
+                        }
+                    }
+                    let failed = done.is_err();
+                    // A closed channel means the writer stopped on an error of its own.
+                    if batches.send(done.map(|()| batch)).is_err() || failed {
+                        return;
+                    }
+                }
+            });
+            for batch in encoded {
+                let batch = batch?;
+                for frame in &batch {
+                    sink.write_frame(frame)?;
+                    let i = sink.frames as usize;
+                    let until = times.get(i).copied().unwrap_or(i64::MAX);
+                    while let Some(m) = order.first().filter(|m| m.time_ns < until) {
+                        sink.write_markers(m)?;
+                        order.remove(0);
+                    }
+                }
+                // The encoder may have finished: then nobody takes the batch back.
+                let _ = recycle.send(batch);
+            }
+            Ok::<(), JointStateError>(())
+        })?;
         if let Some(m) = order.first() {
             return Err(JointStateError::InvalidInput {
                 what: format!("topic `{}`", m.topic),
@@ -353,19 +394,297 @@ struct BodyChannel {
     frames: Vec<String>,
 }
 
-/// Writes a scene frame by frame straight into its file (see the module documentation).
-pub struct SceneWriter {
-    writer: ::mcap::Writer<BufWriter<File>>,
-    path: PathBuf,
+/// One frame's messages, encoded: `(channel, CDR payload)` in the order they are written. The
+/// payload buffers are kept when a frame is reused, so that encoding allocates only at first.
+#[derive(Default)]
+struct EncodedFrame {
+    time_ns: i64,
+    messages: Vec<(u16, Vec<u8>)>,
+    /// How many of `messages` belong to this frame.
+    len: usize,
+}
+
+impl EncodedFrame {
+    /// The buffer of the next message, on `channel` (cleared by the encoder it is given to).
+    fn next(&mut self, channel: u16) -> &mut Vec<u8> {
+        if self.len == self.messages.len() {
+            self.messages.push((channel, Vec::new()));
+        }
+        let slot = &mut self.messages[self.len];
+        slot.0 = channel;
+        self.len += 1;
+        &mut slot.1
+    }
+
+    /// The frame's messages.
+    fn messages(&self) -> &[(u16, Vec<u8>)] {
+        &self.messages[..self.len]
+    }
+}
+
+/// The per-frame half of a [`SceneWriter`], without I/O: checks a frame's values and encodes
+/// its joint states, transforms and arrays. [`write_scene_with_markers`] runs it on a thread of
+/// its own while the file is written (compression is most of a scene's cost).
+struct FrameEncoder {
     bodies: Vec<BodyChannel>,
     arrays: Vec<(ArrayTopic, u16)>,
+    /// Channels of `/tf_static` and `/tf`.
     tf: Option<(u16, u16)>,
+}
+
+impl FrameEncoder {
+    /// Encodes frame number `frame` at `time_ns` into `out` (see [`SceneWriter::write_frame`]).
+    fn encode(
+        &mut self,
+        frame: u32,
+        time_ns: i64,
+        joints: &[&[f64]],
+        arrays: &[&[f64]],
+        out: &mut EncodedFrame,
+    ) -> Result<()> {
+        let bad = |what: String, detail: String| JointStateError::InvalidInput { what, detail };
+        if time_ns < 0 {
+            return Err(bad(
+                format!("frame {frame}"),
+                format!("negative timestamp {time_ns} ns (MCAP times are unsigned)"),
+            ));
+        }
+        if joints.len() != self.bodies.len() || arrays.len() != self.arrays.len() {
+            return Err(bad(
+                format!("frame {frame}"),
+                format!(
+                    "{} bodies and {} arrays given; expected {} and {}",
+                    joints.len(),
+                    arrays.len(),
+                    self.bodies.len(),
+                    self.arrays.len()
+                ),
+            ));
+        }
+        for (b, v) in self.bodies.iter().zip(joints) {
+            if v.len() != b.names.len() {
+                return Err(bad(
+                    format!("topic `{}`, frame {frame}", b.body.joint_topic),
+                    format!("{} values for {} joints", v.len(), b.names.len()),
+                ));
+            }
+        }
+        for ((a, _), v) in self.arrays.iter().zip(arrays) {
+            if v.len() != a.len {
+                return Err(bad(
+                    format!("topic `{}`, frame {frame}", a.topic),
+                    format!("{} values; expected {}", v.len(), a.len),
+                ));
+            }
+        }
+        out.time_ns = time_ns;
+        out.len = 0;
+        let stamp = msgs::stamp(time_ns);
+        for (body, values) in self.bodies.iter().zip(joints) {
+            crate::joint_state::cdr::encode_joint_state(
+                out.next(body.channel),
+                stamp,
+                "",
+                &body.names,
+                values,
+                &[],
+                &[],
+            );
+        }
+        if let Some((_, tf_channel)) = self.tf {
+            let mut transforms = Vec::new();
+            for (body, values) in self.bodies.iter_mut().zip(joints) {
+                for (qi, &v) in body.q_index.iter().zip(values.iter()) {
+                    if let Some(qi) = *qi {
+                        body.q[qi] = v;
+                    }
+                }
+            }
+            for body in &self.bodies {
+                for joint in body.body.robot.joints() {
+                    if let Some(qi) = joint.q_index {
+                        transforms.push(Transform {
+                            parent: &body.frames[joint.parent],
+                            child: &body.frames[joint.child],
+                            pose: joint.transform(body.q[qi]),
+                        });
+                    }
+                }
+            }
+            msgs::encode_tf_message(out.next(tf_channel), stamp, &transforms);
+        }
+        for ((topic, channel), values) in self.arrays.iter().zip(arrays) {
+            let buf = out.next(*channel);
+            match &topic.kind {
+                ArrayKind::Float64MultiArray { label } => {
+                    msgs::encode_float64_array(buf, label, values)
+                }
+                ArrayKind::JointState { names } => crate::joint_state::cdr::encode_joint_state(
+                    buf,
+                    stamp,
+                    "",
+                    names,
+                    values,
+                    &[],
+                    &[],
+                ),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The file half of a [`SceneWriter`]: the MCAP writer and what it has written.
+struct SceneSink {
+    writer: ::mcap::Writer<BufWriter<File>>,
+    path: PathBuf,
+    /// Topic of every channel, for errors.
+    topics: BTreeMap<u16, String>,
+    /// Topics markers may not be written on: the joint, description, array and TF topics.
+    reserved: BTreeSet<String>,
     flush_each_frame: bool,
     frames: u32,
     buf: Vec<u8>,
     /// The MarkerArray schema and the channel of each marker topic, added at first use.
     marker_schema: Option<u16>,
     marker_channels: BTreeMap<String, (u16, u32)>,
+}
+
+impl SceneSink {
+    fn mcap_err(&self, what: String) -> impl Fn(::mcap::McapError) -> JointStateError + '_ {
+        move |source| JointStateError::McapWrite {
+            path: self.path.clone(),
+            what: what.clone(),
+            source,
+        }
+    }
+
+    /// Writes `data` on `channel`.
+    fn write(&mut self, channel: u16, sequence: u32, time_ns: i64, data: &[u8]) -> Result<()> {
+        let header = MessageHeader {
+            channel_id: channel,
+            sequence,
+            log_time: time_ns as u64,
+            publish_time: time_ns as u64,
+        };
+        let Self {
+            writer,
+            path,
+            topics,
+            ..
+        } = self;
+        writer
+            .write_to_known_channel(&header, data)
+            .map_err(|source| JointStateError::McapWrite {
+                path: path.clone(),
+                what: format!(
+                    "message on `{}`",
+                    topics.get(&channel).map_or("?", String::as_str)
+                ),
+                source,
+            })
+    }
+
+    /// Writes `self.buf` on `channel`.
+    fn write_buf(&mut self, channel: u16, sequence: u32, time_ns: i64) -> Result<()> {
+        let buf = std::mem::take(&mut self.buf);
+        let written = self.write(channel, sequence, time_ns, &buf);
+        self.buf = buf;
+        written
+    }
+
+    /// Writes an encoded frame (after the first frame's static messages).
+    fn write_frame(&mut self, frame: &EncodedFrame) -> Result<()> {
+        let seq = self.frames;
+        for (channel, data) in frame.messages() {
+            self.write(*channel, seq, frame.time_ns, data)?;
+        }
+        self.frames += 1;
+        if self.flush_each_frame {
+            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
+        }
+        Ok(())
+    }
+
+    /// Writes one `visualization_msgs/msg/MarkerArray` on `m.topic` at `m.time_ns` (the
+    /// topic's channel is added at its first use; it must not be a joint or array topic).
+    fn write_markers(&mut self, m: &TimedMarkers) -> Result<()> {
+        let bad = |detail: String| JointStateError::InvalidInput {
+            what: format!("topic `{}`", m.topic),
+            detail,
+        };
+        if m.time_ns < 0 {
+            return Err(bad(format!(
+                "negative timestamp {} ns (MCAP times are unsigned)",
+                m.time_ns
+            )));
+        }
+        if self.reserved.contains(&m.topic) {
+            return Err(bad("already a topic of another type in this scene".into()));
+        }
+        let (channel, seq) = match self.marker_channels.get(&m.topic) {
+            Some(&c) => c,
+            None => {
+                let schema = match self.marker_schema {
+                    Some(s) => s,
+                    None => {
+                        let s = self
+                            .writer
+                            .add_schema(
+                                MARKER_ARRAY_SCHEMA,
+                                "ros2msg",
+                                MARKER_ARRAY_MSGDEF.as_bytes(),
+                            )
+                            .map_err(self.mcap_err("schema".into()))?;
+                        *self.marker_schema.insert(s)
+                    }
+                };
+                let channel = self
+                    .writer
+                    .add_channel(schema, &m.topic, "cdr", &BTreeMap::new())
+                    .map_err(self.mcap_err(format!("channel `{}`", m.topic)))?;
+                self.topics.insert(channel, m.topic.clone());
+                (channel, 0)
+            }
+        };
+        let fields: Vec<msgs::MarkerFields<'_>> = m
+            .markers
+            .iter()
+            .map(|k| {
+                let (kind, text) = match &k.shape {
+                    MarkerShape::Sphere => (msgs::MARKER_SPHERE, ""),
+                    MarkerShape::Text(t) => (msgs::MARKER_TEXT_VIEW_FACING, t.as_str()),
+                };
+                msgs::MarkerFields {
+                    frame: &k.frame,
+                    ns: &k.ns,
+                    id: k.id,
+                    kind,
+                    position: k.position,
+                    scale: k.scale,
+                    color: k.color,
+                    lifetime_ns: k.lifetime_ns,
+                    text,
+                }
+            })
+            .collect();
+        msgs::encode_marker_array(&mut self.buf, msgs::stamp(m.time_ns), &fields);
+        self.write_buf(channel, seq, m.time_ns)?;
+        self.marker_channels
+            .insert(m.topic.clone(), (channel, seq.wrapping_add(1)));
+        if self.flush_each_frame {
+            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes a scene frame by frame straight into its file (see the module documentation).
+pub struct SceneWriter {
+    encoder: FrameEncoder,
+    sink: SceneSink,
+    /// A frame's messages between encoding and writing.
+    scratch: EncodedFrame,
 }
 
 impl SceneWriter {
@@ -540,45 +859,45 @@ impl SceneWriter {
                 detail: "topic given twice".into(),
             });
         }
-        Ok(SceneWriter {
-            writer,
-            path: path.to_path_buf(),
-            bodies: out_bodies,
-            arrays: out_arrays,
-            tf,
-            flush_each_frame,
-            frames: 0,
-            buf: Vec::with_capacity(4096),
-            marker_schema: None,
-            marker_channels: BTreeMap::new(),
-        })
-    }
-
-    fn mcap_err(&self, what: String) -> impl Fn(::mcap::McapError) -> JointStateError + '_ {
-        move |source| JointStateError::McapWrite {
-            path: self.path.clone(),
-            what: what.clone(),
-            source,
+        let mut topics: BTreeMap<u16, String> = BTreeMap::new();
+        for b in &out_bodies {
+            topics.insert(b.channel, b.body.joint_topic.clone());
+            if let Some(c) = b.description_channel {
+                topics.insert(c, b.body.description_topic());
+            }
         }
-    }
-
-    fn write(&mut self, channel: u16, sequence: u32, time_ns: i64, what: &str) -> Result<()> {
-        let header = MessageHeader {
-            channel_id: channel,
-            sequence,
-            log_time: time_ns as u64,
-            publish_time: time_ns as u64,
-        };
-        let Self {
-            writer, buf, path, ..
-        } = self;
-        writer
-            .write_to_known_channel(&header, buf)
-            .map_err(|source| JointStateError::McapWrite {
-                path: path.clone(),
-                what: format!("message on `{what}`"),
-                source,
-            })
+        for (a, c) in &out_arrays {
+            topics.insert(*c, a.topic.clone());
+        }
+        if let Some((stat, dynamic)) = tf {
+            topics.insert(stat, TF_STATIC_TOPIC.into());
+            topics.insert(dynamic, TF_TOPIC.into());
+        }
+        let reserved = out_bodies
+            .iter()
+            .flat_map(|b| [b.body.joint_topic.clone(), b.body.description_topic()])
+            .chain(out_arrays.iter().map(|(a, _)| a.topic.clone()))
+            .chain([TF_TOPIC.to_string(), TF_STATIC_TOPIC.to_string()])
+            .collect();
+        Ok(SceneWriter {
+            encoder: FrameEncoder {
+                bodies: out_bodies,
+                arrays: out_arrays,
+                tf,
+            },
+            sink: SceneSink {
+                writer,
+                path: path.to_path_buf(),
+                topics,
+                reserved,
+                flush_each_frame,
+                frames: 0,
+                buf: Vec::with_capacity(4096),
+                marker_schema: None,
+                marker_channels: BTreeMap::new(),
+            },
+            scratch: EncodedFrame::default(),
+        })
     }
 
     /// Writes one frame at `time_ns`: `joints[b]` holds body `b`'s values in the order of its
@@ -590,202 +909,43 @@ impl SceneWriter {
         joints: &[&[f64]],
         arrays: &[&[f64]],
     ) -> Result<()> {
-        let bad = |what: String, detail: String| JointStateError::InvalidInput { what, detail };
-        if time_ns < 0 {
-            return Err(bad(
-                format!("frame {}", self.frames),
-                format!("negative timestamp {time_ns} ns (MCAP times are unsigned)"),
-            ));
+        let mut frame = std::mem::take(&mut self.scratch);
+        let written = self
+            .encoder
+            .encode(self.sink.frames, time_ns, joints, arrays, &mut frame)
+            .and_then(|()| self.write_encoded(&frame));
+        self.scratch = frame;
+        written
+    }
+
+    /// Writes an encoded frame, after the static messages if it is the first.
+    fn write_encoded(&mut self, frame: &EncodedFrame) -> Result<()> {
+        if self.sink.frames == 0 {
+            self.write_static(frame.time_ns)?;
         }
-        if joints.len() != self.bodies.len() || arrays.len() != self.arrays.len() {
-            return Err(bad(
-                format!("frame {}", self.frames),
-                format!(
-                    "{} bodies and {} arrays given; expected {} and {}",
-                    joints.len(),
-                    arrays.len(),
-                    self.bodies.len(),
-                    self.arrays.len()
-                ),
-            ));
-        }
-        for (b, v) in self.bodies.iter().zip(joints) {
-            if v.len() != b.names.len() {
-                return Err(bad(
-                    format!("topic `{}`, frame {}", b.body.joint_topic, self.frames),
-                    format!("{} values for {} joints", v.len(), b.names.len()),
-                ));
-            }
-        }
-        for ((a, _), v) in self.arrays.iter().zip(arrays) {
-            if v.len() != a.len {
-                return Err(bad(
-                    format!("topic `{}`, frame {}", a.topic, self.frames),
-                    format!("{} values; expected {}", v.len(), a.len),
-                ));
-            }
-        }
-        let stamp = msgs::stamp(time_ns);
-        let seq = self.frames;
-        if seq == 0 {
-            self.write_static(time_ns)?;
-        }
-        for (b, values) in joints.iter().enumerate() {
-            let body = &self.bodies[b];
-            crate::joint_state::cdr::encode_joint_state(
-                &mut self.buf,
-                stamp,
-                "",
-                &body.names,
-                values,
-                &[],
-                &[],
-            );
-            let (channel, topic) = (body.channel, body.body.joint_topic.clone());
-            self.write(channel, seq, time_ns, &topic)?;
-        }
-        if let Some((_, tf_channel)) = self.tf {
-            let mut transforms = Vec::new();
-            for (body, values) in self.bodies.iter_mut().zip(joints) {
-                for (qi, &v) in body.q_index.iter().zip(values.iter()) {
-                    if let Some(qi) = *qi {
-                        body.q[qi] = v;
-                    }
-                }
-            }
-            for body in &self.bodies {
-                for joint in body.body.robot.joints() {
-                    if let Some(qi) = joint.q_index {
-                        transforms.push(Transform {
-                            parent: &body.frames[joint.parent],
-                            child: &body.frames[joint.child],
-                            pose: joint.transform(body.q[qi]),
-                        });
-                    }
-                }
-            }
-            msgs::encode_tf_message(&mut self.buf, stamp, &transforms);
-            self.write(tf_channel, seq, time_ns, TF_TOPIC)?;
-        }
-        for (k, values) in arrays.iter().enumerate() {
-            let (topic, channel) = &self.arrays[k];
-            match &topic.kind {
-                ArrayKind::Float64MultiArray { label } => {
-                    msgs::encode_float64_array(&mut self.buf, label, values)
-                }
-                ArrayKind::JointState { names } => crate::joint_state::cdr::encode_joint_state(
-                    &mut self.buf,
-                    stamp,
-                    "",
-                    names,
-                    values,
-                    &[],
-                    &[],
-                ),
-            }
-            let (channel, name) = (*channel, topic.topic.clone());
-            self.write(channel, seq, time_ns, &name)?;
-        }
-        self.frames += 1;
-        if self.flush_each_frame {
-            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
-        }
-        Ok(())
+        self.sink.write_frame(frame)
     }
 
     /// Writes one `visualization_msgs/msg/MarkerArray` on `m.topic` at `m.time_ns` (the
     /// topic's channel is added at its first use; it must not be a joint or array topic).
     pub fn write_markers(&mut self, m: &TimedMarkers) -> Result<()> {
-        let bad = |detail: String| JointStateError::InvalidInput {
-            what: format!("topic `{}`", m.topic),
-            detail,
-        };
-        if m.time_ns < 0 {
-            return Err(bad(format!(
-                "negative timestamp {} ns (MCAP times are unsigned)",
-                m.time_ns
-            )));
-        }
-        let taken = self
-            .bodies
-            .iter()
-            .any(|b| b.body.joint_topic == m.topic || b.body.description_topic() == m.topic)
-            || self.arrays.iter().any(|(a, _)| a.topic == m.topic)
-            || [TF_TOPIC, TF_STATIC_TOPIC].contains(&m.topic.as_str());
-        if taken {
-            return Err(bad("already a topic of another type in this scene".into()));
-        }
-        let (channel, seq) = match self.marker_channels.get(&m.topic) {
-            Some(&c) => c,
-            None => {
-                let schema = match self.marker_schema {
-                    Some(s) => s,
-                    None => {
-                        let s = self
-                            .writer
-                            .add_schema(
-                                MARKER_ARRAY_SCHEMA,
-                                "ros2msg",
-                                MARKER_ARRAY_MSGDEF.as_bytes(),
-                            )
-                            .map_err(self.mcap_err("schema".into()))?;
-                        *self.marker_schema.insert(s)
-                    }
-                };
-                let channel = self
-                    .writer
-                    .add_channel(schema, &m.topic, "cdr", &BTreeMap::new())
-                    .map_err(self.mcap_err(format!("channel `{}`", m.topic)))?;
-                (channel, 0)
-            }
-        };
-        let fields: Vec<msgs::MarkerFields<'_>> = m
-            .markers
-            .iter()
-            .map(|k| {
-                let (kind, text) = match &k.shape {
-                    MarkerShape::Sphere => (msgs::MARKER_SPHERE, ""),
-                    MarkerShape::Text(t) => (msgs::MARKER_TEXT_VIEW_FACING, t.as_str()),
-                };
-                msgs::MarkerFields {
-                    frame: &k.frame,
-                    ns: &k.ns,
-                    id: k.id,
-                    kind,
-                    position: k.position,
-                    scale: k.scale,
-                    color: k.color,
-                    lifetime_ns: k.lifetime_ns,
-                    text,
-                }
-            })
-            .collect();
-        msgs::encode_marker_array(&mut self.buf, msgs::stamp(m.time_ns), &fields);
-        self.write(channel, seq, m.time_ns, &m.topic)?;
-        self.marker_channels
-            .insert(m.topic.clone(), (channel, seq.wrapping_add(1)));
-        if self.flush_each_frame {
-            self.writer.flush().map_err(self.mcap_err("flush".into()))?;
-        }
-        Ok(())
+        self.sink.write_markers(m)
     }
 
     /// The descriptions and `/tf_static`, once, at the first frame's time.
     fn write_static(&mut self, time_ns: i64) -> Result<()> {
-        let Some((static_channel, _)) = self.tf else {
+        let Some((static_channel, _)) = self.encoder.tf else {
             return Ok(());
         };
         let stamp = msgs::stamp(time_ns);
-        for b in 0..self.bodies.len() {
-            let urdf = self.bodies[b].body.prefixed_urdf()?;
-            if let Some(ch) = self.bodies[b].description_channel {
-                msgs::encode_string(&mut self.buf, &urdf);
-                let topic = self.bodies[b].body.description_topic();
-                self.write(ch, 0, time_ns, &topic)?;
+        for b in &self.encoder.bodies {
+            if let Some(ch) = b.description_channel {
+                msgs::encode_string(&mut self.sink.buf, &b.body.prefixed_urdf()?);
+                self.sink.write_buf(ch, 0, time_ns)?;
             }
         }
         let mut transforms = Vec::new();
-        for body in &self.bodies {
+        for body in &self.encoder.bodies {
             let robot = &body.body.robot;
             transforms.push(Transform {
                 parent: WORLD_FRAME,
@@ -802,19 +962,20 @@ impl SceneWriter {
                 }
             }
         }
-        msgs::encode_tf_message(&mut self.buf, stamp, &transforms);
-        self.write(static_channel, 0, time_ns, TF_STATIC_TOPIC)
+        msgs::encode_tf_message(&mut self.sink.buf, stamp, &transforms);
+        self.sink.write_buf(static_channel, 0, time_ns)
     }
 
     /// Number of frames written so far.
     pub fn frames(&self) -> u32 {
-        self.frames
+        self.sink.frames
     }
 
     /// Writes the summary and footer and syncs the file.
     pub fn finish(mut self) -> Result<()> {
-        let path = self.path.clone();
-        self.writer
+        let path = self.sink.path.clone();
+        self.sink
+            .writer
             .finish()
             .map_err(|source| JointStateError::McapWrite {
                 path: path.clone(),
@@ -822,6 +983,7 @@ impl SceneWriter {
                 source,
             })?;
         let file = self
+            .sink
             .writer
             .into_inner()
             .into_inner()

@@ -218,3 +218,80 @@ fn markers_get_their_own_topic_and_bad_ones_are_refused_naming_it() {
     }
     let _ = std::fs::remove_dir_all(path.parent().expect("dir"));
 }
+
+#[test]
+fn the_threaded_whole_scene_is_the_file_frame_by_frame_writing_gives() {
+    // `write_scene_with_markers` encodes on a thread of its own in batches; frame-by-frame
+    // writing (teleoperation) does not. Over several batches, a partial last one and markers
+    // before, between and after the frames, both must write the same bytes.
+    let dir = tmp("threaded");
+    let (threaded, by_frame) = (dir.with_file_name("a.mcap"), dir.with_file_name("b.mcap"));
+    let frames = 2 * ENCODE_BATCH + 13;
+    let (human, hs, coman, cs) = two_bodies(frames);
+    let latent = ArrayTopic::float64("/latent", "latent", 3);
+    let latent_values: Vec<f64> = (0..frames * 3).map(|k| k as f64 * 0.5).collect();
+    let marker = |time_ns, id| TimedMarkers {
+        topic: "/coman/events".into(),
+        time_ns,
+        markers: vec![SceneMarker {
+            frame: "coman/LElb".into(),
+            ns: "collision".into(),
+            id,
+            shape: MarkerShape::Text(format!("event {id}")),
+            position: [0.0, 0.1, 0.2],
+            scale: [0.05; 3],
+            color: [1.0; 4],
+            lifetime_ns: 0,
+        }],
+    };
+    let times = &hs.times_ns;
+    let markers = [
+        marker(times[0] - 1, 0),
+        marker(times[ENCODE_BATCH], 1),
+        marker(times[ENCODE_BATCH] + 1, 2),
+        marker(times[frames - 1] + 1_000, 3),
+    ];
+    let series = [
+        SceneSeries {
+            body: &human,
+            states: &hs,
+        },
+        SceneSeries {
+            body: &coman,
+            states: &cs,
+        },
+    ];
+    let arrays = [ArraySeries {
+        topic: &latent,
+        values: &latent_values,
+    }];
+    let options = SceneOptions::default();
+    write_scene_with_markers(&threaded, &series, &arrays, &markers, &options).expect("writes");
+    let bodies = vec![
+        (human.clone(), hs.names.clone()),
+        (coman.clone(), cs.names.clone()),
+    ];
+    let mut w = SceneWriter::create(&by_frame, bodies, vec![latent.clone()], &options, false)
+        .expect("creates");
+    let mut next_marker = 0;
+    for i in 0..frames {
+        w.write_frame(
+            times[i],
+            &[hs.row(i), cs.row(i)],
+            &[&latent_values[i * 3..i * 3 + 3]],
+        )
+        .expect("frame");
+        let until = times.get(i + 1).copied().unwrap_or(i64::MAX);
+        while next_marker < markers.len() && markers[next_marker].time_ns < until {
+            w.write_markers(&markers[next_marker]).expect("markers");
+            next_marker += 1;
+        }
+    }
+    w.finish().expect("finishes");
+    let (a, b) = (
+        std::fs::read(&threaded).expect("reads"),
+        std::fs::read(&by_frame).expect("reads"),
+    );
+    assert!(a == b, "{} and {} bytes differ", a.len(), b.len());
+    let _ = std::fs::remove_dir_all(dir.parent().expect("dir"));
+}
