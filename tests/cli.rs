@@ -1235,7 +1235,13 @@ fn whitened_back_constraint_trains_faster_and_is_refused_where_it_cannot_apply()
 
     let out = dir.join("refused.sgp");
     let base = [
-        "train", "--data", data, "--robot", "walkman", "--out", s(&out),
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--out",
+        s(&out),
     ];
     let with = |extra: &[&'static str]| {
         let mut a = base.to_vec();
