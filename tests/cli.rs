@@ -1183,3 +1183,84 @@ fn longer_sessions_and_the_sparse_model_on_every_frame() {
     assert!(e.contains("expected at most"), "{e}");
     assert!(!out.exists());
 }
+
+/// `--whiten-back-constraint` trains another path (on the same budget, a lower objective: the
+/// whitened problem is better conditioned), the model it writes is used like any other, and
+/// it is refused where it cannot apply with a message naming the flag.
+#[test]
+fn whitened_back_constraint_trains_faster_and_is_refused_where_it_cannot_apply() {
+    let f = fixture();
+    let dir = scratch("whiten");
+    let data = s(&f.data);
+    let train = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec![
+            "train",
+            "--data",
+            data,
+            "--robot",
+            "walkman",
+            "--back-constraint",
+            "input",
+            "--validation",
+            "none",
+            "--max-iters",
+            "30",
+            "--json",
+            "--out",
+            s(&out),
+        ];
+        args.extend_from_slice(extra);
+        let stdout = ok(&args);
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("json");
+        (out, v["objective"].as_f64().expect("objective"))
+    };
+    let (_, plain) = train("plain.sgp", &[]);
+    let (white_model, white) = train("white.sgp", &["--whiten-back-constraint"]);
+    assert!(
+        white < plain,
+        "whitened objective {white} after 30 iterations, plain {plain}"
+    );
+    // The whitened model loads and evaluates like any other.
+    let stdout = ok(&[
+        "evaluate",
+        "--model",
+        s(&white_model),
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+    ]);
+    assert!(!stdout.is_empty());
+
+    let out = dir.join("refused.sgp");
+    let base = [
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--out",
+        s(&out),
+    ];
+    let with = |extra: &[&'static str]| {
+        let mut a = base.to_vec();
+        a.extend_from_slice(extra);
+        a
+    };
+    let err = fails_on_one_line(&with(&[
+        "--back-constraint",
+        "none",
+        "--whiten-back-constraint",
+    ]));
+    assert!(
+        err.contains("--whiten-back-constraint") && err.contains("none"),
+        "{err}"
+    );
+    let err = fails(&with(&["--inducing", "8", "--whiten-back-constraint"]), 2);
+    assert!(
+        err.contains("--whiten-back-constraint") && err.contains("--inducing"),
+        "{err}"
+    );
+    assert!(!out.exists(), "a refused training wrote {}", out.display());
+}

@@ -23,7 +23,7 @@ pub struct TrainArgs {
 pub fn run(args: TrainArgs) -> Result<()> {
     let demos = args.data.load()?;
     let config = args.model.config();
-    let options = args.model.budget.options();
+    let options = args.model.options()?;
     let validation = args.model.budget.validation(&demos);
     let (model, seconds) = train_with_progress(
         &format!("training {}", args.robots.join(" + ")),

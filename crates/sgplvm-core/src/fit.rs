@@ -28,7 +28,7 @@ impl SharedGplvm {
         options: &TrainOptions,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
-        options.check()?;
+        options.check_for(config)?;
         let limits = Limits::start(options);
         let mut model = Self::initial(config, spaces, input)?;
         model.train(Mode::Full, options, &limits, callback)?;

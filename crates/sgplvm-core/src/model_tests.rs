@@ -360,3 +360,100 @@ fn models_too_large_for_memory_are_refused_before_allocating() {
         "GP regression",
     );
 }
+
+#[test]
+fn whitened_training_is_refused_where_it_cannot_apply() {
+    let (h, r1, _, _) = demo(30, 0);
+    let spaces = [("human", h.as_ref()), ("walkman", r1.as_ref())];
+    let white = quick(3).with_whiten_back_constraint(true);
+    let validation = crate::validation::Validation::blocks(30);
+    for (config, word) in [
+        (
+            ModelConfig::default()
+                .with_latent_dim(2)
+                .with_back_constraint(BackConstraint::None),
+            "free latent points",
+        ),
+        (
+            ModelConfig::default()
+                .with_latent_dim(2)
+                .with_back_constraint(BackConstraint::Input)
+                .with_inducing(Some(8)),
+            "sparse",
+        ),
+    ] {
+        for result in [
+            SharedGplvm::fit(&config, &spaces, "human", &white, None),
+            SharedGplvm::fit_validated(&config, &spaces, "human", &white, &validation, None),
+        ] {
+            match result {
+                Err(e @ Error::InvalidValue { .. }) => {
+                    let text = e.to_string();
+                    assert!(text.contains("whiten_back_constraint"), "{text}");
+                    assert!(text.contains(word), "{text}");
+                }
+                other => panic!("expected a refusal, got {:?}", other.map(|_| ())),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_whitened_model_stores_its_weights_and_round_trips_like_any_other() {
+    let (h, r1, _, _) = demo(40, 3);
+    let spaces = [("human", h.as_ref()), ("walkman", r1.as_ref())];
+    for bc in [BackConstraint::Input, BackConstraint::Output] {
+        let config = ModelConfig::default()
+            .with_latent_dim(2)
+            .with_back_constraint(bc);
+        let train = |whiten: bool| {
+            SharedGplvm::fit(
+                &config,
+                &spaces,
+                "human",
+                &quick(15).with_whiten_back_constraint(whiten),
+                None,
+            )
+            .expect("fit")
+        };
+        let (plain, white) = (train(false), train(true));
+        // The flag changes the training path (the same start up to rounding — whitened X is
+        // K_bc P V — then other iterates).
+        let (f0, g0) = (plain.history()[0].objective, white.history()[0].objective);
+        assert!((f0 - g0).abs() < 1e-12 * f0.abs(), "{bc:?}: {f0} vs {g0}");
+        assert_ne!(
+            plain.params(),
+            white.params(),
+            "{bc:?}: whitening changed nothing"
+        );
+        // The model holds W (not V): its objective, evaluated from the stored weights, is the
+        // best the whitened training recorded, and its latent points are K_bc W.
+        let best = white
+            .history()
+            .iter()
+            .map(|r| r.objective)
+            .fold(f64::INFINITY, f64::min);
+        let f = white.objective();
+        assert!(
+            (f - best).abs() < 1e-9 * best.abs(),
+            "{bc:?}: {f} vs {best}"
+        );
+        let mut recomputed = white.clone();
+        recomputed.update_latent_points();
+        let (a, b) = (recomputed.latent_points(), white.latent_points());
+        for j in 0..a.ncols() {
+            for i in 0..a.nrows() {
+                assert_eq!(a[(i, j)], b[(i, j)], "{bc:?}: X[{i},{j}]");
+            }
+        }
+        // Saved and loaded, it is the same model and predicts the same, bit for bit.
+        let loaded = SharedGplvm::from_bytes(&white.to_bytes()).expect("load");
+        assert_eq!(loaded.to_bytes(), white.to_bytes());
+        let p = white.predict(h.as_ref(), "walkman", true).expect("predict");
+        let q = loaded
+            .predict(h.as_ref(), "walkman", true)
+            .expect("predict");
+        assert_eq!(p.mean, q.mean, "{bc:?}");
+        assert_eq!(p.variance, q.variance, "{bc:?}");
+    }
+}

@@ -64,8 +64,11 @@ pub struct TrainOptions {
     /// (the optimiser moves V): the same latent points are reachable, but the problem is far
     /// better conditioned (K_bc's condition number enters once instead of squared), so L-BFGS
     /// needs fewer iterations. A different path through a non-convex objective ends at a
-    /// different optimum; off by default (see BENCHMARKS.md, issue 18). No effect on free
-    /// latent points, transfer or sparse models.
+    /// different optimum; off by default (see BENCHMARKS.md, issue 18: on the shipped data
+    /// the held-out error was worse with it). Needs the exact model with back constraints
+    /// (input or output): [`SharedGplvm::fit`](crate::SharedGplvm::fit) and
+    /// [`SharedGplvm::fit_validated`](crate::SharedGplvm::fit_validated) refuse it for free
+    /// latent points and sparse models. No effect on transfer (the latent points are frozen).
     #[serde(default)]
     pub whiten_back_constraint: bool,
 }
@@ -173,6 +176,28 @@ impl TrainOptions {
 
     /// Objective evaluations one line search may make by default (scipy's L-BFGS-B `maxls`).
     pub const DEFAULT_LINE_SEARCH_EVALUATIONS: usize = 20;
+
+    /// [`TrainOptions::check`], and whether these options can train a model of `config`:
+    /// whitening needs back constraints and the exact model.
+    pub(crate) fn check_for(&self, config: &crate::config::ModelConfig) -> Result<()> {
+        self.check()?;
+        if self.whiten_back_constraint {
+            let reason = if config.back_constraint == crate::config::BackConstraint::None {
+                Some("the model has free latent points (back constraint none); expected input or output back constraints")
+            } else if config.inducing.is_some() {
+                Some("the sparse model (inducing inputs) trains its weights as they are; expected the exact model")
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                return Err(Error::InvalidValue {
+                    what: "TrainOptions::whiten_back_constraint".into(),
+                    reason: reason.into(),
+                });
+            }
+        }
+        Ok(())
+    }
 
     pub(crate) fn check(&self) -> Result<()> {
         let bad = |what: &str, reason: &str| {

@@ -301,7 +301,7 @@ impl SharedGplvm {
         on_selection: Option<SelectionCallback<'_>>,
         callback: Option<Callback<'_>>,
     ) -> Result<Self> {
-        options.check()?;
+        options.check_for(config)?;
         let limits = Limits::start(options);
         // Checks every space (shapes, names, values) before the split indexes into them.
         let all = Self::initial(config, spaces, input)?;

@@ -277,7 +277,7 @@ impl NativeModel {
     /// handler's exception (Ctrl-C) stops training and is raised carrying the model trained so
     /// far as its `_sgplvm_native` attribute.
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None, validation_callback=None))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None, validation_callback=None, whiten_back_constraint=false))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -295,6 +295,7 @@ impl NativeModel {
         column_names: Option<Vec<(String, Vec<String>)>>,
         inducing: Option<usize>,
         validation_callback: Option<Py<PyAny>>,
+        whiten_back_constraint: bool,
     ) -> PyResult<Self> {
         guarded(|| {
             let config = ModelConfig::default()
@@ -307,7 +308,8 @@ impl NativeModel {
                 spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
             let options = TrainOptions::default()
                 .with_max_iters(max_iters)
-                .with_max_seconds(max_seconds);
+                .with_max_seconds(max_seconds)
+                .with_whiten_back_constraint(whiten_back_constraint);
             let input = input.to_string();
             let callbacks = PyCallbacks {
                 callback,

@@ -56,6 +56,7 @@ class NativeModel:
         column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
         inducing: Optional[int] = None,
         validation_callback: Optional[_ValidationCallback] = None,
+        whiten_back_constraint: bool = False,
     ) -> "NativeModel": ...
     def transfer(
         self,

@@ -158,7 +158,7 @@ def run_experiment_serial(
 _MODEL_KEYS = ("latent_dim", "back_constraint", "seed", "scale")
 
 
-_FIT_KEYS = ("max_iters", "validation", "patience", "max_seconds", "inducing")
+_FIT_KEYS = ("max_iters", "validation", "patience", "max_seconds", "inducing", "whiten_back_constraint")
 
 
 def _grid_points(grid: Union[Mapping[str, Sequence[Any]], Sequence[Mapping[str, Any]]]) -> List[Dict[str, Any]]:
@@ -213,7 +213,7 @@ def sweep(
     ``grid``: a dict of lists (every combination) or a list of dicts; keys are
     :class:`~sgplvm.SharedGPLVM` arguments (``latent_dim``, ``back_constraint``, ``seed``,
     ``scale``) or :meth:`~sgplvm.SharedGPLVM.fit` arguments (``max_iters``, ``patience``,
-    ``inducing``, …).
+    ``inducing``, ``whiten_back_constraint``, …).
     Returns the table (one dict per point, best first: its parameters, ``validation_mse``,
     ``best_iteration``, ``seconds``) and the best model (trained on all training rows with
     the chosen budget). Ties keep grid order."""
