@@ -7,14 +7,12 @@ import pytest
 
 import sgplvm
 from sgplvm import ray as sgray
+from test_model import smooth_data as model_data
 
 
 def smooth_data(n=60, seed=0):
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 2 * np.pi, n)
-    z = np.stack([np.sin(t), np.cos(2 * t)], axis=1)
-    human = np.tanh(z @ rng.normal(size=(2, 6))) + 0.01 * rng.normal(size=(n, 6))
-    robot = np.sin(z @ rng.normal(size=(2, 4))) + 0.01 * rng.normal(size=(n, 4))
+    """test_model's human and first robot, 60 frames."""
+    human, robot, _ = model_data(n=n, seed=seed)
     return {"human": human, "walkman": robot}
 
 
