@@ -1,0 +1,141 @@
+"""Our L-BFGS against scipy's L-BFGS-B on *our* objective (issue 18): the same model, data and
+start as `bench_vs_gpy.py`'s time-to-solution rows (free latent points), the same
+parametrisation as our optimiser (latent points as they are, kernel variance, lengthscales and
+noise by their logarithms; `--transform softplus` gives scipy GPy's instead), scipy's defaults
+(m = 10, ftol 2.2e-9, gtol 1e-5, maxls 20). Prints how many objective + gradient evaluations
+each needs to come within 1e-4 (relative) of a few levels (0.9, 0.99 and 0.999 of the way from
+the start to the worse of the two final objectives, and both finals): a difference in
+evaluations is then the optimiser's, not the objective's or the parametrisation's.
+
+Run (module built with `maturin develop --release`; GPy installed for the bench's data):
+
+    python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000]
+"""
+
+import argparse
+import time
+
+import numpy as np
+from scipy.optimize import minimize
+
+import sgplvm
+from bench_vs_gpy import TOL, initial_model, smooth_data
+
+
+# Positive parameters θ as functions of unconstrained u: (θ(u), θ from u's inverse, dθ/du).
+TRANSFORMS = {
+    # Ours: θ = exp(u).
+    "log": (np.exp, np.log, np.exp),
+    # GPy's Logexp: θ = log(1 + exp(u)).
+    "softplus": (lambda u: np.logaddexp(0.0, u), lambda t: t + np.log(-np.expm1(-t)),
+                 lambda u: 1.0 / (1.0 + np.exp(-u))),
+}
+
+
+def flatten(params, names, transform):
+    """The optimiser's vector: latent points, then per space the variance, lengthscales and
+    noise through `transform`'s inverse."""
+    inv = TRANSFORMS[transform][1]
+    parts = [np.asarray(params["latent"], dtype=float).ravel()]
+    for name in names:
+        k = params["spaces"][name]
+        parts += [inv(np.array([k["variance"]])), inv(np.asarray(k["lengthscale"], dtype=float)),
+                  inv(np.array([k["noise"]]))]
+    return np.concatenate(parts)
+
+
+def unflatten(u, shape, names, q, transform):
+    """`flatten`'s inverse, as the params dict `set_params` takes."""
+    fwd = TRANSFORMS[transform][0]
+    n = shape[0] * shape[1]
+    params = {"latent": u[:n].reshape(shape), "spaces": {}}
+    at = n
+    for name in names:
+        params["spaces"][name] = {"variance": float(fwd(u[at])),
+                                  "lengthscale": fwd(u[at + 1:at + 1 + q]),
+                                  "noise": float(fwd(u[at + 1 + q]))}
+        at += q + 2
+    return params
+
+
+def chain(grad, u, n, names, q, transform):
+    """The gradient in `flatten`'s coordinates (d/du = dθ/du · d/dθ)."""
+    deriv = TRANSFORMS[transform][2]
+    parts = [np.asarray(grad["latent"], dtype=float).ravel()]
+    at = n
+    for name in names:
+        g = grad["spaces"][name]
+        parts += [[g["variance"] * deriv(u[at])],
+                  np.asarray(g["lengthscale"]) * deriv(u[at + 1:at + 1 + q]),
+                  [g["noise"] * deriv(u[at + 1 + q])]]
+        at += q + 2
+    return np.concatenate([np.ravel(p) for p in parts])
+
+
+def evaluations_to(trace, level):
+    """1-based index of the first evaluation within TOL of `level` (None if never)."""
+    target = level + TOL * abs(level)
+    return next((i + 1 for i, f in enumerate(trace) if f <= target), None)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=300)
+    ap.add_argument("--max-evaluations", type=int, default=6000)
+    ap.add_argument("--seed", type=int, default=1, help="seed of the data (the bench uses 1)")
+    ap.add_argument("--transform", choices=sorted(TRANSFORMS), default="log",
+                    help="scipy's parametrisation of the positive parameters (ours: log)")
+    args = ap.parse_args()
+    human, walkman, _ = smooth_data(args.n, seed=args.seed)
+    spaces = {"human": human, "walkman": walkman}
+    names = list(spaces)
+    start = initial_model(spaces, None)
+    p0 = start.params
+    shape, q = p0["latent"].shape, p0["latent"].shape[1]
+
+    # Ours: its own L-BFGS from the same start; every evaluation's objective is not exposed,
+    # the history gives the objective after each iteration and the evaluations spent so far.
+    t = time.perf_counter()
+    ours = sgplvm.SharedGPLVM(latent_dim=q, back_constraint=None, seed=0)
+    ours.fit(spaces, input="human", max_iters=args.max_evaluations, validation=None)
+    t_ours = time.perf_counter() - t
+    h = ours.history
+    ours_trace = []  # objective known after each evaluation (the iteration's, at its last one)
+    for f, e in zip(h["objective"], h["evaluations"]):
+        ours_trace += [f] * (int(e) - len(ours_trace))
+    ours_trace = ours_trace[:args.max_evaluations]
+
+    # scipy on the same objective.
+    model = initial_model(spaces, None)
+    trace = []
+    n_latent = shape[0] * shape[1]
+
+    def fun(u):
+        model.set_params(unflatten(u, shape, names, q, args.transform))
+        f = model.objective()
+        trace.append(min(f, trace[-1]) if trace else f)
+        return f, chain(model.gradient(), u, n_latent, names, q, args.transform)
+
+    t = time.perf_counter()
+    res = minimize(fun, flatten(p0, names, args.transform), jac=True, method="L-BFGS-B",
+                   options={"maxcor": 10, "maxfun": args.max_evaluations,
+                            "maxiter": args.max_evaluations})
+    t_scipy = time.perf_counter() - t
+    print(f"N = {args.n}, data seed {args.seed}, free latent points, start objective "
+          f"{start.objective():.2f}")
+    print(f"ours : {len(ours_trace)} evaluations ({h['iteration'][-1]} iterations, "
+          f"{t_ours:.1f} s), final {ours_trace[-1]:.2f}, stop {ours.stop_reason}")
+    print(f"scipy ({args.transform}): {res.nfev} evaluations ({res.nit} iterations, "
+          f"{t_scipy:.1f} s), final {res.fun:.2f}, {res.message}")
+    best = min(ours_trace[-1], trace[-1])
+    levels = sorted({max(ours_trace[-1], trace[-1]), best}, reverse=True)
+    f0 = start.objective()
+    levels = [f0 + frac * (levels[0] - f0) for frac in (0.9, 0.99, 0.999)] + levels
+    print(f"{'level':>14} {'ours':>8} {'scipy':>8}  evaluations to within 1e-4")
+    for level in levels:
+        a, b = evaluations_to(ours_trace, level), evaluations_to(trace, level)
+        print(f"{level:14.2f} {a if a else '-':>8} {b if b else '-':>8}")
+
+
+if __name__ == "__main__":
+    main()
