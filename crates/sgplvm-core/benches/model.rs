@@ -11,17 +11,11 @@ use faer::Par;
 use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 use std::hint::black_box;
 
-/// Smooth synthetic demonstration: a 2-D phase drives an 18-D human and a 14-D robot.
+mod data;
+
+/// The benches' demonstration over a phase of 12 radians.
 fn data(n: usize) -> (Mat<f64>, Mat<f64>) {
-    let h = Mat::from_fn(n, 18, |i, j| {
-        let t = i as f64 / n as f64 * 12.0;
-        (t * (1.0 + 0.05 * j as f64)).sin() + 0.3 * (0.37 * t + j as f64).cos()
-    });
-    let r = Mat::from_fn(n, 14, |i, j| {
-        let t = i as f64 / n as f64 * 12.0;
-        0.8 * (t * (1.0 + 0.07 * j as f64) + 0.1).sin() + 0.2 * (0.41 * t + j as f64).cos()
-    });
-    (h, r)
+    data::smooth(n, 12.0)
 }
 
 fn model(n: usize, bc: BackConstraint) -> SharedGplvm {

@@ -6,8 +6,11 @@
 //!
 //! Run: `cargo run --release -p sgplvm-core --example sparse_profile -- 20000 100 20`
 //! (N, M, repetitions; `RAYON_NUM_THREADS=1` for one core).
-use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
+use sgplvm_core::{ModelConfig, SharedGplvm, TrainOptions};
 use std::time::Instant;
+
+#[path = "../benches/data/mod.rs"]
+mod data;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<usize> = std::env::args()
@@ -18,14 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m = args.get(1).copied().unwrap_or(100);
     let reps = args.get(2).copied().unwrap_or(20);
     // The data of `benches/sparse.rs`.
-    let h = Mat::from_fn(n, 18, |i, j| {
-        let t = i as f64 / n as f64 * 120.0;
-        (t * (1.0 + 0.05 * j as f64)).sin() + 0.3 * (0.37 * t + j as f64).cos()
-    });
-    let r = Mat::from_fn(n, 14, |i, j| {
-        let t = i as f64 / n as f64 * 120.0;
-        0.8 * (t * (1.0 + 0.07 * j as f64) + 0.1).sin() + 0.2 * (0.41 * t + j as f64).cos()
-    });
+    let (h, r) = data::smooth(n, 120.0);
     let options = TrainOptions {
         max_iters: 0,
         ..TrainOptions::default()
