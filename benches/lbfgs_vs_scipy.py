@@ -8,11 +8,15 @@ the start to the worse of the two final objectives, and both finals): a differen
 evaluations is then the optimiser's, not the objective's or the parametrisation's.
 
 `--textbook` runs a textbook L-BFGS (two-loop recursion, scipy's strong-Wolfe line search) in
-scipy's place: whether a difference is our implementation's or L-BFGS-B's own.
+scipy's place: whether a difference is our implementation's or L-BFGS-B's own. With
+`--search dcsrch` it takes L-BFGS-B's line search and skipping rule, which makes it L-BFGS-B
+without bounds in Python; `--first-step X` then changes only its first step (a multiple of −g;
+default "unit", L-BFGS-B's step of length 1).
 
 Run (module built with `maturin develop --release`; GPy installed for the bench's data):
 
-    python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000] [--textbook]
+    python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000] \
+        [--textbook [--search dcsrch] [--first-step unit|X]]
 """
 
 import argparse
@@ -20,6 +24,7 @@ import time
 
 import numpy as np
 from scipy.optimize import line_search, minimize
+from scipy.optimize._dcsrch import DCSRCH  # scipy >= 1.11: L-BFGS-B's line search
 
 import sgplvm
 from bench_vs_gpy import TOL, initial_model, smooth_data
@@ -75,11 +80,16 @@ def chain(grad, u, n, names, q, transform):
     return np.concatenate([np.ravel(p) for p in parts])
 
 
-def textbook_lbfgs(fun, x, max_evaluations, memory=10):
+def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_step="unit"):
     """Textbook L-BFGS (Nocedal & Wright, Alg. 7.4–7.5): the two-loop recursion with
-    H0 = (sᵀy / yᵀy) I from the latest pair (1/|g| at the start), scipy's strong-Wolfe line
-    search (c1 = 1e-4, c2 = 0.9) from the unit step, pairs with sᵀy <= 1e-10 yᵀy skipped.
-    `fun(x)` returns (objective, gradient) and is called once per evaluation."""
+    H0 = (sᵀy / yᵀy) I from the latest pair (I at the start), from the unit step.
+    `search="wolfe"`: scipy's strong-Wolfe line search (c1 = 1e-4, c2 = 0.9), pairs with
+    sᵀy <= 1e-10 yᵀy skipped. `search="dcsrch"`: L-BFGS-B's own (MINPACK-2's dcsrch with
+    ftol 1e-3, gtol 0.9, xtol 0.1, steps up to 1e10) and its skipping rule
+    (sᵀy <= ε · (−gᵀs)), which makes this L-BFGS-B without bounds. The first step is
+    `first_step` times −g: "unit" is L-BFGS-B's 1/‖g‖ (a step of length 1); a number gives
+    another (ours before the fifth pass was 1/(N·ΣD)). `fun(x)` returns (objective, gradient)
+    and is called once per evaluation."""
     last = {}
 
     def cached(u):
@@ -99,21 +109,37 @@ def textbook_lbfgs(fun, x, max_evaluations, memory=10):
             a = (s @ q) / (y @ s)
             alphas.append(a)
             q -= a * y
-        gamma = (pairs[-1][0] @ pairs[-1][1]) / (pairs[-1][1] @ pairs[-1][1]) if pairs \
-            else 1.0 / np.linalg.norm(g)
-        r = gamma * q
+        gamma = (pairs[-1][0] @ pairs[-1][1]) / (pairs[-1][1] @ pairs[-1][1]) if pairs else 1.0
+        d = -gamma * q
         for (s, y), a in zip(pairs, reversed(alphas)):
-            r += s * (a - (y @ r) / (y @ s))
-        step, calls, grads, *_ = line_search(lambda u: cached(u)[0], lambda u: cached(u)[1],
-                                             x, -r, gfk=g, old_fval=f, c1=1e-4, c2=0.9,
-                                             maxiter=20)
-        evaluations += max(calls, grads)
+            d -= s * (a - (y @ -d) / (y @ s))
+        step0 = 1.0
+        if evaluations == 1:
+            step0 = 1.0 / np.linalg.norm(d) if first_step == "unit" else float(first_step)
+        if search == "wolfe":
+            step, calls, grads, *_ = line_search(lambda u: cached(u)[0], lambda u: cached(u)[1],
+                                                 x, d * step0, gfk=g, old_fval=f, c1=1e-4,
+                                                 c2=0.9, maxiter=20)
+            evaluations += max(calls, grads)
+            step = None if step is None else step * step0
+        else:
+            calls = [0]
+
+            def phi(a):
+                calls[0] += 1
+                return cached(x + a * d)[0]
+
+            search_ = DCSRCH(phi, lambda a: cached(x + a * d)[1] @ d, ftol=1e-3, gtol=0.9,
+                             xtol=0.1, stpmin=0.0, stpmax=1e10)
+            step, *_ = search_(step0, phi0=f, derphi0=g @ d, maxiter=20)
+            evaluations += calls[0]
         if step is None:
             return "line search failed"
-        x_new = x - step * r
+        x_new = x + step * d
         f_new, g_new = cached(x_new)
         s, y = x_new - x, g_new - g
-        if s @ y > 1e-10 * (y @ y):
+        keep = s @ y > (np.finfo(float).eps * -(g @ s) if search == "dcsrch" else 1e-10 * (y @ y))
+        if keep:
             pairs = (pairs + [(s, y)])[-memory:]
         x, f, g = x_new, f_new, g_new
     return "evaluation limit"
@@ -135,6 +161,12 @@ def main():
     ap.add_argument("--textbook", action="store_true",
                     help="instead of scipy's L-BFGS-B, a textbook L-BFGS with scipy's "
                          "strong-Wolfe line search")
+    ap.add_argument("--search", choices=["wolfe", "dcsrch"], default="wolfe",
+                    help="--textbook's line search: scipy's strong-Wolfe one, or L-BFGS-B's "
+                         "dcsrch (then --textbook is L-BFGS-B without bounds)")
+    ap.add_argument("--first-step", default="unit",
+                    help="--textbook's first step, as a multiple of -g: 'unit' (1/|g|, "
+                         "L-BFGS-B's) or a number")
     args = ap.parse_args()
     human, walkman, _ = smooth_data(args.n, seed=args.seed)
     spaces = {"human": human, "walkman": walkman}
@@ -169,7 +201,9 @@ def main():
     t = time.perf_counter()
     u0 = flatten(p0, names, args.transform)
     if args.textbook:
-        label, how = "textbook L-BFGS", textbook_lbfgs(fun, u0, args.max_evaluations)
+        label = f"textbook L-BFGS ({args.search}, first step {args.first_step})"
+        how = textbook_lbfgs(fun, u0, args.max_evaluations, search=args.search,
+                             first_step=args.first_step)
     else:
         res = minimize(fun, u0, jac=True, method="L-BFGS-B",
                        options={"maxcor": 10, "maxfun": args.max_evaluations,

@@ -129,14 +129,8 @@ impl SharedGplvm {
         mut callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm> {
         let theta0 = obj.theta0();
-        let d_total: usize = obj
-            .evaluated()
-            .iter()
-            .map(|&s| self.spaces[s].data.ncols())
-            .sum();
-        let scale = 1.0 / (self.n() * d_total.max(1)) as f64;
         let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
-        let outcome = minimise(obj, theta0, scale, options, limits, |rec, theta| {
+        let outcome = minimise(obj, theta0, options, limits, |rec, theta| {
             let Some(cb) = callback.as_mut() else {
                 return Control::Continue;
             };
@@ -183,11 +177,9 @@ impl SharedGplvm {
     }
 }
 
-/// What [`SharedGplvm::train`] needs of an objective besides its value and gradient: the
-/// spaces it evaluates, its starting point and how its parameters go back into a model.
+/// What [`SharedGplvm::train`] needs of an objective besides its value and gradient: its
+/// starting point and how its parameters go back into a model.
 pub(crate) trait ParameterObjective: Objective {
-    /// Indices of the spaces whose likelihood the objective sums.
-    fn evaluated(&self) -> Vec<usize>;
     /// The parameter vector of the model the objective was built on.
     fn theta0(&self) -> Vec<f64>;
     /// Writes `theta` into `target` (no caches rebuilt).
@@ -195,9 +187,6 @@ pub(crate) trait ParameterObjective: Objective {
 }
 
 impl ParameterObjective for ModelObjective<'_> {
-    fn evaluated(&self) -> Vec<usize> {
-        ModelObjective::evaluated(self)
-    }
     fn theta0(&self) -> Vec<f64> {
         ModelObjective::theta0(self)
     }
@@ -207,9 +196,6 @@ impl ParameterObjective for ModelObjective<'_> {
 }
 
 impl ParameterObjective for SparseObjective<'_> {
-    fn evaluated(&self) -> Vec<usize> {
-        SparseObjective::evaluated(self)
-    }
     fn theta0(&self) -> Vec<f64> {
         SparseObjective::theta0(self)
     }

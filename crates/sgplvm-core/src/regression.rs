@@ -70,14 +70,9 @@ fn fit_kernel_why(
     let mut theta0 = Vec::new();
     encode_kernel(&start, &mut theta0);
     let dx = x.ncols();
-    let out = minimise(
-        &obj,
-        theta0,
-        1.0 / (n * d) as f64,
-        options,
-        limits,
-        |rec, theta| on_iter(rec, &decode_kernel(theta, dx)),
-    )?;
+    let out = minimise(&obj, theta0, options, limits, |rec, theta| {
+        on_iter(rec, &decode_kernel(theta, dx))
+    })?;
     Ok((decode_kernel(&out.theta, dx), out.reason))
 }
 

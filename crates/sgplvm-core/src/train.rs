@@ -515,18 +515,36 @@ pub(crate) struct Outcome {
     pub reason: StopReason,
 }
 
+/// The objective's scale under which argmin's first L-BFGS step, the scaled gradient, has
+/// unit length: 1/‖g‖₂, or 1 when that is not a finite positive number (a zero or non-finite
+/// gradient, which training handles on its own).
+fn unit_first_step(g: &[f64]) -> f64 {
+    let scale = 1.0 / g.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if scale.is_finite() && scale > 0.0 {
+        scale
+    } else {
+        1.0
+    }
+}
+
 fn max_abs(g: &[f64]) -> f64 {
     g.iter().fold(0.0, |m, v| m.max(v.abs()))
 }
 
-/// Minimises `obj` from `theta0` with L-BFGS. `scale` (> 0) multiplies the objective seen by
-/// the solver (the model uses 1/(N·ΣD) so that step sizes are O(1)); records keep the true
-/// objective. `on_iter` sees every accepted iteration and the current vector. `limits` (the
-/// calling training's deadline and interrupt) and the options' evaluation caps bound the run.
+/// Minimises `obj` from `theta0` with L-BFGS. `on_iter` sees every accepted iteration and the
+/// current vector. `limits` (the calling training's deadline and interrupt) and the options'
+/// evaluation caps bound the run.
+///
+/// The first step (and the first after a restart) is a steepest-descent step of unit length,
+/// as L-BFGS-B takes it: the solver sees the objective divided by its gradient's norm at the
+/// start point, so that argmin's first step (the gradient itself, H₀ = I) has length 1. Later
+/// steps do not depend on that scale (H₀ = sᵀy / yᵀy adapts to it); records keep the true
+/// objective. The start matters: on the bench's problem a first step of the gradient's length
+/// times 1/(N·ΣD), this function's rule before, took twice the evaluations to come within
+/// 1e-3 of the optimum (BENCHMARKS.md, "fifth pass").
 pub(crate) fn minimise<O: Objective>(
     obj: &O,
     theta0: Vec<f64>,
-    scale: f64,
     options: &TrainOptions,
     limits: &Limits,
     mut on_iter: impl FnMut(&IterationRecord, &[f64]) -> Control,
@@ -562,6 +580,7 @@ pub(crate) fn minimise<O: Objective>(
     // and gradient are handed over (no evaluation). The problem is recreated too: argmin
     // 0.11's L-BFGS does not hand the problem back after a failed line search.
     let fresh = |run: &Run| -> Result<(Problem<Op<'_, O>>, Lbfgs, St)> {
+        let scale = unit_first_step(&run.best_g);
         let mut problem = Problem::new(Op {
             obj,
             scale,
@@ -773,12 +792,51 @@ mod tests {
         }
     }
 
+    /// `weight`·‖θ‖²: a bowl whose gradient's size `weight` sets.
+    struct Bowl {
+        weight: f64,
+    }
+    impl Objective for Bowl {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            for (gi, ti) in g.iter_mut().zip(t) {
+                *gi = 2.0 * self.weight * ti;
+            }
+            Ok(self.weight * t.iter().map(|v| v * v).sum::<f64>())
+        }
+    }
+
+    #[test]
+    fn first_step_has_unit_length_whatever_the_objectives_scale() {
+        // From (3, 4) the unit step along −g lands on (2.4, 3.2), which meets the strong Wolfe
+        // conditions on ‖θ‖², so the line search accepts it as it is (L-BFGS-B's first step).
+        // The step −g itself, whatever its scale, would land elsewhere.
+        for weight in [1.0, 1e-3, 1e4] {
+            let mut first = None;
+            minimise(
+                &Bowl { weight },
+                vec![3.0, 4.0],
+                &TrainOptions::default().with_max_iters(1),
+                &none(),
+                |_, theta| {
+                    first.get_or_insert_with(|| theta.to_vec());
+                    Control::Continue
+                },
+            )
+            .expect("runs");
+            let first = first.expect("one iteration accepted");
+            assert!(
+                (first[0] - 2.4).abs() < 1e-12 && (first[1] - 3.2).abs() < 1e-12,
+                "weight {weight}: first iterate {first:?}"
+            );
+        }
+    }
+
     #[test]
     fn minimises_rosenbrock_monotonically() {
         let opts = TrainOptions::default()
             .with_grad_tol(1e-8)
             .with_rel_tol(0.0);
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], &opts, &none(), |_, _| {
             Control::Continue
         })
         .expect("runs");
@@ -806,7 +864,7 @@ mod tests {
     fn no_point_is_evaluated_twice_in_a_row() {
         let obj = Recording(Mutex::new(Vec::new()));
         let opts = TrainOptions::default().with_max_iters(30);
-        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
+        let out = minimise(&obj, vec![-1.2, 1.0], &opts, &none(), |_, _| {
             Control::Continue
         })
         .expect("runs");
@@ -848,13 +906,11 @@ mod tests {
     #[test]
     fn failed_evaluations_are_backtracked_not_fatal() {
         let opts = TrainOptions::default().with_grad_tol(1e-9);
-        let out = minimise(&Walled, vec![3.0], 1.0, &opts, &none(), |_, _| {
-            Control::Continue
-        })
-        .expect("runs");
+        let out =
+            minimise(&Walled, vec![3.0], &opts, &none(), |_, _| Control::Continue).expect("runs");
         assert!((out.theta[0] + 0.4).abs() < 1e-6, "{:?}", out.theta);
         // The initial point must be valid: its failure is the caller's error.
-        assert!(minimise(&Walled, vec![-1.0], 1.0, &opts, &none(), |_, _| {
+        assert!(minimise(&Walled, vec![-1.0], &opts, &none(), |_, _| {
             Control::Continue
         })
         .is_err());
@@ -864,7 +920,7 @@ mod tests {
     fn callback_stops_and_budget_holds() {
         let opts = TrainOptions::default();
         let mut calls = 0;
-        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], 1.0, &opts, &none(), |r, _| {
+        let out = minimise(&Rosenbrock, vec![-1.2, 1.0], &opts, &none(), |r, _| {
             calls += 1;
             if r.iteration == 3 {
                 Control::Stop
@@ -879,7 +935,6 @@ mod tests {
         let out = minimise(
             &Rosenbrock,
             vec![-1.2, 1.0],
-            1.0,
             &opts.with_max_iters(5),
             &none(),
             |_, _| Control::Continue,
@@ -907,10 +962,8 @@ mod tests {
             let opts = TrainOptions::default()
                 .with_max_iters(50)
                 .with_max_line_search_evaluations(cap);
-            let out = minimise(&obj, vec![0.0], 1.0, &opts, &none(), |_, _| {
-                Control::Continue
-            })
-            .expect("runs");
+            let out =
+                minimise(&obj, vec![0.0], &opts, &none(), |_, _| Control::Continue).expect("runs");
             let evaluations = obj.0.into_inner().expect("not poisoned");
             // Every loop round is one line search; at most two rounds in a row accept nothing.
             let rounds = 2 * out.history.len() + 2;
@@ -926,9 +979,7 @@ mod tests {
         let opts = TrainOptions::default()
             .with_max_iters(1)
             .with_max_line_search_evaluations(usize::MAX);
-        let _ = minimise(&obj, vec![0.0], 1.0, &opts, &none(), |_, _| {
-            Control::Continue
-        });
+        let _ = minimise(&obj, vec![0.0], &opts, &none(), |_, _| Control::Continue);
         let evaluations = obj.0.into_inner().expect("not poisoned");
         assert!(
             evaluations > 10 * TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS,
@@ -940,7 +991,7 @@ mod tests {
     fn the_evaluation_budget_stops_training_at_the_best_point() {
         let obj = Recording(Mutex::new(Vec::new()));
         let opts = TrainOptions::default().with_max_evaluations(Some(12));
-        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &none(), |_, _| {
+        let out = minimise(&obj, vec![-1.2, 1.0], &opts, &none(), |_, _| {
             Control::Continue
         })
         .expect("runs");
@@ -959,7 +1010,7 @@ mod tests {
         let opts = TrainOptions::default().with_max_seconds(Some(0.0));
         let limits = Limits::start(&opts);
         let obj = Recording(Mutex::new(Vec::new()));
-        let out = minimise(&obj, vec![-1.2, 1.0], 1.0, &opts, &limits, |_, _| {
+        let out = minimise(&obj, vec![-1.2, 1.0], &opts, &limits, |_, _| {
             Control::Continue
         })
         .expect("runs");
@@ -973,7 +1024,6 @@ mod tests {
         let a = minimise(
             &Rosenbrock,
             vec![-1.2, 1.0],
-            1.0,
             &far,
             &Limits::start(&far),
             |_, _| Control::Continue,
@@ -982,7 +1032,6 @@ mod tests {
         let b = minimise(
             &Rosenbrock,
             vec![-1.2, 1.0],
-            1.0,
             &TrainOptions::default(),
             &none(),
             |_, _| Control::Continue,
@@ -1012,7 +1061,6 @@ mod tests {
         let out = minimise(
             &Rosenbrock,
             vec![-1.2, 1.0],
-            1.0,
             &opts,
             &Limits::start(&opts),
             |_, theta| {
@@ -1035,7 +1083,7 @@ mod tests {
             TrainOptions::default().with_max_seconds(Some(f64::NAN)),
             TrainOptions::default().with_max_line_search_evaluations(0),
         ] {
-            let e = minimise(&Rosenbrock, vec![0.0, 0.0], 1.0, &bad, &none(), |_, _| {
+            let e = minimise(&Rosenbrock, vec![0.0, 0.0], &bad, &none(), |_, _| {
                 Control::Continue
             })
             .err()
