@@ -13,10 +13,15 @@ scipy's place: whether a difference is our implementation's or L-BFGS-B's own. W
 without bounds in Python; `--first-step X` then changes only its first step (a multiple of −g;
 default "unit", L-BFGS-B's step of length 1).
 
+`--transfer` compares the two on the bench's transfer instead (`bench_vs_gpy.py
+--transfer-only`: the source trained with free latent points to convergence, the COMAN kernel
+trained on its frozen latent points, log parameters): evaluations to within 1e-4 of the level.
+
 Run (module built with `maturin develop --release`; GPy installed for the bench's data):
 
     python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000] \
         [--textbook [--search dcsrch] [--first-step unit|X]]
+    python benches/lbfgs_vs_scipy.py --transfer [--n 300] [--seed 1]
 """
 
 import argparse
@@ -151,6 +156,45 @@ def evaluations_to(trace, level):
     return next((i + 1 for i, f in enumerate(trace) if f <= target), None)
 
 
+def compare_transfer(n, seed):
+    """Our transfer against scipy's L-BFGS-B on the same transfer objective (the new robot's
+    kernel, log parameters, through `set_params` / `gradient()` of the untrained transfer)."""
+    human, walkman, coman = smooth_data(n, seed=seed)
+    source = sgplvm.SharedGPLVM(latent_dim=5, back_constraint=None, seed=0)
+    source.fit({"human": human, "walkman": walkman}, input="human", max_iters=100_000,
+               validation=None)
+    ours = source.transfer("coman", coman, max_iters=100_000, validation=None)
+    h = ours.history
+    start = source.transfer("coman", coman, max_iters=0, validation=None)
+    params = start.params
+    q = len(params["spaces"]["coman"]["lengthscale"])
+    trace = []
+
+    def fun(u):
+        kernel = {"variance": float(np.exp(u[0])), "lengthscale": np.exp(u[1:1 + q]),
+                  "noise": float(np.exp(u[1 + q]))}
+        start.set_params({**params, "spaces": {**params["spaces"], "coman": kernel}})
+        f = start.objective()
+        trace.append(min(f, trace[-1]) if trace else f)
+        g = start.gradient()["spaces"]["coman"]
+        return f, np.concatenate([[g["variance"]], g["lengthscale"], [g["noise"]]]) * np.exp(u)
+
+    k = params["spaces"]["coman"]
+    u0 = np.log(np.concatenate([[k["variance"]], k["lengthscale"], [k["noise"]]]))
+    res = minimize(fun, u0, jac=True, method="L-BFGS-B")
+    ours_trace = []
+    for f, e in zip(h["objective"], h["evaluations"]):
+        ours_trace += [f] * (int(e) - len(ours_trace))
+    print(f"transfer, N = {n}, data seed {seed}: start {h['objective'][0]:.4f}")
+    print(f"ours : {len(ours_trace)} evaluations ({h['iteration'][-1]} iterations), final "
+          f"{ours_trace[-1]:.4f}, stop {ours.stop_reason}")
+    print(f"scipy L-BFGS-B: {len(trace)} evaluations ({res.nit} iterations), final "
+          f"{trace[-1]:.4f}, {res.message}")
+    level = max(ours_trace[-1], trace[-1])
+    print(f"to within 1e-4 of {level:.4f}: ours {evaluations_to(ours_trace, level)}, "
+          f"scipy {evaluations_to(trace, level)} evaluations")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=300)
@@ -167,7 +211,12 @@ def main():
     ap.add_argument("--first-step", default="unit",
                     help="--textbook's first step, as a multiple of -g: 'unit' (1/|g|, "
                          "L-BFGS-B's) or a number")
+    ap.add_argument("--transfer", action="store_true",
+                    help="compare the two on the bench's transfer instead (see above)")
     args = ap.parse_args()
+    if args.transfer:
+        compare_transfer(args.n, args.seed)
+        return
     human, walkman, _ = smooth_data(args.n, seed=args.seed)
     spaces = {"human": human, "walkman": walkman}
     names = list(spaces)
