@@ -75,7 +75,8 @@
 //!   human columns + noise) on the centred training X, hyperparameters by L-BFGS
 //!   (`TrainOptions::map_max_iters`).
 //! - **Training**: argmin's L-BFGS + More–Thuente on log-parameters, objective scaled by
-//!   1/(N·ΣD) for the solver; stop on max |gradient| (`grad_tol`), relative decrease
+//!   1/‖g₀‖ for the solver so that the first step has unit length, as in L-BFGS-B; stop on
+//!   max |gradient| (`grad_tol`), relative decrease
 //!   (`rel_tol`) or `max_iters`; after a failed line search L-BFGS restarts once from the best
 //!   point. Every line search makes at most `max_line_search_evaluations` evaluations, and
 //!   `max_seconds`, `max_evaluations` and an [`Interrupt`] can end a run early, keeping the
