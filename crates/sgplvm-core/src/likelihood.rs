@@ -14,7 +14,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::error::Error;
 use crate::kernel::{rbf_lower, KernelParams};
-use crate::pool::par_for;
+use crate::pool::{par_for, par_inverse_for, par_space};
 use crate::simd::{clear_upper_simd_state, vectorized};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -140,22 +140,34 @@ pub(crate) struct SpaceEval {
     pub d_noise: f64,
 }
 
-/// Evaluates one space. `xr` is the latent matrix row-major (N×Q), `y` the (centred) data.
-/// With `grad` the kernel derivatives are computed, and with `dx` (row-major N×Q) the latent
-/// gradient is *added* to it. Without `grad` only `nll` and `jitter` are meaningful (and the
-/// factor/alpha buffers are filled for prediction).
+/// What [`eval_space`] computes besides the objective.
+pub(crate) enum Wanted<'a> {
+    /// The objective alone: only `nll` and `jitter` are meaningful (the factor and `K⁻¹Y` are
+    /// left in the buffers for prediction).
+    Objective,
+    /// The kernel's derivatives too.
+    KernelGradient,
+    /// The kernel's derivatives, and ∂L/∂X *added* to the slice (row-major N×Q).
+    AllGradients(&'a mut [f64]),
+}
+
+/// Evaluates one space. `xr` is the latent matrix row-major (N×Q), `y` the (centred) data,
+/// `wanted` what to compute. `alongside` is how many evaluations (this one included) run side
+/// by side on the pool: they share its threads.
 pub(crate) fn eval_space(
     xr: &[f64],
     q: usize,
     y: MatRef<'_, f64>,
     kern: &KernelParams,
     work: &mut SpaceWork,
-    grad: bool,
-    dx: Option<&mut [f64]>,
+    alongside: usize,
+    wanted: Wanted<'_>,
 ) -> Result<SpaceEval, NotPd> {
     let n = y.nrows();
     let d = y.ncols();
-    let par = par_for(n);
+    let par = par_space(n, alongside);
+    // This thread may have run faer's kernels for another evaluation's parallel inverse.
+    clear_upper_simd_state();
     rbf_lower(xr, q, kern, &mut work.kf);
     let jitter = cholesky_with_jitter(work.kf.as_ref(), kern.noise, work.l.as_mut(), par)?;
     let l = work.l.as_ref();
@@ -178,10 +190,12 @@ pub(crate) fn eval_space(
         d_lengthscale: vec![0.0; q],
         d_noise: 0.0,
     };
-    if !grad {
-        return Ok(out);
-    }
-    out.d_noise = weigh_by_kernel(work, d, par);
+    let dx = match wanted {
+        Wanted::Objective => return Ok(out),
+        Wanted::KernelGradient => None,
+        Wanted::AllGradients(dx) => Some(dx),
+    };
+    out.d_noise = weigh_by_kernel(work, d, par, par_inverse_for(n, alongside));
     let (sum_m, d_lengthscale) = pair_sums(&work.g, xr, q, kern, dx, par);
     out.d_lengthscale = d_lengthscale;
     out.d_variance = sum_m / kern.variance;
@@ -191,13 +205,14 @@ pub(crate) fn eval_space(
 /// Turns `work.g` into M = ∂L/∂K ∘ K_f (lower triangle) and returns tr ∂L/∂K = ∂L/∂σ².
 ///
 /// First g = K⁻¹ − (1/D) A Aᵀ, so that ∂L/∂K = D/2 · g; then M = D/2 · g ∘ K_f in place:
-/// every kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…).
-fn weigh_by_kernel(work: &mut SpaceWork, d: usize, par: Par) -> f64 {
+/// every kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…). The
+/// inverse runs with `par_inverse` (see [`par_inverse_for`]).
+fn weigh_by_kernel(work: &mut SpaceWork, d: usize, par: Par, par_inverse: Par) -> f64 {
     let n = work.kf.nrows();
     llt::inverse::inverse(
         work.g.as_mut(),
         work.l.as_ref(),
-        par,
+        par_inverse,
         MemStack::new(&mut work.mem),
     );
     if d > 0 {
@@ -297,6 +312,7 @@ fn pair_sums(
 mod tests {
     use super::*;
     use crate::kernel::row_major;
+    use crate::pool::{INVERSE_PARALLEL_FROM, PARALLEL_FROM};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -312,8 +328,8 @@ mod tests {
             y.as_ref(),
             k,
             &mut w,
-            false,
-            None,
+            1,
+            Wanted::Objective,
         )
         .expect("pd")
         .nll
@@ -353,6 +369,65 @@ mod tests {
         assert!((a - b).abs() < 1e-10 * b.abs(), "{a} vs {b}");
     }
 
+    /// A space evaluated alone on a pool with threads to spare inverts its factor on two
+    /// threads (and from `PARALLEL_FROM` points factorises, solves and multiplies on them too);
+    /// the objective and every gradient must be those of one thread, bit for bit, so that a
+    /// model does not depend on the cores it was trained on.
+    #[test]
+    fn parallel_evaluation_gives_the_sequential_result_bit_for_bit() {
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("pool");
+        for n in [INVERSE_PARALLEL_FROM + 44, PARALLEL_FROM + 20] {
+            let (q, d) = (3, 4);
+            let mut rng = ChaCha8Rng::seed_from_u64(8);
+            let x = random(n, q, &mut rng);
+            let y = random(n, d, &mut rng);
+            let k = KernelParams {
+                variance: 1.3,
+                lengthscale: vec![0.9, 1.4, 2.0],
+                noise: 0.05,
+            };
+            let xr = row_major(x.as_ref());
+            let eval = |alongside: usize| {
+                let mut w = SpaceWork::new(n, d);
+                let mut dx = vec![0.0; n * q];
+                let e = eval_space(
+                    &xr,
+                    q,
+                    y.as_ref(),
+                    &k,
+                    &mut w,
+                    alongside,
+                    Wanted::AllGradients(&mut dx),
+                )
+                .expect("pd");
+                let mut bits: Vec<u64> = [e.nll, e.d_variance, e.d_noise, e.jitter]
+                    .iter()
+                    .chain(&e.d_lengthscale)
+                    .chain(&dx)
+                    .map(|v| v.to_bits())
+                    .collect();
+                let a = w.alpha();
+                bits.extend((0..d).flat_map(|j| (0..n).map(move |i| a[(i, j)].to_bits())));
+                bits
+            };
+            let (parallel, shared) = two.install(|| {
+                assert!(matches!(par_inverse_for(n, 1), Par::Rayon(_)));
+                assert!(matches!(par_inverse_for(n, 2), Par::Seq));
+                assert_eq!(matches!(par_space(n, 1), Par::Rayon(_)), n >= PARALLEL_FROM);
+                (eval(1), eval(2))
+            });
+            let sequential = eval(1);
+            assert!(
+                parallel == sequential,
+                "N = {n}: two threads changed the result"
+            );
+            assert!(shared == sequential, "N = {n}");
+        }
+    }
+
     #[test]
     fn gradients_match_central_differences() {
         let mut rng = ChaCha8Rng::seed_from_u64(2);
@@ -368,7 +443,16 @@ mod tests {
             let xr = row_major(x.as_ref());
             let mut w = SpaceWork::new(n, d);
             let mut dx = vec![0.0; n * q];
-            let e = eval_space(&xr, q, y.as_ref(), &k, &mut w, true, Some(&mut dx)).expect("pd");
+            let e = eval_space(
+                &xr,
+                q,
+                y.as_ref(),
+                &k,
+                &mut w,
+                1,
+                Wanted::AllGradients(&mut dx),
+            )
+            .expect("pd");
             let h = 1e-6;
             let check = |analytic: f64, plus: f64, minus: f64, what: &str| {
                 let fd = (plus - minus) / (2.0 * h);
@@ -407,7 +491,8 @@ mod tests {
                 check(dx[i * q + t], nll(&xp, &y, &k), nll(&xm, &y, &k), "x");
             }
             // The kernel-only path gives the same kernel gradient.
-            let e2 = eval_space(&xr, q, y.as_ref(), &k, &mut w, true, None).expect("pd");
+            let e2 =
+                eval_space(&xr, q, y.as_ref(), &k, &mut w, 1, Wanted::KernelGradient).expect("pd");
             assert!((e2.d_variance - e.d_variance).abs() < 1e-9 * e.d_variance.abs().max(1.0));
             assert!(
                 (e2.d_lengthscale[0] - e.d_lengthscale[0]).abs()
@@ -490,7 +575,7 @@ mod tests {
             println!("{what:<28} {:>9.1} us (fastest of {reps})", best * 1e6);
         };
         time("whole eval_space", &mut |w| {
-            eval_space(&xr, q, y.as_ref(), &k, w, true, Some(&mut dx)).expect("pd");
+            eval_space(&xr, q, y.as_ref(), &k, w, 1, Wanted::AllGradients(&mut dx)).expect("pd");
         });
         time("rbf_lower", &mut |w| rbf_lower(&xr, q, &k, &mut w.kf));
         let mut tri = vec![-0.3; n * (n + 1) / 2];
@@ -543,7 +628,7 @@ mod tests {
             );
         });
         time("weigh_by_kernel (inv+AAt+o)", &mut |w| {
-            weigh_by_kernel(w, d, Par::Seq);
+            weigh_by_kernel(w, d, Par::Seq, Par::Seq);
         });
         time("pair_sums", &mut |w| {
             pair_sums(&w.g, &xr, q, &k, Some(&mut dx), Par::Seq);

@@ -11,7 +11,7 @@ use crate::config::ModelConfig;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
-use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
+use crate::likelihood::{eval_space, SpaceEval, SpaceWork, Wanted};
 use crate::pool::lock;
 use crate::predict::Prepared;
 use crate::train::{Control, IterationRecord, StopReason};
@@ -44,8 +44,8 @@ impl Space {
             self.data.as_ref(),
             &self.kernel,
             work,
-            false,
-            None,
+            1,
+            Wanted::Objective,
         )
         .map_err(|e| e.in_space(&self.name))
     }

@@ -12,10 +12,10 @@ use rayon::prelude::*;
 use crate::back_constraint::{bandwidth_gradient, latent_points, weights_gradient};
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
-use crate::likelihood::{eval_space, SpaceEval, SpaceWork};
+use crate::likelihood::{eval_space, SpaceEval, SpaceWork, Wanted};
 use crate::model::{Latent, SharedGplvm};
 use crate::params::{LatentParams, Params};
-use crate::pool::{in_pool, lock, on_pool_thread, par_for, PARALLEL_FROM};
+use crate::pool::{in_pool, lock, on_pool_thread, par_for, INVERSE_PARALLEL_FROM};
 use crate::simd::clear_upper_simd_state;
 use crate::train::Objective;
 
@@ -300,14 +300,14 @@ impl Drop for ModelObjective<'_> {
 impl Objective for ModelObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
         // On the pool only when there is parallel work: several spaces, or one space large
-        // enough for faer's threads (transfer evaluates one space and would only pay the
-        // hand-off to a pool thread).
+        // enough for faer's threads (a small transfer evaluates one space and would only pay
+        // the hand-off to a pool thread).
         let n = self.model.n();
         let spaces = match &self.mode {
             Mode::Full => self.model.spaces.len(),
             Mode::Kernels(v) => v.len(),
         };
-        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= PARALLEL_FROM {
+        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= INVERSE_PARALLEL_FROM {
             in_pool(|| self.eval_here(theta, grad))
         } else {
             self.eval_here(theta, grad)
@@ -382,15 +382,21 @@ impl ModelObjective<'_> {
         let with_latent = self.latent_len() > 0;
         let evaluated = self.evaluated();
         let mut works = lock(&self.works);
+        let side_by_side = evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread();
+        let alongside = if side_by_side { evaluated.len() } else { 1 };
         let one_space = |(w, (&s, k)): (&mut SpaceWork, (&usize, &KernelParams))| {
             let mut dx = vec![0.0; if with_latent { n * q } else { 0 }];
             let space = &m.spaces[s];
-            let dx_out = if with_latent { Some(&mut dx[..]) } else { None };
-            eval_space(xr, q, space.data.as_ref(), k, w, true, dx_out)
+            let wanted = if with_latent {
+                Wanted::AllGradients(&mut dx[..])
+            } else {
+                Wanted::KernelGradient
+            };
+            eval_space(xr, q, space.data.as_ref(), k, w, alongside, wanted)
                 .map(|e| (e, dx))
                 .map_err(|e| e.in_space(&space.name))
         };
-        if evaluated.len() > 1 && n >= SPACES_IN_PARALLEL_FROM && on_pool_thread() {
+        if side_by_side {
             works
                 .par_iter_mut()
                 .zip(evaluated.par_iter().zip(kernels.par_iter()))

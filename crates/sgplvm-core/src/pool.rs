@@ -15,11 +15,38 @@ use rayon::ThreadPool;
 /// 2-core machine the project is developed on: a 300×300 Cholesky takes 0.34 ms on one thread).
 pub(crate) const PARALLEL_FROM: usize = 700;
 
+/// Sizes from which a factor's inverse is spread over the pool's threads when there are threads
+/// to spare (one space evaluated alone: a transfer, the input map's regression). At 256 points it
+/// was no faster than one thread here, at 300 it took 0.35–0.46 ms against 0.59 ms
+/// (`step_times`).
+pub(crate) const INVERSE_PARALLEL_FROM: usize = 256;
+
 /// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
 /// only on a pool thread (see [`crate::pool`]), sequential everywhere else.
 pub(crate) fn par_for(n: usize) -> Par {
-    if n >= PARALLEL_FROM && crate::pool::on_pool_thread() {
-        Par::rayon(0)
+    shared(n, PARALLEL_FROM, 1)
+}
+
+/// [`par_for`] for one of `alongside` evaluations running side by side on the pool: they
+/// share its threads.
+pub(crate) fn par_space(n: usize, alongside: usize) -> Par {
+    shared(n, PARALLEL_FROM, alongside)
+}
+
+/// [`par_space`] for inverting a factor, parallel from [`INVERSE_PARALLEL_FROM`] points.
+pub(crate) fn par_inverse_for(n: usize, alongside: usize) -> Par {
+    shared(n, INVERSE_PARALLEL_FROM, alongside)
+}
+
+/// Rayon's parallelism over the pool's threads shared among `alongside` tasks, from `from`
+/// points and on a pool thread; sequential when that leaves fewer than two threads each (nested
+/// parallelism then only adds hand-offs). faer's parallel factorisation, solves, inverse and
+/// products give the sequential results bit for bit here (a test in `likelihood` pins it), so
+/// this choice changes only the time.
+fn shared(n: usize, from: usize, alongside: usize) -> Par {
+    let threads = rayon::current_num_threads() / alongside.max(1);
+    if n >= from && on_pool_thread() && threads >= 2 {
+        Par::rayon(threads)
     } else {
         Par::Seq
     }

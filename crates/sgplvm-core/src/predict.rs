@@ -13,7 +13,7 @@ use crate::config::BackConstraint;
 use crate::error::{Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::{rbf_block, row_major, KernelParams};
-use crate::likelihood::{eval_space, SpaceWork};
+use crate::likelihood::{eval_space, SpaceWork, Wanted};
 use crate::model::{Latent, SharedGplvm, Space};
 use crate::pool::{in_pool, par_for};
 use crate::preprocess::check_finite;
@@ -258,8 +258,16 @@ impl SharedGplvm {
                 let y = Mat::from_fn(n, q, |i, j| x[(i, j)] - map.x_mean[j]);
                 let mut w = SpaceWork::new(n, q);
                 let hr = row_major(h);
-                eval_space(&hr, h.ncols(), y.as_ref(), &map.kernel, &mut w, false, None)
-                    .map_err(|e| e.in_space("input map"))?;
+                eval_space(
+                    &hr,
+                    h.ncols(),
+                    y.as_ref(),
+                    &map.kernel,
+                    &mut w,
+                    1,
+                    Wanted::Objective,
+                )
+                .map_err(|e| e.in_space("input map"))?;
                 Ok(LatentCache::new(
                     hr,
                     row_major(w.alpha()),

@@ -13,10 +13,10 @@ use faer::{Accum, Mat, MatRef, Par};
 use crate::back_constraint::median_distance;
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
-use crate::likelihood::{eval_space, SpaceWork};
+use crate::likelihood::{eval_space, SpaceWork, Wanted};
 use crate::memory;
 use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
-use crate::pool::{in_pool, lock, PARALLEL_FROM};
+use crate::pool::{in_pool, lock, INVERSE_PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
 use crate::preprocess::{check_finite, check_nonempty, mean_col_var, unit_scaled};
 use crate::train::{
@@ -87,7 +87,8 @@ struct RegressionObjective<'a> {
 
 impl Objective for RegressionObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
-        if self.y.nrows() >= PARALLEL_FROM {
+        // On the pool from the size at which the inverse is spread over its threads.
+        if self.y.nrows() >= INVERSE_PARALLEL_FROM {
             in_pool(|| self.eval_here(theta, grad))
         } else {
             self.eval_here(theta, grad)
@@ -112,8 +113,8 @@ impl RegressionObjective<'_> {
             self.y.as_ref(),
             &k,
             &mut w,
-            true,
-            None,
+            1,
+            Wanted::KernelGradient,
         )
         .map_err(|e| e.in_space(self.what))?;
         kernel_grad_log(&k, &e, grad);
@@ -229,8 +230,16 @@ impl GpRegression {
         let (n, d) = (yc.nrows(), yc.ncols());
         let x_rows = row_major(x);
         let mut work = SpaceWork::new(n, d);
-        let e = eval_space(&x_rows, x.ncols(), yc, &kernel, &mut work, false, None)
-            .map_err(|e| e.in_space(what))?;
+        let e = eval_space(
+            &x_rows,
+            x.ncols(),
+            yc,
+            &kernel,
+            &mut work,
+            1,
+            Wanted::Objective,
+        )
+        .map_err(|e| e.in_space(what))?;
         Ok(GpRegression {
             x_rows,
             x_unit: 1.0,

@@ -588,7 +588,7 @@ fn chain(
 mod tests {
     use super::*;
     use crate::kernel::row_major;
-    use crate::likelihood::{eval_space, SpaceWork};
+    use crate::likelihood::{eval_space, SpaceWork, Wanted};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -624,8 +624,16 @@ mod tests {
             let xr = row_major(x.as_ref());
             let mut w = SpaceWork::new(n, d);
             let mut dx_exact = vec![0.0; n * q];
-            let e =
-                eval_space(&xr, q, y.as_ref(), &k, &mut w, true, Some(&mut dx_exact)).expect("pd");
+            let e = eval_space(
+                &xr,
+                q,
+                y.as_ref(),
+                &k,
+                &mut w,
+                1,
+                Wanted::AllGradients(&mut dx_exact),
+            )
+            .expect("pd");
             let (mut dx, mut dz) = (vec![0.0; n * q], vec![0.0; n * q]);
             let s = eval_sparse_space(
                 &xr,
@@ -773,7 +781,7 @@ mod tests {
         let k = kernel(q, &mut rng);
         let xr = row_major(x.as_ref());
         let mut w = SpaceWork::new(n, d);
-        let exact = eval_space(&xr, q, y.as_ref(), &k, &mut w, false, None)
+        let exact = eval_space(&xr, q, y.as_ref(), &k, &mut w, 1, Wanted::Objective)
             .expect("pd")
             .nll;
         let zr: Vec<f64> = xr[..10 * q].to_vec();
