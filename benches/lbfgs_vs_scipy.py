@@ -13,6 +13,9 @@ scipy's place: whether a difference is our implementation's or L-BFGS-B's own. W
 without bounds in Python; `--first-step X` then changes only its first step (a multiple of −g;
 default "unit", L-BFGS-B's step of length 1).
 
+`--back-constraint` compares them on input back constraints (the bench's plain weights W,
+the bandwidth fixed as in training) instead of free latent points.
+
 `--transfer` compares the two on the bench's transfer instead (`bench_vs_gpy.py
 --transfer-only`: the source trained with free latent points to convergence, the COMAN kernel
 trained on its frozen latent points, log parameters): evaluations to within 1e-4 of the level.
@@ -22,6 +25,8 @@ Run (module built with `maturin develop --release`; GPy installed for the bench'
     python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000] \
         [--textbook [--search dcsrch] [--first-step unit|X]]
     python benches/lbfgs_vs_scipy.py --transfer [--n 300] [--seed 1]
+    python benches/lbfgs_vs_scipy.py --back-constraint --max-evaluations 40000 \
+        [--transform softplus]
 """
 
 import argparse
@@ -45,11 +50,17 @@ TRANSFORMS = {
 }
 
 
+def latent_block(latent):
+    """The latent block the optimisers move: the latent points, or the back-constraint
+    weights W (the bandwidth is fixed during training)."""
+    return np.asarray(latent["weights"] if isinstance(latent, dict) else latent, dtype=float)
+
+
 def flatten(params, names, transform):
-    """The optimiser's vector: latent points, then per space the variance, lengthscales and
-    noise through `transform`'s inverse."""
+    """The optimiser's vector: latent points (or back-constraint weights), then per space the
+    variance, lengthscales and noise through `transform`'s inverse."""
     inv = TRANSFORMS[transform][1]
-    parts = [np.asarray(params["latent"], dtype=float).ravel()]
+    parts = [latent_block(params["latent"]).ravel()]
     for name in names:
         k = params["spaces"][name]
         parts += [inv(np.array([k["variance"]])), inv(np.asarray(k["lengthscale"], dtype=float)),
@@ -57,11 +68,15 @@ def flatten(params, names, transform):
     return np.concatenate(parts)
 
 
-def unflatten(u, shape, names, q, transform):
-    """`flatten`'s inverse, as the params dict `set_params` takes."""
+def unflatten(u, shape, names, q, transform, bandwidth=None):
+    """`flatten`'s inverse, as the params dict `set_params` takes (back-constraint weights
+    with `bandwidth` when it is given)."""
     fwd = TRANSFORMS[transform][0]
     n = shape[0] * shape[1]
-    params = {"latent": u[:n].reshape(shape), "spaces": {}}
+    latent = u[:n].reshape(shape)
+    if bandwidth is not None:
+        latent = {"weights": latent, "bandwidth": bandwidth}
+    params = {"latent": latent, "spaces": {}}
     at = n
     for name in names:
         params["spaces"][name] = {"variance": float(fwd(u[at])),
@@ -74,7 +89,7 @@ def unflatten(u, shape, names, q, transform):
 def chain(grad, u, n, names, q, transform):
     """The gradient in `flatten`'s coordinates (d/du = dθ/du · d/dθ)."""
     deriv = TRANSFORMS[transform][2]
-    parts = [np.asarray(grad["latent"], dtype=float).ravel()]
+    parts = [latent_block(grad["latent"]).ravel()]
     at = n
     for name in names:
         g = grad["spaces"][name]
@@ -165,9 +180,10 @@ def evaluations_to(trace, level):
     return next((i + 1 for i, f in enumerate(trace) if f <= target), None)
 
 
-def compare_transfer(n, seed):
+def compare_transfer(n, seed, transform):
     """Our transfer against scipy's L-BFGS-B on the same transfer objective (the new robot's
-    kernel, log parameters, through `set_params` / `gradient()` of the untrained transfer).
+    kernel through `transform`, ours log, via `set_params` / `gradient()` of the untrained
+    transfer).
     As in `bench_vs_gpy.py`, the frozen source's objective is taken off, so that the 1e-4 is
     relative to the new robot's term alone."""
     human, walkman, coman = smooth_data(n, seed=seed)
@@ -182,17 +198,20 @@ def compare_transfer(n, seed):
     q = len(params["spaces"]["coman"]["lengthscale"])
     trace = []
 
+    fwd, inv, deriv = TRANSFORMS[transform]
+
     def fun(u):
-        kernel = {"variance": float(np.exp(u[0])), "lengthscale": np.exp(u[1:1 + q]),
-                  "noise": float(np.exp(u[1 + q]))}
+        theta = fwd(u)
+        kernel = {"variance": float(theta[0]), "lengthscale": theta[1:1 + q],
+                  "noise": float(theta[1 + q])}
         start.set_params({**params, "spaces": {**params["spaces"], "coman": kernel}})
         f = start.objective() - frozen
         trace.append(min(f, trace[-1]) if trace else f)
         g = start.gradient()["spaces"]["coman"]
-        return f, np.concatenate([[g["variance"]], g["lengthscale"], [g["noise"]]]) * np.exp(u)
+        return f, np.concatenate([[g["variance"]], g["lengthscale"], [g["noise"]]]) * deriv(u)
 
     k = params["spaces"]["coman"]
-    u0 = np.log(np.concatenate([[k["variance"]], k["lengthscale"], [k["noise"]]]))
+    u0 = inv(np.concatenate([[k["variance"]], k["lengthscale"], [k["noise"]]]))
     res = minimize(fun, u0, jac=True, method="L-BFGS-B")
     ours_trace = per_evaluation(h, frozen)
     print(f"transfer, N = {n}, data seed {seed}: start {ours_trace[0]:.4f} (frozen source "
@@ -200,7 +219,7 @@ def compare_transfer(n, seed):
     print(f"ours : {len(ours_trace)} evaluations ({h['iteration'][-1]} iterations, "
           f"{h['seconds'][-1] * 1e3:.1f} ms by the history's clock), final {ours_trace[-1]:.4f}, "
           f"stop {ours.stop_reason}")
-    print(f"scipy L-BFGS-B: {len(trace)} evaluations ({res.nit} iterations), final "
+    print(f"scipy L-BFGS-B ({transform}): {len(trace)} evaluations ({res.nit} iterations), final "
           f"{trace[-1]:.4f}, {res.message}")
     level = max(ours_trace[-1], trace[-1])
     print(f"to within 1e-4 of {level:.4f}: ours {evaluations_to(ours_trace, level)}, "
@@ -225,33 +244,39 @@ def main():
                          "L-BFGS-B's) or a number")
     ap.add_argument("--transfer", action="store_true",
                     help="compare the two on the bench's transfer instead (see above)")
+    ap.add_argument("--back-constraint", action="store_true",
+                    help="input back constraints (plain weights W, the bandwidth fixed) "
+                         "instead of free latent points")
     args = ap.parse_args()
     if args.transfer:
-        compare_transfer(args.n, args.seed)
+        compare_transfer(args.n, args.seed, args.transform)
         return
     human, walkman, _ = smooth_data(args.n, seed=args.seed)
     spaces = {"human": human, "walkman": walkman}
     names = list(spaces)
-    start = initial_model(spaces, None)
+    bc = "input" if args.back_constraint else None
+    start = initial_model(spaces, bc)
     p0 = start.params
-    shape, q = p0["latent"].shape, p0["latent"].shape[1]
+    shape = latent_block(p0["latent"]).shape
+    q = len(p0["spaces"]["human"]["lengthscale"])
+    bandwidth = p0["latent"]["bandwidth"] if bc else None
 
     # Ours: its own L-BFGS from the same start; every evaluation's objective is not exposed,
     # the history gives the objective after each iteration and the evaluations spent so far.
     t = time.perf_counter()
-    ours = sgplvm.SharedGPLVM(latent_dim=q, back_constraint=None, seed=0)
+    ours = sgplvm.SharedGPLVM(latent_dim=q, back_constraint=bc, seed=0)
     ours.fit(spaces, input="human", max_iters=args.max_evaluations, validation=None)
     t_ours = time.perf_counter() - t
     h = ours.history
     ours_trace = per_evaluation(h)[:args.max_evaluations]
 
     # scipy on the same objective.
-    model = initial_model(spaces, None)
+    model = initial_model(spaces, bc)
     trace = []
     n_latent = shape[0] * shape[1]
 
     def fun(u):
-        model.set_params(unflatten(u, shape, names, q, args.transform))
+        model.set_params(unflatten(u, shape, names, q, args.transform, bandwidth))
         f = model.objective()
         trace.append(min(f, trace[-1]) if trace else f)
         return f, chain(model.gradient(), u, n_latent, names, q, args.transform)
@@ -268,7 +293,8 @@ def main():
                                 "maxiter": args.max_evaluations})
         label, how = "scipy L-BFGS-B", f"{res.nit} iterations, {res.message}"
     t_scipy = time.perf_counter() - t
-    print(f"N = {args.n}, data seed {args.seed}, free latent points, start objective "
+    kind = "input back constraints" if bc else "free latent points"
+    print(f"N = {args.n}, data seed {args.seed}, {kind}, start objective "
           f"{start.objective():.2f}")
     print(f"ours : {len(ours_trace)} evaluations ({h['iteration'][-1]} iterations, "
           f"{t_ours:.1f} s), final {ours_trace[-1]:.2f}, stop {ours.stop_reason}")
