@@ -320,6 +320,21 @@ mod tests {
         Mat::from_fn(n, c, |_, _| rng.random_range(-1.0..1.0))
     }
 
+    /// One evaluation with every gradient at `x` (row-major): the result and ∂L/∂X.
+    fn eval_all(
+        x: &[f64],
+        y: &Mat<f64>,
+        k: &KernelParams,
+        w: &mut SpaceWork,
+        alongside: usize,
+    ) -> (SpaceEval, Vec<f64>) {
+        let q = k.lengthscale.len();
+        let mut dx = vec![0.0; y.nrows() * q];
+        let wanted = Wanted::AllGradients(&mut dx);
+        let e = eval_space(x, q, y.as_ref(), k, w, alongside, wanted).expect("pd");
+        (e, dx)
+    }
+
     fn nll(x: &Mat<f64>, y: &Mat<f64>, k: &KernelParams) -> f64 {
         let mut w = SpaceWork::new(x.nrows(), y.ncols());
         eval_space(
@@ -392,17 +407,7 @@ mod tests {
             let xr = row_major(x.as_ref());
             let eval = |alongside: usize| {
                 let mut w = SpaceWork::new(n, d);
-                let mut dx = vec![0.0; n * q];
-                let e = eval_space(
-                    &xr,
-                    q,
-                    y.as_ref(),
-                    &k,
-                    &mut w,
-                    alongside,
-                    Wanted::AllGradients(&mut dx),
-                )
-                .expect("pd");
+                let (e, dx) = eval_all(&xr, &y, &k, &mut w, alongside);
                 let mut bits: Vec<u64> = [e.nll, e.d_variance, e.d_noise, e.jitter]
                     .iter()
                     .chain(&e.d_lengthscale)
@@ -442,17 +447,7 @@ mod tests {
             };
             let xr = row_major(x.as_ref());
             let mut w = SpaceWork::new(n, d);
-            let mut dx = vec![0.0; n * q];
-            let e = eval_space(
-                &xr,
-                q,
-                y.as_ref(),
-                &k,
-                &mut w,
-                1,
-                Wanted::AllGradients(&mut dx),
-            )
-            .expect("pd");
+            let (e, dx) = eval_all(&xr, &y, &k, &mut w, 1);
             let h = 1e-6;
             let check = |analytic: f64, plus: f64, minus: f64, what: &str| {
                 let fd = (plus - minus) / (2.0 * h);
