@@ -44,11 +44,13 @@ pub(crate) fn par_inverse_for(n: usize, alongside: usize) -> Par {
 /// products give the sequential results bit for bit here (a test in `likelihood` pins it), so
 /// this choice changes only the time.
 fn shared(n: usize, from: usize, alongside: usize) -> Par {
-    let threads = rayon::current_num_threads() / alongside.max(1);
-    if n >= from && on_pool_thread() && threads >= 2 {
-        Par::rayon(threads)
-    } else {
-        Par::Seq
+    // Off the pool `current_num_threads` would start rayon's global pool: ask on it only.
+    if n < from || !on_pool_thread() {
+        return Par::Seq;
+    }
+    match rayon::current_num_threads() / alongside.max(1) {
+        threads @ 2.. => Par::rayon(threads),
+        _ => Par::Seq,
     }
 }
 
