@@ -83,6 +83,10 @@ def test_bad_max_seconds_is_a_value_error(bad):
 # ---------------------------------------------------------------- Ctrl-C
 
 CHILD = r"""
+import signal
+# Python keeps SIGINT ignored if it started ignored (a job started in the background of a
+# non-interactive shell, as a CI runner may do): this child must hear it.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import sys
 import numpy as np
 import sgplvm
@@ -305,6 +309,10 @@ def test_regression_of_data_scaled_by_1e150_trains_like_the_data():
 
 
 REGRESSION_CHILD = r"""
+import signal
+# Python keeps SIGINT ignored if it started ignored (a job started in the background of a
+# non-interactive shell, as a CI runner may do): this child must hear it.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
