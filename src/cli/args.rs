@@ -135,12 +135,11 @@ pub struct ModelConfigArgs {
     /// Keep the inducing inputs where they start (with --inducing) instead of training them.
     #[arg(long, requires = "inducing")]
     pub fixed_inducing: bool,
-    /// Train the back-constraint weights whitened (W = K_bc^(-1/2) V): the same model, far
-    /// better conditioned, so training reaches a low objective in far fewer iterations (on
-    /// the benchmark data GPy's final level at iteration 86; the plain weights stop short of it
-    /// after 26,288). For when you
-    /// want the optimum fast (time to solution, training to convergence); off by default
-    /// because the slow plain route regularises: held-out error was worse with it on the
+    /// Train the back-constraint weights whitened (W = K_bc^(-1/2) V): the same model, far better
+    /// conditioned, so training reaches a low objective in far fewer iterations (on the benchmark
+    /// data GPy's final level at iteration 86; the plain weights stop short of it after 26,288).
+    /// For when you want the optimum fast (time to solution, training to convergence); off by
+    /// default because the slow plain route regularises: held-out error was worse with it on the
     /// shipped data (BENCHMARKS.md, issue 18). Needs --back-constraint input or output and the
     /// exact model (not --inducing).
     #[arg(long, conflicts_with = "inducing")]

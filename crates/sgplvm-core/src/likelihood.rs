@@ -601,6 +601,25 @@ mod tests {
                 MemStack::new(&mut w.mem),
             );
         });
+        // A space evaluated alone on a pool of two threads (a transfer): the inverse, and
+        // the whole evaluation, as `eval_space` spreads them.
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("pool");
+        two.install(|| {
+            time("inverse, 2 threads", &mut |w| {
+                llt::inverse::inverse(
+                    w.g.as_mut(),
+                    w.l.as_ref(),
+                    par_inverse_for(n, 1),
+                    MemStack::new(&mut w.mem),
+                );
+            });
+            time("whole eval_space, 2 threads", &mut |w| {
+                eval_all(&xr, &y, &k, w, 1);
+            });
+        });
         time("  of which L^-1", &mut |w| {
             faer::linalg::triangular_inverse::invert_lower_triangular(
                 w.g.as_mut(),
