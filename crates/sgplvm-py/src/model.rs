@@ -118,6 +118,13 @@ pub(crate) fn signal_interrupt(raised: Arc<Mutex<Option<PyErr>>>) -> Interrupt {
     })
 }
 
+/// The exception of a signal that arrived after training's last look at the signal handlers
+/// (a Ctrl-C in its last few milliseconds): run now, so that it is raised carrying the trained
+/// model rather than by the interpreter on return, without it.
+pub(crate) fn late_signal(py: Python<'_>) -> Option<PyErr> {
+    py.check_signals().err()
+}
+
 /// A training's model and the exception a signal handler raised during it, if one did.
 type Trained = (SharedGplvm, Option<PyErr>);
 
@@ -234,7 +241,8 @@ fn train_detached(
         .signal
         .lock()
         .unwrap_or_else(PoisonError::into_inner)
-        .take();
+        .take()
+        .or_else(|| late_signal(py));
     match (result, signal) {
         (Ok(model), signal) => Ok((model, signal)),
         // A signal's exception wins over a training error: the user pressed Ctrl-C.

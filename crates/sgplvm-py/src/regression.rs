@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use sgplvm_core::{GpRegression, TrainOptions};
 
 use crate::guard::guarded;
-use crate::model::{kernel_to_dict, model_error, signal_interrupt, to_mat, to_numpy};
+use crate::model::{kernel_to_dict, late_signal, model_error, signal_interrupt, to_mat, to_numpy};
 
 /// A trained GP regression (native part; use `sgplvm.GPRegression`).
 #[pyclass(module = "sgplvm._sgplvm", name = "NativeRegression", frozen)]
@@ -40,7 +40,11 @@ impl NativeRegression {
                 .with_max_seconds(max_seconds)
                 .with_interrupt(signal_interrupt(Arc::clone(&signal)));
             let result = py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options));
-            let signal = signal.lock().unwrap_or_else(PoisonError::into_inner).take();
+            let signal = signal
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .take()
+                .or_else(|| late_signal(py));
             match (result, signal) {
                 (Ok(inner), None) => Ok(NativeRegression { inner }),
                 (Ok(inner), Some(e)) => {

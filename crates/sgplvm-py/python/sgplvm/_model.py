@@ -205,7 +205,8 @@ class SharedGPLVM:
         (``KeyboardInterrupt``), but the model keeps the best parameters reached before it:
         after ``except KeyboardInterrupt``, :attr:`is_fitted` is true and :attr:`stop_reason`
         is ``"interrupted"`` (interrupted while the iteration count was being chosen on
-        held-out rows, it is the initial model trained on all rows).
+        held-out rows, it is the initial model trained on all rows; a signal that comes as
+        training ends is raised the same way, with the reason training had stopped for).
 
         Data whose values are far from unit scale (root mean square after centring outside
         1e-6…1e6) are standardised internally by a power of two — predictions still come back
@@ -501,7 +502,8 @@ class GPRegression:
         the best hyperparameters so far are kept (:attr:`stop_reason` is ``"time_limit"``).
         Ctrl-C stops training within about a second and raises ``KeyboardInterrupt``; the
         regression keeps the best hyperparameters reached (:attr:`stop_reason`
-        ``"interrupted"``)."""
+        ``"interrupted"``, or the reason training had stopped for if the signal came as it
+        ended)."""
         x, y, seconds = _as_matrix(X, "X"), _as_matrix(Y, "Y"), _max_seconds(max_seconds)
         try:
             self._native = _sgplvm.NativeRegression.fit(x, y, self.max_iters, seconds)
