@@ -195,7 +195,7 @@ pub(crate) fn bc_kernel(data: MatRef<'_, f64>, bandwidth: f64) -> Mat<f64> {
         noise: 0.0,
     };
     let mut m = Mat::zeros(n, n);
-    rbf_lower(&row_major(data), data.ncols(), &k, &mut m);
+    rbf_lower(&row_major(data), data.ncols(), &k, &mut m, Par::Seq);
     for j in 0..n {
         for i in 0..j {
             m[(i, j)] = m[(j, i)];

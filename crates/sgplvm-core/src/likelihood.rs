@@ -14,7 +14,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::error::Error;
 use crate::kernel::{rbf_lower, KernelParams};
-use crate::pool::{par_for, par_inverse_for, par_space};
+use crate::pool::{par_alone_for, par_for, par_space};
 use crate::simd::{clear_upper_simd_state, vectorized};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -165,10 +165,10 @@ pub(crate) fn eval_space(
 ) -> Result<SpaceEval, NotPd> {
     let n = y.nrows();
     let d = y.ncols();
-    let par = par_space(n, alongside);
+    let (par, par_alone) = (par_space(n, alongside), par_alone_for(n, alongside));
     // This thread may have run faer's kernels for another evaluation's parallel inverse.
     clear_upper_simd_state();
-    rbf_lower(xr, q, kern, &mut work.kf);
+    rbf_lower(xr, q, kern, &mut work.kf, par_alone);
     let jitter = cholesky_with_jitter(work.kf.as_ref(), kern.noise, work.l.as_mut(), par)?;
     let l = work.l.as_ref();
     clear_upper_simd_state();
@@ -195,7 +195,7 @@ pub(crate) fn eval_space(
         Wanted::KernelGradient => None,
         Wanted::AllGradients(dx) => Some(dx),
     };
-    out.d_noise = weigh_by_kernel(work, d, par, par_inverse_for(n, alongside));
+    out.d_noise = weigh_by_kernel(work, d, par, par_alone);
     let (sum_m, d_lengthscale) = pair_sums(&work.g, xr, q, kern, dx, par);
     out.d_lengthscale = d_lengthscale;
     out.d_variance = sum_m / kern.variance;
@@ -206,7 +206,7 @@ pub(crate) fn eval_space(
 ///
 /// First g = K⁻¹ − (1/D) A Aᵀ, so that ∂L/∂K = D/2 · g; then M = D/2 · g ∘ K_f in place:
 /// every kernel derivative is a weighted sum of M's entries, ∂K_ij/∂θ = K_f,ij · (…). The
-/// inverse runs with `par_inverse` (see [`par_inverse_for`]).
+/// inverse runs with `par_inverse` (see [`par_alone_for`]).
 fn weigh_by_kernel(work: &mut SpaceWork, d: usize, par: Par, par_inverse: Par) -> f64 {
     let n = work.kf.nrows();
     llt::inverse::inverse(
@@ -312,7 +312,7 @@ fn pair_sums(
 mod tests {
     use super::*;
     use crate::kernel::row_major;
-    use crate::pool::{INVERSE_PARALLEL_FROM, PARALLEL_FROM};
+    use crate::pool::{ALONE_PARALLEL_FROM, PARALLEL_FROM};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -384,8 +384,9 @@ mod tests {
         assert!((a - b).abs() < 1e-10 * b.abs(), "{a} vs {b}");
     }
 
-    /// A space evaluated alone on a pool with threads to spare inverts its factor on two
-    /// threads (and from `PARALLEL_FROM` points factorises, solves and multiplies on them too);
+    /// A space evaluated alone on a pool with threads to spare builds its kernel matrix and
+    /// inverts its factor on two threads (and from `PARALLEL_FROM` points factorises, solves
+    /// and multiplies on them too);
     /// the objective and every gradient must be those of one thread, bit for bit, so that a
     /// model does not depend on the cores it was trained on.
     #[test]
@@ -394,7 +395,7 @@ mod tests {
             .num_threads(2)
             .build()
             .expect("pool");
-        for n in [INVERSE_PARALLEL_FROM + 44, PARALLEL_FROM + 20] {
+        for n in [ALONE_PARALLEL_FROM + 44, PARALLEL_FROM + 20] {
             let (q, d) = (3, 4);
             let mut rng = ChaCha8Rng::seed_from_u64(8);
             let x = random(n, q, &mut rng);
@@ -419,8 +420,8 @@ mod tests {
                 bits
             };
             let (parallel, shared) = two.install(|| {
-                assert!(matches!(par_inverse_for(n, 1), Par::Rayon(_)));
-                assert!(matches!(par_inverse_for(n, 2), Par::Seq));
+                assert!(matches!(par_alone_for(n, 1), Par::Rayon(_)));
+                assert!(matches!(par_alone_for(n, 2), Par::Seq));
                 assert_eq!(matches!(par_space(n, 1), Par::Rayon(_)), n >= PARALLEL_FROM);
                 (eval(1), eval(2))
             });
@@ -508,7 +509,7 @@ mod tests {
             noise: 0.0,
         };
         let mut kf = Mat::zeros(12, 12);
-        rbf_lower(&row_major(x.as_ref()), 2, &k, &mut kf);
+        rbf_lower(&row_major(x.as_ref()), 2, &k, &mut kf, Par::Seq);
         let mut l = Mat::zeros(12, 12);
         let j = cholesky_with_jitter(kf.as_ref(), k.noise, l.as_mut(), Par::Seq).expect("jitter");
         // On the ladder 1e-10 … 1e-2 × mean diagonal, by factors of 10.
@@ -572,7 +573,9 @@ mod tests {
         time("whole eval_space", &mut |w| {
             eval_space(&xr, q, y.as_ref(), &k, w, 1, Wanted::AllGradients(&mut dx)).expect("pd");
         });
-        time("rbf_lower", &mut |w| rbf_lower(&xr, q, &k, &mut w.kf));
+        time("rbf_lower", &mut |w| {
+            rbf_lower(&xr, q, &k, &mut w.kf, Par::Seq)
+        });
         let mut tri = vec![-0.3; n * (n + 1) / 2];
         time("exp_neg_slice, N(N+1)/2", &mut |_| {
             tri.iter_mut().for_each(|v| *v = -0.3);
@@ -612,9 +615,12 @@ mod tests {
                 llt::inverse::inverse(
                     w.g.as_mut(),
                     w.l.as_ref(),
-                    par_inverse_for(n, 1),
+                    par_alone_for(n, 1),
                     MemStack::new(&mut w.mem),
                 );
+            });
+            time("rbf_lower, 2 threads", &mut |w| {
+                rbf_lower(&xr, q, &k, &mut w.kf, par_alone_for(n, 1))
             });
             time("whole eval_space, 2 threads", &mut |w| {
                 eval_all(&xr, &y, &k, w, 1);
@@ -659,7 +665,7 @@ mod tests {
             noise: 0.0,
         };
         let mut kf = Mat::zeros(6, 6);
-        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf);
+        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf, Par::Seq);
         let mut l = Mat::zeros(6, 6);
         let j = cholesky_with_jitter(kf.as_ref(), 0.0, l.as_mut(), Par::Seq).expect("jitter");
         assert!(j > 0.0 && j <= 1e-2, "jitter {j}");
@@ -669,7 +675,7 @@ mod tests {
             lengthscale: vec![1.0],
             noise: 0.1,
         };
-        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf);
+        rbf_lower(&row_major(x.as_ref()), 1, &k, &mut kf, Par::Seq);
         assert!(cholesky_with_jitter(kf.as_ref(), 0.1, l.as_mut(), Par::Seq).is_err());
     }
 }

@@ -15,7 +15,7 @@ use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceEval, SpaceWork, Wanted};
 use crate::model::{Latent, SharedGplvm};
 use crate::params::{LatentParams, Params};
-use crate::pool::{in_pool, lock, on_pool_thread, par_for, INVERSE_PARALLEL_FROM};
+use crate::pool::{in_pool, lock, on_pool_thread, par_for, ALONE_PARALLEL_FROM};
 use crate::simd::clear_upper_simd_state;
 use crate::train::Objective;
 
@@ -307,7 +307,7 @@ impl Objective for ModelObjective<'_> {
             Mode::Full => self.model.spaces.len(),
             Mode::Kernels(v) => v.len(),
         };
-        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= INVERSE_PARALLEL_FROM {
+        if (spaces > 1 && n >= SPACES_IN_PARALLEL_FROM) || n >= ALONE_PARALLEL_FROM {
             in_pool(|| self.eval_here(theta, grad))
         } else {
             self.eval_here(theta, grad)

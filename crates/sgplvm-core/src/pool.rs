@@ -15,11 +15,11 @@ use rayon::ThreadPool;
 /// 2-core machine the project is developed on: a 300×300 Cholesky takes 0.34 ms on one thread).
 pub(crate) const PARALLEL_FROM: usize = 700;
 
-/// Sizes from which a factor's inverse is spread over the pool's threads when there are threads
-/// to spare (one space evaluated alone: a transfer, the input map's regression). At 256 points it
-/// was no faster than one thread here, at 300 it took 0.35–0.46 ms against 0.59 ms
-/// (`step_times`).
-pub(crate) const INVERSE_PARALLEL_FROM: usize = 256;
+/// Sizes from which a space evaluated alone (a transfer, the input map's regression) spreads
+/// its kernel matrix and its factor's inverse over the pool's threads when there are threads to
+/// spare. For the inverse: at 256 points it was no faster than one thread here, at 300 it took
+/// 0.35–0.46 ms against 0.59 ms (`step_times`).
+pub(crate) const ALONE_PARALLEL_FROM: usize = 256;
 
 /// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
 /// only on a pool thread (see [`crate::pool`]), sequential everywhere else.
@@ -33,9 +33,10 @@ pub(crate) fn par_space(n: usize, alongside: usize) -> Par {
     shared(n, PARALLEL_FROM, alongside)
 }
 
-/// [`par_space`] for inverting a factor, parallel from [`INVERSE_PARALLEL_FROM`] points.
-pub(crate) fn par_inverse_for(n: usize, alongside: usize) -> Par {
-    shared(n, INVERSE_PARALLEL_FROM, alongside)
+/// [`par_space`] for the steps a space evaluated alone spreads over threads to spare (its kernel
+/// matrix and its factor's inverse), parallel from [`ALONE_PARALLEL_FROM`] points.
+pub(crate) fn par_alone_for(n: usize, alongside: usize) -> Par {
+    shared(n, ALONE_PARALLEL_FROM, alongside)
 }
 
 /// Rayon's parallelism over the pool's threads shared among `alongside` tasks, from `from`

@@ -16,7 +16,7 @@ use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork, Wanted};
 use crate::memory;
 use crate::objective::{decode_kernel, encode_kernel, kernel_grad_log};
-use crate::pool::{in_pool, lock, INVERSE_PARALLEL_FROM};
+use crate::pool::{in_pool, lock, ALONE_PARALLEL_FROM};
 use crate::predict::{for_each_kernel_block, half_inv_l2, scaled_about_mean};
 use crate::preprocess::{check_finite, check_nonempty, mean_col_var, unit_scaled};
 use crate::train::{
@@ -87,8 +87,8 @@ struct RegressionObjective<'a> {
 
 impl Objective for RegressionObjective<'_> {
     fn eval(&self, theta: &[f64], grad: &mut [f64]) -> Result<f64> {
-        // On the pool from the size at which the inverse is spread over its threads.
-        if self.y.nrows() >= INVERSE_PARALLEL_FROM {
+        // On the pool from the size at which a space alone spreads its steps over its threads.
+        if self.y.nrows() >= ALONE_PARALLEL_FROM {
             in_pool(|| self.eval_here(theta, grad))
         } else {
             self.eval_here(theta, grad)

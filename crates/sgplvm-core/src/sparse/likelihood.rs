@@ -160,7 +160,7 @@ pub(crate) fn eval_sparse_space_in(
 
     // K_mm and its factor.
     let mut kmm = Mat::zeros(m, m);
-    rbf_lower(zr, q, kern, &mut kmm);
+    rbf_lower(zr, q, kern, &mut kmm, Par::Seq);
     let mut lm = Mat::zeros(m, m);
     let jitter = cholesky_with_jitter(kmm.as_ref(), rel_jitter * var, lm.as_mut(), par)?;
     for j in 0..m {
