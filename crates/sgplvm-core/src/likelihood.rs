@@ -384,18 +384,21 @@ mod tests {
         assert!((a - b).abs() < 1e-10 * b.abs(), "{a} vs {b}");
     }
 
-    /// A space evaluated alone on a pool with threads to spare builds its kernel matrix and
-    /// inverts its factor on two threads (and from `PARALLEL_FROM` points factorises, solves
-    /// and multiplies on them too);
-    /// the objective and every gradient must be those of one thread, bit for bit, so that a
-    /// model does not depend on the cores it was trained on.
+    /// A space evaluated alone on a pool with threads to spare runs every step on two threads
+    /// (kernel matrix, factor, solve, inverse, products); two spaces side by side on two
+    /// threads run one each. The objective and every gradient must be those of one thread, bit
+    /// for bit, so that a model does not depend on the cores it was trained on.
     #[test]
     fn parallel_evaluation_gives_the_sequential_result_bit_for_bit() {
         let two = rayon::ThreadPoolBuilder::new()
             .num_threads(2)
             .build()
             .expect("pool");
-        for n in [ALONE_PARALLEL_FROM + 44, PARALLEL_FROM + 20] {
+        for n in [
+            ALONE_PARALLEL_FROM + 44,
+            ALONE_PARALLEL_FROM + 201,
+            PARALLEL_FROM + 20,
+        ] {
             let (q, d) = (3, 4);
             let mut rng = ChaCha8Rng::seed_from_u64(8);
             let x = random(n, q, &mut rng);
@@ -420,9 +423,10 @@ mod tests {
                 bits
             };
             let (parallel, shared) = two.install(|| {
-                assert!(matches!(par_alone_for(n, 1), Par::Rayon(_)));
-                assert!(matches!(par_alone_for(n, 2), Par::Seq));
-                assert_eq!(matches!(par_space(n, 1), Par::Rayon(_)), n >= PARALLEL_FROM);
+                for par in [par_alone_for, par_space] {
+                    assert!(matches!(par(n, 1), Par::Rayon(_)));
+                    assert!(matches!(par(n, 2), Par::Seq));
+                }
                 (eval(1), eval(2))
             });
             let sequential = eval(1);

@@ -16,9 +16,11 @@ use rayon::ThreadPool;
 pub(crate) const PARALLEL_FROM: usize = 700;
 
 /// Sizes from which a space evaluated alone (a transfer, the input map's regression) spreads
-/// its kernel matrix and its factor's inverse over the pool's threads when there are threads to
-/// spare. For the inverse: at 256 points it was no faster than one thread here, at 300 it took
-/// 0.35–0.46 ms against 0.59 ms (`step_times`).
+/// every step of its evaluation over the pool's threads, and from which any space spreads its
+/// kernel matrix and its factor's inverse over threads to spare. A space alone on two threads
+/// measured faster than on one from here: by 3 % at 256 points, 5 % at 300, 12 % at 450 and
+/// 16–18 % at 500–680 (`step_times`, quiet), though faer's parallel Cholesky alone is slower at
+/// 300 points: the second thread, kept busy, is not put to sleep and woken between steps.
 pub(crate) const ALONE_PARALLEL_FROM: usize = 256;
 
 /// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
@@ -28,9 +30,14 @@ pub(crate) fn par_for(n: usize) -> Par {
 }
 
 /// [`par_for`] for one of `alongside` evaluations running side by side on the pool: they
-/// share its threads.
+/// share its threads. An evaluation alone is parallel from [`ALONE_PARALLEL_FROM`] points.
 pub(crate) fn par_space(n: usize, alongside: usize) -> Par {
-    shared(n, PARALLEL_FROM, alongside)
+    let from = if alongside <= 1 {
+        ALONE_PARALLEL_FROM
+    } else {
+        PARALLEL_FROM
+    };
+    shared(n, from, alongside)
 }
 
 /// [`par_space`] for the steps a space evaluated alone spreads over threads to spare (its kernel
