@@ -626,6 +626,20 @@ mod tests {
             time("rbf_lower, 2 threads", &mut |w| {
                 rbf_lower(&xr, q, &k, &mut w.kf, par_alone_for(n, 1))
             });
+            let par = par_space(n, 1);
+            time("cholesky_with_jitter, 2 thr.", &mut |w| {
+                cholesky_with_jitter(w.kf.as_ref(), k.noise, w.l.as_mut(), par).expect("pd");
+            });
+            time("solve, 2 threads", &mut |w| {
+                w.a.copy_from(&y);
+                llt::solve::solve_in_place(w.l.as_ref(), w.a.as_mut(), par, MemStack::new(&mut []));
+            });
+            time("weigh_by_kernel, 2 threads", &mut |w| {
+                weigh_by_kernel(w, d, par, par);
+            });
+            time("pair_sums, 2 threads", &mut |w| {
+                pair_sums(&w.g, &xr, q, &k, Some(&mut dx), par);
+            });
             time("whole eval_space, 2 threads", &mut |w| {
                 eval_all(&xr, &y, &k, w, 1);
             });
