@@ -11,8 +11,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use faer::Par;
 use rayon::ThreadPool;
 
-/// Sizes from which faer's rayon parallelism is used (below it, sequential code was faster on the
-/// 2-core machine the project is developed on: a 300×300 Cholesky takes 0.34 ms on one thread).
+/// Sizes from which faer's rayon parallelism is used by [`par_for`] and by spaces evaluated side
+/// by side (below it, sequential code was faster on the 2-core machine the project is developed
+/// on: a 300×300 Cholesky takes 0.34 ms on one thread). A space evaluated alone uses
+/// [`ALONE_PARALLEL_FROM`].
 pub(crate) const PARALLEL_FROM: usize = 700;
 
 /// Sizes from which a space evaluated alone (a transfer, the input map's regression) spreads
@@ -40,8 +42,10 @@ pub(crate) fn par_space(n: usize, alongside: usize) -> Par {
     shared(n, from, alongside)
 }
 
-/// [`par_space`] for the steps a space evaluated alone spreads over threads to spare (its kernel
-/// matrix and its factor's inverse), parallel from [`ALONE_PARALLEL_FROM`] points.
+/// The parallelism of an evaluation's kernel matrix and factor inverse: from
+/// [`ALONE_PARALLEL_FROM`] points whenever each of the `alongside` evaluations gets two threads
+/// or more. For a space alone this is [`par_space`]; it differs only for spaces side by side on
+/// a pool of four threads or more, whose other steps wait for [`PARALLEL_FROM`].
 pub(crate) fn par_alone_for(n: usize, alongside: usize) -> Par {
     shared(n, ALONE_PARALLEL_FROM, alongside)
 }

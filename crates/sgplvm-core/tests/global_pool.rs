@@ -9,7 +9,7 @@ use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
 #[test]
 fn training_transfer_and_prediction_leave_rayons_global_pool_unstarted() {
     // 40 frames: every evaluation on the calling thread. 300: the model's spaces side by side
-    // on the pool, the transfer's inverse on its threads.
+    // on the pool, the transfer's whole evaluation on its threads.
     for n in [40, 300] {
         let wave =
             |c: usize, f: f64| Mat::from_fn(n, c, move |i, j| (i as f64 * f + j as f64).sin());
