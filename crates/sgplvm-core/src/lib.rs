@@ -32,6 +32,7 @@
 //! | `back_constraint.rs` | `X = K_bc W`: the bandwidth rule, the initial W, ∂L/∂W and ∂L/∂bandwidth |
 //! | `kernel.rs` | [`KernelParams`] and RBF-ARD kernel matrices |
 //! | `likelihood.rs` | one space's exact negative log marginal likelihood and its gradient; jitter |
+//! | `factor.rs` | a Cholesky factorisation and solve cut in pieces that two threads share |
 //! | `simd.rs` | the vectorised `exp` and element-wise loops |
 //! | `objective.rs` | the summed objective on the optimiser's vector θ (full and kernels-only); [`Evaluator`] |
 //! | `train.rs` | the L-BFGS driver: [`TrainOptions`], history, callbacks, stopping |
@@ -94,6 +95,7 @@
 mod back_constraint;
 mod config;
 mod error;
+mod factor;
 mod fit;
 mod init;
 mod input_map;

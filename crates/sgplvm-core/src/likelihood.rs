@@ -13,6 +13,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::error::Error;
+use crate::factor::{both, cholesky_in_pieces, in_pieces, solve_in_pieces, IN_PIECES_FROM};
 use crate::kernel::{rbf_lower, KernelParams};
 use crate::pool::{par_alone_for, par_for, par_space};
 use crate::simd::{clear_upper_simd_state, vectorized};
@@ -65,8 +66,10 @@ pub(crate) fn cholesky_with_jitter(
             }
             l[(j, j)] += noise + jitter;
         }
-        let ok = mean_diag.is_finite()
-            && llt::factor::cholesky_in_place(
+        let factored = if in_pieces(n) {
+            cholesky_in_pieces(l.rb_mut(), par).is_ok()
+        } else {
+            llt::factor::cholesky_in_place(
                 l.rb_mut(),
                 Default::default(),
                 par,
@@ -74,6 +77,9 @@ pub(crate) fn cholesky_with_jitter(
                 Default::default(),
             )
             .is_ok()
+        };
+        let ok = mean_diag.is_finite()
+            && factored
             && (0..n).all(|i| l[(i, i)].is_finite() && l[(i, i)] > 0.0);
         if ok {
             return Ok(jitter);
@@ -174,7 +180,11 @@ pub(crate) fn eval_space(
     clear_upper_simd_state();
     let logdet: f64 = 2.0 * (0..n).map(|i| l[(i, i)].ln()).sum::<f64>();
     work.a.copy_from(y);
-    llt::solve::solve_in_place(l, work.a.as_mut(), par, MemStack::new(&mut []));
+    if in_pieces(n) {
+        solve_in_pieces(l, work.a.as_mut(), par);
+    } else {
+        llt::solve::solve_in_place(l, work.a.as_mut(), par, MemStack::new(&mut []));
+    }
     clear_upper_simd_state();
     let mut fit = 0.0;
     for j in 0..d {
@@ -266,18 +276,10 @@ fn pair_sums(
         xc.col_as_slice_mut(t).iter_mut().for_each(|v| *v -= mean);
     }
     // M is symmetric and only its lower triangle is stored: P = tril(M) X + stril(M)ᵀ X.
-    let mut p = Mat::zeros(n, q + 1);
     let g = m.as_ref();
-    for (lhs, structure, accum) in [
-        (g, BlockStructure::TriangularLower, Accum::Replace),
-        (
-            g.transpose(),
-            BlockStructure::StrictTriangularUpper,
-            Accum::Add,
-        ),
-    ] {
+    let product = |out: MatMut<'_, f64>, lhs: MatRef<'_, f64>, structure, accum| {
         faer::linalg::matmul::triangular::matmul(
-            p.as_mut(),
+            out,
             BlockStructure::Rectangular,
             accum,
             lhs,
@@ -285,8 +287,26 @@ fn pair_sums(
             xc.as_ref(),
             BlockStructure::Rectangular,
             1.0,
+            Par::Seq,
+        )
+    };
+    let mut p = Mat::zeros(n, q + 1);
+    let lower = (g, BlockStructure::TriangularLower);
+    let upper = (g.transpose(), BlockStructure::StrictTriangularUpper);
+    if n >= IN_PIECES_FROM {
+        // The two products apart, side by side on a two-thread `par`, then summed (on any
+        // number of threads: the same bits). Each is too small to split: on two threads
+        // faer's product took 67 against 59 µs on one at N = 300.
+        let mut p2 = Mat::zeros(n, q + 1);
+        both(
             par,
+            || product(p.as_mut(), lower.0, lower.1, Accum::Replace),
+            || product(p2.as_mut(), upper.0, upper.1, Accum::Replace),
         );
+        p += &p2;
+    } else {
+        product(p.as_mut(), lower.0, lower.1, Accum::Replace);
+        product(p.as_mut(), upper.0, upper.1, Accum::Add);
     }
     clear_upper_simd_state();
     let r = p.col_as_slice(q);
@@ -399,7 +419,8 @@ mod tests {
             ALONE_PARALLEL_FROM + 201,
             PARALLEL_FROM + 20,
         ] {
-            let (q, d) = (3, 4);
+            // Four outputs: the smallest halves the two-thread solve makes (two columns each).
+            let (q, d) = (3, if n > PARALLEL_FROM { 18 } else { 4 });
             let mut rng = ChaCha8Rng::seed_from_u64(8);
             let x = random(n, q, &mut rng);
             let y = random(n, d, &mut rng);
@@ -593,12 +614,7 @@ mod tests {
         });
         time("solve (A = K^-1 Y)", &mut |w| {
             w.a.copy_from(&y);
-            llt::solve::solve_in_place(
-                w.l.as_ref(),
-                w.a.as_mut(),
-                Par::Seq,
-                MemStack::new(&mut []),
-            );
+            solve_in_pieces(w.l.as_ref(), w.a.as_mut(), Par::Seq);
         });
         time("inverse from factor", &mut |w| {
             llt::inverse::inverse(
@@ -632,7 +648,7 @@ mod tests {
             });
             time("solve, 2 threads", &mut |w| {
                 w.a.copy_from(&y);
-                llt::solve::solve_in_place(w.l.as_ref(), w.a.as_mut(), par, MemStack::new(&mut []));
+                solve_in_pieces(w.l.as_ref(), w.a.as_mut(), par);
             });
             time("weigh_by_kernel, 2 threads", &mut |w| {
                 weigh_by_kernel(w, d, par, par);

@@ -22,7 +22,9 @@ pub(crate) const PARALLEL_FROM: usize = 700;
 /// kernel matrix and its factor's inverse over threads to spare. A space alone on two threads
 /// measured faster than on one from here: by 3 % at 256 points, 5 % at 300, 12 % at 450 and
 /// 16–18 % at 500–680 (`step_times`, quiet), though faer's parallel Cholesky alone is slower at
-/// 300 points: the second thread, kept busy, is not put to sleep and woken between steps.
+/// 300 points: the second thread, kept busy, is not put to sleep and woken between steps. Below
+/// [`PARALLEL_FROM`] the factorisation and the solve are cut in pieces of their own
+/// ([`crate::factor`]), which two threads share better than faer's.
 pub(crate) const ALONE_PARALLEL_FROM: usize = 256;
 
 /// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
