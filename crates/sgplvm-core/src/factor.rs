@@ -186,6 +186,27 @@ mod tests {
         k
     }
 
+    /// faer's factorisation of `a` in place, with scratch for up to `mem`'s size.
+    fn faer_llt(a: MatMut<'_, f64>, par: Par, mem: &mut MemBuffer) {
+        llt::factor::cholesky_in_place(
+            a,
+            Default::default(),
+            par,
+            MemStack::new(mem),
+            Default::default(),
+        )
+        .expect("positive definite");
+    }
+
+    /// Scratch for faer's factorisation of `n` points on up to two threads.
+    fn faer_scratch(n: usize) -> MemBuffer {
+        MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
+            n,
+            Par::rayon(2),
+            Default::default(),
+        ))
+    }
+
     #[test]
     fn pieces_factorise_as_faer_does_on_one_thread_and_two() {
         let two = rayon::ThreadPoolBuilder::new()
@@ -196,19 +217,7 @@ mod tests {
         for n in [1usize, 2, 63, 64, 65, 129, 300, 641] {
             let k = spd(n);
             let mut reference = k.clone();
-            let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
-                n,
-                Par::Seq,
-                Default::default(),
-            ));
-            llt::factor::cholesky_in_place(
-                reference.as_mut(),
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .expect("positive definite");
+            faer_llt(reference.as_mut(), Par::Seq, &mut faer_scratch(n));
             let mut one = k.clone();
             cholesky_in_pieces(one.as_mut(), Par::Seq).expect("positive definite");
             let mut both_threads = k.clone();
@@ -297,31 +306,13 @@ mod tests {
                 }
                 println!("N = {n:>4} {what:<24} {:>9.1} us", best * 1e6);
             };
-            let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
-                n,
-                Par::rayon(2),
-                Default::default(),
-            ));
+            let mut mem = faer_scratch(n);
             pool.install(|| {
                 time("faer, 1 thread", &mut |l| {
-                    llt::factor::cholesky_in_place(
-                        l.as_mut(),
-                        Default::default(),
-                        Par::Seq,
-                        MemStack::new(&mut mem),
-                        Default::default(),
-                    )
-                    .expect("positive definite");
+                    faer_llt(l.as_mut(), Par::Seq, &mut mem)
                 });
                 time("faer, 2 threads", &mut |l| {
-                    llt::factor::cholesky_in_place(
-                        l.as_mut(),
-                        Default::default(),
-                        Par::rayon(2),
-                        MemStack::new(&mut mem),
-                        Default::default(),
-                    )
-                    .expect("positive definite");
+                    faer_llt(l.as_mut(), Par::rayon(2), &mut mem)
                 });
                 for bs in [64usize, 128] {
                     time(&format!("pieces {bs}, 1 thread"), &mut |l| {
