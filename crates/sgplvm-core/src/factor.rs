@@ -5,8 +5,9 @@
 //! right-looking in blocks of [`BLOCK`] columns: each block's panel solve and trailing update
 //! are cut in two pieces of equal work, run side by side on a two-thread `Par` and one after the
 //! other otherwise. The pieces are the same operations on the same data either way, so the
-//! factor does not depend on the threads, bit for bit. Used from [`IN_PIECES_FROM`] points up to
-//! [`PARALLEL_FROM`], from where faer's own parallelism takes every thread of a larger machine.
+//! factor does not depend on the threads, bit for bit. [`cholesky`] and [`solve`] use the pieces
+//! from [`IN_PIECES_FROM`] points up to [`PARALLEL_FROM`], and faer's own code outside that
+//! range: beyond it faer's parallelism takes every thread of a larger machine.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
@@ -15,8 +16,7 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{Accum, MatMut, MatRef, Par};
 
-use crate::pool::PARALLEL_FROM;
-use crate::simd::clear_upper_simd_state;
+use crate::pool::{both, PARALLEL_FROM};
 
 /// Points from which a space's factorisation and solve run in pieces (below [`PARALLEL_FROM`]),
 /// and the products of its latent gradient too (at any size beyond).
@@ -28,41 +28,50 @@ pub(crate) const IN_PIECES_FROM: usize = 256;
 const BLOCK: usize = 64;
 
 /// True when an `n`-point factorisation and solve run in pieces.
-pub(crate) fn in_pieces(n: usize) -> bool {
+fn in_pieces(n: usize) -> bool {
     (IN_PIECES_FROM..PARALLEL_FROM).contains(&n)
 }
 
-/// The diagonal block's factorisation failed: the matrix is not numerically positive definite.
+/// The factorisation failed: the matrix is not numerically positive definite.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct NotPositive;
 
-/// Runs `a` and `b` (faer's kernels), side by side when `par` has more than one thread, and
-/// clears the upper SIMD state on each thread after them (see [`clear_upper_simd_state`]).
-pub(crate) fn both(par: Par, a: impl FnOnce() + Send, b: impl FnOnce() + Send) {
-    match par {
-        Par::Rayon(t) if t.get() > 1 => {
-            rayon::join(
-                || {
-                    a();
-                    clear_upper_simd_state()
-                },
-                || {
-                    b();
-                    clear_upper_simd_state()
-                },
-            );
-        }
-        _ => {
-            a();
-            b();
-            clear_upper_simd_state();
-        }
+/// Factorises the lower triangle of the square `a` in place, `a = L Lᵀ`, with `par`: in pieces
+/// where [`in_pieces`], by faer's factorisation otherwise.
+pub(crate) fn cholesky(a: MatMut<'_, f64>, par: Par) -> Result<(), NotPositive> {
+    let n = a.nrows();
+    if in_pieces(n) {
+        return cholesky_in_pieces(a, par);
+    }
+    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
+        n,
+        par,
+        Default::default(),
+    ));
+    llt::factor::cholesky_in_place(
+        a,
+        Default::default(),
+        par,
+        MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .map(|_| ())
+    .map_err(|_| NotPositive)
+}
+
+/// Solves `L Lᵀ A = B` in place (`rhs` holds B, then A), with `par`: in pieces where
+/// [`in_pieces`], by faer's solve otherwise.
+pub(crate) fn solve(l: MatRef<'_, f64>, rhs: MatMut<'_, f64>, par: Par) {
+    if in_pieces(l.nrows()) {
+        solve_in_pieces(l, rhs, par);
+    } else {
+        llt::solve::solve_in_place(l, rhs, par, MemStack::new(&mut []));
     }
 }
 
 /// Factorises the lower triangle of the square `a` in place, `a = L Lᵀ` (the upper triangle is
 /// not read or written).
-pub(crate) fn cholesky_in_pieces(a: MatMut<'_, f64>, par: Par) -> Result<(), NotPositive> {
+fn cholesky_in_pieces(a: MatMut<'_, f64>, par: Par) -> Result<(), NotPositive> {
     cholesky_blocks(a, par, BLOCK)
 }
 
@@ -139,7 +148,7 @@ fn cholesky_blocks(mut a: MatMut<'_, f64>, par: Par, block: usize) -> Result<(),
 /// few hundred points). A column's solution does not depend on the others solved with it, as
 /// long as each half holds at least two columns (faer solves a single column by another path):
 /// the result is the same bit for bit on any number of threads (pinned by a test).
-pub(crate) fn solve_in_pieces(l: MatRef<'_, f64>, rhs: MatMut<'_, f64>, par: Par) {
+fn solve_in_pieces(l: MatRef<'_, f64>, rhs: MatMut<'_, f64>, par: Par) {
     let d = rhs.ncols();
     match par {
         Par::Rayon(t) if t.get() > 1 && d >= 4 => {

@@ -10,6 +10,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 use serde::{Deserialize, Serialize};
 
+use crate::pool::both;
 use crate::simd::{clear_upper_simd_state, exp_neg, exp_neg_slice, vectorized};
 
 /// Hyperparameters of one space's kernel, in GPy's natural parametrisation.
@@ -73,15 +74,10 @@ pub(crate) fn rbf_lower(xr: &[f64], q: usize, kern: &KernelParams, out: &mut Mat
             },
         )
     };
-    match par {
-        Par::Rayon(_) if n > 1 => {
-            // Column j holds n − j entries: the first n − n/√2 columns hold half of them.
-            let split = n - (n as f64 / std::f64::consts::SQRT_2) as usize;
-            let (left, right) = out.as_mut().split_at_col_mut(split);
-            rayon::join(|| fill(left, 0), || fill(right, split));
-        }
-        _ => fill(out.as_mut(), 0),
-    }
+    // Column j holds n − j entries: the first n − n/√2 columns hold half of them.
+    let split = n - (n as f64 / std::f64::consts::SQRT_2) as usize;
+    let (left, right) = out.as_mut().split_at_col_mut(split);
+    both(par, || fill(left, 0), || fill(right, split));
 }
 
 /// Rows `j..` of column `c` of `cols` (a matrix with contiguous columns), as a slice.

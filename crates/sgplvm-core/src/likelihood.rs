@@ -13,9 +13,9 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::error::Error;
-use crate::factor::{both, cholesky_in_pieces, in_pieces, solve_in_pieces, IN_PIECES_FROM};
+use crate::factor::{self, IN_PIECES_FROM};
 use crate::kernel::{rbf_lower, KernelParams};
-use crate::pool::{par_alone_for, par_for, par_space};
+use crate::pool::{both, par_alone_for, par_for, par_space};
 use crate::simd::{clear_upper_simd_state, vectorized};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -52,11 +52,6 @@ pub(crate) fn cholesky_with_jitter(
     } else {
         (0..n).map(|i| kf[(i, i)]).sum::<f64>() / n as f64 + noise
     };
-    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
-        n,
-        par,
-        Default::default(),
-    ));
     let mut jitter = 0.0;
     let mut next = 1e-10 * mean_diag;
     loop {
@@ -66,20 +61,8 @@ pub(crate) fn cholesky_with_jitter(
             }
             l[(j, j)] += noise + jitter;
         }
-        let factored = if in_pieces(n) {
-            cholesky_in_pieces(l.rb_mut(), par).is_ok()
-        } else {
-            llt::factor::cholesky_in_place(
-                l.rb_mut(),
-                Default::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .is_ok()
-        };
         let ok = mean_diag.is_finite()
-            && factored
+            && factor::cholesky(l.rb_mut(), par).is_ok()
             && (0..n).all(|i| l[(i, i)].is_finite() && l[(i, i)] > 0.0);
         if ok {
             return Ok(jitter);
@@ -180,11 +163,7 @@ pub(crate) fn eval_space(
     clear_upper_simd_state();
     let logdet: f64 = 2.0 * (0..n).map(|i| l[(i, i)].ln()).sum::<f64>();
     work.a.copy_from(y);
-    if in_pieces(n) {
-        solve_in_pieces(l, work.a.as_mut(), par);
-    } else {
-        llt::solve::solve_in_place(l, work.a.as_mut(), par, MemStack::new(&mut []));
-    }
+    factor::solve(l, work.a.as_mut(), par);
     clear_upper_simd_state();
     let mut fit = 0.0;
     for j in 0..d {
@@ -614,7 +593,7 @@ mod tests {
         });
         time("solve (A = K^-1 Y)", &mut |w| {
             w.a.copy_from(&y);
-            solve_in_pieces(w.l.as_ref(), w.a.as_mut(), Par::Seq);
+            factor::solve(w.l.as_ref(), w.a.as_mut(), Par::Seq);
         });
         time("inverse from factor", &mut |w| {
             llt::inverse::inverse(
@@ -648,7 +627,7 @@ mod tests {
             });
             time("solve, 2 threads", &mut |w| {
                 w.a.copy_from(&y);
-                solve_in_pieces(w.l.as_ref(), w.a.as_mut(), par);
+                factor::solve(w.l.as_ref(), w.a.as_mut(), par);
             });
             time("weigh_by_kernel, 2 threads", &mut |w| {
                 weigh_by_kernel(w, d, par, par);

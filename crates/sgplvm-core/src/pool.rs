@@ -11,6 +11,8 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use faer::Par;
 use rayon::ThreadPool;
 
+use crate::simd::clear_upper_simd_state;
+
 /// Sizes from which faer's rayon parallelism is used by [`par_for`] and by spaces evaluated side
 /// by side (below it, sequential code was faster on the 2-core machine the project is developed
 /// on: a 300×300 Cholesky takes 0.34 ms on one thread). A space evaluated alone uses
@@ -26,6 +28,31 @@ pub(crate) const PARALLEL_FROM: usize = 700;
 /// [`PARALLEL_FROM`] the factorisation and the solve are cut in pieces of their own
 /// ([`crate::factor`]), which two threads share better than faer's.
 pub(crate) const ALONE_PARALLEL_FROM: usize = 256;
+
+/// Runs `a` and `b`, side by side when `par` has more than one thread and one after the other
+/// otherwise, and clears the upper SIMD state on each thread after them: a piece may run faer's
+/// AVX-512 kernels, which leave it dirty (see [`clear_upper_simd_state`]).
+pub(crate) fn both(par: Par, a: impl FnOnce() + Send, b: impl FnOnce() + Send) {
+    match par {
+        Par::Rayon(t) if t.get() > 1 => {
+            rayon::join(
+                || {
+                    a();
+                    clear_upper_simd_state()
+                },
+                || {
+                    b();
+                    clear_upper_simd_state()
+                },
+            );
+        }
+        _ => {
+            a();
+            b();
+            clear_upper_simd_state();
+        }
+    }
+}
 
 /// The faer parallelism used for an `n`×`n` problem: rayon's from [`PARALLEL_FROM`] points, and
 /// only on a pool thread (see [`crate::pool`]), sequential everywhere else.
