@@ -2,8 +2,9 @@
 # Issue 18's one-core rows with AVX2 code paths only, on a CPU that also has AVX-512.
 #
 #     bash benches/avx2_paths.sh [RUNS] 2>&1 | tee avx2-$(date +%F).log
+#     bash benches/avx2_paths.sh --check    # only prepare the patched copy (CI: still applies?)
 #
-# The issue's targets name an AVX2-only CPU. On an AVX-512 CPU (this project's machines) three
+# The issue's targets name an AVX2-only CPU. On an AVX-512 CPU (this project's machines) four
 # things pick 512-bit code at run time, and none has a switch:
 #   - faer's matrix products (`private-gemm-x86`): `is_x86_feature_detected!("avx512f")`, in
 #     faer's `linalg/matmul/{mod,triangular,internal/mod}.rs`;
@@ -19,8 +20,9 @@
 # kernel.
 #
 # This is a Zen 4 core running AVX2 code, not an AVX2-only CPU: Zen 4 executes 512-bit
-# instructions as two 256-bit halves, so its AVX2 code loses less than an Intel core's would.
-# The figures say what our code does without AVX-512; the reference machine settles the rest.
+# instructions as two 256-bit halves, so AVX2 code runs nearly as fast on it, and an AVX2-only
+# CPU has other absolute speeds. The figures say what our code does without AVX-512; the
+# reference machine settles the rest.
 #
 # The comparison with GPy runs RUNS times (default 3): one run's ratios move by 10-15 % on a
 # shared machine.
@@ -28,7 +30,13 @@
 # Needs what `benches/run_all.sh` needs (GPy, threadpoolctl, maturin, in the active Python).
 # About 3 minutes on 2 cores when the target directory is warm; the first build takes longer.
 set -euo pipefail
-runs="${1:-3}"
+check_only=false
+runs=3
+case "${1:-}" in
+  --check) check_only=true ;;
+  "") ;;
+  *) runs="$1" ;;
+esac
 root="$(cd "$(dirname "$0")/.." && pwd)"
 work="$(mktemp -d "${TMPDIR:-/tmp}/sgplvm-avx2.XXXXXX")"
 trap 'rm -rf "$work"' EXIT
@@ -63,6 +71,12 @@ if (cd "$work/src" && cargo tree -q -e features -i pulp | grep -q 'x86-v4'); the
 fi
 printf '\n[patch.crates-io]\nfaer = { path = "%s" }\n' "$work/faer" >> "$work/src/Cargo.toml"
 cd "$work/src"
+cargo tree -q -p sgplvm-core -e normal -i faer --depth 0 | grep -q "($work/faer)" || {
+  echo "the patched faer is not the one sgplvm-core builds with"; exit 1; }
+if $check_only; then
+  echo "the AVX2-only copy can be built (faer patched, pulp without x86-v4)"
+  exit 0
+fi
 core_tests="$(cargo test -q --release -p sgplvm-core --lib --no-run --message-format json 2>/dev/null |
   python3 -c "
 import json, sys
