@@ -14,7 +14,7 @@ use crate::objective::{Mode, ModelObjective};
 use crate::pool::par_for;
 use crate::preprocess::checked_order;
 use crate::sparse::objective::SparseObjective;
-use crate::train::{minimise, Control, Limits, Objective, TrainOptions};
+use crate::train::{minimise_capped, Control, Limits, Objective, TrainOptions};
 
 impl SharedGplvm {
     /// Fits a shared GP-LVM. `spaces` are named data matrices with the same number of rows;
@@ -130,7 +130,12 @@ impl SharedGplvm {
     ) -> Result<SharedGplvm> {
         let theta0 = obj.theta0();
         let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
-        let outcome = minimise(obj, theta0, options, limits, |rec, theta| {
+        // A transfer's kernel (log-parameters alone): first trials of at most an e-fold change.
+        let first_trial = match (mode, self.sparse.is_some()) {
+            (Mode::Kernels(_), false) => 1.0,
+            _ => f64::INFINITY,
+        };
+        let outcome = minimise_capped(obj, theta0, options, limits, first_trial, |rec, theta| {
             let Some(cb) = callback.as_mut() else {
                 return Control::Continue;
             };

@@ -83,7 +83,9 @@
 //!   `max_seconds`, `max_evaluations` and an [`Interrupt`] can end a run early, keeping the
 //!   best point. History is monotone; seconds exclude callback time.
 //! - **Transfer** keeps the source robots (frozen) so one model predicts every robot; only the
-//!   new robot's kernel is trained and only its Cholesky is computed per evaluation.
+//!   new robot's kernel is trained and only its Cholesky is computed per evaluation. Each of
+//!   its line searches tries first a point at most 1 away (in log-parameters: an e-fold
+//!   change), however long the quasi-Newton step.
 //! - **Prediction variance** is the latent function's (`k** − kᵀK⁻¹k`), without the noise and
 //!   without the uncertainty of the latent point (see [`Prediction`]).
 //! - **Files**: see [`MAGIC`] / [`FORMAT_VERSION`] and [`SharedGplvm::to_bytes`].

@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use argmin::core::{CostFunction, Gradient, IterState, Problem, Solver, State};
-use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::linesearch::{LineSearch, MoreThuenteLineSearch};
 use argmin::solver::quasinewton::LBFGS;
 use serde::{Deserialize, Serialize};
 
@@ -547,6 +547,26 @@ pub(crate) fn minimise<O: Objective>(
     theta0: Vec<f64>,
     options: &TrainOptions,
     limits: &Limits,
+    on_iter: impl FnMut(&IterationRecord, &[f64]) -> Control,
+) -> Result<Outcome> {
+    minimise_capped(obj, theta0, options, limits, f64::INFINITY, on_iter)
+}
+
+/// [`minimise`] whose line searches each try first a point at most `first_trial` away from
+/// where they start (Euclidean norm of the change of θ): the quasi-Newton step is shortened to
+/// that length when it is longer. The line search may still go further once it has seen the
+/// objective there; only its first guess is bounded. `f64::INFINITY` is [`minimise`].
+///
+/// For θ made of log-parameters (a transfer's kernel) a first trial of length 1 changes them
+/// by at most a factor e. Uncapped, the bench's transfer tried e^−7.6 of the noise after its
+/// first step, and spent an evaluation learning that it went too far (BENCHMARKS.md, issue 18,
+/// tenth pass).
+pub(crate) fn minimise_capped<O: Objective>(
+    obj: &O,
+    theta0: Vec<f64>,
+    options: &TrainOptions,
+    limits: &Limits,
+    first_trial: f64,
     mut on_iter: impl FnMut(&IterationRecord, &[f64]) -> Control,
 ) -> Result<Outcome> {
     options.check()?;
@@ -587,7 +607,11 @@ pub(crate) fn minimise<O: Objective>(
             cache: &cache,
             guard: &guard,
         });
-        let mut solver: Lbfgs = LBFGS::new(MoreThuenteLineSearch::new(), options.memory);
+        let search = FirstTrialCapped {
+            search: MoreThuenteLineSearch::new(),
+            first_trial,
+        };
+        let mut solver: Lbfgs = LBFGS::new(search, options.memory);
         let mut start = IterState::new().param(run.best.clone());
         if run.best_f.is_finite() && run.best_g.iter().all(|g| g.is_finite()) {
             start = start
@@ -652,7 +676,58 @@ pub(crate) fn minimise<O: Objective>(
     }
 }
 
-type Lbfgs = LBFGS<MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>, Vec<f64>, Vec<f64>, f64>;
+type Lbfgs = LBFGS<FirstTrialCapped, Vec<f64>, Vec<f64>, f64>;
+
+/// argmin's More–Thuente line search, its first trial bounded in length (see
+/// [`minimise_capped`]): when L-BFGS hands it a search direction longer than `first_trial`,
+/// its first step is shortened from 1 (the whole direction) to `first_trial` long.
+#[derive(Clone)]
+struct FirstTrialCapped {
+    search: MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>,
+    first_trial: f64,
+}
+
+impl LineSearch<Vec<f64>, f64> for FirstTrialCapped {
+    fn search_direction(&mut self, direction: Vec<f64>) {
+        let length = direction.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let step = if length > self.first_trial {
+            self.first_trial / length
+        } else {
+            1.0
+        };
+        // Positive and finite unless the direction is not (the search then refuses it).
+        let _ = self.search.initial_step_length(step);
+        self.search.search_direction(direction);
+    }
+
+    fn initial_step_length(&mut self, step: f64) -> std::result::Result<(), argmin::core::Error> {
+        self.search.initial_step_length(step)
+    }
+}
+
+impl<P> Solver<P, St> for FirstTrialCapped
+where
+    MoreThuenteLineSearch<Vec<f64>, Vec<f64>, f64>: Solver<P, St>,
+{
+    fn name(&self) -> &str {
+        "More-Thuente, first trial capped"
+    }
+
+    fn init(&mut self, problem: &mut Problem<P>, state: St) -> SolverStep {
+        self.search.init(problem, state)
+    }
+
+    fn next_iter(&mut self, problem: &mut Problem<P>, state: St) -> SolverStep {
+        self.search.next_iter(problem, state)
+    }
+
+    fn terminate(&mut self, state: &St) -> argmin::core::TerminationStatus {
+        self.search.terminate(state)
+    }
+}
+
+/// What a solver's step returns in argmin.
+type SolverStep = std::result::Result<(St, Option<argmin::core::KV>), argmin::core::Error>;
 type St = IterState<Vec<f64>, Vec<f64>, (), (), (), f64>;
 
 /// Why training ends before its first iteration, if it does: nothing to train, a start that
@@ -803,6 +878,72 @@ mod tests {
             }
             Ok(self.weight * t.iter().map(|v| v * v).sum::<f64>())
         }
+    }
+
+    /// What a run did, in order: an evaluation at a point, or the acceptance of an iterate.
+    enum Step {
+        Evaluated(f64),
+        Accepted(f64),
+    }
+
+    /// A one-dimensional bowl that logs every point it is evaluated at.
+    struct LoggedBowl<'a> {
+        bowl: Bowl,
+        log: &'a Mutex<Vec<Step>>,
+    }
+    impl Objective for LoggedBowl<'_> {
+        fn eval(&self, t: &[f64], g: &mut [f64]) -> Result<f64> {
+            crate::pool::lock(self.log).push(Step::Evaluated(t[0]));
+            self.bowl.eval(t, g)
+        }
+    }
+
+    /// The longest first trial of any line search of a run from 1000 on 10⁻³ θ², as far from
+    /// the iterate the search starts at. Uncapped, the first search tries 999 and extrapolates
+    /// to 659; the second, with the secant's exact curvature, tries the minimum 0 at once.
+    fn longest_first_trial(first_trial: f64) -> f64 {
+        let log = Mutex::new(Vec::new());
+        let obj = LoggedBowl {
+            bowl: Bowl { weight: 1e-3 },
+            log: &log,
+        };
+        let opts = TrainOptions::default().with_max_iters(5);
+        minimise_capped(
+            &obj,
+            vec![1000.0],
+            &opts,
+            &none(),
+            first_trial,
+            |_, theta| {
+                crate::pool::lock(&log).push(Step::Accepted(theta[0]));
+                Control::Continue
+            },
+        )
+        .expect("runs");
+        let (mut from, mut first, mut longest) = (1000.0, true, 0.0f64);
+        // The start's own evaluation comes first; each search begins after an acceptance.
+        for step in &log.into_inner().expect("log")[1..] {
+            match *step {
+                Step::Evaluated(at) if first => {
+                    longest = longest.max((at - from).abs());
+                    first = false;
+                }
+                Step::Evaluated(_) => {}
+                Step::Accepted(at) => (from, first) = (at, true),
+            }
+        }
+        longest
+    }
+
+    #[test]
+    fn a_capped_search_tries_no_farther_than_its_cap_first() {
+        // Uncapped, L-BFGS's second search starts with the secant's whole step, 659 long.
+        assert!(longest_first_trial(f64::INFINITY) > 600.0);
+        let capped = longest_first_trial(1.0);
+        assert!(
+            capped <= 1.0 + 1e-9,
+            "first trial {capped} beyond the cap 1"
+        );
     }
 
     #[test]
