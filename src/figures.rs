@@ -187,6 +187,7 @@ pub fn transfers_by_source(results: &Results, dir: &Path) -> Result<[PathBuf; 2]
             Panel {
                 title: format!("to {target}{}", joints(target)),
                 x_label: "source robot".into(),
+                x_categories: sources.iter().map(|s| s.to_string()).collect(),
                 y_label: "test MSE (rad²)".into(),
                 log_y: true,
                 series,

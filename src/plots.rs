@@ -63,6 +63,9 @@ pub struct Panel {
     pub vlines: Vec<f64>,
     /// The horizontal axis counts (iterations): ticks between whole numbers are not labelled.
     pub integer_x: bool,
+    /// Names of the horizontal axis's positions 1, 2, … (e.g. source robots): its ticks there
+    /// are labelled with them, and no other tick is labelled.
+    pub x_categories: Vec<String>,
     /// Draw the legend in a column to the right of the chart (many entries, e.g. one per
     /// joint) instead of in the corner of the chart that covers the fewest points.
     pub side_legend: bool,
@@ -220,6 +223,27 @@ pub fn tick_label(v: f64) -> String {
         "0".into()
     } else {
         text.to_string()
+    }
+}
+
+/// The label of `panel`'s horizontal tick at `v`: a category's name, nothing between whole
+/// numbers of a counting axis, or the number.
+fn x_tick_label(panel: &Panel, v: f64) -> String {
+    let whole = (v - v.round()).abs() <= 1e-9;
+    if !panel.x_categories.is_empty() {
+        let k = v.round() as i64 - 1;
+        return match usize::try_from(k)
+            .ok()
+            .and_then(|k| panel.x_categories.get(k))
+        {
+            Some(name) if whole => name.clone(),
+            _ => String::new(),
+        };
+    }
+    if panel.integer_x && !whole {
+        String::new()
+    } else {
+        tick_label(v)
     }
 }
 
@@ -400,13 +424,7 @@ fn draw_panel<DB: DrawingBackend>(
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(62);
-    let x_label = |v: &f64| {
-        if panel.integer_x && (v - v.round()).abs() > 1e-9 {
-            String::new()
-        } else {
-            tick_label(*v)
-        }
-    };
+    let x_label = |v: &f64| x_tick_label(panel, *v);
     if log_y {
         let mut chart =
             builder.build_cartesian_2d(x_range.0..x_range.1, (y_range.0..y_range.1).log_scale())?;
@@ -761,6 +779,27 @@ mod tests {
         assert_eq!(tick_label(-0.0), "0");
         assert_eq!(tick_label(-1.5), "-1.5");
         assert_eq!(tick_label(2.5e-5), "2.5e-5");
+    }
+
+    #[test]
+    fn category_ticks_name_their_positions_and_nothing_else() {
+        let panel = Panel {
+            x_categories: vec!["coman".into(), "centauro".into()],
+            integer_x: true,
+            ..Panel::default()
+        };
+        let labels: Vec<String> = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0]
+            .iter()
+            .map(|&v| x_tick_label(&panel, v))
+            .collect();
+        assert_eq!(labels, ["", "coman", "", "centauro", "", ""]);
+        // Without categories a counting axis labels whole numbers only.
+        let counting = Panel {
+            integer_x: true,
+            ..Panel::default()
+        };
+        assert_eq!(x_tick_label(&counting, 2.0), "2");
+        assert_eq!(x_tick_label(&counting, 2.5), "");
     }
 
     #[test]
