@@ -130,10 +130,11 @@ impl SharedGplvm {
     ) -> Result<SharedGplvm> {
         let theta0 = obj.theta0();
         let mut prev_map = self.map.as_ref().map(|m| m.kernel.clone());
-        // A transfer's kernel (log-parameters alone): first trials of at most an e-fold change.
-        let first_trial = match (mode, self.sparse.is_some()) {
-            (Mode::Kernels(_), false) => 1.0,
-            _ => f64::INFINITY,
+        // A transfer's kernel (log-parameters alone), exact or sparse: first trials of at most
+        // an e-fold change.
+        let first_trial = match mode {
+            Mode::Kernels(_) => 1.0,
+            Mode::Full => f64::INFINITY,
         };
         let outcome = minimise_capped(obj, theta0, options, limits, first_trial, |rec, theta| {
             let Some(cb) = callback.as_mut() else {
