@@ -425,12 +425,17 @@ def main():
                         help="bound our time-to-solution fit() the same way (max_seconds; "
                              "default: none)")
     parser.add_argument("--write-bc-data", metavar="FILE",
-                        help="write the N = 300 bench data for the core's ignored timing tests "
-                             "(BC_DATA=FILE: n, 18, 14, then the human and the walkman rows as "
-                             "little-endian f64) and exit")
+                        help="write the bench data (N = 300, or the first of --sizes; seed "
+                             "--data-seed) for the core's ignored timing tests (BC_DATA=FILE: "
+                             "n, 18, 14, then the human and the walkman rows as little-endian "
+                             "f64) and exit")
+    parser.add_argument("--data-seed", type=int, default=1,
+                        help="with --write-bc-data, the seed of smooth_data (default 1, the "
+                             "bench's)")
     args = parser.parse_args()
     if args.write_bc_data:
-        human, walkman, _ = smooth_data(300, seed=1)
+        n = int(args.sizes.split(",")[0]) if args.sizes else 300
+        human, walkman, _ = smooth_data(n, seed=args.data_seed)
         header = np.array([len(human), human.shape[1], walkman.shape[1]], dtype="<f8")
         with open(args.write_bc_data, "wb") as f:
             for part in (header, human, walkman):

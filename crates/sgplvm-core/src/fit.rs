@@ -136,7 +136,19 @@ impl SharedGplvm {
             Mode::Kernels(_) => 1.0,
             Mode::Full => f64::INFINITY,
         };
-        let outcome = minimise_capped(obj, theta0, options, limits, first_trial, |rec, theta| {
+        // The exact model's back-constraint weights: their own L-BFGS history size.
+        let back_constrained = matches!(mode, Mode::Full)
+            && self.sparse.is_none()
+            && matches!(self.latent, Latent::Back { .. });
+        let lbfgs = TrainOptions {
+            memory: if back_constrained {
+                options.back_constraint_memory
+            } else {
+                options.memory
+            },
+            ..options.clone()
+        };
+        let outcome = minimise_capped(obj, theta0, &lbfgs, limits, first_trial, |rec, theta| {
             let Some(cb) = callback.as_mut() else {
                 return Control::Continue;
             };
@@ -244,6 +256,47 @@ mod tests {
             let c = fit(bc, 40, 25, 4);
             assert_ne!(a.params(), c.params(), "{bc:?}: seed ignored");
         }
+    }
+
+    /// Back-constrained full training takes `back_constraint_memory` as its L-BFGS history,
+    /// every other training `memory`: a history size shows only once the smaller one is full,
+    /// so the first records agree and later ones differ.
+    #[test]
+    fn back_constrained_training_uses_its_own_history_size() {
+        let objectives = |bc: BackConstraint, options: TrainOptions| -> Vec<f64> {
+            let (h, r1, _, _) = demo(40, 7);
+            let config = ModelConfig::default()
+                .with_latent_dim(2)
+                .with_back_constraint(bc);
+            let m = SharedGplvm::fit(
+                &config,
+                &[("human", h.as_ref()), ("walkman", r1.as_ref())],
+                "human",
+                &options,
+                None,
+            )
+            .expect("fit");
+            m.history().iter().map(|r| r.objective).collect()
+        };
+        let base = quick(40).with_memory(3).with_back_constraint_memory(3);
+        for bc in [BackConstraint::Input, BackConstraint::Output] {
+            let short = objectives(bc, base.clone());
+            let long = objectives(bc, base.clone().with_back_constraint_memory(30));
+            assert_eq!(
+                short[..5],
+                long[..5],
+                "{bc:?}: the first iterations changed"
+            );
+            assert_ne!(short, long, "{bc:?}: back_constraint_memory ignored");
+            let other = objectives(bc, base.clone().with_memory(30));
+            assert_eq!(short, other, "{bc:?}: memory used instead");
+        }
+        let free = objectives(BackConstraint::None, base.clone());
+        let free_other = objectives(BackConstraint::None, base.with_back_constraint_memory(30));
+        assert_eq!(
+            free, free_other,
+            "free latent points took back_constraint_memory"
+        );
     }
 
     #[test]

@@ -685,7 +685,9 @@ mod tests {
     /// Time to solution of back-constrained training on the bench's data, plain and whitened
     /// weights (issue 18). `BC_DATA` names a file of little-endian f64: n, d_human, d_robot,
     /// then the human rows and the robot rows (benches' smooth_data, written by Python);
-    /// `BC_LEVEL` the objective level to reach; `BC_MEMORY` the L-BFGS memory sizes to try.
+    /// `BC_LEVEL` the objective level to reach; `BC_MEMORY` the L-BFGS memory sizes to try
+    /// (`TrainOptions::back_constraint_memory`; default its default); `BC_MAX_ITERS` the
+    /// iteration budget (default 100,000).
     /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib whitened_time -- --ignored --nocapture`
     #[test]
     #[ignore]
@@ -696,7 +698,11 @@ mod tests {
         let level: f64 = std::env::var("BC_LEVEL").map_or(f64::NEG_INFINITY, |s| {
             s.parse().expect("BC_LEVEL is a number")
         });
-        let memories: Vec<usize> = std::env::var("BC_MEMORY").map_or(vec![10], |s| {
+        let max_iters: usize = std::env::var("BC_MAX_ITERS").map_or(100_000, |s| {
+            s.parse().expect("BC_MAX_ITERS is a number of iterations")
+        });
+        let default_memory = TrainOptions::default().back_constraint_memory;
+        let memories: Vec<usize> = std::env::var("BC_MEMORY").map_or(vec![default_memory], |s| {
             s.split(',').map(|m| m.parse().expect("memory")).collect()
         });
         let whitens: Vec<bool> = std::env::var("BC_WHITEN").map_or(vec![false, true], |s| {
@@ -708,8 +714,8 @@ mod tests {
         for &memory in &memories {
             for &whiten in &whitens {
                 let options = TrainOptions::default()
-                    .with_max_iters(100_000)
-                    .with_memory(memory)
+                    .with_max_iters(max_iters)
+                    .with_back_constraint_memory(memory)
                     .with_whiten_back_constraint(whiten);
                 let t = std::time::Instant::now();
                 let m = SharedGplvm::fit(

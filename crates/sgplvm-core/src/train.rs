@@ -30,8 +30,17 @@ pub struct TrainOptions {
     pub grad_tol: f64,
     /// Stop when `(f_prev − f) / max(|f_prev|, |f|, 1)` is below this (scipy's `factr·eps`).
     pub rel_tol: f64,
-    /// L-BFGS history size m.
+    /// L-BFGS history size m (every training but the one
+    /// [`TrainOptions::back_constraint_memory`] names).
     pub memory: usize,
+    /// L-BFGS history size of the exact model's full training with back constraints. Its
+    /// weights W are badly conditioned (K_bc's condition number enters the Hessian squared),
+    /// so after the first few iterations the optimiser crawls; a longer history reaches a given
+    /// objective in about a third fewer evaluations (BENCHMARKS.md, issue 18, eleventh pass).
+    /// The first `min(memory, back_constraint_memory)` iterations do not depend on it, so
+    /// trainings stopped that early on held-out frames are unchanged.
+    #[serde(default = "default_back_constraint_memory")]
+    pub back_constraint_memory: usize,
     /// Iteration budget of the GP regression human → latent fitted after training for models
     /// without input back constraints.
     pub map_max_iters: usize,
@@ -73,6 +82,11 @@ pub struct TrainOptions {
     pub whiten_back_constraint: bool,
 }
 
+/// serde's default of [`TrainOptions::back_constraint_memory`].
+fn default_back_constraint_memory() -> usize {
+    TrainOptions::default().back_constraint_memory
+}
+
 /// serde's default of [`TrainOptions::max_line_search_evaluations`].
 fn default_line_search_evaluations() -> usize {
     TrainOptions::DEFAULT_LINE_SEARCH_EVALUATIONS
@@ -85,6 +99,7 @@ impl Default for TrainOptions {
             grad_tol: 1e-5,
             rel_tol: 2.2e-9,
             memory: 10,
+            back_constraint_memory: 50,
             map_max_iters: 300,
             max_seconds: None,
             max_line_search_evaluations: Self::DEFAULT_LINE_SEARCH_EVALUATIONS,
@@ -145,6 +160,12 @@ impl TrainOptions {
     /// Sets the L-BFGS history size.
     pub fn with_memory(mut self, m: usize) -> Self {
         self.memory = m;
+        self
+    }
+    /// Sets the L-BFGS history size of back-constrained full training (see
+    /// [`TrainOptions::back_constraint_memory`]).
+    pub fn with_back_constraint_memory(mut self, m: usize) -> Self {
+        self.back_constraint_memory = m;
         self
     }
     /// Sets the wall-clock budget in seconds (`None`: no limit).
@@ -214,6 +235,12 @@ impl TrainOptions {
         }
         if self.memory == 0 {
             return bad("TrainOptions::memory", "expected at least 1");
+        }
+        if self.back_constraint_memory == 0 {
+            return bad(
+                "TrainOptions::back_constraint_memory",
+                "expected at least 1",
+            );
         }
         if self.max_seconds.is_some_and(|s| s.is_nan() || s < 0.0) {
             return bad(
