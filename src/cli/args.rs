@@ -137,7 +137,7 @@ pub struct ModelConfigArgs {
     pub fixed_inducing: bool,
     /// Train the back-constraint weights whitened (W = K_bc^(-1/2) V): the same model, far better
     /// conditioned, so training reaches a low objective in far fewer iterations (on the benchmark
-    /// data GPy's final level at iteration 86; the plain weights stop short of it after 26,288).
+    /// data GPy's final level at iteration 56; the plain weights at iteration 17,055).
     /// For when you want the optimum fast (time to solution, training to convergence); off by
     /// default because the slow plain route regularises: held-out error was worse with it on the
     /// shipped data (BENCHMARKS.md, issue 18). Needs --back-constraint input or output and the

@@ -224,8 +224,8 @@ class SharedGPLVM:
         parametrisation (W = K_bc^(-1/2) V, the optimiser moves V): the same latent points are
         reachable, but the back-constraint kernel K_bc's condition number (~1e9 on typical data)
         enters the problem once instead of squared, so L-BFGS reaches a low objective in far fewer
-        iterations (on the benchmark data, GPy's final level at iteration 86; the plain weights stop
-        short of it after 26,288). Use it when you want the optimum fast — time to solution,
+        iterations (on the benchmark data, GPy's final level at iteration 56; the plain weights at
+        iteration 17,055). Use it when you want the optimum fast — time to solution,
         training to convergence. It is off by default because the slow plain route regularises: on
         the shipped demonstrations the held-out error of the validation-chosen model was worse with
         it in most configurations (BENCHMARKS.md, issue 18). The model stores W as usual: saved,
