@@ -226,6 +226,24 @@ def reached(trace, level):
     return next((t for t, f in trace if f <= target), float("inf"))
 
 
+def split_by_evaluations(ours_history, gpy_trace, level):
+    """Why a time-to-solution ratio is what it is: the evaluations each side needed to reach
+    `level` and the time per evaluation until then. The time ratio is the product of the two
+    ratios; the first depends on each optimiser's path, which rounding can change (BENCHMARKS.md,
+    issue 18, twelfth pass), the second on the code's speed."""
+    target = level + TOL * abs(level)
+    ours = next(((e, t) for e, t, f in zip(ours_history["evaluations"], ours_history["seconds"],
+                                           ours_history["objective"]) if f <= target), None)
+    theirs = next(((k + 1, t) for k, (t, f) in enumerate(gpy_trace) if f <= target), None)
+    if ours is None or theirs is None:
+        return None
+    (e_ours, t_ours), (e_gpy, t_gpy) = ours, theirs
+    ms_ours, ms_gpy = 1e3 * t_ours / e_ours, 1e3 * t_gpy / e_gpy
+    return (f"{'':<4}to that level: sgplvm {int(e_ours)} evaluations ({ms_ours:.2f} ms each), GPy "
+            f"{e_gpy} ({ms_gpy:.2f} ms each): GPy/ours {e_gpy / e_ours:.2f}x in evaluations times "
+            f"{ms_gpy / ms_ours:.2f}x per evaluation")
+
+
 def evaluation_rows(sizes, repeat, pooled_too):
     for n in sizes:
         human, walkman, _ = smooth_data(n)
@@ -329,9 +347,13 @@ def to_solution(spaces, bc, pooled_too, whitened=(False,), ours_cap=None, gpy_ca
             print(f"{'':<4}at GPy's level when capped ({f_gpy:.4f}): sgplvm {t_at:.3f} s, GPy "
                   f"{reached(theirs.trace, f_gpy):.3f} s: {reached(theirs.trace, f_gpy) / t_at:.1f}x",
                   flush=True)
+            level = f_gpy
         else:
             level = max(f_ours, f_gpy)
             row(label, reached(ours_trace, level), reached(theirs.trace, level), "s", 1.0)
+        split = split_by_evaluations(h, theirs.trace, level)
+        if split:
+            print(split, flush=True)
         iters = int(h["iteration"][-1])
         evals = int(h["evaluations"][-1])
         gpy_stop = ("capped" if theirs.capped else
