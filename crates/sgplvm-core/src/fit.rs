@@ -264,18 +264,7 @@ mod tests {
     #[test]
     fn back_constrained_training_uses_its_own_history_size() {
         let objectives = |bc: BackConstraint, options: TrainOptions| -> Vec<f64> {
-            let (h, r1, _, _) = demo(40, 7);
-            let config = ModelConfig::default()
-                .with_latent_dim(2)
-                .with_back_constraint(bc);
-            let m = SharedGplvm::fit(
-                &config,
-                &[("human", h.as_ref()), ("walkman", r1.as_ref())],
-                "human",
-                &options,
-                None,
-            )
-            .expect("fit");
+            let m = fit_with(bc, 40, 0, &options);
             m.history().iter().map(|r| r.objective).collect()
         };
         let base = quick(40).with_memory(3).with_back_constraint_memory(3);

@@ -683,8 +683,9 @@ mod tests {
     }
 
     /// Time to solution of back-constrained training on the bench's data, plain and whitened
-    /// weights, or of free latent points (issue 18). `BC_DATA` names a file of little-endian f64: n, d_human, d_robot,
-    /// then the human rows and the robot rows (benches' smooth_data, written by Python);
+    /// weights, or of free latent points (issue 18). `BC_DATA` names a file of little-endian
+    /// f64: n, d_human, d_robot, then the human rows and the robot rows (benches' smooth_data,
+    /// written by Python);
     /// `BC_LEVEL` the objective level to reach; `BC_MEMORY` the L-BFGS memory sizes to try
     /// (`TrainOptions::back_constraint_memory`; default its default); `BC_MAX_ITERS` the
     /// iteration budget (default 100,000). `BC_CONSTRAINT=none` trains free latent points

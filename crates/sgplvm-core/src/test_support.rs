@@ -45,6 +45,16 @@ pub(crate) fn quick(max_iters: usize) -> TrainOptions {
 }
 
 pub(crate) fn fit(bc: BackConstraint, n: usize, iters: usize, seed: u64) -> SharedGplvm {
+    fit_with(bc, n, seed, &quick(iters))
+}
+
+/// [`fit`] with the caller's training options.
+pub(crate) fn fit_with(
+    bc: BackConstraint,
+    n: usize,
+    seed: u64,
+    options: &TrainOptions,
+) -> SharedGplvm {
     let (h, r1, _, _) = demo(n, 7);
     let config = ModelConfig::default()
         .with_latent_dim(2)
@@ -54,7 +64,7 @@ pub(crate) fn fit(bc: BackConstraint, n: usize, iters: usize, seed: u64) -> Shar
         &config,
         &[("human", h.as_ref()), ("walkman", r1.as_ref())],
         "human",
-        &quick(iters),
+        options,
         None,
     )
     .expect("fit")
