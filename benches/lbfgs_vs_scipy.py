@@ -11,7 +11,11 @@ evaluations is then the optimiser's, not the objective's or the parametrisation'
 scipy's place: whether a difference is our implementation's or L-BFGS-B's own. With
 `--search dcsrch` it takes L-BFGS-B's line search and skipping rule, which makes it L-BFGS-B
 without bounds in Python; `--first-step X` then changes only its first step (a multiple of −g;
-default "unit", L-BFGS-B's step of length 1).
+default "unit", L-BFGS-B's step of length 1). `--diagonal` replaces its scalar initial inverse
+Hessian sᵀy / yᵀy by a diagonal one, rescaled by sᵀy / yᵀDy and updated after each pair as the
+diagonal of BFGS's direct update (Gilbert & Lemaréchal 1989, M1QN3's "DIS" scaling): tried for
+free latent points, whose latent coordinates' curvatures spread over three decades (BENCHMARKS.md,
+issue 18's thirteenth pass), and not adopted.
 
 `--back-constraint` compares them on input back constraints (the bench's plain weights W,
 the bandwidth fixed as in training) instead of free latent points.
@@ -23,7 +27,7 @@ trained on its frozen latent points, log parameters): evaluations to within 1e-4
 Run (module built with `maturin develop --release`; GPy installed for the bench's data):
 
     python benches/lbfgs_vs_scipy.py --n 300 [--seed 1] [--max-evaluations 6000] \
-        [--textbook [--search dcsrch] [--first-step unit|X]]
+        [--textbook [--search dcsrch] [--first-step unit|X] [--diagonal]]
     python benches/lbfgs_vs_scipy.py --transfer [--n 300] [--seed 1]
     python benches/lbfgs_vs_scipy.py --back-constraint --max-evaluations 40000 \
         [--transform softplus]
@@ -100,7 +104,8 @@ def chain(grad, u, n, names, q, transform):
     return np.concatenate([np.ravel(p) for p in parts])
 
 
-def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_step="unit"):
+def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_step="unit",
+                   diagonal=False):
     """Textbook L-BFGS (Nocedal & Wright, Alg. 7.4–7.5): the two-loop recursion with
     H0 = (sᵀy / yᵀy) I from the latest pair (I at the start), from the unit step.
     `search="wolfe"`: scipy's strong-Wolfe line search (c1 = 1e-4, c2 = 0.9), pairs with
@@ -108,8 +113,9 @@ def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_ste
     ftol 1e-3, gtol 0.9, xtol 0.1, steps up to 1e10) and its skipping rule
     (sᵀy <= ε · (−gᵀs)), which makes this L-BFGS-B without bounds. The first step is
     `first_step` times −g: "unit" is L-BFGS-B's 1/‖g‖ (a step of length 1); a number gives
-    another (ours before the fifth pass was 1/(N·ΣD)). `fun(x)` returns (objective, gradient)
-    and is called once per evaluation."""
+    another (ours before the fifth pass was 1/(N·ΣD)). `diagonal=True` takes a diagonal H0
+    in place of sᵀy / yᵀy (see the module's docstring). `fun(x)` returns (objective,
+    gradient) and is called once per evaluation."""
     last = {}
 
     def cached(u):
@@ -121,6 +127,7 @@ def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_ste
 
     f, g = cached(x)
     pairs = []
+    diag = None
     evaluations = 1
     while evaluations < max_evaluations:
         q = g.copy()
@@ -130,7 +137,7 @@ def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_ste
             alphas.append(a)
             q -= a * y
         gamma = (pairs[-1][0] @ pairs[-1][1]) / (pairs[-1][1] @ pairs[-1][1]) if pairs else 1.0
-        d = -gamma * q
+        d = -(diag if diag is not None else gamma) * q
         for (s, y), a in zip(pairs, reversed(alphas)):
             d -= s * (a - (y @ -d) / (y @ s))
         step0 = 1.0
@@ -161,6 +168,13 @@ def textbook_lbfgs(fun, x, max_evaluations, memory=10, search="wolfe", first_ste
         keep = s @ y > (np.finfo(float).eps * -(g @ s) if search == "dcsrch" else 1e-10 * (y @ y))
         if keep:
             pairs = (pairs + [(s, y)])[-memory:]
+            if diagonal:
+                sy = s @ y
+                diag = np.ones_like(s) if diag is None else diag
+                diag = diag * sy / (y @ (diag * y))
+                b = 1.0 / diag
+                b = b - (b * s) ** 2 / (s @ (b * s)) + y * y / sy
+                diag = 1.0 / b
         x, f, g = x_new, f_new, g_new
     return "evaluation limit"
 
@@ -242,12 +256,17 @@ def main():
     ap.add_argument("--first-step", default="unit",
                     help="--textbook's first step, as a multiple of -g: 'unit' (1/|g|, "
                          "L-BFGS-B's) or a number")
+    ap.add_argument("--diagonal", action="store_true",
+                    help="--textbook with a diagonal H0 (Gilbert & Lemarechal's diagonal BFGS "
+                         "update) in place of the scalar s'y / y'y")
     ap.add_argument("--transfer", action="store_true",
                     help="compare the two on the bench's transfer instead (see above)")
     ap.add_argument("--back-constraint", action="store_true",
                     help="input back constraints (plain weights W, the bandwidth fixed) "
                          "instead of free latent points")
     args = ap.parse_args()
+    if args.diagonal and not args.textbook:
+        ap.error("--diagonal changes --textbook's L-BFGS: give --textbook too")
     if args.transfer:
         compare_transfer(args.n, args.seed, args.transform)
         return
@@ -286,7 +305,8 @@ def main():
     if args.textbook:
         label = f"textbook L-BFGS ({args.search}, first step {args.first_step})"
         how = textbook_lbfgs(fun, u0, args.max_evaluations, search=args.search,
-                             first_step=args.first_step)
+                             first_step=args.first_step, diagonal=args.diagonal)
+        label += ", diagonal H0" if args.diagonal else ""
     else:
         res = minimize(fun, u0, jac=True, method="L-BFGS-B",
                        options={"maxcor": 10, "maxfun": args.max_evaluations,

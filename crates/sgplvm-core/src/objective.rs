@@ -791,4 +791,98 @@ mod tests {
             }
         }
     }
+
+    /// Diagonal entries of the free-latent training objective's Hessian, by central
+    /// differences of the gradient (step 1e-4 in θ), at iterations 1, 10, 100, 1,000 and 3,000
+    /// of training on `BC_DATA` (as [`whitened_time_to_solution`]): twelve latent coordinates
+    /// drawn at random, every kernel log-parameter, and the latent block's mean diagonal
+    /// (Rayleigh quotient of a random ±1 vector). Shows which block is stiff and how far the
+    /// curvature spreads within it (BENCHMARKS.md, issue 18's thirteenth pass).
+    /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib hessian_diagonal -- --ignored --nocapture`
+    #[test]
+    #[ignore]
+    fn hessian_diagonal_by_blocks() {
+        use super::{Mode, ModelObjective};
+        use crate::train::{Control, IterationRecord, Objective};
+        let Some((h, r)) = bench_data_from_env() else {
+            return;
+        };
+        let config = ModelConfig::default()
+            .with_latent_dim(5)
+            .with_back_constraint(BackConstraint::None);
+        let at = [1usize, 10, 100, 1000, 3000];
+        let mut report = |rec: &IterationRecord, m: &SharedGplvm| {
+            if !at.contains(&rec.iteration) {
+                return Control::Continue;
+            }
+            let obj = ModelObjective::new(m, Mode::Full).expect("objective");
+            let theta = obj.theta0();
+            let (len, latent) = (theta.len(), obj.latent_len());
+            // H v by central differences of the gradient.
+            let hessian_times = |v: &[f64]| -> Vec<f64> {
+                let eps = 1e-4;
+                let [plus, minus] = [eps, -eps].map(|e| {
+                    let t: Vec<f64> = theta.iter().zip(v).map(|(a, b)| a + e * b).collect();
+                    let mut g = vec![0.0; len];
+                    obj.eval(&t, &mut g).expect("evaluation");
+                    g
+                });
+                plus.iter()
+                    .zip(&minus)
+                    .map(|(p, m)| (p - m) / (2.0 * eps))
+                    .collect()
+            };
+            let signs: Vec<f64> = (0..len)
+                .map(|k| {
+                    if k >= latent {
+                        0.0
+                    } else if (k * 2_654_435_761) % 7 < 3 {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                })
+                .collect();
+            let mean_latent = signs
+                .iter()
+                .zip(hessian_times(&signs))
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / latent as f64;
+            println!(
+                "iteration {} (objective {:.4}): latent block's mean diagonal {mean_latent:.3e}",
+                rec.iteration, rec.objective
+            );
+            let mut state = 12_345u64;
+            let sampled = (0..12).map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                ((state >> 33) as usize) % latent
+            });
+            for i in sampled.chain(latent..len) {
+                let mut e = vec![0.0; len];
+                e[i] = 1.0;
+                let name = if i < latent {
+                    format!("X[{}, {}]", i % m.n(), i / m.n())
+                } else {
+                    format!("kernel log-parameter {}", i - latent)
+                };
+                println!(
+                    "    {name}: {:.3e} (θ = {:.3})",
+                    hessian_times(&e)[i],
+                    theta[i]
+                );
+            }
+            Control::Continue
+        };
+        SharedGplvm::fit(
+            &config,
+            &[("human", h.as_ref()), ("robot", r.as_ref())],
+            "human",
+            &TrainOptions::default().with_max_iters(at[at.len() - 1]),
+            Some(&mut report),
+        )
+        .expect("fit");
+    }
 }
