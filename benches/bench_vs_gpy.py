@@ -277,16 +277,17 @@ def evaluation_rows(sizes, repeat, pooled_too):
                       f"{t_grad * 1e3:.3f} ms: {t_step / t_grad:.2f}x (target <= 1.3)", flush=True)
 
 
-def run_gpy(model, stop_at, cap=np.inf):
+def run_gpy(model, stop_at, cap=np.inf, max_evaluations=100_000):
     """Runs GPy's L-BFGS-B on `model` to its own convergence, or until its objective is
     within TOL of `stop_at` (what it does after that cannot change the row: the level both
     reach is then at most `stop_at`'s), or until `cap` seconds have passed (then
-    `model.capped` is true). Returns (model, seconds)."""
+    `model.capped` is true), or for about `max_evaluations` evaluations (scipy's maxfun).
+    Returns (model, seconds)."""
     model.trace, model.stop_at, model.cap = [], stop_at + TOL * abs(stop_at), cap
     model.capped = False
     model.start = time.perf_counter()
     try:
-        model.optimize("lbfgsb", max_iters=100_000, messages=False)
+        model.optimize("lbfgsb", max_iters=max_evaluations, messages=False)
     except Reached:
         pass
     except Capped:

@@ -14,8 +14,8 @@ without bounds in Python; `--first-step X` then changes only its first step (a m
 default "unit", L-BFGS-B's step of length 1). `--diagonal` replaces its scalar initial inverse
 Hessian sᵀy / yᵀy by a diagonal one, rescaled by sᵀy / yᵀDy and updated after each pair as the
 diagonal of BFGS's direct update (Gilbert & Lemaréchal 1989, M1QN3's "DIS" scaling): tried for
-free latent points, whose latent coordinates' curvatures spread over three decades (BENCHMARKS.md,
-issue 18's thirteenth pass), and not adopted.
+free latent points, whose latent coordinates' curvatures spread over two to three decades
+(BENCHMARKS.md, issue 18's thirteenth pass), and not adopted.
 
 `--back-constraint` compares them on input back constraints (the bench's plain weights W,
 the bandwidth fixed as in training) instead of free latent points.

@@ -832,11 +832,13 @@ mod tests {
                     .map(|(p, m)| (p - m) / (2.0 * eps))
                     .collect()
             };
+            // One generator per report: the same signs and coordinates at every iteration.
+            let mut rng = ChaCha8Rng::seed_from_u64(7);
             let signs: Vec<f64> = (0..len)
                 .map(|k| {
                     if k >= latent {
                         0.0
-                    } else if (k * 2_654_435_761) % 7 < 3 {
+                    } else if rng.random_bool(0.5) {
                         1.0
                     } else {
                         -1.0
@@ -853,14 +855,8 @@ mod tests {
                 "iteration {} (objective {:.4}): latent block's mean diagonal {mean_latent:.3e}",
                 rec.iteration, rec.objective
             );
-            let mut state = 12_345u64;
-            let sampled = (0..12).map(|_| {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                ((state >> 33) as usize) % latent
-            });
-            for i in sampled.chain(latent..len) {
+            let sampled: Vec<usize> = (0..12).map(|_| rng.random_range(0..latent)).collect();
+            for i in sampled.into_iter().chain(latent..len) {
                 let mut e = vec![0.0; len];
                 e[i] = 1.0;
                 let name = if i < latent {
