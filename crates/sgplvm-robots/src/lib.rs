@@ -3,6 +3,7 @@
 
 #![deny(clippy::unwrap_used)]
 
+pub mod capture;
 pub mod dataset;
 pub mod joint_state;
 

@@ -1,0 +1,623 @@
+//! Which joints of a capture's skeleton are the arms, and where the arms are in each frame,
+//! expressed in the upper torso's frame.
+//!
+//! The arms are found by name ([`SCHEMES`]: CMU/cgspeed and Mixamo `LeftShoulder/LeftArm/
+//! LeftForeArm/LeftHand`, Xsens MVN `LeftShoulder/LeftUpperArm/...`, Xsens BVH exports and
+//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, Poser/DAZ `lCollar/lShldr/...`, Unreal
+//! and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/hand_l`, Rigify `shoulder.L/upper_arm.L/...`),
+//! namespace prefixes (`mixamorig:`) and case, `_`, `.`, `-` and spaces aside; or by an
+//! explicit [`ArmMap`] (`--map FILE`).
+//!
+//! The upper torso is the joint the clavicles hang from. Its body axes (x forward, y left,
+//! z up, those of the human model's `T8`) come from the file's rest pose, every channel at
+//! zero: up from the root towards the neck, left from the right to the left shoulder. They are
+//! fixed in the torso, so walking, turning and bending of the whole body do not reach the
+//! arms.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use serde::Deserialize;
+
+use super::bvh::Bvh;
+use super::CaptureError;
+use crate::Side;
+
+/// One naming scheme of the four arm segments, without the side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Scheme {
+    /// Name shown in reports.
+    pub name: &'static str,
+    /// Clavicle (shoulder girdle) segment names, normalised.
+    pub clavicle: &'static [&'static str],
+    /// Upper-arm segment names.
+    pub upper_arm: &'static [&'static str],
+    /// Forearm segment names.
+    pub forearm: &'static [&'static str],
+    /// Hand segment names.
+    pub hand: &'static [&'static str],
+}
+
+/// The naming schemes recognised without a map, tried in this order. Names are compared
+/// normalised ([`normalise`]) with the side as a prefix or suffix (`left`, `l`, `right`,
+/// `r`). Order matters where a name means different segments: `Shoulder` is the clavicle in
+/// CMU and Mixamo files but the upper arm in Xsens BVH exports, whose clavicle is `Collar`.
+pub const SCHEMES: &[Scheme] = &[
+    Scheme {
+        name: "Xsens BVH / SMPL (Collar, Shoulder, Elbow, Wrist)",
+        clavicle: &["collar"],
+        upper_arm: &["shoulder"],
+        forearm: &["elbow"],
+        hand: &["wrist"],
+    },
+    Scheme {
+        name: "CMU / Mixamo / LAFAN1 (Shoulder, Arm, ForeArm, Hand)",
+        clavicle: &["shoulder"],
+        upper_arm: &["arm"],
+        forearm: &["forearm"],
+        hand: &["hand"],
+    },
+    Scheme {
+        name: "Xsens MVN / Rigify (Shoulder, UpperArm, ForeArm, Hand)",
+        clavicle: &["shoulder"],
+        upper_arm: &["upperarm"],
+        forearm: &["forearm", "lowerarm"],
+        hand: &["hand"],
+    },
+    Scheme {
+        name: "Poser / DAZ (Collar, Shldr, ForeArm, Hand)",
+        clavicle: &["collar"],
+        upper_arm: &["shldr", "shoulder"],
+        forearm: &["forearm"],
+        hand: &["hand"],
+    },
+    Scheme {
+        name: "Unreal / 3ds Max (Clavicle, UpperArm, LowerArm, Hand)",
+        clavicle: &["clavicle"],
+        upper_arm: &["upperarm"],
+        forearm: &["lowerarm", "forearm"],
+        hand: &["hand"],
+    },
+];
+
+/// A joint name lower-cased without its namespace (`mixamorig:`), `_`, `.`, `-` and spaces.
+pub fn normalise(name: &str) -> String {
+    let base = name.rsplit(':').next().unwrap_or(name);
+    base.chars()
+        .filter(|c| !matches!(c, '_' | '.' | '-' | ' '))
+        .flat_map(|c| c.to_lowercase())
+        .collect()
+}
+
+/// The names a joint answers to: its whole normalised name, then the normalised ends of its
+/// name that start with a side word, cut at word boundaries (`_`, `.`, `-`, spaces, a
+/// lower-to-upper case change), so that `CC_Base_L_Clavicle` answers to `lclavicle` and
+/// `Bip01 L UpperArm` to `lupperarm`.
+fn name_forms(name: &str) -> Vec<String> {
+    let base = name.rsplit(':').next().unwrap_or(name);
+    let mut words: Vec<String> = Vec::new();
+    let mut current = String::new();
+    let mut prev_lower = false;
+    for c in base.chars() {
+        if matches!(c, '_' | '.' | '-' | ' ') {
+            if !current.is_empty() {
+                words.push(std::mem::take(&mut current));
+            }
+            prev_lower = false;
+            continue;
+        }
+        if c.is_uppercase() && prev_lower && !current.is_empty() {
+            words.push(std::mem::take(&mut current));
+        }
+        prev_lower = c.is_lowercase() || c.is_ascii_digit();
+        current.extend(c.to_lowercase());
+    }
+    if !current.is_empty() {
+        words.push(current);
+    }
+    let mut forms = vec![normalise(name)];
+    for start in 1..words.len() {
+        // Only ends that start with the side (`L_Clavicle`): a prefix is cut, not a word of
+        // the segment's name (`upper_arm.L` must not answer to `arm.L`).
+        if matches!(words[start].as_str(), "l" | "r" | "left" | "right") {
+            forms.push(words[start..].concat());
+        }
+    }
+    forms
+}
+
+/// The forms of `base` for `side`: `leftbase`, `lbase`, `baseleft`, `basel`.
+fn sided(base: &str, side: Side) -> [String; 4] {
+    let (long, short) = match side {
+        Side::Left => ("left", "l"),
+        Side::Right => ("right", "r"),
+    };
+    [
+        format!("{long}{base}"),
+        format!("{short}{base}"),
+        format!("{base}{long}"),
+        format!("{base}{short}"),
+    ]
+}
+
+/// An explicit assignment of the capture's segments to the human model's joints, read from a
+/// JSON file (`--map FILE`): keys are the model's joint groups `jLeftC7Shoulder` (driven by
+/// the clavicle segment), `jLeftShoulder` (upper arm), `jLeftElbow` (forearm), `jLeftWrist`
+/// (hand) and their `Right` twins, or the segment names `left_clavicle`, `left_upper_arm`,
+/// `left_forearm`, `left_hand` (and `right_...`); values are the capture's joint names as
+/// written in the file. The clavicles may be left out (the arms then hang from the torso).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Deserialize)]
+#[serde(transparent)]
+pub struct ArmMap(pub BTreeMap<String, String>);
+
+impl ArmMap {
+    /// Reads a map file (JSON object of strings).
+    pub fn read(path: &std::path::Path) -> Result<ArmMap, CaptureError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| CaptureError::Map {
+            file: file.clone(),
+            message: format!("cannot read it: {e}"),
+        })?;
+        serde_json::from_str(&text).map_err(|e| CaptureError::Map {
+            file,
+            message: format!(
+                "not a JSON object of strings ({e}); expected e.g. {{\"jLeftShoulder\": \"L_UpperArm\", ...}}"
+            ),
+        })
+    }
+
+    /// The segment for `role` of `side`, by either key form.
+    fn get(&self, side: Side, role: Role) -> Option<&str> {
+        let (joint, segment) = role.keys(side);
+        self.0
+            .get(&joint)
+            .or_else(|| self.0.get(&segment))
+            .map(String::as_str)
+    }
+
+    /// Every key this map understands.
+    pub fn known_keys() -> Vec<String> {
+        let mut keys = Vec::new();
+        for side in [Side::Left, Side::Right] {
+            for role in Role::ALL {
+                let (j, s) = role.keys(side);
+                keys.push(j);
+                keys.push(s);
+            }
+        }
+        keys
+    }
+}
+
+/// The four arm segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Role {
+    Clavicle,
+    UpperArm,
+    Forearm,
+    Hand,
+}
+
+impl Role {
+    const ALL: [Role; 4] = [Role::Clavicle, Role::UpperArm, Role::Forearm, Role::Hand];
+
+    /// The map keys of this role: the model's joint group and the segment name.
+    fn keys(self, side: Side) -> (String, String) {
+        let s = match side {
+            Side::Left => "Left",
+            Side::Right => "Right",
+        };
+        let (joint, segment) = match self {
+            Role::Clavicle => ("C7Shoulder", "clavicle"),
+            Role::UpperArm => ("Shoulder", "upper_arm"),
+            Role::Forearm => ("Elbow", "forearm"),
+            Role::Hand => ("Wrist", "hand"),
+        };
+        (
+            format!("j{s}{joint}"),
+            format!("{}_{segment}", side.as_str()),
+        )
+    }
+}
+
+/// The joints of one arm in the capture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmJoints {
+    /// The clavicle segment's joint (sternoclavicular joint), if the skeleton has one.
+    pub clavicle: Option<usize>,
+    /// The upper arm's joint (at the shoulder).
+    pub upper_arm: usize,
+    /// The forearm's joint (at the elbow).
+    pub forearm: usize,
+    /// The hand's joint (at the wrist).
+    pub hand: usize,
+    /// Where the hand ends, in the hand's frame (a finger-base child, the End Site, or the
+    /// mean of its children); `None` if the hand has neither.
+    pub hand_tip: Option<Vector3<f64>>,
+}
+
+/// The arms of a capture's skeleton and the body axes of its upper torso.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skeleton {
+    /// Which naming scheme matched (or `"map file"`).
+    pub scheme: String,
+    /// The upper torso joint (the clavicles' parent).
+    pub torso: usize,
+    /// Left and right arm.
+    pub arms: [ArmJoints; 2],
+    /// Body axes as columns (forward, left, up) in the torso's frame.
+    pub axes: Rotation3<f64>,
+    /// Upper arm plus forearm length at rest, in the file's units.
+    pub arm_length: f64,
+}
+
+/// Where one arm is in one frame, in body axes (x forward, y left, z up), file units,
+/// relative to the torso joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmPose {
+    /// The sternoclavicular joint (the shoulder itself where there is no clavicle).
+    pub clavicle: Vector3<f64>,
+    /// The shoulder joint centre.
+    pub shoulder: Vector3<f64>,
+    /// The elbow.
+    pub elbow: Vector3<f64>,
+    /// The wrist.
+    pub wrist: Vector3<f64>,
+    /// The hand's end.
+    pub hand_tip: Vector3<f64>,
+    /// Orientation of the upper-arm segment relative to its rest orientation, body axes.
+    pub upper_arm_turn: Rotation3<f64>,
+    /// Orientation of the hand segment relative to its rest orientation, body axes.
+    pub hand_turn: Rotation3<f64>,
+}
+
+impl Skeleton {
+    /// Finds the arms by name (or by `map`) and the torso's body axes.
+    pub fn identify(bvh: &Bvh, map: Option<&ArmMap>, file: &str) -> Result<Skeleton, CaptureError> {
+        let (scheme, arms) = match map {
+            Some(m) => (
+                "map file".to_string(),
+                [
+                    arm_from_map(bvh, m, Side::Left, file)?,
+                    arm_from_map(bvh, m, Side::Right, file)?,
+                ],
+            ),
+            None => find_arms(bvh).ok_or_else(|| CaptureError::NoArms {
+                file: file.to_string(),
+                segments: bvh.joints.iter().map(|j| j.name.clone()).collect(),
+            })?,
+        };
+        let top = |a: &ArmJoints| a.clavicle.unwrap_or(a.upper_arm);
+        let torso = common_parent(bvh, top(&arms[0]), top(&arms[1])).ok_or_else(|| CaptureError::Skeleton {
+            file: file.to_string(),
+            message: format!(
+                "the arms `{}` and `{}` hang from no common joint; expected both on the upper torso",
+                bvh.joints[top(&arms[0])].name,
+                bvh.joints[top(&arms[1])].name
+            ),
+        })?;
+        let root = 0;
+        let rest = |j: usize| bvh.rest_position(root, j).unwrap_or_else(Vector3::zeros);
+        let shoulders = [rest(arms[0].upper_arm), rest(arms[1].upper_arm)];
+        let neck = (torso + 1..bvh.joints.len())
+            .filter(|&j| bvh.path(torso, j).is_some())
+            .find(|&j| {
+                let n = normalise(&bvh.joints[j].name);
+                n.contains("neck") || n.contains("head")
+            });
+        let up_point = match neck {
+            Some(n) => rest(n),
+            None => 0.5 * (shoulders[0] + shoulders[1]),
+        };
+        let up = up_point - rest(root);
+        let left = shoulders[0] - shoulders[1];
+        let axes = body_axes(left, up).ok_or_else(|| CaptureError::Skeleton {
+            file: file.to_string(),
+            message: format!(
+                "cannot tell the torso's axes: the shoulders `{}` and `{}` are at the same place, or in line with the spine, in the rest pose",
+                bvh.joints[arms[0].upper_arm].name,
+                bvh.joints[arms[1].upper_arm].name
+            ),
+        })?;
+        let arm_length =
+            bvh.joints[arms[0].forearm].offset.norm() + bvh.joints[arms[0].hand].offset.norm();
+        if arm_length.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return Err(CaptureError::Skeleton {
+                file: file.to_string(),
+                message: format!(
+                    "the left arm `{}` has zero length in the rest pose",
+                    bvh.joints[arms[0].upper_arm].name
+                ),
+            });
+        }
+        Ok(Skeleton {
+            scheme,
+            torso,
+            arms,
+            axes,
+            arm_length,
+        })
+    }
+
+    /// The pose of arm `side` in frame `values` (one frame's channels).
+    pub fn arm_pose(&self, bvh: &Bvh, values: &[f64], side: Side) -> ArmPose {
+        let arm = &self.arms[side_index(side)];
+        let to_body = self.axes.inverse();
+        // Torso-relative transforms down the arm, joint by joint.
+        let mut pos = Vector3::zeros();
+        let mut rot = Rotation3::identity();
+        let at = |j: usize, pos: &mut Vector3<f64>, rot: &mut Rotation3<f64>, from: usize| {
+            if let Some(path) = bvh.path(from, j) {
+                for k in path {
+                    let (t, r) = bvh.joints[k].local(values);
+                    *pos += *rot * t;
+                    *rot *= r;
+                }
+            }
+        };
+        let top = arm.clavicle.unwrap_or(arm.upper_arm);
+        at(top, &mut pos, &mut rot, self.torso);
+        let clavicle = pos;
+        at(arm.upper_arm, &mut pos, &mut rot, top);
+        let shoulder = pos;
+        let upper_rot = rot;
+        at(arm.forearm, &mut pos, &mut rot, arm.upper_arm);
+        let elbow = pos;
+        at(arm.hand, &mut pos, &mut rot, arm.forearm);
+        let wrist = pos;
+        let hand_rot = rot;
+        let hand_tip = match arm.hand_tip {
+            Some(t) => wrist + hand_rot * t,
+            None => wrist + (wrist - elbow),
+        };
+        let body = |v: Vector3<f64>| to_body * v;
+        // Relative to the rest pose, in body axes: R_body⁻¹ R R_body.
+        let turn = |r: Rotation3<f64>| to_body * r * self.axes;
+        ArmPose {
+            clavicle: body(clavicle),
+            shoulder: body(shoulder),
+            elbow: body(elbow),
+            wrist: body(wrist),
+            hand_tip: body(hand_tip),
+            upper_arm_turn: turn(upper_rot),
+            hand_turn: turn(hand_rot),
+        }
+    }
+
+    /// The pose of arm `side` with every channel at zero (the file's rest pose).
+    pub fn rest_pose(&self, bvh: &Bvh, side: Side) -> ArmPose {
+        let zero = vec![0.0; bvh.channels];
+        let mut rest = self.arm_pose(bvh, &zero, side);
+        // Position channels replace offsets: at rest they are zero, which is not the
+        // skeleton's rest; use the offsets instead.
+        let arm = &self.arms[side_index(side)];
+        let to_body = self.axes.inverse();
+        let p = |j: usize| {
+            to_body
+                * bvh
+                    .rest_position(self.torso, j)
+                    .unwrap_or_else(Vector3::zeros)
+        };
+        rest.clavicle = p(arm.clavicle.unwrap_or(arm.upper_arm));
+        rest.shoulder = p(arm.upper_arm);
+        rest.elbow = p(arm.forearm);
+        rest.wrist = p(arm.hand);
+        rest.hand_tip = match arm.hand_tip {
+            Some(t) => rest.wrist + to_body * t,
+            None => rest.wrist + (rest.wrist - rest.elbow),
+        };
+        rest
+    }
+}
+
+/// 0 for the left arm, 1 for the right.
+pub(crate) fn side_index(side: Side) -> usize {
+    match side {
+        Side::Left => 0,
+        Side::Right => 1,
+    }
+}
+
+/// Body axes (forward, left, up) as the columns of a rotation, from a left and an up vector.
+fn body_axes(left: Vector3<f64>, up: Vector3<f64>) -> Option<Rotation3<f64>> {
+    let up = up.try_normalize(1e-9)?;
+    let left = (left - up * left.dot(&up)).try_normalize(1e-9)?;
+    let forward = left.cross(&up);
+    Some(Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[
+        forward, left, up,
+    ])))
+}
+
+/// The nearest joint above both `a` and `b`.
+fn common_parent(bvh: &Bvh, a: usize, b: usize) -> Option<usize> {
+    let mut above_a = Vec::new();
+    let mut cur = bvh.joints[a].parent;
+    while let Some(p) = cur {
+        above_a.push(p);
+        cur = bvh.joints[p].parent;
+    }
+    let mut cur = bvh.joints[b].parent;
+    while let Some(p) = cur {
+        if above_a.contains(&p) {
+            return Some(p);
+        }
+        cur = bvh.joints[p].parent;
+    }
+    None
+}
+
+/// Tries every scheme; the first whose segments exist on both sides and chain up properly
+/// (clavicle above upper arm above forearm above hand) wins.
+fn find_arms(bvh: &Bvh) -> Option<(String, [ArmJoints; 2])> {
+    // Whole names first, then their word-boundary ends (a whole name wins over an end).
+    let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
+    let forms: Vec<Vec<String>> = bvh.joints.iter().map(|j| name_forms(&j.name)).collect();
+    for (i, f) in forms.iter().enumerate() {
+        by_name.entry(f[0].clone()).or_insert(i);
+    }
+    for (i, f) in forms.iter().enumerate() {
+        for end in &f[1..] {
+            by_name.entry(end.clone()).or_insert(i);
+        }
+    }
+    let find = |bases: &[&str], side: Side| -> Option<usize> {
+        bases
+            .iter()
+            .flat_map(|b| sided(b, side))
+            .find_map(|n| by_name.get(&n).copied())
+    };
+    // First with the clavicles found, then without (a skeleton may lack them).
+    for need_clavicle in [true, false] {
+        if let Some(found) = find_arms_with(bvh, &find, need_clavicle) {
+            return Some(found);
+        }
+    }
+    None
+}
+
+/// [`find_arms`] over the schemes with lookup `find`, requiring the clavicles or not.
+fn find_arms_with(
+    bvh: &Bvh,
+    find: &dyn Fn(&[&str], Side) -> Option<usize>,
+    need_clavicle: bool,
+) -> Option<(String, [ArmJoints; 2])> {
+    'scheme: for scheme in SCHEMES {
+        let mut arms = Vec::with_capacity(2);
+        for side in [Side::Left, Side::Right] {
+            let (Some(upper), Some(fore), Some(hand)) = (
+                find(scheme.upper_arm, side),
+                find(scheme.forearm, side),
+                find(scheme.hand, side),
+            ) else {
+                continue 'scheme;
+            };
+            let clavicle =
+                find(scheme.clavicle, side).filter(|&c| c != upper && bvh.path(c, upper).is_some());
+            if bvh.path(upper, fore).is_none()
+                || bvh.path(fore, hand).is_none()
+                || (need_clavicle && clavicle.is_none())
+            {
+                continue 'scheme;
+            }
+            arms.push(ArmJoints {
+                clavicle,
+                upper_arm: upper,
+                forearm: fore,
+                hand,
+                hand_tip: hand_tip(bvh, hand),
+            });
+        }
+        let [l, r]: [ArmJoints; 2] = arms.try_into().ok()?;
+        if l.upper_arm == r.upper_arm {
+            continue;
+        }
+        return Some((scheme.name.to_string(), [l, r]));
+    }
+    None
+}
+
+/// The arm of `side` as `map` names it.
+fn arm_from_map(
+    bvh: &Bvh,
+    map: &ArmMap,
+    side: Side,
+    file: &str,
+) -> Result<ArmJoints, CaptureError> {
+    for key in map.0.keys() {
+        if !ArmMap::known_keys().contains(key) {
+            return Err(CaptureError::Map {
+                file: file.to_string(),
+                message: format!(
+                    "unknown key `{key}`; expected some of {}",
+                    ArmMap::known_keys().join(", ")
+                ),
+            });
+        }
+    }
+    let lookup = |role: Role, required: bool| -> Result<Option<usize>, CaptureError> {
+        let (joint_key, segment_key) = role.keys(side);
+        match map.get(side, role) {
+            Some(name) => bvh.joint(name).map(Some).ok_or_else(|| CaptureError::Map {
+                file: file.to_string(),
+                message: format!(
+                    "`{joint_key}` names segment `{name}`, which the capture does not have; its segments are: {}",
+                    bvh.joints.iter().map(|j| j.name.as_str()).collect::<Vec<_>>().join(", ")
+                ),
+            }),
+            None if required => Err(CaptureError::Map {
+                file: file.to_string(),
+                message: format!("no `{joint_key}` (or `{segment_key}`): every arm needs its upper arm, forearm and hand"),
+            }),
+            None => Ok(None),
+        }
+    };
+    let clavicle = lookup(Role::Clavicle, false)?;
+    let (Some(upper), Some(fore), Some(hand)) = (
+        lookup(Role::UpperArm, true)?,
+        lookup(Role::Forearm, true)?,
+        lookup(Role::Hand, true)?,
+    ) else {
+        unreachable!("required roles are present or an error");
+    };
+    let chained = clavicle.is_none_or(|c| bvh.path(c, upper).is_some())
+        && bvh.path(upper, fore).is_some()
+        && bvh.path(fore, hand).is_some();
+    if !chained {
+        return Err(CaptureError::Map {
+            file: file.to_string(),
+            message: format!("the {} arm's segments do not hang from each other (clavicle → upper arm → forearm → hand)", side.as_str()),
+        });
+    }
+    Ok(ArmJoints {
+        clavicle,
+        upper_arm: upper,
+        forearm: fore,
+        hand,
+        hand_tip: hand_tip(bvh, hand),
+    })
+}
+
+/// Where the hand ends, in its own frame: a middle-finger or finger-base child if there is
+/// one, else the End Site, else the mean of the children that are not the thumb.
+fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
+    let children: Vec<usize> = bvh.children(hand).collect();
+    let named = |keys: &[&str]| {
+        children.iter().find(|&&c| {
+            let n = normalise(&bvh.joints[c].name);
+            keys.iter().any(|k| n.contains(k))
+        })
+    };
+    if let Some(&c) = named(&["middle1", "middle", "fingerbase", "finger"]) {
+        // Down the finger until the chain leaves the wrist (CMU's finger base sits on it).
+        let mut tip = bvh.joints[c].offset;
+        let mut at = c;
+        while tip.norm() == 0.0 {
+            match bvh.children(at).next() {
+                Some(next) => {
+                    tip += bvh.joints[next].offset;
+                    at = next;
+                }
+                None => {
+                    tip += bvh.joints[at].end_site.unwrap_or_else(Vector3::zeros);
+                    break;
+                }
+            }
+        }
+        if tip.norm() > 0.0 {
+            return Some(tip);
+        }
+    }
+    if let Some(e) = bvh.joints[hand].end_site.filter(|v| v.norm() > 0.0) {
+        return Some(e);
+    }
+    let others: Vec<Vector3<f64>> = children
+        .iter()
+        .filter(|&&c| !normalise(&bvh.joints[c].name).contains("thumb"))
+        .map(|&c| bvh.joints[c].offset)
+        .collect();
+    if others.is_empty() {
+        return None;
+    }
+    let mean = others.iter().sum::<Vector3<f64>>() / others.len() as f64;
+    Some(mean).filter(|v| v.norm() > 0.0)
+}

@@ -1,0 +1,274 @@
+//! Import tests on files written here (the human model's own motion, hand-computed poses);
+//! real captures are tested in `tests/capture_real.rs` and the Python suite.
+
+use super::*;
+
+/// Writes `rows` as a BVH in a fresh temporary folder and imports it.
+fn round_trip(rows: &[[f64; 18]], frame_time: f64, options: &ImportOptions) -> CapturedMotion {
+    let dir = std::env::temp_dir().join(format!(
+        "sgplvm-capture-{}-{}",
+        std::process::id(),
+        rows.len()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("motion.bvh");
+    write_bvh(&path, frame_time, rows).unwrap();
+    let m = import_bvh(&path, options).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    m
+}
+
+#[test]
+fn hand_computed_poses_come_back() {
+    // Frame 0 the zero pose; frame 1 left elbow flexed 90° (forearm forward), right shoulder
+    // flexed 90° (arm forward): by hand, only those angles are non-zero.
+    let mut rows = vec![[0.0; 18]; 3];
+    rows[1][5] = std::f64::consts::FRAC_PI_2;
+    rows[1][9 + 2] = std::f64::consts::FRAC_PI_2;
+    rows[1][9 + 5] = 0.3;
+    rows[2] = rows[1];
+    let m = round_trip(&rows, 0.025, &ImportOptions::default());
+    assert_eq!(m.positions.nrows(), 3);
+    for (k, want) in rows[1].iter().enumerate() {
+        assert!(
+            (m.positions[(1, k)] - want).abs() < 1e-6,
+            "joint {k}: {}",
+            m.positions[(1, k)]
+        );
+    }
+    assert!(m.source.fit.within_limits());
+    assert_eq!(
+        m.source.skeleton,
+        "Xsens MVN / Rigify (Shoulder, UpperArm, ForeArm, Hand)"
+    );
+    assert_eq!(m.source.units, "cm");
+    assert!(
+        !m.source.calibration_frame_dropped,
+        "a real first frame is kept"
+    );
+}
+
+#[test]
+fn the_model_s_own_motion_round_trips_and_resamples() {
+    // A smooth motion within limits at 120 Hz, imported at 40 Hz.
+    let robot = Robot::builtin("human").unwrap();
+    let limits = robot.joint_limits();
+    let rows: Vec<[f64; 18]> = (0..241)
+        .map(|f| {
+            let t = f as f64 / 120.0;
+            let mut q = [0.0; 18];
+            for k in 0..18 {
+                let (lo, hi) = limits[k];
+                let mid = 0.5 * (lo + hi);
+                let amp = 0.3 * (hi - lo);
+                q[k] = mid + amp * (1.3 * t + k as f64).sin();
+                if k % 9 == 5 {
+                    q[k] = q[k].max(0.2); // a bent elbow: the hinge plane is defined
+                }
+            }
+            q
+        })
+        .collect();
+    let m = round_trip(&rows, 1.0 / 120.0, &ImportOptions::default());
+    assert_eq!(m.positions.nrows(), 81);
+    assert_eq!(m.times_ns[1] - m.times_ns[0], 25_000_000);
+    for (k_out, f) in (0..81).map(|k| (k, 3 * k)) {
+        for (j, want) in rows[f].iter().enumerate() {
+            assert!(
+                (m.positions[(k_out, j)] - want).abs() < 1e-5,
+                "frame {f} joint {j}"
+            );
+        }
+    }
+    let fit = &m.source.fit;
+    assert!(
+        fit.elbow_worst_m < 1e-6 && fit.wrist_worst_m < 1e-6,
+        "{fit:?}"
+    );
+    assert_eq!(fit.frames_beyond, 0);
+}
+
+#[test]
+fn a_calibration_first_frame_is_dropped() {
+    let mut rows = vec![[0.0; 18]; 40];
+    for (f, r) in rows.iter_mut().enumerate() {
+        r[5] = 1.0 + 0.01 * f as f64;
+        r[14] = 1.0;
+    }
+    rows[0] = [0.0; 18];
+    rows[0][3] = 1.5; // a T-pose-like first frame
+    let m = round_trip(&rows, 1.0 / 120.0, &ImportOptions::default());
+    assert!(m.source.calibration_frame_dropped);
+    assert!((m.positions[(0, 5)] - 1.01).abs() < 1e-6);
+}
+
+#[test]
+fn time_range_and_rate_are_checked() {
+    let rows = vec![[0.0; 18]; 10];
+    let dir = std::env::temp_dir().join(format!("sgplvm-capture-opts-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("m.bvh");
+    write_bvh(&path, 0.1, &rows).unwrap();
+    let e = import_bvh(
+        &path,
+        &ImportOptions {
+            from_s: Some(5.0),
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("m.bvh") && e.contains("time range"), "{e}");
+    let e = import_bvh(
+        &path,
+        &ImportOptions {
+            rate_hz: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("rate 0 Hz"), "{e}");
+    let m = import_bvh(
+        &path,
+        &ImportOptions {
+            from_s: Some(0.2),
+            to_s: Some(0.6),
+            rate_hz: 10.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(m.positions.nrows(), 5);
+    assert!((m.source.span_s.0 - 0.2).abs() < 1e-9);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn unknown_skeletons_list_their_segments() {
+    let text = "HIERARCHY\nROOT pelvis\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT tail\n{\nOFFSET 0 -1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 -1 0\n}\n}\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0 0 0 0\n0 0 0 0 0 0\n";
+    let bvh = Bvh::parse(text, "robot.bvh").unwrap();
+    let e = import_parsed(&bvh, "robot.bvh", &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("robot.bvh: cannot tell which segments are the arms"),
+        "{e}"
+    );
+    assert!(
+        e.contains("are: pelvis, tail") && e.contains("--map"),
+        "{e}"
+    );
+}
+
+#[test]
+fn naming_schemes_are_recognised() {
+    let skeleton = |names: [&str; 4], right: [&str; 4]| {
+        let mut t = String::from("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Chest\n{\nOFFSET 0 10 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Neck\n{\nOFFSET 0 10 0\nEnd Site\n{\nOFFSET 0 5 0\n}\n}\n");
+        for (arm, x) in [(names, 1.0), (right, -1.0)] {
+            let offs = [
+                [x * 2.0, 8.0, 0.0],
+                [x * 14.0, 0.0, 0.0],
+                [x * 28.0, 0.0, 0.0],
+                [x * 24.0, 0.0, 0.0],
+            ];
+            for (n, o) in arm.iter().zip(offs) {
+                t.push_str(&format!(
+                    "JOINT {n}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
+                    o[0], o[1], o[2]
+                ));
+            }
+            t.push_str(&format!(
+                "End Site\n{{\nOFFSET {} 0 0\n}}\n}}\n}}\n}}\n}}\n",
+                x * 18.0
+            ));
+        }
+        t.push_str("}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n");
+        t.push_str(&["0"; 30].join(" "));
+        t.push('\n');
+        Bvh::parse(&t, "s.bvh").unwrap()
+    };
+    let cases = [
+        (
+            ["LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand"],
+            ["RightShoulder", "RightArm", "RightForeArm", "RightHand"],
+            "CMU",
+        ),
+        (
+            [
+                "mixamorig:LeftShoulder",
+                "mixamorig:LeftArm",
+                "mixamorig:LeftForeArm",
+                "mixamorig:LeftHand",
+            ],
+            [
+                "mixamorig:RightShoulder",
+                "mixamorig:RightArm",
+                "mixamorig:RightForeArm",
+                "mixamorig:RightHand",
+            ],
+            "CMU",
+        ),
+        (
+            ["LeftShoulder", "LeftUpperArm", "LeftForeArm", "LeftHand"],
+            [
+                "RightShoulder",
+                "RightUpperArm",
+                "RightForeArm",
+                "RightHand",
+            ],
+            "Xsens MVN",
+        ),
+        (
+            ["LeftCollar", "LeftShoulder", "LeftElbow", "LeftWrist"],
+            ["RightCollar", "RightShoulder", "RightElbow", "RightWrist"],
+            "Xsens BVH",
+        ),
+        (
+            ["lCollar", "lShldr", "lForeArm", "lHand"],
+            ["rCollar", "rShldr", "rForeArm", "rHand"],
+            "Poser",
+        ),
+        (
+            [
+                "CC_Base_L_Clavicle",
+                "CC_Base_L_Upperarm",
+                "CC_Base_L_Forearm",
+                "CC_Base_L_Hand",
+            ],
+            [
+                "CC_Base_R_Clavicle",
+                "CC_Base_R_Upperarm",
+                "CC_Base_R_Forearm",
+                "CC_Base_R_Hand",
+            ],
+            "Unreal",
+        ),
+        (
+            ["shoulder.L", "upper_arm.L", "forearm.L", "hand.L"],
+            ["shoulder.R", "upper_arm.R", "forearm.R", "hand.R"],
+            "Rigify",
+        ),
+    ];
+    for (left, right, scheme) in cases {
+        let bvh = skeleton(left, right);
+        let s = Skeleton::identify(&bvh, None, "s.bvh").unwrap_or_else(|e| panic!("{left:?}: {e}"));
+        assert!(s.scheme.contains(scheme), "{left:?} → {}", s.scheme);
+        assert_eq!(bvh.joints[s.arms[0].upper_arm].name, left[1]);
+        assert_eq!(bvh.joints[s.arms[1].hand].name, right[3]);
+        assert_eq!(bvh.joints[s.arms[0].clavicle.unwrap()].name, left[0]);
+        // Body axes: x forward (file z), y left (file x), z up (file y).
+        let fwd = s.axes * Vector3::x();
+        assert!((fwd - Vector3::z()).norm() < 1e-9, "{fwd:?}");
+    }
+    // A map names anything.
+    let bvh = skeleton(["a1", "a2", "a3", "a4"], ["b1", "b2", "b3", "b4"]);
+    let map: ArmMap = serde_json::from_str(r#"{"jLeftC7Shoulder": "a1", "jLeftShoulder": "a2", "jLeftElbow": "a3", "jLeftWrist": "a4", "right_clavicle": "b1", "right_upper_arm": "b2", "right_forearm": "b3", "right_hand": "b4"}"#).unwrap();
+    let s = Skeleton::identify(&bvh, Some(&map), "s.bvh").unwrap();
+    assert_eq!(bvh.joints[s.arms[1].forearm].name, "b3");
+    let wrong: ArmMap = serde_json::from_str(r#"{"jLeftShoulder": "nope"}"#).unwrap();
+    let e = Skeleton::identify(&bvh, Some(&wrong), "s.bvh")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`jLeftShoulder` names segment `nope`"), "{e}");
+}
