@@ -27,8 +27,9 @@ pub struct ExportArgs {
     #[arg(long, value_enum, default_value = "test")]
     frames: FramesArg,
     /// Output: .mcap (JointState on the body's topic, e.g. /human/joint_states, with the
-    /// recording's stamps), any other name for CSV (a `time` column, seconds from the first
-    /// frame written, then one column per joint), `-` for stdout.
+    /// recording's stamps), .bvh (the human only: its motion on an Xsens-MVN-named skeleton,
+    /// for animation tools and `sgplvm import`), any other name for CSV (a `time` column,
+    /// seconds from the first frame written, then one column per joint), `-` for stdout.
     #[arg(long)]
     out: String,
 }
@@ -71,6 +72,9 @@ pub fn run(args: ExportArgs) -> Result<()> {
         .flat_map(|&i| (0..d).map(move |j| body.positions[(i, j)]))
         .collect();
     let out = args.out.as_str();
+    if out.ends_with(".bvh") {
+        return write_bvh(body, &rows, &times_ns, out, args.frames);
+    }
     if out.ends_with(".mcap") {
         let states = JointStates::new(times_ns, body.joint_names.clone(), values)?;
         write_joint_states(out, &body.topic, &states, Compression::Zstd)?;
@@ -103,6 +107,50 @@ pub fn run(args: ExportArgs) -> Result<()> {
         "wrote {} {which} of {} ({d} joints) to {out}",
         rows.len(),
         body.name
+    );
+    Ok(())
+}
+
+/// The human's frames as a BVH file at the data's frame rate (the median interval between the
+/// frames written; a BVH file has one rate, so the time jumps between motions are not kept).
+fn write_bvh(
+    body: &BodyData,
+    rows: &[usize],
+    times_ns: &[i64],
+    out: &str,
+    frames: FramesArg,
+) -> Result<()> {
+    let human = sgplvm::robots::Robot::builtin("human")?.joint_names();
+    if body.joint_names != human {
+        return Err(anyhow!(
+            "{out}: a BVH file holds the human model's motion; body `{}` is not the human (its joints are {:?})",
+            body.name,
+            body.joint_names
+        ));
+    }
+    if rows.len() < 2 {
+        return Err(anyhow!(
+            "{out}: {} frame(s) to write; a BVH file needs at least 2",
+            rows.len()
+        ));
+    }
+    let mut steps: Vec<i64> = times_ns.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_unstable();
+    let frame_time = seconds_from_ns(steps[steps.len() / 2]);
+    let angles: Vec<[f64; 18]> = rows
+        .iter()
+        .map(|&i| std::array::from_fn(|j| body.positions[(i, j)]))
+        .collect();
+    sgplvm::robots::capture::write_bvh(out, frame_time, &angles)?;
+    let which = match frames {
+        FramesArg::Test => "test frames (one motion after another)",
+        FramesArg::Train => "training frames (one after another)",
+        FramesArg::All => "frames",
+    };
+    eprintln!(
+        "wrote {} {which} of the human to {out} at {:.0} frames/s",
+        rows.len(),
+        1.0 / frame_time
     );
     Ok(())
 }

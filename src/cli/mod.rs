@@ -9,10 +9,12 @@ mod experiment;
 mod export;
 mod frames;
 mod generate;
+mod import;
 mod joints;
 mod predict;
 mod progress;
 mod report;
+mod retarget;
 mod simulate;
 mod train;
 mod transfer;
@@ -51,6 +53,12 @@ pub enum Command {
     Export(export::ExportArgs),
     /// The joint names of a built-in body (e.g. the human's 18) or of a model, in column order.
     Joints(joints::JointsArgs),
+    /// Motion capture in: BVH files become the human's 18 joint angles (MCAP or CSV), with how
+    /// faithfully they reproduce the capture.
+    Import(import::ImportArgs),
+    /// Robot commands for recorded human motion (inverse kinematics of the hands), and the
+    /// train/test split: demonstrations for `train`, `transfer` and `experiment`.
+    Retarget(retarget::RetargetArgs),
 }
 
 impl Command {
@@ -67,6 +75,8 @@ impl Command {
             Command::Experiment(args) => experiment::run(args),
             Command::Export(args) => export::run(args),
             Command::Joints(args) => joints::run(args),
+            Command::Import(args) => import::run(args),
+            Command::Retarget(args) => retarget::run(args),
         }
     }
 }

@@ -304,6 +304,100 @@ impl Dataset {
     }
 }
 
+/// Joins datasets one after another on one clock: each part's frames follow the previous
+/// part's last frame after `gap_ns`, with its segments and its train and test frames shifted.
+/// The human comes from every part (the same joints in each); a robot is kept if every part
+/// has it with the same joints. Pose names must agree where parts have them.
+pub fn concatenate(parts: &[Dataset], gap_ns: i64) -> Result<Dataset> {
+    let bad = |detail: String| JointStateError::InvalidInput {
+        what: "demonstrations to join".into(),
+        detail,
+    };
+    let first = parts
+        .first()
+        .ok_or_else(|| bad("no dataset to join".into()))?;
+    for (k, p) in parts.iter().enumerate() {
+        if p.human.joint_names != first.human.joint_names {
+            return Err(bad(format!(
+                "part {k}'s human has joints {:?}, part 0's {:?}",
+                p.human.joint_names, first.human.joint_names
+            )));
+        }
+        if !p.pose_names.is_empty()
+            && !first.pose_names.is_empty()
+            && p.pose_names != first.pose_names
+        {
+            return Err(bad(format!("part {k} names other key poses than part 0")));
+        }
+    }
+    let robots: Vec<&BodyData> = first
+        .robots
+        .iter()
+        .filter(|r| {
+            parts.iter().all(|p| {
+                p.robot(&r.name)
+                    .is_some_and(|o| o.joint_names == r.joint_names)
+            })
+        })
+        .collect();
+    let total: usize = parts.iter().map(Dataset::len).sum();
+    let mut times = Vec::with_capacity(total);
+    let mut human = DMatrix::zeros(total, first.human.joint_names.len());
+    let mut robot_rows: Vec<DMatrix<f64>> = robots
+        .iter()
+        .map(|r| DMatrix::zeros(total, r.joint_names.len()))
+        .collect();
+    let (mut segments, mut train, mut test) = (Vec::new(), Vec::new(), Vec::new());
+    for p in parts {
+        let offset = times.len();
+        let shift = match (times.last(), p.times_ns.first()) {
+            (Some(&last), Some(&start)) => last + gap_ns - start,
+            _ => 0,
+        };
+        times.extend(p.times_ns.iter().map(|t| t + shift));
+        human
+            .rows_mut(offset, p.len())
+            .copy_from(&p.human.positions);
+        for (m, r) in robot_rows.iter_mut().zip(&robots) {
+            if let Some(o) = p.robot(&r.name) {
+                m.rows_mut(offset, p.len()).copy_from(&o.positions);
+            }
+        }
+        segments.extend(p.segments.iter().map(|s| Segment {
+            start: s.start + offset,
+            end: s.end + offset,
+            ..s.clone()
+        }));
+        train.extend(p.train.iter().map(|f| f + offset));
+        test.extend(p.test.iter().map(|f| f + offset));
+    }
+    let ds = Dataset {
+        times_ns: times,
+        human: BodyData {
+            positions: human,
+            ..first.human.clone()
+        },
+        robots: robots
+            .iter()
+            .zip(robot_rows)
+            .map(|(r, positions)| BodyData {
+                positions,
+                ..(*r).clone()
+            })
+            .collect(),
+        pose_names: parts
+            .iter()
+            .find(|p| !p.pose_names.is_empty())
+            .map(|p| p.pose_names.clone())
+            .unwrap_or_default(),
+        segments,
+        train,
+        test,
+    };
+    ds.validate()?;
+    Ok(ds)
+}
+
 #[derive(Serialize, Deserialize)]
 struct BodyMeta {
     name: String,
@@ -333,6 +427,17 @@ pub fn write_demonstrations_with(
     path: impl AsRef<Path>,
     dataset: &Dataset,
     compression: Compression,
+) -> Result<()> {
+    write_demonstrations_with_metadata(path, dataset, compression, Vec::new())
+}
+
+/// [`write_demonstrations_with`] plus further MCAP metadata records (name → key/value map),
+/// e.g. where captured demonstrations came from.
+pub fn write_demonstrations_with_metadata(
+    path: impl AsRef<Path>,
+    dataset: &Dataset,
+    compression: Compression,
+    extra: Vec<(String, BTreeMap<String, String>)>,
 ) -> Result<()> {
     dataset.validate()?;
     let meta = DatasetMeta {
@@ -379,7 +484,9 @@ pub fn write_demonstrations_with(
         &topics,
         &WriteSettings {
             compression,
-            metadata: vec![(DATASET_METADATA.to_string(), map)],
+            metadata: std::iter::once((DATASET_METADATA.to_string(), map))
+                .chain(extra)
+                .collect(),
         },
     )
 }

@@ -13,6 +13,7 @@ pub mod kinematics;
 pub mod models;
 pub mod panics;
 pub mod physics;
+pub mod retarget;
 pub mod scene;
 pub mod series;
 pub mod urdf;

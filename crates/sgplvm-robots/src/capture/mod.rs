@@ -30,7 +30,7 @@ pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use skeleton::{ArmMap, ArmPose, Skeleton, SCHEMES};
 pub use write::write_bvh;
 
-use crate::dataset::{BodyData, Dataset, Segment};
+use crate::dataset::{concatenate, BodyData, Dataset, Segment};
 use crate::joint_state::{JointStateError, DEFAULT_RATE_HZ};
 use crate::{Robot, RobotError, Side};
 use fit::{mirror_rotation, mirror_vector, RestFrames};
@@ -522,10 +522,22 @@ pub fn import_parsed(
         let x = (t / dt).min((n - 1 - start_row) as f64);
         let i = (x.floor() as usize).min(n - 2 - start_row);
         let a = x - i as f64;
-        for j in 0..18 {
-            let v0 = angles[(start_row + i, j)];
-            let v1 = angles[(start_row + i + 1, j)];
-            out[(k, j)] = v0 + a * (v1 - v0);
+        for side in 0..2 {
+            let arm = 9 * side..9 * side + 9;
+            // Between two frames where a shoulder switched to its other Euler solution the
+            // angles do not lie on a line between the poses: the nearer frame instead.
+            let switched = arm.clone().any(|j| {
+                (angles[(start_row + i + 1, j)] - angles[(start_row + i, j)]).abs() > quarter
+            });
+            for j in arm {
+                let v0 = angles[(start_row + i, j)];
+                let v1 = angles[(start_row + i + 1, j)];
+                out[(k, j)] = match (switched, a < 0.5) {
+                    (false, _) => v0 + a * (v1 - v0),
+                    (true, true) => v0,
+                    (true, false) => v1,
+                };
+            }
         }
         times_ns.push(options.start_time_ns + (t * 1e9).round() as i64);
     }
@@ -558,56 +570,45 @@ pub const GAP_BETWEEN_FILES_S: f64 = 1.0;
 /// previous one and a [`GAP_BETWEEN_FILES_S`] gap), one unlabelled segment per file, every
 /// frame in the training set; and the JSON of their sources for [`CAPTURE_METADATA`].
 pub fn captures_to_dataset(captures: &[CapturedMotion]) -> Result<(Dataset, String), CaptureError> {
-    let Some(first) = captures.first() else {
-        return Err(CaptureError::Options {
-            file: String::new(),
-            message: "no capture to join".into(),
-        });
-    };
-    let names = first.joint_names.clone();
-    let total: usize = captures.iter().map(|c| c.times_ns.len()).sum();
-    let mut positions = DMatrix::<f64>::zeros(total, names.len());
-    let mut times = Vec::with_capacity(total);
-    let mut segments = Vec::with_capacity(captures.len());
-    let mut offset_ns = 0i64;
-    for c in captures {
-        let start = times.len();
-        let base = c.times_ns.first().copied().unwrap_or(0);
-        let shift = first.times_ns[0] + offset_ns - base;
-        for (k, t) in c.times_ns.iter().enumerate() {
-            positions.row_mut(start + k).copy_from(&c.positions.row(k));
-            times.push(t + shift);
-        }
-        let end_ns = times.last().copied().unwrap_or(0);
-        offset_ns = end_ns - first.times_ns[0] + (GAP_BETWEEN_FILES_S * 1e9) as i64;
-        segments.push(Segment {
-            start,
-            end: times.len(),
-            from_pose: None,
-            to_pose: None,
-            repetition: None,
-        });
-    }
-    let dataset = Dataset {
-        train: (0..total).collect(),
-        test: Vec::new(),
-        times_ns: times,
-        human: BodyData {
-            name: "human".into(),
-            topic: "/human/joint_states".into(),
-            joint_names: names,
-            positions,
-        },
-        robots: Vec::new(),
-        pose_names: Vec::new(),
-        segments,
-    };
-    let sources: Vec<&CaptureSource> = captures.iter().map(|c| &c.source).collect();
-    let json = serde_json::to_string(&sources).map_err(|e| CaptureError::Options {
+    let parts: Vec<Dataset> = captures
+        .iter()
+        .map(|c| {
+            let n = c.times_ns.len();
+            Dataset {
+                times_ns: c.times_ns.clone(),
+                human: BodyData {
+                    name: "human".into(),
+                    topic: "/human/joint_states".into(),
+                    joint_names: c.joint_names.clone(),
+                    positions: c.positions.clone(),
+                },
+                robots: Vec::new(),
+                pose_names: Vec::new(),
+                segments: vec![Segment {
+                    start: 0,
+                    end: n,
+                    from_pose: None,
+                    to_pose: None,
+                    repetition: None,
+                }],
+                train: (0..n).collect(),
+                test: Vec::new(),
+            }
+        })
+        .collect();
+    let dataset = concatenate(&parts, (GAP_BETWEEN_FILES_S * 1e9) as i64)?;
+    Ok((dataset, sources_json(captures.iter().map(|c| &c.source))?))
+}
+
+/// The JSON list of `sources` stored under [`CAPTURE_METADATA`].
+pub fn sources_json<'a>(
+    sources: impl Iterator<Item = &'a CaptureSource>,
+) -> Result<String, CaptureError> {
+    let sources: Vec<&CaptureSource> = sources.collect();
+    serde_json::to_string(&sources).map_err(|e| CaptureError::Options {
         file: String::new(),
         message: format!("cannot encode the capture sources: {e}"),
-    })?;
-    Ok((dataset, json))
+    })
 }
 
 /// The [`CaptureSource`]s stored in a demonstration file's [`CAPTURE_METADATA`] record (empty

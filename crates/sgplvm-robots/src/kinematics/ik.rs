@@ -14,6 +14,17 @@ pub enum IkTarget {
     Position(Vector3<f64>),
     /// Tip frame equal to this pose.
     Pose(Isometry3<f64>),
+    /// Tip origin at `tip` first; then, in the null space of that task, the origin of chain
+    /// joint `joint` (e.g. the elbow) as near `point` as the tip allows.
+    PositionAndJoint {
+        /// Where the tip goes.
+        tip: Vector3<f64>,
+        /// Index of the chain joint whose origin follows `point` (its origin moves with the
+        /// joints before it).
+        joint: usize,
+        /// Where that joint's origin should be.
+        point: Vector3<f64>,
+    },
 }
 
 /// Settings of [`Chain::inverse_kinematics`].
@@ -40,9 +51,14 @@ pub struct IkOptions {
     pub posture_gain: f64,
     /// Preferred configuration of the posture task; `None` means the start `q0`.
     pub rest: Option<Vec<f64>>,
-    /// With a posture task: after convergence, up to this many null-space steps towards `rest`
-    /// (each re-converged to the tolerance; a step that cannot be is undone).
+    /// With a posture task (or a [`IkTarget::PositionAndJoint`] target): after convergence, up
+    /// to this many null-space steps towards `rest` (or the joint's point), each re-converged
+    /// to the tolerance; a step that cannot be is undone.
     pub posture_iters: usize,
+    /// Bounds per joint narrower than the chain's limits, e.g. how far each joint can move in
+    /// one control period at its velocity limit; intersected with the limits. `None`: the
+    /// limits alone.
+    pub bounds: Option<Vec<(f64, f64)>>,
 }
 
 impl Default for IkOptions {
@@ -58,6 +74,7 @@ impl Default for IkOptions {
             posture_gain: 0.0,
             rest: None,
             posture_iters: 20,
+            bounds: None,
         }
     }
 }
@@ -90,12 +107,56 @@ impl Chain {
     /// at a limit and would be pushed beyond it, and clamps. If the first attempt does not
     /// converge, it tries again from `opts.restarts` seeded random configurations and returns
     /// the best result. An unreachable target gives `converged == false` and the residual left.
+    ///
+    /// With [`IkOptions::bounds`] the joints also stay within those bounds. With an
+    /// [`IkTarget::PositionAndJoint`] target the tip's position is solved first, then null-space
+    /// steps bring the joint's origin towards its point (the posture task is not used then).
     pub fn inverse_kinematics(
         &self,
         target: &IkTarget,
         q0: &[f64],
         opts: &IkOptions,
     ) -> IkSolution {
+        if let Some(bounds) = &opts.bounds {
+            let mut narrowed = self.clone();
+            for (l, b) in narrowed.limits.iter_mut().zip(bounds) {
+                let (lo, hi) = (l.0.max(b.0), l.1.min(b.1));
+                // Bounds outside the limits leave the nearest limit.
+                *l = if lo <= hi {
+                    (lo, hi)
+                } else if b.1 < l.0 {
+                    (l.0, l.0)
+                } else {
+                    (l.1, l.1)
+                };
+            }
+            let plain = IkOptions {
+                bounds: None,
+                ..opts.clone()
+            };
+            return narrowed.inverse_kinematics(target, q0, &plain);
+        }
+        if let IkTarget::PositionAndJoint { tip, joint, point } = target {
+            let primary = IkTarget::Position(*tip);
+            let plain = IkOptions {
+                posture_gain: 0.0,
+                rest: None,
+                ..opts.clone()
+            };
+            let mut sol = self.inverse_kinematics(&primary, q0, &plain);
+            if sol.converged && *joint < self.dof() {
+                sol.iterations += self.null_space_polish(
+                    &primary,
+                    &mut sol,
+                    opts,
+                    &Secondary::Point {
+                        joint: *joint,
+                        point: *point,
+                    },
+                );
+            }
+            return sol;
+        }
         let n = self.dof();
         let mut start: Vec<f64> = (0..n)
             .map(|i| clamp(q0.get(i).copied().unwrap_or(0.0), self.limits[i]))
@@ -133,7 +194,7 @@ impl Chain {
         }
         if opts.posture_gain > 0.0 {
             if let Some(b) = best.as_mut().filter(|b| b.converged) {
-                total_iters += self.posture_polish(target, b, &rest, opts);
+                total_iters += self.null_space_polish(target, b, opts, &Secondary::Posture(&rest));
             }
         }
         let mut best = best.unwrap_or_else(|| IkSolution {
@@ -152,7 +213,7 @@ impl Chain {
     /// position targets) and the unweighted position and orientation errors.
     fn error(&self, target: &IkTarget, tip: &Isometry3<f64>, w: f64) -> (Vector6<f64>, f64, f64) {
         match target {
-            IkTarget::Position(p) => {
+            IkTarget::Position(p) | IkTarget::PositionAndJoint { tip: p, .. } => {
                 let d = p - tip.translation.vector;
                 (Vector6::new(d.x, d.y, d.z, 0.0, 0.0, 0.0), d.norm(), 0.0)
             }
@@ -168,14 +229,16 @@ impl Chain {
         }
     }
 
-    /// Null-space steps towards `rest` from a converged solution, each re-converged by plain
-    /// DLS; stops when the steps become tiny or one cannot be re-converged. Returns iterations.
-    fn posture_polish(
+    /// Null-space steps of a secondary task from a converged solution (towards the posture
+    /// `rest`, or bringing a joint's origin to a point), each re-converged by plain DLS; stops
+    /// when the steps become tiny, one cannot be re-converged or the secondary objective stops
+    /// improving. Returns iterations.
+    fn null_space_polish(
         &self,
         target: &IkTarget,
         sol: &mut IkSolution,
-        rest: &[f64],
         opts: &IkOptions,
+        secondary: &Secondary<'_>,
     ) -> usize {
         let n = self.dof();
         let plain = IkOptions {
@@ -192,11 +255,13 @@ impl Chain {
         let mut dq = vec![0.0; n];
         let mut trial = vec![0.0; n];
         let mut iters = 0;
-        let distance = |q: &[f64]| -> f64 {
-            q.iter()
-                .zip(rest)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f64>()
+        let gain = match secondary {
+            Secondary::Posture(_) => opts.posture_gain,
+            Secondary::Point { .. } => 1.0,
+        };
+        let rest_for_dls: Vec<f64> = match secondary {
+            Secondary::Posture(rest) => rest.to_vec(),
+            Secondary::Point { .. } => sol.q.clone(),
         };
         for _ in 0..opts.posture_iters {
             let f = self.frames(&sol.q);
@@ -210,21 +275,18 @@ impl Chain {
                     c
                 })
                 .collect();
-            let mut biggest: f64 = 0.0;
-            for i in 0..n {
-                z[i] = opts.posture_gain * (rest[i] - sol.q[i]);
-                biggest = biggest.max(z[i].abs());
-            }
-            if biggest < 1e-7 {
+            secondary.velocity(self, &f, &sol.q, gain, &mut z);
+            if z.iter().fold(0.0_f64, |m, v| m.max(v.abs())) < 1e-7 {
                 break;
             }
             solve_step(&cols, &free, &e, &z, 1e-6, pose_target, &mut dq);
             for i in 0..n {
                 trial[i] = clamp(sol.q[i] + dq[i], self.limits[i]);
             }
-            let c = self.dls(target, &trial, rest, &plain);
+            let c = self.dls(target, &trial, &rest_for_dls, &plain);
             iters += 1 + c.iterations;
-            if !c.converged || distance(&c.q) >= distance(&sol.q) {
+            if !c.converged || secondary.objective(self, &c.q) >= secondary.objective(self, &sol.q)
+            {
                 break;
             }
             sol.q = c.q;
@@ -370,6 +432,76 @@ impl Chain {
             position_error: pe,
             orientation_error: oe,
             iterations: iters,
+        }
+    }
+}
+
+/// A task solved in the null space of the main target after it has converged.
+enum Secondary<'a> {
+    /// Towards a preferred configuration.
+    Posture(&'a [f64]),
+    /// The origin of chain joint `joint` towards `point`.
+    Point { joint: usize, point: Vector3<f64> },
+}
+
+impl Secondary<'_> {
+    /// The joint velocity that serves the task at `q` (frames `f`), scaled by `gain`.
+    fn velocity(&self, chain: &Chain, f: &Frames, q: &[f64], gain: f64, z: &mut [f64]) {
+        match self {
+            Secondary::Posture(rest) => {
+                for ((zi, r), qi) in z.iter_mut().zip(rest.iter()).zip(q) {
+                    *zi = gain * (r - qi);
+                }
+            }
+            Secondary::Point { joint, point } => {
+                // Task priority: z = gain · (Jp N)ᵀ ((Jp N)(Jp N)ᵀ + μ² I)⁻¹ (point − p), with N
+                // the projector onto the tip's null space and Jp the point's Jacobian (the
+                // joints before `joint` move it): the point's least-squares step among the
+                // motions that leave the tip where it is.
+                let n = q.len();
+                let p = f.origins[*joint];
+                let e = point - p;
+                let jp = nalgebra::DMatrix::from_fn(3, n, |r, i| {
+                    if i >= *joint {
+                        0.0
+                    } else if chain.segments[i].prismatic {
+                        f.axes[i][r]
+                    } else {
+                        f.axes[i].cross(&(p - f.origins[i]))[r]
+                    }
+                });
+                let jt = nalgebra::DMatrix::from_fn(3, n, |r, i| chain.column(f, i)[r]);
+                let jjt = &jt * jt.transpose() + nalgebra::DMatrix::identity(3, 3) * 1e-8;
+                let projector = match jjt.cholesky() {
+                    Some(ch) => nalgebra::DMatrix::identity(n, n) - jt.transpose() * ch.solve(&jt),
+                    None => nalgebra::DMatrix::identity(n, n),
+                };
+                let a = jp * &projector;
+                let aat = &a * a.transpose() + nalgebra::DMatrix::identity(3, 3) * 1e-6;
+                let ev = nalgebra::DVector::from_column_slice(e.as_slice());
+                let y = aat
+                    .cholesky()
+                    .map(|ch| ch.solve(&ev))
+                    .unwrap_or_else(|| nalgebra::DVector::zeros(3));
+                let zv = a.transpose() * y;
+                for (zi, v) in z.iter_mut().zip(zv.iter()) {
+                    *zi = gain * v;
+                }
+            }
+        }
+    }
+
+    /// How far the task is from done at `q` (smaller is better).
+    fn objective(&self, chain: &Chain, q: &[f64]) -> f64 {
+        match self {
+            Secondary::Posture(rest) => q
+                .iter()
+                .zip(rest.iter())
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum(),
+            Secondary::Point { joint, point } => {
+                (chain.frames(q).origins[*joint] - point).norm_squared()
+            }
         }
     }
 }

@@ -170,6 +170,12 @@ impl Chain {
         t * self.tail
     }
 
+    /// Origins of the chain's joints in the base frame at `q`, in chain order (missing `q`
+    /// values count as 0): where an elbow or a wrist is.
+    pub fn joint_origins(&self, q: &[f64]) -> Vec<Vector3<f64>> {
+        self.frames(q).origins
+    }
+
     /// [`Chain::forward`] that rejects a `q` of the wrong length.
     pub fn try_forward(&self, q: &[f64]) -> RobotResult<Isometry3<f64>> {
         self.check(q, "Chain::forward")?;

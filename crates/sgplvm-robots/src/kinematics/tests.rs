@@ -459,3 +459,40 @@ fn ur5e_forward_kinematics_equals_the_dh_product_everywhere() {
         }
     }
 }
+
+#[test]
+fn bounds_narrow_the_limits_and_a_joint_point_follows_in_the_null_space() {
+    let robot = Robot::builtin("coman").unwrap();
+    let arm = robot.chain("DWYTorso", "left_hand").unwrap();
+    let q_goal = [-0.6, 0.4, 0.3, -1.1, 0.2, 0.1, 0.2];
+    let tip = arm.forward(&q_goal).translation.vector;
+    let elbow_joint = 3; // LElbj: its origin is the elbow
+    let elbow = arm.joint_origins(&q_goal)[elbow_joint];
+    // From the zero configuration the hand alone lands somewhere on its redundancy; asking for
+    // the elbow too brings the elbow to the goal's while the hand stays put.
+    let opts = IkOptions::default();
+    let hand_only = arm.inverse_kinematics(&IkTarget::Position(tip), &[0.0; 7], &opts);
+    let with_elbow = arm.inverse_kinematics(
+        &IkTarget::PositionAndJoint {
+            tip,
+            joint: elbow_joint,
+            point: elbow,
+        },
+        &[0.0; 7],
+        &opts,
+    );
+    assert!(hand_only.converged && with_elbow.converged);
+    assert!(with_elbow.position_error < 1e-8);
+    let miss = |q: &[f64]| (arm.joint_origins(q)[elbow_joint] - elbow).norm();
+    assert!(miss(&with_elbow.q) < 1e-3, "elbow {}", miss(&with_elbow.q));
+    assert!(miss(&with_elbow.q) < miss(&hand_only.q));
+    // Bounds of ±0.05 rad around zero: no joint leaves them, and the far target is not reached.
+    let bounded = IkOptions {
+        bounds: Some(vec![(-0.05, 0.05); 7]),
+        restarts: 0,
+        ..IkOptions::default()
+    };
+    let sol = arm.inverse_kinematics(&IkTarget::Position(tip), &[0.0; 7], &bounded);
+    assert!(sol.q.iter().all(|v| v.abs() <= 0.05 + 1e-12), "{:?}", sol.q);
+    assert!(!sol.converged);
+}
