@@ -87,7 +87,7 @@ fn fresh_clone_folder() -> PathBuf {
     let dir = scratch("readme");
     let demos = dir.join("data").join("demos");
     std::fs::create_dir_all(&demos).unwrap();
-    for file in ["bimanual.mcap", "fleet.mcap"] {
+    for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
         std::fs::copy(root().join("data/demos").join(file), demos.join(file)).unwrap();
     }
     dir
@@ -169,7 +169,7 @@ fn every_readme_command_runs_as_written() {
     // The demo, the command-line tour: far more than a handful.
     assert!(ran >= 15, "only {ran} README commands ran");
     // `generate` rewrote the shipped demonstrations byte for byte, as the README says.
-    for file in ["bimanual.mcap", "fleet.mcap"] {
+    for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
         let shipped = std::fs::read(root().join("data/demos").join(file)).unwrap();
         let made = std::fs::read(dir.join("data/demos").join(file)).unwrap();
         assert!(shipped == made, "generate did not reproduce {file}");

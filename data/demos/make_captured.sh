@@ -7,6 +7,9 @@
 #
 #     bash data/demos/make_captured.sh [BVH_CACHE_DIR]      (default: target/cmu-bvh)
 #
+# OUT=FILE writes elsewhere; RETARGET_ARGS adds flags to `sgplvm retarget` (e.g.
+# "--redundancy canonical", the variant docs/experiment-report-captured.md compares).
+#
 # Needs curl (or the files already in the cache) and a built sgplvm (cargo builds it).
 # The data: CMU Graphics Lab Motion Capture Database, http://mocap.cs.cmu.edu, "created with
 # funding from NSF EIA-0196217"; BVH conversions by B. Hahne (cgspeed). See data/demos/README.md.
@@ -46,4 +49,5 @@ for entry in "${trials[@]}"; do
   "$sgplvm" import "$bvh" --out "$work/$trial.mcap" $span
   demos+=(--demos "$work/$trial.mcap")
 done
-"$sgplvm" retarget "${demos[@]}" --robots walkman,coman,centauro --out "$out"
+# shellcheck disable=SC2086
+"$sgplvm" retarget "${demos[@]}" --robots walkman,coman,centauro --out "$out" ${RETARGET_ARGS:-}

@@ -238,3 +238,68 @@ pub fn simulate<'py>(
         py.import("json")?.call_method1("loads", (json,))
     })
 }
+
+/// `(times_ns, joint_names, positions, source_json)` of an imported capture.
+type CaptureArrays<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Vec<String>,
+    Bound<'py, PyArray2<f64>>,
+    String,
+);
+
+/// Imports a BVH motion capture as the human model's 18 joint angles (see
+/// `sgplvm_robots::capture`): `(times_ns, joint_names, positions, source_json)`.
+#[pyfunction]
+#[pyo3(signature = (path, rate=40.0, map=None, units=None, start=None, end=None))]
+pub fn read_bvh<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    rate: f64,
+    map: Option<std::collections::BTreeMap<String, String>>,
+    units: Option<&str>,
+    start: Option<f64>,
+    end: Option<f64>,
+) -> PyResult<CaptureArrays<'py>> {
+    use sgplvm_robots::capture::{import_bvh, ArmMap, CaptureError, ImportOptions, Units};
+    guarded(|| {
+        let units = units
+            .map(|u| {
+                Units::parse(u).ok_or_else(|| {
+                    PyValueError::new_err(format!(
+                        "units {u:?}; expected \"m\", \"cm\", \"mm\", \"in\" or \"cmu\""
+                    ))
+                })
+            })
+            .transpose()?;
+        let options = ImportOptions {
+            rate_hz: rate,
+            map: map.map(ArmMap),
+            units,
+            from_s: start,
+            to_s: end,
+            ..ImportOptions::default()
+        };
+        let capture = py
+            .detach(|| import_bvh(&path, &options))
+            .map_err(|e| match e {
+                CaptureError::Bvh(sgplvm_robots::capture::BvhError::Io { .. }) => {
+                    PyOSError::new_err(e.to_string())
+                }
+                other => PyValueError::new_err(other.to_string()),
+            })?;
+        let m = &capture.positions;
+        let positions = PyArray2::from_owned_array(
+            py,
+            Array2::from_shape_fn((m.nrows(), m.ncols()), |(i, j)| m[(i, j)]),
+        );
+        let source = serde_json::to_string(&capture.source).map_err(|e| {
+            PyValueError::new_err(format!("cannot encode the capture's source: {e}"))
+        })?;
+        Ok((
+            PyArray1::from_vec(py, capture.times_ns),
+            capture.joint_names,
+            positions,
+            source,
+        ))
+    })
+}

@@ -30,6 +30,7 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;
+    m.add_function(wrap_pyfunction!(demos::read_bvh, m)?)?;
     m.add_function(wrap_pyfunction!(demos::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(guard::panic_for_tests, m)?)?;
     m.add_function(wrap_pyfunction!(experiment::experiment_config, m)?)?;

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -65,6 +66,39 @@ def load_demonstrations(path: PathLike) -> Dict[str, Any]:
     sgplvm's labels load with every topic aligned onto a 40 Hz clock and all frames in ``train``.
     """
     return _sgplvm.load_demonstrations(os.fspath(path))
+
+
+def read_bvh(
+    path: PathLike,
+    rate: float = 40.0,
+    map: Optional[Dict[str, str]] = None,
+    units: Optional[str] = None,
+    start: Optional[float] = None,
+    end: Optional[float] = None,
+) -> Dict[str, Any]:
+    """Imports a BVH motion capture as the human model's 18 joint angles, like ``sgplvm import``.
+
+    The arms are found by their names (CMU/cgspeed, Mixamo, Xsens MVN, Xsens BVH exports, Poser,
+    Unreal and Rigify schemes) or by ``map`` (the model's joint groups ``"jLeftShoulder"``,
+    ``"jLeftElbow"``, … to the capture's segments); the motion is taken in the upper torso's
+    frame, scaled to the human model and resampled to ``rate`` Hz. ``units`` (``"m"``,
+    ``"cm"``, ``"mm"``, ``"in"``, ``"cmu"``) only names sizes in the report (guessed if
+    ``None``); ``start`` and ``end`` (seconds) cut the capture.
+
+    Returns a dict shaped like :func:`load_demonstrations`'s human part: ``times_ns`` (n,),
+    ``human`` (``{"joint_names", "positions"}``, positions (n, 18) in radians) and ``source``
+    (``file``, ``skeleton``, ``frame_rate``, ``units``, ``arm_length``, ``span_s``, ``fit``: the
+    model's elbow and wrist against the scaled capture, medians and worst cases in metres, the
+    elbow angle's in degrees, frames beyond the limits, joints held at a limit).
+    """
+    times, names, positions, source = _sgplvm.read_bvh(
+        os.fspath(path), float(rate), None if map is None else dict(map), units, start, end
+    )
+    return {
+        "times_ns": times,
+        "human": {"topic": "/human/joint_states", "joint_names": names, "positions": positions},
+        "source": json.loads(source),
+    }
 
 
 def simulate(robot: Union[str, PathLike], joint_names: Sequence[str], times: Any, positions: Any) -> Dict[str, Any]:

@@ -23,6 +23,7 @@ __all__ = [
     "experiment_run",
     "experiment_write_outputs",
     "load_demonstrations",
+    "read_bvh",
     "read_joint_states",
     "simulate",
     "sparse_bound",
@@ -166,6 +167,16 @@ def write_joint_states(
 
 def load_demonstrations(path: _Path) -> Dict[str, Any]:
     """A demonstration MCAP as numpy arrays (times_ns, human, robots, train, test, segments, pose_names)."""
+
+def read_bvh(
+    path: _Path,
+    rate: float = 40.0,
+    map: Optional[Dict[str, str]] = None,
+    units: Optional[str] = None,
+    start: Optional[float] = None,
+    end: Optional[float] = None,
+) -> Tuple[npt.NDArray[np.int64], List[str], _F64, str]:
+    """A BVH capture as the human model's joint angles: times_ns, names, positions, source JSON."""
 
 def simulate(
     robot: str, joint_names: List[str], times: _F64, positions: _F64

@@ -34,6 +34,9 @@ use nalgebra::{Rotation3, Vector3};
 /// Deepest nesting of joints accepted (real skeletons have fewer than 30 levels).
 pub const MAX_DEPTH: usize = 1000;
 
+/// Longest frame time accepted, seconds (a capture samples many times a second).
+pub const MAX_FRAME_TIME_S: f64 = 10.0;
+
 /// Most joints accepted in one hierarchy.
 pub const MAX_JOINTS: usize = 10_000;
 
@@ -578,8 +581,8 @@ impl<'a> Parser<'a> {
         }
         let t_line = self.line;
         let frame_time = self.number("the frame time in seconds")?;
-        if frame_time <= 0.0 {
-            return Err(self.error(t_line, format!("frame time {frame_time} s; expected a positive number of seconds (e.g. 0.008333 for 120 frames/s)")));
+        if frame_time <= 0.0 || frame_time > MAX_FRAME_TIME_S {
+            return Err(self.error(t_line, format!("frame time {frame_time} s; expected a positive number of seconds up to {MAX_FRAME_TIME_S} (e.g. 0.008333 for 120 frames/s)")));
         }
         // The rest of the `Frame Time:` line must be empty.
         self.skip_to_line_end(t_line)?;

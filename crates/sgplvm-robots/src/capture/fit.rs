@@ -272,6 +272,10 @@ fn choose_turn(v: f64, near: f64, lim: (f64, f64)) -> f64 {
 /// the other: continuity first, so that angles do not flip by half a turn at a limit.
 const BRANCH_SWITCH_MARGIN: f64 = 0.5;
 
+/// Gauss–Newton iterations of the refinement at a limit (it starts from the clamped closed
+/// form, a few steps from its optimum).
+const REFINE_ITERATIONS: usize = 30;
+
 /// Shoulder angles `(f, a, r)` with `Ry(−f) Rx(a) Rz(−r) = m`: of the two Euler solutions (and
 /// at the gimbal point, the flexion kept from `prev`), the one nearest `prev` unless the other
 /// lies within the limits by [`BRANCH_SWITCH_MARGIN`] more; without `prev` the one least
@@ -415,8 +419,9 @@ impl HumanArms {
         let wu = upper.inverse() * w;
         q[5] = clamp_into(wu.x.atan2(-wu.z), lim[5], &mut clamped[5]);
         let capture_elbow_angle = u.dot(&w).clamp(-1.0, 1.0).acos();
-        if clamped[2..6].iter().any(|c| *c) {
-            // A limit held the arm: bring elbow and wrist as near the capture as the limits
+        if clamped[..6].iter().any(|c| *c) {
+            // A limit held the arm (a clamped clavicle shifts the shoulder): bring elbow and
+            // wrist as near the capture as the limits
             // let the shoulder and elbow go.
             self.refine_at_limits(t, lim, capture_elbow_angle, &mut q);
         }
@@ -481,7 +486,7 @@ impl HumanArms {
         let mut r = residual(q);
         let mut c = cost(&r);
         let mut lambda = 1e-3;
-        for _ in 0..30 {
+        for _ in 0..REFINE_ITERATIONS {
             // Numerical Jacobian (7 × 6) by forward differences.
             let mut jac = nalgebra::SMatrix::<f64, 7, 6>::zeros();
             for k in 0..6 {
@@ -493,8 +498,19 @@ impl HumanArms {
                 }
             }
             let rv = nalgebra::SVector::<f64, 7>::from_column_slice(&r);
-            let jtj = jac.transpose() * jac;
-            let jtr = jac.transpose() * rv;
+            let mut jtj = jac.transpose() * jac;
+            let mut jtr = jac.transpose() * rv;
+            // An angle at a limit that the descent would push beyond stays there (its row and
+            // column out of the system): the others then converge as if it were fixed.
+            for k in 0..6 {
+                let (lo, hi) = lim[k];
+                if (q[k] <= lo && jtr[k] > 0.0) || (q[k] >= hi && jtr[k] < 0.0) {
+                    jtj.row_mut(k).fill(0.0);
+                    jtj.column_mut(k).fill(0.0);
+                    jtj[(k, k)] = 1.0;
+                    jtr[k] = 0.0;
+                }
+            }
             let mut improved = false;
             while lambda < 1e6 {
                 let a = jtj + nalgebra::Matrix6::identity() * lambda;
@@ -510,7 +526,7 @@ impl HumanArms {
                 if ct < c {
                     *q = trial;
                     r = rt;
-                    improved = c - ct > 1e-14;
+                    improved = c - ct > 1e-6 * c.max(1e-12);
                     c = ct;
                     lambda = (lambda * 0.3).max(1e-9);
                     break;

@@ -40,6 +40,9 @@ use skeleton::side_index;
 /// (key `json`: a JSON list, one entry per segment).
 pub const CAPTURE_METADATA: &str = "sgplvm.capture";
 
+/// Most frames one import writes (18 angles each).
+pub const MAX_OUTPUT_FRAMES: usize = 10_000_000;
+
 /// Median elbow and wrist distance to the scaled capture a faithful import stays within, metres.
 pub const MEDIAN_RESIDUAL_LIMIT_M: f64 = 0.01;
 /// Largest elbow and wrist distance to the scaled capture a faithful frame stays within, metres.
@@ -515,6 +518,12 @@ pub fn import_parsed(
     let span = (last - first - start_row) as f64 * dt;
     // A frame time written with few digits (CMU's .0083333) must not lose the last frame.
     let out_n = (span * options.rate_hz + 1e-3).floor() as usize + 1;
+    if out_n > MAX_OUTPUT_FRAMES {
+        return Err(bad(format!(
+            "{:.0} s at {} Hz would be {out_n} frames; at most {MAX_OUTPUT_FRAMES} are written (lower --rate or cut with --from/--to)",
+            span, options.rate_hz
+        )));
+    }
     let mut out = DMatrix::<f64>::zeros(out_n, 18);
     let mut times_ns = Vec::with_capacity(out_n);
     for k in 0..out_n {

@@ -1,6 +1,7 @@
 //! Writes the seed corpora of the fuzz targets: `corpus/mcap_reader/` (small two-topic files
 //! in every compression and encoding, a demonstration file with its metadata, far-apart
-//! timestamps) and `corpus/urdf_parser/` (the built-in bodies and small arms).
+//! timestamps), `corpus/urdf_parser/` (the built-in bodies and small arms) and
+//! `corpus/bvh_reader/` (the human model's skeleton and a CMU-named one).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -96,4 +97,27 @@ fn main() {
   <!-- a comment --><gazebo><plugin name="p" filename="x.so"/></gazebo>
 </robot>"#;
     std::fs::write(urdf.join("arm.urdf"), arm).expect("write arm");
+
+    // BVH: the human model's own skeleton (Xsens MVN names, ZXY), a few frames; and a
+    // CMU-named skeleton with 6-channel joints and ZYX order.
+    let bvh = root.join("bvh_reader");
+    std::fs::create_dir_all(&bvh).expect("corpus dir");
+    let rows: Vec<[f64; 18]> = (0..6)
+        .map(|f| std::array::from_fn(|j| 0.1 * ((f * 18 + j) as f64 * 0.7).sin()))
+        .collect();
+    sgplvm_robots::capture::write_bvh(bvh.join("mvn.bvh"), 1.0 / 40.0, &rows).expect("write bvh");
+    let mut cmu = String::from("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\nJOINT Spine1\n{\nOFFSET 0 5 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\nJOINT Neck\n{\nOFFSET 0 2 0\nCHANNELS 3 Zrotation Yrotation Xrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n");
+    for (side, x) in [("Left", 1.0), ("Right", -1.0)] {
+        for (name, len) in [("Shoulder", 1.0), ("Arm", 3.5), ("ForeArm", 5.4), ("Hand", 3.7)] {
+            cmu.push_str(&format!("JOINT {side}{name}\n{{\nOFFSET {} 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n", x * len));
+        }
+        cmu.push_str(&format!("End Site\n{{\nOFFSET {} 0 0\n}}\n}}\n}}\n}}\n}}\n", x * 0.6));
+    }
+    cmu.push_str("}\n}\nMOTION\nFrames: 3\nFrame Time: .0083333\n");
+    for f in 0..3 {
+        let values: Vec<String> = (0..39).map(|k| format!("{:.3}", ((f * 39 + k) as f64 * 0.9).sin() * 30.0)).collect();
+        cmu.push_str(&values.join(" "));
+        cmu.push('\n');
+    }
+    std::fs::write(bvh.join("cmu.bvh"), cmu).expect("write cmu bvh");
 }

@@ -1,0 +1,304 @@
+//! Motion capture in, end to end: `sgplvm import` on hostile BVH files (one line naming the file
+//! and the line, no output left behind), on the human model's own motion written as BVH (it must
+//! come back), and `import → retarget → train → transfer → predict` on it.
+
+use std::path::Path;
+
+mod common;
+use common::{fails_on_one_line, ok, s, scratch};
+
+/// A BVH file with a CMU-named two-arm skeleton (ZYX joints, 6-channel root), `frames` lines.
+fn cmu_bvh(frames: usize) -> String {
+    let mut t = String::from(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n  JOINT Spine1\n  {\n    OFFSET 0 5 0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n    JOINT Neck\n    {\n      OFFSET 0 2 0\n      CHANNELS 3 Zrotation Yrotation Xrotation\n      End Site\n      {\n        OFFSET 0 1 0\n      }\n    }\n",
+    );
+    for (side, x) in [("Left", 1.0), ("Right", -1.0)] {
+        for (name, len) in [
+            ("Shoulder", 1.0),
+            ("Arm", 3.5),
+            ("ForeArm", 5.4),
+            ("Hand", 3.7),
+        ] {
+            t.push_str(&format!(
+                "JOINT {side}{name}\n{{\nOFFSET {} 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n",
+                x * len
+            ));
+        }
+        t.push_str(&format!(
+            "End Site\n{{\nOFFSET {} 0 0\n}}\n}}\n}}\n}}\n}}\n",
+            x * 0.6
+        ));
+    }
+    t.push_str(&format!(
+        "  }}\n}}\nMOTION\nFrames: {frames}\nFrame Time: 0.0083333\n"
+    ));
+    for f in 0..frames {
+        // Channels: Hips 0–5, Spine1 6–8, Neck 9–11, then per arm Shoulder, Arm, ForeArm,
+        // Hand (left 12–23, right 24–35), each Zrotation Yrotation Xrotation. The arms are
+        // lowered from the T-pose by 60°, the elbows bend slowly.
+        let mut v = vec![0.0; 36];
+        v[15] = -60.0;
+        v[16] = -20.0;
+        v[18] = -20.0 - 0.1 * f as f64;
+        v[27] = 60.0;
+        v[30] = 20.0 + 0.1 * f as f64;
+        let line: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
+        t.push_str(&line.join(" "));
+        t.push('\n');
+    }
+    t
+}
+
+/// `sgplvm import FILE --out OUT` must fail with one line naming the file (and `needle`) and
+/// leave no output file.
+fn refused(dir: &Path, name: &str, text: &str, needle: &str) {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write");
+    let out = dir.join(format!("{name}.mcap"));
+    let err = fails_on_one_line(&["import", s(&path), "--out", s(&out)]);
+    assert!(err.contains(name), "{err}");
+    assert!(err.contains(needle), "{needle:?} not in: {err}");
+    assert!(!out.exists(), "{} written after an error", out.display());
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn hostile_bvh_files_are_one_line_naming_the_file_and_line() {
+    let dir = scratch("hostile-bvh");
+    let good = cmu_bvh(20);
+    // The good file imports.
+    std::fs::write(dir.join("good.bvh"), &good).expect("write");
+    ok(&[
+        "import",
+        s(&dir.join("good.bvh")),
+        "--out",
+        s(&dir.join("good.mcap")),
+    ]);
+    let frame_line = good
+        .lines()
+        .position(|l| l.starts_with("Frame Time"))
+        .expect("frame time")
+        + 2;
+    let lines: Vec<&str> = good.lines().collect();
+    let with_line = |k: usize, new: &str| -> String {
+        let mut l = lines.clone();
+        l[k] = new;
+        l.join("\n") + "\n"
+    };
+    let first_frame = frame_line - 1;
+    let short: String = lines[first_frame]
+        .rsplit_once(' ')
+        .expect("values")
+        .0
+        .to_string();
+    refused(
+        &dir,
+        "short.bvh",
+        &with_line(first_frame, &short),
+        &format!("short.bvh:{frame_line}: frame 1 has 35 values, expected 36"),
+    );
+    let nan = lines[first_frame].replacen("0.0000", "nan", 1);
+    refused(
+        &dir,
+        "nan.bvh",
+        &with_line(first_frame, &nan),
+        "expected a finite number",
+    );
+    let text = lines[first_frame].replacen("0.0000", "zero", 1);
+    refused(
+        &dir,
+        "text.bvh",
+        &with_line(first_frame, &text),
+        "found `zero`",
+    );
+    let truncated: String = lines[..lines.len() - 5].join("\n") + "\n";
+    refused(&dir, "truncated.bvh", &truncated, "truncated MOTION block");
+    refused(
+        &dir,
+        "more.bvh",
+        &good.replace("Frames: 20", "Frames: 18"),
+        "more frame lines than the 18",
+    );
+    refused(
+        &dir,
+        "huge.bvh",
+        &good.replace("Frames: 20", "Frames: 100000000"),
+        "declares 100000000 frames",
+    );
+    refused(
+        &dir,
+        "zero.bvh",
+        &good.replace("Frame Time: 0.0083333", "Frame Time: 0"),
+        "frame time 0 s",
+    );
+    let mut deep = String::from(
+        "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
+    );
+    for i in 0..10_000 {
+        deep.push_str(&format!(
+            "JOINT j{i}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+        ));
+    }
+    refused(&dir, "deep.bvh", &deep, "nested deeper than 1000");
+    let armless = "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Tail\n{\nOFFSET 0 -1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 -1 0\n}\n}\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0\n0 0 0 0 0 0\n";
+    refused(&dir, "armless.bvh", armless, "segments are: Hips, Tail");
+    refused(&dir, "empty.bvh", "", "empty");
+    let missing = dir.join("nosuch.bvh");
+    let err = fails_on_one_line(&["import", s(&missing), "--out", s(&dir.join("x.mcap"))]);
+    assert!(err.contains("nosuch.bvh"), "{err}");
+    // A map naming a segment the file lacks.
+    let map = dir.join("map.json");
+    std::fs::write(&map, r#"{"jLeftShoulder": "LeftUpperArm"}"#).expect("write");
+    let err = fails_on_one_line(&[
+        "import",
+        s(&dir.join("good.bvh")),
+        "--map",
+        s(&map),
+        "--out",
+        s(&dir.join("y.mcap")),
+    ]);
+    assert!(
+        err.contains("`jLeftShoulder` names segment `LeftUpperArm`"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() {
+    let dir = scratch("capture-pipeline");
+    let p = |n: &str| dir.join(n);
+    // The shipped human, written as BVH: the importer must give back its angles.
+    ok(&[
+        "export",
+        "--data",
+        "data/demos/bimanual.mcap",
+        "--body",
+        "human",
+        "--frames",
+        "all",
+        "--out",
+        s(&p("capture.bvh")),
+    ]);
+    ok(&[
+        "export",
+        "--data",
+        "data/demos/bimanual.mcap",
+        "--body",
+        "human",
+        "--frames",
+        "all",
+        "--out",
+        s(&p("human.csv")),
+    ]);
+    let summary = ok(&[
+        "import",
+        s(&p("capture.bvh")),
+        "--out",
+        s(&p("imported.csv")),
+    ]);
+    assert!(summary.contains("Xsens MVN"), "{summary}");
+    let read = |path: &Path| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(path)
+            .expect("csv")
+            .lines()
+            .skip(1)
+            .map(|l| {
+                l.split(',')
+                    .skip(1)
+                    .map(|v| v.parse().expect("number"))
+                    .collect()
+            })
+            .collect()
+    };
+    let (original, imported) = (read(&p("human.csv")), read(&p("imported.csv")));
+    assert_eq!(original.len(), imported.len());
+    let worst = original
+        .iter()
+        .zip(&imported)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+        .fold(0.0, f64::max);
+    // The twist of a straight arm is not in the positions: allow the frames where the elbow
+    // is straight to differ there, but no angle may be far off.
+    assert!(worst < 0.05, "worst angle difference {worst} rad");
+    ok(&["import", s(&p("capture.bvh")), "--out", s(&p("human.mcap"))]);
+    let report = ok(&[
+        "retarget",
+        "--demos",
+        s(&p("human.mcap")),
+        "--robots",
+        "walkman,coman",
+        "--out",
+        s(&p("demos.mcap")),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&report).expect("json");
+    for r in v["reach"].as_array().expect("reach") {
+        assert!(r["worst_m"].as_f64().expect("worst") <= 0.005, "{r}");
+    }
+    ok(&[
+        "train",
+        "--data",
+        s(&p("demos.mcap")),
+        "--robot",
+        "walkman",
+        "--out",
+        s(&p("w.sgp")),
+    ]);
+    ok(&[
+        "transfer",
+        "--data",
+        s(&p("demos.mcap")),
+        "--model",
+        s(&p("w.sgp")),
+        "--robot",
+        "coman",
+        "--out",
+        s(&p("c.sgp")),
+    ]);
+    ok(&[
+        "predict",
+        "--model",
+        s(&p("c.sgp")),
+        "--input",
+        s(&p("human.mcap")),
+        "--robot",
+        "coman",
+        "--out",
+        s(&p("c.mcap")),
+    ]);
+    assert!(p("c.mcap").exists());
+    // Retargeting refuses what it cannot do, naming it.
+    let err = fails_on_one_line(&[
+        "retarget",
+        "--demos",
+        s(&p("human.mcap")),
+        "--robots",
+        "nao",
+        "--out",
+        s(&p("x.mcap")),
+    ]);
+    assert!(err.contains("nao") && err.contains("coman"), "{err}");
+    let err = fails_on_one_line(&[
+        "retarget",
+        "--demos",
+        s(&p("human.mcap")),
+        "--robots",
+        "coman",
+        "--split",
+        "files",
+        "--test-files",
+        "other",
+        "--out",
+        s(&p("x.mcap")),
+    ]);
+    assert!(
+        err.contains("no file `other`; the files are: capture"),
+        "{err}"
+    );
+    assert!(!p("x.mcap").exists());
+}
