@@ -45,8 +45,9 @@ pub struct RetargetArgs {
     #[arg(long)]
     out: PathBuf,
     /// What the robot matches: hands (positions; the fastest, fewest misses), hands+elbows (the
-    /// elbow follows the person's as far as the hand allows: about 3× the time), poses (hand
-    /// orientation too: six constraints on seven joints, more targets out of reach).
+    /// elbow follows the person's as far as the hand allows: about 1.1× the time), poses (hand
+    /// orientation too: six constraints on seven joints, more targets out of reach, about 2×
+    /// the time).
     #[arg(long = "match", value_parser = parse_match, default_value = "hands")]
     mode: Match,
     /// How each arm's redundancy (7 joints for 3 hand coordinates) is resolved: `continuous`
@@ -54,7 +55,7 @@ pub struct RetargetArgs {
     /// with several postures, depending on the path) or `canonical` (the IK solution from the
     /// neutral posture, a function of the hand targets alone, as the generator's key postures:
     /// a more consistent mapping to learn, but the arm lags wherever that solution moves faster
-    /// than the velocity limits, and it runs about 1.6× slower).
+    /// than the velocity limits, and it runs about 1.4× slower).
     #[arg(long, value_enum, default_value = "continuous")]
     redundancy: RedundancyArg,
     /// Let joints move as fast as the IK wants (the URDF velocity limits are kept by default).
@@ -276,7 +277,7 @@ fn print_reports(
     println!(
         "retargeted {frames} frames to {} robot(s) in {seconds:.1} s ({:.0} frames/s per robot); match: {}",
         reports.len(),
-        frames as f64 * reports.len() as f64 / seconds.max(1e-9) / reports.len().max(1) as f64,
+        frames as f64 * reports.len() as f64 / seconds.max(1e-9),
         args.mode.name()
     );
     println!("robot        reached: median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)");

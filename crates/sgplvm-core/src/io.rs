@@ -10,6 +10,9 @@
 //! | 20..28 | FNV-1a 64-bit hash of the payload, u64 |
 //! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
 //!
+//! Since 2026-12 the payload may hold `trust`, each robot space's trust threshold (`trust`
+//! module): files without it load as before and get the thresholds computed when asked for,
+//! with the same result.
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
@@ -255,6 +258,10 @@ struct ModelFile {
     /// Inducing inputs Z of a sparse model (format 2; absent for exact models).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     inducing: Option<MatData>,
+    /// Trust threshold per robot space (`trust` module; absent in files written before it
+    /// existed, whose thresholds are computed when asked for).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    trust: std::collections::BTreeMap<String, f64>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -311,6 +318,13 @@ impl SharedGplvm {
             stop_reason: self.stop_reason.clone(),
             selection: self.selection.clone(),
             inducing: self.sparse.as_ref().map(|s| MatData::from(&s.z)),
+            // A space whose threshold cannot be computed (a degenerate kernel matrix) is left
+            // out: it is computed, and fails, when asked for.
+            trust: self
+                .output_names()
+                .into_iter()
+                .filter_map(|name| Some((name.to_string(), self.trust_threshold(name).ok()?)))
+                .collect(),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -448,6 +462,12 @@ impl SharedGplvm {
         model.history = f.history;
         model.stop_reason = f.stop_reason;
         model.selection = f.selection;
+        for (space, t) in &f.trust {
+            if model.output_index(space).is_err() || !(t.is_finite() && *t >= 0.0) {
+                return Err(corrupt(format!("trust threshold {t} of space '{space}'")));
+            }
+        }
+        model.trust = f.trust;
         model.rebuild()?;
         Ok(model)
     }

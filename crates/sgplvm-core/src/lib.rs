@@ -120,6 +120,7 @@ mod tempfiles;
 mod test_support;
 mod train;
 mod transfer;
+mod trust;
 mod validation;
 
 pub use config::{BackConstraint, ModelConfig, ScaleMode};

@@ -98,6 +98,9 @@ pub struct SharedGplvm {
     pub(crate) selection: Option<Selection>,
     /// Inducing inputs and caches of the sparse model (`None`: the exact model).
     pub(crate) sparse: Option<crate::sparse::SparseState>,
+    /// Trust thresholds per robot space as read from a model file (`trust`); others are
+    /// computed when asked for.
+    pub(crate) trust: std::collections::BTreeMap<String, f64>,
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
     pub(crate) map_stale: bool,
@@ -173,6 +176,7 @@ impl SharedGplvm {
             stop_reason: None,
             selection: None,
             sparse: None,
+            trust: std::collections::BTreeMap::new(),
             map_stale: false,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),

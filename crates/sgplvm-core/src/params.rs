@@ -192,6 +192,8 @@ impl SharedGplvm {
             stop_reason: self.stop_reason.clone(),
             selection: self.selection.clone(),
             sparse: self.sparse.clone(),
+            // New parameters, new thresholds: computed when asked for.
+            trust: std::collections::BTreeMap::new(),
             map_stale: self.map_stale,
             x: self.x.clone(),
             x_rows: self.x_rows.clone(),

@@ -10,6 +10,7 @@ pub mod joint_state;
 pub mod error;
 pub mod files;
 pub mod kinematics;
+pub mod limits;
 pub mod models;
 pub mod panics;
 pub mod physics;

@@ -1,0 +1,268 @@
+//! Joint commands kept within a robot's limits: each joint within its URDF position limits,
+//! and within its velocity limit of the previous command over the time between them.
+//!
+//! The rule every command path applies (`sgplvm predict`, `sgplvm teleop`): first the velocity
+//! bound (from the previous command sent), then the position limits; each joint that had to be
+//! moved is counted, so that a report can say how often the model asked for more than the robot
+//! can do.
+
+use crate::{Robot, RobotError};
+
+/// A robot's position and velocity limits for the joints of a command, in the command's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandLimits {
+    names: Vec<String>,
+    position: Vec<(f64, f64)>,
+    /// rad/s (m/s for prismatic joints); infinite where the URDF gives none.
+    velocity: Vec<f64>,
+}
+
+/// Which joints of one command had to be moved, and by how much at most.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Clamped {
+    /// Joints moved back within a position limit.
+    pub position: usize,
+    /// Joints slowed to their velocity limit.
+    pub velocity: usize,
+    /// Largest distance a joint was moved (rad).
+    pub largest: f64,
+}
+
+impl Clamped {
+    /// Whether nothing was moved.
+    pub fn is_none(&self) -> bool {
+        self.position == 0 && self.velocity == 0
+    }
+}
+
+/// Counts over many commands, per joint.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LimitCounts {
+    /// Commands seen.
+    pub commands: usize,
+    /// Commands in which some joint was moved.
+    pub commands_clamped: usize,
+    /// Per joint (command order): times moved within a position limit.
+    pub position: Vec<usize>,
+    /// Per joint: times slowed to the velocity limit.
+    pub velocity: Vec<usize>,
+    /// Per joint: the largest distance moved (rad).
+    pub largest: Vec<f64>,
+}
+
+impl CommandLimits {
+    /// The limits of `robot`'s joints named `joints` (a command's columns, in its order). Every
+    /// name must be a movable joint of the robot.
+    pub fn for_joints(robot: &Robot, joints: &[String]) -> Result<CommandLimits, RobotError> {
+        let names = robot.joint_names();
+        let limits = robot.joint_limits();
+        let velocity = robot.velocity_limits();
+        let mut position = Vec::with_capacity(joints.len());
+        let mut speed = Vec::with_capacity(joints.len());
+        for j in joints {
+            let Some(k) = names.iter().position(|n| n == j) else {
+                return Err(RobotError::Invalid {
+                    file: format!("robot {}", robot.name()),
+                    element: format!("joint \"{j}\""),
+                    message: format!(
+                        "not a movable joint of the robot (it has {} movable joints: {}{})",
+                        names.len(),
+                        names.iter().take(8).cloned().collect::<Vec<_>>().join(", "),
+                        if names.len() > 8 { ", …" } else { "" }
+                    ),
+                });
+            };
+            position.push(limits[k]);
+            speed.push(if velocity[k] > 0.0 {
+                velocity[k]
+            } else {
+                f64::INFINITY
+            });
+        }
+        Ok(CommandLimits {
+            names: joints.to_vec(),
+            position,
+            velocity: speed,
+        })
+    }
+
+    /// The joints' names, in command order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Position limits per joint.
+    pub fn position(&self) -> &[(f64, f64)] {
+        &self.position
+    }
+
+    /// Velocity limits per joint (infinite where none).
+    pub fn velocity(&self) -> &[f64] {
+        &self.velocity
+    }
+
+    /// Moves `q` within the limits: within `velocity · dt` of `previous` (when given with the
+    /// seconds since it), then within the position limits. Returns what was moved.
+    pub fn apply(&self, q: &mut [f64], previous: Option<(&[f64], f64)>) -> Clamped {
+        let mut out = Clamped::default();
+        for (k, v) in q.iter_mut().enumerate() {
+            let wanted = *v;
+            if let Some((prev, dt)) = previous {
+                let step = self.velocity[k] * dt.max(0.0);
+                let (lo, hi) = (prev[k] - step, prev[k] + step);
+                if *v < lo || *v > hi {
+                    *v = v.clamp(lo, hi);
+                    out.velocity += 1;
+                }
+            }
+            let (lo, hi) = self.position[k];
+            if lo <= hi && (*v < lo || *v > hi) {
+                *v = v.clamp(lo, hi);
+                out.position += 1;
+            }
+            out.largest = out.largest.max((wanted - *v).abs());
+        }
+        out
+    }
+
+    /// Applies the limits to every row of `rows` (row-major, one command a row, at `times_s`
+    /// seconds), each row bounded by the one before as sent; returns the counts. Without a time
+    /// per row only the position limits apply.
+    pub fn apply_all(&self, rows: &mut [f64], times_s: &[f64]) -> LimitCounts {
+        let d = self.names.len();
+        let mut counts = LimitCounts::new(d);
+        if d == 0 {
+            return counts;
+        }
+        let timed = times_s.len() * d == rows.len();
+        let mut previous: Vec<f64> = Vec::with_capacity(d);
+        for (r, row) in rows.chunks_exact_mut(d).enumerate() {
+            let wanted = row.to_vec();
+            let prev = (timed && r > 0).then(|| (previous.as_slice(), times_s[r] - times_s[r - 1]));
+            let clamped = self.apply(row, prev);
+            counts.record(&wanted, row, &clamped, self, prev);
+            previous.clear();
+            previous.extend_from_slice(row);
+        }
+        counts
+    }
+}
+
+impl LimitCounts {
+    /// Empty counts for `joints` joints.
+    pub fn new(joints: usize) -> LimitCounts {
+        LimitCounts {
+            position: vec![0; joints],
+            velocity: vec![0; joints],
+            largest: vec![0.0; joints],
+            ..LimitCounts::default()
+        }
+    }
+
+    /// Adds one command: `wanted` before the limits, `sent` after.
+    pub fn record(
+        &mut self,
+        wanted: &[f64],
+        sent: &[f64],
+        clamped: &Clamped,
+        limits: &CommandLimits,
+        previous: Option<(&[f64], f64)>,
+    ) {
+        self.commands += 1;
+        if clamped.is_none() {
+            return;
+        }
+        self.commands_clamped += 1;
+        for k in 0..sent.len() {
+            let moved = (wanted[k] - sent[k]).abs();
+            if moved == 0.0 {
+                continue;
+            }
+            let (lo, hi) = limits.position[k];
+            if wanted[k] < lo || wanted[k] > hi {
+                self.position[k] += 1;
+            }
+            if let Some((p, dt)) = previous {
+                if (wanted[k] - p[k]).abs() > limits.velocity[k] * dt.max(0.0) {
+                    self.velocity[k] += 1;
+                }
+            }
+            self.largest[k] = self.largest[k].max(moved);
+        }
+    }
+
+    /// One line for a report: how many commands were limited and by which joints most.
+    pub fn summary(&self, robot: &str, names: &[String]) -> String {
+        if self.commands_clamped == 0 {
+            return format!(
+                "all {} commands within {robot}'s position and velocity limits",
+                self.commands
+            );
+        }
+        let mut worst: Vec<usize> = (0..names.len())
+            .filter(|&k| self.largest[k] > 0.0)
+            .collect();
+        worst.sort_by(|&a, &b| self.largest[b].total_cmp(&self.largest[a]));
+        let shown: Vec<String> = worst
+            .iter()
+            .take(3)
+            .map(|&k| {
+                format!(
+                    "{} {}×, up to {:.1}°",
+                    names[k],
+                    self.position[k] + self.velocity[k],
+                    self.largest[k].to_degrees()
+                )
+            })
+            .collect();
+        format!(
+            "{} of {} commands moved within {robot}'s limits ({} joint positions beyond a position limit, {} joint steps beyond a velocity limit; most: {})",
+            self.commands_clamped,
+            self.commands,
+            self.position.iter().sum::<usize>(),
+            self.velocity.iter().sum::<usize>(),
+            shown.join(", ")
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_and_velocities_are_held_and_counted() {
+        let robot = Robot::builtin("coman").unwrap();
+        let names: Vec<String> = robot.joint_names()[..3].to_vec(); // LShSag, LShLat, LShYaw
+        let limits = CommandLimits::for_joints(&robot, &names).unwrap();
+        // LShLat's limits are [-0.31415, 2.094]; COMAN's joints 4 rad/s.
+        let mut q = [0.0, 2.5, 0.1];
+        let c = limits.apply(&mut q, None);
+        assert_eq!(q, [0.0, 2.094, 0.1]);
+        assert_eq!((c.position, c.velocity), (1, 0));
+        assert!((c.largest - 0.406).abs() < 1e-12);
+        // From [0, 0, 0] in 25 ms at most 0.1 rad.
+        let mut q = [0.5, -0.05, 0.02];
+        let c = limits.apply(&mut q, Some((&[0.0, 0.0, 0.0], 0.025)));
+        assert!((q[0] - 0.1).abs() < 1e-12 && q[1] == -0.05 && q[2] == 0.02);
+        assert_eq!((c.position, c.velocity), (0, 1));
+        // A whole trajectory: the step back into range is itself bounded.
+        let mut rows = vec![0.0, 0.0, 0.0, 0.0, 3.0, 0.0, 0.0, 3.0, 0.0];
+        let counts = limits.apply_all(&mut rows, &[0.0, 0.025, 0.05]);
+        assert_eq!(rows[4], 0.1);
+        assert!((rows[7] - 0.2).abs() < 1e-12);
+        assert_eq!(counts.commands, 3);
+        assert_eq!(counts.commands_clamped, 2);
+        assert_eq!(counts.position[1], 2);
+        assert_eq!(counts.velocity[1], 2);
+        let line = counts.summary("coman", &names);
+        assert!(
+            line.starts_with("2 of 3 commands moved within coman's limits"),
+            "{line}"
+        );
+        let e = CommandLimits::for_joints(&robot, &["elbow".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("\"elbow\"") && e.contains("LShSag"), "{e}");
+    }
+}
