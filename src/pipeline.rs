@@ -219,8 +219,9 @@ impl Demonstrations {
 
     /// Trains a model on the training frames of the human and `robots` (one robot: the full
     /// model; several: the multi-robot model). With `validation`, the iteration budget is
-    /// chosen on held-out training frames ([`SharedGplvm::fit_validated`]). Joint names are
-    /// stored in the model.
+    /// chosen on held-out training frames ([`SharedGplvm::fit_validated`]). Joint names and
+    /// the groups the trust thresholds hold out ([`Dataset::training_groups`]) are stored in
+    /// the model.
     pub fn train(
         &self,
         robots: &[String],
@@ -249,6 +250,7 @@ impl Demonstrations {
         for body in bodies {
             model.set_column_names(&body.name, body.joint_names.clone())?;
         }
+        model.set_trust_groups(ds.training_groups().groups)?;
         Ok(model)
     }
 
@@ -274,6 +276,10 @@ impl Demonstrations {
             None => model.transfer(robot, data.as_ref(), options, callback)?,
         };
         transferred.set_column_names(robot, body.joint_names.clone())?;
+        // A model file written before the groups existed: they are this data's.
+        if transferred.trust_groups().is_none() {
+            transferred.set_trust_groups(self.dataset.training_groups().groups)?;
+        }
         Ok(transferred)
     }
 
@@ -315,6 +321,42 @@ impl Demonstrations {
         let human = to_mat(&self.dataset.human.rows(&self.dataset.test));
         let predicted = model.predict(human.as_ref(), robot, false)?.mean;
         Ok(self.test_error(body, predicted.as_ref()))
+    }
+
+    /// How many of this data's test frames `model` would not trust for `robot`: their
+    /// predictive standard deviation exceeds the model's trust threshold (a live controller
+    /// holds the robot on them). A report, never a choice: nothing is tuned on it.
+    pub fn test_trust(&self, model: &SharedGplvm, robot: &str) -> Result<TestTrust, PipelineError> {
+        self.check_splits()?;
+        self.check_human(model)?;
+        let body = self.robot(robot)?;
+        self.check_joints(model, robot, &body.joint_names)?;
+        let human = to_mat(&self.dataset.human.rows(&self.dataset.test));
+        let desired = to_mat(&body.rows(&self.dataset.test));
+        let predicted = model.predict(human.as_ref(), robot, false)?.mean;
+        let sd = model.prediction_sd(human.as_ref(), robot)?;
+        let threshold = model.trust_threshold(robot)?;
+        // Mean squared error over the joints of the frames on either side of the threshold.
+        let (mut sums, mut counts) = ([0.0; 2], [0usize; 2]);
+        for (i, s) in sd.iter().enumerate() {
+            // The live rule: a standard deviation that is not a number is not trusted either.
+            let trusted = s.is_finite() && *s <= threshold;
+            let side = usize::from(!trusted);
+            let row = mean_squared_error(
+                predicted.as_ref().subrows(i, 1),
+                desired.as_ref().subrows(i, 1),
+            );
+            sums[side] += row;
+            counts[side] += 1;
+        }
+        let mean = |k: usize| (counts[k] > 0).then(|| sums[k] / counts[k] as f64);
+        Ok(TestTrust {
+            threshold,
+            frames: sd.len(),
+            untrusted: counts[1],
+            mse_trusted: mean(0),
+            mse_untrusted: mean(1),
+        })
     }
 
     /// The yardstick the paper measures its model against: a direct GP regression human →
@@ -477,6 +519,21 @@ pub struct Evaluation {
     pub mse: f64,
     /// Mean squared error of each joint (rad²).
     pub per_joint: Vec<(String, f64)>,
+}
+
+/// Test frames a model would not trust ([`Demonstrations::test_trust`]).
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct TestTrust {
+    /// The model's trust threshold for the robot (standardised standard deviation).
+    pub threshold: f64,
+    /// Number of test frames.
+    pub frames: usize,
+    /// Test frames above the threshold.
+    pub untrusted: usize,
+    /// Mean squared error (rad², over joints and frames) of the frames within the threshold.
+    pub mse_trusted: Option<f64>,
+    /// The same of the frames above it: larger when the threshold flags the worse predictions.
+    pub mse_untrusted: Option<f64>,
 }
 
 #[cfg(test)]

@@ -1,4 +1,5 @@
-//! `sgplvm evaluate`: a model's test error on a demonstration file, overall and per joint.
+//! `sgplvm evaluate`: a model's test error on a demonstration file, overall and per joint, and
+//! how many test frames it would not trust live.
 
 use anyhow::Result;
 use clap::Args;
@@ -27,5 +28,6 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     require_robot(&model, &args.model.model, &args.robot)?;
     let demos = args.data.load()?;
     let evaluation = demos.evaluate(&model, &args.robot)?;
-    Ok(report::evaluation(&evaluation, args.json.json)?)
+    let trust = demos.test_trust(&model, &args.robot)?;
+    Ok(report::evaluation(&evaluation, &trust, args.json.json)?)
 }

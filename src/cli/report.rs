@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 use sgplvm::experiment::ModelKind;
-use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel};
+use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel, TestTrust};
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
 use sgplvm::SharedGplvm;
 
@@ -75,9 +75,19 @@ fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool
 }
 
 /// `evaluate`: the test error overall and per joint.
-pub fn evaluation(e: &Evaluation, json: bool) -> serde_json::Result<()> {
+pub fn evaluation(e: &Evaluation, trust: &TestTrust, json: bool) -> serde_json::Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(e)?);
+        #[derive(serde::Serialize)]
+        struct WithTrust<'a> {
+            #[serde(flatten)]
+            evaluation: &'a Evaluation,
+            trust: &'a TestTrust,
+        }
+        let both = WithTrust {
+            evaluation: e,
+            trust,
+        };
+        println!("{}", serde_json::to_string_pretty(&both)?);
         return Ok(());
     }
     println!(
@@ -90,6 +100,23 @@ pub fn evaluation(e: &Evaluation, json: bool) -> serde_json::Result<()> {
     for (joint, mse) in &e.per_joint {
         println!("  {joint:<24} {mse:.6}  ({:.2}°)", mse.sqrt().to_degrees());
     }
+    println!(
+        "trust: {} of {} test frames ({:.1} %) above the model's trust threshold {:.4} (live, the robot would hold on them)",
+        trust.untrusted,
+        trust.frames,
+        100.0 * trust.untrusted as f64 / trust.frames.max(1) as f64,
+        trust.threshold
+    );
+    let rmse = |m: Option<f64>| {
+        m.map_or("-".to_string(), |m| {
+            format!("{:.2}°", m.sqrt().to_degrees())
+        })
+    };
+    println!(
+        "       test RMSE {} on the frames within the threshold, {} on those above it",
+        rmse(trust.mse_trusted),
+        rmse(trust.mse_untrusted)
+    );
     Ok(())
 }
 

@@ -11,8 +11,9 @@
 //! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
 //!
 //! Since 2026-12 the payload may hold `trust`, each robot space's trust threshold (`trust`
-//! module): files without it load as before and get the thresholds computed when asked for,
-//! with the same result.
+//! module), and `trust_groups`, the groups of training frames they were computed by: files
+//! without them load as before and get the thresholds computed when asked for (by consecutive
+//! blocks of training frames).
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
@@ -262,6 +263,10 @@ struct ModelFile {
     /// existed, whose thresholds are computed when asked for).
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     trust: std::collections::BTreeMap<String, f64>,
+    /// The groups of training frames the thresholds hold out in turn (absent: consecutive
+    /// blocks).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    trust_groups: Option<Vec<usize>>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -325,6 +330,7 @@ impl SharedGplvm {
                 .into_iter()
                 .filter_map(|name| Some((name.to_string(), self.trust_threshold(name).ok()?)))
                 .collect(),
+            trust_groups: self.trust_groups.clone(),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -466,6 +472,11 @@ impl SharedGplvm {
             if model.output_index(space).is_err() || !(t.is_finite() && *t >= 0.0) {
                 return Err(corrupt(format!("trust threshold {t} of space '{space}'")));
             }
+        }
+        if let Some(groups) = f.trust_groups {
+            model
+                .set_trust_groups(groups)
+                .map_err(|e| corrupt(format!("trust_groups: {e}")))?;
         }
         model.trust = f.trust;
         model.rebuild()?;

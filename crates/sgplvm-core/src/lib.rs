@@ -139,4 +139,5 @@ pub use regression::GpRegression;
 pub use sparse::objective::SparseEvaluator;
 pub use sparse::sparse_bound;
 pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};
+pub use trust::{TRUST_BLOCKS, TRUST_PERCENTILE, TRUST_POINTS};
 pub use validation::{Selection, SelectionCallback, Validation, ValidationRecord};

@@ -101,6 +101,9 @@ pub struct SharedGplvm {
     /// Trust thresholds per robot space as read from a model file (`trust`); others are
     /// computed when asked for.
     pub(crate) trust: std::collections::BTreeMap<String, f64>,
+    /// The groups of training frames the trust thresholds hold out in turn (`None`: the
+    /// `trust` module's consecutive blocks).
+    pub(crate) trust_groups: Option<Vec<usize>>,
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
     pub(crate) map_stale: bool,
@@ -177,6 +180,7 @@ impl SharedGplvm {
             selection: None,
             sparse: None,
             trust: std::collections::BTreeMap::new(),
+            trust_groups: None,
             map_stale: false,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),

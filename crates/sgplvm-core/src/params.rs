@@ -194,6 +194,7 @@ impl SharedGplvm {
             sparse: self.sparse.clone(),
             // New parameters, new thresholds: computed when asked for.
             trust: std::collections::BTreeMap::new(),
+            trust_groups: self.trust_groups.clone(),
             map_stale: self.map_stale,
             x: self.x.clone(),
             x_rows: self.x_rows.clone(),

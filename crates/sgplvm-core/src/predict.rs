@@ -485,12 +485,22 @@ impl SharedGplvm {
         si: usize,
         with_variance: bool,
     ) -> Result<Prediction> {
-        let space = self.spaces[si].name.as_str();
         let xs = self.latent_batch(h)?;
+        self.predict_latent_rows(xs, si, with_variance)
+    }
+
+    /// [`SharedGplvm::predict_rows`] from the latent points `xs` (one row per frame).
+    pub(crate) fn predict_latent_rows(
+        &self,
+        xs: Mat<f64>,
+        si: usize,
+        with_variance: bool,
+    ) -> Result<Prediction> {
+        let space = self.spaces[si].name.as_str();
         if let Some(st) = &self.sparse {
             return self.predict_sparse(st, si, xs, with_variance);
         }
-        let (n_new, q, n) = (h.nrows(), self.q(), self.n());
+        let (n_new, q, n) = (xs.nrows(), self.q(), self.n());
         let s = &self.spaces[si];
         let c = &self.prepared()?.caches[si];
         let d = s.data.ncols();

@@ -102,6 +102,17 @@ pub struct ValidationSplit {
     pub rule: ValidationRule,
 }
 
+/// The training frames in groups: see [`Dataset::training_groups`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TrainingGroups {
+    /// The group of each training frame (by position in [`Dataset::train`]).
+    pub groups: Vec<usize>,
+    /// The groups the validation split holds out.
+    pub validation: Vec<usize>,
+    /// The rule that formed the groups.
+    pub rule: ValidationRule,
+}
+
 /// Demonstrations of one human and several robots on a common frame clock.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
@@ -170,6 +181,19 @@ impl Dataset {
     /// every third of nine equal blocks of training frames ([`ValidationRule::EveryThirdBlock`]).
     /// Test frames are never looked at.
     pub fn validation_split(&self) -> ValidationSplit {
+        let t = self.training_groups();
+        ValidationSplit {
+            rows: (0..t.groups.len())
+                .filter(|&p| t.validation.contains(&t.groups[p]))
+                .collect(),
+            rule: t.rule,
+        }
+    }
+
+    /// The training frames in the groups [`Dataset::validation_split`] holds out (by its
+    /// rule): the repetition of each frame's motion, its trajectory, or its block of nine. A
+    /// model's trust threshold holds each group out in turn.
+    pub fn training_groups(&self) -> TrainingGroups {
         let mut runs: Vec<(Option<usize>, Vec<usize>)> = Vec::new();
         for (pos, &frame) in self.train.iter().enumerate() {
             let segment = self.segment_of(frame);
@@ -192,32 +216,42 @@ impl Dataset {
         };
         let repetitions: std::collections::BTreeSet<usize> =
             runs.iter().filter_map(|(k, _)| repetition(*k)).collect();
-        let (rule, mut rows): (ValidationRule, Vec<usize>) = match repetitions.last() {
-            Some(&last) if repetitions.len() >= 2 => (
-                ValidationRule::LastRepetition,
-                runs.iter()
-                    .filter(|(k, _)| repetition(*k) == Some(last))
-                    .flat_map(|(_, m)| m.iter().copied())
-                    .collect(),
-            ),
-            _ if runs.len() >= 3 => (
-                ValidationRule::EveryThirdTrajectory,
-                runs.iter()
-                    .skip(2)
-                    .step_by(3)
-                    .flat_map(|(_, m)| m.iter().copied())
-                    .collect(),
-            ),
-            _ => {
-                let n = self.train.len();
-                (
-                    ValidationRule::EveryThirdBlock,
-                    (0..n).filter(|&p| (p * 9 / n.max(1)) % 3 == 2).collect(),
-                )
+        let n = self.train.len();
+        let mut groups = vec![0; n];
+        match repetitions.last() {
+            Some(&last) if repetitions.len() >= 2 => {
+                // Trajectories without a repetition label: each its own group, never held out.
+                for (r, (key, members)) in runs.iter().enumerate() {
+                    let g = repetition(*key).unwrap_or(last + 1 + r);
+                    members.iter().for_each(|&p| groups[p] = g);
+                }
+                TrainingGroups {
+                    groups,
+                    validation: vec![last],
+                    rule: ValidationRule::LastRepetition,
+                }
             }
-        };
-        rows.sort_unstable();
-        ValidationSplit { rows, rule }
+            _ if runs.len() >= 3 => {
+                for (r, (_, members)) in runs.iter().enumerate() {
+                    members.iter().for_each(|&p| groups[p] = r);
+                }
+                TrainingGroups {
+                    groups,
+                    validation: (2..runs.len()).step_by(3).collect(),
+                    rule: ValidationRule::EveryThirdTrajectory,
+                }
+            }
+            _ => {
+                for (p, g) in groups.iter_mut().enumerate() {
+                    *g = p * 9 / n;
+                }
+                TrainingGroups {
+                    groups,
+                    validation: vec![2, 5, 8],
+                    rule: ValidationRule::EveryThirdBlock,
+                }
+            }
+        }
     }
 
     /// Training rows of robot `name`, if there is such a robot.
