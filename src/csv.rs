@@ -1,5 +1,6 @@
 //! Joint frames as CSV: a header of joint names, then one frame per line. An optional first
-//! column named `time` (seconds) or `time_ns` is carried through.
+//! column named `time` (seconds) or `time_ns` is carried through. Lines starting with `#` are
+//! comments (`sgplvm predict` writes one first, saying whether its commands are limited).
 
 use std::io::BufRead;
 
@@ -191,7 +192,7 @@ impl CsvFrames {
 /// The suffix of the standard-deviation columns `sgplvm predict --std` writes.
 pub const STD_SUFFIX: &str = "_std";
 
-/// Reads lines up to the first non-blank one and parses it as the header; returns it with its
+/// Reads lines up to the first one neither blank nor a `#` comment and parses it as the header; returns it with its
 /// 1-based line number (data lines are numbered on from it in messages).
 pub fn read_header(
     lines: &mut impl Iterator<Item = std::io::Result<String>>,
@@ -202,7 +203,7 @@ pub fn read_header(
             source_name: source_name.to_string(),
             source,
         })?;
-        if !line.trim().is_empty() {
+        if !line.trim().is_empty() && !line.starts_with('#') {
             return Ok((CsvHeader::parse(&line), i + 1));
         }
     }
@@ -224,7 +225,7 @@ pub fn read_frames(reader: impl BufRead, source_name: &str) -> Result<CsvFrames,
     let mut rows = 0;
     for (i, line) in lines.enumerate() {
         let line = line.map_err(io)?;
-        if line.trim().is_empty() {
+        if line.trim().is_empty() || line.starts_with('#') {
             continue;
         }
         let (time, row) = header.parse_line(&line, header_line + i + 1, source_name)?;

@@ -211,9 +211,15 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
     );
 }
 
+/// The lines of a CSV output that are not `#` comments.
+fn csv_rows(text: &str) -> Vec<&str> {
+    text.lines().filter(|l| !l.starts_with('#')).collect()
+}
+
 /// Returns the first predicted CSV row (time, then the joints).
 fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
-    // Predict from MCAP to CSV and to MCAP; both agree.
+    // Predict from MCAP to CSV (commands within COMAN's limits, the default) and to MCAP (the
+    // model's output as it is, with its standard deviation).
     let csv = f.dir.join("coman.csv");
     let mcap = f.dir.join("coman.mcap");
     ok(&[
@@ -238,26 +244,99 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
         "--out",
         s(&mcap),
         "--std",
+        "--raw",
     ]);
     let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(
+        text.starts_with("# coman commands: within the robot's URDF position and velocity limits"),
+        "{:.200}",
+        text
+    );
+    let rows = csv_rows(&text);
+    let header: Vec<&str> = rows[0].split(',').collect();
     assert_eq!(header[0], "time");
     assert_eq!(header[1], "LShSag");
-    let first: Vec<f64> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|v| v.parse().unwrap())
+    let limited: Vec<Vec<f64>> = rows[1..]
+        .iter()
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
     let states =
         sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command").unwrap();
     assert_eq!(states.names.len(), 14);
-    assert_eq!(states.row(0), &first[1..]);
+    assert_eq!(metadata(&mcap, "sgplvm.predict")["commands"], "raw");
+    commands_within_limits(&limited, &states, "coman");
     let std =
         sgplvm::robots::joint_state::read_joint_states(&mcap, "/coman/joint_command_std").unwrap();
     assert!(std.positions.iter().all(|v| *v > 0.0));
-    first
+    limited[0].clone()
+}
+
+/// The metadata record `name` of an MCAP file.
+fn metadata(path: &Path, name: &str) -> std::collections::BTreeMap<String, String> {
+    let mut read = sgplvm::robots::joint_state::read_topics(path, &[]).unwrap();
+    read.metadata
+        .remove(name)
+        .unwrap_or_else(|| panic!("{}: no metadata record {name}", path.display()))
+}
+
+/// The limited commands (`time, joints…` rows) checked against the raw ones and the robot's URDF
+/// by hand: every command within the position limits and within a velocity limit's step of the
+/// one before; a command differs from the model's only where the model's was beyond a limit.
+fn commands_within_limits(
+    limited: &[Vec<f64>],
+    raw: &sgplvm::robots::joint_state::JointStates,
+    robot: &str,
+) {
+    let body = sgplvm::robots::Robot::builtin(robot).unwrap();
+    let names = body.joint_names();
+    let k: Vec<usize> = raw
+        .names
+        .iter()
+        .map(|n| names.iter().position(|m| m == n).unwrap())
+        .collect();
+    let (position, velocity) = (body.joint_limits(), body.velocity_limits());
+    assert_eq!(limited.len(), raw.len());
+    let (mut moved, mut equal) = (0, 0);
+    for (i, row) in limited.iter().enumerate() {
+        let dt = (i > 0).then(|| row[0] - limited[i - 1][0]);
+        let mut beyond = false;
+        for (j, &kj) in k.iter().enumerate() {
+            let (lo, hi) = position[kj];
+            let (q, model) = (row[j + 1], raw.row(i)[j]);
+            assert!(
+                q >= lo && q <= hi,
+                "frame {i} joint {}: {q} beyond [{lo}, {hi}]",
+                raw.names[j]
+            );
+            let step = dt.map(|dt| velocity[kj] * dt + 1e-9);
+            if let Some(step) = step {
+                let from = limited[i - 1][j + 1];
+                assert!(
+                    (q - from).abs() <= step,
+                    "frame {i} joint {}: a step of {}",
+                    raw.names[j],
+                    q - from
+                );
+                beyond |= (model - from).abs() > step;
+            }
+            beyond |= model < lo || model > hi;
+        }
+        let same = row[1..].iter().zip(raw.row(i)).all(|(a, b)| a == b);
+        assert!(
+            same || beyond,
+            "frame {i} differs from the model's though it was within the limits"
+        );
+        if same {
+            equal += 1
+        } else {
+            moved += 1
+        }
+    }
+    assert!(equal > 0, "no command was the model's own");
+    eprintln!(
+        "{moved} of {} commands moved within {robot}'s limits",
+        limited.len()
+    );
 }
 
 /// Returns the human CSV file written (three frames, columns reversed).
@@ -288,10 +367,7 @@ fn predict_from_reordered_csv(f: &Fixture, coman: &Path, first: &[f64]) -> PathB
         s(&out),
     ]);
     let text = std::fs::read_to_string(&out).unwrap();
-    let row: Vec<f64> = text
-        .lines()
-        .nth(1)
-        .unwrap()
+    let row: Vec<f64> = csv_rows(&text)[1]
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
@@ -334,11 +410,14 @@ fn predict_streaming(coman: &Path, human_csv: &Path, first: &[f64]) {
         String::from_utf8_lossy(&output.stderr)
     );
     let text = String::from_utf8(output.stdout).unwrap();
-    assert_eq!(text.lines().count(), 4);
-    let streamed: Vec<f64> = text
-        .lines()
-        .nth(1)
-        .unwrap()
+    assert!(
+        text.starts_with(
+            "# coman commands: within the robot's URDF position limits (the input has no times"
+        ),
+        "{text:.200}"
+    );
+    assert_eq!(csv_rows(&text).len(), 4);
+    let streamed: Vec<f64> = csv_rows(&text)[1]
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
@@ -429,6 +508,13 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
               &["wrong.csv", "missing human joint"]),
         error(&["predict", "--model", model, "--input", s(&nan), "--robot", "walkman", "--out", p_csv],
               &["nan.csv", "line 2"]),
+        // The limits of the commands come from a URDF that must be there and be the robot's.
+        error(&["predict", "--model", model, "--input", data, "--robot", "walkman", "--out", p_csv,
+                "--urdf", "/nonexistent/walkman.urdf"],
+              &["/nonexistent/walkman.urdf"]),
+        error(&["predict", "--model", model, "--input", data, "--robot", "walkman", "--out", p_csv,
+                "--urdf", concat!(env!("CARGO_MANIFEST_DIR"), "/data/urdf/ur5e.urdf")],
+              &["walkman joints", "not a movable joint", "LShSag"]),
         // Bad flag values are usage errors (exit 2).
         usage(&["train", "--robot", "walkman", "--latent-dim", "0", "--out", out_s]),
         usage(&["train", "--robot", "walkman", "--back-constraint", "sideways", "--out", out_s]),
@@ -970,7 +1056,7 @@ fn export_and_joints_make_the_inputs_of_predict() {
             .unwrap()
             .test
             .len();
-        assert_eq!(predicted.lines().count(), test_frames + 1, "{file}");
+        assert_eq!(csv_rows(&predicted).len(), test_frames + 1, "{file}");
         if file.ends_with(".csv") {
             let csv = std::fs::read_to_string(&human).unwrap();
             assert_eq!(

@@ -200,8 +200,8 @@ fn draw_figures(
 
 /// The test frames predicted by the source model and by each transfer, one MCAP file each
 /// (`<robot>_test.mcap`, `<source>_to_<robot>_test.mcap`) with the same topics as
-/// `predict --out x.mcap`: the human and the robot side by side, animated by `/tf`, with the
-/// predictive standard deviation and the latent point.
+/// `predict --raw --out x.mcap`: the human and the robot side by side, animated by `/tf`, with
+/// the predictive standard deviation and the latent point.
 fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Result<Vec<PathBuf>> {
     let ds = &demos.dataset;
     let times_ns: Vec<i64> = ds.test.iter().map(|&i| ds.times_ns[i]).collect();
@@ -242,6 +242,8 @@ fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Re
                 latent: &rows(&prediction.latent, |v| v),
             },
             None,
+            // The model's prediction drawn for analysis, as `predict --raw` writes it.
+            super::limits::Commands::Raw.metadata(&m.robot, None),
             &path.display().to_string(),
         )?;
         written.push(path);

@@ -14,6 +14,8 @@ use sgplvm::{Mat, Robot, SharedGplvm};
 pub struct HumanFrames {
     pub times_ns: Vec<i64>,
     pub frames: Mat<f64>,
+    /// Whether the times are the input's (false: a CSV without a time column, 40 Hz assumed).
+    pub timed: bool,
 }
 
 /// The joint names of `space` in `model` (`<space>_<j>` when the model has none stored).
@@ -129,6 +131,7 @@ pub fn read_human_frames(
         return Ok(HumanFrames {
             times_ns: states.times_ns.clone(),
             frames,
+            timed: true,
         });
     }
     let table = read_csv(input)?;
@@ -140,6 +143,7 @@ pub fn read_human_frames(
     Ok(HumanFrames {
         times_ns: table.times_ns(),
         frames,
+        timed: table.times.is_some(),
     })
 }
 

@@ -11,6 +11,7 @@ mod frames;
 mod generate;
 mod import;
 mod joints;
+mod limits;
 mod predict;
 mod progress;
 mod report;

@@ -1,8 +1,11 @@
 //! `sgplvm predict`: robot joint commands from human frames — a file to a file (MCAP or CSV), or
-//! CSV lines streamed from stdin to stdout for teleoperation.
+//! CSV lines streamed from stdin to stdout for teleoperation. The commands are kept within the
+//! robot's URDF position and velocity limits unless `--raw` asks for the model's output as it
+//! is; every output says which it holds (CSV: a first `#` line; MCAP: the metadata record
+//! `sgplvm.predict`).
 
 use std::io::{BufRead, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
@@ -11,11 +14,13 @@ use sgplvm::files::atomic_write_with;
 use sgplvm::robots::joint_state::{
     write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
 };
+use sgplvm::robots::limits::{CommandLimits, LimitCounts, LimitedStream};
 use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::{Mat, SharedGplvm};
 
 use super::args::ModelFileArg;
 use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
+use super::limits::{robot_body, Commands};
 
 pub(super) mod scene;
 
@@ -46,6 +51,37 @@ pub struct PredictArgs {
     /// /ROBOT/joint_command_std).
     #[arg(long)]
     std: bool,
+    /// Write the model's output as it is, not kept within the robot's joint limits (for
+    /// analysis; the output says so).
+    #[arg(long)]
+    raw: bool,
+    /// The robot's URDF, whose position and velocity limits bound the commands [default: the
+    /// built-in robot of that name].
+    #[arg(long, value_name = "FILE")]
+    urdf: Option<PathBuf>,
+}
+
+impl PredictArgs {
+    /// What the commands will be: raw, or within the limits of the robot's body (`timed`:
+    /// whether the frames have times for the velocity limits).
+    fn commands(&self, model: &SharedGplvm, timed: bool) -> Result<Commands> {
+        if self.raw {
+            return Ok(Commands::Raw);
+        }
+        let body = robot_body(
+            &self.robot,
+            self.urdf.as_deref(),
+            "give its URDF with --urdf FILE, or write --raw for the model's output as it is",
+        )?;
+        let joints = model_joint_names(model, &self.robot);
+        let limits = CommandLimits::for_joints(&body, &joints).with_context(|| {
+            format!(
+                "the model's {} joints are not all joints of the robot's URDF",
+                self.robot
+            )
+        })?;
+        Ok(Commands::Limited { limits, timed })
+    }
 }
 
 /// Predicted joint commands of every frame, row-major, with their standard deviations.
@@ -54,6 +90,9 @@ struct Predicted {
     frames: usize,
     mean: Vec<f64>,
     std: Option<Vec<f64>>,
+    /// What `mean` holds, and what the limits moved.
+    commands: Commands,
+    counts: Option<LimitCounts>,
 }
 
 pub fn run(args: PredictArgs) -> Result<()> {
@@ -62,13 +101,17 @@ pub fn run(args: PredictArgs) -> Result<()> {
     require_robot(&model, &args.model.model, robot)?;
     let robot_joints = model_joint_names(&model, robot);
     let scene = args.out.ends_with(".mcap") && !args.no_tf;
-    if args.input == "-" && args.out.ends_with(".mcap") {
-        return scene::predict_stream_mcap(&model, robot, &args.out, !args.no_tf);
-    }
     if args.input == "-" {
-        return predict_stream(&model, robot, &robot_joints, &args.out, args.std);
+        // Times (hence velocity limits) when the stream's header has a time column: known
+        // after the header; the limits are checked before reading it.
+        let commands = args.commands(&model, true)?;
+        if args.out.ends_with(".mcap") {
+            return scene::predict_stream_mcap(&model, robot, &args.out, !args.no_tf, commands);
+        }
+        return predict_stream(&model, robot, &robot_joints, &args.out, args.std, commands);
     }
     let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
+    let commands = args.commands(&model, human.timed)?;
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
         .predict(human.frames.as_ref(), robot, args.std || scene)
@@ -79,11 +122,25 @@ pub fn run(args: PredictArgs) -> Result<()> {
             .map(|(i, j)| f(m[(i, j)]))
             .collect()
     };
+    let mut mean = rows(&prediction.mean, |v| v);
+    let counts = match &commands {
+        Commands::Raw => None,
+        Commands::Limited { limits, timed } => {
+            let times: Vec<f64> = if *timed {
+                human.times_ns.iter().map(|&t| seconds_from_ns(t)).collect()
+            } else {
+                Vec::new()
+            };
+            Some(limits.apply_all(&mut mean, &times))
+        }
+    };
     let predicted = Predicted {
         frames: prediction.mean.nrows(),
-        mean: rows(&prediction.mean, |v| v),
+        mean,
         std: prediction.variance.as_ref().map(|v| rows(v, f64::sqrt)),
         times_ns: human.times_ns.clone(),
+        commands,
+        counts,
     };
     if scene {
         mcap_times(&predicted.times_ns, &args.input, &args.out)?;
@@ -101,18 +158,24 @@ pub fn run(args: PredictArgs) -> Result<()> {
                 latent: &latent_rows,
             },
             std_topic.as_deref(),
+            predicted
+                .commands
+                .metadata(robot, predicted.counts.as_ref()),
             &args.out,
         )?;
         eprintln!(
             "wrote {} frames of {robot} joint commands to {} (topic /{robot}/joint_command, with transforms for Foxglove)",
             predicted.frames, args.out
         );
-        Ok(())
     } else if args.out.ends_with(".mcap") {
-        write_mcap(&predicted, robot, &robot_joints, &args.input, &args.out)
+        write_mcap(&predicted, robot, &robot_joints, &args.input, &args.out)?;
     } else {
-        write_csv(&predicted, robot, &robot_joints, &args.out, args.std)
+        write_csv(&predicted, robot, &robot_joints, &args.out, args.std)?;
     }
+    if let Some(counts) = &predicted.counts {
+        eprintln!("{}", counts.summary(robot, &robot_joints));
+    }
+    Ok(())
 }
 
 /// Refuses times an MCAP file cannot hold (negative), naming the output, the input and the frame.
@@ -154,7 +217,7 @@ fn write_mcap(p: &Predicted, robot: &str, joints: &[String], input: &str, out: &
         &topics,
         &WriteSettings {
             compression: Compression::Zstd,
-            metadata: Vec::new(),
+            metadata: vec![p.commands.metadata(robot, p.counts.as_ref())],
         },
     )?;
     eprintln!(
@@ -178,6 +241,7 @@ fn csv_header(time: Option<&str>, joints: &[String], std: bool) -> String {
 fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool) -> Result<()> {
     let d = joints.len();
     let write = |w: &mut dyn Write| -> std::io::Result<()> {
+        writeln!(w, "# {}", p.commands.describe(robot))?;
         writeln!(w, "{}", csv_header(Some("time"), joints, std))?;
         for i in 0..p.frames {
             let mut values = p.mean[i * d..(i + 1) * d].to_vec();
@@ -214,6 +278,7 @@ fn predict_stream(
     robot_joints: &[String],
     out: &str,
     with_std: bool,
+    commands: Commands,
 ) -> Result<()> {
     if out != "-" {
         bail!("--input - streams to stdout or to an .mcap file: use --out - or --out FILE.mcap");
@@ -225,14 +290,17 @@ fn predict_stream(
     let order = column_order(&wanted, &header.joints, "stdin")?;
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
-    let time = header.time_column.as_deref();
-    writeln!(w, "{}", csv_header(time, robot_joints, with_std))?;
+    let time_column = header.time_column.as_deref();
+    let mut limited = StreamLimits::new(commands, time_column);
+    writeln!(w, "# {}", limited.commands.describe(robot))?;
+    writeln!(w, "{}", csv_header(time_column, robot_joints, with_std))?;
     w.flush()?;
+    let d = robot_joints.len();
     let mut human = vec![0.0; wanted.len()];
-    let mut joints = vec![0.0; robot_joints.len()];
+    let mut out = vec![0.0; if with_std { 2 * d } else { d }];
     for (i, line) in lines.enumerate() {
         let line = line.context("stdin")?;
-        if line.trim().is_empty() {
+        if line.trim().is_empty() || line.starts_with('#') {
             continue;
         }
         let (time, values) = header.parse_line(&line, header_line + i + 1, "stdin")?;
@@ -243,14 +311,62 @@ fn predict_stream(
             let frame = Mat::from_fn(1, human.len(), |_, j| human[j]);
             let p = model.predict(frame.as_ref(), robot, true)?;
             let variance = p.variance.ok_or_else(|| anyhow!("no variance returned"))?;
-            let mut out: Vec<f64> = (0..joints.len()).map(|j| p.mean[(0, j)]).collect();
-            out.extend((0..joints.len()).map(|j| variance[(0, j)].sqrt()));
-            writeln!(w, "{}", format_line(time, &out))?;
+            for j in 0..d {
+                out[j] = p.mean[(0, j)];
+                out[d + j] = variance[(0, j)].sqrt();
+            }
         } else {
-            model.predict_frame(&human, robot, &mut joints)?;
-            writeln!(w, "{}", format_line(time, &joints))?;
+            model.predict_frame(&human, robot, &mut out)?;
         }
+        limited.push(&mut out[..d], time);
+        writeln!(w, "{}", format_line(time, &out))?;
         w.flush()?;
     }
+    limited.report(robot, robot_joints);
     Ok(())
+}
+
+/// The limits of a stream of commands, one frame at a time.
+pub(super) struct StreamLimits {
+    /// What the commands are.
+    pub commands: Commands,
+    stream: Option<LimitedStream>,
+    /// Seconds per unit of the time column (`None`: no times).
+    time_unit: Option<f64>,
+}
+
+impl StreamLimits {
+    /// The limits of `commands` for a stream whose time column (if any) is `time_column`.
+    pub fn new(commands: Commands, time_column: Option<&str>) -> StreamLimits {
+        let time_unit = time_column.map(|c| if c == "time_ns" { 1e-9 } else { 1.0 });
+        let (commands, stream) = match commands {
+            Commands::Limited { limits, .. } => (
+                Commands::Limited {
+                    limits: limits.clone(),
+                    timed: time_unit.is_some(),
+                },
+                Some(LimitedStream::new(limits)),
+            ),
+            Commands::Raw => (Commands::Raw, None),
+        };
+        StreamLimits {
+            commands,
+            stream,
+            time_unit,
+        }
+    }
+
+    /// Moves one frame's command within the limits (`time`: its time column's value).
+    pub fn push(&mut self, command: &mut [f64], time: Option<f64>) {
+        if let Some(s) = self.stream.as_mut() {
+            s.push(command, time.zip(self.time_unit).map(|(t, u)| t * u));
+        }
+    }
+
+    /// Says on stderr what the limits moved.
+    pub fn report(&self, robot: &str, joints: &[String]) {
+        if let Some(s) = &self.stream {
+            eprintln!("{}", s.counts().summary(robot, joints));
+        }
+    }
 }

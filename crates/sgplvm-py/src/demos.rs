@@ -121,7 +121,7 @@ pub fn write_joint_states(
                 &[],
                 &SceneOptions {
                     compression,
-                    tf: true,
+                    ..SceneOptions::default()
                 },
             ),
             None => joint_state::write_joint_states(&path, topic, &states, compression),

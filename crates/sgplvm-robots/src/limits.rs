@@ -130,21 +130,59 @@ impl CommandLimits {
     /// per row only the position limits apply.
     pub fn apply_all(&self, rows: &mut [f64], times_s: &[f64]) -> LimitCounts {
         let d = self.names.len();
-        let mut counts = LimitCounts::new(d);
+        let mut stream = LimitedStream::new(self.clone());
         if d == 0 {
-            return counts;
+            return stream.counts;
         }
         let timed = times_s.len() * d == rows.len();
-        let mut previous: Vec<f64> = Vec::with_capacity(d);
         for (r, row) in rows.chunks_exact_mut(d).enumerate() {
-            let wanted = row.to_vec();
-            let prev = (timed && r > 0).then(|| (previous.as_slice(), times_s[r] - times_s[r - 1]));
-            let clamped = self.apply(row, prev);
-            counts.record(&wanted, row, &clamped, self, prev);
-            previous.clear();
-            previous.extend_from_slice(row);
+            stream.push(row, timed.then(|| times_s[r]));
         }
-        counts
+        stream.counts
+    }
+}
+
+/// Commands limited one at a time as they are sent, each bounded by the one sent before.
+#[derive(Debug, Clone)]
+pub struct LimitedStream {
+    limits: CommandLimits,
+    previous: Option<(Vec<f64>, Option<f64>)>,
+    counts: LimitCounts,
+}
+
+impl LimitedStream {
+    /// A stream of commands within `limits`.
+    pub fn new(limits: CommandLimits) -> LimitedStream {
+        let counts = LimitCounts::new(limits.names.len());
+        LimitedStream {
+            limits,
+            previous: None,
+            counts,
+        }
+    }
+
+    /// Moves the next command `q` within the limits: its position limits, and, when it and the
+    /// command before have times (seconds), the velocity limits between them.
+    pub fn push(&mut self, q: &mut [f64], time_s: Option<f64>) -> Clamped {
+        let wanted = q.to_vec();
+        let prev = match (&self.previous, time_s) {
+            (Some((p, Some(t0))), Some(t)) => Some((p.as_slice(), t - t0)),
+            _ => None,
+        };
+        let clamped = self.limits.apply(q, prev);
+        self.counts.record(&wanted, q, &clamped, &self.limits, prev);
+        self.previous = Some((q.to_vec(), time_s));
+        clamped
+    }
+
+    /// The counts so far.
+    pub fn counts(&self) -> &LimitCounts {
+        &self.counts
+    }
+
+    /// The limits.
+    pub fn limits(&self) -> &CommandLimits {
+        &self.limits
     }
 }
 

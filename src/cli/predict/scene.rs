@@ -12,6 +12,8 @@ use sgplvm::robots::scene::{
 use sgplvm::{Mat, SharedGplvm};
 
 use super::super::frames::{column_order, model_joint_names};
+use super::super::limits::Commands;
+use super::StreamLimits;
 use sgplvm::csv::read_header;
 
 /// Where the human's root link stands in `world` (metres): on the left, seen from the front.
@@ -81,6 +83,7 @@ pub fn write(
     robot: &str,
     f: &Frames<'_>,
     std_topic: Option<&str>,
+    metadata: (String, std::collections::BTreeMap<String, String>),
     out: &str,
 ) -> Result<()> {
     let bodies = bodies(model, robot)?;
@@ -112,7 +115,11 @@ pub fn write(
         .zip(values)
         .map(|(topic, values)| ArraySeries { topic, values })
         .collect();
-    write_scene(out, &series, &arrays, &SceneOptions::default())?;
+    let options = SceneOptions {
+        metadata: vec![metadata],
+        ..SceneOptions::default()
+    };
+    write_scene(out, &series, &arrays, &options)?;
     Ok(())
 }
 
@@ -120,15 +127,23 @@ pub fn write(
 /// finished chunk) per line, so that the file is readable up to its last whole frame even if
 /// the process is killed; summary and footer once the input ends. The file is written in
 /// place, not renamed into place: a recording in progress is meant to be seen.
-pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool) -> Result<()> {
+pub fn predict_stream_mcap(
+    model: &SharedGplvm,
+    robot: &str,
+    out: &str,
+    tf: bool,
+    commands: Commands,
+) -> Result<()> {
     let stdin = std::io::stdin();
     let mut lines = stdin.lock().lines();
     let (header, header_line) = read_header(&mut lines, "stdin")?;
     let wanted = model_joint_names(model, model.input_name());
     let order = column_order(&wanted, &header.joints, "stdin")?;
     let topics = arrays(model, robot, None);
+    let mut limited = StreamLimits::new(commands, header.time_column.as_deref());
     let options = SceneOptions {
         tf,
+        metadata: vec![limited.commands.metadata(robot, None)],
         ..SceneOptions::default()
     };
     let mut writer = SceneWriter::create(out, bodies(model, robot)?, topics, &options, true)?;
@@ -137,7 +152,7 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
     let mut frame = 0i64;
     for (i, line) in lines.enumerate() {
         let line = line.context("stdin")?;
-        if line.trim().is_empty() {
+        if line.trim().is_empty() || line.starts_with('#') {
             continue;
         }
         let (time, values) = header.parse_line(&line, header_line + i + 1, "stdin")?;
@@ -159,7 +174,8 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
         }
         let h = Mat::from_fn(1, human.len(), |_, j| human[j]);
         let p = model.predict(h.as_ref(), robot, true)?;
-        let mean: Vec<f64> = (0..d).map(|j| p.mean[(0, j)]).collect();
+        let mut mean: Vec<f64> = (0..d).map(|j| p.mean[(0, j)]).collect();
+        limited.push(&mut mean, time);
         let std: Vec<f64> = match &p.variance {
             Some(v) => (0..d).map(|j| v[(0, j)].sqrt()).collect(),
             None => vec![f64::NAN; d],
@@ -170,6 +186,7 @@ pub fn predict_stream_mcap(model: &SharedGplvm, robot: &str, out: &str, tf: bool
     }
     let frames = writer.frames();
     writer.finish()?;
+    limited.report(robot, &model_joint_names(model, robot));
     eprintln!(
         "wrote {frames} frames of {robot} joint commands to {out} (topic /{robot}/joint_command)"
     );

@@ -223,12 +223,14 @@ pub struct TimedMarkers {
 }
 
 /// Options of a scene file.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct SceneOptions {
     /// Chunk compression.
     pub compression: Compression,
     /// Write the descriptions, `/tf_static` and `/tf` (otherwise only joint states and arrays).
     pub tf: bool,
+    /// Metadata records written first (name → key/value map), e.g. what the file holds.
+    pub metadata: Vec<(String, BTreeMap<String, String>)>,
 }
 
 impl Default for SceneOptions {
@@ -236,6 +238,7 @@ impl Default for SceneOptions {
         SceneOptions {
             compression: Compression::Zstd,
             tf: true,
+            metadata: Vec::new(),
         }
     }
 }
@@ -380,6 +383,173 @@ pub fn write_scene_with_markers(
     })
 }
 
+/// One channel of a scene: its topic and the ROS 2 message it carries (`ros2msg` schema,
+/// `cdr` messages), for a sink other than a file (a live viewer).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChannelSpec {
+    /// Topic.
+    pub topic: String,
+    /// Schema name, e.g. `tf2_msgs/msg/TFMessage`.
+    pub schema_name: &'static str,
+    /// Schema text (`ros2msg`: the definition and its dependencies).
+    pub schema: &'static str,
+}
+
+/// A scene's channels and encoded messages without a file: the same messages a [`SceneWriter`]
+/// writes, for a live viewer to serve. Channel `k` of the messages is [`SceneStream::channels`]`[k]`.
+pub struct SceneStream {
+    encoder: FrameEncoder,
+    channels: Vec<ChannelSpec>,
+    frames: u32,
+    scratch: EncodedFrame,
+}
+
+impl SceneStream {
+    /// The channels of `bodies` and `arrays` as [`SceneWriter::create`] lays them out.
+    pub fn new(
+        bodies: Vec<(SceneBody, Vec<String>)>,
+        arrays: Vec<ArrayTopic>,
+        options: &SceneOptions,
+    ) -> Result<Self> {
+        let prepared = prepare_bodies(bodies, options)?;
+        let mut channels: Vec<ChannelSpec> = Vec::new();
+        let mut add = |topic: String, schema_name: &'static str, schema: &'static str| -> u16 {
+            channels.push(ChannelSpec {
+                topic,
+                schema_name,
+                schema,
+            });
+            (channels.len() - 1) as u16
+        };
+        let mut out_bodies = Vec::with_capacity(prepared.len());
+        for (body, names, q_index) in prepared {
+            let channel = add(
+                body.joint_topic.clone(),
+                JOINT_STATE_SCHEMA,
+                JOINT_STATE_MSGDEF,
+            );
+            let description_channel = options
+                .tf
+                .then(|| add(body.description_topic(), STRING_SCHEMA, STRING_MSGDEF));
+            let frames = (0..body.robot.links.len()).map(|l| body.frame(l)).collect();
+            out_bodies.push(BodyChannel {
+                q: body.robot.neutral_configuration(),
+                body,
+                names,
+                q_index,
+                channel,
+                description_channel,
+                frames,
+            });
+        }
+        let tf = options.tf.then(|| {
+            (
+                add(TF_STATIC_TOPIC.into(), TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
+                add(TF_TOPIC.into(), TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
+            )
+        });
+        let out_arrays = arrays
+            .into_iter()
+            .map(|a| {
+                let id = match a.kind {
+                    ArrayKind::JointState { .. } => {
+                        add(a.topic.clone(), JOINT_STATE_SCHEMA, JOINT_STATE_MSGDEF)
+                    }
+                    ArrayKind::Float64MultiArray { .. } => add(
+                        a.topic.clone(),
+                        FLOAT64_MULTI_ARRAY_SCHEMA,
+                        FLOAT64_MULTI_ARRAY_MSGDEF,
+                    ),
+                };
+                (a, id)
+            })
+            .collect::<Vec<_>>();
+        let mut topics: Vec<&str> = channels.iter().map(|c| c.topic.as_str()).collect();
+        topics.sort_unstable();
+        if let Some(w) = topics.windows(2).find(|w| w[0] == w[1]) {
+            return Err(JointStateError::InvalidInput {
+                what: format!("topic `{}`", w[0]),
+                detail: "topic given twice".into(),
+            });
+        }
+        Ok(SceneStream {
+            encoder: FrameEncoder {
+                bodies: out_bodies,
+                arrays: out_arrays,
+                tf,
+            },
+            channels,
+            frames: 0,
+            scratch: EncodedFrame::default(),
+        })
+    }
+
+    /// The channels, in the order message channel numbers refer to.
+    pub fn channels(&self) -> &[ChannelSpec] {
+        &self.channels
+    }
+
+    /// The messages a viewer needs once (each body's description, `/tf_static`), stamped
+    /// `time_ns`: a live viewer sends them again for clients that join later.
+    pub fn static_messages(&self, time_ns: i64) -> Result<Vec<(u16, Vec<u8>)>> {
+        self.encoder.static_messages(time_ns)
+    }
+
+    /// One frame's messages (joint states, `/tf`, arrays), as [`SceneWriter::write_frame`]
+    /// encodes them.
+    pub fn frame(
+        &mut self,
+        time_ns: i64,
+        joints: &[&[f64]],
+        arrays: &[&[f64]],
+    ) -> Result<&[(u16, Vec<u8>)]> {
+        self.encoder
+            .encode(self.frames, time_ns, joints, arrays, &mut self.scratch)?;
+        self.frames += 1;
+        Ok(self.scratch.messages())
+    }
+}
+
+/// A body with its joint names and, per name, the joint's index in its robot's configuration.
+type PreparedBody = (SceneBody, Vec<String>, Vec<Option<usize>>);
+
+/// Checks the bodies of a scene (unique names without `/`; with TF, every joint a movable joint
+/// of the body's robot) and finds each joint in its robot's configuration.
+fn prepare_bodies(
+    bodies: Vec<(SceneBody, Vec<String>)>,
+    options: &SceneOptions,
+) -> Result<Vec<PreparedBody>> {
+    let mut prepared: Vec<PreparedBody> = Vec::with_capacity(bodies.len());
+    for (i, (body, names)) in bodies.into_iter().enumerate() {
+        if prepared.iter().any(|b| b.0.name == body.name)
+            || body.name.is_empty()
+            || body.name.contains('/')
+        {
+            return Err(JointStateError::InvalidInput {
+                what: format!("body {i} `{}`", body.name),
+                detail: "expected a unique, non-empty body name without `/`".into(),
+            });
+        }
+        let mut q_index = Vec::with_capacity(names.len());
+        for n in &names {
+            let qi = body.robot.joint_index(n);
+            if qi.is_none() && options.tf {
+                return Err(JointStateError::InvalidInput {
+                    what: format!("topic `{}`", body.joint_topic),
+                    detail: format!(
+                        "joint `{n}` is not a movable joint of robot `{}` (expected one of {:?})",
+                        body.robot.name(),
+                        body.robot.joint_names()
+                    ),
+                });
+            }
+            q_index.push(qi);
+        }
+        prepared.push((body, names, q_index));
+    }
+    Ok(prepared)
+}
+
 /// A body being written: its model, where its columns go in the robot's configuration, its
 /// channel and the scratch configuration.
 struct BodyChannel {
@@ -433,6 +603,44 @@ struct FrameEncoder {
 }
 
 impl FrameEncoder {
+    /// The messages sent once, at the first frame's time: each body's description and the
+    /// fixed transforms (`/tf_static`, with each body's placement in the world); none without TF.
+    fn static_messages(&self, time_ns: i64) -> Result<Vec<(u16, Vec<u8>)>> {
+        let Some((static_channel, _)) = self.tf else {
+            return Ok(Vec::new());
+        };
+        let mut out = Vec::with_capacity(self.bodies.len() + 1);
+        for b in &self.bodies {
+            if let Some(ch) = b.description_channel {
+                let mut buf = Vec::new();
+                msgs::encode_string(&mut buf, &b.body.prefixed_urdf()?);
+                out.push((ch, buf));
+            }
+        }
+        let mut transforms = Vec::new();
+        for body in &self.bodies {
+            let robot = &body.body.robot;
+            transforms.push(Transform {
+                parent: WORLD_FRAME,
+                child: &body.frames[robot.root],
+                pose: body.body.placement,
+            });
+            for joint in robot.joints() {
+                if joint.q_index.is_none() {
+                    transforms.push(Transform {
+                        parent: &body.frames[joint.parent],
+                        child: &body.frames[joint.child],
+                        pose: joint.transform(0.0),
+                    });
+                }
+            }
+        }
+        let mut buf = Vec::new();
+        msgs::encode_tf_message(&mut buf, msgs::stamp(time_ns), &transforms);
+        out.push((static_channel, buf));
+        Ok(out)
+    }
+
     /// Encodes frame number `frame` at `time_ns` into `out` (see [`SceneWriter::write_frame`]).
     fn encode(
         &mut self,
@@ -720,36 +928,7 @@ impl SceneWriter {
                 source,
             }
         };
-        let mut prepared = Vec::with_capacity(bodies.len());
-        for (i, (body, names)) in bodies.into_iter().enumerate() {
-            if prepared
-                .iter()
-                .any(|b: &(SceneBody, Vec<String>, Vec<Option<usize>>)| b.0.name == body.name)
-                || body.name.is_empty()
-                || body.name.contains('/')
-            {
-                return Err(JointStateError::InvalidInput {
-                    what: format!("body {i} `{}`", body.name),
-                    detail: "expected a unique, non-empty body name without `/`".into(),
-                });
-            }
-            let mut q_index = Vec::with_capacity(names.len());
-            for n in &names {
-                let qi = body.robot.joint_index(n);
-                if qi.is_none() && options.tf {
-                    return Err(JointStateError::InvalidInput {
-                        what: format!("topic `{}`", body.joint_topic),
-                        detail: format!(
-                            "joint `{n}` is not a movable joint of robot `{}` (expected one of {:?})",
-                            body.robot.name(),
-                            body.robot.joint_names()
-                        ),
-                    });
-                }
-                q_index.push(qi);
-            }
-            prepared.push((body, names, q_index));
-        }
+        let prepared = prepare_bodies(bodies, options)?;
         let file_handle = File::create(file).map_err(|source| JointStateError::Io {
             path: path.to_path_buf(),
             action: "create",
@@ -879,6 +1058,14 @@ impl SceneWriter {
             .chain(out_arrays.iter().map(|(a, _)| a.topic.clone()))
             .chain([TF_TOPIC.to_string(), TF_STATIC_TOPIC.to_string()])
             .collect();
+        for (name, map) in &options.metadata {
+            writer
+                .write_metadata(&::mcap::records::Metadata {
+                    name: name.clone(),
+                    metadata: map.clone(),
+                })
+                .map_err(mcap_err(format!("metadata `{name}`")))?;
+        }
         Ok(SceneWriter {
             encoder: FrameEncoder {
                 bodies: out_bodies,
@@ -934,36 +1121,10 @@ impl SceneWriter {
 
     /// The descriptions and `/tf_static`, once, at the first frame's time.
     fn write_static(&mut self, time_ns: i64) -> Result<()> {
-        let Some((static_channel, _)) = self.encoder.tf else {
-            return Ok(());
-        };
-        let stamp = msgs::stamp(time_ns);
-        for b in &self.encoder.bodies {
-            if let Some(ch) = b.description_channel {
-                msgs::encode_string(&mut self.sink.buf, &b.body.prefixed_urdf()?);
-                self.sink.write_buf(ch, 0, time_ns)?;
-            }
+        for (channel, payload) in self.encoder.static_messages(time_ns)? {
+            self.sink.write(channel, 0, time_ns, &payload)?;
         }
-        let mut transforms = Vec::new();
-        for body in &self.encoder.bodies {
-            let robot = &body.body.robot;
-            transforms.push(Transform {
-                parent: WORLD_FRAME,
-                child: &body.frames[robot.root],
-                pose: body.body.placement,
-            });
-            for joint in robot.joints() {
-                if joint.q_index.is_none() {
-                    transforms.push(Transform {
-                        parent: &body.frames[joint.parent],
-                        child: &body.frames[joint.child],
-                        pose: joint.transform(0.0),
-                    });
-                }
-            }
-        }
-        msgs::encode_tf_message(&mut self.sink.buf, stamp, &transforms);
-        self.sink.write_buf(static_channel, 0, time_ns)
+        Ok(())
     }
 
     /// Number of frames written so far.

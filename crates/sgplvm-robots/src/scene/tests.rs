@@ -295,3 +295,85 @@ fn the_threaded_whole_scene_is_the_file_frame_by_frame_writing_gives() {
     assert!(a == b, "{} and {} bytes differ", a.len(), b.len());
     let _ = std::fs::remove_dir_all(dir.parent().expect("dir"));
 }
+
+#[test]
+fn a_stream_sends_what_the_file_holds() {
+    // The same scene written to a file and encoded by a stream: channel for channel (topic,
+    // schema) and message for message the same bytes.
+    let path = tmp("stream");
+    let (human, hs, coman, cs) = two_bodies(3);
+    let std_topic = ArrayTopic::float64("/coman/prediction_std", "joint", 14);
+    let std_values = vec![0.2; 3 * 14];
+    write_scene(
+        &path,
+        &[
+            SceneSeries {
+                body: &human,
+                states: &hs,
+            },
+            SceneSeries {
+                body: &coman,
+                states: &cs,
+            },
+        ],
+        &[ArraySeries {
+            topic: &std_topic,
+            values: &std_values,
+        }],
+        &SceneOptions::default(),
+    )
+    .expect("write");
+    let bytes = std::fs::read(&path).expect("read");
+    let mut file: Vec<(String, String, Vec<u8>)> = Vec::new();
+    for m in ::mcap::MessageStream::new(&bytes).expect("mcap") {
+        let m = m.expect("message");
+        let schema = m
+            .channel
+            .schema
+            .as_ref()
+            .map(|s| s.name.clone())
+            .unwrap_or_default();
+        file.push((m.channel.topic.clone(), schema, m.data.to_vec()));
+    }
+    let mut stream = SceneStream::new(
+        vec![
+            (human.clone(), hs.names.clone()),
+            (coman.clone(), cs.names.clone()),
+        ],
+        vec![std_topic.clone()],
+        &SceneOptions::default(),
+    )
+    .expect("stream");
+    let specs: Vec<(String, String)> = stream
+        .channels()
+        .iter()
+        .map(|s| (s.topic.clone(), s.schema_name.to_string()))
+        .collect();
+    let mut streamed: Vec<(String, String, Vec<u8>)> = Vec::new();
+    for (c, data) in stream.static_messages(hs.times_ns[0]).expect("static") {
+        let (t, s) = specs[c as usize].clone();
+        streamed.push((t, s, data));
+    }
+    for f in 0..3 {
+        let frame = stream
+            .frame(
+                hs.times_ns[f],
+                &[hs.row(f), cs.row(f)],
+                &[&std_values[f * 14..(f + 1) * 14]],
+            )
+            .expect("frame");
+        for (c, data) in frame {
+            let (t, s) = specs[*c as usize].clone();
+            streamed.push((t, s, data.clone()));
+        }
+    }
+    let key = |v: &mut Vec<(String, String, Vec<u8>)>| v.sort();
+    key(&mut file);
+    key(&mut streamed);
+    assert_eq!(file.len(), streamed.len());
+    assert!(
+        file == streamed,
+        "the stream's messages differ from the file's"
+    );
+    std::fs::remove_dir_all(path.parent().expect("dir")).ok();
+}
