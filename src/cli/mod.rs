@@ -17,6 +17,8 @@ mod progress;
 mod report;
 mod retarget;
 mod simulate;
+#[cfg(feature = "live")]
+mod teleop;
 mod train;
 mod transfer;
 
@@ -60,6 +62,13 @@ pub enum Command {
     /// Robot commands for recorded human motion (inverse kinematics of the hands), and the
     /// train/test split: demonstrations for `train`, `transfer` and `experiment`.
     Retarget(retarget::RetargetArgs),
+    /// Live teleoperation: a ROS 2 node (no ROS install) that turns the human's JointState into
+    /// each robot's commands, within its limits and its model's trust, with a status topic.
+    #[cfg(feature = "live")]
+    Teleop(teleop::TeleopArgs),
+    /// Publish recorded human frames on a ROS 2 topic at their own timestamps (for `teleop`).
+    #[cfg(feature = "live")]
+    Replay(teleop::ReplayArgs),
 }
 
 impl Command {
@@ -78,6 +87,10 @@ impl Command {
             Command::Joints(args) => joints::run(args),
             Command::Import(args) => import::run(args),
             Command::Retarget(args) => retarget::run(args),
+            #[cfg(feature = "live")]
+            Command::Teleop(args) => teleop::run(args),
+            #[cfg(feature = "live")]
+            Command::Replay(args) => teleop::run_replay(args),
         }
     }
 }

@@ -1,0 +1,130 @@
+//! `sgplvm replay`: a recorded human (a JointState series) published on the input topic at its
+//! own timestamps, so the whole live chain runs without a person in a suit.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use ros2_client::dds::Publisher;
+use ros2_client::MessageTypeName;
+use sgplvm_robots::joint_state::JointStates;
+
+use crate::msgs::{types, Header, JointState, Time};
+use crate::node::{new_node, qos, topic_name, Reliability};
+use crate::LiveError;
+
+/// How to replay.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// DDS domain.
+    pub domain_id: u16,
+    /// Topic to publish on.
+    pub topic: String,
+    /// Playback speed (2 = twice as fast); the stamps keep the recording's times.
+    pub rate: f64,
+    /// Start again at the end (stamps go on increasing).
+    pub looped: bool,
+    /// QoS of the publisher (reliable by default: it matches best-effort and reliable
+    /// subscribers alike).
+    pub qos: Reliability,
+    /// Seconds to wait for a subscriber before the first message (0: do not wait).
+    pub wait_s: f64,
+    /// Stop after this many messages.
+    pub max_messages: Option<usize>,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            domain_id: 0,
+            topic: "/human/joint_states".into(),
+            rate: 1.0,
+            looped: false,
+            qos: Reliability::Reliable,
+            wait_s: 5.0,
+            max_messages: None,
+        }
+    }
+}
+
+/// Publishes `series` as JointState messages until it ends (or `stop`); returns the count sent.
+pub fn replay(
+    series: &JointStates,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+) -> Result<usize, LiveError> {
+    if series.is_empty() {
+        return Err(LiveError::Config(
+            "nothing to replay: the series has no frames".into(),
+        ));
+    }
+    if !(options.rate.is_finite() && options.rate > 0.0) {
+        return Err(LiveError::Config(format!(
+            "rate {}; expected a positive speed factor",
+            options.rate
+        )));
+    }
+    let mut node = new_node(options.domain_id, "sgplvm_replay")?;
+    let dds = |e: String| LiveError::Dds { message: e };
+    let (pkg, name) = types::JOINT_STATE;
+    let topic = node
+        .create_topic(
+            &topic_name(&options.topic)?,
+            MessageTypeName::new(pkg, name),
+            &qos(options.qos),
+        )
+        .map_err(|e| dds(format!("{e:?}")))?;
+    let publisher: Publisher<JointState> = node
+        .create_publisher(&topic, Some(qos(options.qos)))
+        .map_err(|e| dds(format!("{e:?}")))?;
+    let waited = Instant::now();
+    while options.wait_s > 0.0
+        && node.subscription_count(&options.topic) == 0
+        && waited.elapsed().as_secs_f64() < options.wait_s
+        && !stop.load(Ordering::Relaxed)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let t0 = series.times_ns[0];
+    let span = series.times_ns[series.len() - 1] - t0;
+    let period = if series.len() > 1 {
+        span / (series.len() as i64 - 1)
+    } else {
+        25_000_000
+    };
+    let start = Instant::now();
+    let mut sent = 0usize;
+    let mut lap: i64 = 0;
+    'outer: loop {
+        for (k, &t) in series.times_ns.iter().enumerate() {
+            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
+                break 'outer;
+            }
+            let offset_ns = lap * (span + period) + (t - t0);
+            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+            let msg = JointState {
+                header: Header {
+                    stamp: Time::from_ns(t + lap * (span + period)),
+                    frame_id: String::new(),
+                },
+                name: series.names.clone(),
+                position: series.row(k).to_vec(),
+                velocity: Vec::new(),
+                effort: Vec::new(),
+            };
+            publisher.publish(msg).map_err(|e| LiveError::Publish {
+                topic: options.topic.clone(),
+                message: format!("{e:?}"),
+            })?;
+            sent += 1;
+        }
+        if !options.looped {
+            break;
+        }
+        lap += 1;
+    }
+    Ok(sent)
+}

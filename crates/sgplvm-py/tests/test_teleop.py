@@ -1,0 +1,819 @@
+"""``sgplvm teleop`` and ``sgplvm replay`` (issue 37) against an independent ROS 2 middleware:
+Eclipse Cyclone DDS (PyPI ``cyclonedds``, its wheel ships the C library) with ROS 2's type and
+topic names, the ``rosbags`` package's CDR serialiser as a second reference for the bytes, and a
+WebSocket client speaking Foxglove's ``foxglove.sdk.v1`` subprotocol for the live view.
+
+DDS discovers by multicast: these tests run only inside a network namespace holding nothing but
+the loopback device, with multicast enabled on it. ``.ci/run`` runs this file under::
+
+    unshare -n sh -c 'ip link set lo up && ip link set lo multicast on && \\
+        python -m pytest crates/sgplvm-py/tests/test_teleop.py -q'
+
+Anywhere else the module is skipped (a failure with ``CI=true``, see conftest.py). Nothing is
+ever sent to another address.
+"""
+
+import asyncio
+import json
+import os
+import pathlib
+import re
+import signal
+import subprocess
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+cyclonedds = pytest.importorskip("cyclonedds")
+rosbags_typesys = pytest.importorskip("rosbags.typesys")
+websockets = pytest.importorskip("websockets")
+
+import cyclonedds.idl.annotations as annotate  # noqa: E402
+from cyclonedds.core import Policy, Qos  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.idl import IdlStruct  # noqa: E402
+from cyclonedds.idl.types import float32, float64, int32, sequence, uint8, uint32, uint64  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+
+import sgplvm  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+DEMOS = ROOT / "data" / "demos" / "bimanual.mcap"
+
+
+def _interfaces() -> list:
+    """Network devices of this process's namespace."""
+    with open("/proc/net/dev") as f:
+        return sorted(line.split(":")[0].strip() for line in f.readlines()[2:])
+
+
+if _interfaces() != ["lo"]:
+    pytest.skip(
+        f"network interfaces {_interfaces()}: the DDS tests run only in a loopback-only network "
+        "namespace (unshare -n sh -c 'ip link set lo up && ip link set lo multicast on && "
+        "python -m pytest .../test_teleop.py')",
+        allow_module_level=True,
+    )
+
+
+# ----- ROS 2 message definitions, as ROS 2's IDL names them on the wire -----
+
+
+@dataclass
+@annotate.final
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+@annotate.final
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+@annotate.final
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+@annotate.final
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header
+    name: sequence[str]
+    position: sequence[float64]
+    velocity: sequence[float64]
+    effort: sequence[float64]
+
+
+@dataclass
+@annotate.final
+class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
+    label: str
+    size: uint32
+    stride: uint32
+
+
+@dataclass
+@annotate.final
+class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
+    dim: sequence[MultiArrayDimension]
+    data_offset: uint32
+
+
+@dataclass
+@annotate.final
+class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
+    layout: MultiArrayLayout
+    data: sequence[float64]
+
+
+@dataclass
+@annotate.final
+class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectoryPoint_"):
+    positions: sequence[float64]
+    velocities: sequence[float64]
+    accelerations: sequence[float64]
+    effort: sequence[float64]
+    time_from_start: Duration
+
+
+@dataclass
+@annotate.final
+class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
+    header: Header
+    joint_names: sequence[str]
+    points: sequence[JointTrajectoryPoint]
+
+
+@dataclass
+@annotate.final
+class XbotJointCommand(IdlStruct, typename="xbot_msgs::msg::dds_::JointCommand_"):
+    header: Header
+    name: sequence[str]
+    stamp_rx_feedback: uint64
+    position: sequence[float32]
+    velocity: sequence[float32]
+    effort: sequence[float32]
+    stiffness: sequence[float32]
+    damping: sequence[float64]
+    ctrl_mode: sequence[uint8]
+    aux_name: str
+    aux: sequence[float32]
+
+
+@dataclass
+@annotate.final
+class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
+    key: str
+    value: str
+
+
+@dataclass
+@annotate.final
+class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
+    level: uint8
+    name: str
+    message: str
+    hardware_id: str
+    values: sequence[KeyValue]
+
+
+@dataclass
+@annotate.final
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    header: Header
+    status: sequence[DiagnosticStatus]
+
+
+# xbot_msgs/msg/JointCommand.msg as ADVRHumanoids/xbot_msgs defines it (commit 61f26da): rosbags
+# does not ship it.
+XBOT_JOINT_COMMAND_MSG = """std_msgs/Header header
+string[] name
+uint64 stamp_rx_feedback
+float32[] position
+float32[] velocity
+float32[] effort
+float32[] stiffness
+float64[] damping
+uint8[] ctrl_mode
+string aux_name
+float32[] aux
+"""
+
+ROSBAGS_TYPE = {
+    JointState: "sensor_msgs/msg/JointState",
+    Float64MultiArray: "std_msgs/msg/Float64MultiArray",
+    JointTrajectory: "trajectory_msgs/msg/JointTrajectory",
+    XbotJointCommand: "xbot_msgs/msg/JointCommand",
+    DiagnosticArray: "diagnostic_msgs/msg/DiagnosticArray",
+}
+
+
+def typestore():
+    """ROS 2 Jazzy's message definitions (rosbags) with xbot_msgs/JointCommand added."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    store.register(get_types_from_msg(XBOT_JOINT_COMMAND_MSG, "xbot_msgs/msg/JointCommand"))
+    return store
+
+
+def to_rosbags(store, value, typename):
+    """A Cyclone sample as the rosbags message of `typename`, field by field, driven by ROS 2's
+    definition of the message (nested messages, numeric sequences as numpy arrays)."""
+    from rosbags.typesys.base import Nodetype
+
+    def convert(v, node):
+        kind, detail = node
+        if kind == Nodetype.NAME:
+            return to_rosbags(store, v, detail)
+        if kind == Nodetype.SEQUENCE:
+            (inner, _bound) = detail
+            if inner[0] == Nodetype.BASE and inner[1][0] != "string":
+                return np.array(v, dtype=inner[1][0])
+            return [convert(x, inner) for x in v]
+        return v
+
+    fields = {name: convert(getattr(value, name), node) for name, node in store.fielddefs[typename][1]}
+    return store.types[typename](**fields)
+
+
+def same_bytes_as_rosbags(store, sample):
+    """The sample's CDR bytes (Cyclone, little-endian XCDR1 as ROS 2 writes) equal those rosbags
+    makes of the same values from ROS 2's own definition."""
+    typename = ROSBAGS_TYPE[type(sample)]
+    ours = sample.serialize()
+    theirs = bytes(store.serialize_cdr(to_rosbags(store, sample, typename), typename))
+    assert ours == theirs, f"{typename}: {ours[:64].hex()} vs {theirs[:64].hex()}"
+    back = store.deserialize_cdr(theirs, typename)
+    return back
+
+
+# ----- the processes and the participant -----
+
+
+def sgplvm_binary():
+    """The CLI built by ``cargo build --release`` (CI builds it before the Python tests)."""
+    if os.environ.get("SGPLVM_BIN"):
+        return pathlib.Path(os.environ["SGPLVM_BIN"])
+    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    path = target / "release" / "sgplvm"
+    if not path.exists():
+        pytest.skip(f"{path} is not built (cargo build --release)")
+    return path
+
+
+_domains = iter(range(40, 200))
+
+
+def next_domain():
+    """A domain of its own for each node: nothing of an earlier test's processes reaches it."""
+    return next(_domains)
+
+
+class Teleop:
+    """``sgplvm teleop`` running in the background: started with `args`, stopped by SIGTERM."""
+
+    def __init__(self, tmp, domain, args):
+        self.domain = domain
+        self.out = open(tmp / f"teleop{domain}.out", "w+")
+        self.err = open(tmp / f"teleop{domain}.err", "w+")
+        self.proc = subprocess.Popen(
+            [str(sgplvm_binary()), "teleop", "--domain-id", str(domain), "--json", *args],
+            stdout=self.out,
+            stderr=self.err,
+        )
+
+    def stop(self, timeout=20):
+        """SIGTERM, then the exit code and the JSON summary."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+        code = self.proc.wait(timeout=timeout)
+        self.out.seek(0)
+        text = self.out.read()
+        self.err.seek(0)
+        err = self.err.read()
+        assert code == 0, f"teleop exited with {code}: {err}"
+        return json.loads(text), err
+
+    def kill(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+
+RELIABLE = Qos(Policy.Reliability.Reliable(max_blocking_time=1_000_000_000), Policy.History.KeepLast(1000))
+
+
+class Ros2:
+    """A Cyclone DDS participant with ROS 2's topic names (``rt/`` + the ROS name)."""
+
+    def __init__(self, domain):
+        self.dp = DomainParticipant(domain)
+        self.writers = {}
+        self.readers = {}
+
+    def writer(self, topic, cls):
+        t = Topic(self.dp, "rt" + topic, cls, qos=RELIABLE)
+        self.writers[topic] = DataWriter(self.dp, t, qos=RELIABLE)
+        return self.writers[topic]
+
+    def reader(self, topic, cls):
+        t = Topic(self.dp, "rt" + topic, cls, qos=RELIABLE)
+        self.readers[topic] = DataReader(self.dp, t, qos=RELIABLE)
+        return self.readers[topic]
+
+    def wait_matched(self, timeout=20.0):
+        """Until every writer and reader has found its peer in the node."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if all(w.get_matched_subscriptions() for w in self.writers.values()) and all(
+                r.get_matched_publications() for r in self.readers.values()
+            ):
+                return
+            time.sleep(0.05)
+        missing = [t for t, w in self.writers.items() if not w.get_matched_subscriptions()]
+        missing += [t for t, r in self.readers.items() if not r.get_matched_publications()]
+        raise AssertionError(f"no DDS peer for {missing} within {timeout} s")
+
+    def take(self, topic, settle=0.0):
+        """Every sample waiting on `topic` (after `settle` seconds)."""
+        time.sleep(settle)
+        out = []
+        while True:
+            got = self.readers[topic].take(N=1000)
+            if not got:
+                return out
+            out.extend(got)
+
+
+def stamp_ns(t):
+    return t.sec * 10**9 + t.nanosec
+
+
+def joint_state(names, position, t_ns):
+    return JointState(Header(Time(t_ns // 10**9, t_ns % 10**9), ""), list(names), [float(v) for v in position], [], [])
+
+
+def send(writer, names, rows, times_ns, period=0.025):
+    """Publishes `rows` at `period` seconds apart on a fixed schedule (not drifting with the
+    time each write takes)."""
+    start = time.monotonic()
+    for k, (row, t) in enumerate(zip(rows, times_ns)):
+        delay = start + k * period - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        writer.write(joint_state(names, row, int(t)))
+
+
+def limits(urdf_text, names):
+    """Position and velocity limits of joints `names` read from URDF text by hand."""
+    root = ET.fromstring(urdf_text)
+    by_name = {j.get("name"): j.find("limit") for j in root.iter("joint")}
+    lo = np.array([float(by_name[n].get("lower")) for n in names])
+    hi = np.array([float(by_name[n].get("upper")) for n in names])
+    vel = np.array([float(by_name[n].get("velocity")) for n in names])
+    return lo, hi, vel
+
+
+def status_of(samples, robot):
+    """The DiagnosticStatus entries of `robot` (``sgplvm/ROBOT``) in the order received."""
+    return [s for a in samples for s in a.status if s.name == f"sgplvm/{robot}"]
+
+
+def values(status):
+    return {kv.key: kv.value for kv in status.values}
+
+
+# ----- fixtures -----
+
+
+@pytest.fixture(scope="module")
+def tmp():
+    with tempfile.TemporaryDirectory(prefix="sgplvm-teleop-") as d:
+        yield pathlib.Path(d)
+
+
+@pytest.fixture(scope="module")
+def data():
+    """The shipped demonstrations: the human at 40 Hz and the frames of the first test motion."""
+    d = sgplvm.load_demonstrations(DEMOS)
+    start = int(d["test"][0])
+    # A training motion at 40 Hz (every 12th frame of it trained on): frames the models trust.
+    trained = int(d["train"][0])
+    return {
+        "names": list(d["human"]["joint_names"]),
+        "rows": np.asarray(d["human"]["positions"][start : start + 120]),
+        "times_ns": np.asarray(d["times_ns"][start : start + 120]),
+        "trained_rows": np.asarray(d["human"]["positions"][trained : trained + 50]),
+        "all": d,
+    }
+
+
+@pytest.fixture(scope="module")
+def models(tmp):
+    """A multi-robot model of COMAN and WALK-MAN, and a model of COMAN alone (short trainings:
+    the tests are about the node, not the model)."""
+    binary = str(sgplvm_binary())
+    out = {}
+    for name, robots in [("multi", ["coman", "walkman"]), ("coman", ["coman"])]:
+        path = tmp / f"{name}.sgp"
+        args = [binary, "train", "--data", str(DEMOS), "--max-iters", "80", "--validation", "none", "--out", str(path)]
+        for r in robots:
+            args += ["--robot", r]
+        subprocess.run(args, check=True, capture_output=True)
+        out[name] = path
+    return out
+
+
+def predict_raw(tmp, model, robot, names, rows, times_ns):
+    """``sgplvm predict --raw`` on the same frames (CSV in, CSV out): the model's output."""
+    src = tmp / "frames.csv"
+    with open(src, "w") as f:
+        f.write("time_ns," + ",".join(names) + "\n")
+        for t, row in zip(times_ns, rows):
+            f.write(f"{int(t)}," + ",".join(repr(float(v)) for v in row) + "\n")
+    dst = tmp / f"raw_{robot}.csv"
+    subprocess.run(
+        [str(sgplvm_binary()), "predict", "--model", str(model), "--input", str(src), "--robot", robot, "--out", str(dst), "--raw"],
+        check=True,
+        capture_output=True,
+    )
+    text = [l for l in dst.read_text().splitlines() if not l.startswith("#")]
+    header = text[0].split(",")
+    table = np.array([[float(v) for v in l.split(",")] for l in text[1:]])
+    assert header[0] == "time"
+    return header[1:], table[:, 1:]
+
+
+def relaxed_urdf(tmp, robot):
+    """The robot's built-in URDF with every velocity limit 10,000 rad/s: only the position limits
+    can then move a command, and they do so exactly (a clamp)."""
+    text = sgplvm.Robot.builtin_urdf(robot)
+    relaxed = re.sub(r'velocity="[^"]*"', 'velocity="10000"', text)
+    path = tmp / f"{robot}_relaxed.urdf"
+    path.write_text(relaxed)
+    return path, text
+
+
+# ----- the tests -----
+
+
+def test_commands_equal_predict_for_two_robots_at_once(tmp, data, models):
+    """A Cyclone publisher sends 3 s of a recorded test motion at 40 Hz; a Cyclone subscriber
+    receives both robots' commands from one node; each equals ``predict --raw`` on the same frame
+    (matched by the stamp it carries) to 1e-12, or, where the model's output left the robot's
+    position limits, that output held at the limit."""
+    domain = next_domain()
+    urdfs = {r: relaxed_urdf(tmp, r) for r in ["coman", "walkman"]}
+    node = Teleop(tmp, domain, [
+        "--model", str(models["multi"]), "--robot", "coman", "--robot", "walkman",
+        "--trust-threshold", "1e9",
+        "--urdf", f"coman={urdfs['coman'][0]}", "--urdf", f"walkman={urdfs['walkman'][0]}",
+    ])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        for r in ["coman", "walkman"]:
+            ros.reader(f"/{r}/joint_command", JointState)
+        ros.wait_matched()
+        send(w, data["names"], data["rows"], data["times_ns"])
+        received = {r: ros.take(f"/{r}/joint_command", settle=0.5) for r in ["coman", "walkman"]}
+    finally:
+        summary, err = node.stop()
+    index = {int(t): k for k, t in enumerate(data["times_ns"])}
+    for robot, commands in received.items():
+        joints, raw = predict_raw(tmp, models["multi"], robot, data["names"], data["rows"], data["times_ns"])
+        lo, hi, _ = limits(urdfs[robot][1], joints)
+        # Every frame is answered (loopback, 40 Hz: none superseded), each once.
+        assert len(commands) >= 0.95 * len(data["rows"]), (robot, len(commands), err)
+        held = 0
+        for c in commands:
+            k = index[stamp_ns(c.header.stamp)]
+            assert c.name == joints
+            expected = np.clip(raw[k], lo, hi)
+            held += int(np.any(expected != raw[k]))
+            assert np.max(np.abs(np.array(c.position) - expected)) <= 1e-12, (robot, k)
+        assert summary["robots"][robot]["position_clamped"] == held, summary
+        assert summary["robots"][robot]["untrusted"] == 0
+    assert summary["frames"] >= 0.95 * len(data["rows"])
+
+
+@pytest.mark.parametrize("form", ["joint-state", "forward", "trajectory", "xbot"])
+def test_every_command_form_decodes_with_ros2_definitions(tmp, data, models, form):
+    """Each command form arrives on its controller's topic, decodes with ROS 2's definition of
+    its message (Cyclone), re-encodes to the same bytes with rosbags' CDR serialiser and ROS 2's
+    own definitions, and carries the prediction and the stamp of the frame it answers where the
+    documentation says."""
+    domain = next_domain()
+    cls, topic = {
+        "joint-state": (JointState, "/coman/joint_command"),
+        "forward": (Float64MultiArray, "/forward_position_controller/commands"),
+        "trajectory": (JointTrajectory, "/joint_trajectory_controller/joint_trajectory"),
+        "xbot": (XbotJointCommand, "/xbotcore/command"),
+    }[form]
+    urdf, _ = relaxed_urdf(tmp, "coman")
+    # The forward controller's own joint order: reversed, to see that it is followed.
+    joints, raw = predict_raw(tmp, models["coman"], "coman", data["names"], data["rows"][:20], data["times_ns"][:20])
+    extra = ["--joints", ",".join(reversed(joints))] if form == "forward" else []
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--command", form,
+        "--trust-threshold", "1e9", "--urdf", f"coman={urdf}", *extra,
+    ])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader(topic, cls)
+        ros.reader("/sgplvm/status", DiagnosticArray)
+        ros.wait_matched()
+        send(w, data["names"], data["rows"][:20], data["times_ns"][:20])
+        got = ros.take(topic, settle=0.5)
+        status = ros.take("/sgplvm/status")
+    finally:
+        node.stop()
+    store = typestore()
+    assert len(got) >= 18, len(got)
+    lo, hi, _ = limits(sgplvm.Robot.builtin_urdf("coman"), joints)
+    index = {int(t): k for k, t in enumerate(data["times_ns"][:20])}
+    for c in got:
+        same_bytes_as_rosbags(store, c)
+        if form == "joint-state":
+            k, names, position = index[stamp_ns(c.header.stamp)], c.name, c.position
+        elif form == "forward":
+            (dim,) = c.layout.dim
+            label, stamp = dim.label.split("@")
+            sec, nanosec = stamp.split(".")
+            k = index[int(sec) * 10**9 + int(nanosec)]
+            assert label == "joints" and dim.size == dim.stride == 14
+            names, position = list(reversed(joints)), c.data
+        elif form == "trajectory":
+            assert stamp_ns(c.header.stamp) == 0  # "start on receipt"
+            sec, nanosec = c.header.frame_id.removeprefix("stamp:").split(".")
+            k = index[int(sec) * 10**9 + int(nanosec)]
+            (point,) = c.points
+            assert stamp_ns(point.time_from_start) == 25_000_000
+            names, position = c.joint_names, point.positions
+        else:
+            k, names, position = index[stamp_ns(c.header.stamp)], c.name, c.position
+            assert c.ctrl_mode == [1] * 14 and c.aux_name == "" and c.stamp_rx_feedback == 0
+        expected = dict(zip(joints, np.clip(raw[k], lo, hi)))
+        want = np.array([expected[n] for n in names])
+        tol = 1e-6 if form == "xbot" else 1e-12  # float32 on the wire
+        assert np.max(np.abs(np.array(position) - want) / np.maximum(1, np.abs(want))) <= tol, form
+    # The status is a DiagnosticArray ROS 2 tools decode too.
+    assert status, "no status message"
+    for s in status:
+        same_bytes_as_rosbags(store, s)
+    # Following while frames came, stale once they stopped (0.5 s before the last take).
+    levels = [(st.level, values(st)["reason"]) for st in status_of(status, "coman")]
+    assert (0, "following") in levels and levels[-1] == (3, "stale input"), levels
+
+
+def test_replay_drives_teleop(tmp, data, models):
+    """``sgplvm replay`` publishes a recorded human at its own stamps; ``teleop`` answers every
+    message; a Cyclone subscriber sees the commands carry the recording's stamps."""
+    domain = next_domain()
+    human = tmp / "human.mcap"
+    rows, times = data["rows"][:40], data["times_ns"][:40]
+    sgplvm.write_joint_states(human, "/human/joint_states", times.astype(np.int64), data["names"], rows)
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--trust-threshold", "1e9"])
+    try:
+        ros = Ros2(domain)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        out = subprocess.run(
+            [str(sgplvm_binary()), "replay", "--input", str(human), "--domain-id", str(domain)],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert out.returncode == 0, out.stderr
+        assert "published 40 messages" in out.stderr, out.stderr
+        got = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, _ = node.stop()
+    stamps = sorted(stamp_ns(c.header.stamp) for c in got)
+    assert len(stamps) >= 38 and set(stamps) <= set(int(t) for t in times)
+    assert summary["frames"] >= 38
+
+
+def test_safety_cases_hold_the_robot_and_say_why(tmp, data, models):
+    """One node, COMAN with its real limits: a pose far from training, NaN, unknown and missing
+    joints, a jump beyond the velocity limits, a pose beyond the position limits and stale input
+    each give the documented behaviour and status; SIGTERM ends the node with a last status."""
+    domain = next_domain()
+    names, rows, times = data["names"], data["trained_rows"], data["times_ns"]
+    urdf_text = sgplvm.Robot.builtin_urdf("coman")
+    # A timeout of 0.5 s: the pauses to read what came back (0.2 s) must not make the input stale.
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--timeout", "0.5"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader("/coman/joint_command", JointState)
+        ros.reader("/sgplvm/status", DiagnosticArray)
+        ros.wait_matched()
+        t_ns = int(times[0])
+
+        def step(position, names=names, wait=0.025):
+            nonlocal t_ns
+            t_ns += 25_000_000
+            w.write(joint_state(names, position, t_ns))
+            time.sleep(wait)
+            return t_ns
+
+        # Following: the recorded motion, trusted.
+        for row in rows[:20]:
+            step(row)
+        ros.take("/sgplvm/status", settle=0.2)
+        last = ros.take("/coman/joint_command")[-1]
+        joints = last.name
+        lo, hi, vel = limits(urdf_text, joints)
+        held_at = np.array(last.position)
+
+        # A pose far from anything trained on (every joint +2.5 rad): not trusted, the robot holds
+        # what it last sent and the status says why, naming joints.
+        far = rows[19] + 2.5
+        step(far)
+        held = ros.take("/coman/joint_command", settle=0.2)[-1]
+        assert np.array_equal(np.array(held.position), held_at)
+        st = status_of(ros.take("/sgplvm/status"), "coman")
+        holding = [s for s in st if values(s)["reason"] == "holding"]
+        assert holding and holding[0].level == 1 and "trust threshold" in holding[0].message, [s.message for s in st]
+        assert any(j in holding[0].message for j in joints), holding[0].message
+        # Still untrusted: it moves to the last trusted target at a quarter of its velocity
+        # limits, no faster.
+        before = np.array(held.position)
+        for _ in range(4):
+            step(far)
+        after = ros.take("/coman/joint_command", settle=0.2)
+        st = status_of(ros.take("/sgplvm/status"), "coman")
+        assert values(st[-1])["reason"] == "moving to the last trusted target", st[-1].message
+        for c in after:
+            q = np.array(c.position)
+            assert np.all(q >= lo) and np.all(q <= hi)
+        steps = np.abs(np.diff(np.array([before] + [c.position for c in after]), axis=0))
+        assert np.all(steps <= 0.25 * vel * 0.5 + 1e-9)  # ≤ 0.5 s between any two of them
+
+        # Back on the recording: trusted, following again, within the velocity limits.
+        for row in rows[20:30]:
+            step(row)
+        st = status_of(ros.take("/sgplvm/status", settle=0.2), "coman")
+        assert values(st[-1])["reason"] == "following", st[-1].message
+        ros.take("/coman/joint_command")
+
+        # NaN, unknown names and missing joints: dropped, counted, the node goes on.
+        dropped = [
+            step(np.where(np.arange(len(names)) == 3, np.nan, rows[30])),
+            step(rows[30], names=[n + "_x" for n in names]),
+            step(rows[30][:-1], names=names[:-1]),
+        ]
+        got = ros.take("/coman/joint_command", settle=0.3)
+        # (Dropped messages are no input: the input may have gone stale meanwhile, and the held
+        # command been sent again with the last good frame's stamp.)
+        assert not {stamp_ns(g.header.stamp) for g in got} & set(dropped), "a dropped message was answered"
+        step(rows[31])
+        assert len(ros.take("/coman/joint_command", settle=0.2)) == 1
+        inputs = [s for a in ros.take("/sgplvm/status") for s in a.status if s.name == "sgplvm/input"]
+        assert inputs and "3 input message(s) dropped" in inputs[-1].message, [s.message for s in inputs]
+
+        # A jump beyond the velocity limits: the command moves at most its velocity limit.
+        prev = np.array(ros.take("/coman/joint_command") or [held])[-1]
+        jump = rows[31].copy()
+        jump[:9] = rows[0][:9] + 0.8  # the left arm elsewhere
+        sent_at = time.monotonic()
+        step(rows[31])
+        base = ros.take("/coman/joint_command", settle=0.1)[-1]
+        step(jump, wait=0.0)
+        c = ros.take("/coman/joint_command", settle=0.2)
+        gap = time.monotonic() - sent_at
+        assert c, "no answer to the jump"
+        move = np.abs(np.array(c[-1].position) - np.array(base.position))
+        assert np.all(move <= vel * gap + 1e-9), (move, vel * gap)
+        del prev
+
+        # Stale input: after the timeout the robot holds, and the status says so.
+        ros.take("/sgplvm/status")
+        time.sleep(1.0)
+        st = [s for a in ros.take("/sgplvm/status") for s in a.status]
+        assert any(s.name == "sgplvm/input" and s.level == 3 for s in st), [(s.name, s.level, s.message) for s in st]
+        assert any(s.name == "sgplvm/coman" and values(s)["reason"] == "stale input" for s in st)
+        # Frames again: followed within the velocity limits from where the robot held.
+        for row in rows[32:40]:
+            step(row)
+        st = status_of(ros.take("/sgplvm/status", settle=0.2), "coman")
+        assert values(st[-1])["reason"] == "following"
+    except BaseException:
+        node.kill()
+        raise
+    # SIGTERM: a clean exit, a last status, the summary.
+    summary, err = node.stop()
+    last = status_of(ros.take("/sgplvm/status", settle=0.3), "coman")
+    assert last, "no last status after SIGTERM"
+    r = summary["robots"]["coman"]
+    assert r["untrusted"] >= 5 and r["stale"] >= 1 and r["velocity_clamped"] >= 1, summary
+    assert sum(summary["dropped"].values()) == 3, summary
+    for kind in ["NaN", "unknown", "missing"]:
+        assert any(kind.lower() in k.lower() for k in summary["dropped"]), summary
+        assert kind.lower() in err.lower(), err
+
+
+def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
+    """A recorded frame whose prediction leaves COMAN's position limits: the command is held at
+    the limit, and the status names the joint."""
+    d = data["all"]
+    test = np.asarray(d["test"])
+    names = data["names"]
+    human = np.asarray(d["human"]["positions"])[test]
+    times = np.asarray(d["times_ns"])[test]
+    joints, raw = predict_raw(tmp, models["coman"], "coman", names, human, times)
+    lo, hi, _ = limits(sgplvm.Robot.builtin_urdf("coman"), joints)
+    beyond = np.where(np.any((raw < lo) | (raw > hi), axis=1))[0]
+    assert len(beyond) > 0, "no test frame predicted beyond COMAN's limits"
+    k = int(beyond[0])
+    domain = next_domain()
+    urdf, _ = relaxed_urdf(tmp, "coman")  # position limits only
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--trust-threshold", "1e9", "--urdf", f"coman={urdf}", "--timeout", "5"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader("/coman/joint_command", JointState)
+        ros.reader("/sgplvm/status", DiagnosticArray)
+        ros.wait_matched()
+        w.write(joint_state(names, human[k], int(times[k])))
+        got = ros.take("/coman/joint_command", settle=0.5)
+        st = status_of(ros.take("/sgplvm/status"), "coman")
+    finally:
+        summary, _ = node.stop()
+    (c,) = got
+    q = np.array(c.position)
+    assert np.array_equal(q, np.clip(raw[k], lo, hi))
+    out = [joints[j] for j in range(len(joints)) if raw[k][j] < lo[j] or raw[k][j] > hi[j]]
+    assert any("held within its limits" in s.message and all(j in s.message for j in out) for s in st), [s.message for s in st]
+    assert summary["robots"]["coman"]["position_clamped"] == 1
+
+
+def test_live_view_serves_foxglove(tmp, data, models):
+    """A WebSocket client subscribing as Foxglove does (``foxglove.sdk.v1``) sees the scene files'
+    channels with their ROS 2 schemas, and transforms at the input rate."""
+    domain = next_domain()
+    port = 18765 + domain
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--foxglove", f"127.0.0.1:{port}"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.wait_matched()
+        result = {}
+
+        async def client():
+            for _ in range(100):
+                try:
+                    ws = await websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"])
+                    break
+                except OSError:
+                    await asyncio.sleep(0.1)
+            else:
+                raise AssertionError("the live view did not open")
+            async with ws:
+                assert ws.subprotocol == "foxglove.sdk.v1"
+                channels, counts = {}, {}
+                subscribed = {}
+                end = time.monotonic() + 8.0
+                sender = None
+                while time.monotonic() < end:
+                    try:
+                        msg = await asyncio.wait_for(ws.recv(), timeout=0.5)
+                    except asyncio.TimeoutError:
+                        continue
+                    if isinstance(msg, str):
+                        m = json.loads(msg)
+                        if m.get("op") == "advertise":
+                            for c in m["channels"]:
+                                channels[c["id"]] = c
+                            subs = [{"id": c, "channelId": c} for c in channels if c not in subscribed]
+                            for s_ in subs:
+                                subscribed[s_["id"]] = channels[s_["channelId"]]["topic"]
+                            await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                            if sender is None:
+                                loop = asyncio.get_running_loop()
+                                sender = loop.run_in_executor(None, send, w, data["names"], data["rows"], data["times_ns"])
+                                started = time.monotonic()
+                    elif msg[0] == 1:
+                        sub = int.from_bytes(msg[1:5], "little")
+                        topic = subscribed.get(sub)
+                        counts.setdefault(topic, []).append(time.monotonic())
+                await sender
+                result.update(channels=channels, counts=counts, started=started)
+
+        asyncio.run(client())
+    finally:
+        node.stop()
+    topics = {c["topic"]: c for c in result["channels"].values()}
+    expected = {
+        "/human/joint_states": "sensor_msgs/msg/JointState",
+        "/coman/joint_command": "sensor_msgs/msg/JointState",
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/tf_static": "tf2_msgs/msg/TFMessage",
+        "/coman/prediction_std": "std_msgs/msg/Float64MultiArray",
+        "/coman/trust": "std_msgs/msg/Float64MultiArray",
+        "/latent": "std_msgs/msg/Float64MultiArray",
+        "/human/robot_description": "std_msgs/msg/String",
+        "/coman/robot_description": "std_msgs/msg/String",
+    }
+    for topic, schema in expected.items():
+        assert topic in topics, sorted(topics)
+        assert topics[topic]["schemaName"] == schema and topics[topic]["encoding"] == "cdr", topics[topic]
+    # 120 frames in 3 s: /tf carries one message per frame (both bodies), at the input's 40 Hz.
+    tf = result["counts"].get("/tf", [])
+    assert len(tf) >= 0.9 * len(data["rows"]), len(tf)
+    rate = (len(tf) - 1) / (tf[-1] - tf[0])
+    assert 30 <= rate <= 50, rate
+    assert len(result["counts"].get("/coman/joint_command", [])) >= 0.9 * len(data["rows"])

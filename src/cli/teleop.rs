@@ -1,0 +1,286 @@
+//! `sgplvm teleop`: the trained model as a ROS 2 node driving one or several robots live, and
+//! `sgplvm replay`, a recorded human published for it.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, ValueEnum};
+use sgplvm::robots::joint_state::{read_joint_states, JointStates};
+use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, ReplayOptions, TeleopOptions};
+
+use super::args::{load_model, JsonArg};
+use super::limits::robot_body;
+
+#[derive(Args)]
+pub struct TeleopArgs {
+    /// A trained model (repeat for a family of transferred models, one per --robot, in order;
+    /// one multi-robot model drives all of its robots).
+    #[arg(long, required = true)]
+    model: Vec<PathBuf>,
+    /// A robot to drive: a robot of its model (repeat for several).
+    #[arg(long, required = true)]
+    robot: Vec<String>,
+    /// The URDF of a robot that is not built in, as ROBOT=FILE (its limits bound the commands).
+    #[arg(long, value_name = "ROBOT=FILE")]
+    urdf: Vec<String>,
+    /// The human's sensor_msgs/msg/JointState topic (joints matched by name, any order).
+    #[arg(long, default_value = "/human/joint_states")]
+    input_topic: String,
+    /// The command's message: joint-state (sensor_msgs/JointState on /ROBOT/joint_command),
+    /// forward (std_msgs/Float64MultiArray for ros2_control's forward position controller),
+    /// trajectory (trajectory_msgs/JointTrajectory, one point one frame ahead) or xbot
+    /// (xbot_msgs/JointCommand on xbotcore/command, XBot2's).
+    #[arg(long, default_value = "joint-state", value_parser = parse_form)]
+    command: CommandForm,
+    /// The command topic; `{robot}` stands for the robot's name [default: by --command; a
+    /// controller's topic goes under /ROBOT/ when several robots share the node].
+    #[arg(long)]
+    command_topic: Option<String>,
+    /// With --command forward: the controller's joint order, comma-separated [default: the
+    /// URDF's order].
+    #[arg(long, value_delimiter = ',')]
+    joints: Option<Vec<String>>,
+    /// QoS of the input: best-effort (ROS 2's sensor-data profile, keep last 1) or reliable.
+    #[arg(long, value_enum, default_value = "best-effort")]
+    input_qos: QosArg,
+    /// QoS of the commands.
+    #[arg(long, value_enum, default_value = "reliable")]
+    command_qos: QosArg,
+    /// DDS domain [default: $ROS_DOMAIN_ID, else 0].
+    #[arg(long)]
+    domain_id: Option<u16>,
+    /// Seconds without a human frame after which the robots hold and the status says the input
+    /// is stale.
+    #[arg(long, default_value_t = 0.1)]
+    timeout: f64,
+    /// The trust threshold (standardised predictive standard deviation) instead of the model's
+    /// (the 99th percentile over its training frames, each predicted with its group of
+    /// training frames held out).
+    #[arg(long)]
+    trust_threshold: Option<f64>,
+    /// The model's trust threshold multiplied by this.
+    #[arg(long, default_value_t = 1.0)]
+    trust_scale: f64,
+    /// Fraction of each joint's velocity limit at which an untrusted robot moves towards its
+    /// last trusted target.
+    #[arg(long, default_value_t = 0.25)]
+    return_speed: f64,
+    /// The status topic (diagnostic_msgs/msg/DiagnosticArray).
+    #[arg(long, default_value = "/sgplvm/status")]
+    status_topic: String,
+    /// Stop after this many human frames (default: run until Ctrl-C or SIGTERM).
+    #[arg(long)]
+    max_frames: Option<usize>,
+    /// Serve a live view for Foxglove (WebSocket, `foxglove.sdk.v1`) on ADDR:PORT [default
+    /// when given alone: 127.0.0.1:8765]: the human and the robots as `predict`'s scene files
+    /// show them (open with the layout data/foxglove/sgplvm.json), the predictive standard
+    /// deviation and each robot's trust.
+    #[arg(long, value_name = "ADDR:PORT", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    foxglove: Option<std::net::SocketAddr>,
+    #[command(flatten)]
+    json: JsonArg,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum QosArg {
+    /// Best effort, keep last 1.
+    BestEffort,
+    /// Reliable.
+    Reliable,
+}
+
+impl QosArg {
+    fn reliability(self) -> Reliability {
+        match self {
+            QosArg::BestEffort => Reliability::BestEffort,
+            QosArg::Reliable => Reliability::Reliable,
+        }
+    }
+}
+
+fn parse_form(s: &str) -> Result<CommandForm, String> {
+    CommandForm::parse(s)
+        .ok_or_else(|| format!("unknown `{s}`; expected joint-state, forward, trajectory or xbot"))
+}
+
+/// `--domain-id`, else `ROS_DOMAIN_ID`, else 0.
+fn domain_id(given: Option<u16>) -> Result<u16> {
+    match given {
+        Some(d) => Ok(d),
+        None => match std::env::var("ROS_DOMAIN_ID") {
+            Ok(v) if !v.trim().is_empty() => v
+                .trim()
+                .parse()
+                .map_err(|_| anyhow!("ROS_DOMAIN_ID is `{v}`; expected a domain number (0–232)")),
+            _ => Ok(0),
+        },
+    }
+}
+
+/// A flag set by Ctrl-C and SIGTERM.
+fn stop_flag() -> Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || s.store(true, Ordering::SeqCst))
+        .context("installing the Ctrl-C / SIGTERM handler")?;
+    Ok(stop)
+}
+
+pub fn run(args: TeleopArgs) -> Result<()> {
+    let models: Vec<Arc<sgplvm::SharedGplvm>> = args
+        .model
+        .iter()
+        .map(|p| load_model(p).map(Arc::new))
+        .collect::<Result<_>>()?;
+    let model_for = |k: usize| -> Result<Arc<sgplvm::SharedGplvm>> {
+        match models.len() {
+            1 => Ok(models[0].clone()),
+            n if n == args.robot.len() => Ok(models[k].clone()),
+            n => bail!("{n} --model files for {} --robot names: give one model per robot, or one model for all", args.robot.len()),
+        }
+    };
+    let mut urdfs: Vec<(String, PathBuf)> = Vec::new();
+    for u in &args.urdf {
+        let (robot, file) = u
+            .split_once('=')
+            .ok_or_else(|| anyhow!("--urdf {u}: expected ROBOT=FILE"))?;
+        if !args.robot.iter().any(|r| r == robot) {
+            bail!(
+                "--urdf {u}: `{robot}` is not one of the --robot names {:?}",
+                args.robot
+            );
+        }
+        urdfs.push((robot.to_string(), PathBuf::from(file)));
+    }
+    let mut drives = Vec::with_capacity(args.robot.len());
+    for (k, robot) in args.robot.iter().enumerate() {
+        let urdf = urdfs
+            .iter()
+            .find(|(r, _)| r == robot)
+            .map(|(_, p)| p.as_path());
+        let body = robot_body(
+            robot,
+            urdf,
+            &format!("give its URDF with --urdf {robot}=FILE"),
+        )?;
+        drives.push(Drive {
+            robot: robot.clone(),
+            model: model_for(k)?,
+            body,
+        });
+    }
+    let options = TeleopOptions {
+        domain_id: domain_id(args.domain_id)?,
+        input_topic: args.input_topic.clone(),
+        input_qos: args.input_qos.reliability(),
+        form: args.command,
+        command_topic: args.command_topic.clone(),
+        command_qos: args.command_qos.reliability(),
+        joint_order: args.joints.clone(),
+        gate: GateOptions {
+            threshold: args.trust_threshold,
+            threshold_scale: args.trust_scale,
+            return_speed: args.return_speed,
+            timeout_s: args.timeout,
+        },
+        status_topic: args.status_topic.clone(),
+        max_frames: args.max_frames,
+        status_period_s: 1.0,
+        view: args.foxglove,
+    };
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        bail!(
+            "--timeout {}: expected a positive number of seconds",
+            args.timeout
+        );
+    }
+    if !(args.return_speed.is_finite() && args.return_speed >= 0.0) {
+        bail!(
+            "--return-speed {}: expected a fraction ≥ 0 of the velocity limits",
+            args.return_speed
+        );
+    }
+    let stop = stop_flag()?;
+    // What happens (states, warnings) on stderr whatever the output: --json is the summary.
+    let summary = sgplvm_live::teleop(drives, &options, &stop, &mut |line| eprintln!("{line}"))?;
+    if args.json.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        let l = &summary.latency;
+        eprintln!(
+            "{} human frames; receive to publish {:.0} µs median, {:.0} µs at the 99th percentile, {:.0} µs at most",
+            summary.frames, l.p50_us, l.p99_us, l.max_us
+        );
+        for (robot, r) in &summary.robots {
+            eprintln!(
+                "{robot}: {} frames not trusted (threshold {:.4}), {} commands held within position limits, {} within velocity limits, input stale {} time(s)",
+                r.untrusted, r.threshold, r.position_clamped, r.velocity_clamped, r.stale
+            );
+        }
+        for (kind, n) in &summary.dropped {
+            eprintln!("dropped: {n} input message(s) ({kind})");
+        }
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct ReplayArgs {
+    /// Human frames: an MCAP with the human's JointState topic (--topic), e.g. from `sgplvm
+    /// import`, `sgplvm export --body human` or a ROS 2 recording; published with its stamps.
+    #[arg(long)]
+    input: PathBuf,
+    /// The topic to publish on (and, for a plain MCAP, to read).
+    #[arg(long, default_value = "/human/joint_states")]
+    topic: String,
+    /// Playback speed (2 = twice as fast); the stamps keep the recording's times.
+    #[arg(long, default_value_t = 1.0)]
+    rate: f64,
+    /// Start again at the end (stamps go on increasing).
+    #[arg(long = "loop")]
+    looped: bool,
+    /// QoS of the publisher (reliable matches reliable and best-effort subscribers).
+    #[arg(long, value_enum, default_value = "reliable")]
+    qos: QosArg,
+    /// DDS domain [default: $ROS_DOMAIN_ID, else 0].
+    #[arg(long)]
+    domain_id: Option<u16>,
+    /// Seconds to wait for a subscriber before the first message.
+    #[arg(long, default_value_t = 5.0)]
+    wait: f64,
+    /// Stop after this many messages.
+    #[arg(long)]
+    max_messages: Option<usize>,
+}
+
+/// The human series of `path`: its JointState `topic` as recorded (stamps and all).
+fn human_series(path: &std::path::Path, topic: &str) -> Result<JointStates> {
+    Ok(read_joint_states(path, topic)?)
+}
+
+pub fn run_replay(args: ReplayArgs) -> Result<()> {
+    let series = human_series(&args.input, &args.topic)?;
+    let options = ReplayOptions {
+        domain_id: domain_id(args.domain_id)?,
+        topic: args.topic.clone(),
+        rate: args.rate,
+        looped: args.looped,
+        qos: args.qos.reliability(),
+        wait_s: args.wait,
+        max_messages: args.max_messages,
+    };
+    let stop = stop_flag()?;
+    eprintln!(
+        "replaying {} frames of {} ({} joints) on {}{}",
+        series.len(),
+        args.input.display(),
+        series.dof(),
+        args.topic,
+        if args.looped { ", looped" } else { "" }
+    );
+    let sent = sgplvm_live::replay(&series, &options, &stop)?;
+    eprintln!("published {sent} messages");
+    Ok(())
+}
