@@ -352,4 +352,26 @@ mod tests {
         assert_eq!(default_groups(18)[..4], [0, 0, 1, 1]);
         assert_eq!(default_groups(18)[17], TRUST_BLOCKS - 1);
     }
+
+    #[test]
+    fn groups_are_checked_stored_and_change_the_threshold() {
+        let mut m = crate::test_support::fit(crate::BackConstraint::Input, 40, 20, 1);
+        let blocks = m.trust_threshold("walkman").unwrap();
+        let single = {
+            let mut one = m.clone();
+            one.set_trust_groups((0..40).collect()).unwrap();
+            one.trust_threshold("walkman").unwrap()
+        };
+        // Neighbours left out together: less certain than each alone.
+        assert!(blocks > single, "{blocks} vs {single}");
+        assert!(m.set_trust_groups(vec![0; 39]).is_err());
+        assert!(m.set_trust_groups(vec![3; 40]).is_err());
+        let halves: Vec<usize> = (0..40).map(|i| i / 20).collect();
+        m.set_trust_groups(halves.clone()).unwrap();
+        let t = m.trust_threshold("walkman").unwrap();
+        let back = SharedGplvm::from_bytes(&m.to_bytes()).unwrap();
+        assert_eq!(back.trust_groups(), Some(&halves[..]));
+        assert_eq!(back.trust_threshold("walkman").unwrap(), t);
+        assert!(m.trust_threshold("nao").is_err());
+    }
 }
