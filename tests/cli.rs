@@ -1035,6 +1035,27 @@ fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
         assert!(stdout.contains(s(&path)), "{stdout}");
         assert!(path.exists(), "{model}");
     }
+    // Figs. 7 and 8 read on a laptop screen: at least 1,000 pixels wide, SVG and PNG alike;
+    // Fig. 8 has a column per test motion (two in the fixture's data) and a legend column.
+    for (stem, min_width) in [("latent_space", 1000), ("coman_trajectories", 1000)] {
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        let png_size = (
+            u32::from_be_bytes(png[16..20].try_into().unwrap()),
+            u32::from_be_bytes(png[20..24].try_into().unwrap()),
+        );
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        let svg_size = format!("width=\"{}\" height=\"{}\"", png_size.0, png_size.1);
+        assert!(
+            svg.contains(&svg_size),
+            "{stem}: {svg_size} {}",
+            &svg[..200]
+        );
+        assert!(png_size.0 >= min_width, "{stem}: {png_size:?}");
+    }
+    let fig8 = std::fs::read_to_string(out.join("coman_trajectories.svg")).unwrap();
+    for motion in ["forward_high ↔ hands_together", "v_up ↔ left_across"] {
+        assert!(fig8.contains(motion), "Fig. 8 does not show {motion}");
+    }
     // The test frames as each model predicts them, with predict's Foxglove topics.
     let test_frames = sgplvm::robots::dataset::load_demonstrations(&f.data)
         .unwrap()
