@@ -613,6 +613,30 @@ fn experiment_writes_results_in_the_documented_schema() {
     ] {
         assert!(out.join(file).exists(), "missing {file}");
     }
+    // `experiment --help` names every file the command wrote, and the summary every figure.
+    let help = ok(&["experiment", "--help"]);
+    let summary = ok(&["--help"]);
+    let mut figures = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(&out).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        let stem = name.split('.').next().unwrap().to_string();
+        assert!(
+            help.contains(&stem),
+            "`experiment --help` does not name {name}:\n{help}"
+        );
+        if let Some(number) = stem.strip_prefix("fig") {
+            figures.insert(number.trim_end_matches("_seconds").to_string());
+        }
+    }
+    assert_eq!(figures.len(), 5, "{figures:?}");
+    let line = summary
+        .lines()
+        .find(|l| l.trim_start().starts_with("experiment "))
+        .unwrap();
+    assert!(
+        line.contains("Figs. 4-6, 9 and 10 (and 11 with --all-frames)"),
+        "{line}"
+    );
 }
 
 /// `experiment --all-frames`: beside the subsampled exact baselines, per robot one sparse
@@ -650,6 +674,7 @@ fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
             s(&out),
         ]);
         assert!(out.join("fig11.svg").exists() && out.join("fig11.png").exists());
+        assert!(ok(&["experiment", "--help"]).contains("with --all-frames, fig11"));
         let report = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(
             report.contains("**Does using all the data help?**") && report.contains("(996 frames)"),

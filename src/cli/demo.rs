@@ -18,13 +18,14 @@ use super::report::{self, Yardstick};
 
 #[derive(Args)]
 #[command(mut_arg("data", |a| a.help(
-    "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or the same data generated"
+    "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or outside the repository the \
+     same data generated in memory"
 )))]
 #[command(mut_arg("max_iters", |a| a.default_value("500")))]
 pub struct DemoArgs {
     #[command(flatten)]
     data: DataArg,
-    /// Output folder for figures and models.
+    /// Output folder: the models, Figs. 7 and 8 (SVG and PNG) and the test predictions (MCAP).
     #[arg(long, default_value = "sgplvm-demo")]
     out: PathBuf,
     /// Robot trained fully; the others in the data are transferred to.

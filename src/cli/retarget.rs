@@ -45,8 +45,9 @@ pub struct RetargetArgs {
     #[arg(long)]
     out: PathBuf,
     /// What the robot matches: hands (positions; the fastest, fewest misses), hands+elbows (the
-    /// elbow follows the person's as far as the hand allows: about 3× the time), poses (hand
-    /// orientation too: six constraints on seven joints, more targets out of reach).
+    /// elbow follows the person's as far as the hand allows: about 1.2× the time), poses (hand
+    /// orientation too: six constraints on seven joints, more targets out of reach, about 3.5×
+    /// the time).
     #[arg(long = "match", value_parser = parse_match, default_value = "hands")]
     mode: Match,
     /// How each arm's redundancy (7 joints for 3 hand coordinates) is resolved: `continuous`
