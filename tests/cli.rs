@@ -793,6 +793,41 @@ fn messages_say_what_happened() {
         s(&dir.join("again.sgp")),
     ]);
     assert!(err.contains("already predicts for 'coman'"), "{err}");
+    // A budget chosen on held-out frames is said in words (issue 38), not as the caller's
+    // `MaxIterations`; --json gives the stop reason's name, as results.json and Python do.
+    let trained = dir.join("validated.sgp");
+    let args = [
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--out",
+        s(&trained),
+    ];
+    let said = ok(&args);
+    let lines: Vec<&str> = said.lines().collect();
+    assert_eq!(lines.len(), 2, "{said}");
+    assert!(
+        lines[1].starts_with("  validated budget: ")
+            && lines[1].contains("held-out training frames")
+            && lines[1].contains("until their error had not fallen for 50 iterations")
+            && lines[1].contains("then retrained on all "),
+        "{said}"
+    );
+    assert!(
+        !said.contains("MaxIterations") && !said.contains("budget used up"),
+        "{said}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    assert_eq!(json["stop_reason"], "validated_budget", "{json}");
+    // Trained to a fixed budget, the first line says that budget ran out.
+    let said = ok(&[&args[..], &["--validation", "none", "--max-iters", "3"]].concat());
+    assert!(
+        said.contains(" (iteration budget used up); wrote "),
+        "{said}"
+    );
     // A missing folder: the error names the user's path, not a temporary file.
     let missing = dir.join("no-such-folder").join("x.sgp");
     let err = fails_on_one_line(&[

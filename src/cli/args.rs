@@ -77,7 +77,7 @@ pub struct BudgetArg {
     pub patience: u64,
     /// Wall-clock budget of each training in seconds (with `--validation auto`, half of it for
     /// choosing the iteration count): when it runs out, training stops and keeps the best
-    /// parameters so far (stop reason TimeLimit). Default: no limit.
+    /// parameters so far (stop reason `time_limit`). Default: no limit.
     #[arg(long, value_parser = parse_seconds)]
     pub max_seconds: Option<f64>,
 }

@@ -7,7 +7,7 @@ use serde_json::json;
 use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel};
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
-use sgplvm::SharedGplvm;
+use sgplvm::{SharedGplvm, StopReason};
 
 /// After `train`: robots, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
@@ -32,45 +32,99 @@ pub fn transfer(
     trained(&what, model, seconds, out, json);
 }
 
-/// The result line of a training: `what` was done, in `seconds`, then the budget's selection.
+/// The result of a training: `what` was done, in `seconds`, and why it stopped, in words —
+/// for a budget chosen on held-out frames, how it was chosen.
 fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
-    let history = model.history();
-    let objective = history.last().map(|r| r.objective);
-    let stop = model
-        .stop_reason()
-        .map(|r| format!("{r:?}"))
-        .unwrap_or_default();
     if json {
+        let history = model.history();
         let value = json!({
             "model": out.display().to_string(),
             "robots": model.output_names(),
             "iterations": history.last().map_or(0, |r| r.iteration),
             "seconds": seconds,
-            "objective": objective,
-            "stop_reason": stop,
+            "objective": history.last().map(|r| r.objective),
+            "stop_reason": model.stop_reason().map(StopReason::name),
             "selection": model.selection(),
         });
         println!("{value}");
     } else {
-        println!(
-            "{what} in {:.2} s, {} iterations, objective {:.3} ({stop}); wrote {}",
-            seconds,
-            history.last().map_or(0, |r| r.iteration),
-            objective.unwrap_or(f64::NAN),
+        print!("{}", trained_text(what, model, seconds, out));
+    }
+}
+
+/// The lines [`trained`] prints: what was done, then why it stopped. Without a selection the
+/// stop reason closes the first line; with one, a second line says how the budget was chosen
+/// and whether the final training ran all of it (`validated budget: 7 iterations chosen on 84
+/// held-out training frames (...), then retrained on all 249 frames`).
+fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> String {
+    let history = model.history();
+    let iterations = history.last().map_or(0, |r| r.iteration);
+    let objective = history.last().map_or(f64::NAN, |r| r.objective);
+    let stop = model
+        .stop_reason()
+        .map_or("not trained".to_string(), ToString::to_string);
+    let Some(s) = model.selection() else {
+        return format!(
+            "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3} \
+             ({stop}); wrote {}\n",
             out.display()
         );
-        if let Some(s) = model.selection() {
-            let best = s.curve.iter().find(|r| r.iteration == s.best_iteration);
-            println!(
-                "  budget chosen on {} held-out training frames (trained on the other {} until \
-                 their error had not fallen for {} iterations): {} iterations, held-out MSE {:.6}",
-                s.validation_frames,
-                s.fit_frames,
-                s.patience,
-                s.best_iteration,
-                best.map_or(f64::NAN, |r| r.validation_mse)
-            );
-        }
+    };
+    let held_out_mse = s
+        .curve
+        .iter()
+        .find(|r| r.iteration == s.best_iteration)
+        .map_or(f64::NAN, |r| r.validation_mse);
+    let last = s.curve.last().map_or(0, |r| r.iteration);
+    let chosen = if s.chose_the_budget() {
+        let run = if last >= s.best_iteration + s.patience {
+            format!(
+                "until their error had not fallen for {}",
+                count(s.patience, "iteration")
+            )
+        } else {
+            format!(
+                "for {}, to the iteration budget or time limit",
+                count(last, "iteration")
+            )
+        };
+        format!(
+            "validated budget: {} chosen on {} held-out training frames (held-out MSE \
+             {held_out_mse:.6}; the selection run trained on the other {} {run})",
+            count(s.best_iteration, "iteration"),
+            s.validation_frames,
+            s.fit_frames,
+        )
+    } else {
+        format!(
+            "budget: {}: the selection run on {} training frames ended there (iteration budget \
+             or time limit), at its lowest error on {} held-out frames (MSE {held_out_mse:.6})",
+            count(s.best_iteration, "iteration"),
+            s.fit_frames,
+            s.validation_frames,
+        )
+    };
+    let ending = match model.stop_reason() {
+        Some(StopReason::ValidatedBudget) => String::new(),
+        _ => format!(
+            ", which stopped after {}: {stop}",
+            count(iterations, "iteration")
+        ),
+    };
+    format!(
+        "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3}; wrote {}\n  \
+         {chosen}, then retrained on all {} frames{ending}\n",
+        out.display(),
+        s.fit_frames + s.validation_frames,
+    )
+}
+
+/// `n` and `noun`, plural unless `n` is 1: `1 iteration`, `7 iterations`.
+fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
     }
 }
 
