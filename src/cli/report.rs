@@ -287,8 +287,18 @@ pub fn replay(
     Ok(())
 }
 
-/// A violation's amount and limit, formatted with their unit.
-type Units = fn(&LimitViolation) -> (String, String);
+/// A violation's amount and limit, each with its unit, for a revolute (`false`) or prismatic
+/// (`true`) joint: one unit per line.
+type Units = fn(&LimitViolation, bool) -> (String, String);
+
+/// Positions in the text report: degrees, or millimetres for prismatic joints.
+fn position(value: f64, prismatic: bool) -> f64 {
+    if prismatic {
+        value * 1e3
+    } else {
+        value.to_degrees()
+    }
+}
 
 /// How many of the worst cases the summary lists.
 const WORST: usize = 3;
@@ -350,32 +360,52 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     for j in &report.joints {
         let (lc, lw) = cell(
             &per_joint(&report.limit_violations, &j.name),
-            180.0 / std::f64::consts::PI,
+            position(1.0, j.prismatic),
         );
         let (vc, vw) = cell(&per_joint(&report.velocity_violations, &j.name), 1.0);
+        let name = if j.prismatic {
+            format!("{} *", j.name)
+        } else {
+            j.name.clone()
+        };
         line(format!(
-            "{:<20} {:>9.3} {:>9.3} {:>8.2}  {lc:>10} {lw:>11}  {vc:>8} {vw:>13}",
-            j.name,
-            j.rms_error.to_degrees(),
-            j.max_error.to_degrees(),
+            "{name:<20} {:>9.3} {:>9.3} {:>8.2}  {lc:>10} {lw:>11}  {vc:>8} {vw:>13}",
+            position(j.rms_error, j.prismatic),
+            position(j.max_error, j.prismatic),
             j.max_error_time,
         ));
     }
+    if report.joints.iter().any(|j| j.prismatic) {
+        line("* prismatic: millimetres for degrees, m/s for rad/s".into());
+    }
     line(String::new());
     let kinds: [(&str, &[LimitViolation], Units); 2] = [
-        ("joint-limit", &report.limit_violations, |v| {
-            (
-                format!("{:.2}°", v.amount.to_degrees()),
-                format!("{:.3}", v.limit),
-            )
+        ("joint-limit", &report.limit_violations, |v, prismatic| {
+            if prismatic {
+                (
+                    format!("{:.1} mm", v.amount * 1e3),
+                    format!("{:.1} mm", v.limit * 1e3),
+                )
+            } else {
+                (
+                    format!("{:.2}°", v.amount.to_degrees()),
+                    format!("{:.2}°", v.limit.to_degrees()),
+                )
+            }
         }),
-        ("velocity-limit", &report.velocity_violations, |v| {
-            (
-                format!("{:.2} rad/s", v.amount),
-                format!("{:.3} rad/s", v.limit),
-            )
-        }),
+        (
+            "velocity-limit",
+            &report.velocity_violations,
+            |v, prismatic| {
+                let unit = if prismatic { "m/s" } else { "rad/s" };
+                (
+                    format!("{:.2} {unit}", v.amount),
+                    format!("{:.3} {unit}", v.limit),
+                )
+            },
+        ),
     ];
+    let prismatic = |joint: &str| report.joints.iter().any(|j| j.name == joint && j.prismatic);
     for (kind, violations, units) in kinds {
         if violations.is_empty() {
             line(format!("no {kind} violations"));
@@ -400,7 +430,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
             line("  worst:".into());
         }
         for v in worst {
-            let (amount, limit) = units(v);
+            let (amount, limit) = units(v, prismatic(&v.joint));
             line(violation(v, &amount, &limit));
         }
     }
@@ -418,7 +448,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
 /// One line of a limit violation, its amount and limit already formatted with their unit.
 fn violation(v: &LimitViolation, amount: &str, limit: &str) -> String {
     format!(
-        "  {:>7.3}–{:<7.3} s  {:<20} {amount} beyond {limit} ({})",
+        "  {:>7.3}–{:<7.3} s  {:<20} {amount} beyond its limit of {limit} ({})",
         v.time,
         v.end_time,
         v.joint,
@@ -476,5 +506,82 @@ fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(Str
                 c.max_penetration * 1e3
             ));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sgplvm::robots::physics::JointTracking;
+
+    fn joint(name: &str, prismatic: bool) -> JointTracking {
+        JointTracking {
+            name: name.into(),
+            rms_error: 0.01,
+            max_error: 0.02,
+            max_error_time: 1.0,
+            prismatic,
+        }
+    }
+
+    fn beyond(joint: &str, amount: f64, limit: f64) -> LimitViolation {
+        LimitViolation {
+            time: 1.0,
+            end_time: 1.5,
+            joint: joint.into(),
+            amount,
+            limit,
+            commanded: true,
+        }
+    }
+
+    /// Each line of the summary gives its numbers in one unit and names it (issue 38: it said
+    /// `1.28° beyond -0.314`, degrees beside radians).
+    #[test]
+    fn every_violation_line_has_one_named_unit() {
+        let report = ReplayReport {
+            duration: 2.0,
+            physics_steps: 2000,
+            wall_seconds: 0.1,
+            joints: vec![joint("LShLat", false), joint("slide", true)],
+            limit_violations: vec![
+                beyond("LShLat", 0.0223, -0.314),
+                beyond("slide", 0.0032, 0.12),
+            ],
+            velocity_violations: vec![beyond("LShLat", 4.95, -4.0), beyond("slide", 0.1, 0.5)],
+            collisions: Vec::new(),
+            warnings: Vec::new(),
+            simulated: None,
+        };
+        let text = replay_text("test.urdf", &report, false);
+        let lines: Vec<&str> = text
+            .lines()
+            .filter(|l| l.contains("beyond its limit of"))
+            .collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        let wanted = [
+            ("LShLat", "1.28° beyond its limit of -17.99°"),
+            ("slide", "3.2 mm beyond its limit of 120.0 mm"),
+            ("LShLat", "4.95 rad/s beyond its limit of -4.000 rad/s"),
+            ("slide", "0.10 m/s beyond its limit of 0.500 m/s"),
+        ];
+        for (joint, says) in wanted {
+            assert!(
+                lines.iter().any(|l| l.contains(joint) && l.contains(says)),
+                "no line says {says}:\n{text}"
+            );
+        }
+        for l in &lines {
+            let units = ["°", " mm", "rad/s", "m/s"]
+                .iter()
+                .filter(|u| l.contains(*u))
+                .count();
+            assert_eq!(units, 1, "{l}");
+        }
+        // The prismatic joint's row is in millimetres, marked and explained.
+        assert!(
+            text.contains("slide *") && text.contains("* prismatic: millimetres"),
+            "{text}"
+        );
     }
 }

@@ -86,6 +86,11 @@ impl DrivenJoint {
             })
     }
 
+    /// Whether the joint slides (prismatic: metres) rather than turns (radians).
+    pub(super) fn prismatic(&self) -> bool {
+        self.dof == Dof::Linear
+    }
+
     /// The simulated velocity.
     pub(super) fn velocity(&self, world: &PhysicsWorld) -> f64 {
         world
