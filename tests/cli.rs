@@ -426,7 +426,8 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
               &["coman"]),
         // Model and data with different joints.
         error(&["predict", "--model", model, "--input", s(&wrong), "--robot", "walkman", "--out", p_csv],
-              &["wrong.csv", "missing human joint"]),
+              &["wrong.csv", "none of the model's 18 human joint columns is there", "and 13 more",
+                "the file has 3 columns: \"a\", \"b\", \"c\""]),
         error(&["predict", "--model", model, "--input", s(&nan), "--robot", "walkman", "--out", p_csv],
               &["nan.csv", "line 2"]),
         // Bad flag values are usage errors (exit 2).
@@ -468,6 +469,67 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         leftovers.is_empty(),
         "output files left behind: {leftovers:?}"
     );
+}
+
+/// Every error line says each fact once (issue 38): a file name appears once, and lists of
+/// names are cut to the first few and a count.
+#[test]
+fn errors_name_each_file_once_and_cut_long_lists() {
+    let f = fixture();
+    let dir = scratch("once");
+    let (data, model) = (s(&f.data), s(&f.model));
+    let nosuch = dir.join("nosuch.sgp");
+    let folder = dir.join("a-folder.sgp");
+    std::fs::create_dir_all(&folder).unwrap();
+    let out = dir.join("p.csv");
+    // A CSV with 5 of the human's 18 joints, and a robot trajectory with two of its own.
+    let human =
+        sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
+    let five = dir.join("five.csv");
+    std::fs::write(
+        &five,
+        format!("{}\n{}\n", human.names[..5].join(","), ["0.1"; 5].join(",")),
+    )
+    .unwrap();
+    let stranger = dir.join("stranger.csv");
+    std::fs::write(&stranger, "time,LShSag,elbow,knee\n0,0,0,0\n0.5,0,0,0\n").unwrap();
+    let replay = dir.join("no-such-folder").join("replay.mcap");
+    let human_csv = human_test_csv(f);
+    let cases: Vec<(Vec<&str>, &str, Vec<&str>)> = vec![
+        (
+            vec!["predict", "--model", s(&nosuch), "--input", data, "--robot", "walkman", "--out", s(&out)],
+            "nosuch.sgp",
+            vec!["No such file"],
+        ),
+        (
+            vec!["joints", "--model", s(&folder)],
+            "a-folder.sgp",
+            vec!["model file"],
+        ),
+        (
+            vec!["predict", "--model", model, "--input", s(&five), "--robot", "walkman", "--out", s(&out)],
+            "five.csv",
+            vec!["13 of the model's 18 human joint columns are missing: ", "and 8 more", "the file has 5 columns"],
+        ),
+        (
+            vec!["simulate", "--robot", "walkman", "--trajectory", s(&stranger)],
+            "stranger.csv",
+            vec!["2 columns of the trajectory name no movable joint of builtin:walkman: \"elbow\", \"knee\"", "its 14 movable joints: ", "and 9 more"],
+        ),
+        (
+            vec!["simulate", "--model", model, "--input", s(&human_csv), "--robot", "walkman", "--out", s(&replay)],
+            "replay.mcap",
+            vec!["cannot write the replay"],
+        ),
+    ];
+    for (args, file, says) in cases {
+        let err = fails_on_one_line(&args);
+        assert_eq!(err.matches(file).count(), 1, "{file} not named once: {err}");
+        for s in says {
+            assert!(err.contains(s), "sgplvm {args:?}: {err}");
+        }
+        assert!(err.len() < 400, "{} bytes: {err}", err.len());
+    }
 }
 
 #[test]

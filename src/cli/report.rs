@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel};
+use sgplvm::robots::names::count;
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
 use sgplvm::{SharedGplvm, StopReason};
 
@@ -117,15 +118,6 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
         out.display(),
         s.fit_frames + s.validation_frames,
     )
-}
-
-/// `n` and `noun`, plural unless `n` is 1: `1 iteration`, `7 iterations`.
-fn count(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
 }
 
 /// `evaluate`: the test error overall and per joint.

@@ -11,6 +11,7 @@ pub mod error;
 pub mod files;
 pub mod kinematics;
 pub mod models;
+pub mod names;
 pub mod panics;
 pub mod physics;
 pub mod retarget;
