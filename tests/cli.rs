@@ -495,7 +495,20 @@ fn errors_name_each_file_once_and_cut_long_lists() {
     std::fs::write(&stranger, "time,LShSag,elbow,knee\n0,0,0,0\n0.5,0,0,0\n").unwrap();
     let replay = dir.join("no-such-folder").join("replay.mcap");
     let human_csv = human_test_csv(f);
+    // A file where the output folder should go: refused before any training.
+    let taken = dir.join("taken-name");
+    std::fs::write(&taken, "").unwrap();
     let cases: Vec<(Vec<&str>, &str, Vec<&str>)> = vec![
+        (
+            vec!["experiment", "--data", data, "--out", s(&taken)],
+            "taken-name",
+            vec!["cannot create the output folder"],
+        ),
+        (
+            vec!["demo", "--data", data, "--out", s(&taken)],
+            "taken-name",
+            vec!["cannot create the output folder"],
+        ),
         (
             vec!["predict", "--model", s(&nosuch), "--input", data, "--robot", "walkman", "--out", s(&out)],
             "nosuch.sgp",

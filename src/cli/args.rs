@@ -50,6 +50,13 @@ pub fn load_model(path: &Path) -> Result<SharedGplvm> {
     SharedGplvm::load(path).with_context(|| path.display().to_string())
 }
 
+/// Creates the output folder `dir` (and its parents) before any work, so that a path that cannot
+/// be a folder fails at once rather than after the trainings.
+pub fn output_folder(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output folder", dir.display()))
+}
+
 // `--json`: machine-readable output.
 #[derive(Args)]
 pub struct JsonArg {

@@ -8,7 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::{self, ExperimentConfig};
 
-use super::args::{parse_seconds, DataArg, ValidationArg};
+use super::args::{output_folder, parse_seconds, DataArg, ValidationArg};
 use super::progress::{progress_bar, StageLines};
 
 /// Inducing inputs of `--all-frames` without `--inducing` (the M = 100, as in
@@ -89,6 +89,7 @@ impl ExperimentArgs {
 pub fn run(args: ExperimentArgs) -> Result<()> {
     let config = args.config();
     let demos = args.data.load()?;
+    output_folder(&args.out)?;
     let mut data = demos.experiment_data()?;
     if config.inducing.is_some() {
         data.all_frames = Some(demos.all_frames_data()?);
