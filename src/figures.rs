@@ -15,7 +15,7 @@ use sgplvm_robots::dataset::Dataset;
 use sgplvm_robots::series::seconds_from_ns;
 
 use crate::pipeline::{to_mat, Demonstrations, PipelineError};
-use crate::plots::{write_figure, Markers, Panel, PlotError, Series};
+use crate::plots::{write_figure, write_figure_with, Layout, Markers, Panel, PlotError, Series};
 
 /// Errors while drawing the demo's figures.
 #[derive(Debug, thiserror::Error)]
@@ -462,7 +462,9 @@ pub fn dominant_dims(model: &SharedGplvm, robot: &str) -> (usize, usize) {
 }
 
 /// Fig. 7: training latent points (crosses), key poses (circles, where the human holds them)
-/// and the latent trajectories of a few test motions, in the two dominant dimensions.
+/// and the latent paths of every test motion, in the two dominant dimensions; 1200 × 900 pixels,
+/// every key pose's name placed so that none overlaps another (a leader line where a name sits
+/// away from its circle).
 pub fn latent_space(
     model: &SharedGplvm,
     demos: &Demonstrations,
@@ -478,22 +480,69 @@ pub fn latent_space(
         points: (0..x.nrows()).map(|i| (x[(i, a)], x[(i, b)])).collect(),
         ..Markers::default()
     };
+    let poses = key_poses(model, ds, (a, b))?;
+    let motions = test_motions(ds);
+    let mut series = Vec::new();
+    for (k, motion) in motions.iter().enumerate() {
+        let z = model.latent(to_mat(&ds.human.rows(&motion.frames)).as_ref())?;
+        series.push(Series {
+            label: format!("test: {}", motion.name),
+            color: TEST_COLORS[k % TEST_COLORS.len()],
+            points: (0..z.nrows()).map(|i| (z[(i, a)], z[(i, b)])).collect(),
+            ..Series::default()
+        });
+    }
+    let circles = if poses.points.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "circles: the {} key poses, where the human holds them; ",
+            poses.points.len()
+        )
+    };
+    let subtitle = wrap(
+        &format!(
+            "crosses: the {} training frames; {circles}lines: the path of each of the {} test \
+             motions ({} test frames)",
+            x.nrows(),
+            motions.len(),
+            ds.test.len()
+        ),
+        SUBTITLE_CHARS_PER_PIXEL * 1200 / 1000,
+    );
+    let mut markers = vec![training];
+    if !poses.points.is_empty() {
+        markers.push(poses);
+    }
     let panel = Panel {
-        title: format!("human + {robot}, latent dimensions {} and {}", a + 1, b + 1),
+        title: format!(
+            "human + {robot}, latent dimensions {} and {} (the shortest lengthscales of {robot})",
+            a + 1,
+            b + 1
+        ),
         x_label: format!("x{}", a + 1),
         y_label: format!("x{}", b + 1),
         log_y: false,
-        series: test_motions(model, ds, (a, b))?,
-        markers: vec![training, key_poses(model, ds, (a, b))?],
+        series,
+        markers,
         ..Panel::default()
     };
-    Ok(write_figure(
+    let layout = Layout {
+        panel_size: (1200, 900),
+        subtitle,
+        ..Layout::grid(1)
+    };
+    Ok(write_figure_with(
         stem,
         "Shared latent space (Fig. 7)",
         &[panel],
-        1,
+        &layout,
     )?)
 }
+
+/// Palette colours of the test motions' paths in Fig. 7: neither the key poses' (1) nor the
+/// training frames' (6).
+const TEST_COLORS: [usize; 7] = [0, 2, 3, 4, 5, 8, 9];
 
 /// Key poses in latent dimensions `(a, b)`: the last frame of every labelled segment is the human
 /// holding its target pose; each pose at the mean of its frames' latent points.
@@ -530,47 +579,87 @@ fn key_poses(
     Ok(poses)
 }
 
-/// Latent trajectories, in dimensions `(a, b)`, of the first three distinct pose pairs of the
-/// test set.
-fn test_motions(
-    model: &SharedGplvm,
-    ds: &Dataset,
-    (a, b): (usize, usize),
-) -> Result<Vec<Series>, FigureError> {
-    let mut series = Vec::new();
-    let mut seen = Vec::new();
-    for s in ds
-        .segments
-        .iter()
-        .filter(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok())
-    {
-        let pair = (s.from_pose.min(s.to_pose), s.from_pose.max(s.to_pose));
-        if seen.contains(&pair) {
-            continue;
-        }
-        seen.push(pair);
-        let frames: Vec<usize> = (s.start..s.end).collect();
-        let z = model.latent(to_mat(&ds.human.rows(&frames)).as_ref())?;
-        let name = |p: Option<usize>| {
-            p.and_then(|p| ds.pose_names.get(p).cloned())
-                .unwrap_or_else(|| "?".into())
-        };
-        series.push(Series {
-            label: format!("test: {} → {}", name(s.from_pose), name(s.to_pose)),
-            color: [0, 2, 3, 4][series.len() % 4],
-            points: (0..z.nrows()).map(|i| (z[(i, a)], z[(i, b)])).collect(),
-            ..Series::default()
-        });
-        if series.len() == 3 {
-            break;
-        }
-    }
-    Ok(series)
+/// One test motion: test frames contiguous in time, between the same two key poses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TestMotion {
+    /// Its test frames (rows of the dataset), in time order.
+    pub frames: Vec<usize>,
+    /// What it is: `forward_high ↔ hands_together` (both directions), `v_up → left_across`
+    /// (one), or `t = 12.0–16.0 s` (seconds of the recording) when unlabelled.
+    pub name: String,
+    /// Whether `name` is a span of time (the motion is not labelled with key poses).
+    pub unlabelled: bool,
+    /// Seconds from its first frame to its last.
+    pub seconds: f64,
 }
 
-/// Fig. 8: for the test frames between two poses (all repetitions, in time order), the human's
-/// left and right arm joint angles, and `robot`'s predicted (solid) against desired (dashed)
-/// left and right arm joints.
+/// Every test motion of `ds`, in time order: the test frames split where time jumps (more than
+/// three times the usual step between test frames) or the pair of key poses changes. Together
+/// they hold every test frame once.
+pub fn test_motions(ds: &Dataset) -> Vec<TestMotion> {
+    let test = &ds.test;
+    let time =
+        |f: usize| seconds_from_ns(ds.times_ns[f] - ds.times_ns.first().copied().unwrap_or(0));
+    let mut steps: Vec<f64> = test.windows(2).map(|w| time(w[1]) - time(w[0])).collect();
+    steps.sort_by(f64::total_cmp);
+    let usual = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+    // The unordered pair of key poses of the segment holding frame `f`, when labelled.
+    let pair = |f: usize| {
+        ds.segment_of(f)
+            .and_then(|s| match (s.from_pose, s.to_pose) {
+                (Some(a), Some(b)) => Some((a.min(b), a.max(b))),
+                _ => None,
+            })
+    };
+    let mut runs: Vec<Vec<usize>> = Vec::new();
+    for (i, &f) in test.iter().enumerate() {
+        let joins = i > 0 && {
+            let previous = test[i - 1];
+            time(f) - time(previous) > 3.0 * usual || pair(f) != pair(previous)
+        };
+        match runs.last_mut() {
+            Some(run) if i > 0 && !joins => run.push(f),
+            _ => runs.push(vec![f]),
+        }
+    }
+    let pose = |p: Option<usize>| {
+        p.and_then(|p| ds.pose_names.get(p).cloned())
+            .unwrap_or_else(|| "?".into())
+    };
+    runs.into_iter()
+        .map(|frames| {
+            let (first, last) = (frames[0], frames[frames.len() - 1]);
+            let mut directions: Vec<(Option<usize>, Option<usize>)> = Vec::new();
+            for &f in &frames {
+                if let Some(s) = ds.segment_of(f) {
+                    if s.from_pose.is_some() && !directions.contains(&(s.from_pose, s.to_pose)) {
+                        directions.push((s.from_pose, s.to_pose));
+                    }
+                }
+            }
+            let name = match directions.as_slice() {
+                [] => format!("t = {:.1}–{:.1} s", time(first), time(last)),
+                [(a, b)] => format!("{} → {}", pose(*a), pose(*b)),
+                [(a, b), ..] => format!("{} ↔ {}", pose(*a), pose(*b)),
+            };
+            TestMotion {
+                seconds: time(last) - time(first),
+                unlabelled: directions.is_empty(),
+                frames,
+                name,
+            }
+        })
+        .collect()
+}
+
+/// Test motions side by side in Fig. 8 (more wrap onto further rows of panels).
+const MOTION_COLUMNS: usize = 3;
+
+/// Fig. 8: every test motion in a column of its own (up to three side by side, more wrap
+/// below): the human's left and right arm joint angles, and `robot`'s predicted (solid) against
+/// desired (dashed) left and right arm joints, against seconds from the motion's start. One
+/// colour per joint, the same in every column, its name in the row's legend; dashes mean
+/// "desired" and nothing else. The subtitle names the motions shown.
 pub fn trajectories(
     model: &SharedGplvm,
     demos: &Demonstrations,
@@ -579,105 +668,131 @@ pub fn trajectories(
 ) -> Result<[PathBuf; 2], FigureError> {
     let ds = &demos.dataset;
     let body = demos.robot(robot)?;
-    let frames = first_test_motion(ds);
-    // Where one motion of the selection ends and the next begins: the curves jump there.
-    let joins: Vec<usize> = (1..frames.len())
-        .filter(|&i| ds.segment_of(frames[i]).map(|s| s.start) == Some(frames[i]))
-        .collect();
-    let h = to_mat(&ds.human.rows(&frames));
-    let predicted = model.predict(h.as_ref(), robot, false)?.mean;
-    let desired = body.rows(&frames);
-    let t0 = frames.first().map(|&f| ds.times_ns[f]).unwrap_or(0);
-    let time: Vec<f64> = frames
-        .iter()
-        .map(|&f| seconds_from_ns(ds.times_ns[f] - t0))
-        .collect();
-    // Plot against frame index within the selection: segments are not contiguous in time.
-    let step = time.get(1).map_or(0.025, |t| t - time[0]).max(1e-6);
-    let x: Vec<f64> = (0..frames.len()).map(|i| i as f64 * step).collect();
-    let line = |value: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
-        x.iter().enumerate().map(|(i, &t)| (t, value(i))).collect()
-    };
-    let vlines: Vec<f64> = joins.iter().map(|&i| (x[i - 1] + x[i]) / 2.0).collect();
-    let mut panels = Vec::new();
-    for (side, range) in ["left", "right"]
-        .into_iter()
-        .zip(halves(ds.human.joint_names.len()))
-    {
-        let names = legend_names(&ds.human.joint_names[range.clone()]);
-        panels.push(arm_panel(
-            format!("human {side} arm"),
-            range
+    let motions = test_motions(ds);
+    let columns = motions.len().clamp(1, MOTION_COLUMNS);
+    let human_names = &ds.human.joint_names;
+    // Per motion its four panels: human left, human right, robot left, robot right.
+    let mut per_motion: Vec<[Panel; 4]> = Vec::new();
+    for motion in &motions {
+        let frames = &motion.frames;
+        let h = to_mat(&ds.human.rows(frames));
+        let predicted = model.predict(h.as_ref(), robot, false)?.mean;
+        let desired = body.rows(frames);
+        let t0 = ds.times_ns[frames[0]];
+        let x: Vec<f64> = frames
+            .iter()
+            .map(|&f| seconds_from_ns(ds.times_ns[f] - t0))
+            .collect();
+        let line = |value: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+            x.iter().enumerate().map(|(i, &t)| (t, value(i))).collect()
+        };
+        let human_panel = |side: &str, range: std::ops::Range<usize>| {
+            let names = legend_names(&human_names[range.clone()]);
+            let series = range
                 .zip(names)
                 .enumerate()
                 .map(|(k, (j, name))| Series {
                     label: name,
                     color: k,
-                    dashed: k >= PALETTE_SIZE,
                     points: line(&|i| h[(i, j)]),
                     ..Series::default()
                 })
-                .collect(),
-            &vlines,
-        ));
+                .collect();
+            arm_panel(format!("human {side} arm: {}", motion.name), series)
+        };
+        let robot_panel = |side: &str, range: std::ops::Range<usize>| {
+            let names = legend_names(&body.joint_names[range.clone()]);
+            let mut series = Vec::new();
+            for (k, (j, name)) in range.zip(names).enumerate() {
+                series.push(Series {
+                    label: name,
+                    color: k,
+                    points: line(&|i| predicted[(i, j)]),
+                    ..Series::default()
+                });
+                series.push(Series {
+                    color: k,
+                    dashed: true,
+                    points: line(&|i| desired[(i, j)]),
+                    ..Series::default()
+                });
+            }
+            arm_panel(format!("{robot} {side} arm: {}", motion.name), series)
+        };
+        let [hl, hr] = halves(human_names.len());
+        let [rl, rr] = halves(body.joint_names.len());
+        per_motion.push([
+            human_panel("left", hl),
+            human_panel("right", hr),
+            robot_panel("left", rl),
+            robot_panel("right", rr),
+        ]);
     }
-    for (side, range) in ["left", "right"]
-        .into_iter()
-        .zip(halves(body.joint_names.len()))
-    {
-        let names = legend_names(&body.joint_names[range.clone()]);
-        let mut series = Vec::new();
-        for (k, (j, name)) in range.zip(names).enumerate() {
-            series.push(Series {
-                label: name,
-                color: k,
-                points: line(&|i| predicted[(i, j)]),
-                ..Series::default()
-            });
-            series.push(Series {
-                color: k,
-                dashed: true,
-                points: line(&|i| desired[(i, j)]),
-                ..Series::default()
-            });
+    // Row by row: per group of `columns` motions, four rows of panels (blank where a group
+    // has fewer motions).
+    let mut panels = Vec::new();
+    for group in per_motion.chunks(columns) {
+        for row in 0..4 {
+            for c in 0..columns {
+                panels.push(group.get(c).map(|p| p[row].clone()).unwrap_or_default());
+            }
         }
-        panels.push(arm_panel(format!("{robot} {side} arm"), series, &vlines));
     }
-    let title = format!(
-        "{robot} on test motions (Fig. 8): predicted solid, desired dashed; grey lines join motions"
+    let frames: usize = motions.iter().map(|m| m.frames.len()).sum();
+    let listed: Vec<String> = motions
+        .iter()
+        .map(|m| match m.unlabelled {
+            true => m.name.clone(),
+            false => format!("{} ({:.1} s)", m.name, m.seconds),
+        })
+        .collect();
+    let mut subtitle = wrap(
+        &format!(
+            "Every test motion, {frames} test frames: {}",
+            listed.join("; ")
+        ),
+        SUBTITLE_CHARS_PER_PIXEL * (columns * 640 + 150) / 1000,
     );
-    Ok(write_figure(stem, &title, &panels, 2)?)
+    subtitle.push(format!(
+        "Human: the input joint angles. {robot}: predicted solid, desired dashed. One colour per \
+         joint, the same in every column; seconds from each motion's first frame"
+    ));
+    let layout = Layout {
+        columns,
+        panel_size: (640, 330),
+        subtitle,
+        legend_column: true,
+    };
+    let title = format!("{robot} on every test motion (Fig. 8)");
+    Ok(write_figure_with(stem, &title, &panels, &layout)?)
 }
 
-/// The frames of the first test pose pair, both directions, every repetition (all test frames
-/// if there are no segments).
-fn first_test_motion(ds: &Dataset) -> Vec<usize> {
-    let first = ds
-        .segments
-        .iter()
-        .find(|s| !s.is_empty() && ds.test.binary_search(&s.start).is_ok());
-    match first {
-        Some(f) => ds
-            .segments
-            .iter()
-            .filter(|s| {
-                ds.test.binary_search(&s.start).is_ok()
-                    && ((s.from_pose, s.to_pose) == (f.from_pose, f.to_pose)
-                        || (s.from_pose, s.to_pose) == (f.to_pose, f.from_pose))
-            })
-            .flat_map(|s| s.start..s.end)
-            .collect(),
-        None => ds.test.clone(),
+/// Characters of a subtitle (15-pixel font) per 1,000 pixels of figure width.
+const SUBTITLE_CHARS_PER_PIXEL: usize = 115;
+
+/// `text` in lines of at most about `width` characters, broken after `; ` or spaces.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
     }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
 }
 
 /// The joints of the left arm (first half) and the right arm (second half) of `d` joints.
 fn halves(d: usize) -> [std::ops::Range<usize>; 2] {
     [(0..d / 2), (d / 2..d)]
 }
-
-/// Colours in the palette: joints beyond them are drawn dashed in the human panels.
-const PALETTE_SIZE: usize = 8;
 
 /// Joint names for a legend: without the prefix they all share (`L`, `jLeft`: the panel's title
 /// names the arm).
@@ -699,25 +814,53 @@ fn legend_names(names: &[String]) -> Vec<String> {
     names.iter().map(|n| n[common..].to_string()).collect()
 }
 
-/// A panel of joint angles against time, a legend of the joints beside it, the joins between
-/// motions at `vlines`.
-fn arm_panel(title: String, series: Vec<Series>, vlines: &[f64]) -> Panel {
+/// A panel of joint angles against time (its legend goes in the figure's legend column).
+fn arm_panel(title: String, series: Vec<Series>) -> Panel {
     Panel {
         title,
         x_label: "seconds".into(),
         y_label: "joint angle (rad)".into(),
         series,
-        vlines: vlines.to_vec(),
-        side_legend: true,
         ..Panel::default()
     }
 }
 
 #[cfg(test)]
 mod tests {
-    //! The mean learning curve drawn in Figs. 4-6, on synthetic runs.
+    //! The mean learning curve drawn in Figs. 4-6, on synthetic runs; the test motions that
+    //! Figs. 7 and 8 draw, on the shipped data.
 
     use super::*;
+
+    #[test]
+    fn the_test_motions_are_every_test_frame_once_named_by_their_poses() {
+        let demos = crate::pipeline::load(None).expect("the shipped demonstrations");
+        let ds = &demos.dataset;
+        let motions = test_motions(ds);
+        let names: Vec<&str> = motions.iter().map(|m| m.name.as_str()).collect();
+        // The shipped test set: three round trips between each of two pairs of key poses.
+        assert_eq!(
+            names,
+            ["forward_high ↔ hands_together", "v_up ↔ left_across"]
+        );
+        let all: Vec<usize> = motions.iter().flat_map(|m| m.frames.clone()).collect();
+        assert_eq!(all, ds.test);
+        // 6 × 70 and 6 × 88 frames at 40 Hz, of which every third is a test frame: the span
+        // from the first test frame to the last.
+        let seconds: Vec<f64> = motions.iter().map(|m| m.seconds).collect();
+        assert!(
+            (seconds[0] - 10.4).abs() < 0.1 && (seconds[1] - 13.1).abs() < 0.1,
+            "{seconds:?}"
+        );
+        assert!(motions.iter().all(|m| !m.unlabelled));
+    }
+
+    #[test]
+    fn subtitles_wrap_between_words() {
+        let lines = wrap("aaa bbb; ccc ddd", 8);
+        assert_eq!(lines, ["aaa bbb;", "ccc ddd"]);
+        assert_eq!(wrap("one", 80), ["one"]);
+    }
 
     fn run(iterations: &[usize], seconds: &[f64], mse: &[f64]) -> RunRecord {
         RunRecord {

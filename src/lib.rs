@@ -12,7 +12,9 @@
 #![deny(clippy::unwrap_used)]
 
 pub use sgplvm_core as core;
-pub use sgplvm_core::{BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
+pub use sgplvm_core::{
+    BackConstraint, Mat, ModelConfig, SharedGplvm, StopReason, TrainOptions, Validation,
+};
 pub use sgplvm_robots as robots;
 pub use sgplvm_robots::Robot;
 

@@ -66,18 +66,76 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// The chain of causes on one line, outermost first, leaving out causes that the message before
-/// them already quotes.
+/// The chain of causes on one line, outermost first, each fact once (issue 38): a cause that
+/// the line already holds is left out; a cause's leading `subject: ` (one word: a file name,
+/// say) that the line already names is dropped from it; and a part of the line that a later cause repeats
+/// whole (a context naming a file, then an error naming the same file) gives way to that cause.
 fn one_line(e: &anyhow::Error) -> String {
-    let mut message = String::new();
-    for cause in e.chain().map(|c| c.to_string()) {
-        if !message.contains(&cause) {
-            message = if message.is_empty() {
-                cause
-            } else {
-                format!("{message}: {cause}")
-            };
+    join_causes(e.chain().map(|c| c.to_string()))
+}
+
+/// [`one_line`] of the causes' texts, outermost first.
+fn join_causes(causes: impl Iterator<Item = String>) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let said = |parts: &[String], text: &str| parts.iter().any(|p| p.contains(text));
+    for cause in causes {
+        let mut cause = cause.trim().to_string();
+        if cause.is_empty() || said(&parts, &cause) {
+            continue;
         }
+        // A subject is one word (a file name, a topic): a phrase that merely recurs stays.
+        if let Some((subject, rest)) = cause.split_once(": ") {
+            let one_word = !subject.is_empty() && !subject.contains(char::is_whitespace);
+            if one_word && !rest.is_empty() && said(&parts, subject) {
+                cause = rest.to_string();
+                if said(&parts, &cause) {
+                    continue;
+                }
+            }
+        }
+        parts.retain(|p| !cause.contains(p.as_str()));
+        parts.push(cause);
     }
-    message
+    parts.join(": ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::join_causes;
+
+    fn line(causes: &[&str]) -> String {
+        join_causes(causes.iter().map(|c| c.to_string()))
+    }
+
+    #[test]
+    fn each_fact_appears_once() {
+        // A context naming the file, an error naming it again.
+        assert_eq!(
+            line(&[
+                "nosuch.sgp",
+                "model file nosuch.sgp: No such file or directory (os error 2)",
+                "No such file or directory (os error 2)",
+            ]),
+            "model file nosuch.sgp: No such file or directory (os error 2)"
+        );
+        // The same file leading the context and the cause.
+        assert_eq!(
+            line(&[
+                "/x/y.mcap: cannot write the replay",
+                "/x/y.mcap: cannot create: No such file or directory (os error 2)",
+            ]),
+            "/x/y.mcap: cannot write the replay: cannot create: No such file or directory (os \
+             error 2)"
+        );
+        // Causes that add a fact are all kept, in order.
+        assert_eq!(
+            line(&["in.csv", "line 3: column 2 is \"x\", expected a number"]),
+            "in.csv: line 3: column 2 is \"x\", expected a number"
+        );
+        // A cause the line already quotes is left out.
+        assert_eq!(
+            line(&["a.mcap: invalid MCAP: bad magic", "bad magic"]),
+            "a.mcap: invalid MCAP: bad magic"
+        );
+    }
 }

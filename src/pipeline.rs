@@ -39,7 +39,10 @@ pub enum PipelineError {
         known: Vec<String>,
     },
     /// Model and data disagree on the joints of a space.
-    #[error("{source_name}: the {space} joints {data:?} do not match the model's {model:?}")]
+    #[error(
+        "{source_name}: the {space} joints do not match the model's: {}",
+        sgplvm_robots::names::difference(model, data, "joint")
+    )]
     JointMismatch {
         /// The data file.
         source_name: String,
@@ -49,6 +52,21 @@ pub enum PipelineError {
         model: Vec<String>,
         /// Joint names in the data.
         data: Vec<String>,
+    },
+    /// Model (without stored joint names) and data have different numbers of joints in a space.
+    #[error(
+        "{source_name}: the {space} has {data} joints; the model's {space} space has {model} \
+         columns"
+    )]
+    ColumnCount {
+        /// The data file.
+        source_name: String,
+        /// The space (human or robot name).
+        space: String,
+        /// Columns of the model's space.
+        model: usize,
+        /// Joints in the data.
+        data: usize,
     },
     /// The data has no training or no test frames.
     #[error("{source_name}: the {split} set is empty")]
@@ -298,7 +316,14 @@ impl Demonstrations {
             Some(names) => names.to_vec(),
             None => match model.space_dim(space) {
                 Some(d) if d == data.len() => return Ok(()),
-                _ => vec![format!("{} columns", model.space_dim(space).unwrap_or(0))],
+                d => {
+                    return Err(PipelineError::ColumnCount {
+                        source_name: self.source_name.clone(),
+                        space: space.to_string(),
+                        model: d.unwrap_or(0),
+                        data: data.len(),
+                    })
+                }
             },
         };
         if expected != data {
@@ -539,6 +564,36 @@ pub struct TestTrust {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_joint_mismatch_names_the_difference_not_both_lists() {
+        let model: Vec<String> = (0..18).map(|k| format!("j{k}")).collect();
+        let mut data = model.clone();
+        data.swap(3, 4);
+        let e = PipelineError::JointMismatch {
+            source_name: "d.mcap".into(),
+            space: "human".into(),
+            model: model.clone(),
+            data,
+        };
+        assert_eq!(
+            e.to_string(),
+            "d.mcap: the human joints do not match the model's: the same 18 joints in another \
+             order: position 4 has \"j4\" where \"j3\" is expected"
+        );
+        let e = PipelineError::JointMismatch {
+            source_name: "d.mcap".into(),
+            space: "coman".into(),
+            model,
+            data: vec!["a".into()],
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("18 of the 18 joints expected are missing: \"j0\"")
+                && text.contains("and 13 more; 1 joint is not expected: \"a\""),
+            "{text}"
+        );
+    }
 
     fn generated(train_subsample: usize) -> Demonstrations {
         let config = GeneratorConfig {

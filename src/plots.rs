@@ -71,6 +71,37 @@ pub struct Panel {
     pub side_legend: bool,
 }
 
+/// How many distinct colours [`palette`] has before it repeats.
+pub const PALETTE_SIZE: usize = 10;
+
+/// How a figure is laid out: the grid, each panel's size, the lines under the title and where
+/// the legends go.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    /// Panels per row (at least 1).
+    pub columns: usize,
+    /// Pixels of one panel, width and height (SVG and PNG alike).
+    pub panel_size: (u32, u32),
+    /// Lines drawn under the title (e.g. what the figure shows and what its line styles mean).
+    pub subtitle: Vec<String>,
+    /// One legend per row of panels, in a column to the right of the grid, from the row's first
+    /// panel that has labelled entries; the panels themselves then draw no legend. For rows of
+    /// panels that share their lines (the same joints on different motions).
+    pub legend_column: bool,
+}
+
+impl Layout {
+    /// `columns` panels of the default size per row, no subtitle, legends in the panels.
+    pub fn grid(columns: usize) -> Self {
+        Self {
+            columns,
+            panel_size: (520, 380),
+            subtitle: Vec::new(),
+            legend_column: false,
+        }
+    }
+}
+
 /// Errors while drawing a figure.
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
@@ -87,9 +118,11 @@ pub enum PlotError {
     File(#[from] FileError),
 }
 
-/// Colours that stay apart for colour-blind readers (Okabe–Ito).
+/// Colours that stay apart for colour-blind readers: Okabe–Ito's eight, then Paul Tol's wine
+/// and olive, so that a panel of up to ten lines (an arm of the human model has nine joints)
+/// tells them apart by colour alone and keeps dashes for another meaning.
 pub fn palette(index: usize) -> RGBColor {
-    const COLORS: [RGBColor; 8] = [
+    const COLORS: [RGBColor; PALETTE_SIZE] = [
         RGBColor(0, 114, 178),
         RGBColor(213, 94, 0),
         RGBColor(0, 158, 115),
@@ -98,6 +131,8 @@ pub fn palette(index: usize) -> RGBColor {
         RGBColor(86, 180, 233),
         RGBColor(120, 120, 120),
         RGBColor(0, 0, 0),
+        RGBColor(136, 34, 85),
+        RGBColor(153, 153, 51),
     ];
     COLORS[index % COLORS.len()]
 }
@@ -110,28 +145,85 @@ pub fn write_figure(
     panels: &[Panel],
     columns: usize,
 ) -> Result<[PathBuf; 2], PlotError> {
+    write_figure_with(stem, title, panels, &Layout::grid(columns))
+}
+
+/// Draws `panels` row by row as `layout` says and writes `<stem>.svg` and `<stem>.png` of the
+/// same size. A blank panel (`Panel::default()`) leaves its place in the grid empty. Returns
+/// the two paths. Files are written whole or not at all.
+pub fn write_figure_with(
+    stem: &Path,
+    title: &str,
+    panels: &[Panel],
+    layout: &Layout,
+) -> Result<[PathBuf; 2], PlotError> {
+    register_font();
+    let columns = layout.columns.max(1);
+    let rows = panels.len().div_ceil(columns).max(1);
+    let legend_width = if layout.legend_column {
+        legend_column_width(panels)
+    } else {
+        0
+    };
+    let size = (
+        layout.panel_size.0 * columns as u32 + legend_width,
+        layout.panel_size.1 * rows as u32 + 40 + 22 * layout.subtitle.len() as u32,
+    );
+    let svg_path = stem.with_extension("svg");
+    let png_path = stem.with_extension("png");
+    let grid = Grid {
+        columns,
+        rows,
+        legend_width,
+    };
+
+    atomic_write_with(&svg_path, |tmp| {
+        let root = SVGBackend::new(tmp, size).into_drawing_area();
+        draw_all(&root, title, panels, layout, &grid)
+            .map_err(|message| draw_error(&svg_path, message))
+    })?;
+    atomic_write_with(&png_path, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
+        draw_all(&root, title, panels, layout, &grid)
+            .map_err(|message| draw_error(&png_path, message))
+    })?;
+    Ok([svg_path, png_path])
+}
+
+/// Registers the embedded font as `sans-serif` (once per process).
+fn register_font() {
     REGISTER_FONT.call_once(|| {
         // The font is compiled in; failing to parse it would be a build defect, and text is then
         // simply not drawn, which is better than no figure.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
-    let columns = columns.max(1);
-    let rows = panels.len().div_ceil(columns).max(1);
-    let size = (520 * columns as u32, 380 * rows as u32 + 40);
-    let svg_path = stem.with_extension("svg");
-    let png_path = stem.with_extension("png");
+}
 
-    atomic_write_with(&svg_path, |tmp| {
-        let root = SVGBackend::new(tmp, size).into_drawing_area();
-        draw_all(&root, title, panels, columns, rows)
-            .map_err(|message| draw_error(&svg_path, message))
-    })?;
-    atomic_write_with(&png_path, |tmp| {
-        let root = BitMapBackend::new(tmp, size).into_drawing_area();
-        draw_all(&root, title, panels, columns, rows)
-            .map_err(|message| draw_error(&png_path, message))
-    })?;
-    Ok([svg_path, png_path])
+/// Pixels `text` takes in the embedded font at `size`: measured, or estimated when the font
+/// cannot measure it.
+fn text_size(text: &str, size: f64) -> (f64, f64) {
+    register_font();
+    match ("sans-serif", size).into_font().box_size(text) {
+        Ok((w, h)) => (f64::from(w), f64::from(h).max(size)),
+        Err(_) => (text.chars().count() as f64 * size * 0.55, size),
+    }
+}
+
+/// The rows and columns of a figure's grid, and the width of its legend column (0: none).
+struct Grid {
+    columns: usize,
+    rows: usize,
+    legend_width: u32,
+}
+
+/// Width of a legend column that fits the longest label of every panel's legend.
+fn legend_column_width(panels: &[Panel]) -> u32 {
+    let longest = panels
+        .iter()
+        .flat_map(legend_entries)
+        .map(|e| text_size(e.0, LEGEND_FONT).0)
+        .fold(0.0, f64::max);
+    (longest + 40.0).max(f64::from(SIDE_LEGEND_WIDTH)).ceil() as u32
 }
 
 fn draw_error(path: &Path, message: String) -> std::io::Error {
@@ -142,15 +234,35 @@ fn draw_all<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     panels: &[Panel],
-    columns: usize,
-    rows: usize,
+    layout: &Layout,
+    grid: &Grid,
 ) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
-    let areas = root.split_evenly((rows, columns));
+    let mut below = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+    for line in &layout.subtitle {
+        below = below.titled(line, ("sans-serif", 15)).map_err(err)?;
+    }
+    let (panels_area, legends) = if grid.legend_width > 0 {
+        let width = below.dim_in_pixel().0;
+        let (left, right) = below.split_horizontally(width.saturating_sub(grid.legend_width));
+        (left, Some(right))
+    } else {
+        (below, None)
+    };
+    let areas = panels_area.split_evenly((grid.rows, grid.columns));
     for (panel, area) in panels.iter().zip(areas.iter()) {
-        draw_panel(area, panel).map_err(err)?;
+        if !panel.is_blank() {
+            draw_panel(area, panel, legends.is_some()).map_err(err)?;
+        }
+    }
+    if let Some(legends) = legends {
+        let strips = legends.split_evenly((grid.rows, 1));
+        for (row, strip) in panels.chunks(grid.columns).zip(strips.iter()) {
+            if let Some(panel) = row.iter().find(|p| !legend_entries(p).is_empty()) {
+                draw_side_legend(strip, panel).map_err(err)?;
+            }
+        }
     }
     root.present().map_err(err)?;
     Ok(())
@@ -198,6 +310,10 @@ fn y_range_values(panel: &Panel) -> impl Iterator<Item = f64> + '_ {
 
 /// Width of a side legend, pixels.
 const SIDE_LEGEND_WIDTH: u32 = 150;
+/// Font size of legends, pixels.
+const LEGEND_FONT: f64 = 12.0;
+/// Font size of the texts next to markers (e.g. key-pose names), pixels.
+const ANNOTATION_FONT: f64 = 14.0;
 /// Approximate width of a character of the 12-pixel legend and annotation font, pixels.
 const CHAR_WIDTH: f64 = 6.6;
 /// Height of a legend entry, pixels.
@@ -380,12 +496,22 @@ fn place_legend(
     (corner, y)
 }
 
+impl Panel {
+    /// Nothing to draw: the place of the panel stays empty.
+    fn is_blank(&self) -> bool {
+        self.title.is_empty() && self.series.is_empty() && self.markers.is_empty()
+    }
+}
+
+/// Draws `panel` in `area`; with `legend_elsewhere` without its legend (the figure draws it).
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     panel: &Panel,
+    legend_elsewhere: bool,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (width, height) = area.dim_in_pixel();
-    let (area, legend_area) = if panel.side_legend && width > 2 * SIDE_LEGEND_WIDTH {
+    let side_legend = panel.side_legend && !legend_elsewhere;
+    let (area, legend_area) = if side_legend && width > 2 * SIDE_LEGEND_WIDTH {
         let (chart, legend) = area.split_horizontally(width - SIDE_LEGEND_WIDTH);
         (chart, Some(legend))
     } else {
@@ -413,7 +539,8 @@ fn draw_panel<DB: DrawingBackend>(
         f64::from(area.dim_in_pixel().0) - 62.0 - 24.0,
         f64::from(height) - 40.0 - 30.0 - 24.0,
     );
-    let (corner, y_range) = if legend_area.is_none() && !legend_entries(panel).is_empty() {
+    let legend_inside = legend_area.is_none() && !legend_elsewhere;
+    let (corner, y_range) = if legend_inside && !legend_entries(panel).is_empty() {
         place_legend(panel, chart_pixels, x_range, y_range, log_y)
     } else {
         (SeriesLabelPosition::UpperRight, y_range)
@@ -436,7 +563,7 @@ fn draw_panel<DB: DrawingBackend>(
             .y_label_formatter(&|v| format!("{v:.1e}"))
             .label_style(("sans-serif", 12))
             .draw()?;
-        draw_content(&mut chart, panel, corner, legend_area.is_none())?;
+        draw_content(&mut chart, panel, corner, legend_inside)?;
     } else {
         let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
         chart
@@ -447,7 +574,7 @@ fn draw_panel<DB: DrawingBackend>(
             .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 12))
             .draw()?;
-        draw_content(&mut chart, panel, corner, legend_area.is_none())?;
+        draw_content(&mut chart, panel, corner, legend_inside)?;
     }
     if let Some(legend) = legend_area {
         draw_side_legend(&legend, panel)?;
@@ -489,82 +616,197 @@ fn draw_side_legend<DB: DrawingBackend>(
 /// A pixel rectangle: left, top, right, bottom.
 type Rect = (f64, f64, f64, f64);
 
-/// Where an annotation goes: the pixel offset of its text from its point, and the end of a
-/// leader line from the point when the text sits away from it.
+/// Where an annotation goes: the pixel offset of its text's top-left corner from its point,
+/// and the end of a leader line from the point when the text sits away from it.
 type Placement = ((i32, i32), Option<(i32, i32)>);
 
-/// Where each annotation's text goes, as a pixel offset from its point: of the places around
-/// the point, the one that covers the fewest drawn points (`ink`, pixels), stays inside
-/// `bounds` and overlaps no text placed before it, nearer ones preferred. With each offset, the
-/// point of the text's box nearest to the anchor when the text sits away from it (for a
-/// leader line), else `None`.
+/// Whether two rectangles share any area.
+fn overlap(a: &Rect, b: &Rect) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
+/// `r` grown by `by` pixels on every side.
+fn grown(r: &Rect, by: f64) -> Rect {
+    (r.0 - by, r.1 - by, r.2 + by, r.3 + by)
+}
+
+/// Pixels kept free between two annotations.
+const ANNOTATION_GAP: f64 = 3.0;
+/// Rings of places tried around a point, each [`RING_STEP`] pixels further out.
+const RINGS: usize = 40;
+/// Distance between two rings of places, pixels.
+const RING_STEP: f64 = 9.0;
+/// Distance of the nearest ring from its point, pixels.
+const FIRST_RING: f64 = 9.0;
+
+/// Where each annotation's text goes. A text of `sizes[k]` pixels belongs to the point
+/// `anchors[k]`; it never overlaps another annotation or an `obstacles` rectangle (markers that
+/// must stay visible, the legend) and stays inside `bounds`. Among the places that do, on
+/// rings ever further from the point in 16 directions, it takes the one that covers the fewest
+/// drawn points (`ink`) and other texts' leader lines, nearer places preferred. Points among
+/// many others choose first. A text set away from its point gets a leader line, to the point of
+/// its box nearest the anchor (which later texts avoid as they avoid ink). Only when no place
+/// on any ring is free is the whole of `bounds` searched for the free place nearest the point;
+/// a text overlaps another only if there is none at all.
 fn place_annotations(
     anchors: &[(f64, f64)],
-    texts: &[String],
+    sizes: &[(f64, f64)],
     ink: &[(f64, f64)],
+    obstacles: &[Rect],
     bounds: Rect,
 ) -> Vec<Placement> {
+    let n = anchors.len().min(sizes.len());
     let mut placed: Vec<Rect> = Vec::new();
-    let mut offsets = vec![((0, 0), None); anchors.len().min(texts.len())];
-    // Points near the chart's edges have the fewest places free: they choose first.
+    let mut leaders: Vec<(f64, f64)> = Vec::new();
+    let mut placements = vec![((0, 0), None); n];
+    let crowd = |k: usize| {
+        anchors[..n]
+            .iter()
+            .filter(|a| (a.0 - anchors[k].0).hypot(a.1 - anchors[k].1) < 80.0)
+            .count()
+    };
     let edge = |&(px, py): &(f64, f64)| {
         (px - bounds.0)
             .min(bounds.2 - px)
             .min(py - bounds.1)
             .min(bounds.3 - py)
     };
-    let mut order: Vec<usize> = (0..offsets.len()).collect();
-    order.sort_by(|&a, &b| edge(&anchors[a]).total_cmp(&edge(&anchors[b])));
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| {
+        crowd(b)
+            .cmp(&crowd(a))
+            .then(edge(&anchors[a]).total_cmp(&edge(&anchors[b])))
+    });
     for k in order {
-        let ((px, py), text) = (anchors[k], &texts[k]);
-        let w = text.chars().count() as f64 * CHAR_WIDTH;
-        let h = 13.0;
-        let mut best = ((7.0, -h / 2.0), f64::INFINITY, 1.0);
-        for reach in [1.0, 2.0, 3.5] {
-            let r = 7.0 * reach;
-            let candidates = [
-                (r, -h / 2.0),
-                (-w - r, -h / 2.0),
-                (-w / 2.0, -h - r),
-                (-w / 2.0, r),
-                (r * 0.7, -h - r * 0.7),
-                (r * 0.7, r * 0.7),
-                (-w - r * 0.7, -h - r * 0.7),
-                (-w - r * 0.7, r * 0.7),
-            ];
-            for (dx, dy) in candidates {
-                let rect = (px + dx, py + dy, px + dx + w, py + dy + h);
-                let inside = |p: &&(f64, f64)| {
-                    p.0 >= rect.0 - 1.0
-                        && p.0 <= rect.2 + 1.0
-                        && p.1 >= rect.1 - 1.0
-                        && p.1 <= rect.3 + 1.0
-                };
-                let covered = ink.iter().filter(inside).count() as f64;
-                let overlaps = placed
+        let (px, py) = anchors[k];
+        let (w, h) = sizes[k];
+        let free = |rect: &Rect| {
+            rect.0 >= bounds.0
+                && rect.2 <= bounds.2
+                && rect.1 >= bounds.1
+                && rect.3 <= bounds.3
+                && !placed
                     .iter()
-                    .filter(|o| rect.0 < o.2 && o.0 < rect.2 && rect.1 < o.3 && o.1 < rect.3)
-                    .count() as f64;
-                let outside = rect.0 < bounds.0
-                    || rect.2 > bounds.2
-                    || rect.1 < bounds.1
-                    || rect.3 > bounds.3;
-                let cost =
-                    covered + 1000.0 * overlaps + if outside { 500.0 } else { 0.0 } + 6.0 * reach;
-                if cost < best.1 {
-                    best = ((dx, dy), cost, reach);
+                    .any(|o| overlap(rect, &grown(o, ANNOTATION_GAP)))
+                && !obstacles.iter().any(|o| overlap(rect, &grown(o, 1.0)))
+        };
+        let covered = |rect: &Rect| {
+            let inside = |p: &&(f64, f64)| {
+                p.0 >= rect.0 - 1.0
+                    && p.0 <= rect.2 + 1.0
+                    && p.1 >= rect.1 - 1.0
+                    && p.1 <= rect.3 + 1.0
+            };
+            (ink.iter().filter(inside).count() + 3 * leaders.iter().filter(inside).count()) as f64
+        };
+        let mut best: Option<(f64, Rect)> = None;
+        let mut rings_since_found = 0;
+        for ring in 0..RINGS {
+            let r = FIRST_RING + RING_STEP * ring as f64;
+            for direction in 0..16 {
+                let angle = direction as f64 * std::f64::consts::PI / 8.0;
+                let (c, s) = (angle.cos(), angle.sin());
+                // Whole pixels from the point, as the text is drawn.
+                let left = px + (c * (r + w / 2.0) - w / 2.0).round();
+                let top = py + (s * (r + h / 2.0) - h / 2.0).round();
+                let rect = (left, top, left + w, top + h);
+                if !free(&rect) {
+                    continue;
+                }
+                // Nearer is better; to the right of the point, as a reader expects, slightly so.
+                let cost = covered(&rect) + 0.3 * r + if c < -0.3 { 1.0 } else { 0.0 };
+                if best.is_none_or(|(b, _)| cost < b) {
+                    best = Some((cost, rect));
+                }
+            }
+            if best.is_some() {
+                rings_since_found += 1;
+                if rings_since_found > 2 {
+                    break;
                 }
             }
         }
-        let (dx, dy) = best.0;
-        placed.push((px + dx, py + dy, px + dx + w, py + dy + h));
-        let leader = (best.2 > 1.0).then(|| {
-            let nearest = (0.0f64.clamp(dx, dx + w), 0.0f64.clamp(dy, dy + h));
-            (nearest.0.round() as i32, nearest.1.round() as i32)
+        let rect = best.map(|(_, r)| r).or_else(|| {
+            // Every ring is taken: the free place nearest the point, anywhere in the chart.
+            let mut nearest: Option<(f64, Rect)> = None;
+            let mut y = bounds.1;
+            while y + h <= bounds.3 {
+                let mut x = bounds.0;
+                while x + w <= bounds.2 {
+                    let (left, top) = (px + (x - px).round(), py + (y - py).round());
+                    let rect = (left, top, left + w, top + h);
+                    let d = (left + w / 2.0 - px).hypot(top + h / 2.0 - py);
+                    if nearest.is_none_or(|(b, _)| d < b) && free(&rect) {
+                        nearest = Some((d, rect));
+                    }
+                    x += 4.0;
+                }
+                y += 4.0;
+            }
+            nearest.map(|(_, r)| r)
         });
-        offsets[k] = ((dx.round() as i32, dy.round() as i32), leader);
+        let rect = rect.unwrap_or((
+            px + FIRST_RING,
+            py - h / 2.0,
+            px + FIRST_RING + w,
+            py + h / 2.0,
+        ));
+        placed.push(rect);
+        // The point of the box nearest the anchor; a leader line when it is not right there.
+        let nearest = (px.clamp(rect.0, rect.2), py.clamp(rect.1, rect.3));
+        let away = (nearest.0 - px).hypot(nearest.1 - py) > FIRST_RING + RING_STEP / 2.0;
+        if away {
+            for t in 1..16 {
+                let t = f64::from(t) / 16.0;
+                leaders.push((px + t * (nearest.0 - px), py + t * (nearest.1 - py)));
+            }
+        }
+        placements[k] = (
+            ((rect.0 - px).round() as i32, (rect.1 - py).round() as i32),
+            away.then(|| {
+                (
+                    (nearest.0 - px).round() as i32,
+                    (nearest.1 - py).round() as i32,
+                )
+            }),
+        );
     }
-    offsets
+    placements
+}
+
+/// Where plotters draws a panel's legend at `corner` of the plotting area `bounds` (pixels),
+/// grown by a few pixels; `None` for an unlabelled panel.
+fn legend_rect(panel: &Panel, corner: &SeriesLabelPosition, bounds: Rect) -> Option<Rect> {
+    let entries = legend_entries(panel);
+    if entries.is_empty() {
+        return None;
+    }
+    let longest = entries
+        .iter()
+        .map(|e| text_size(e.0, LEGEND_FONT).0)
+        .fold(0.0, f64::max);
+    // plotters: the labels, a 30-pixel sample area and 10-pixel margins, 5 pixels from the edge.
+    let (w, h) = (
+        longest + 50.0,
+        entries.len() as f64 * (LEGEND_FONT + 4.0) + 20.0,
+    );
+    let (right, lower) = match corner {
+        SeriesLabelPosition::UpperLeft => (false, false),
+        SeriesLabelPosition::LowerLeft => (false, true),
+        SeriesLabelPosition::LowerRight => (true, true),
+        _ => (true, false),
+    };
+    let x = if right {
+        bounds.2 - 5.0 - w
+    } else {
+        bounds.0 + 5.0
+    };
+    let y = if lower {
+        bounds.3 - 5.0 - h
+    } else {
+        bounds.1 + 5.0
+    };
+    Some(grown(&(x, y, x + w, y + h), 4.0))
 }
 
 fn draw_content<'a, DB, X, Y>(
@@ -679,6 +921,20 @@ where
         .iter()
         .map(|m| m.points.iter().map(pixel).collect())
         .collect();
+    // What no annotation may cover: every filled circle (a key pose), and the legend.
+    let mut obstacles: Vec<Rect> = panel
+        .markers
+        .iter()
+        .zip(&anchors)
+        .filter(|(m, _)| m.circles)
+        .flat_map(|(_, a)| {
+            a.iter()
+                .map(|p| (p.0 - 7.0, p.1 - 7.0, p.0 + 7.0, p.1 + 7.0))
+        })
+        .collect();
+    if legend_inside {
+        obstacles.extend(legend_rect(panel, &corner, bounds));
+    }
     for (m, anchors) in panel.markers.iter().zip(&anchors) {
         let color = palette(m.color);
         let drawn = if m.circles {
@@ -696,11 +952,29 @@ where
                 .label(&m.label)
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
         }
-        let offsets = place_annotations(anchors, &m.annotations, &ink, bounds);
-        for ((p, text), (offset, leader)) in m.points.iter().zip(&m.annotations).zip(offsets) {
+        let sizes: Vec<(f64, f64)> = m
+            .annotations
+            .iter()
+            .map(|t| text_size(t, ANNOTATION_FONT))
+            .collect();
+        let offsets = place_annotations(anchors, &sizes, &ink, &obstacles, bounds);
+        for (((p, text), (offset, leader)), anchor) in m
+            .points
+            .iter()
+            .zip(&m.annotations)
+            .zip(offsets)
+            .zip(anchors)
+        {
             if text.is_empty() {
                 continue;
             }
+            // Texts of a later set of markers keep clear of these.
+            let (w, h) = text_size(text, ANNOTATION_FONT);
+            let (x, y) = (
+                anchor.0 + f64::from(offset.0),
+                anchor.1 + f64::from(offset.1),
+            );
+            obstacles.push((x, y, x + w, y + h));
             if let Some(end) = leader {
                 // A text set away from its point: a thin line says whose it is.
                 chart.draw_series(std::iter::once(
@@ -708,7 +982,7 @@ where
                         + PathElement::new(vec![(0, 0), end], BLACK.mix(0.5).stroke_width(1)),
                 ))?;
             }
-            let font = ("sans-serif", 12).into_font().color(&BLACK);
+            let font = ("sans-serif", ANNOTATION_FONT).into_font().color(&BLACK);
             chart.draw_series(std::iter::once(
                 EmptyElement::at(*p) + Text::new(text.clone(), offset, font),
             ))?;
@@ -802,33 +1076,95 @@ mod tests {
         assert_eq!(x_tick_label(&counting, 2.5), "");
     }
 
+    /// The boxes `place_annotations` gave texts of `sizes` at `anchors`.
+    fn boxes(anchors: &[(f64, f64)], sizes: &[(f64, f64)], placed: &[Placement]) -> Vec<Rect> {
+        anchors
+            .iter()
+            .zip(sizes)
+            .zip(placed)
+            .map(|((a, s), ((dx, dy), _))| {
+                let (x, y) = (a.0 + f64::from(*dx), a.1 + f64::from(*dy));
+                (x, y, x + s.0, y + s.1)
+            })
+            .collect()
+    }
+
     #[test]
     fn annotations_avoid_each_other_and_the_lines() {
         // Two labels on one point, a line running right of it: neither label on the line, nor
         // on the other.
         let ink: Vec<(f64, f64)> = (0..100).map(|i| (100.0 + i as f64, 100.0)).collect();
-        let texts = ["first".to_string(), "second".to_string()];
-        let offsets = place_annotations(
-            &[(100.0, 100.0), (100.0, 100.0)],
-            &texts,
-            &ink,
-            (0.0, 0.0, 400.0, 400.0),
-        );
-        let rect = |k: usize| {
-            let (dx, dy) = (f64::from(offsets[k].0 .0), f64::from(offsets[k].0 .1));
-            let w = texts[k].len() as f64 * CHAR_WIDTH;
-            (100.0 + dx, 100.0 + dy, 100.0 + dx + w, 100.0 + dy + 13.0)
-        };
-        let (a, b) = (rect(0), rect(1));
-        assert!(
-            !(a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3),
-            "{a:?} {b:?}"
-        );
-        for r in [a, b] {
+        let anchors = [(100.0, 100.0), (100.0, 100.0)];
+        let sizes = [(40.0, 14.0), (52.0, 14.0)];
+        let placed = place_annotations(&anchors, &sizes, &ink, &[], (0.0, 0.0, 400.0, 400.0));
+        let b = boxes(&anchors, &sizes, &placed);
+        assert!(!overlap(&b[0], &b[1]), "{b:?}");
+        for r in &b {
             assert!(
                 !ink.iter()
                     .any(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3),
                 "{r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn crowded_annotations_never_overlap_and_get_leader_lines() {
+        // Sixteen key poses, eight of them within 30 pixels of one another (as near the
+        // latent space's origin), long names, and a legend in the upper right corner.
+        let mut anchors: Vec<(f64, f64)> = (0..8)
+            .map(|k| {
+                let a = f64::from(k) * 0.8;
+                (500.0 + 15.0 * a.cos(), 400.0 + 15.0 * a.sin())
+            })
+            .collect();
+        anchors.extend((0..8).map(|k| {
+            (
+                150.0 + 100.0 * f64::from(k),
+                150.0 + 20.0 * f64::from(k % 3),
+            )
+        }));
+        let sizes: Vec<(f64, f64)> = (0..16)
+            .map(|k| (60.0 + 7.0 * f64::from(k % 5), 16.0))
+            .collect();
+        let circles: Vec<Rect> = anchors
+            .iter()
+            .map(|p| (p.0 - 7.0, p.1 - 7.0, p.0 + 7.0, p.1 + 7.0))
+            .collect();
+        let legend = (800.0, 20.0, 990.0, 120.0);
+        let mut obstacles = circles.clone();
+        obstacles.push(legend);
+        let bounds = (0.0, 0.0, 1000.0, 800.0);
+        let placed = place_annotations(&anchors, &sizes, &[], &obstacles, bounds);
+        let b = boxes(&anchors, &sizes, &placed);
+        for (i, r) in b.iter().enumerate() {
+            assert!(
+                r.0 >= bounds.0 && r.2 <= bounds.2 && r.1 >= bounds.1 && r.3 <= bounds.3,
+                "{r:?}"
+            );
+            for (j, other) in b.iter().enumerate().skip(i + 1) {
+                assert!(
+                    !overlap(r, other),
+                    "texts {i} and {j} overlap: {r:?} {other:?}"
+                );
+            }
+            for (j, o) in obstacles.iter().enumerate() {
+                assert!(!overlap(r, o), "text {i} covers obstacle {j}: {r:?} {o:?}");
+            }
+        }
+        // In the cluster not every text fits beside its point: those set away have a leader
+        // line ending on their box.
+        let led: Vec<usize> = (0..16).filter(|&k| placed[k].1.is_some()).collect();
+        assert!(!led.is_empty());
+        for k in led {
+            let (ex, ey) = placed[k].1.unwrap();
+            let end = (anchors[k].0 + f64::from(ex), anchors[k].1 + f64::from(ey));
+            assert!(
+                overlap(
+                    &grown(&b[k], 1.0),
+                    &grown(&(end.0, end.1, end.0, end.1), 0.5)
+                ),
+                "{k}"
             );
         }
     }

@@ -505,7 +505,8 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
               &["coman"]),
         // Model and data with different joints.
         error(&["predict", "--model", model, "--input", s(&wrong), "--robot", "walkman", "--out", p_csv],
-              &["wrong.csv", "missing human joint"]),
+              &["wrong.csv", "none of the model's 18 human joint columns is there", "and 13 more",
+                "the file has 3 columns: \"a\", \"b\", \"c\""]),
         error(&["predict", "--model", model, "--input", s(&nan), "--robot", "walkman", "--out", p_csv],
               &["nan.csv", "line 2"]),
         // The limits of the commands come from a URDF that must be there and be the robot's.
@@ -554,6 +555,82 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         leftovers.is_empty(),
         "output files left behind: {leftovers:?}"
     );
+}
+
+/// Every error line says each fact once (issue 38): a file name appears once, and lists of
+/// names are cut to the first few and a count.
+#[test]
+fn errors_name_each_file_once_and_cut_long_lists() {
+    let f = fixture();
+    let dir = scratch("once");
+    let (data, model) = (s(&f.data), s(&f.model));
+    let nosuch = dir.join("nosuch.sgp");
+    let folder = dir.join("a-folder.sgp");
+    std::fs::create_dir_all(&folder).unwrap();
+    let out = dir.join("p.csv");
+    // A CSV with 5 of the human's 18 joints, and a robot trajectory with two of its own.
+    let human =
+        sgplvm::robots::joint_state::read_joint_states(&f.data, "/human/joint_states").unwrap();
+    let five = dir.join("five.csv");
+    std::fs::write(
+        &five,
+        format!("{}\n{}\n", human.names[..5].join(","), ["0.1"; 5].join(",")),
+    )
+    .unwrap();
+    let stranger = dir.join("stranger.csv");
+    std::fs::write(&stranger, "time,LShSag,elbow,knee\n0,0,0,0\n0.5,0,0,0\n").unwrap();
+    let replay = dir.join("no-such-folder").join("replay.mcap");
+    let human_csv = human_test_csv(f);
+    // A file where the output folder should go: refused before any training.
+    let taken = dir.join("taken-name");
+    std::fs::write(&taken, "").unwrap();
+    let cases: Vec<(Vec<&str>, &str, Vec<&str>)> = vec![
+        (
+            vec!["experiment", "--data", data, "--out", s(&taken)],
+            "taken-name",
+            vec!["cannot create the output folder"],
+        ),
+        (
+            vec!["demo", "--data", data, "--out", s(&taken)],
+            "taken-name",
+            vec!["cannot create the output folder"],
+        ),
+        (
+            vec!["predict", "--model", s(&nosuch), "--input", data, "--robot", "walkman", "--out", s(&out)],
+            "nosuch.sgp",
+            vec!["No such file"],
+        ),
+        (
+            vec!["joints", "--model", s(&folder)],
+            "a-folder.sgp",
+            vec!["model file"],
+        ),
+        (
+            vec!["predict", "--model", model, "--input", s(&five), "--robot", "walkman", "--out", s(&out)],
+            "five.csv",
+            vec!["13 of the model's 18 human joint columns are missing: ", "and 8 more", "the file has 5 columns"],
+        ),
+        (
+            vec!["simulate", "--robot", "walkman", "--trajectory", s(&stranger)],
+            "stranger.csv",
+            vec!["2 columns of the trajectory name no movable joint of builtin:walkman: \"elbow\", \"knee\"", "its 14 movable joints: ", "and 9 more"],
+        ),
+        (
+            vec!["simulate", "--model", model, "--input", s(&human_csv), "--robot", "walkman", "--out", s(&replay)],
+            "replay.mcap",
+            vec!["cannot write the replay"],
+        ),
+    ];
+    for (args, file, says) in cases {
+        let err = fails_on_one_line(&args);
+        assert_eq!(err.matches(file).count(), 1, "{file} not named once: {err}");
+        for s in says {
+            assert!(err.contains(s), "sgplvm {args:?}: {err}");
+        }
+        // Short, whatever the length of the scratch folder's path.
+        let text = err.replace(s(&dir), "DIR");
+        assert!(text.len() < 400, "{} bytes: {text}", text.len());
+    }
 }
 
 #[test]
@@ -699,6 +776,30 @@ fn experiment_writes_results_in_the_documented_schema() {
     ] {
         assert!(out.join(file).exists(), "missing {file}");
     }
+    // `experiment --help` names every file the command wrote, and the summary every figure.
+    let help = ok(&["experiment", "--help"]);
+    let summary = ok(&["--help"]);
+    let mut figures = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(&out).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        let stem = name.split('.').next().unwrap().to_string();
+        assert!(
+            help.contains(&stem),
+            "`experiment --help` does not name {name}:\n{help}"
+        );
+        if let Some(number) = stem.strip_prefix("fig") {
+            figures.insert(number.trim_end_matches("_seconds").to_string());
+        }
+    }
+    assert_eq!(figures.len(), 5, "{figures:?}");
+    let line = summary
+        .lines()
+        .find(|l| l.trim_start().starts_with("experiment "))
+        .unwrap();
+    assert!(
+        line.contains("Figs. 4-6, 9 and 10 (and 11 with --all-frames)"),
+        "{line}"
+    );
 }
 
 /// `experiment --all-frames`: beside the subsampled exact baselines, per robot one sparse
@@ -736,6 +837,7 @@ fn experiment_all_frames_reports_the_sparse_model_beside_the_exact_one() {
             s(&out),
         ]);
         assert!(out.join("fig11.svg").exists() && out.join("fig11.png").exists());
+        assert!(ok(&["experiment", "--help"]).contains("with --all-frames, fig11"));
         let report = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(
             report.contains("**Does using all the data help?**") && report.contains("(996 frames)"),
@@ -854,6 +956,41 @@ fn messages_say_what_happened() {
         s(&dir.join("again.sgp")),
     ]);
     assert!(err.contains("already predicts for 'coman'"), "{err}");
+    // A budget chosen on held-out frames is said in words (issue 38), not as the caller's
+    // `MaxIterations`; --json gives the stop reason's name, as results.json and Python do.
+    let trained = dir.join("validated.sgp");
+    let args = [
+        "train",
+        "--data",
+        data,
+        "--robot",
+        "walkman",
+        "--out",
+        s(&trained),
+    ];
+    let said = ok(&args);
+    let lines: Vec<&str> = said.lines().collect();
+    assert_eq!(lines.len(), 2, "{said}");
+    assert!(
+        lines[1].starts_with("  validated budget: ")
+            && lines[1].contains("held-out training frames")
+            && lines[1].contains("until their error had not fallen for 50 iterations")
+            && lines[1].contains("then retrained on all "),
+        "{said}"
+    );
+    assert!(
+        !said.contains("MaxIterations") && !said.contains("budget used up"),
+        "{said}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    assert_eq!(json["stop_reason"], "validated_budget", "{json}");
+    // Trained to a fixed budget, the first line says that budget ran out.
+    let said = ok(&[&args[..], &["--validation", "none", "--max-iters", "3"]].concat());
+    assert!(
+        said.contains(" (iteration budget used up); wrote "),
+        "{said}"
+    );
     // A missing folder: the error names the user's path, not a temporary file.
     let missing = dir.join("no-such-folder").join("x.sgp");
     let err = fails_on_one_line(&[
@@ -1120,6 +1257,27 @@ fn the_demo_reports_progress_in_a_log_and_lists_its_models() {
         let path = out.join(model);
         assert!(stdout.contains(s(&path)), "{stdout}");
         assert!(path.exists(), "{model}");
+    }
+    // Figs. 7 and 8 read on a laptop screen: at least 1,000 pixels wide, SVG and PNG alike;
+    // Fig. 8 has a column per test motion (two in the fixture's data) and a legend column.
+    for (stem, min_width) in [("latent_space", 1000), ("coman_trajectories", 1000)] {
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        let png_size = (
+            u32::from_be_bytes(png[16..20].try_into().unwrap()),
+            u32::from_be_bytes(png[20..24].try_into().unwrap()),
+        );
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        let svg_size = format!("width=\"{}\" height=\"{}\"", png_size.0, png_size.1);
+        assert!(
+            svg.contains(&svg_size),
+            "{stem}: {svg_size} {}",
+            &svg[..200]
+        );
+        assert!(png_size.0 >= min_width, "{stem}: {png_size:?}");
+    }
+    let fig8 = std::fs::read_to_string(out.join("coman_trajectories.svg")).unwrap();
+    for motion in ["forward_high ↔ hands_together", "v_up ↔ left_across"] {
+        assert!(fig8.contains(motion), "Fig. 8 does not show {motion}");
     }
     // The test frames as each model predicts them, with predict's Foxglove topics.
     let test_frames = sgplvm::robots::dataset::load_demonstrations(&f.data)

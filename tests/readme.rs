@@ -211,3 +211,59 @@ fn skip_markers_attach_to_the_block_below_them() {
     // Text between a marker and a block detaches it.
     assert!(blocks[1].skips.is_empty());
 }
+
+/// The text of every ```python block of `readme`.
+fn python_blocks(readme: &str) -> Vec<String> {
+    let mut blocks = Vec::new();
+    let mut lines = readme.lines();
+    while let Some(line) = lines.next() {
+        if line.trim() == "```python" {
+            let body: Vec<&str> = lines.by_ref().take_while(|l| l.trim() != "```").collect();
+            blocks.push(body.join("\n"));
+        }
+    }
+    blocks
+}
+
+/// The quoted strings that follow `before` in `text` (`save("a.sgp")` → `a.sgp`).
+fn quoted_after(text: &str, before: &str) -> Vec<String> {
+    text.match_indices(before)
+        .filter_map(|(i, _)| {
+            let rest = text[i + before.len()..].strip_prefix('"')?;
+            rest.split_once('"').map(|(name, _)| name.to_string())
+        })
+        .collect()
+}
+
+/// A reader who runs the command-line block and then the Python examples in the same folder
+/// keeps what both wrote (issue 38: the Python example saved over the CLI's `coman.sgp`).
+#[test]
+fn the_python_examples_write_no_file_the_commands_write() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let python = python_blocks(&readme).join("\n");
+    let mut written: Vec<String> = quoted_after(&python, "save(");
+    written.extend(quoted_after(&python, "out="));
+    assert!(written.len() >= 2, "{written:?}");
+    let commands: Vec<String> = bash_blocks(&readme)
+        .into_iter()
+        .flat_map(|b| b.commands)
+        .collect();
+    let outputs: Vec<&str> = commands
+        .iter()
+        .flat_map(|c| {
+            let words: Vec<&str> = c.split_whitespace().collect();
+            words
+                .windows(2)
+                .filter(|w| w[0] == "--out")
+                .map(|w| w[1])
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    assert!(outputs.contains(&"coman.sgp"), "{outputs:?}");
+    for name in &written {
+        assert!(
+            !outputs.contains(&name.as_str()),
+            "the README's Python writes {name}, which a command of its shell blocks writes too"
+        );
+    }
+}

@@ -50,6 +50,13 @@ pub fn load_model(path: &Path) -> Result<SharedGplvm> {
     SharedGplvm::load(path).with_context(|| path.display().to_string())
 }
 
+/// Creates the output folder `dir` (and its parents) before any work, so that a path that cannot
+/// be a folder fails at once rather than after the trainings.
+pub fn output_folder(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output folder", dir.display()))
+}
+
 // `--json`: machine-readable output.
 #[derive(Args)]
 pub struct JsonArg {
@@ -77,7 +84,7 @@ pub struct BudgetArg {
     pub patience: u64,
     /// Wall-clock budget of each training in seconds (with `--validation auto`, half of it for
     /// choosing the iteration count): when it runs out, training stops and keeps the best
-    /// parameters so far (stop reason TimeLimit). Default: no limit.
+    /// parameters so far (stop reason `time_limit`). Default: no limit.
     #[arg(long, value_parser = parse_seconds)]
     pub max_seconds: Option<f64>,
 }

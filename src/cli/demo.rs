@@ -6,25 +6,26 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{to_mat, Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 
-use super::args::{BudgetArg, DataArg};
+use super::args::{output_folder, BudgetArg, DataArg};
 use super::progress::{on_terminal, train_with_progress, StepLines};
 use super::report::{self, Yardstick};
 
 #[derive(Args)]
 #[command(mut_arg("data", |a| a.help(
-    "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or the same data generated"
+    "Demonstrations (MCAP); default: data/demos/bimanual.mcap, or outside the repository the \
+     same data generated in memory"
 )))]
 #[command(mut_arg("max_iters", |a| a.default_value("500")))]
 pub struct DemoArgs {
     #[command(flatten)]
     data: DataArg,
-    /// Output folder for figures and models.
+    /// Output folder: the models, Figs. 7 and 8 (SVG and PNG) and the test predictions (MCAP).
     #[arg(long, default_value = "sgplvm-demo")]
     out: PathBuf,
     /// Robot trained fully; the others in the data are transferred to.
@@ -42,6 +43,7 @@ pub struct DemoArgs {
 
 pub fn run(args: DemoArgs) -> Result<()> {
     let demos = args.data.load()?;
+    output_folder(&args.out)?;
     if !args.json {
         report::demo_data(&demos);
     }
@@ -159,7 +161,7 @@ fn train_and_save(
     };
     let (model, seconds) = train_with_progress(&label, max_iters, train)?;
     if let Some(file) = file {
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        output_folder(out)?;
         let path = out.join(file);
         model.save(&path)?;
         saved.push(path);
@@ -229,7 +231,7 @@ fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Re
             .as_ref()
             .map(|v| rows(v, f64::sqrt))
             .unwrap_or_default();
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        output_folder(out)?;
         let path = out.join(file);
         super::predict::scene::write(
             &m.model,

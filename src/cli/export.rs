@@ -123,9 +123,10 @@ fn write_bvh(
     let human = sgplvm::robots::Robot::builtin("human")?.joint_names();
     if body.joint_names != human {
         return Err(anyhow!(
-            "{out}: a BVH file holds the human model's motion; body `{}` is not the human (its joints are {:?})",
+            "{out}: a BVH file holds the human model's motion; body `{}` is not the human (its {}: {})",
             body.name,
-            body.joint_names
+            sgplvm::robots::names::count(body.joint_names.len(), "joint"),
+            sgplvm::robots::names::few(&body.joint_names, sgplvm::robots::names::SHOWN)
         ));
     }
     if rows.len() < 2 {

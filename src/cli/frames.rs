@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use sgplvm::csv::{read_frames, CsvFrames, STD_SUFFIX};
 use sgplvm::robots::joint_state::{list_channels, read_topics, TopicRequest};
+use sgplvm::robots::names::{count, few, SHOWN};
 use sgplvm::robots::Trajectory;
 use sgplvm::{Mat, Robot, SharedGplvm};
 
@@ -28,11 +29,32 @@ pub fn model_joint_names(model: &SharedGplvm, space: &str) -> Vec<String> {
     }
 }
 
-/// Positions of the model's joints among the file's columns; missing ones are an error.
+/// Positions of the model's joints among the file's columns; missing ones are an error that
+/// names the first few of them and of the file's columns, with counts (the whole lists of 18
+/// joints made a line no one reads).
 pub fn column_order(wanted: &[String], found: &[String], source: &str) -> Result<Vec<usize>> {
     let missing: Vec<&String> = wanted.iter().filter(|w| !found.contains(w)).collect();
     if !missing.is_empty() {
-        bail!("{source}: missing human joint column(s) {missing:?}; the model expects {wanted:?}");
+        let which = if missing.len() == wanted.len() {
+            format!(
+                "none of the model's {} human joint columns is there",
+                wanted.len()
+            )
+        } else {
+            format!(
+                "{} of the model's {} human joint columns {} missing",
+                missing.len(),
+                wanted.len(),
+                if missing.len() == 1 { "is" } else { "are" }
+            )
+        };
+        bail!(
+            "{source}: {which}: {}; the file has {}: {} (`sgplvm joints --model MODEL` lists the \
+             model's)",
+            few(&missing, SHOWN),
+            count(found.len(), "column"),
+            few(found, 3),
+        );
     }
     Ok(wanted
         .iter()

@@ -27,7 +27,14 @@ use clap::Subcommand;
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Train on WALK-MAN, transfer to COMAN and CENTAURO, print test errors, draw the figures.
+    /// Train on WALK-MAN, transfer to COMAN and CENTAURO, print test errors; write the models,
+    /// Figs. 7 and 8 and the test predictions.
+    ///
+    /// Into --out: each model (`walkman.sgp`, `walkman_to_coman.sgp`, ...), Fig. 7
+    /// (`latent_space.svg`, `.png`: the shared latent space), Fig. 8
+    /// (`coman_trajectories.svg`, `.png`: predicted against desired joints on every test
+    /// motion) and the test frames as each model predicts them (`walkman_test.mcap`,
+    /// `walkman_to_coman_test.mcap`, ...: `predict`'s topics, for Foxglove).
     Demo(demo::DemoArgs),
     /// Generate demonstrations following the paper's protocol (defaults reproduce data/demos).
     Generate(generate::GenerateArgs),
@@ -45,7 +52,14 @@ pub enum Command {
     /// Either `--trajectory FILE` (robot joint commands, MCAP JointState or CSV) on `--robot` or
     /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
     Simulate(simulate::SimulateArgs),
-    /// The paper's Section IV-B: Figs. 4, 5 and 6, results.json and report.md.
+    /// The paper's Section IV-B: Figs. 4-6, 9 and 10 (and 11 with --all-frames), results.json
+    /// and report.md.
+    ///
+    /// Into --out: results.json (every run), report.md (the paper's claims judged), and each
+    /// figure as SVG and PNG: fig4 and fig5 (test error against iterations, and against
+    /// seconds as fig4_seconds and fig5_seconds: no and input back constraints), fig6 (the
+    /// three back constraints), fig9 (less data), fig10 (transfer to each robot from each
+    /// other robot) and, with --all-frames, fig11 (the sparse model on every frame).
     ///
     /// Runs every training here, one after another. On a Ray cluster the same trainings run
     /// in parallel with identical results: `pip install "sgplvm[ray]"`, then in Python

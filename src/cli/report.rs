@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel, TestTrust};
+use sgplvm::robots::names::count;
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
-use sgplvm::SharedGplvm;
+use sgplvm::{SharedGplvm, StopReason};
 
 /// After `train`: robots, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
@@ -32,46 +33,91 @@ pub fn transfer(
     trained(&what, model, seconds, out, json);
 }
 
-/// The result line of a training: `what` was done, in `seconds`, then the budget's selection.
+/// The result of a training: `what` was done, in `seconds`, and why it stopped, in words —
+/// for a budget chosen on held-out frames, how it was chosen.
 fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
-    let history = model.history();
-    let objective = history.last().map(|r| r.objective);
-    let stop = model
-        .stop_reason()
-        .map(|r| format!("{r:?}"))
-        .unwrap_or_default();
     if json {
+        let history = model.history();
         let value = json!({
             "model": out.display().to_string(),
             "robots": model.output_names(),
             "iterations": history.last().map_or(0, |r| r.iteration),
             "seconds": seconds,
-            "objective": objective,
-            "stop_reason": stop,
+            "objective": history.last().map(|r| r.objective),
+            "stop_reason": model.stop_reason().map(StopReason::name),
             "selection": model.selection(),
         });
         println!("{value}");
     } else {
-        println!(
-            "{what} in {:.2} s, {} iterations, objective {:.3} ({stop}); wrote {}",
-            seconds,
-            history.last().map_or(0, |r| r.iteration),
-            objective.unwrap_or(f64::NAN),
+        print!("{}", trained_text(what, model, seconds, out));
+    }
+}
+
+/// The lines [`trained`] prints: what was done, then why it stopped. Without a selection the
+/// stop reason closes the first line; with one, a second line says how the budget was chosen
+/// and whether the final training ran all of it (`validated budget: 7 iterations chosen on 84
+/// held-out training frames (...), then retrained on all 249 frames`).
+fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> String {
+    let history = model.history();
+    let iterations = history.last().map_or(0, |r| r.iteration);
+    let objective = history.last().map_or(f64::NAN, |r| r.objective);
+    let stop = model
+        .stop_reason()
+        .map_or("not trained".to_string(), ToString::to_string);
+    let Some(s) = model.selection() else {
+        return format!(
+            "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3} \
+             ({stop}); wrote {}\n",
             out.display()
         );
-        if let Some(s) = model.selection() {
-            let best = s.curve.iter().find(|r| r.iteration == s.best_iteration);
-            println!(
-                "  budget chosen on {} held-out training frames (trained on the other {} until \
-                 their error had not fallen for {} iterations): {} iterations, held-out MSE {:.6}",
-                s.validation_frames,
-                s.fit_frames,
-                s.patience,
-                s.best_iteration,
-                best.map_or(f64::NAN, |r| r.validation_mse)
-            );
-        }
-    }
+    };
+    let held_out_mse = s
+        .curve
+        .iter()
+        .find(|r| r.iteration == s.best_iteration)
+        .map_or(f64::NAN, |r| r.validation_mse);
+    let last = s.curve.last().map_or(0, |r| r.iteration);
+    let chosen = if s.chose_the_budget() {
+        let run = if last >= s.best_iteration + s.patience {
+            format!(
+                "until their error had not fallen for {}",
+                count(s.patience, "iteration")
+            )
+        } else {
+            format!(
+                "for {}, to the iteration budget or time limit",
+                count(last, "iteration")
+            )
+        };
+        format!(
+            "validated budget: {} chosen on {} held-out training frames (held-out MSE \
+             {held_out_mse:.6}; the selection run trained on the other {} {run})",
+            count(s.best_iteration, "iteration"),
+            s.validation_frames,
+            s.fit_frames,
+        )
+    } else {
+        format!(
+            "budget: {}: the selection run on {} training frames ended there (iteration budget \
+             or time limit), at its lowest error on {} held-out frames (MSE {held_out_mse:.6})",
+            count(s.best_iteration, "iteration"),
+            s.fit_frames,
+            s.validation_frames,
+        )
+    };
+    let ending = match model.stop_reason() {
+        Some(StopReason::ValidatedBudget) => String::new(),
+        _ => format!(
+            ", which stopped after {}: {stop}",
+            count(iterations, "iteration")
+        ),
+    };
+    format!(
+        "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3}; wrote {}\n  \
+         {chosen}, then retrained on all {} frames{ending}\n",
+        out.display(),
+        s.fit_frames + s.validation_frames,
+    )
 }
 
 /// `evaluate`: the test error overall and per joint.
@@ -260,8 +306,18 @@ pub fn replay(
     Ok(())
 }
 
-/// A violation's amount and limit, formatted with their unit.
-type Units = fn(&LimitViolation) -> (String, String);
+/// A violation's amount and limit, each with its unit, for a revolute (`false`) or prismatic
+/// (`true`) joint: one unit per line.
+type Units = fn(&LimitViolation, bool) -> (String, String);
+
+/// Positions in the text report: degrees, or millimetres for prismatic joints.
+fn position(value: f64, prismatic: bool) -> f64 {
+    if prismatic {
+        value * 1e3
+    } else {
+        value.to_degrees()
+    }
+}
 
 /// How many of the worst cases the summary lists.
 const WORST: usize = 3;
@@ -323,32 +379,52 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     for j in &report.joints {
         let (lc, lw) = cell(
             &per_joint(&report.limit_violations, &j.name),
-            180.0 / std::f64::consts::PI,
+            position(1.0, j.prismatic),
         );
         let (vc, vw) = cell(&per_joint(&report.velocity_violations, &j.name), 1.0);
+        let name = if j.prismatic {
+            format!("{} *", j.name)
+        } else {
+            j.name.clone()
+        };
         line(format!(
-            "{:<20} {:>9.3} {:>9.3} {:>8.2}  {lc:>10} {lw:>11}  {vc:>8} {vw:>13}",
-            j.name,
-            j.rms_error.to_degrees(),
-            j.max_error.to_degrees(),
+            "{name:<20} {:>9.3} {:>9.3} {:>8.2}  {lc:>10} {lw:>11}  {vc:>8} {vw:>13}",
+            position(j.rms_error, j.prismatic),
+            position(j.max_error, j.prismatic),
             j.max_error_time,
         ));
     }
+    if report.joints.iter().any(|j| j.prismatic) {
+        line("* prismatic: millimetres for degrees, m/s for rad/s".into());
+    }
     line(String::new());
     let kinds: [(&str, &[LimitViolation], Units); 2] = [
-        ("joint-limit", &report.limit_violations, |v| {
-            (
-                format!("{:.2}°", v.amount.to_degrees()),
-                format!("{:.3}", v.limit),
-            )
+        ("joint-limit", &report.limit_violations, |v, prismatic| {
+            if prismatic {
+                (
+                    format!("{:.1} mm", v.amount * 1e3),
+                    format!("{:.1} mm", v.limit * 1e3),
+                )
+            } else {
+                (
+                    format!("{:.2}°", v.amount.to_degrees()),
+                    format!("{:.2}°", v.limit.to_degrees()),
+                )
+            }
         }),
-        ("velocity-limit", &report.velocity_violations, |v| {
-            (
-                format!("{:.2} rad/s", v.amount),
-                format!("{:.3} rad/s", v.limit),
-            )
-        }),
+        (
+            "velocity-limit",
+            &report.velocity_violations,
+            |v, prismatic| {
+                let unit = if prismatic { "m/s" } else { "rad/s" };
+                (
+                    format!("{:.2} {unit}", v.amount),
+                    format!("{:.3} {unit}", v.limit),
+                )
+            },
+        ),
     ];
+    let prismatic = |joint: &str| report.joints.iter().any(|j| j.name == joint && j.prismatic);
     for (kind, violations, units) in kinds {
         if violations.is_empty() {
             line(format!("no {kind} violations"));
@@ -373,7 +449,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
             line("  worst:".into());
         }
         for v in worst {
-            let (amount, limit) = units(v);
+            let (amount, limit) = units(v, prismatic(&v.joint));
             line(violation(v, &amount, &limit));
         }
     }
@@ -391,7 +467,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
 /// One line of a limit violation, its amount and limit already formatted with their unit.
 fn violation(v: &LimitViolation, amount: &str, limit: &str) -> String {
     format!(
-        "  {:>7.3}–{:<7.3} s  {:<20} {amount} beyond {limit} ({})",
+        "  {:>7.3}–{:<7.3} s  {:<20} {amount} beyond its limit of {limit} ({})",
         v.time,
         v.end_time,
         v.joint,
@@ -449,5 +525,82 @@ fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(Str
                 c.max_penetration * 1e3
             ));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sgplvm::robots::physics::JointTracking;
+
+    fn joint(name: &str, prismatic: bool) -> JointTracking {
+        JointTracking {
+            name: name.into(),
+            rms_error: 0.01,
+            max_error: 0.02,
+            max_error_time: 1.0,
+            prismatic,
+        }
+    }
+
+    fn beyond(joint: &str, amount: f64, limit: f64) -> LimitViolation {
+        LimitViolation {
+            time: 1.0,
+            end_time: 1.5,
+            joint: joint.into(),
+            amount,
+            limit,
+            commanded: true,
+        }
+    }
+
+    /// Each line of the summary gives its numbers in one unit and names it (issue 38: it said
+    /// `1.28° beyond -0.314`, degrees beside radians).
+    #[test]
+    fn every_violation_line_has_one_named_unit() {
+        let report = ReplayReport {
+            duration: 2.0,
+            physics_steps: 2000,
+            wall_seconds: 0.1,
+            joints: vec![joint("LShLat", false), joint("slide", true)],
+            limit_violations: vec![
+                beyond("LShLat", 0.0223, -0.314),
+                beyond("slide", 0.0032, 0.12),
+            ],
+            velocity_violations: vec![beyond("LShLat", 4.95, -4.0), beyond("slide", 0.1, 0.5)],
+            collisions: Vec::new(),
+            warnings: Vec::new(),
+            simulated: None,
+        };
+        let text = replay_text("test.urdf", &report, false);
+        let lines: Vec<&str> = text
+            .lines()
+            .filter(|l| l.contains("beyond its limit of"))
+            .collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        let wanted = [
+            ("LShLat", "1.28° beyond its limit of -17.99°"),
+            ("slide", "3.2 mm beyond its limit of 120.0 mm"),
+            ("LShLat", "4.95 rad/s beyond its limit of -4.000 rad/s"),
+            ("slide", "0.10 m/s beyond its limit of 0.500 m/s"),
+        ];
+        for (joint, says) in wanted {
+            assert!(
+                lines.iter().any(|l| l.contains(joint) && l.contains(says)),
+                "no line says {says}:\n{text}"
+            );
+        }
+        for l in &lines {
+            let units = ["°", " mm", "rad/s", "m/s"]
+                .iter()
+                .filter(|u| l.contains(*u))
+                .count();
+            assert_eq!(units, 1, "{l}");
+        }
+        // The prismatic joint's row is in millimetres, marked and explained.
+        assert!(
+            text.contains("slide *") && text.contains("* prismatic: millimetres"),
+            "{text}"
+        );
     }
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use sgplvm::robots::{ReplayOptions, Trajectory};
+use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
 use super::args::load_model;
 use super::frames::{
@@ -92,11 +92,27 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let activity = Activity::start(&format!("replaying on {source}"), &detail);
     let report = sgplvm::robots::replay(&xml, &source, &trajectory, &options);
     activity.finish();
-    let report = report?;
+    let report = report.map_err(|e| in_trajectory(e, args.trajectory.as_deref()))?;
     if let Some(out) = &args.out {
         scene::write(out, &xml, &source, robot, &trajectory, t0, &report)?;
     }
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
+}
+
+/// A replay error, with the trajectory file named when the error is about the trajectory (its
+/// columns, frames or values); errors about the robot name the robot's file themselves.
+fn in_trajectory(e: PhysicsError, file: Option<&str>) -> anyhow::Error {
+    let about_trajectory = matches!(
+        e,
+        PhysicsError::UnknownJoint { .. }
+            | PhysicsError::MissingJoint { .. }
+            | PhysicsError::Trajectory { .. }
+            | PhysicsError::NonFinitePosition { .. }
+    );
+    match file {
+        Some(file) if about_trajectory => anyhow::Error::new(e).context(file.to_string()),
+        _ => e.into(),
+    }
 }
 
 /// The trajectory `model` predicts for `robot` from the human frames of `input`.

@@ -20,7 +20,10 @@
 //! trained with a validation split, how their iteration budget was chosen. Version 2 adds the
 //! sparse model (#14): `config.inducing` and the inducing inputs Z (`inducing`); for it the
 //! back-constraint weights and data are those of the M centres. A version-1 file is a version-2
-//! file of an exact model. Caches
+//! file of an exact model. The stop reason `ValidatedBudget` (issue 38) is new within version 2:
+//! files written before it hold `MaxIterations` for a final run that ran out of its validated
+//! budget, and are read as `ValidatedBudget` (the selection says so); a library from before it
+//! refuses files that hold it, as a corrupt payload naming the unknown variant. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
 //! Files are written to a temporary file next to the target and renamed into place (see
@@ -466,7 +469,12 @@ impl SharedGplvm {
         model.sparse = inducing.map(crate::sparse::SparseState::new);
         model.map = map;
         model.history = f.history;
-        model.stop_reason = f.stop_reason;
+        // Files written before `StopReason::ValidatedBudget` (issue 38) recorded a final run
+        // that ran out of its validated budget as `MaxIterations`: read as what it was.
+        model.stop_reason = match &f.selection {
+            Some(s) => s.final_stop_reason(f.stop_reason),
+            None => f.stop_reason,
+        };
         model.selection = f.selection;
         for (space, t) in &f.trust {
             if model.output_index(space).is_err() || !(t.is_finite() && *t >= 0.0) {
@@ -527,6 +535,47 @@ impl SharedGplvm {
 mod tests {
     use super::*;
     use crate::test_support::*;
+
+    /// `model`'s file with `from` replaced by `to` in its payload (the hash recomputed): a file
+    /// as an older library wrote it.
+    fn edited(model: &SharedGplvm, from: &str, to: &str) -> Vec<u8> {
+        let bytes = model.to_bytes();
+        let payload = std::str::from_utf8(&bytes[HEADER..]).expect("JSON payload");
+        assert!(payload.contains(from), "{from} not in the payload");
+        let payload = payload.replace(from, to);
+        let mut out = bytes[..12].to_vec();
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&fnv1a(payload.as_bytes()).to_le_bytes());
+        out.extend_from_slice(payload.as_bytes());
+        out
+    }
+
+    #[test]
+    fn files_from_before_the_validated_budget_stop_reason_read_as_it() {
+        let (h, r, _, _) = demo(30, 3);
+        let spaces = [("human", h.as_ref()), ("walkman", r.as_ref())];
+        let config = ModelConfig::default().with_latent_dim(2);
+        let validation =
+            crate::Validation::new((0..30).filter(|i| i % 3 == 1).collect()).with_patience(3);
+        let m =
+            SharedGplvm::fit_validated(&config, &spaces, "human", &quick(30), &validation, None)
+                .expect("fit");
+        assert_eq!(m.stop_reason(), Some(&StopReason::ValidatedBudget));
+        // Written before issue 38: the same run recorded as MaxIterations.
+        let old = edited(
+            &m,
+            r#""stop_reason":"ValidatedBudget""#,
+            r#""stop_reason":"MaxIterations""#,
+        );
+        let read = SharedGplvm::from_bytes(&old).expect("an older file loads");
+        assert_eq!(read.stop_reason(), Some(&StopReason::ValidatedBudget));
+        assert_eq!(read.params(), m.params());
+        // Without a selection, MaxIterations is the caller's budget and stays so.
+        let plain = fit(BackConstraint::Input, 30, 5, 0);
+        assert_eq!(plain.stop_reason(), Some(&StopReason::MaxIterations));
+        let back = SharedGplvm::from_bytes(&plain.to_bytes()).expect("loads");
+        assert_eq!(back.stop_reason(), Some(&StopReason::MaxIterations));
+    }
 
     #[test]
     fn save_load_round_trip_is_bit_identical_and_bad_files_fail() {

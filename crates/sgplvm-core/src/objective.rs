@@ -696,7 +696,7 @@ mod tests {
     /// phase's path depends on rounding (BENCHMARKS.md, issue 18's twelfth pass).
     /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib whitened_time -- --ignored --nocapture`
     #[test]
-    #[ignore]
+    #[ignore = "measurement, not a check: needs BC_DATA and trains for minutes (BENCHMARKS.md, issue 18)"]
     fn whitened_time_to_solution() {
         let Some((mut h, r)) = bench_data_from_env() else {
             return;
@@ -800,7 +800,7 @@ mod tests {
     /// curvature spreads within it (BENCHMARKS.md, issue 18's thirteenth pass).
     /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib hessian_diagonal -- --ignored --nocapture`
     #[test]
-    #[ignore]
+    #[ignore = "measurement, not a check: needs BC_DATA and prints curvatures (BENCHMARKS.md, issue 18)"]
     fn hessian_diagonal_by_blocks() {
         use super::{Mode, ModelObjective};
         use crate::train::{Control, IterationRecord, Objective};

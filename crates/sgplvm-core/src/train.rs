@@ -354,12 +354,19 @@ pub enum StopReason {
     EvaluationLimit,
     /// [`TrainOptions::interrupt`] asked training to stop (the best point is kept).
     Interrupted,
+    /// The iteration budget chosen on held-out frames was reached: the final training on all
+    /// frames ran for the iteration count at which the held-out error was lowest (the model's
+    /// `Selection` says how it was chosen). Recorded instead of [`StopReason::MaxIterations`]
+    /// when that budget, not the caller's `max_iters`, ended training (issue 38). Model files
+    /// written before it hold `MaxIterations` there and are read as this (see the `io`
+    /// module).
+    ValidatedBudget,
 }
 
 impl StopReason {
     /// The reason's name in snake case: `gradient_tolerance`, `relative_tolerance`,
     /// `max_iterations`, `callback`, `line_search`, `nothing_to_train`, `time_limit`,
-    /// `evaluation_limit` or `interrupted`.
+    /// `evaluation_limit`, `interrupted` or `validated_budget`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::GradientTolerance => "gradient_tolerance",
@@ -371,6 +378,26 @@ impl StopReason {
             Self::TimeLimit => "time_limit",
             Self::EvaluationLimit => "evaluation_limit",
             Self::Interrupted => "interrupted",
+            Self::ValidatedBudget => "validated_budget",
+        }
+    }
+}
+
+/// What happened, in words: `converged: gradient below tolerance`, `iteration budget used up`,
+/// `validated budget reached`, ….
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::GradientTolerance => f.write_str("converged: gradient below tolerance"),
+            Self::RelativeTolerance => f.write_str("converged: objective change below tolerance"),
+            Self::MaxIterations => f.write_str("iteration budget used up"),
+            Self::Callback => f.write_str("stopped by the callback"),
+            Self::LineSearch(why) => write!(f, "line search found no better point ({why})"),
+            Self::NothingToTrain => f.write_str("nothing to train"),
+            Self::TimeLimit => f.write_str("time limit reached, best parameters kept"),
+            Self::EvaluationLimit => f.write_str("evaluation limit reached, best parameters kept"),
+            Self::Interrupted => f.write_str("interrupted, best parameters kept"),
+            Self::ValidatedBudget => f.write_str("validated budget reached"),
         }
     }
 }

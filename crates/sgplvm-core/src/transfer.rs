@@ -320,7 +320,7 @@ mod tests {
     /// `BC_DATA` as for `whitened_time_to_solution` (its robot is both source and new robot).
     /// `BC_DATA=/tmp/bc.bin cargo test --release -p sgplvm-core --lib transfer_times -- --ignored --nocapture`
     #[test]
-    #[ignore]
+    #[ignore = "profiling aid: needs BC_DATA, prints times"]
     fn transfer_times() {
         let Some((h, r)) = bench_data_from_env() else {
             return;

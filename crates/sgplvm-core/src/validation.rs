@@ -29,7 +29,7 @@ use crate::kernel::KernelParams;
 use crate::model::{Callback, SharedGplvm, Space};
 use crate::objective::Mode;
 use crate::regression::{fit_kernel, GpRegression};
-use crate::train::{Control, IterationRecord, Limits, TrainOptions};
+use crate::train::{Control, IterationRecord, Limits, StopReason, TrainOptions};
 
 /// The share of the time left that a selection run may use under
 /// [`TrainOptions::max_seconds`]; the final training gets the rest.
@@ -132,6 +132,29 @@ pub struct Selection {
     pub best_iteration: usize,
     /// Seconds the selection run took (validation predictions included).
     pub seconds: f64,
+}
+
+impl Selection {
+    /// Whether the held-out error chose the budget: the selection run went on past its best
+    /// iteration (patience ran out, or a callback ended it), rather than ending there at the
+    /// iteration cap or the time limit.
+    pub fn chose_the_budget(&self) -> bool {
+        self.curve
+            .last()
+            .is_some_and(|r| r.iteration > self.best_iteration)
+    }
+
+    /// The stop reason of a final training on all frames for this budget, which stopped for
+    /// `reason`: [`StopReason::ValidatedBudget`] where it ran out of the budget this selection
+    /// chose (its `max_iters`), else `reason`.
+    pub(crate) fn final_stop_reason(&self, reason: Option<StopReason>) -> Option<StopReason> {
+        match reason {
+            Some(StopReason::MaxIterations) if self.chose_the_budget() => {
+                Some(StopReason::ValidatedBudget)
+            }
+            other => other,
+        }
+    }
 }
 
 /// Callback of a selection run: sees every iteration's validation error (iteration 0, the
@@ -365,6 +388,7 @@ impl SharedGplvm {
             &limits,
             callback,
         )?;
+        model.stop_reason = chosen.final_stop_reason(model.stop_reason.take());
         model.selection = Some(chosen);
         Ok(model)
     }
@@ -423,6 +447,7 @@ impl SharedGplvm {
         )?;
         let budget = options.clone().with_max_iters(chosen.best_iteration);
         let mut model = self.transfer_impl(name, data, seed, &budget, &limits, callback)?;
+        model.stop_reason = chosen.final_stop_reason(model.stop_reason.take());
         model.selection = Some(chosen);
         Ok(model)
     }
@@ -436,6 +461,50 @@ mod tests {
     /// Every third frame of `n` held out.
     fn every_third(n: usize) -> Validation {
         Validation::new((0..n).filter(|i| i % 3 == 1).collect())
+    }
+
+    /// A final run that ran out of the budget the held-out frames chose says so (issue 38),
+    /// in the model, its file and in words; one whose budget was the caller's cap does not.
+    #[test]
+    fn the_stop_reason_names_the_validated_budget() {
+        let n = 45;
+        let (h, r, _, _) = demo(n, 3);
+        let spaces = [("human", h.as_ref()), ("walkman", r.as_ref())];
+        let config = ModelConfig::default().with_latent_dim(2);
+        let validation = every_third(n).with_patience(4);
+        let m =
+            SharedGplvm::fit_validated(&config, &spaces, "human", &quick(40), &validation, None)
+                .expect("fit");
+        let s = m.selection().expect("selection");
+        // Patience ran out after the best iteration: the held-out error chose the budget.
+        assert!(s.chose_the_budget(), "{:?}", s.curve.last());
+        assert!(
+            s.best_iteration > 0 && s.best_iteration < 40,
+            "{}",
+            s.best_iteration
+        );
+        assert_eq!(m.stop_reason(), Some(&StopReason::ValidatedBudget));
+        assert_eq!(
+            m.history().last().map(|r| r.iteration),
+            Some(s.best_iteration)
+        );
+        assert_eq!(
+            m.stop_reason().map(StopReason::name),
+            Some("validated_budget")
+        );
+        assert_eq!(
+            m.stop_reason().map(ToString::to_string).as_deref(),
+            Some("validated budget reached")
+        );
+        let back = SharedGplvm::from_bytes(&m.to_bytes()).expect("round trip");
+        assert_eq!(back.stop_reason(), Some(&StopReason::ValidatedBudget));
+        // A budget of 0 iterations: the selection run has nothing after its only point, so the
+        // cap, not the held-out frames, decided.
+        let capped =
+            SharedGplvm::fit_validated(&config, &spaces, "human", &quick(0), &validation, None)
+                .expect("fit");
+        assert!(!capped.selection().expect("selection").chose_the_budget());
+        assert_ne!(capped.stop_reason(), Some(&StopReason::ValidatedBudget));
     }
 
     #[test]
@@ -688,6 +757,13 @@ mod tests {
             t.predict(h.as_ref(), "coman", false).expect("p"),
             plain.predict(h.as_ref(), "coman", false).expect("p")
         );
+        // The same training without the selection ran out of its iteration budget; with it,
+        // that budget was the validated one.
+        if plain.stop_reason() == Some(&StopReason::MaxIterations) && s.chose_the_budget() {
+            assert_eq!(t.stop_reason(), Some(&StopReason::ValidatedBudget));
+        } else {
+            assert_eq!(t.stop_reason(), plain.stop_reason());
+        }
         // Iteration 0: the starting kernel, dense posterior mean.
         let space = source
             .transfer_space("coman", r2.as_ref(), Some(3))

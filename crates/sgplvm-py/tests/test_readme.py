@@ -55,7 +55,7 @@ def test_the_readme_example_runs_verbatim(tmp_path):
                 assert isinstance(namespace["report"], dict)
                 assert "joint-limit violations" in printed.getvalue()
                 # The model it saved predicts what it predicted.
-                saved = sgplvm.SharedGPLVM.load("coman.sgp")
+                saved = sgplvm.SharedGPLVM.load("coman-py.sgp")
                 first = namespace["H"][namespace["test"]][:1]
                 assert (saved.predict(first, robot="coman") == namespace["R_hat"][:1]).all()
     finally:

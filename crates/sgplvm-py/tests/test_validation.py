@@ -56,8 +56,14 @@ def test_default_fit_is_early_stopping_then_retraining(demo):
     assert plain.selection is None
     h = data["human"]
     np.testing.assert_array_equal(model.predict(h, "walkman"), plain.predict(h, "walkman"))
-    # The selection travels with the model.
-    assert pickle.loads(pickle.dumps(model)).selection == sel
+    # The plain fit ran out of the budget it was given; the validated one ran out of the budget
+    # the held-out rows chose (the selection run went past its best iteration), and says so.
+    assert sel["curve"][-1]["iteration"] > sel["best_iteration"]
+    assert plain.stop_reason == "max_iterations"
+    assert model.stop_reason == "validated_budget"
+    # The selection and the stop reason travel with the model.
+    restored = pickle.loads(pickle.dumps(model))
+    assert restored.selection == sel and restored.stop_reason == "validated_budget"
     # "auto" holds out every third of nine blocks of rows.
     auto = sgplvm.SharedGPLVM(5, "input").fit(data, max_iters=20)
     blocks = np.arange(249) * 9 // 249
@@ -75,6 +81,10 @@ def test_transfer_chooses_its_budget_too(demo):
     plain = source.transfer("coman", coman, max_iters=sel["best_iteration"], validation=None)
     h = data["human"]
     np.testing.assert_array_equal(moved.predict(h, "coman"), plain.predict(h, "coman"))
+    if plain.stop_reason == "max_iterations" and sel["curve"][-1]["iteration"] > sel["best_iteration"]:
+        assert moved.stop_reason == "validated_budget"
+    else:
+        assert moved.stop_reason == plain.stop_reason
 
 
 @pytest.mark.parametrize(

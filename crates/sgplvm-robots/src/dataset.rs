@@ -353,8 +353,8 @@ pub fn concatenate(parts: &[Dataset], gap_ns: i64) -> Result<Dataset> {
     for (k, p) in parts.iter().enumerate() {
         if p.human.joint_names != first.human.joint_names {
             return Err(bad(format!(
-                "part {k}'s human has joints {:?}, part 0's {:?}",
-                p.human.joint_names, first.human.joint_names
+                "part {k}'s human joints are not part 0's: {}",
+                crate::names::difference(&first.human.joint_names, &p.human.joint_names, "joint")
             )));
         }
         if !p.pose_names.is_empty()

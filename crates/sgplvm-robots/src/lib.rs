@@ -12,6 +12,7 @@ pub mod files;
 pub mod kinematics;
 pub mod limits;
 pub mod models;
+pub mod names;
 pub mod panics;
 pub mod physics;
 pub mod retarget;

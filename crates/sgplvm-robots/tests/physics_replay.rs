@@ -569,3 +569,38 @@ fn moving_faster_than_the_velocity_limit_is_reported() {
         calm.velocity_violations
     );
 }
+
+/// The report says which joints slide, so that their values are read in metres (issue 38: the
+/// command line printed every joint in degrees).
+#[test]
+fn prismatic_joints_are_marked_in_the_report() {
+    let urdf = ARM.replace(
+        r#"<joint name="elbow" type="revolute">"#,
+        r#"<joint name="elbow" type="prismatic">"#,
+    );
+    // The sliding elbow goes 0.1 m past its lower limit of -1.5 m.
+    let trajectory = sampled(2.0, |t| [0.0, -0.2, -1.4 - 0.2 * t.min(1.0)]);
+    let report = replay(&urdf, "slide.urdf", &trajectory, &ReplayOptions::default()).unwrap();
+    let kinds: Vec<(&str, bool)> = report
+        .joints
+        .iter()
+        .map(|j| (j.name.as_str(), j.prismatic))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("shoulder_roll", false),
+            ("shoulder_pitch", false),
+            ("elbow", true)
+        ]
+    );
+    let v = report
+        .limit_violations
+        .iter()
+        .find(|v| v.commanded)
+        .expect("commanded violation");
+    assert_eq!((v.joint.as_str(), v.limit), ("elbow", -1.5));
+    assert!((v.amount - 0.1).abs() < 1e-9, "{v:?}");
+    let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["joints"][2]["prismatic"], true);
+}

@@ -106,8 +106,10 @@ def simulate(robot: Union[str, PathLike], joint_names: Sequence[str], times: Any
 
     ``robot`` is a built-in name (``"coman"``, …) or a URDF path; ``times`` in seconds (n,),
     ``positions`` (n, len(joint_names)). PD position control at 1 kHz with the base fixed.
-    Returns a dict: ``joints`` (rms_error, max_error per joint), ``limit_violations``,
-    ``collisions``, ``duration``, ``physics_steps``, ``wall_seconds``, ``warnings``."""
+    Returns a dict: ``joints`` (per joint rms_error, max_error and max_error_time, and
+    ``prismatic``: its values in metres, else radians), ``limit_violations``,
+    ``velocity_violations``, ``collisions``, ``duration``, ``physics_steps``,
+    ``wall_seconds``, ``warnings``."""
     t = _real(times, "times", np.float64).reshape(-1)
     q = _real(positions, "positions", np.float64)
     if q.ndim != 2:

@@ -397,9 +397,12 @@ class SharedGPLVM:
     @property
     def stop_reason(self) -> Optional[str]:
         """Why the last training stopped: ``"gradient_tolerance"``, ``"relative_tolerance"``,
-        ``"max_iterations"``, ``"callback"``, ``"line_search"``, ``"nothing_to_train"``,
-        ``"time_limit"`` (``max_seconds`` ran out), ``"evaluation_limit"`` or ``"interrupted"``
-        (Ctrl-C); ``None`` for a model that was never trained."""
+        ``"max_iterations"`` (the ``max_iters`` given ran out), ``"validated_budget"`` (the
+        iteration count chosen on held-out rows ran out: see :attr:`selection`),
+        ``"callback"``, ``"line_search"``, ``"nothing_to_train"``, ``"time_limit"``
+        (``max_seconds`` ran out), ``"evaluation_limit"`` or ``"interrupted"`` (Ctrl-C);
+        ``None`` for a model that was never trained. Models saved before
+        ``"validated_budget"`` existed read as it where it applies."""
         return self._require().stop_reason
 
     @property

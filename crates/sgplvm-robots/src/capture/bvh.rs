@@ -359,12 +359,14 @@ impl<'a> Parser<'a> {
             .trim_start_matches('\u{feff}')
             .eq_ignore_ascii_case("HIERARCHY")
         {
+            let found = if is_text(first.text) {
+                format!("`{}`", short(first.text))
+            } else {
+                "binary data".to_string()
+            };
             return Err(self.error(
                 first.line,
-                format!(
-                    "found `{}`, expected `HIERARCHY` (is this a BVH file?)",
-                    short(first.text)
-                ),
+                format!("found {found}, expected `HIERARCHY` (is this a BVH file?)"),
             ));
         }
         let joints = self.hierarchy()?;
@@ -704,11 +706,31 @@ fn channel_owner(joints: &[BvhJoint], k: usize) -> String {
 
 /// At most 40 characters of `s`, for messages.
 fn short(s: &str) -> String {
+    // Control characters and undecodable bytes would garble a one-line message: escaped.
+    let shown: String = s
+        .chars()
+        .take(40)
+        .flat_map(|c| {
+            let escape = c.is_control() || c == char::REPLACEMENT_CHARACTER;
+            let text: String = if escape {
+                c.escape_unicode().collect()
+            } else {
+                c.to_string()
+            };
+            text.chars().collect::<Vec<_>>()
+        })
+        .collect();
     if s.chars().count() <= 40 {
-        s.to_string()
+        shown
     } else {
-        format!("{}…", s.chars().take(40).collect::<String>())
+        format!("{shown}…")
     }
+}
+
+/// Whether `s` reads as text: no control characters and no undecodable bytes.
+fn is_text(s: &str) -> bool {
+    !s.chars()
+        .any(|c| c.is_control() || c == char::REPLACEMENT_CHARACTER)
 }
 
 #[cfg(test)]
@@ -836,6 +858,13 @@ Frame Time: 0.0083333
         );
         assert!(err("").contains("empty"));
         assert!(err("hello").contains("expected `HIERARCHY`"));
+        // A binary file (an MCAP given by mistake): said, not printed.
+        let binary = String::from_utf8_lossy(b"\x89MCAP0\r\n\x01\xff\x00").into_owned();
+        assert_eq!(
+            err(&binary),
+            "t.bvh:1: found binary data, expected `HIERARCHY` (is this a BVH file?)"
+        );
+        assert_eq!(short("a\u{1}b"), "a\\u{1}b");
         let unclosed = TWO_FRAMES.replace("  }\n}\nMOTION", "  }\nMOTION");
         assert!(err(&unclosed).contains("still open"), "{}", err(&unclosed));
     }

@@ -21,30 +21,31 @@ pub enum JointStateError {
         source: std::io::Error,
     },
     /// The file ended in the middle of a record or before its footer.
-    #[error("{path}: MCAP file is truncated (ended in the middle of a record or before the footer) while reading topic(s) {topics}")]
+    #[error("{path}: MCAP file is truncated (ended in the middle of a record or before the footer) while {topics}")]
     Truncated {
         /// File concerned.
         path: PathBuf,
-        /// The topics that were being read.
+        /// What was being read: `reading topic(s) `/a`, `/b`` or `listing its channels and
+        /// metadata`.
         topics: String,
     },
     /// The MCAP structure itself is invalid (bad magic, CRC mismatch, ...).
-    #[error("{path}: invalid MCAP while reading topic(s) {topics}: {source}")]
+    #[error("{path}: invalid MCAP while {topics}: {source}")]
     Mcap {
         /// File concerned.
         path: PathBuf,
-        /// The topics that were being read.
+        /// What was being read (as for [`JointStateError::Truncated`]).
         topics: String,
         /// The error reported by the mcap crate.
         source: McapError,
     },
     /// A record of the MCAP file cannot be parsed (the mcap crate's parser message, reduced to
     /// one plain line), or a record or chunk declares a length beyond what the file can hold.
-    #[error("{path}: corrupt MCAP record while reading topic(s) {topics}: {detail}")]
+    #[error("{path}: corrupt MCAP record while {topics}: {detail}")]
     Corrupt {
         /// File concerned.
         path: PathBuf,
-        /// The topics that were being read.
+        /// What was being read (as for [`JointStateError::Truncated`]).
         topics: String,
         /// What is wrong, on one line.
         detail: String,
@@ -136,7 +137,15 @@ pub enum JointStateError {
         detail: String,
     },
     /// Joints that the body model needs are absent from a message.
-    #[error("{path}: topic `{topic}`, message #{index}: joints {} required by the body model are missing (the message has {})", short_list(missing), short_list(present))]
+    #[error(
+        "{path}: topic `{topic}`, message #{index}: {} of the joints the body model needs {} \
+         missing: {}; the message has {}: {}",
+        missing.len(),
+        if missing.len() == 1 { "is" } else { "are" },
+        crate::names::few(missing, crate::names::SHOWN),
+        crate::names::count(present.len(), "joint"),
+        crate::names::few(present, crate::names::SHOWN)
+    )]
     MissingJoints {
         /// File concerned.
         path: PathBuf,

@@ -180,7 +180,8 @@ struct Stream<'a> {
     /// The file's size, for the record length limit.
     file_len: u64,
     requests: &'a [TopicRequest],
-    /// The requested topics, for messages.
+    /// What is being read, for messages: `reading topic(s) `/a``, or `listing its channels and
+    /// metadata`.
     topics_str: String,
     /// One accumulator per request.
     accs: Vec<TopicAcc>,
@@ -201,13 +202,10 @@ struct Stream<'a> {
 impl<'a> Stream<'a> {
     fn new(path: &'a Path, file_len: u64, requests: &'a [TopicRequest]) -> Self {
         let topics_str = if requests.is_empty() {
-            "(none: listing channels and metadata)".to_string()
+            "listing its channels and metadata".to_string()
         } else {
-            requests
-                .iter()
-                .map(|r| format!("`{}`", r.topic))
-                .collect::<Vec<_>>()
-                .join(", ")
+            let topics: Vec<String> = requests.iter().map(|r| format!("`{}`", r.topic)).collect();
+            format!("reading topic(s) {}", topics.join(", "))
         };
         let accs = requests
             .iter()

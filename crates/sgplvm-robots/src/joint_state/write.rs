@@ -163,7 +163,7 @@ fn write_topics_to(
     settings: &WriteSettings,
 ) -> Result<()> {
     let err = WriteErr { path };
-    let file = File::create(tmp).map_err(err.io("create a temporary file next to"))?;
+    let file = File::create(tmp).map_err(err.io("create a temporary file next to it"))?;
     let mut options = WriteOptions::new()
         .profile("ros2")
         .library(MCAP_LIBRARY)

@@ -86,6 +86,11 @@ impl DrivenJoint {
             })
     }
 
+    /// Whether the joint slides (prismatic: metres) rather than turns (radians).
+    pub(super) fn prismatic(&self) -> bool {
+        self.dof == Dof::Linear
+    }
+
     /// The simulated velocity.
     pub(super) fn velocity(&self, world: &PhysicsWorld) -> f64 {
         world
@@ -345,28 +350,37 @@ fn assign_columns(
         .enumerate()
         .map(|(i, d)| (d.name.clone(), i))
         .collect();
-    for (column, name) in trajectory.joint_names.iter().enumerate() {
-        let Some(&i) = by_name.get(name.as_str()) else {
-            let known: Vec<&str> = driven.iter().map(|d| d.name.as_str()).collect();
-            return Err(PhysicsError::UnknownJoint {
-                file: file.to_string(),
-                joint: name.clone(),
-                known: if known.is_empty() {
-                    "none".to_string()
-                } else {
-                    known.join(", ")
-                },
-            });
-        };
-        driven[i].column = Some(column);
+    let unknown: Vec<String> = trajectory
+        .joint_names
+        .iter()
+        .filter(|name| !by_name.contains_key(name.as_str()))
+        .cloned()
+        .collect();
+    if let Some(first) = unknown.first() {
+        return Err(PhysicsError::UnknownJoint {
+            file: file.to_string(),
+            joint: first.clone(),
+            known: driven.iter().map(|d| d.name.clone()).collect(),
+            columns: unknown,
+        });
     }
-    if let Some(missing) = driven.iter().find(|d| d.column.is_none()) {
-        if !options.allow_missing_joints {
-            return Err(PhysicsError::MissingJoint {
-                file: file.to_string(),
-                joint: missing.name.clone(),
-            });
+    for (column, name) in trajectory.joint_names.iter().enumerate() {
+        if let Some(&i) = by_name.get(name.as_str()) {
+            driven[i].column = Some(column);
         }
+    }
+    let missing: Vec<String> = driven
+        .iter()
+        .filter(|d| d.column.is_none())
+        .map(|d| d.name.clone())
+        .collect();
+    if let (Some(first), false) = (missing.first(), options.allow_missing_joints) {
+        return Err(PhysicsError::MissingJoint {
+            file: file.to_string(),
+            joint: first.clone(),
+            movable: driven.len(),
+            joints: missing,
+        });
     }
     Ok(())
 }

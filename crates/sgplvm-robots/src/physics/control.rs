@@ -129,6 +129,7 @@ pub(super) fn simulate(
     };
     let mut recorder = Recorder::new(
         scene.driven.iter().map(|d| d.name.clone()).collect(),
+        scene.driven.iter().map(|d| d.prismatic()).collect(),
         model.robot.links.iter().map(|l| l.name.clone()).collect(),
         clock.t0,
         options.record_simulated,

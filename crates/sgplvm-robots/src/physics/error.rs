@@ -45,23 +45,42 @@ pub enum PhysicsError {
         /// The offending value.
         value: f64,
     },
-    /// A trajectory column names no movable joint of the model.
-    #[error("trajectory column \"{joint}\" names no movable joint of {file} (its movable joints: {known})")]
+    /// Trajectory columns name no movable joint of the model.
+    #[error(
+        "{} of the trajectory name no movable joint of {file}: {}; its {}: {}",
+        crate::names::count(columns.len(), "column"),
+        crate::names::few(columns, crate::names::SHOWN),
+        crate::names::count(known.len(), "movable joint"),
+        if known.is_empty() { "none".to_string() } else { crate::names::few(known, crate::names::SHOWN) }
+    )]
     UnknownJoint {
         /// File name of the model.
         file: String,
-        /// The unknown column name.
+        /// The first unknown column name.
         joint: String,
-        /// The model's movable joints, comma-separated.
-        known: String,
+        /// Every unknown column name, in trajectory order (`joint` first).
+        columns: Vec<String>,
+        /// The model's movable joints.
+        known: Vec<String>,
     },
-    /// A movable joint of the model has no column in the trajectory.
-    #[error("{file}: movable joint \"{joint}\" has no column in the trajectory (expected one column per movable joint; set ReplayOptions::allow_missing_joints to hold it still)")]
+    /// Movable joints of the model have no column in the trajectory.
+    #[error(
+        "{} of the {} of {file} {} no column in the trajectory: {} (expected one column per \
+         movable joint; ReplayOptions::allow_missing_joints holds the others still)",
+        joints.len(),
+        crate::names::count(*movable, "movable joint"),
+        if joints.len() == 1 { "has" } else { "have" },
+        crate::names::few(joints, crate::names::SHOWN)
+    )]
     MissingJoint {
         /// File name of the model.
         file: String,
-        /// The joint without a column.
+        /// The first joint without a column.
         joint: String,
+        /// Every joint without a column, in the model's order (`joint` first).
+        joints: Vec<String>,
+        /// Movable joints of the model.
+        movable: usize,
     },
     /// A replay option is out of its range.
     #[error("replay option {field} = {value}: expected {expected}")]

@@ -22,6 +22,9 @@ pub struct JointTracking {
     pub max_error: f64,
     /// When the largest error happened, seconds (trajectory time).
     pub max_error_time: f64,
+    /// Whether the joint is prismatic: its errors, limits and violations are in metres (m/s),
+    /// not radians (rad/s).
+    pub prismatic: bool,
 }
 
 /// A stretch of time during which a joint was beyond one of its limits.
@@ -241,6 +244,8 @@ pub(super) struct Recorder {
     max_err_time: Vec<f64>,
     /// The simulated positions of the latest step, in report order.
     actual: Vec<f64>,
+    /// Per joint (report order), whether it is prismatic.
+    prismatic: Vec<bool>,
     events: Events,
     /// Simulated positions at the frame times, when recorded.
     simulated: Option<Vec<f64>>,
@@ -249,11 +254,12 @@ pub(super) struct Recorder {
 }
 
 impl Recorder {
-    /// A recorder for the driven joints `joints` (report order) of a robot with links
-    /// `links`; errors start at time `t0`; with `record_simulated`, the positions at the
-    /// trajectory's `frames` frame times are kept.
+    /// A recorder for the driven joints `joints` (report order; `prismatic` says which slide)
+    /// of a robot with links `links`; errors start at time `t0`; with `record_simulated`, the
+    /// positions at the trajectory's `frames` frame times are kept.
     pub(super) fn new(
         joints: Vec<String>,
+        prismatic: Vec<bool>,
         links: Vec<String>,
         t0: f64,
         record_simulated: bool,
@@ -265,6 +271,7 @@ impl Recorder {
             max_err: vec![0.0f64; n],
             max_err_time: vec![t0; n],
             actual: vec![0.0f64; n],
+            prismatic,
             simulated: record_simulated.then(|| Vec::with_capacity(frames * n)),
             next_frame: 1,
             events: Events {
@@ -388,6 +395,7 @@ impl Recorder {
             actual,
             events,
             simulated,
+            prismatic,
             ..
         } = self;
         let joint_names = events.joints.clone();
@@ -400,6 +408,7 @@ impl Recorder {
                 rms_error: (sum_sq[i] / steps as f64).sqrt(),
                 max_error: max_err[i],
                 max_error_time: max_err_time[i],
+                prismatic: prismatic.get(i).copied().unwrap_or(false),
             })
             .collect();
         let simulated = simulated.map(|mut positions| {

@@ -113,7 +113,10 @@ pub enum RetargetError {
         body: String,
     },
     /// The human's joints do not match the human model's.
-    #[error("the demonstrations' human has joints {found:?}; the human model's are {expected:?}")]
+    #[error(
+        "the demonstrations' human joints are not the human model's: {}",
+        crate::names::difference(expected, found, "joint")
+    )]
     HumanJoints {
         /// What the file holds.
         found: Vec<String>,
