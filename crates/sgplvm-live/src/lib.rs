@@ -5,7 +5,7 @@
 //! - [`gate`]: the per-frame safety rule between the model and a robot (joint limits, the trust
 //!   threshold on the model's own predictive standard deviation, stale input), plain functions
 //!   that tests drive without a network;
-//! - [`replay`]: `sgplvm replay`, a recorded human published on the input topic;
+//! - [`mod@replay`]: `sgplvm replay`, a recorded human published on the input topic;
 //! - [`view`]: the live view, a Foxglove WebSocket server with the scene files' topics;
 //! - [`msgs`]: the ROS 2 messages, field for field.
 //!
