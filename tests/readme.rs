@@ -3,8 +3,11 @@
 //! shipped demonstrations (as a fresh clone would), with the `sgplvm` this build made first on
 //! the PATH (`cargo run --release --` stands for it too). A command is skipped only when an
 //! HTML comment `<!-- readme-test: skip `PREFIX` (reason) -->` just above its block names the
-//! start of the line and says why; a marker that matches no command is an error. The files the
-//! commands write must be ignored by `.gitignore`.
+//! start of the line and says why; a marker that matches no command is an error. A block under
+//! `<!-- readme-test: loopback (reason) -->` (a live ROS 2 session: DDS finds its peers by
+//! multicast) runs as one script, background jobs and all, in a network namespace holding only
+//! the loopback device (`unshare -n`; where that is not permitted the block is skipped, and with
+//! `CI=true` that is a failure). The files the commands write must be ignored by `.gitignore`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -19,15 +22,31 @@ struct Block {
     commands: Vec<String>,
     /// `(prefix, reason)` of each `readme-test: skip` marker just above the block.
     skips: Vec<(String, String)>,
+    /// Whether a `readme-test: loopback` marker is above it.
+    loopback: bool,
 }
 
 /// The README's bash blocks. A marker line is `<!-- readme-test: skip `PREFIX` (reason) -->`.
 fn bash_blocks(readme: &str) -> Vec<Block> {
     let mut blocks = Vec::new();
     let mut pending: Vec<(String, String)> = Vec::new();
+    let mut loopback = false;
     let mut lines = readme.lines().enumerate();
     while let Some((i, line)) = lines.next() {
         let line = line.trim();
+        if let Some(reason) = line
+            .strip_prefix("<!-- readme-test: loopback")
+            .and_then(|m| m.strip_suffix("-->"))
+        {
+            let reason = reason.trim().trim_start_matches('(').trim_end_matches(')');
+            assert!(
+                !reason.trim().is_empty(),
+                "README.md:{}: a loopback marker must say why: {line}",
+                i + 1
+            );
+            loopback = true;
+            continue;
+        }
         if let Some(marker) = line
             .strip_prefix("<!-- readme-test: skip `")
             .and_then(|m| m.strip_suffix("-->"))
@@ -67,10 +86,12 @@ fn bash_blocks(readme: &str) -> Vec<Block> {
                 line: i + 1,
                 commands,
                 skips: std::mem::take(&mut pending),
+                loopback: std::mem::take(&mut loopback),
             });
         } else if !line.is_empty() {
             // A marker belongs to the block right below it (blank lines and markers between).
             pending.clear();
+            loopback = false;
         }
     }
     blocks
@@ -93,31 +114,86 @@ fn fresh_clone_folder() -> PathBuf {
     dir
 }
 
-/// Runs one README command line with bash in `dir`, `sgplvm` first on the PATH; panics with its
-/// output unless it succeeds without a panic.
-fn run(command: &str, dir: &Path, block: usize) {
+/// `PATH` with the `sgplvm` this build made first.
+fn path_with_sgplvm() -> std::ffi::OsString {
     let binary = PathBuf::from(env!("CARGO_BIN_EXE_sgplvm"));
     let bin_dir = binary.parent().unwrap();
-    let path = std::env::join_paths(std::iter::once(bin_dir.to_path_buf()).chain(
-        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
-    ))
-    .unwrap();
-    let line = match command.strip_prefix("cargo run --release --") {
+    std::env::join_paths(
+        std::iter::once(bin_dir.to_path_buf()).chain(std::env::split_paths(
+            &std::env::var_os("PATH").unwrap_or_default(),
+        )),
+    )
+    .unwrap()
+}
+
+/// A README command line as it runs (`cargo run --release --` is the built `sgplvm`).
+fn as_run(command: &str) -> String {
+    match command.strip_prefix("cargo run --release --") {
         Some(rest) => format!("sgplvm{rest}"),
         None => command.to_string(),
-    };
-    let out = Command::new("bash")
-        .args(["-o", "pipefail", "-c", &line])
-        .current_dir(dir)
-        .env("PATH", path)
-        .output()
-        .expect("bash runs");
+    }
+}
+
+/// Panics with the output of a README command (or block) unless it succeeded without a panic.
+fn check(out: std::process::Output, what: &str, block: usize) {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         out.status.success() && !stderr.contains("panicked"),
-        "README.md block at line {block}: `{command}` failed ({}):\n{stderr}",
+        "README.md block at line {block}: `{what}` failed ({}):\n{stderr}",
         out.status
     );
+}
+
+/// Runs one README command line with bash in `dir`, `sgplvm` first on the PATH; panics with its
+/// output unless it succeeds without a panic.
+fn run(command: &str, dir: &Path, block: usize) {
+    let out = Command::new("bash")
+        .args(["-o", "pipefail", "-c", &as_run(command)])
+        .current_dir(dir)
+        .env("PATH", path_with_sgplvm())
+        .output()
+        .expect("bash runs");
+    check(out, command, block);
+}
+
+/// Runs a block's command lines as one bash script (background jobs and `wait` included) in a
+/// network namespace of its own holding only the loopback device, with multicast on it, for at
+/// most 5 minutes. Returns false when no such namespace can be made here.
+fn run_on_loopback(commands: &[&String], dir: &Path, block: usize) -> bool {
+    // Root: `unshare -n`; else unprivileged user namespaces: `unshare -rn`.
+    let flag = ["-n", "-rn"].into_iter().find(|flag| {
+        Command::new("unshare")
+            .args([flag, "true"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    let Some(flag) = flag else {
+        let ci = std::env::var("CI").is_ok_and(|v| v.eq_ignore_ascii_case("true"));
+        assert!(
+            !ci,
+            "README.md block at line {block}: neither `unshare -n` nor `unshare -rn` is permitted, and with CI=true the live block must run"
+        );
+        eprintln!(
+            "README.md block at line {block}: skipped (no network namespace can be made here)"
+        );
+        return false;
+    };
+    let script: Vec<String> = commands.iter().map(|c| as_run(c)).collect();
+    let script = format!("set -eo pipefail\n{}\n", script.join("\n"));
+    let out = Command::new("unshare")
+        .args([
+            flag,
+            "sh",
+            "-c",
+            "ip link set lo up && ip link set lo multicast on && exec timeout 300 bash -c \"$0\"",
+            &script,
+        ])
+        .current_dir(dir)
+        .env("PATH", path_with_sgplvm())
+        .output()
+        .expect("unshare runs");
+    check(out, &script, block);
+    true
 }
 
 /// Every file under `dir` (relative paths), leaving out `skip`.
@@ -148,14 +224,22 @@ fn every_readme_command_runs_as_written() {
     let mut ran = 0;
     for block in &blocks {
         let mut used = vec![false; block.skips.len()];
+        let mut to_run = Vec::new();
         for command in &block.commands {
             let skip = block.skips.iter().position(|(p, _)| command.starts_with(p));
             match skip {
                 Some(k) => used[k] = true,
-                None => {
-                    run(command, &dir, block.line);
-                    ran += 1;
-                }
+                None => to_run.push(command),
+            }
+        }
+        if block.loopback {
+            if run_on_loopback(&to_run, &dir, block.line) {
+                ran += to_run.len();
+            }
+        } else {
+            for command in to_run {
+                run(command, &dir, block.line);
+                ran += 1;
             }
         }
         for ((prefix, _), used) in block.skips.iter().zip(used) {
@@ -210,6 +294,10 @@ fn skip_markers_attach_to_the_block_below_them() {
     );
     // Text between a marker and a block detaches it.
     assert!(blocks[1].skips.is_empty());
+    assert!(!blocks[0].loopback && !blocks[1].loopback);
+    let live = bash_blocks("<!-- readme-test: loopback (DDS) -->\n```bash\na &\nb\nwait\n```\n");
+    assert!(live[0].loopback);
+    assert_eq!(live[0].commands, vec!["a &", "b", "wait"]);
 }
 
 /// The text of every ```python block of `readme`.
