@@ -206,13 +206,7 @@ impl SharedGplvm {
     /// [`SharedGplvm::predict_latent_sd`], computed once for every robot space of the model.
     pub fn latent_frame(&self, h: &[f64], x: &mut [f64]) -> Result<()> {
         self.check_input_row(h)?;
-        if x.len() != self.q() {
-            return Err(Error::DimensionMismatch {
-                what: "latent point buffer".into(),
-                expected: self.q(),
-                found: x.len(),
-            });
-        }
+        self.check_latent_len(x)?;
         self.latent_into(h, x)?;
         check_finite_latent(x)
     }
@@ -237,13 +231,7 @@ impl SharedGplvm {
                 });
             }
         }
-        if x.len() != self.q() {
-            return Err(Error::DimensionMismatch {
-                what: "latent point".into(),
-                expected: self.q(),
-                found: x.len(),
-            });
-        }
+        self.check_latent_len(x)?;
         let xs = Mat::from_fn(1, x.len(), |_, t| x[t]);
         let p = self.predict_latent_rows(xs, si, true)?;
         let var = p.variance.as_ref().ok_or_else(|| Error::InvalidValue {
@@ -256,6 +244,20 @@ impl SharedGplvm {
             sd[t] = var[(0, t)].max(0.0).sqrt();
         }
         Ok(sd[0] / scale[0])
+    }
+}
+
+impl SharedGplvm {
+    /// A latent point (or its buffer) has Q values.
+    fn check_latent_len(&self, x: &[f64]) -> Result<()> {
+        if x.len() == self.q() {
+            return Ok(());
+        }
+        Err(Error::DimensionMismatch {
+            what: "latent point".into(),
+            expected: self.q(),
+            found: x.len(),
+        })
     }
 }
 

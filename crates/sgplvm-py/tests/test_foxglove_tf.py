@@ -6,7 +6,6 @@ and stamps are those ROS 2 writes. The CLI is tested too (``predict --out x.mcap
 and streamed from stdin, also killed mid-stream) when its binary is built."""
 
 import json
-import os
 import pathlib
 import subprocess
 import time
@@ -15,6 +14,7 @@ import numpy as np
 import pytest
 
 import sgplvm
+from _cli import sgplvm_binary
 
 pin = pytest.importorskip("pinocchio")
 mcap_reader = pytest.importorskip("mcap.reader")
@@ -25,17 +25,6 @@ ROOT = pathlib.Path(__file__).resolve().parents[3]
 DEMOS = ROOT / "data" / "demos" / "bimanual.mcap"
 TF_DEPS = ["geometry_msgs/TransformStamped", "std_msgs/Header", "builtin_interfaces/Time",
            "geometry_msgs/Transform", "geometry_msgs/Vector3", "geometry_msgs/Quaternion"]
-
-
-def sgplvm_binary():
-    """The CLI built by ``cargo test --release`` / ``cargo build --release`` (CI builds it first)."""
-    if os.environ.get("SGPLVM_BIN"):
-        return pathlib.Path(os.environ["SGPLVM_BIN"])
-    target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    path = target / "release" / "sgplvm"
-    if not path.exists():
-        pytest.skip(f"{path} is not built (cargo build --release)")
-    return path
 
 
 def iso(t):

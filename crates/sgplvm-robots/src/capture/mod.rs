@@ -32,6 +32,7 @@ pub use write::write_bvh;
 
 use crate::dataset::{concatenate, BodyData, Dataset, Segment};
 use crate::joint_state::{JointStateError, DEFAULT_RATE_HZ};
+use crate::series::median;
 use crate::{Robot, RobotError, Side};
 use fit::{mirror_rotation, mirror_vector, RestFrames};
 use skeleton::side_index;
@@ -319,20 +320,6 @@ fn arm_target(pose: &ArmPose, side: Side, has_clavicle: bool, cal: &ArmCalibrati
         forearm: m(direction(&pose.elbow, &pose.wrist, upper)),
         upper_arm_frame: mr(&pose.upper_arm_turn) * cal.rest.upper_arm,
         hand_frame: mr(&pose.hand_turn) * cal.rest.hand,
-    }
-}
-
-/// Median of `v` (0 for none), sorting it.
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
 

@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::{BodyData, Dataset};
 use crate::generator::{solve_key_poses_for, NEUTRAL};
 use crate::models::Arm;
+use crate::series::median;
 use crate::{IkTarget, Robot, RobotError};
 pub use arm::Redundancy;
 use arm::{ArmRun, Outcome};
@@ -369,20 +370,6 @@ impl RobotArms {
                 r.turn * self.zero_hands[s],
             )),
         }
-    }
-}
-
-/// Median of `v` (0 for none), sorting it.
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
 

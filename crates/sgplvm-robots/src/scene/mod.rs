@@ -431,16 +431,13 @@ impl SceneStream {
             let description_channel = options
                 .tf
                 .then(|| add(body.description_topic(), STRING_SCHEMA, STRING_MSGDEF));
-            let frames = (0..body.robot.links.len()).map(|l| body.frame(l)).collect();
-            out_bodies.push(BodyChannel {
-                q: body.robot.neutral_configuration(),
+            out_bodies.push(BodyChannel::new(
                 body,
                 names,
                 q_index,
                 channel,
                 description_channel,
-                frames,
-            });
+            ));
         }
         let tf = options.tf.then(|| {
             (
@@ -562,6 +559,27 @@ struct BodyChannel {
     description_channel: Option<u16>,
     /// Frame names of every link, `<body>/<link>`.
     frames: Vec<String>,
+}
+
+impl BodyChannel {
+    /// A body on its channels, at the robot's neutral configuration.
+    fn new(
+        body: SceneBody,
+        names: Vec<String>,
+        q_index: Vec<Option<usize>>,
+        channel: u16,
+        description_channel: Option<u16>,
+    ) -> BodyChannel {
+        BodyChannel {
+            q: body.robot.neutral_configuration(),
+            frames: (0..body.robot.links.len()).map(|l| body.frame(l)).collect(),
+            body,
+            names,
+            q_index,
+            channel,
+            description_channel,
+        }
+    }
 }
 
 /// One frame's messages, encoded: `(channel, CDR payload)` in the order they are written. The
@@ -977,16 +995,13 @@ impl SceneWriter {
                 }
                 None => None,
             };
-            let frames = (0..body.robot.links.len()).map(|l| body.frame(l)).collect();
-            out_bodies.push(BodyChannel {
-                q: body.robot.neutral_configuration(),
+            out_bodies.push(BodyChannel::new(
                 body,
                 names,
                 q_index,
                 channel,
                 description_channel,
-                frames,
-            });
+            ));
         }
         let tf = if options.tf {
             let s = writer
