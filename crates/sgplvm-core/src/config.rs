@@ -62,6 +62,12 @@ pub struct ModelConfig {
     /// Keep the sparse model's inducing inputs where they start instead of training them.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub fixed_inducing: bool,
+    /// The Bayesian shared GP-LVM (MRD, `sparse::bayesian`): a Gaussian q(X) per frame instead
+    /// of point latent positions, its means back-constrained or free as `back_constraint` says,
+    /// a KL term to the N(0, I) prior, the latent dimensions a space does not need switched off
+    /// by its ARD lengthscales. Needs [`ModelConfig::inducing`]. Model files of it are format 3.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub bayesian: bool,
 }
 
 impl Default for ModelConfig {
@@ -77,6 +83,7 @@ impl Default for ModelConfig {
             init_noise_fraction: 0.1,
             inducing: None,
             fixed_inducing: false,
+            bayesian: false,
         }
     }
 }
@@ -118,6 +125,11 @@ impl ModelConfig {
         self.fixed_inducing = fixed;
         self
     }
+    /// The Bayesian model (on) or point latent positions (off); see [`ModelConfig::bayesian`].
+    pub fn with_bayesian(mut self, bayesian: bool) -> Self {
+        self.bayesian = bayesian;
+        self
+    }
     /// Sets the initial perturbation standard deviation.
     pub fn with_init_perturbation(mut self, s: f64) -> Self {
         self.init_perturbation = s;
@@ -157,6 +169,12 @@ impl ModelConfig {
             return bad(
                 "ModelConfig::inducing",
                 "the sparse model supports back constraints none and input, not output",
+            );
+        }
+        if self.bayesian && self.inducing.is_none() {
+            return bad(
+                "ModelConfig::bayesian",
+                "the Bayesian model needs inducing inputs: set ModelConfig::inducing",
             );
         }
         Ok(())

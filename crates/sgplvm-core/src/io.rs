@@ -1,11 +1,12 @@
 //! Model files.
 //!
-//! Format (version 2; version 1 is read too), all integers little-endian:
+//! Format (version 3 for the Bayesian model, else 2; versions 1 and 2 are read too), all
+//! integers little-endian:
 //!
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `b"SGPLVM\0\0"` |
-//! | 8..12 | format version, u32 (= 2) |
+//! | 8..12 | format version, u32 (2, or 3 for a Bayesian model) |
 //! | 12..20 | payload length L, u64 |
 //! | 20..28 | FNV-1a 64-bit hash of the payload, u64 |
 //! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
@@ -23,7 +24,12 @@
 //! file of an exact model. The stop reason `ValidatedBudget` (issue 38) is new within version 2:
 //! files written before it hold `MaxIterations` for a final run that ran out of its validated
 //! budget, and are read as `ValidatedBudget` (the selection says so); a library from before it
-//! refuses files that hold it, as a corrupt payload naming the unknown variant. Caches
+//! refuses files that hold it, as a corrupt payload naming the unknown variant. Version 3 is
+//! version 2 plus the Bayesian model (issue 34): `config.bayesian` and the variances of q(X)
+//! (`latent_variance`, N×Q; the latent block then holds q(X)'s means). Only Bayesian models
+//! are written as version 3, so that a library from before it refuses them by their version
+//! instead of reading them as a point-latent sparse model; every other model is still version
+//! 2, readable by older libraries. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
 //! Files are written to a temporary file next to the target and renamed into place (see
@@ -48,7 +54,9 @@ use crate::validation::Selection;
 /// Magic bytes at the start of every model file.
 pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
 /// The format version this library writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
+/// The version written for models that are not Bayesian (unchanged since the sparse model).
+const POINT_LATENT_VERSION: u32 = 2;
 const HEADER: usize = 28;
 
 #[derive(Serialize, Deserialize)]
@@ -262,6 +270,9 @@ struct ModelFile {
     /// Inducing inputs Z of a sparse model (format 2; absent for exact models).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     inducing: Option<MatData>,
+    /// Variances of q(X) (N×Q) of a Bayesian model (format 3; absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    latent_variance: Option<MatData>,
     /// Trust threshold per robot space (`trust` module; absent in files written before it
     /// existed, whose thresholds are computed when asked for).
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
@@ -326,6 +337,11 @@ impl SharedGplvm {
             stop_reason: self.stop_reason.clone(),
             selection: self.selection.clone(),
             inducing: self.sparse.as_ref().map(|s| MatData::from(&s.z)),
+            latent_variance: self
+                .sparse
+                .as_ref()
+                .and_then(|s| s.latent_var.as_ref())
+                .map(MatData::from),
             // A space whose threshold cannot be computed (a degenerate kernel matrix) is left
             // out: it is computed, and fails, when asked for.
             trust: self
@@ -339,7 +355,11 @@ impl SharedGplvm {
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
         let mut out = Vec::with_capacity(HEADER + payload.len());
         out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        let version = match self.config.bayesian {
+            true => FORMAT_VERSION,
+            false => POINT_LATENT_VERSION,
+        };
+        out.extend_from_slice(&version.to_le_bytes());
         out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
         out.extend_from_slice(&payload);
@@ -401,6 +421,15 @@ impl SharedGplvm {
         let file: ModelFile = serde_json::from_slice(payload).map_err(|e| Error::Corrupt {
             reason: format!("payload: {e}"),
         })?;
+        if file.config.bayesian != (version == FORMAT_VERSION) {
+            return Err(Error::Corrupt {
+                reason: format!(
+                    "a file of format {version} with config.bayesian = {}; Bayesian models are \
+                     format {FORMAT_VERSION}, others format {POINT_LATENT_VERSION} or older",
+                    file.config.bayesian
+                ),
+            });
+        }
         Self::from_file(file)
     }
 
@@ -465,8 +494,31 @@ impl SharedGplvm {
             .map
             .map(|m| m.into_map(spaces[0].data.ncols(), q))
             .transpose()?;
+        let latent_var = match (f.config.bayesian, f.latent_variance) {
+            (false, None) => None,
+            (true, Some(s)) => {
+                let s = s.to_mat("latent variances")?;
+                let ok = s
+                    .col_iter()
+                    .all(|c| c.iter().all(|v| v.is_finite() && *v > 0.0));
+                if s.nrows() != n || s.ncols() != q || !ok {
+                    return Err(corrupt(format!(
+                        "latent variances are {}×{}; expected {n}×{q} finite values > 0",
+                        s.nrows(),
+                        s.ncols()
+                    )));
+                }
+                Some(s)
+            }
+            _ => {
+                return Err(corrupt(
+                    "config.bayesian and the latent variances must be given together".into(),
+                ))
+            }
+        };
         let mut model = SharedGplvm::new(f.config, spaces, latent);
-        model.sparse = inducing.map(crate::sparse::SparseState::new);
+        model.sparse =
+            inducing.map(|z| crate::sparse::SparseState::new(z).with_latent_var(latent_var));
         model.map = map;
         model.history = f.history;
         // Files written before `StopReason::ValidatedBudget` (issue 38) recorded a final run
@@ -615,7 +667,7 @@ mod tests {
             SharedGplvm::from_bytes(&old),
             Err(Error::UnsupportedVersion {
                 found: 0,
-                supported: 2
+                supported: 3
             })
         ));
         let mut bad = bytes.clone();

@@ -136,6 +136,7 @@ pub use partial::PartialTransfer;
 pub use predict::Prediction;
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use regression::GpRegression;
+pub use sparse::bayesian::{bayesian_bound, BayesianBound, Jitter, SpaceGradient};
 pub use sparse::objective::SparseEvaluator;
 pub use sparse::sparse_bound;
 pub use train::{Control, Interrupt, IterationRecord, StopReason, TrainOptions};

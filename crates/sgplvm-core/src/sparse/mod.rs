@@ -2,7 +2,8 @@
 //! inputs Z (M×Q) shared by all spaces (see `likelihood`), latent points as point estimates,
 //! for trainings on every frame of long demonstrations in O(N M²) time and O(N M) memory.
 //!
-//! Switched on by [`crate::ModelConfig::inducing`]. Where the exact model would form N×N
+//! Switched on by [`crate::ModelConfig::inducing`]; with [`crate::ModelConfig::bayesian`] the
+//! latent points get a Gaussian posterior q(X) and the bound is MRD's (`bayesian`, `psi`). Where the exact model would form N×N
 //! matrices the sparse one does not:
 //! - **Inducing inputs** start at the initial latent points of M frames spread evenly over
 //!   the training frames ([`spread`]) and are trained with everything else unless
@@ -17,9 +18,11 @@
 //! - **Prediction**: mean `k(x, Z) w` with `w = L_m⁻ᵀ β / σ` (M×D), O(M(Q + D)) per frame;
 //!   variance `α² − k*ᵀ (K_mm⁻¹ − (K_mm + σ⁻² K_mn K_nm)⁻¹) k*` (M×M precomputed).
 
+pub(crate) mod bayesian;
 pub(crate) mod likelihood;
 pub(crate) mod objective;
 pub(crate) mod predict;
+pub(crate) mod psi;
 
 use faer::{Mat, MatRef};
 
@@ -33,6 +36,10 @@ use crate::model::{Latent, SharedGplvm, Space};
 /// regression, O(F³)).
 pub(crate) const MAP_FRAMES: usize = 1000;
 
+/// Where every variance of the Bayesian model's q(X) starts (GPy's `BayesianGPLVM` draws them
+/// from U(0, 0.1), `MRD` from U(0.1, 0.2); a constant keeps the start free of the seed).
+pub(crate) const INITIAL_LATENT_VARIANCE: f64 = 0.1;
+
 /// State of the sparse model: the inducing inputs and the prediction caches.
 #[derive(Clone, Debug)]
 pub(crate) struct SparseState {
@@ -40,6 +47,11 @@ pub(crate) struct SparseState {
     pub z: Mat<f64>,
     /// Z row-major (derived).
     pub z_rows: Vec<f64>,
+    /// The variances S (N×Q) of q(X) of the Bayesian model (`bayesian`); `None`: point latent
+    /// positions.
+    pub latent_var: Option<Mat<f64>>,
+    /// S row-major (derived; empty without S).
+    pub var_rows: Vec<f64>,
     /// Per space, its prediction cache (derived by `rebuild`).
     pub caches: Vec<predict::SparseCache>,
     /// Evaluation buffers kept between objectives built on this model (`evaluate` after
@@ -89,9 +101,18 @@ impl SparseState {
         Self {
             z,
             z_rows,
+            latent_var: None,
+            var_rows: Vec::new(),
             caches: Vec::new(),
             work: SparseWorkspace::default(),
         }
+    }
+
+    /// The state with the variances `s` (N×Q) of q(X): the Bayesian model's.
+    pub(crate) fn with_latent_var(mut self, s: Option<Mat<f64>>) -> Self {
+        self.var_rows = s.as_ref().map_or_else(Vec::new, |s| row_major(s.as_ref()));
+        self.latent_var = s;
+        self
     }
 
     /// Number of inducing inputs M.
@@ -180,7 +201,10 @@ impl SharedGplvm {
         model.sparse = Some(SparseState::new(Mat::zeros(0, config.latent_dim)));
         model.update_latent_points();
         let z = rows(model.x.as_ref(), &frames);
-        model.sparse = Some(SparseState::new(z));
+        let s = config
+            .bayesian
+            .then(|| Mat::from_fn(n, config.latent_dim, |_, _| INITIAL_LATENT_VARIANCE));
+        model.sparse = Some(SparseState::new(z).with_latent_var(s));
         Ok(model)
     }
 
@@ -203,6 +227,33 @@ impl SharedGplvm {
         );
         crate::simd::clear_upper_simd_state();
         x
+    }
+
+    /// True for the Bayesian model ([`ModelConfig::bayesian`]).
+    pub fn is_bayesian(&self) -> bool {
+        self.sparse.as_ref().is_some_and(|s| s.latent_var.is_some())
+    }
+
+    /// The variances S (N×Q) of the Bayesian model's q(X) (its means are
+    /// [`SharedGplvm::latent_points`]); `None` for a model with point latent positions.
+    pub fn latent_variances(&self) -> Option<MatRef<'_, f64>> {
+        self.sparse
+            .as_ref()
+            .and_then(|s| s.latent_var.as_ref())
+            .map(|s| s.as_ref())
+    }
+
+    /// The ARD weight of each latent dimension in `space`: `α² / ℓ_q²` (GPy's
+    /// `input_sensitivity`), how strongly the space varies along it. A dimension whose weight
+    /// is small against the space's largest is one the space does not use: in the Bayesian
+    /// model, training switches such dimensions off, which is how it chooses the dimension and
+    /// the split into shared and private dimensions.
+    pub fn ard_weights(&self, space: &str) -> Result<Vec<f64>> {
+        let k = self.kernel(space).ok_or_else(|| Error::UnknownSpace {
+            name: space.into(),
+            known: self.spaces.iter().map(|s| s.name.clone()).collect(),
+        })?;
+        Ok(k.lengthscale.iter().map(|l| k.variance / (l * l)).collect())
     }
 
     /// The (human, latent) pairs the input map is fitted on: every training frame, or for a

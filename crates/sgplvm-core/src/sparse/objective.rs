@@ -1,17 +1,18 @@
 //! The sparse training objective: the negative bound summed over spaces on the optimiser's
-//! vector θ — the latent block (X, or the centres' weights W) column-major, then Z
-//! column-major (unless fixed), then per space log α², log ℓ_q, log σ². In transfer
-//! (`Mode::Kernels`) only the listed spaces' kernels move; X, Z and the other spaces are
-//! frozen and add a constant.
+//! vector θ — the latent block (X, or the centres' weights W) column-major, for the Bayesian
+//! model then log S (q(X)'s variances, N×Q) column-major, then Z column-major (unless fixed),
+//! then per space log α², log ℓ_q, log σ². The Bayesian model's objective adds
+//! KL(q(X) ‖ N(0, I)) and takes its latent block as q(X)'s means. In transfer (`Mode::Kernels`)
+//! only the listed spaces' kernels move; X (and S), Z and the other spaces are frozen and add a
+//! constant.
 
 use std::sync::Mutex;
 
 use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 
-use super::likelihood::{
-    eval_sparse_space, eval_sparse_space_in, SparseEval, SparseWork, RELATIVE_JITTER,
-};
+use super::bayesian::{eval_bayes_space, kl_divergence, Jitter};
+use super::likelihood::{eval_sparse_space, eval_sparse_space_in, SparseWork, RELATIVE_JITTER};
 use super::{bc_cross, SparseState};
 use crate::error::{Error, Result};
 use crate::kernel::{row_major, KernelParams};
@@ -36,6 +37,8 @@ pub(crate) struct SparseObjective<'a> {
     constant: f64,
     /// Whether Z is part of θ.
     train_z: bool,
+    /// Whether q(X)'s variances S are part of θ (the Bayesian model in full mode).
+    train_var: bool,
     /// Per evaluated space, the buffers its evaluations reuse.
     works: Mutex<Vec<SparseWork>>,
 }
@@ -64,26 +67,15 @@ impl<'a> SparseObjective<'a> {
         };
         let mut constant = 0.0;
         if let Mode::Kernels(v) = &mode {
-            for (s, space) in model.spaces.iter().enumerate() {
-                if v.contains(&s) {
-                    continue;
-                }
-                constant += eval_sparse_space(
-                    &model.x_rows,
-                    &st.z_rows,
-                    model.q(),
-                    space.data.as_ref(),
-                    &space.kernel,
-                    RELATIVE_JITTER,
-                    false,
-                    None,
-                    None,
-                )
-                .map_err(|e| e.in_space(&space.name))?
-                .nll;
+            for s in (0..model.spaces.len()).filter(|s| !v.contains(s)) {
+                constant += frozen_space_term(model, st, s)?;
+            }
+            if st.latent_var.is_some() {
+                constant += kl_divergence(&model.x_rows, &st.var_rows, None);
             }
         }
         let train_z = matches!(mode, Mode::Full) && !model.config.fixed_inducing;
+        let train_var = matches!(mode, Mode::Full) && st.latent_var.is_some();
         let spaces = match &mode {
             Mode::Full => model.spaces.len(),
             Mode::Kernels(v) => v.len(),
@@ -94,6 +86,7 @@ impl<'a> SparseObjective<'a> {
             kcn,
             constant,
             train_z,
+            train_var,
             works: Mutex::new(st.work.take(spaces)),
         })
     }
@@ -119,6 +112,14 @@ impl<'a> SparseObjective<'a> {
         }
     }
 
+    fn var_len(&self) -> usize {
+        if self.train_var {
+            self.model.n() * self.model.q()
+        } else {
+            0
+        }
+    }
+
     fn z_len(&self) -> usize {
         if self.train_z {
             self.model.sparse.as_ref().map_or(0, |s| s.m()) * self.model.q()
@@ -136,6 +137,13 @@ impl<'a> SparseObjective<'a> {
                 Latent::Back { weights, .. } => weights,
             };
             push_col_major(lat.as_ref(), &mut t);
+            if let (true, Some(s)) = (self.train_var, m.sparse.as_ref()) {
+                if let Some(var) = &s.latent_var {
+                    let start = t.len();
+                    push_col_major(var.as_ref(), &mut t);
+                    t[start..].iter_mut().for_each(|v| *v = v.ln());
+                }
+            }
             if self.train_z {
                 if let Some(st) = &m.sparse {
                     push_col_major(st.z.as_ref(), &mut t);
@@ -151,7 +159,7 @@ impl<'a> SparseObjective<'a> {
     /// Writes `theta` into a copy of the model (no caches rebuilt).
     pub(crate) fn apply(&self, theta: &[f64], target: &mut SharedGplvm) {
         let q = target.q();
-        let (ll, zl) = (self.latent_len(), self.z_len());
+        let (ll, vl, zl) = (self.latent_len(), self.var_len(), self.z_len());
         if ll > 0 {
             let r = ll / q;
             let lat = Mat::from_fn(r, q, |i, j| theta[j * r + i]);
@@ -160,12 +168,25 @@ impl<'a> SparseObjective<'a> {
                 Latent::Back { weights, .. } => *weights = lat,
             }
         }
-        if zl > 0 {
-            let m = zl / q;
-            let z = Mat::from_fn(m, q, |i, j| theta[ll + j * m + i]);
-            target.sparse = Some(SparseState::new(z));
+        if vl > 0 || zl > 0 {
+            let old = target.sparse.as_ref();
+            let var = match vl {
+                0 => old.and_then(|s| s.latent_var.clone()),
+                _ => {
+                    let n = vl / q;
+                    Some(Mat::from_fn(n, q, |i, j| theta[ll + j * n + i].exp()))
+                }
+            };
+            let z = match zl {
+                0 => old.map_or_else(|| Mat::zeros(0, q), |s| s.z.clone()),
+                _ => {
+                    let m = zl / q;
+                    Mat::from_fn(m, q, |i, j| theta[ll + vl + j * m + i])
+                }
+            };
+            target.sparse = Some(SparseState::new(z).with_latent_var(var));
         }
-        let mut off = ll + zl;
+        let mut off = ll + vl + zl;
         for s in self.evaluated() {
             target.spaces[s].kernel = decode_kernel(&theta[off..off + q + 2], q);
             off += q + 2;
@@ -177,24 +198,28 @@ impl<'a> SparseObjective<'a> {
         let m = self.model;
         let (n, q) = (m.n(), m.q());
         let st = state(m)?;
-        let (ll, zl) = (self.latent_len(), self.z_len());
+        let (ll, vl, zl) = (self.latent_len(), self.var_len(), self.z_len());
         let owned_x = (ll > 0).then(|| self.latent_rows(&theta[..ll]));
         let xr = owned_x.as_deref().unwrap_or(&m.x_rows);
-        let owned_z = (zl > 0).then(|| {
-            let mz = zl / q;
-            let mut r = vec![0.0; zl];
-            for j in 0..q {
-                for i in 0..mz {
-                    r[i * q + j] = theta[ll + j * mz + i];
-                }
-            }
+        let owned_var = (vl > 0).then(|| {
+            let mut r = rows_of_col_major(&theta[ll..ll + vl], q);
+            r.iter_mut().for_each(|v| *v = v.exp());
             r
         });
+        let sr = owned_var.as_deref().unwrap_or(&st.var_rows);
+        let bayes = st.latent_var.is_some();
+        if bayes && sr.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
+            return Err(Error::InvalidValue {
+                what: "variances of q(X)".into(),
+                reason: "overflow or underflow (expected finite values > 0)".into(),
+            });
+        }
+        let owned_z = (zl > 0).then(|| rows_of_col_major(&theta[ll + vl..ll + vl + zl], q));
         let zr = owned_z.as_deref().unwrap_or(&st.z_rows);
         let evaluated = self.evaluated();
         let mut kernels = Vec::with_capacity(evaluated.len());
         for (i, &s) in evaluated.iter().enumerate() {
-            let off = ll + zl + i * (q + 2);
+            let off = ll + vl + zl + i * (q + 2);
             let k = decode_kernel(&theta[off..off + q + 2], q);
             if !k.is_valid() {
                 return Err(Error::InvalidValue {
@@ -206,9 +231,31 @@ impl<'a> SparseObjective<'a> {
         }
         let with_x = ll > 0;
         let with_z = zl > 0;
-        type SpaceResult = Result<(SparseEval, Vec<f64>, Vec<f64>)>;
-        let one = |((&s, k), work): ((&usize, &KernelParams), &mut SparseWork)| -> SpaceResult {
+        let one = |((&s, k), work): ((&usize, &KernelParams), &mut SparseWork)| {
             let space = &m.spaces[s];
+            let named = |e: crate::likelihood::NotPd| e.in_space(&space.name);
+            if bayes {
+                let e = eval_bayes_space(
+                    xr,
+                    sr,
+                    zr,
+                    q,
+                    space.data.as_ref(),
+                    k,
+                    Jitter::Relative(RELATIVE_JITTER),
+                    true,
+                )
+                .map_err(named)?;
+                return Ok(SpaceTerms {
+                    nll: e.nll,
+                    d_variance: e.d_variance,
+                    d_lengthscale: e.d_lengthscale,
+                    d_noise: e.d_noise,
+                    dx: if with_x { e.d_mean } else { Vec::new() },
+                    ds: if vl > 0 { e.d_var } else { Vec::new() },
+                    dz: if with_z { e.d_z } else { Vec::new() },
+                });
+            }
             let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
             let mut dz = vec![0.0; if with_z { zl } else { 0 }];
             let e = eval_sparse_space_in(
@@ -223,12 +270,20 @@ impl<'a> SparseObjective<'a> {
                 with_z.then_some(&mut dz[..]),
                 work,
             )
-            .map_err(|e| e.in_space(&space.name))?;
-            Ok((e, dx, dz))
+            .map_err(named)?;
+            Ok(SpaceTerms {
+                nll: e.nll,
+                d_variance: e.d_variance,
+                d_lengthscale: e.d_lengthscale,
+                d_noise: e.d_noise,
+                dx,
+                ds: Vec::new(),
+                dz,
+            })
         };
         let mut guard = lock(&self.works);
         let works: &mut Vec<SparseWork> = &mut guard;
-        let results: Vec<_> = if n >= PARALLEL_FROM {
+        let results: Vec<Result<SpaceTerms>> = if n >= PARALLEL_FROM {
             in_pool(|| {
                 evaluated
                     .par_iter()
@@ -248,25 +303,40 @@ impl<'a> SparseObjective<'a> {
         drop(guard);
         let mut total = self.constant;
         let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
+        let mut ds = vec![0.0; vl];
         let mut dz = vec![0.0; zl];
         for (i, (r, k)) in results.into_iter().zip(&kernels).enumerate() {
-            let (e, dxs, dzs) = r?;
+            let e = r?;
             total += e.nll;
-            let off = ll + zl + i * (q + 2);
+            let off = ll + vl + zl + i * (q + 2);
             let g = &mut grad[off..off + q + 2];
             g[0] = e.d_variance * k.variance;
             for (t, l) in k.lengthscale.iter().enumerate() {
                 g[1 + t] = e.d_lengthscale[t] * l;
             }
             g[q + 1] = e.d_noise * k.noise;
-            dx.iter_mut().zip(&dxs).for_each(|(a, b)| *a += b);
-            dz.iter_mut().zip(&dzs).for_each(|(a, b)| *a += b);
+            dx.iter_mut().zip(&e.dx).for_each(|(a, b)| *a += b);
+            ds.iter_mut().zip(&e.ds).for_each(|(a, b)| *a += b);
+            dz.iter_mut().zip(&e.dz).for_each(|(a, b)| *a += b);
+        }
+        if bayes && matches!(self.mode, Mode::Full) {
+            // Full mode trains the means and the variances: both gradients are there.
+            total += kl_divergence(xr, sr, Some((&mut dx, &mut ds)));
+        }
+        if vl > 0 {
+            // ∂/∂log S = S ∂/∂S.
+            let nr = vl / q;
+            for j in 0..q {
+                for i in 0..nr {
+                    grad[ll + j * nr + i] = ds[i * q + j] * sr[i * q + j];
+                }
+            }
         }
         if with_z {
             let mz = zl / q;
             for j in 0..q {
                 for i in 0..mz {
-                    grad[ll + j * mz + i] = dz[i * q + j];
+                    grad[ll + vl + j * mz + i] = dz[i * q + j];
                 }
             }
         }
@@ -320,6 +390,62 @@ impl<'a> SparseObjective<'a> {
             None => row_major(lat),
         }
     }
+}
+
+/// One space's share of an evaluation: its term, its kernel's derivatives and its derivatives
+/// with respect to the latent points (or means), q(X)'s variances and Z, row-major (empty when
+/// not wanted).
+struct SpaceTerms {
+    nll: f64,
+    d_variance: f64,
+    d_lengthscale: Vec<f64>,
+    d_noise: f64,
+    dx: Vec<f64>,
+    ds: Vec<f64>,
+    dz: Vec<f64>,
+}
+
+/// The term of a space that does not move (transfer), at the model's parameters.
+fn frozen_space_term(model: &SharedGplvm, st: &SparseState, s: usize) -> Result<f64> {
+    let space = &model.spaces[s];
+    let term = match &st.latent_var {
+        Some(_) => eval_bayes_space(
+            &model.x_rows,
+            &st.var_rows,
+            &st.z_rows,
+            model.q(),
+            space.data.as_ref(),
+            &space.kernel,
+            Jitter::Relative(RELATIVE_JITTER),
+            false,
+        )
+        .map(|e| e.nll),
+        None => eval_sparse_space(
+            &model.x_rows,
+            &st.z_rows,
+            model.q(),
+            space.data.as_ref(),
+            &space.kernel,
+            RELATIVE_JITTER,
+            false,
+            None,
+            None,
+        )
+        .map(|e| e.nll),
+    };
+    term.map_err(|e| e.in_space(&space.name))
+}
+
+/// A column-major block of `q` columns, row-major.
+fn rows_of_col_major(block: &[f64], q: usize) -> Vec<f64> {
+    let r = block.len() / q;
+    let mut out = vec![0.0; block.len()];
+    for j in 0..q {
+        for i in 0..r {
+            out[i * q + j] = block[j * r + i];
+        }
+    }
+    out
 }
 
 fn push_col_major(m: MatRef<'_, f64>, out: &mut Vec<f64>) {
@@ -388,7 +514,7 @@ impl SharedGplvm {
         let mut g = vec![0.0; theta.len()];
         let (f, _) = obj.eval_full(&theta, &mut g)?;
         let q = self.q();
-        let (ll, zl) = (obj.latent_len(), obj.z_len());
+        let (ll, zl) = (obj.latent_len(), obj.var_len() + obj.z_len());
         let r = ll / q;
         let lat_g = Mat::from_fn(r, q, |i, j| g[j * r + i]);
         let latent = match &self.latent {

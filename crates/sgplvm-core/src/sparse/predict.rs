@@ -1,6 +1,7 @@
 //! Prediction caches of the sparse model: per space the M×D mean weights `w = L_m⁻ᵀ β / σ`
 //! and the M×M matrix `C = L_m⁻ᵀ (I − B⁻¹) L_m⁻¹ = K_mm⁻¹ − (K_mm + σ⁻² K_mn K_nm)⁻¹`, so
-//! that the mean is `k*ᵀ w` and the variance `α² − k*ᵀ C k*` (k* = k(Z, x*)).
+//! that the mean is `k*ᵀ w` and the variance `α² − k*ᵀ C k*` (k* = k(Z, x*)). The Bayesian
+//! model's are the same with `K_mn K_nm` replaced by Ψ₂ and `K_mn Y` by `Ψ₁ᵀ Y` (`bayesian`).
 
 use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
@@ -8,6 +9,7 @@ use faer::linalg::triangular_solve::{
 };
 use faer::{Accum, Mat, Par};
 
+use super::bayesian::{eval_bayes_space, Jitter};
 use super::likelihood::{eval_sparse_space, RELATIVE_JITTER};
 use super::SparseState;
 use crate::error::Result;
@@ -35,8 +37,18 @@ pub(crate) struct SparseCache {
 }
 
 impl SparseCache {
-    /// The cache of `space` at latent points `x_rows` and inducing inputs `z_rows`.
-    pub(crate) fn new(space: &Space, x_rows: &[f64], z_rows: &[f64], q: usize) -> Result<Self> {
+    /// The cache of `space` at latent points `x_rows` and inducing inputs `z_rows`; with
+    /// `var_rows` (q(X)'s variances) the Bayesian model's, `x_rows` then q(X)'s means.
+    pub(crate) fn new(
+        space: &Space,
+        x_rows: &[f64],
+        var_rows: Option<&[f64]>,
+        z_rows: &[f64],
+        q: usize,
+    ) -> Result<Self> {
+        if let Some(var_rows) = var_rows {
+            return Self::bayesian(space, x_rows, var_rows, z_rows, q);
+        }
         let e = eval_sparse_space(
             x_rows,
             z_rows,
@@ -79,6 +91,42 @@ impl SparseCache {
     }
 }
 
+impl SparseCache {
+    /// The Bayesian model's cache: mean weights `β K̃⁻¹ Ψ₁ᵀ Y`, variance matrix
+    /// `K_mm⁻¹ − (K_mm + β Ψ₂)⁻¹` (`bayesian`).
+    fn bayesian(
+        space: &Space,
+        mean_rows: &[f64],
+        var_rows: &[f64],
+        z_rows: &[f64],
+        q: usize,
+    ) -> Result<Self> {
+        let e = eval_bayes_space(
+            mean_rows,
+            var_rows,
+            z_rows,
+            q,
+            space.data.as_ref(),
+            &space.kernel,
+            Jitter::Relative(RELATIVE_JITTER),
+            false,
+        )
+        .map_err(|e| e.in_space(&space.name))?;
+        let m = e.var_matrix.nrows();
+        let cvar = Mat::from_fn(m, m, |i, j| {
+            0.5 * (e.var_matrix[(i, j)] + e.var_matrix[(j, i)])
+        });
+        let weights_rows = row_major(e.mean_weights.as_ref());
+        Ok(Self {
+            frame: FrameKernel::new(z_rows, q, &weights_rows, e.mean_weights.ncols()),
+            weights_rows,
+            cvar,
+            half_inv_l2: half_inv_l2(&space.kernel),
+            jitter: e.extra_jitter,
+        })
+    }
+}
+
 impl SharedGplvm {
     /// Rebuilds the sparse caches (one per space); returns the largest extra jitter.
     pub(crate) fn rebuild_sparse(&mut self) -> Result<f64> {
@@ -89,7 +137,10 @@ impl SharedGplvm {
         let caches = self
             .spaces
             .iter()
-            .map(|s| SparseCache::new(s, &self.x_rows, &st.z_rows, q))
+            .map(|s| {
+                let var = st.latent_var.as_ref().map(|_| &st.var_rows[..]);
+                SparseCache::new(s, &self.x_rows, var, &st.z_rows, q)
+            })
             .collect::<Result<Vec<_>>>()?;
         let jitter = caches.iter().fold(0.0f64, |m, c| m.max(c.jitter));
         if let Some(st) = &mut self.sparse {

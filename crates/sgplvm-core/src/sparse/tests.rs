@@ -271,3 +271,153 @@ fn evaluations_reuse_the_models_buffers_and_give_the_same_bits() {
     let cst = copy.sparse.as_ref().expect("sparse");
     assert!(crate::pool::lock(&cst.work.0).is_empty());
 }
+
+fn bayesian_fit(bc: BackConstraint, n: usize, m: usize, iters: usize) -> SharedGplvm {
+    let (h, r1, _, _) = demo(n, 7);
+    let config = ModelConfig::default()
+        .with_latent_dim(3)
+        .with_back_constraint(bc)
+        .with_inducing(Some(m))
+        .with_bayesian(true);
+    SharedGplvm::fit(
+        &config,
+        &[("human", h.as_ref()), ("walkman", r1.as_ref())],
+        "human",
+        &quick(iters),
+        None,
+    )
+    .expect("Bayesian fit")
+}
+
+#[test]
+fn the_bayesian_objective_gradient_matches_central_differences_on_theta() {
+    // Every block of θ: the means (or the centres' weights), log S, Z, every log kernel
+    // parameter; then, in transfer, the new robot's kernel alone.
+    for bc in [BackConstraint::None, BackConstraint::Input] {
+        let model = bayesian_fit(bc, 30, 6, 3);
+        assert!(model.is_bayesian());
+        let obj = SparseObjective::new(&model, Mode::Full).expect("objective");
+        let theta = obj.theta0();
+        let latent = if bc == BackConstraint::None {
+            30 * 3
+        } else {
+            6 * 3
+        };
+        assert_eq!(theta.len(), latent + 30 * 3 + 6 * 3 + 2 * 5, "θ layout");
+        check_fd(&obj, &theta, &format!("{bc:?}"));
+        let (_, _, r2, _) = demo(30, 7);
+        let mut t = model.clone();
+        let space = t.transfer_space("coman", r2.as_ref(), None).expect("space");
+        t.spaces.push(space);
+        let obj = SparseObjective::new(&t, Mode::Kernels(vec![2])).expect("objective");
+        let theta = obj.theta0();
+        assert_eq!(theta.len(), 5);
+        check_fd(&obj, &theta, &format!("{bc:?} transfer"));
+    }
+}
+
+fn check_fd(obj: &SparseObjective<'_>, theta: &[f64], what: &str) {
+    let mut g = vec![0.0; theta.len()];
+    obj.eval(theta, &mut g).expect("eval");
+    let mut scratch = vec![0.0; theta.len()];
+    for i in 0..theta.len() {
+        let h = 1e-6 * theta[i].abs().max(1.0);
+        let (mut p, mut m) = (theta.to_vec(), theta.to_vec());
+        p[i] += h;
+        m[i] -= h;
+        let fd = (obj.eval(&p, &mut scratch).expect("eval")
+            - obj.eval(&m, &mut scratch).expect("eval"))
+            / (2.0 * h);
+        let err = (g[i] - fd).abs() / (1.0 + fd.abs());
+        assert!(err < 1e-5, "{what} θ[{i}]: analytic {} vs fd {fd}", g[i]);
+    }
+}
+
+#[test]
+fn bayesian_training_fits_saves_as_format_3_and_transfers() {
+    for bc in [BackConstraint::Input, BackConstraint::None] {
+        let n = 120;
+        let model = bayesian_fit(bc, n, 12, 60);
+        let hist = model.history();
+        assert!(hist.len() > 3 && hist.last().expect("h").objective < hist[0].objective);
+        let f = model.objective();
+        assert!(
+            (f - hist.last().expect("h").objective).abs() < 1e-9 * f.abs(),
+            "{f} vs {:?}",
+            hist.last()
+        );
+        let s = model.latent_variances().expect("q(X)");
+        assert_eq!((s.nrows(), s.ncols()), (n, 3));
+        assert!(s
+            .col_iter()
+            .all(|c| c.iter().all(|v| *v > 0.0 && v.is_finite())));
+        let (h, r1, r2, _) = demo(n, 7);
+        let p = model.predict(h.as_ref(), "walkman", true).expect("predict");
+        let mse: f64 = (0..n)
+            .flat_map(|i| (0..4).map(move |j| (i, j)))
+            .map(|(i, j)| (p.mean[(i, j)] - r1[(i, j)]).powi(2))
+            .sum::<f64>()
+            / (4 * n) as f64;
+        let var: f64 = (0..4)
+            .map(|j| {
+                let m = (0..n).map(|i| r1[(i, j)]).sum::<f64>() / n as f64;
+                (0..n).map(|i| (r1[(i, j)] - m).powi(2)).sum::<f64>() / n as f64
+            })
+            .sum::<f64>()
+            / 4.0;
+        assert!(
+            mse < 0.2 * var,
+            "{bc:?}: training MSE {mse} against variance {var}"
+        );
+        // Saved as format 3, loaded with the same predictions bit for bit.
+        let bytes = model.to_bytes();
+        assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().expect("4")), 3);
+        let back = SharedGplvm::from_bytes(&bytes).expect("load");
+        assert!(back.is_bayesian());
+        let q = back.predict(h.as_ref(), "walkman", true).expect("predict");
+        assert!(q.mean == p.mean && q.variance == p.variance);
+        // Transfer: q(X), Z and the first spaces unchanged; the new robot learned.
+        let t = model
+            .transfer("coman", r2.as_ref(), &quick(40), None)
+            .expect("transfer");
+        assert!(t.is_bayesian());
+        assert!(t.latent_variances() == model.latent_variances());
+        assert!(t.inducing_inputs() == model.inducing_inputs());
+        let pc = t.predict(h.as_ref(), "coman", false).expect("predict");
+        let e: f64 = (0..n)
+            .flat_map(|i| (0..4).map(move |j| (i, j)))
+            .map(|(i, j)| (pc.mean[(i, j)] - r2[(i, j)]).powi(2))
+            .sum::<f64>()
+            / (4 * n) as f64;
+        assert!(e.is_finite());
+        let w = t.predict(h.as_ref(), "walkman", false).expect("predict");
+        assert!(w.mean == p.mean);
+    }
+}
+
+#[test]
+fn a_bayesian_model_without_inducing_inputs_or_with_a_bad_file_is_refused() {
+    let config = ModelConfig::default().with_bayesian(true);
+    let e = config.check().expect_err("no inducing inputs");
+    assert!(e.to_string().contains("inducing"), "{e}");
+    // A point-latent model's file claiming version 3, and the other way round.
+    let model = bayesian_fit(BackConstraint::Input, 40, 6, 3);
+    let mut bytes = model.to_bytes();
+    bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+    let e = SharedGplvm::from_bytes(&bytes).expect_err("version 2 with bayesian");
+    assert!(e.to_string().contains("format 2"), "{e}");
+    let plain = sparse_fit(BackConstraint::Input, 40, 6, 3);
+    let bytes = plain.to_bytes();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().expect("4")), 2);
+}
+
+#[test]
+fn ard_weights_are_variance_over_squared_lengthscales() {
+    let model = bayesian_fit(BackConstraint::Input, 40, 6, 3);
+    let k = model.kernel("walkman").expect("kernel").clone();
+    let w = model.ard_weights("walkman").expect("weights");
+    for (w, l) in w.iter().zip(&k.lengthscale) {
+        assert!((w - k.variance / (l * l)).abs() <= 1e-15 * w.abs());
+    }
+    assert!(model.ard_weights("nosuch").is_err());
+}
