@@ -4,27 +4,38 @@
 //!
 //! With `u_q = ℓ_q²`, `z̄ = (z_m + z_m')/2`:
 //! - `ψ₀ = N α²`;
-//! - `Ψ₁[n, m] = α² ∏_q (1 + S_nq/u_q)^(−½) exp(−½ (μ_nq − z_mq)² / (u_q + S_nq))` (N×M);
+//! - `Ψ₁[n, m] = α² ∏_q (1 + S_nq/u_q)^(−½) exp(−½ Σ_q b_q (μ_nq − z_mq)²)`, `b_q = 1/(u_q + S_nq)`
+//!   (N×M);
 //! - `Ψ₂ = Σₙ Ψ₂ₙ`, `Ψ₂ₙ[m, m'] = α⁴ ∏_q (1 + 2S_nq/u_q)^(−½)
-//!   exp(−(z_mq − z_m'q)²/(4u_q) − (μ_nq − z̄_q)²/(u_q + 2S_nq))` (M×M).
+//!   exp(−Σ_q (z_mq − z_m'q)²/(4u_q) − Σ_q a_q (μ_nq − z̄_q)²)`, `a_q = 1/(u_q + 2S_nq)` (M×M).
 //!
-//! Given `∂L/∂ψ₀`, `∂L/∂Ψ₁`, `∂L/∂Ψ₂` ([`psi_chain`]) the derivatives of log Ψ (below, per q)
-//! give those with respect to μ, S, Z, α² and ℓ:
-//! - Ψ₁: `∂/∂μ = −d/(u+S)`, `∂/∂z = d/(u+S)`, `∂/∂S = −½/(u+S) + ½ d²/(u+S)²`,
-//!   `∂/∂u = S/(2u(u+S)) + d²/(2(u+S)²)` with `d = μ − z`;
-//! - Ψ₂ₙ: `∂/∂μ = −2e/(u+2S)`, `∂/∂S = −1/(u+2S) + 2e²/(u+2S)²`,
-//!   `∂/∂u = S/(u(u+2S)) + Δ²/(4u²) + e²/(u+2S)²`, `∂/∂z_m = −Δ/(2u) + e/(u+2S)` with
-//!   `e = μ − z̄`, `Δ = z_m − z_m'` (and `+Δ/(2u) + e/(u+2S)` for z_m').
+//! **How it is computed.** Expanding the square, `Σ_q a_q (μ_q − z̄_q)² = h + g_m + g_m' +
+//! ½ Σ_q a_q z_mq z_m'q` with `h = Σ_q a_q μ_q²` and `g_m = Σ_q a_q (¼ z_mq² − μ_q z_mq)`: each
+//! frame's Ψ₂ₙ is a row-by-row sum of Q scaled copies of Zᵀ's rows (contiguous, so the loops
+//! vectorise) and one `exp` per entry, O(M² Q) per frame; GPy forms the same as an N×M×M×Q
+//! array (480 MB at N = 3,000, M = 50, Q = 8). Ψ₁ likewise, O(M Q) per frame.
+//!
+//! **The chain rule** ([`psi_chain`]), given `∂L/∂ψ₀`, `∂L/∂Ψ₁`, `∂L/∂Ψ₂` (symmetric): with
+//! `W = ∂L/∂Ψ₂ ∘ Ψ₂ₙ`, its row sums `r`, `s = Σ r` and `WZ` (M×Q), every derivative of frame n
+//! is a few sums over them, because `Σ_{m,m'} W (μ − z̄)² = μ² s − 2μ rᵀz + ½ rᵀz² + ½ zᵀ W z`
+//! per latent dimension:
+//! - `∂/∂μ_q = −2 a_q (μ_q s − rᵀ z_q)`, `∂/∂S_q = −a_q s + 2 a_q² P_q` with `P_q` that sum;
+//! - `∂/∂u_q`: `s S_q/(u_q (u_q + 2S_q)) + a_q² P_q` per frame, plus `Σ W̄ (z_m − z_m')²/(4u²)`
+//!   with `W̄ = Σₙ W` once;
+//! - `∂/∂z_kq`: `a_q (2μ_q r_k − z_kq r_k − (WZ)_kq)` per frame, plus
+//!   `−(z_kq r̄_k − (W̄ Z)_kq)/u_q` once (`r̄` the row sums of `W̄`);
+//! - `∂/∂α² = 2 s/α²`; and Ψ₁'s the same way with `b_q`, `w = ∂L/∂Ψ₁ ∘ Ψ₁` (below). Every
+//!   derivative is checked against central differences in the tests.
 //!
 //! The frames are processed in fixed blocks (on the pool's threads when called on one) whose
 //! partial sums are added in order: the results do not depend on the number of threads. Memory
-//! beyond the inputs: Ψ₁ (N×M) and per block one M×M sum; no N×M×M array is formed (GPy's is
-//! 480 MB at N = 3,000, M = 50, Q = 8).
+//! beyond the inputs: Ψ₁ (N×M) and per block a few M×M sums; no N×M×M array is formed.
 
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
 use crate::kernel::KernelParams;
+use crate::simd::{exp_neg, vectorized};
 
 /// Frames per block of the N-dimension: the unit of parallel work and of partial sums.
 const BLOCK: usize = 128;
@@ -55,70 +66,210 @@ pub(crate) struct PsiGrad {
     pub d_lengthscale: Vec<f64>,
 }
 
-/// The frame-independent parts of Ψ₂ for every pair m ≤ m' (`pair` indexes them row by row of
-/// the lower triangle): z̄ and `α⁴ exp(−Σ_q Δ²/(4u_q))`, and for the chain rule Δ.
-struct Pairs {
-    /// (m, m') with m' ≤ m, in order.
-    index: Vec<(usize, usize)>,
-    /// z̄ per pair (pairs × Q).
-    mid: Vec<f64>,
-    /// Δ = z_m − z_m' per pair (pairs × Q).
-    delta: Vec<f64>,
-    /// α⁴ exp(−Σ_q Δ²/(4u_q)) per pair.
-    scale: Vec<f64>,
+/// What every frame shares: Z by columns, its squares, `Σ_q (z_m − z_m')²/(4u_q)` (M×M).
+struct Shared {
+    m: usize,
+    q: usize,
+    u: Vec<f64>,
+    /// Zᵀ row-major (Q×M): `zt[t*m + j] = z_jt`.
+    zt: Vec<f64>,
+    /// (Zᵀ)² element-wise.
+    zt2: Vec<f64>,
+    /// `Σ_q (z_mq − z_m'q)²/(4u_q)`, M×M row-major.
+    dist: Vec<f64>,
+    variance: f64,
 }
 
-impl Pairs {
+impl Shared {
     fn new(zr: &[f64], q: usize, kern: &KernelParams) -> Self {
         let m = zr.len() / q.max(1);
-        let a4 = kern.variance * kern.variance;
-        let mut p = Pairs {
-            index: Vec::with_capacity(m * (m + 1) / 2),
-            mid: Vec::with_capacity(m * (m + 1) / 2 * q),
-            delta: Vec::with_capacity(m * (m + 1) / 2 * q),
-            scale: Vec::with_capacity(m * (m + 1) / 2),
-        };
-        for a in 0..m {
-            for b in 0..=a {
-                let mut s = 0.0;
-                for t in 0..q {
-                    let (za, zb) = (zr[a * q + t], zr[b * q + t]);
-                    let u = kern.lengthscale[t] * kern.lengthscale[t];
-                    let dl = za - zb;
-                    p.mid.push(0.5 * (za + zb));
-                    p.delta.push(dl);
-                    s += dl * dl / (4.0 * u);
-                }
-                p.index.push((a, b));
-                p.scale.push(a4 * (-s).exp());
+        let u: Vec<f64> = kern.lengthscale.iter().map(|l| l * l).collect();
+        let mut zt = vec![0.0; q * m];
+        for j in 0..m {
+            for t in 0..q {
+                zt[t * m + j] = zr[j * q + t];
             }
         }
-        p
+        let zt2 = zt.iter().map(|z| z * z).collect();
+        let mut dist = vec![0.0; m * m];
+        for a in 0..m {
+            for b in 0..m {
+                dist[a * m + b] = (0..q)
+                    .map(|t| (zr[a * q + t] - zr[b * q + t]).powi(2) / (4.0 * u[t]))
+                    .sum();
+            }
+        }
+        Shared {
+            m,
+            q,
+            u,
+            zt,
+            zt2,
+            dist,
+            variance: kern.variance,
+        }
+    }
+
+    /// Column t of Z (all M values).
+    #[inline(always)]
+    fn zcol(&self, t: usize) -> &[f64] {
+        &self.zt[t * self.m..(t + 1) * self.m]
     }
 }
 
-/// Per frame, the factors every Ψ term of that frame shares: `1/(u_q + S_nq)`,
-/// `1/(u_q + 2S_nq)` and the two products `∏(1 + S/u)^(−½)`, `∏(1 + 2S/u)^(−½)`.
-struct FrameTerms {
-    inv1: Vec<f64>,
-    inv2: Vec<f64>,
+/// One frame's Ψ₁ quantities: `b = 1/(u + S)` and `∏(1 + S/u)^(−½)`.
+struct Frame {
+    b: Vec<f64>,
     c1: f64,
-    c2: f64,
 }
 
-impl FrameTerms {
-    fn new(s: &[f64], u: &[f64]) -> Self {
-        let inv1: Vec<f64> = s.iter().zip(u).map(|(s, u)| 1.0 / (u + s)).collect();
-        let inv2: Vec<f64> = s.iter().zip(u).map(|(s, u)| 1.0 / (u + 2.0 * s)).collect();
+impl Frame {
+    #[inline(always)]
+    fn new(sh: &Shared, s: &[f64]) -> Self {
+        let b: Vec<f64> = (0..sh.q).map(|t| 1.0 / (sh.u[t] + s[t])).collect();
         // (1 + S/u)^(−½) = √(u/(u+S)).
-        let c1 = s.iter().zip(u).map(|(s, u)| (u / (u + s)).sqrt()).product();
-        let c2 = s
-            .iter()
-            .zip(u)
-            .map(|(s, u)| (u / (u + 2.0 * s)).sqrt())
-            .product();
-        FrameTerms { inv1, inv2, c1, c2 }
+        let c1 = (0..sh.q).map(|t| (sh.u[t] * b[t]).sqrt()).product();
+        Frame { b, c1 }
     }
+
+    /// Ψ₁'s row of this frame (M values) into `out`.
+    #[inline(always)]
+    fn psi1_row(&self, sh: &Shared, mu: &[f64], out: &mut [f64]) {
+        let m = sh.m;
+        let base: f64 = (0..sh.q).map(|t| self.b[t] * mu[t] * mu[t]).sum();
+        out.iter_mut().for_each(|v| *v = base);
+        for t in 0..sh.q {
+            let (c_sq, c_lin) = (self.b[t], -2.0 * self.b[t] * mu[t]);
+            let (z, z2) = (sh.zcol(t), &sh.zt2[t * m..(t + 1) * m]);
+            for j in 0..m {
+                out[j] += c_sq * z2[j] + c_lin * z[j];
+            }
+        }
+        let scale = sh.variance * self.c1;
+        for v in out.iter_mut() {
+            *v = scale * exp_neg(-0.5 * v.max(0.0));
+        }
+    }
+}
+
+/// Frames of a block are padded to a multiple of this (the vector width of the loops over
+/// frames); padded frames have Ψ₂ₙ = 0 and contribute nothing.
+const LANE: usize = 8;
+
+/// A block of frames laid out by latent dimension, so that Ψ₂ₙ[a, j] is computed for every
+/// frame of the block at once (loops over the frames: long, contiguous, vectorised): `a = 1/(u +
+/// 2S)`, `α⁴ ∏(1 + 2S/u)^(−½)`, `h = Σ_q a_q μ_q²`, `g[m] = Σ_q a_q (¼ z_mq² − μ_q z_mq)`.
+struct Lanes {
+    /// Frames in the block, and that rounded up to [`LANE`] (the stride of the arrays).
+    len: usize,
+    padded: usize,
+    /// μ, S and a by dimension: `x[t*padded + k]` for frame k of the block.
+    mu: Vec<f64>,
+    s: Vec<f64>,
+    a: Vec<f64>,
+    scale: Vec<f64>,
+    h: Vec<f64>,
+    /// `g[j*padded + k]`.
+    g: Vec<f64>,
+}
+
+impl Lanes {
+    #[inline(always)]
+    fn new(sh: &Shared, mean: &[f64], var: &[f64], start: usize, len: usize) -> Self {
+        let (m, q) = (sh.m, sh.q);
+        let padded = len.div_ceil(LANE) * LANE;
+        let mut l = Lanes {
+            len,
+            padded,
+            mu: vec![0.0; q * padded],
+            s: vec![0.0; q * padded],
+            a: vec![0.0; q * padded],
+            scale: vec![0.0; padded],
+            h: vec![0.0; padded],
+            g: vec![0.0; m * padded],
+        };
+        for k in 0..len {
+            let i = start + k;
+            l.scale[k] = sh.variance * sh.variance;
+            for t in 0..q {
+                let (mu, s) = (mean[i * q + t], var[i * q + t]);
+                let a = 1.0 / (sh.u[t] + 2.0 * s);
+                l.mu[t * padded + k] = mu;
+                l.s[t * padded + k] = s;
+                l.a[t * padded + k] = a;
+                l.scale[k] *= (sh.u[t] * a).sqrt();
+                l.h[k] += a * mu * mu;
+            }
+        }
+        for t in 0..q {
+            let a = &l.a[t * padded..(t + 1) * padded];
+            let mu = &l.mu[t * padded..(t + 1) * padded];
+            for j in 0..m {
+                let (z, z2) = (sh.zt[t * m + j], sh.zt2[t * m + j]);
+                let g = &mut l.g[j * padded..(j + 1) * padded];
+                for k in 0..padded {
+                    g[k] += a[k] * (0.25 * z2 - mu[k] * z);
+                }
+            }
+        }
+        l
+    }
+
+    /// Ψ₂ₙ[a, j] of every frame of the block into `out[..padded]` (0 for padded frames);
+    /// `c` is scratch of Q values.
+    #[inline(always)]
+    fn psi2_pair(&self, sh: &Shared, a: usize, j: usize, c: &mut [f64], out: &mut [f64]) {
+        let (m, q, p) = (sh.m, sh.q, self.padded);
+        for t in 0..q {
+            c[t] = 0.5 * sh.zt[t * m + a] * sh.zt[t * m + j];
+        }
+        let d = sh.dist[a * m + j];
+        let (ga, gj) = (&self.g[a * p..(a + 1) * p], &self.g[j * p..(j + 1) * p]);
+        let out = &mut out[..p];
+        for k in 0..p {
+            out[k] = self.h[k] + ga[k] + gj[k] + d;
+        }
+        for (t, ct) in c[..q].iter().enumerate() {
+            let at = &self.a[t * p..(t + 1) * p];
+            for k in 0..p {
+                out[k] += ct * at[k];
+            }
+        }
+        for (o, sc) in out.iter_mut().zip(&self.scale) {
+            *o = sc * exp_neg(-o.max(0.0));
+        }
+    }
+}
+
+/// `Σ aᵢ bᵢ` in eight interleaved partial sums, so that the loop vectorises (a sum in one
+/// accumulator cannot be reordered, and stays scalar); the order is fixed, the result
+/// deterministic.
+#[inline(always)]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    acc.iter().sum::<f64>() + tail
+}
+
+/// `Σ aᵢ`, as [`dot`].
+#[inline(always)]
+fn sum(a: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let c = a.chunks_exact(8);
+    let tail: f64 = c.remainder().iter().sum();
+    for x in c {
+        for k in 0..8 {
+            acc[k] += x[k];
+        }
+    }
+    acc.iter().sum::<f64>() + tail
 }
 
 /// Runs `f` on each block of frames (start, length) and returns the results in block order, on
@@ -127,10 +278,16 @@ fn over_blocks<R: Send>(n: usize, f: impl Fn(usize, usize) -> R + Sync + Send) -
     let blocks: Vec<(usize, usize)> = (0..n.div_ceil(BLOCK))
         .map(|b| (b * BLOCK, BLOCK.min(n - b * BLOCK)))
         .collect();
+    let run = |(s, l): (usize, usize)| {
+        vectorized(
+            #[inline(always)]
+            || f(s, l),
+        )
+    };
     if blocks.len() > 1 && crate::pool::on_pool_thread() {
-        blocks.into_par_iter().map(|(s, l)| f(s, l)).collect()
+        blocks.into_par_iter().map(run).collect()
     } else {
-        blocks.into_iter().map(|(s, l)| f(s, l)).collect()
+        blocks.into_iter().map(run).collect()
     }
 }
 
@@ -143,31 +300,34 @@ pub(crate) fn psi_stats(
     q: usize,
     kern: &KernelParams,
 ) -> Psi {
+    crate::simd::clear_upper_simd_state();
     let n = mean.len() / q.max(1);
-    let m = zr.len() / q.max(1);
-    let u: Vec<f64> = kern.lengthscale.iter().map(|l| l * l).collect();
-    let pairs = Pairs::new(zr, q, kern);
-    let parts = over_blocks(n, |start, len| {
-        let mut psi1 = vec![0.0; len * m];
-        let mut psi2 = vec![0.0; pairs.index.len()];
-        for (k, i) in (start..start + len).enumerate() {
-            let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
-            let f = FrameTerms::new(s, &u);
-            for j in 0..m {
-                let z = &zr[j * q..(j + 1) * q];
-                let e: f64 = (0..q).map(|t| (mu[t] - z[t]).powi(2) * f.inv1[t]).sum();
-                psi1[k * m + j] = kern.variance * f.c1 * (-0.5 * e).exp();
+    let sh = Shared::new(zr, q, kern);
+    let m = sh.m;
+    let parts = over_blocks(
+        n,
+        #[inline(always)]
+        |start, len| {
+            let mut psi1 = vec![0.0; len * m];
+            for (k, i) in (start..start + len).enumerate() {
+                let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
+                Frame::new(&sh, s).psi1_row(&sh, mu, &mut psi1[k * m..(k + 1) * m]);
             }
-            for (p, out) in psi2.iter_mut().enumerate() {
-                let mid = &pairs.mid[p * q..(p + 1) * q];
-                let e: f64 = (0..q).map(|t| (mu[t] - mid[t]).powi(2) * f.inv2[t]).sum();
-                *out += pairs.scale[p] * f.c2 * (-e).exp();
+            let lanes = Lanes::new(&sh, mean, var, start, len);
+            let mut psi2 = vec![0.0; m * m];
+            let mut pair = vec![0.0; lanes.padded];
+            let mut c = vec![0.0; q];
+            for a in 0..m {
+                for j in 0..=a {
+                    lanes.psi2_pair(&sh, a, j, &mut c, &mut pair);
+                    psi2[a * m + j] = sum(&pair);
+                }
             }
-        }
-        (psi1, psi2)
-    });
+            (psi1, psi2)
+        },
+    );
     let mut psi1 = Mat::zeros(n, m);
-    let mut sum2 = vec![0.0; pairs.index.len()];
+    let mut sum2 = vec![0.0; m * m];
     for (b, (p1, p2)) in parts.into_iter().enumerate() {
         let start = b * BLOCK;
         for k in 0..p1.len() / m.max(1) {
@@ -179,11 +339,8 @@ pub(crate) fn psi_stats(
             *s += v;
         }
     }
-    let mut psi2 = Mat::zeros(m, m);
-    for (p, &(a, b)) in pairs.index.iter().enumerate() {
-        psi2[(a, b)] = sum2[p];
-        psi2[(b, a)] = sum2[p];
-    }
+    // The lower triangle was summed; the upper is its mirror.
+    let psi2 = Mat::from_fn(m, m, |a, b| sum2[a.max(b) * m + a.min(b)]);
     Psi {
         psi0: n as f64 * kern.variance,
         psi1,
@@ -191,12 +348,13 @@ pub(crate) fn psi_stats(
     }
 }
 
-/// One block's share of [`psi_chain`]: its frames' ∂μ and ∂S (written in place), and its sums
-/// of ∂Z, ∂α² and ∂u.
+/// One block's share of [`psi_chain`] beyond its frames' ∂μ and ∂S: its sums of ∂Z, ∂α², ∂u
+/// and W̄ (M×M).
 struct BlockGrad {
     d_z: Vec<f64>,
     d_variance: f64,
     d_u: Vec<f64>,
+    w_sum: Vec<f64>,
 }
 
 /// The derivatives of a scalar L through the Ψ statistics of [`psi_stats`], given `g0 = ∂L/∂ψ₀`,
@@ -214,100 +372,179 @@ pub(crate) fn psi_chain(
     g1: MatRef<'_, f64>,
     g2: MatRef<'_, f64>,
 ) -> PsiGrad {
+    crate::simd::clear_upper_simd_state();
     let n = mean.len() / q.max(1);
-    let m = zr.len() / q.max(1);
-    let u: Vec<f64> = kern.lengthscale.iter().map(|l| l * l).collect();
-    let pairs = Pairs::new(zr, q, kern);
-    // Each unordered pair once: off-diagonal pairs stand for (m, m') and (m', m).
-    let weight: Vec<f64> = pairs
-        .index
-        .iter()
-        .map(|&(a, b)| match a == b {
-            true => g2[(a, a)],
-            false => g2[(a, b)] + g2[(b, a)],
-        })
+    let sh = Shared::new(zr, q, kern);
+    let m = sh.m;
+    let u = &sh.u;
+    let g2s: Vec<f64> = (0..m * m)
+        .map(|i| 0.5 * (g2[(i / m, i % m)] + g2[(i % m, i / m)]))
         .collect();
     let mut d_mean = vec![0.0; n * q];
     let mut d_var = vec![0.0; n * q];
-    let chunks: Vec<(&mut [f64], &mut [f64])> = d_mean
+    let chunks: Vec<std::sync::Mutex<(&mut [f64], &mut [f64])>> = d_mean
         .chunks_mut(BLOCK * q)
         .zip(d_var.chunks_mut(BLOCK * q))
+        .map(std::sync::Mutex::new)
         .collect();
-    let chunks: Vec<std::sync::Mutex<(&mut [f64], &mut [f64])>> =
-        chunks.into_iter().map(std::sync::Mutex::new).collect();
-    let parts = over_blocks(n, |start, len| {
-        let mut guard = crate::pool::lock(&chunks[start / BLOCK]);
-        let (dm, ds) = &mut *guard;
-        let mut out = BlockGrad {
-            d_z: vec![0.0; m * q],
-            d_variance: 0.0,
-            d_u: vec![0.0; q],
-        };
-        for (k, i) in (start..start + len).enumerate() {
-            let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
-            let f = FrameTerms::new(s, &u);
-            let (dmu, dsn) = (&mut dm[k * q..(k + 1) * q], &mut ds[k * q..(k + 1) * q]);
-            // Ψ₁.
-            let mut w1_sum = 0.0;
-            for j in 0..m {
-                let w = g1[(i, j)] * psi1[(i, j)];
-                if w == 0.0 {
-                    continue;
+    let parts = over_blocks(
+        n,
+        #[inline(always)]
+        |start, len| {
+            let mut guard = crate::pool::lock(&chunks[start / BLOCK]);
+            let (dm, ds) = &mut *guard;
+            let mut out = BlockGrad {
+                d_z: vec![0.0; m * q],
+                d_variance: 0.0,
+                d_u: vec![0.0; q],
+                w_sum: vec![0.0; m * m],
+            };
+            let mut w = vec![0.0; m];
+            for (k, i) in (start..start + len).enumerate() {
+                let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
+                let (dmu, dsn) = (&mut dm[k * q..(k + 1) * q], &mut ds[k * q..(k + 1) * q]);
+                let f = Frame::new(&sh, s);
+                // Ψ₁: w = ∂L/∂Ψ₁ ∘ Ψ₁ over the row.
+                for j in 0..m {
+                    w[j] = g1[(i, j)] * psi1[(i, j)];
                 }
-                w1_sum += w;
-                let z = &zr[j * q..(j + 1) * q];
+                let w1 = sum(&w);
+                out.d_variance += w1 / sh.variance;
                 for t in 0..q {
-                    let d = mu[t] - z[t];
-                    let a = f.inv1[t];
-                    dmu[t] -= w * d * a;
-                    out.d_z[j * q + t] += w * d * a;
-                    dsn[t] += w * 0.5 * (d * d * a * a - a);
-                    out.d_u[t] += w * 0.5 * d * d * a * a;
+                    let (z, z2) = (sh.zcol(t), &sh.zt2[t * m..(t + 1) * m]);
+                    let (wz1, wzz) = (dot(&w, z), dot(&w, z2));
+                    let (bt, mt) = (f.b[t], mu[t]);
+                    // Σ w (μ − z)².
+                    let p = mt * mt * w1 - 2.0 * mt * wz1 + wzz;
+                    dmu[t] -= bt * (mt * w1 - wz1);
+                    dsn[t] += 0.5 * (bt * bt * p - bt * w1);
+                    out.d_u[t] += w1 * s[t] / (2.0 * u[t] * (u[t] + s[t])) + 0.5 * bt * bt * p;
+                    for j in 0..m {
+                        out.d_z[j * q + t] += w[j] * bt * (mt - z[j]);
+                    }
                 }
             }
-            out.d_variance += w1_sum / kern.variance;
-            // Ψ₂ₙ.
-            let mut w2_sum = 0.0;
-            for (p, &(a, b)) in pairs.index.iter().enumerate() {
-                let mid = &pairs.mid[p * q..(p + 1) * q];
-                let e2: f64 = (0..q).map(|t| (mu[t] - mid[t]).powi(2) * f.inv2[t]).sum();
-                let w = weight[p] * pairs.scale[p] * f.c2 * (-e2).exp();
-                if w == 0.0 {
-                    continue;
-                }
-                w2_sum += w;
-                let delta = &pairs.delta[p * q..(p + 1) * q];
-                for t in 0..q {
-                    let e = mu[t] - mid[t];
-                    let c = f.inv2[t];
-                    dmu[t] -= 2.0 * w * e * c;
-                    dsn[t] += w * (2.0 * e * e * c * c - c);
-                    out.d_u[t] += w * (delta[t] * delta[t] / (4.0 * u[t] * u[t]) + e * e * c * c);
-                    let dz = delta[t] / (2.0 * u[t]);
-                    out.d_z[a * q + t] += w * (e * c - dz);
-                    out.d_z[b * q + t] += w * (e * c + dz);
+            // Ψ₂ₙ for the whole block, pair by pair (a ≥ j; W is symmetric, so a pair off the
+            // diagonal stands for (a, j) and (j, a)): W = ∂L/∂Ψ₂ ∘ Ψ₂ₙ, its row sums r[a] and
+            // WZ[t][a], per frame of the block.
+            let lanes = Lanes::new(&sh, mean, var, start, len);
+            // Arrays over the block's frames have the padded length.
+            let len = lanes.padded;
+            let mut c = vec![0.0; q];
+            let mut r = vec![0.0; m * len];
+            // zᵀ W z per dimension and frame: zwz[t*len + k].
+            let mut zwz = vec![0.0; q * len];
+            let mut pair = vec![0.0; len];
+            for a in 0..m {
+                for j in 0..=a {
+                    lanes.psi2_pair(&sh, a, j, &mut c, &mut pair);
+                    let g = g2s[a * m + j];
+                    pair.iter_mut().for_each(|v| *v *= g);
+                    out.w_sum[a * m + j] += sum(&pair);
+                    let twice = if a == j { 1.0 } else { 2.0 };
+                    for (x, p) in r[a * len..(a + 1) * len].iter_mut().zip(&pair) {
+                        *x += p;
+                    }
+                    if a != j {
+                        for (x, p) in r[j * len..(j + 1) * len].iter_mut().zip(&pair) {
+                            *x += p;
+                        }
+                    }
+                    for t in 0..q {
+                        let (za, zj) = (sh.zt[t * m + a], sh.zt[t * m + j]);
+                        let c2 = twice * za * zj;
+                        for (x, p) in zwz[t * len..(t + 1) * len].iter_mut().zip(&pair) {
+                            *x += c2 * p;
+                        }
+                        // −Σ_k a_t W_k[a, j] z_j (and its mirror) of ∂/∂Z.
+                        let d = dot(&lanes.a[t * len..(t + 1) * len], &pair);
+                        out.d_z[a * q + t] -= zj * d;
+                        if a != j {
+                            out.d_z[j * q + t] -= za * d;
+                        }
+                    }
                 }
             }
-            out.d_variance += 2.0 * w2_sum / kern.variance;
-            // The determinant factors' ∂/∂u, shared by every term of the frame.
+            // Per frame: s = Σ r, and per dimension rᵀz, rᵀz² (vectorised over frames).
+            let mut s_tot = vec![0.0; len];
+            for a in 0..m {
+                for (x, v) in s_tot.iter_mut().zip(&r[a * len..(a + 1) * len]) {
+                    *x += v;
+                }
+            }
+            for x in &s_tot {
+                out.d_variance += 2.0 * x / sh.variance;
+            }
+            let (mut rz, mut rzz) = (vec![0.0; len], vec![0.0; len]);
             for t in 0..q {
-                let st = s[t];
-                out.d_u[t] += w1_sum * st / (2.0 * u[t] * (u[t] + st))
-                    + w2_sum * st / (u[t] * (u[t] + 2.0 * st));
+                rz.iter_mut().for_each(|v| *v = 0.0);
+                rzz.iter_mut().for_each(|v| *v = 0.0);
+                for a in 0..m {
+                    let (za, za2) = (sh.zt[t * m + a], sh.zt2[t * m + a]);
+                    let ra = &r[a * len..(a + 1) * len];
+                    for k in 0..len {
+                        rz[k] += ra[k] * za;
+                        rzz[k] += ra[k] * za2;
+                    }
+                }
+                let zwz = &zwz[t * len..(t + 1) * len];
+                let (at, mu_t, s_t) = (
+                    &lanes.a[t * len..(t + 1) * len],
+                    &lanes.mu[t * len..(t + 1) * len],
+                    &lanes.s[t * len..(t + 1) * len],
+                );
+                for k in 0..lanes.len {
+                    let (a, mt, st, sk) = (at[k], mu_t[k], s_t[k], s_tot[k]);
+                    // Σ W (μ − z̄)².
+                    let p = mt * mt * sk - 2.0 * mt * rz[k] + 0.5 * rzz[k] + 0.5 * zwz[k];
+                    dm[k * q + t] -= 2.0 * a * (mt * sk - rz[k]);
+                    ds[k * q + t] += 2.0 * a * a * p - a * sk;
+                    out.d_u[t] += sk * st / (u[t] * (u[t] + 2.0 * st)) + a * a * p;
+                }
+                // ∂/∂z_jt += Σ_k a_k (2μ_k − z_jt) r_k[j] (the W z part was added pair by pair).
+                let mut am = vec![0.0; len];
+                for k in 0..len {
+                    am[k] = 2.0 * at[k] * mu_t[k];
+                }
+                for j in 0..m {
+                    let zj = sh.zt[t * m + j];
+                    let rj = &r[j * len..(j + 1) * len];
+                    out.d_z[j * q + t] += dot(&am, rj) - zj * dot(at, rj);
+                }
             }
-        }
-        out
-    });
+            out
+        },
+    );
     let mut d_z = vec![0.0; m * q];
     let mut d_variance = g0 * n as f64;
     let mut d_u = vec![0.0; q];
+    let mut w_sum = vec![0.0; m * m];
     for part in parts {
-        for (a, b) in d_z.iter_mut().zip(&part.d_z) {
-            *a += b;
-        }
+        d_z.iter_mut().zip(&part.d_z).for_each(|(a, b)| *a += b);
         d_variance += part.d_variance;
-        for (a, b) in d_u.iter_mut().zip(&part.d_u) {
-            *a += b;
+        d_u.iter_mut().zip(&part.d_u).for_each(|(a, b)| *a += b);
+        w_sum.iter_mut().zip(&part.w_sum).for_each(|(a, b)| *a += b);
+    }
+    // W̄ was summed on its lower triangle: mirror it. Then the frame-independent terms: W̄'s Δ²
+    // and Δ.
+    for a in 0..m {
+        for b in 0..a {
+            w_sum[b * m + a] = w_sum[a * m + b];
+        }
+    }
+    for t in 0..q {
+        let z = sh.zcol(t);
+        for a in 0..m {
+            let row = &w_sum[a * m..(a + 1) * m];
+            let (mut ra, mut wz, mut dd) = (0.0, 0.0, 0.0);
+            for j in 0..m {
+                let dl = z[a] - z[j];
+                ra += row[j];
+                wz += row[j] * z[j];
+                dd += row[j] * dl * dl;
+            }
+            d_u[t] += dd / (4.0 * u[t] * u[t]);
+            d_z[a * q + t] -= (z[a] * ra - wz) / u[t];
         }
     }
     let d_lengthscale = d_u
