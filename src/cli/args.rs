@@ -120,6 +120,9 @@ impl BudgetArg {
     }
 }
 
+/// Inducing inputs of `--bayesian` without `--inducing`.
+pub const BAYESIAN_INDUCING: usize = 50;
+
 // The model configuration of a full training.
 #[derive(Args)]
 pub struct ModelConfigArgs {
@@ -142,6 +145,13 @@ pub struct ModelConfigArgs {
     /// Keep the inducing inputs where they start (with --inducing) instead of training them.
     #[arg(long, requires = "inducing")]
     pub fixed_inducing: bool,
+    /// The Bayesian shared GP-LVM (MRD): a Gaussian posterior over each frame's latent point
+    /// and a KL term to the prior instead of point positions that overfit, each space's ARD
+    /// lengthscales switching off the latent dimensions it does not need (--latent-dim is then
+    /// an upper bound). Sparse: --inducing defaults to 50 for it. Meant to be trained to
+    /// convergence (--validation none); its transfers need --validation none.
+    #[arg(long)]
+    pub bayesian: bool,
     /// Train the back-constraint weights whitened (W = K_bc^(-1/2) V): the same model, far better
     /// conditioned, so training reaches a low objective in far fewer iterations (on the benchmark
     /// data GPy's final level at iteration 56; the plain weights at iteration 17,055).
@@ -149,7 +159,7 @@ pub struct ModelConfigArgs {
     /// default because the slow plain route regularises: held-out error was worse with it on the
     /// shipped data (BENCHMARKS.md, issue 18). Needs --back-constraint input or output and the
     /// exact model (not --inducing).
-    #[arg(long, conflicts_with = "inducing")]
+    #[arg(long, conflicts_with_all = ["inducing", "bayesian"])]
     pub whiten_back_constraint: bool,
 }
 
@@ -160,8 +170,13 @@ impl ModelConfigArgs {
             .with_latent_dim(self.latent_dim as usize)
             .with_back_constraint(self.back_constraint.0)
             .with_seed(self.seed)
-            .with_inducing(self.inducing.map(|m| m as usize))
+            .with_inducing(
+                self.inducing
+                    .map(|m| m as usize)
+                    .or(self.bayesian.then_some(BAYESIAN_INDUCING)),
+            )
             .with_fixed_inducing(self.fixed_inducing)
+            .with_bayesian(self.bayesian)
     }
 
     /// The training options these flags describe: the budget's, and whether back-constraint

@@ -6,6 +6,7 @@
 
 use pyo3::prelude::*;
 
+mod bayesian;
 mod demos;
 mod experiment;
 mod guard;
@@ -27,6 +28,7 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robots::PyRobot>()?;
     m.add_function(wrap_pyfunction!(model::canonical_back_constraint, m)?)?;
     m.add_function(wrap_pyfunction!(model::sparse_bound, m)?)?;
+    m.add_function(wrap_pyfunction!(bayesian::bayesian_bound, m)?)?;
     m.add_function(wrap_pyfunction!(demos::read_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::write_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;

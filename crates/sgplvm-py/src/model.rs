@@ -285,7 +285,7 @@ impl NativeModel {
     /// handler's exception (Ctrl-C) stops training and is raised carrying the model trained so
     /// far as its `_sgplvm_native` attribute.
     #[staticmethod]
-    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None, validation_callback=None, whiten_back_constraint=false))]
+    #[pyo3(signature = (spaces, input, latent_dim, back_constraint, seed, scale, max_iters, validation, patience, max_seconds=None, callback=None, column_names=None, inducing=None, validation_callback=None, whiten_back_constraint=false, bayesian=false))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -304,6 +304,7 @@ impl NativeModel {
         inducing: Option<usize>,
         validation_callback: Option<Py<PyAny>>,
         whiten_back_constraint: bool,
+        bayesian: bool,
     ) -> PyResult<Self> {
         guarded(|| {
             let config = ModelConfig::default()
@@ -311,7 +312,8 @@ impl NativeModel {
                 .with_back_constraint(parse_back_constraint(back_constraint)?)
                 .with_seed(seed)
                 .with_scale(scale)
-                .with_inducing(inducing);
+                .with_inducing(inducing)
+                .with_bayesian(bayesian);
             let mats: Vec<(String, Mat<f64>)> =
                 spaces.iter().map(|(n, a)| (n.clone(), to_mat(a))).collect();
             let options = TrainOptions::default()
@@ -493,7 +495,19 @@ impl NativeModel {
             .map(|z| to_numpy(py, &z.to_owned()))
     }
 
-    /// Configuration as a dict (latent_dim, back_constraint, seed, scale, inducing).
+    /// Variances S (N×Q) of a Bayesian model's q(X); None for point latent positions.
+    fn latent_variances<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.inner
+            .latent_variances()
+            .map(|s| to_numpy(py, &s.to_owned()))
+    }
+
+    /// ARD weights α²/ℓ_q² of a space's kernel, one per latent dimension.
+    fn ard_weights(&self, space: &str) -> PyResult<Vec<f64>> {
+        self.inner.ard_weights(space).map_err(model_error)
+    }
+
+    /// Configuration as a dict (latent_dim, back_constraint, seed, scale, inducing, bayesian).
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = self.inner.config();
         let d = PyDict::new(py);
@@ -502,6 +516,7 @@ impl NativeModel {
         d.set_item("seed", c.seed)?;
         d.set_item("scale", c.scale)?;
         d.set_item("inducing", c.inducing)?;
+        d.set_item("bayesian", c.bayesian)?;
         Ok(d)
     }
 

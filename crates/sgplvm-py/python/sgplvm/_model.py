@@ -60,6 +60,9 @@ Validation = Union[str, None, np.ndarray, list, tuple]
 #: Iterations without a lower validation error after which the selection run stops.
 DEFAULT_PATIENCE: int = _sgplvm.DEFAULT_PATIENCE
 
+#: Inducing inputs of a Bayesian model when ``fit`` is given none (at most one per frame).
+DEFAULT_BAYESIAN_INDUCING: int = 50
+
 
 def _validation_rows(validation: Validation, n: int) -> Optional[list]:
     """The rows to hold out as a list of ints (``None``: no validation) from ``"auto"``,
@@ -137,6 +140,15 @@ class SharedGPLVM:
     scale:
         Scale every space to unit column variance after centring (off by default, so that
         values compare with GPy's on the same data).
+    bayesian:
+        The Bayesian shared GP-LVM (manifold relevance determination, as GPy's ``MRD``): each
+        frame's latent point gets a Gaussian posterior (means back-constrained on the human
+        input or free, as ``back_constraint`` says; variances :attr:`latent_variances`) and a
+        KL term to the N(0, I) prior replaces the freedom that lets point latent positions
+        overfit, while each space's ARD lengthscales switch off the latent dimensions it does
+        not need (:meth:`ard_weights`): ``latent_dim`` is then an upper bound, and training to
+        convergence (``validation=None``) is its intended use. It is sparse: ``fit``'s
+        ``inducing`` defaults to min(50, frames) for it.
     """
 
     def __init__(
@@ -145,12 +157,14 @@ class SharedGPLVM:
         back_constraint: Optional[str] = "input",
         seed: int = 0,
         scale: bool = False,
+        bayesian: bool = False,
     ) -> None:
         canonical = _sgplvm.canonical_back_constraint(back_constraint)
         self.latent_dim = _integer(latent_dim, "latent_dim", 1)
         self.back_constraint = canonical
         self.seed = _integer(seed, "seed", 0)
         self.scale = bool(scale)
+        self.bayesian = bool(bayesian)
         self._native: Optional[_sgplvm.NativeModel] = None
 
     # ------------------------------------------------------------------ training
@@ -252,7 +266,10 @@ class SharedGPLVM:
             raise ValueError(f"input {input!r} is not one of the spaces {list(spaces)}")
         arrays = [(str(name), _as_matrix(data, f"spaces[{name!r}]")) for name, data in spaces.items()]
         names = None if column_names is None else [(k, list(v)) for k, v in column_names.items()]
-        rows = _validation_rows(validation, len(dict(arrays)[input]))
+        frames = len(dict(arrays)[input])
+        rows = _validation_rows(validation, frames)
+        if self.bayesian and inducing is None:
+            inducing = min(DEFAULT_BAYESIAN_INDUCING, frames)
         try:
             self._native = _sgplvm.NativeModel.fit(
                 arrays,
@@ -270,6 +287,7 @@ class SharedGPLVM:
                 None if inducing is None else int(inducing),
                 validation_callback,
                 bool(whiten_back_constraint),
+                self.bayesian,
             )
         except BaseException as e:
             interrupted = _interrupted_model(e)
@@ -365,6 +383,18 @@ class SharedGPLVM:
         """Inducing inputs Z (M × Q) of a sparse model; None for the exact model."""
         return self._require().inducing_inputs()
 
+    @property
+    def latent_variances(self) -> Optional[np.ndarray]:
+        """Variances (N × Q) of a Bayesian model's latent posterior q(X), whose means are
+        :attr:`latent_points`; None for a model with point latent positions."""
+        return self._require().latent_variances()
+
+    def ard_weights(self, space: str) -> np.ndarray:
+        """How strongly ``space`` varies along each latent dimension: its kernel's variance over
+        the squared lengthscale (GPy's ``input_sensitivity``). In a Bayesian model, dimensions
+        whose weight is a few percent of the space's largest are switched off for that space."""
+        return np.asarray(self._require().ard_weights(str(space)))
+
     # ------------------------------------------------------------------ inspection
 
     @property
@@ -455,13 +485,13 @@ class SharedGPLVM:
     @classmethod
     def _from_native(cls, native: "_sgplvm.NativeModel") -> "SharedGPLVM":
         config = native.config()
-        model = cls(config["latent_dim"], config["back_constraint"], config["seed"], config["scale"])
+        model = cls(config["latent_dim"], config["back_constraint"], config["seed"], config["scale"], config["bayesian"])
         model._native = native
         return model
 
     def __getstate__(self) -> dict:
         return {
-            "config": (self.latent_dim, self.back_constraint, self.seed, self.scale),
+            "config": (self.latent_dim, self.back_constraint, self.seed, self.scale, self.bayesian),
             "model": None if self._native is None else self.to_bytes(),
         }
 

@@ -13,6 +13,7 @@ __all__ = [
     "Robot",
     "__version__",
     "_panic_for_tests",
+    "bayesian_bound",
     "canonical_back_constraint",
     "experiment_assemble",
     "experiment_config",
@@ -58,6 +59,7 @@ class NativeModel:
         inducing: Optional[int] = None,
         validation_callback: Optional[_ValidationCallback] = None,
         whiten_back_constraint: bool = False,
+        bayesian: bool = False,
     ) -> "NativeModel": ...
     def transfer(
         self,
@@ -87,6 +89,8 @@ class NativeModel:
     def space_dim(self, space: str) -> Optional[int]: ...
     def config(self) -> Dict[str, Any]: ...
     def inducing_inputs(self) -> Optional[_F64]: ...
+    def latent_variances(self) -> Optional[_F64]: ...
+    def ard_weights(self, space: str) -> List[float]: ...
     def history(self) -> Dict[str, Any]: ...
     def params(self) -> Dict[str, Any]: ...
     def gradient(self) -> Dict[str, Any]: ...
@@ -148,6 +152,15 @@ def sparse_bound(
     relative_jitter: float,
 ) -> float:
     """One space's negative collapsed (Titsias/VarDTC) bound of the sparse model."""
+def bayesian_bound(
+    mean: _F64,
+    variance: _F64,
+    z: _F64,
+    ys: Sequence[_F64],
+    kernels: Sequence[Tuple[float, Sequence[float], float]],
+    absolute_jitter: float,
+) -> Dict[str, Any]:
+    """The Bayesian GP-LVM's (MRD's) negative bound and its gradient, in natural units."""
 def _panic_for_tests(message: str) -> None:
     """Panics in Rust with ``message``: the panic must arrive as a ``RuntimeError``."""
 
