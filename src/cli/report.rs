@@ -46,12 +46,51 @@ fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool
             "objective": history.last().map(|r| r.objective),
             "stop_reason": model.stop_reason().map(StopReason::name),
             "selection": model.selection(),
+            "ard_weights": model.is_bayesian().then(|| ard_weights(model)),
         });
         println!("{value}");
     } else {
         print!("{}", trained_text(what, model, seconds, out));
+        if model.is_bayesian() {
+            print!("{}", ard_text(model));
+        }
     }
 }
+
+/// Each space's ARD weights (α²/ℓ_q², in latent-dimension order), by space name.
+fn ard_weights(model: &SharedGplvm) -> serde_json::Map<String, serde_json::Value> {
+    std::iter::once(model.input_name())
+        .chain(model.output_names())
+        .filter_map(|s| Some((s.to_string(), json!(model.ard_weights(s).ok()?))))
+        .collect()
+}
+
+/// A Bayesian model's ARD weights, a line per space, each relative to the space's largest:
+/// which latent dimensions each space uses.
+fn ard_text(model: &SharedGplvm) -> String {
+    let mut out = format!(
+        "ARD weights α²/ℓ² per latent dimension, relative to each space's largest (below {:.0} %: \
+         switched off for that space):\n",
+        100.0 * ARD_USED
+    );
+    for space in std::iter::once(model.input_name()).chain(model.output_names()) {
+        let Ok(w) = model.ard_weights(space) else {
+            continue;
+        };
+        let max = w.iter().copied().fold(0.0, f64::max);
+        let cells: Vec<String> = w.iter().map(|v| format!("{:5.2}", v / max)).collect();
+        let used = w.iter().filter(|v| **v > ARD_USED * max).count();
+        out.push_str(&format!(
+            "  {space:<10} {}  ({used} of {} used)\n",
+            cells.join(" "),
+            w.len()
+        ));
+    }
+    out
+}
+
+/// The share of a space's largest ARD weight above which a latent dimension counts as used.
+const ARD_USED: f64 = 0.05;
 
 /// The lines [`trained`] prints: what was done, then why it stopped. Without a selection the
 /// stop reason closes the first line; with one, a second line says how the budget was chosen
