@@ -533,6 +533,11 @@ fn bad_inputs_fail_cleanly_and_write_nothing() {
         },
         error(&["generate", "--robots", "coman,ur5e,coman", "--file", "g.mcap", "--out", s(&dir)],
               &["coman", "twice"]),
+        // Test pairs: paper, all or a count that exists.
+        Failure {
+            says: vec!["--test-pairs", "paper, all or a number from 1 to 210"],
+            ..usage(&["generate", "--test-pairs", "211", "--file", "g.mcap", "--out", s(&dir)])
+        },
     ];
     for case in &cases {
         let err = fails(&case.args, case.code);
@@ -656,6 +661,33 @@ fn generate_records_the_chosen_robots() {
     let three = sgplvm::robots::dataset::load_demonstrations(&fixture().data).unwrap();
     assert_eq!(data.human.positions, three.human.positions);
     assert_eq!(data.robot("coman"), three.robot("coman"));
+    // A richer test set: the training frames are the paper protocol's, the test frames more.
+    let stdout = ok(&[
+        "generate",
+        "--test-pairs",
+        "12",
+        "--seed",
+        "0",
+        "--subsample",
+        "24",
+        "--file",
+        "rich.mcap",
+        "--out",
+        s(&dir),
+    ]);
+    assert!(stdout.contains("test"), "{stdout}");
+    let rich = sgplvm::robots::dataset::load_demonstrations(dir.join("rich.mcap")).unwrap();
+    let rows = |d: &sgplvm::robots::dataset::Dataset, idx: &[usize]| -> Vec<Vec<f64>> {
+        idx.iter()
+            .map(|&i| (0..18).map(|j| d.human.positions[(i, j)]).collect())
+            .collect()
+    };
+    assert_eq!(rows(&rich, &rich.train), rows(&three, &three.train));
+    assert!(
+        rich.test.len() > 5 * three.test.len(),
+        "{} test frames",
+        rich.test.len()
+    );
 }
 
 #[test]

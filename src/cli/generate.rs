@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::builder::PossibleValuesParser;
 use clap::Args;
-use sgplvm::robots::generator::{generate_to_file, GeneratorConfig, DEMO_FILE_NAME, KEY_POSES};
+use sgplvm::robots::generator::{
+    all_test_pairs, generate_to_file, random_test_pairs, GeneratorConfig, DEMO_FILE_NAME, KEY_POSES,
+};
 use sgplvm::robots::Robot;
 
 #[derive(Args)]
@@ -33,6 +35,31 @@ pub struct GenerateArgs {
     /// benchmarks).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1000))]
     repetitions: Option<u64>,
+    /// The test set's pose pairs: `paper` (the paper's two pairs), `all` (every ordered pair
+    /// of two non-neutral key poses, 210: a test set whose errors do not hang on two draws of
+    /// the human's motion) or a number N (N of those, drawn from --seed).
+    #[arg(long, default_value = "paper", value_parser = parse_test_pairs)]
+    test_pairs: TestPairs,
+}
+
+/// `--test-pairs`.
+#[derive(Clone, Debug)]
+enum TestPairs {
+    Paper,
+    All,
+    Random(usize),
+}
+
+fn parse_test_pairs(s: &str) -> Result<TestPairs, String> {
+    let most = all_test_pairs().len();
+    match s {
+        "paper" => Ok(TestPairs::Paper),
+        "all" => Ok(TestPairs::All),
+        _ => match s.parse::<usize>() {
+            Ok(n) if (1..=most).contains(&n) => Ok(TestPairs::Random(n)),
+            _ => Err(format!("expected paper, all or a number from 1 to {most}")),
+        },
+    }
 }
 
 /// The built-in robot models (every built-in body but the demonstrator).
@@ -60,6 +87,12 @@ pub fn run(args: GenerateArgs) -> Result<()> {
     if let Some(robots) = args.robots {
         config.robots = robots;
     }
+    config.test_pairs = match args.test_pairs {
+        TestPairs::Paper => config.test_pairs,
+        TestPairs::All => all_test_pairs(),
+        // The parser allowed only counts that exist.
+        TestPairs::Random(n) => random_test_pairs(n, config.seed).unwrap_or_default(),
+    };
     let path = args.out.join(&args.file);
     let generated = generate_to_file(&config, &path)?;
     let ds = &generated.dataset;

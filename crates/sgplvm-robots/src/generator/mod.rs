@@ -50,6 +50,36 @@ use rand_chacha::ChaCha8Rng;
 #[cfg(test)]
 use synthesize::plan;
 
+/// The paper's test set: two pairs of non-neutral poses ([`GeneratorConfig::test_pairs`]'s
+/// default).
+pub const PAPER_TEST_PAIRS: [(usize, usize); 2] = [(2, 5), (9, 14)];
+
+/// Every ordered pair of two different non-neutral key poses (both directions: 15 × 14 = 210),
+/// in order: a test set that does not hang on two draws of the human's motion.
+pub fn all_test_pairs() -> Vec<(usize, usize)> {
+    let poses = (0..KEY_POSES.len()).filter(|&p| p != NEUTRAL);
+    poses
+        .clone()
+        .flat_map(|a| poses.clone().filter(move |&b| b != a).map(move |b| (a, b)))
+        .collect()
+}
+
+/// `count` of [`all_test_pairs`], drawn without replacement from `seed` (kept in their order
+/// in that list); `None` when `count` is 0 or more than there are.
+pub fn random_test_pairs(count: usize, seed: u64) -> Option<Vec<(usize, usize)>> {
+    use rand::SeedableRng;
+    let all = all_test_pairs();
+    if count == 0 || count > all.len() {
+        return None;
+    }
+    // Its own stream, apart from the motions' draws: the same seed gives the same motions
+    // whatever test pairs are chosen.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7e57_9a1e_5eed);
+    let mut chosen = rand::seq::index::sample(&mut rng, all.len(), count).into_vec();
+    chosen.sort_unstable();
+    Some(chosen.into_iter().map(|i| all[i]).collect())
+}
+
 /// How the simulated human deviates from the robots' motion.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HumanMimic {
@@ -130,7 +160,7 @@ impl Default for GeneratorConfig {
             human: "human".into(),
             repetitions: 3,
             train_subsample: 12,
-            test_pairs: vec![(2, 5), (9, 14)],
+            test_pairs: PAPER_TEST_PAIRS.to_vec(),
             test_subsample: 3,
             start_time_ns: 1_700_000_000_000_000_000,
             hold_s: 0.25,

@@ -356,3 +356,32 @@ fn robot_lists_name_built_in_robots_once() {
         );
     }
 }
+
+#[test]
+fn the_richer_test_sets_are_every_pair_or_a_seeded_subset() {
+    let all = all_test_pairs();
+    assert_eq!(all.len(), 15 * 14);
+    let distinct: std::collections::BTreeSet<_> = all.iter().collect();
+    assert_eq!(distinct.len(), all.len());
+    assert!(all
+        .iter()
+        .all(|&(a, b)| a != b && a != NEUTRAL && b != NEUTRAL));
+    assert!(all.contains(&(2, 5)) && all.contains(&(5, 2)));
+    let a = random_test_pairs(12, 1).expect("12 pairs");
+    assert_eq!(a.len(), 12);
+    assert_eq!(random_test_pairs(12, 1), Some(a.clone()), "seeded");
+    assert_ne!(
+        random_test_pairs(12, 2),
+        Some(a.clone()),
+        "another seed, other pairs"
+    );
+    assert!(a.iter().all(|p| all.contains(p)));
+    assert_eq!(random_test_pairs(0, 1), None);
+    assert_eq!(random_test_pairs(211, 1), None);
+    assert_eq!(random_test_pairs(210, 1), Some(all));
+    // The default is the paper's protocol.
+    assert_eq!(
+        GeneratorConfig::default().test_pairs,
+        PAPER_TEST_PAIRS.to_vec()
+    );
+}
