@@ -50,6 +50,28 @@ pub enum Error {
         /// Where the limit comes from.
         limit_source: String,
     },
+    /// The sparse (or Bayesian) model would need more memory than the limit (see the `memory`
+    /// module); refused before allocating.
+    #[error(
+        "{what} with N = {n} frames and M = {m} inducing inputs needs about {} (its memory grows \
+         with N·M); {} is available ({limit_source}): use fewer frames or inducing inputs",
+        crate::memory::human(*needed_bytes),
+        crate::memory::human(*available_bytes)
+    )]
+    TooLargeSparse {
+        /// What was refused (training, transfer, loading a model, …).
+        what: String,
+        /// Number of frames N.
+        n: usize,
+        /// Inducing inputs M.
+        m: usize,
+        /// Bytes estimated.
+        needed_bytes: u64,
+        /// The memory limit in bytes.
+        available_bytes: u64,
+        /// Where the limit comes from.
+        limit_source: String,
+    },
     /// A value of the data is NaN or infinite.
     #[error(
         "space '{space}': value at row {row}, column {col} is {value}; expected a finite number"

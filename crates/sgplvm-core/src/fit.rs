@@ -44,12 +44,13 @@ impl SharedGplvm {
     ) -> Result<Self> {
         config.check()?;
         let order = checked_order(spaces, input, config.latent_dim)?;
-        if config.inducing.is_none() {
-            memory::check(
-                "training",
-                spaces[order[0]].1.nrows(),
-                memory::fit_matrices(spaces.len()),
-            )?;
+        let n = spaces[order[0]].1.nrows();
+        match config.inducing {
+            None => memory::check("training", n, memory::fit_matrices(spaces.len()))?,
+            Some(m) => {
+                let dims: Vec<usize> = spaces.iter().map(|(_, d)| d.ncols()).collect();
+                memory::check_sparse("training", n, m, config.latent_dim, &dims)?
+            }
         }
         let sp: Vec<Space> = order
             .iter()

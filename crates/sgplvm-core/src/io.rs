@@ -482,8 +482,11 @@ impl SharedGplvm {
             }
         };
         let centres = match &inducing {
-            // O(N M) memory: no exact-model check.
-            Some(z) => z.nrows(),
+            Some(z) => {
+                let dims: Vec<usize> = spaces.iter().map(|s| s.data.ncols()).collect();
+                memory::check_sparse("loading the model", n, z.nrows(), q, &dims)?;
+                z.nrows()
+            }
             None => {
                 memory::check("loading the model", n, memory::load_matrices(spaces.len()))?;
                 n

@@ -1,4 +1,5 @@
-//! The memory the exact model needs, checked before its N×N matrices are allocated.
+//! The memory the exact model needs, checked before its N×N matrices are allocated (and the
+//! sparse and Bayesian models', O(N M + M² Q): [`check_sparse`]).
 //!
 //! Every space of the exact model keeps an N×N Cholesky factor, training needs three more N×N
 //! buffers per space (kernel, factor, ∂L/∂K), back constraints an N×N kernel, and the final
@@ -48,6 +49,40 @@ pub(crate) fn load_matrices(spaces: usize) -> usize {
 
 /// N×N matrices of a GP regression: its training buffers and the final factorisation.
 pub(crate) const REGRESSION_MATRICES: usize = 5;
+
+/// Bytes the sparse or Bayesian model of `dims` (each space's columns) needs at its peak in
+/// training, with N frames, M inducing inputs and Q latent dimensions: per space its data and
+/// four N×M buffers (Φ or Ψ₁, ∂L/∂Ψ₁ and two transient products), seven N×Q (latent points,
+/// variances, their gradients and copies) plus two per space, and M²(Q + 8) per space for the
+/// M×M algebra (saturating). O(N M + M² Q), as the model.
+pub(crate) fn sparse_bytes(n: usize, m: usize, q: usize, dims: &[usize]) -> u64 {
+    let (n, m, q) = (n as u128, m as u128, q as u128);
+    let per_space: u128 = dims
+        .iter()
+        .map(|&d| n * d as u128 + 4 * n * m + 2 * n * q + m * m * (q + 8))
+        .sum();
+    u64::try_from(8 * (per_space + 7 * n * q)).unwrap_or(u64::MAX)
+}
+
+/// Refuses `what` for the sparse or Bayesian model when [`sparse_bytes`] exceeds the limit.
+pub(crate) fn check_sparse(what: &str, n: usize, m: usize, q: usize, dims: &[usize]) -> Result<()> {
+    let needed = sparse_bytes(n, m, q, dims);
+    if needed <= 64 << 20 {
+        return Ok(());
+    }
+    let (available, source) = limit();
+    if needed > available {
+        return Err(Error::TooLargeSparse {
+            what: what.into(),
+            n,
+            m,
+            needed_bytes: needed,
+            available_bytes: available,
+            limit_source: source,
+        });
+    }
+    Ok(())
+}
 
 /// Bytes of `matrices` N×N matrices of f64 (saturating).
 pub(crate) fn bytes_needed(n: usize, matrices: usize) -> u64 {
@@ -182,5 +217,20 @@ mod tests {
             text.contains("--inducing"),
             "the sparse model is suggested: {text}"
         );
+    }
+
+    #[test]
+    fn the_sparse_model_is_refused_when_n_times_m_is_too_large() {
+        assert!(check_sparse("training", 20_000, 100, 5, &[18, 14]).is_ok());
+        // 10⁹ frames, M = 100: 4 N·M buffers per space alone are 6.4 TB.
+        let e = check_sparse("training", 1_000_000_000, 100, 5, &[18, 14]).expect_err("refused");
+        let text = e.to_string();
+        assert!(matches!(e, Error::TooLargeSparse { m: 100, .. }), "{e:?}");
+        assert!(
+            text.starts_with("training with N = 1000000000 frames and M = 100"),
+            "{text}"
+        );
+        assert!(!text.contains('\n'), "{text}");
+        assert_eq!(sparse_bytes(usize::MAX, usize::MAX, 5, &[3]), u64::MAX);
     }
 }

@@ -129,8 +129,10 @@ impl SharedGplvm {
             });
         }
         check_finite(name, data)?;
-        if self.sparse.is_some() {
-            // O(N M) memory, like the model itself.
+        if let Some(st) = &self.sparse {
+            let mut dims: Vec<usize> = self.spaces.iter().map(|s| s.data.ncols()).collect();
+            dims.push(data.ncols());
+            memory::check_sparse("transfer", frames, st.m(), self.q(), &dims)?;
         } else if frames == self.n() {
             memory::check(
                 "transfer",

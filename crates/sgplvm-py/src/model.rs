@@ -25,7 +25,9 @@ pub(crate) fn model_error(e: sgplvm_core::Error) -> PyErr {
     match e {
         sgplvm_core::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
         sgplvm_core::Error::NotPositiveDefinite { .. } => PyRuntimeError::new_err(e.to_string()),
-        sgplvm_core::Error::TooLarge { .. } => PyMemoryError::new_err(e.to_string()),
+        sgplvm_core::Error::TooLarge { .. } | sgplvm_core::Error::TooLargeSparse { .. } => {
+            PyMemoryError::new_err(e.to_string())
+        }
         _ => PyValueError::new_err(e.to_string()),
     }
 }
@@ -34,7 +36,9 @@ pub(crate) fn model_error(e: sgplvm_core::Error) -> PyErr {
 fn read_error(source: &str, e: sgplvm_core::Error) -> PyErr {
     match e {
         sgplvm_core::Error::Io { .. } => model_error(e),
-        sgplvm_core::Error::TooLarge { .. } => PyMemoryError::new_err(format!("{source}: {e}")),
+        sgplvm_core::Error::TooLarge { .. } | sgplvm_core::Error::TooLargeSparse { .. } => {
+            PyMemoryError::new_err(format!("{source}: {e}"))
+        }
         other => PyValueError::new_err(format!("{source}: {other}")),
     }
 }

@@ -91,12 +91,15 @@ impl Shared {
             }
         }
         let zt2 = zt.iter().map(|z| z * z).collect();
+        let quarter: Vec<f64> = u.iter().map(|u| 0.25 / u).collect();
         let mut dist = vec![0.0; m * m];
         for a in 0..m {
-            for b in 0..m {
-                dist[a * m + b] = (0..q)
-                    .map(|t| (zr[a * q + t] - zr[b * q + t]).powi(2) / (4.0 * u[t]))
+            for b in 0..a {
+                let d: f64 = (0..q)
+                    .map(|t| (zr[a * q + t] - zr[b * q + t]).powi(2) * quarter[t])
                     .sum();
+                dist[a * m + b] = d;
+                dist[b * m + a] = d;
             }
         }
         Shared {
