@@ -110,9 +110,10 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{q_true:>2}  {seed:>4}  {used:>4}  {:>10}  {}",
+                "{q_true:>2}  {seed:>4}  {used:>4}  {:>10}  {}  ({})",
                 model.history().len(),
-                shown.join(" | ")
+                shown.join(" | "),
+                model.stop_reason().map_or("-".into(), |r| r.to_string())
             );
         }
         println!("Q* = {q_true}: {right} of {seeds} seeds found {q_true} dimensions");
