@@ -67,21 +67,27 @@ pub(crate) fn sparse_bytes(n: usize, m: usize, q: usize, dims: &[usize]) -> u64 
 /// Refuses `what` for the sparse or Bayesian model when [`sparse_bytes`] exceeds the limit.
 pub(crate) fn check_sparse(what: &str, n: usize, m: usize, q: usize, dims: &[usize]) -> Result<()> {
     let needed = sparse_bytes(n, m, q, dims);
-    if needed <= 64 << 20 {
-        return Ok(());
-    }
-    let (available, source) = limit();
-    if needed > available {
-        return Err(Error::TooLargeSparse {
+    match over_limit(needed) {
+        None => Ok(()),
+        Some((available, source)) => Err(Error::TooLargeSparse {
             what: what.into(),
             n,
             m,
             needed_bytes: needed,
             available_bytes: available,
             limit_source: source,
-        });
+        }),
     }
-    Ok(())
+}
+
+/// The limit and its source when `needed` bytes exceed it; `None` when they fit. Small needs
+/// (64 MiB and less) always fit, without reading /proc on every call.
+fn over_limit(needed: u64) -> Option<(u64, String)> {
+    if needed <= 64 << 20 {
+        return None;
+    }
+    let (available, source) = limit();
+    (needed > available).then_some((available, source))
 }
 
 /// Bytes of `matrices` N×N matrices of f64 (saturating).
@@ -93,22 +99,17 @@ pub(crate) fn bytes_needed(n: usize, matrices: usize) -> u64 {
 /// Refuses `what` at `n` frames when its `matrices` N×N matrices would exceed the memory limit.
 pub(crate) fn check(what: &str, n: usize, matrices: usize) -> Result<()> {
     let needed = bytes_needed(n, matrices);
-    // Small problems never need the limit (and skip reading /proc on every call).
-    if needed <= 64 << 20 {
-        return Ok(());
-    }
-    let (available, source) = limit();
-    if needed > available {
-        return Err(Error::TooLarge {
+    match over_limit(needed) {
+        None => Ok(()),
+        Some((available, source)) => Err(Error::TooLarge {
             what: what.into(),
             n,
             matrices,
             needed_bytes: needed,
             available_bytes: available,
             limit_source: source,
-        });
+        }),
     }
-    Ok(())
 }
 
 /// The memory limit and where it comes from (see the module docs).
