@@ -133,6 +133,27 @@ pub struct Dataset {
 }
 
 impl Dataset {
+    /// Frames without labels: one segment covering them all, every frame in the training set,
+    /// no test set (what a recording without the generator's protocol holds).
+    pub fn unlabelled(times_ns: Vec<i64>, human: BodyData, robots: Vec<BodyData>) -> Dataset {
+        let n = times_ns.len();
+        Dataset {
+            times_ns,
+            human,
+            robots,
+            pose_names: Vec::new(),
+            segments: vec![Segment {
+                start: 0,
+                end: n,
+                from_pose: None,
+                to_pose: None,
+                repetition: None,
+            }],
+            train: (0..n).collect(),
+            test: Vec::new(),
+        }
+    }
+
     /// Number of frames N.
     pub fn len(&self) -> usize {
         self.times_ns.len()
@@ -673,21 +694,8 @@ fn load_foreign(path: &Path, probe: &TopicsRead, options: &LoadOptions) -> Resul
         .zip(&aligned[1..])
         .map(|(t, s)| BodyData::from_joint_states(&body_name_of_topic(t), t, s))
         .collect::<Result<_>>()?;
-    Ok(Dataset {
-        times_ns: times,
-        human,
-        robots,
-        pose_names: Vec::new(),
-        segments: vec![Segment {
-            start: 0,
-            end: n,
-            from_pose: None,
-            to_pose: None,
-            repetition: None,
-        }],
-        train: (0..n).collect(),
-        test: Vec::new(),
-    })
+    debug_assert_eq!(n, human.positions.nrows());
+    Ok(Dataset::unlabelled(times, human, robots))
 }
 
 /// `/walkman/joint_command` → `walkman`; a topic without a namespace keeps its name.

@@ -30,7 +30,7 @@ pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use skeleton::{ArmMap, ArmPose, Skeleton, SCHEMES};
 pub use write::write_bvh;
 
-use crate::dataset::{concatenate, BodyData, Dataset, Segment};
+use crate::dataset::{concatenate, BodyData, Dataset};
 use crate::joint_state::{JointStateError, DEFAULT_RATE_HZ};
 use crate::series::median;
 use crate::{Robot, RobotError, Side};
@@ -569,27 +569,13 @@ pub fn captures_to_dataset(captures: &[CapturedMotion]) -> Result<(Dataset, Stri
     let parts: Vec<Dataset> = captures
         .iter()
         .map(|c| {
-            let n = c.times_ns.len();
-            Dataset {
-                times_ns: c.times_ns.clone(),
-                human: BodyData {
-                    name: "human".into(),
-                    topic: "/human/joint_states".into(),
-                    joint_names: c.joint_names.clone(),
-                    positions: c.positions.clone(),
-                },
-                robots: Vec::new(),
-                pose_names: Vec::new(),
-                segments: vec![Segment {
-                    start: 0,
-                    end: n,
-                    from_pose: None,
-                    to_pose: None,
-                    repetition: None,
-                }],
-                train: (0..n).collect(),
-                test: Vec::new(),
-            }
+            let human = BodyData {
+                name: "human".into(),
+                topic: "/human/joint_states".into(),
+                joint_names: c.joint_names.clone(),
+                positions: c.positions.clone(),
+            };
+            Dataset::unlabelled(c.times_ns.clone(), human, Vec::new())
         })
         .collect();
     let dataset = concatenate(&parts, (GAP_BETWEEN_FILES_S * 1e9) as i64)?;

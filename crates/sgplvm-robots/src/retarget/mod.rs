@@ -230,26 +230,44 @@ fn shoulder_points(
     Ok([at(&arms[0])?, at(&arms[1])?])
 }
 
+/// Both arms of a body with what relative targets are measured from: their shoulder points,
+/// elbow joints and hand rotations at the zero configuration.
+struct ArmGeometry {
+    arms: [Arm; 2],
+    shoulders: [Vector3<f64>; 2],
+    elbows: [usize; 2],
+    zero_hands: [nalgebra::UnitQuaternion<f64>; 2],
+}
+
+impl ArmGeometry {
+    /// The arms of `body` (called `name` in errors).
+    fn of(body: &Robot, name: &str) -> Result<Self, RetargetError> {
+        let arms = body.arms().ok_or_else(|| RetargetError::NoArms {
+            body: name.to_string(),
+        })?;
+        let shoulders = shoulder_points(body, &arms, name)?;
+        let elbows = [0, 1].map(|s| elbow_joint(&arms[s], &shoulders[s]));
+        let zero_hands = [0, 1].map(|s| {
+            let chain = &arms[s].chain;
+            chain.forward(&vec![0.0; chain.dof()]).rotation
+        });
+        Ok(Self {
+            arms,
+            shoulders,
+            elbows,
+            zero_hands,
+        })
+    }
+}
+
 impl HumanArms {
     fn new(human: &Robot) -> Result<Self, RetargetError> {
-        let arms = human.arms().ok_or_else(|| RetargetError::NoArms {
-            body: "human".into(),
-        })?;
-        let shoulders = shoulder_points(human, &arms, "human")?;
-        let elbows = [
-            elbow_joint(&arms[0], &shoulders[0]),
-            elbow_joint(&arms[1], &shoulders[1]),
-        ];
-        let zero_hands = [
-            arms[0]
-                .chain
-                .forward(&vec![0.0; arms[0].chain.dof()])
-                .rotation,
-            arms[1]
-                .chain
-                .forward(&vec![0.0; arms[1].chain.dof()])
-                .rotation,
-        ];
+        let ArmGeometry {
+            arms,
+            shoulders,
+            elbows,
+            zero_hands,
+        } = ArmGeometry::of(human, "human")?;
         Ok(Self {
             arms,
             shoulders,
@@ -295,24 +313,12 @@ struct RobotArms {
 
 impl RobotArms {
     fn new(name: &str, robot: Robot) -> Result<Self, RetargetError> {
-        let arms = robot.arms().ok_or_else(|| RetargetError::NoArms {
-            body: name.to_string(),
-        })?;
-        let shoulders = shoulder_points(&robot, &arms, name)?;
-        let elbows = [
-            elbow_joint(&arms[0], &shoulders[0]),
-            elbow_joint(&arms[1], &shoulders[1]),
-        ];
-        let zero_hands = [
-            arms[0]
-                .chain
-                .forward(&vec![0.0; arms[0].chain.dof()])
-                .rotation,
-            arms[1]
-                .chain
-                .forward(&vec![0.0; arms[1].chain.dof()])
-                .rotation,
-        ];
+        let ArmGeometry {
+            arms,
+            shoulders,
+            elbows,
+            zero_hands,
+        } = ArmGeometry::of(&robot, name)?;
         let poses = solve_key_poses_for(&robot, name)
             .map_err(|e| RetargetError::Invalid(format!("{name}: {e}")))?;
         let all_velocity = robot.velocity_limits();

@@ -18,28 +18,16 @@ fn human_tour(poses: &[usize], per_motion: usize) -> Dataset {
     }
     let n = rows.len();
     let positions = DMatrix::from_fn(n, 18, |i, j| rows[i][j]);
-    Dataset {
-        times_ns: (0..n as i64)
-            .map(|i| 1_000_000_000 + i * 25_000_000)
-            .collect(),
-        human: BodyData {
-            name: "human".into(),
-            topic: "/human/joint_states".into(),
-            joint_names: human.joint_names.clone(),
-            positions,
-        },
-        robots: Vec::new(),
-        pose_names: Vec::new(),
-        segments: vec![Segment {
-            start: 0,
-            end: n,
-            from_pose: None,
-            to_pose: None,
-            repetition: None,
-        }],
-        train: (0..n).collect(),
-        test: Vec::new(),
-    }
+    let times = (0..n as i64)
+        .map(|i| 1_000_000_000 + i * 25_000_000)
+        .collect();
+    let human = BodyData {
+        name: "human".into(),
+        topic: "/human/joint_states".into(),
+        joint_names: human.joint_names.clone(),
+        positions,
+    };
+    Dataset::unlabelled(times, human, Vec::new())
 }
 
 fn coman() -> Vec<(String, Robot)> {
