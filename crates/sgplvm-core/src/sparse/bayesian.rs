@@ -407,13 +407,7 @@ pub fn bayesian_bound(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
-    }
+    use crate::test_support::{ChaCha8Rng, Rng, SeedableRng};
 
     struct Case {
         mean: Mat<f64>,
@@ -424,8 +418,8 @@ mod tests {
     }
 
     fn case(n: usize, m: usize, q: usize, dims: &[usize], seed: u64) -> Case {
-        let mut s = seed;
-        let mut r = |a: f64, b: f64| a + (b - a) * lcg(&mut s);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut r = |a: f64, b: f64| rng.random_range(a..b);
         let mean = Mat::from_fn(n, q, |_, _| r(-1.5, 1.5));
         let var = Mat::from_fn(n, q, |_, _| r(0.05, 0.6));
         let z = Mat::from_fn(m, q, |_, _| r(-1.5, 1.5));

@@ -567,13 +567,7 @@ pub(crate) fn psi_chain(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
-    }
+    use crate::test_support::{ChaCha8Rng, Rng, SeedableRng};
 
     struct Case {
         mean: Vec<f64>,
@@ -584,8 +578,8 @@ mod tests {
     }
 
     fn case(n: usize, m: usize, q: usize, seed: u64) -> Case {
-        let mut s = seed;
-        let mut r = |a: f64, b: f64| a + (b - a) * lcg(&mut s);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut r = |a: f64, b: f64| rng.random_range(a..b);
         Case {
             mean: (0..n * q).map(|_| r(-1.5, 1.5)).collect(),
             var: (0..n * q).map(|_| r(0.05, 0.6)).collect(),
@@ -639,10 +633,10 @@ mod tests {
     fn chain_rule_matches_finite_differences() {
         let (n, m, q) = (9, 5, 3);
         let c = case(n, m, q, 7);
-        let mut seed = 99;
+        let mut rng = ChaCha8Rng::seed_from_u64(99);
         let g0 = 0.7;
-        let g1 = Mat::from_fn(n, m, |_, _| lcg(&mut seed) - 0.5);
-        let g2r = Mat::from_fn(m, m, |_, _| lcg(&mut seed) - 0.5);
+        let g1 = Mat::from_fn(n, m, |_, _| rng.random_range(-0.5..0.5));
+        let g2r = Mat::from_fn(m, m, |_, _| rng.random_range(-0.5..0.5));
         let g2 = Mat::from_fn(m, m, |i, j| g2r[(i, j)] + g2r[(j, i)]);
         let value = |mean: &[f64], var: &[f64], z: &[f64], kern: &KernelParams| {
             let p = psi_stats(mean, var, z, q, kern);
