@@ -1543,3 +1543,69 @@ fn whitened_back_constraint_trains_faster_and_is_refused_where_it_cannot_apply()
     );
     assert!(!out.exists(), "a refused training wrote {}", out.display());
 }
+
+#[test]
+fn the_demo_and_train_run_the_bayesian_model_without_early_stopping() {
+    let f = fixture();
+    let out = scratch("demo-bayesian");
+    let stdout = ok(&[
+        "demo",
+        "--bayesian",
+        "--data",
+        s(&f.data),
+        "--max-iters",
+        "15",
+        "--json",
+        "--out",
+        s(&out),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    assert!(v.to_string().contains("walkman"), "{v}");
+    // Trained to the budget: no iteration count chosen on held-out frames.
+    let model = sgplvm::SharedGplvm::load(&out.join("walkman.sgp")).expect("model");
+    assert!(model.is_bayesian() && model.selection().is_none());
+    assert_eq!(model.latent_variances().expect("q(X)").ncols(), 5);
+    // train --bayesian: format 3, the ARD weights of every space printed and in JSON.
+    let path = out.join("coman.sgp");
+    let text = ok(&[
+        "train",
+        "--data",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--bayesian",
+        "--validation",
+        "none",
+        "--max-iters",
+        "15",
+        "--out",
+        s(&path),
+    ]);
+    assert!(
+        text.contains("ARD weights") && text.contains("human") && text.contains("coman"),
+        "{text}"
+    );
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 3);
+    let json = ok(&[
+        "train",
+        "--data",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--bayesian",
+        "--validation",
+        "none",
+        "--max-iters",
+        "5",
+        "--json",
+        "--out",
+        s(&path),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    assert_eq!(
+        v["ard_weights"]["coman"].as_array().map(Vec::len),
+        Some(5),
+        "{v}"
+    );
+}

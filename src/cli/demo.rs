@@ -12,7 +12,7 @@ use sgplvm::experiment::ModelKind;
 use sgplvm::pipeline::{to_mat, Demonstrations, StudyModel, StudyTraining, TrainFn};
 use sgplvm::{figures, BackConstraint, Mat, ModelConfig, SharedGplvm, TrainOptions};
 
-use super::args::{output_folder, BudgetArg, DataArg};
+use super::args::{output_folder, BudgetArg, DataArg, BAYESIAN_INDUCING};
 use super::progress::{on_terminal, train_with_progress, StepLines};
 use super::report::{self, Yardstick};
 
@@ -39,6 +39,10 @@ pub struct DemoArgs {
     /// Print machine-readable results (JSON) instead of a table.
     #[arg(long)]
     json: bool,
+    /// The Bayesian shared GP-LVM (see `train --help`) with 50 inducing inputs, every model
+    /// trained to convergence or the budget: --validation is not used (no early stopping).
+    #[arg(long)]
+    bayesian: bool,
 }
 
 pub fn run(args: DemoArgs) -> Result<()> {
@@ -49,9 +53,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
     }
     let config = ModelConfig::default()
         .with_latent_dim(args.latent_dim as usize)
-        .with_back_constraint(BackConstraint::Input);
+        .with_back_constraint(BackConstraint::Input)
+        .with_inducing(args.bayesian.then_some(BAYESIAN_INDUCING))
+        .with_bayesian(args.bayesian);
     let options = args.budget.options();
-    let validation = args.budget.validation(&demos);
+    let validation = match args.bayesian {
+        true => None,
+        false => args.budget.validation(&demos),
+    };
     // The study trains the source fully, each other robot by transfer and fully, then fits
     // every robot's direct regression and draws the figures.
     let robots = demos.dataset.robots.len();
