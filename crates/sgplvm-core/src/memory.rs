@@ -53,13 +53,17 @@ pub(crate) const REGRESSION_MATRICES: usize = 5;
 /// Bytes the sparse or Bayesian model of `dims` (each space's columns) needs at its peak in
 /// training, with N frames, M inducing inputs and Q latent dimensions: per space its data and
 /// four N×M buffers (Φ or Ψ₁, ∂L/∂Ψ₁ and two transient products), seven N×Q (latent points,
-/// variances, their gradients and copies) plus two per space, and M²(Q + 8) per space for the
-/// M×M algebra (saturating). O(N M + M² Q), as the model.
+/// variances, their gradients and copies) plus two per space, M²(Q + 8) per space for the M×M
+/// algebra and the kept Ψ₂ₙ values (at most 64 MB a space; saturating). O(N M + M² Q), as the
+/// model.
 pub(crate) fn sparse_bytes(n: usize, m: usize, q: usize, dims: &[usize]) -> u64 {
     let (n, m, q) = (n as u128, m as u128, q as u128);
+    // The Bayesian model keeps a space's Ψ₂ₙ values between its two passes when they fit in
+    // PSI2_CACHE_BYTES.
+    let kept = (n * m * (m + 1) / 2).min(crate::sparse::psi::PSI2_CACHE_BYTES as u128 / 8);
     let per_space: u128 = dims
         .iter()
-        .map(|&d| n * d as u128 + 4 * n * m + 2 * n * q + m * m * (q + 8))
+        .map(|&d| n * d as u128 + 4 * n * m + 2 * n * q + m * m * (q + 8) + kept)
         .sum();
     u64::try_from(8 * (per_space + 7 * n * q)).unwrap_or(u64::MAX)
 }

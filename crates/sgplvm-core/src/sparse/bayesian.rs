@@ -139,7 +139,12 @@ pub(crate) fn eval_bayes_space(
     }
     let linv = lower_inverse(lm.as_ref());
 
-    let Psi { psi0, psi1, psi2 } = psi_stats(mean, var, zr, q, kern);
+    let Psi {
+        psi0,
+        psi1,
+        psi2,
+        pairs,
+    } = psi_stats(mean, var, zr, q, kern);
     // C = L_m⁻¹ Ψ₂ L_m⁻ᵀ, B = I + β C.
     let c = mul(mul(linv.as_ref(), psi2.as_ref()).as_ref(), linv.transpose());
     let mut b = Mat::from_fn(m, m, |i, j| beta * 0.5 * (c[(i, j)] + c[(j, i)]));
@@ -223,6 +228,7 @@ pub(crate) fn eval_bayes_space(
         q,
         kern,
         psi1.as_ref(),
+        &pairs,
         g0,
         g1.as_ref(),
         g2.as_ref(),

@@ -29,7 +29,9 @@
 //!
 //! The frames are processed in fixed blocks (on the pool's threads when called on one) whose
 //! partial sums are added in order: the results do not depend on the number of threads. Memory
-//! beyond the inputs: Ψ₁ (N×M) and per block a few M×M sums; no N×M×M array is formed.
+//! beyond the inputs: Ψ₁ (N×M), per block a few M×M sums, and the first pass's Ψ₂ₙ values for
+//! the second when they take at most [`PSI2_CACHE_BYTES`] (else the second pass forms them
+//! again): no more than that of any N×M×M array.
 
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
@@ -49,7 +51,15 @@ pub(crate) struct Psi {
     pub psi1: Mat<f64>,
     /// Ψ₂ (M×M, symmetric, both triangles filled).
     pub psi2: Mat<f64>,
+    /// Per block of frames, every Ψ₂ₙ[a, j] (a ≥ j, pair-major, the block's padded frames
+    /// within), kept for [`psi_chain`] when all of them take at most [`PSI2_CACHE_BYTES`];
+    /// empty otherwise (the chain rule then forms them again).
+    pub pairs: Vec<Vec<f64>>,
 }
+
+/// The most memory the Ψ₂ₙ values of one space's first pass may keep for the second
+/// (N·M(M+1)/2 values: every frame up to N ≈ 6,500 at M = 50); beyond it they are formed again.
+pub(crate) const PSI2_CACHE_BYTES: u64 = 64 << 20;
 
 /// Derivatives of a scalar through the Ψ statistics ([`psi_chain`]).
 #[derive(Clone, Debug)]
@@ -307,6 +317,10 @@ pub(crate) fn psi_stats(
     let n = mean.len() / q.max(1);
     let sh = Shared::new(zr, q, kern);
     let m = sh.m;
+    let pair_count = m * (m + 1) / 2;
+    // Every block is padded to a multiple of LANE frames: at most n + LANE per block.
+    let padded_frames = (n + LANE * n.div_ceil(BLOCK)) as u64;
+    let cache = padded_frames * pair_count as u64 * 8 <= PSI2_CACHE_BYTES;
     let parts = over_blocks(
         n,
         #[inline(always)]
@@ -317,21 +331,36 @@ pub(crate) fn psi_stats(
                 Frame::new(&sh, s).psi1_row(&sh, mu, &mut psi1[k * m..(k + 1) * m]);
             }
             let lanes = Lanes::new(&sh, mean, var, start, len);
+            let p = lanes.padded;
             let mut psi2 = vec![0.0; m * m];
-            let mut pair = vec![0.0; lanes.padded];
+            let mut kept = if cache {
+                vec![0.0; pair_count * p]
+            } else {
+                Vec::new()
+            };
+            let mut pair = vec![0.0; p];
             let mut c = vec![0.0; q];
+            let mut index = 0;
             for a in 0..m {
                 for j in 0..=a {
                     lanes.psi2_pair(&sh, a, j, &mut c, &mut pair);
                     psi2[a * m + j] = sum(&pair);
+                    if cache {
+                        kept[index * p..(index + 1) * p].copy_from_slice(&pair);
+                    }
+                    index += 1;
                 }
             }
-            (psi1, psi2)
+            (psi1, psi2, kept)
         },
     );
     let mut psi1 = Mat::zeros(n, m);
     let mut sum2 = vec![0.0; m * m];
-    for (b, (p1, p2)) in parts.into_iter().enumerate() {
+    let mut pairs = Vec::new();
+    for (b, (p1, p2, kept)) in parts.into_iter().enumerate() {
+        if cache {
+            pairs.push(kept);
+        }
         let start = b * BLOCK;
         for k in 0..p1.len() / m.max(1) {
             for j in 0..m {
@@ -348,6 +377,7 @@ pub(crate) fn psi_stats(
         psi0: n as f64 * kern.variance,
         psi1,
         psi2,
+        pairs,
     }
 }
 
@@ -362,7 +392,8 @@ struct BlockGrad {
 
 /// The derivatives of a scalar L through the Ψ statistics of [`psi_stats`], given `g0 = ∂L/∂ψ₀`,
 /// `g1 = ∂L/∂Ψ₁` (N×M) and `g2 = ∂L/∂Ψ₂` (M×M; symmetrised here). Ψ₁ is taken from `psi1` (it
-/// was computed already); Ψ₂ₙ is formed again frame by frame.
+/// was computed already), and Ψ₂ₙ from `pairs` ([`Psi::pairs`]) or, when that is empty, formed
+/// again.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn psi_chain(
     mean: &[f64],
@@ -371,6 +402,7 @@ pub(crate) fn psi_chain(
     q: usize,
     kern: &KernelParams,
     psi1: MatRef<'_, f64>,
+    pairs: &[Vec<f64>],
     g0: f64,
     g1: MatRef<'_, f64>,
     g2: MatRef<'_, f64>,
@@ -438,9 +470,15 @@ pub(crate) fn psi_chain(
             // zᵀ W z per dimension and frame: zwz[t*len + k].
             let mut zwz = vec![0.0; q * len];
             let mut pair = vec![0.0; len];
+            let kept = pairs.get(start / BLOCK);
+            let mut index = 0;
             for a in 0..m {
                 for j in 0..=a {
-                    lanes.psi2_pair(&sh, a, j, &mut c, &mut pair);
+                    match kept {
+                        Some(k) => pair.copy_from_slice(&k[index * len..(index + 1) * len]),
+                        None => lanes.psi2_pair(&sh, a, j, &mut c, &mut pair),
+                    }
+                    index += 1;
                     let g = g2s[a * m + j];
                     pair.iter_mut().for_each(|v| *v *= g);
                     out.w_sum[a * m + j] += sum(&pair);
@@ -661,10 +699,27 @@ mod tests {
             q,
             &c.kern,
             p.psi1.as_ref(),
+            &p.pairs,
             g0,
             g1.as_ref(),
             g2.as_ref(),
         );
+        assert!(!p.pairs.is_empty(), "a small problem keeps its Ψ₂ₙ values");
+        // Formed again instead of kept: the same numbers.
+        let again = psi_chain(
+            &c.mean,
+            &c.var,
+            &c.z,
+            q,
+            &c.kern,
+            p.psi1.as_ref(),
+            &[],
+            g0,
+            g1.as_ref(),
+            g2.as_ref(),
+        );
+        assert!(again.d_mean == g.d_mean && again.d_var == g.d_var && again.d_z == g.d_z);
+        assert!(again.d_lengthscale == g.d_lengthscale && again.d_variance == g.d_variance);
         let h = 1e-6;
         let check = |analytic: f64, plus: f64, minus: f64, what: &str| {
             let fd = (plus - minus) / (2.0 * h);
