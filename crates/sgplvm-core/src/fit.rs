@@ -47,10 +47,12 @@ impl SharedGplvm {
         let n = spaces[order[0]].1.nrows();
         match config.inducing {
             None => memory::check("training", n, memory::fit_matrices(spaces.len()))?,
-            Some(m) => {
+            // More inducing inputs than frames is refused below, by that name.
+            Some(m) if m <= n => {
                 let dims: Vec<usize> = spaces.iter().map(|(_, d)| d.ncols()).collect();
                 memory::check_sparse("training", n, m, config.latent_dim, &dims)?
             }
+            Some(_) => {}
         }
         let sp: Vec<Space> = order
             .iter()
