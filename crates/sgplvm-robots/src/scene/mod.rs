@@ -20,7 +20,7 @@
 //! | file | what it holds |
 //! |---|---|
 //! | `body.rs` | [`SceneBody`], the checks of a scene's bodies, a body being encoded |
-//! | `channels.rs` | [`ArrayTopic`] and [`ChannelSpec`] |
+//! | `channels.rs` | [`ArrayTopic`], [`ChannelSpec`] and the channel layout both writers share |
 //! | `tf.rs` | the TF tree: [`WORLD_FRAME`], [`TF_STATIC_TOPIC`], [`TF_TOPIC`] and their transforms |
 //! | `markers.rs` | [`SceneMarker`], [`TimedMarkers`] and their fields as encoded |
 //! | `events.rs` | a physics replay's events as markers ([`replay_markers`]) |

@@ -1,16 +1,11 @@
 //! A scene without a file ([`SceneStream`]): the channels and encoded messages a
 //! [`SceneWriter`](super::SceneWriter) writes, for a live viewer to serve.
 
-use super::body::{prepare_bodies, BodyChannel, SceneBody};
-use super::channels::{ArrayKind, ArrayTopic, ChannelSpec};
+use super::body::{prepare_bodies, SceneBody};
+use super::channels::{lay_out_channels, refuse_duplicate_topics, ArrayTopic, ChannelSpec};
 use super::frame::{EncodedFrame, FrameEncoder};
-use super::msgs::{
-    FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, JOINT_STATE_MSGDEF, STRING_MSGDEF,
-    STRING_SCHEMA, TF_MESSAGE_MSGDEF, TF_MESSAGE_SCHEMA,
-};
-use super::tf::{TF_STATIC_TOPIC, TF_TOPIC};
 use super::writer::SceneOptions;
-use crate::joint_state::{JointStateError, Result, JOINT_STATE_SCHEMA};
+use crate::joint_state::Result;
 
 /// A scene's channels and encoded messages without a file: the same messages a [`SceneWriter`](super::SceneWriter)
 /// writes, for a live viewer to serve. Channel `k` of the messages is [`SceneStream::channels`]`[k]`.
@@ -30,68 +25,22 @@ impl SceneStream {
     ) -> Result<Self> {
         let prepared = prepare_bodies(bodies, options)?;
         let mut channels: Vec<ChannelSpec> = Vec::new();
-        let mut add = |topic: String, schema_name: &'static str, schema: &'static str| -> u16 {
-            channels.push(ChannelSpec {
-                topic,
-                schema_name,
-                schema,
-            });
-            (channels.len() - 1) as u16
-        };
-        let mut out_bodies = Vec::with_capacity(prepared.len());
-        for (body, names, q_index) in prepared {
-            let channel = add(
-                body.joint_topic.clone(),
-                JOINT_STATE_SCHEMA,
-                JOINT_STATE_MSGDEF,
-            );
-            let description_channel = options
-                .tf
-                .then(|| add(body.description_topic(), STRING_SCHEMA, STRING_MSGDEF));
-            out_bodies.push(BodyChannel::new(
-                body,
-                names,
-                q_index,
-                channel,
-                description_channel,
-            ));
-        }
-        let tf = options.tf.then(|| {
-            (
-                add(TF_STATIC_TOPIC.into(), TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
-                add(TF_TOPIC.into(), TF_MESSAGE_SCHEMA, TF_MESSAGE_MSGDEF),
-            )
-        });
-        let out_arrays = arrays
-            .into_iter()
-            .map(|a| {
-                let id = match a.kind {
-                    ArrayKind::JointState { .. } => {
-                        add(a.topic.clone(), JOINT_STATE_SCHEMA, JOINT_STATE_MSGDEF)
-                    }
-                    ArrayKind::Float64MultiArray { .. } => add(
-                        a.topic.clone(),
-                        FLOAT64_MULTI_ARRAY_SCHEMA,
-                        FLOAT64_MULTI_ARRAY_MSGDEF,
-                    ),
-                };
-                (a, id)
-            })
-            .collect::<Vec<_>>();
-        let mut topics: Vec<&str> = channels.iter().map(|c| c.topic.as_str()).collect();
-        topics.sort_unstable();
-        if let Some(w) = topics.windows(2).find(|w| w[0] == w[1]) {
-            return Err(JointStateError::InvalidInput {
-                what: format!("topic `{}`", w[0]),
-                detail: "topic given twice".into(),
-            });
-        }
-        Ok(SceneStream {
-            encoder: FrameEncoder {
-                bodies: out_bodies,
-                arrays: out_arrays,
-                tf,
+        let encoder = lay_out_channels(
+            prepared,
+            arrays,
+            options.tf,
+            |topic, schema_name, schema| {
+                channels.push(ChannelSpec {
+                    topic,
+                    schema_name,
+                    schema,
+                });
+                Ok((channels.len() - 1) as u16)
             },
+        )?;
+        refuse_duplicate_topics(channels.iter().map(|c| c.topic.as_str()).collect())?;
+        Ok(SceneStream {
+            encoder,
             channels,
             frames: 0,
             scratch: EncodedFrame::default(),

@@ -11,14 +11,13 @@ use std::path::{Path, PathBuf};
 use ::mcap::records::MessageHeader;
 use ::mcap::WriteOptions;
 
-use super::body::{prepare_bodies, BodyChannel, SceneBody};
-use super::channels::{ArrayKind, ArrayTopic};
+use super::body::{prepare_bodies, PreparedBody, SceneBody};
+use super::channels::{lay_out_channels, refuse_duplicate_topics, ArrayTopic};
 use super::frame::{EncodedFrame, FrameEncoder};
 use super::markers::{marker_fields, TimedMarkers};
 use super::msgs::{
-    self, FLOAT64_MULTI_ARRAY_MSGDEF, FLOAT64_MULTI_ARRAY_SCHEMA, JOINT_STATE_MSGDEF,
-    MARKER_ARRAY_MSGDEF, MARKER_ARRAY_SCHEMA, STRING_MSGDEF, STRING_SCHEMA, TF_MESSAGE_MSGDEF,
-    TF_MESSAGE_SCHEMA,
+    self, JOINT_STATE_MSGDEF, MARKER_ARRAY_MSGDEF, MARKER_ARRAY_SCHEMA, STRING_MSGDEF,
+    STRING_SCHEMA,
 };
 use super::tf::{TF_STATIC_TOPIC, TF_TOPIC};
 use crate::joint_state::{Compression, JointStateError, Result, JOINT_STATE_SCHEMA, MCAP_LIBRARY};
@@ -61,11 +60,7 @@ pub(super) struct SceneSink {
 
 impl SceneSink {
     fn mcap_err(&self, what: String) -> impl Fn(::mcap::McapError) -> JointStateError + '_ {
-        move |source| JointStateError::McapWrite {
-            path: self.path.clone(),
-            what: what.clone(),
-            source,
-        }
+        mcap_error(&self.path, what)
     }
 
     /// Writes `data` on `channel`.
@@ -208,154 +203,22 @@ impl SceneWriter {
         options: &SceneOptions,
         flush_each_frame: bool,
     ) -> Result<Self> {
-        let mcap_err = |what: String| {
-            move |source| JointStateError::McapWrite {
-                path: path.to_path_buf(),
-                what: what.clone(),
-                source,
-            }
-        };
         let prepared = prepare_bodies(bodies, options)?;
-        let file_handle = File::create(file).map_err(|source| JointStateError::Io {
-            path: path.to_path_buf(),
-            action: "create",
-            source,
-        })?;
-        let mut writer = WriteOptions::new()
-            .profile("ros2")
-            .library(MCAP_LIBRARY)
-            .compression(match options.compression {
-                Compression::Zstd => Some(::mcap::Compression::Zstd),
-                Compression::Lz4 => Some(::mcap::Compression::Lz4),
-                Compression::None => None,
-            })
-            .compression_threads(0)
-            // Level 1 rather than the default 3: the transforms are most of a scene's bytes,
-            // compress about as well (7.2 → 7.6 MB for the shipped data) at a third of the time.
-            .compression_level(1)
-            .create(BufWriter::new(file_handle))
-            .map_err(mcap_err("header".into()))?;
-        let no_meta = BTreeMap::new();
-        let js_schema = writer
-            .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
-            .map_err(mcap_err("schema".into()))?;
-        let mut out_bodies = Vec::with_capacity(prepared.len());
-        let string_schema = if options.tf && !prepared.is_empty() {
-            Some(
-                writer
-                    .add_schema(STRING_SCHEMA, "ros2msg", STRING_MSGDEF.as_bytes())
-                    .map_err(mcap_err("schema".into()))?,
-            )
-        } else {
-            None
-        };
-        for (body, names, q_index) in prepared {
-            let channel = writer
-                .add_channel(js_schema, &body.joint_topic, "cdr", &no_meta)
-                .map_err(mcap_err(format!("channel `{}`", body.joint_topic)))?;
-            let description_channel = match string_schema {
-                Some(s) => {
-                    let topic = body.description_topic();
-                    Some(
-                        writer
-                            .add_channel(s, &topic, "cdr", &no_meta)
-                            .map_err(mcap_err(format!("channel `{topic}`")))?,
-                    )
-                }
-                None => None,
-            };
-            out_bodies.push(BodyChannel::new(
-                body,
-                names,
-                q_index,
-                channel,
-                description_channel,
-            ));
-        }
-        let tf = if options.tf {
-            let s = writer
-                .add_schema(TF_MESSAGE_SCHEMA, "ros2msg", TF_MESSAGE_MSGDEF.as_bytes())
-                .map_err(mcap_err("schema".into()))?;
-            let stat = writer
-                .add_channel(s, TF_STATIC_TOPIC, "cdr", &no_meta)
-                .map_err(mcap_err(format!("channel `{TF_STATIC_TOPIC}`")))?;
-            let dynamic = writer
-                .add_channel(s, TF_TOPIC, "cdr", &no_meta)
-                .map_err(mcap_err(format!("channel `{TF_TOPIC}`")))?;
-            Some((stat, dynamic))
-        } else {
-            None
-        };
-        let mut out_arrays = Vec::with_capacity(arrays.len());
-        let mut array_schema = None;
-        for a in arrays {
-            let schema = match a.kind {
-                ArrayKind::JointState { .. } => js_schema,
-                ArrayKind::Float64MultiArray { .. } => match array_schema {
-                    Some(s) => s,
-                    None => {
-                        let s = writer
-                            .add_schema(
-                                FLOAT64_MULTI_ARRAY_SCHEMA,
-                                "ros2msg",
-                                FLOAT64_MULTI_ARRAY_MSGDEF.as_bytes(),
-                            )
-                            .map_err(mcap_err("schema".into()))?;
-                        *array_schema.insert(s)
-                    }
-                },
-            };
-            let id = writer
-                .add_channel(schema, &a.topic, "cdr", &no_meta)
-                .map_err(mcap_err(format!("channel `{}`", a.topic)))?;
-            out_arrays.push((a, id));
-        }
-        let mut all_topics: Vec<&str> = out_bodies
-            .iter()
-            .map(|b| b.body.joint_topic.as_str())
-            .chain(out_arrays.iter().map(|a| a.0.topic.as_str()))
-            .collect();
-        all_topics.sort_unstable();
-        if let Some(w) = all_topics.windows(2).find(|w| w[0] == w[1]) {
-            return Err(JointStateError::InvalidInput {
-                what: format!("topic `{}`", w[0]),
-                detail: "topic given twice".into(),
-            });
-        }
+        let mut writer = open_mcap(file, path, options.compression)?;
         let mut topics: BTreeMap<u16, String> = BTreeMap::new();
-        for b in &out_bodies {
-            topics.insert(b.channel, b.body.joint_topic.clone());
-            if let Some(c) = b.description_channel {
-                topics.insert(c, b.body.description_topic());
-            }
-        }
-        for (a, c) in &out_arrays {
-            topics.insert(*c, a.topic.clone());
-        }
-        if let Some((stat, dynamic)) = tf {
-            topics.insert(stat, TF_STATIC_TOPIC.into());
-            topics.insert(dynamic, TF_TOPIC.into());
-        }
-        let reserved = out_bodies
-            .iter()
-            .flat_map(|b| [b.body.joint_topic.clone(), b.body.description_topic()])
-            .chain(out_arrays.iter().map(|(a, _)| a.topic.clone()))
-            .chain([TF_TOPIC.to_string(), TF_STATIC_TOPIC.to_string()])
-            .collect();
-        for (name, map) in &options.metadata {
-            writer
-                .write_metadata(&::mcap::records::Metadata {
-                    name: name.clone(),
-                    metadata: map.clone(),
-                })
-                .map_err(mcap_err(format!("metadata `{name}`")))?;
-        }
+        let encoder = add_channels(&mut writer, path, prepared, arrays, options.tf, &mut topics)?;
+        refuse_duplicate_topics(
+            encoder
+                .bodies
+                .iter()
+                .map(|b| b.body.joint_topic.as_str())
+                .chain(encoder.arrays.iter().map(|a| a.0.topic.as_str()))
+                .collect(),
+        )?;
+        let reserved = reserved_topics(&encoder);
+        write_metadata(&mut writer, path, &options.metadata)?;
         Ok(SceneWriter {
-            encoder: FrameEncoder {
-                bodies: out_bodies,
-                arrays: out_arrays,
-                tf,
-            },
+            encoder,
             sink: SceneSink {
                 writer,
                 path: path.to_path_buf(),
@@ -443,4 +306,103 @@ impl SceneWriter {
             source,
         })
     }
+}
+
+/// The MCAP writer's error while writing `what` to `path`.
+fn mcap_error(path: &Path, what: String) -> impl Fn(::mcap::McapError) -> JointStateError + '_ {
+    move |source| JointStateError::McapWrite {
+        path: path.to_path_buf(),
+        what: what.clone(),
+        source,
+    }
+}
+
+/// Creates `file` (naming `path` in errors) and starts an MCAP file in it: ROS 2 profile,
+/// chunks compressed with `compression`.
+fn open_mcap(
+    file: &Path,
+    path: &Path,
+    compression: Compression,
+) -> Result<::mcap::Writer<BufWriter<File>>> {
+    let file_handle = File::create(file).map_err(|source| JointStateError::Io {
+        path: path.to_path_buf(),
+        action: "create",
+        source,
+    })?;
+    WriteOptions::new()
+        .profile("ros2")
+        .library(MCAP_LIBRARY)
+        .compression(match compression {
+            Compression::Zstd => Some(::mcap::Compression::Zstd),
+            Compression::Lz4 => Some(::mcap::Compression::Lz4),
+            Compression::None => None,
+        })
+        .compression_threads(0)
+        // Level 1 rather than the default 3: the transforms are most of a scene's bytes,
+        // compress about as well (7.2 → 7.6 MB for the shipped data) at a third of the time.
+        .compression_level(1)
+        .create(BufWriter::new(file_handle))
+        .map_err(mcap_error(path, "header".into()))
+}
+
+/// Adds a scene's schemas and channels to `writer` in [`lay_out_channels`]' order, each
+/// channel's topic to `topics`. The JointState schema comes first and, with TF and bodies, the
+/// String schema second, before any channel (as scene files have always had them); every other
+/// schema just before its first channel (adding a schema again returns the one written).
+fn add_channels(
+    writer: &mut ::mcap::Writer<BufWriter<File>>,
+    path: &Path,
+    prepared: Vec<PreparedBody>,
+    arrays: Vec<ArrayTopic>,
+    tf: bool,
+    topics: &mut BTreeMap<u16, String>,
+) -> Result<FrameEncoder> {
+    let no_meta = BTreeMap::new();
+    writer
+        .add_schema(JOINT_STATE_SCHEMA, "ros2msg", JOINT_STATE_MSGDEF.as_bytes())
+        .map_err(mcap_error(path, "schema".into()))?;
+    if tf && !prepared.is_empty() {
+        writer
+            .add_schema(STRING_SCHEMA, "ros2msg", STRING_MSGDEF.as_bytes())
+            .map_err(mcap_error(path, "schema".into()))?;
+    }
+    lay_out_channels(prepared, arrays, tf, |topic, schema_name, schema| {
+        let schema_id = writer
+            .add_schema(schema_name, "ros2msg", schema.as_bytes())
+            .map_err(mcap_error(path, "schema".into()))?;
+        let channel = writer
+            .add_channel(schema_id, &topic, "cdr", &no_meta)
+            .map_err(mcap_error(path, format!("channel `{topic}`")))?;
+        topics.insert(channel, topic);
+        Ok(channel)
+    })
+}
+
+/// Topics markers may not be written on: every body's joint and description topics, the array
+/// topics and the TF topics.
+fn reserved_topics(encoder: &FrameEncoder) -> BTreeSet<String> {
+    encoder
+        .bodies
+        .iter()
+        .flat_map(|b| [b.body.joint_topic.clone(), b.body.description_topic()])
+        .chain(encoder.arrays.iter().map(|(a, _)| a.topic.clone()))
+        .chain([TF_TOPIC.to_string(), TF_STATIC_TOPIC.to_string()])
+        .collect()
+}
+
+/// Writes the metadata records (name → key/value map).
+fn write_metadata(
+    writer: &mut ::mcap::Writer<BufWriter<File>>,
+    path: &Path,
+    metadata: &[(String, BTreeMap<String, String>)],
+) -> Result<()> {
+    for (name, map) in metadata {
+        writer
+            .write_metadata(&::mcap::records::Metadata {
+                name: name.clone(),
+                metadata: map.clone(),
+            })
+            .map_err(mcap_error(path, format!("metadata `{name}`")))?;
+    }
+    Ok(())
 }
