@@ -7,8 +7,9 @@ use super::frame::{EncodedFrame, FrameEncoder};
 use super::writer::SceneOptions;
 use crate::joint_state::Result;
 
-/// A scene's channels and encoded messages without a file: the same messages a [`SceneWriter`](super::SceneWriter)
-/// writes, for a live viewer to serve. Channel `k` of the messages is [`SceneStream::channels`]`[k]`.
+/// A scene's channels and encoded messages without a file: the same messages a
+/// [`SceneWriter`](super::SceneWriter) writes, for a live viewer to serve. Channel `k` of the
+/// messages is [`SceneStream::channels`]`[k]`.
 pub struct SceneStream {
     encoder: FrameEncoder,
     channels: Vec<ChannelSpec>,
@@ -17,7 +18,8 @@ pub struct SceneStream {
 }
 
 impl SceneStream {
-    /// The channels of `bodies` and `arrays` as [`SceneWriter::create`](super::SceneWriter::create) lays them out.
+    /// The channels of `bodies` and `arrays` as
+    /// [`SceneWriter::create`](super::SceneWriter::create) lays them out.
     pub fn new(
         bodies: Vec<(SceneBody, Vec<String>)>,
         arrays: Vec<ArrayTopic>,
@@ -58,8 +60,8 @@ impl SceneStream {
         self.encoder.static_messages(time_ns)
     }
 
-    /// One frame's messages (joint states, `/tf`, arrays), as [`SceneWriter::write_frame`](super::SceneWriter::write_frame)
-    /// encodes them.
+    /// One frame's messages (joint states, `/tf`, arrays), as
+    /// [`SceneWriter::write_frame`](super::SceneWriter::write_frame) encodes them.
     pub fn frame(
         &mut self,
         time_ns: i64,
