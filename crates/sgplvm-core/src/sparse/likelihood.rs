@@ -148,19 +148,63 @@ pub(crate) fn eval_sparse_space_in(
     dz: Option<&mut [f64]>,
     work: &mut SparseWork,
 ) -> Result<SparseEval, NotPd> {
-    let (n, d) = (y.nrows(), y.ncols());
-    let m = zr.len() / q.max(1);
-    let (df, nf) = (d as f64, n as f64);
-    let var = kern.variance;
-    let s2 = kern.noise;
-    let sigma = s2.sqrt();
-    let par = Par::Seq;
-    let blocks = n.div_ceil(BLOCK);
-    let parallel = blocks > 1 && crate::pool::on_pool_thread();
+    let blocks = y.nrows().div_ceil(BLOCK);
+    let space = Space {
+        xr,
+        zr,
+        q,
+        m: zr.len() / q.max(1),
+        y,
+        kern,
+        blocks,
+        parallel: blocks > 1 && crate::pool::on_pool_thread(),
+    };
+    let (kmm, lm, jitter) = factor_kmm(&space, rel_jitter)?;
+    let linv = scaled_inverse_factor(&lm, kern.noise.sqrt());
+    let (aat, ay) = first_pass(&space, &linv, grad, &mut work.phi);
+    let lb = factor_b(&aat)?;
+    let (mut out, sums) = bound(&space, aat, ay, lm, lb, jitter);
+    if !grad {
+        return Ok(out);
+    }
+    gradient(&space, &mut out, &kmm, &sums, &work.phi, dx, dz);
+    Ok(out)
+}
 
-    // K_mm and its factor.
+/// What every step of one space's evaluation reads: the inputs of [`eval_sparse_space_in`]
+/// and the number of inducing inputs and of blocks derived from them.
+struct Space<'a> {
+    /// Latent points X (N×Q, row-major).
+    xr: &'a [f64],
+    /// Inducing inputs Z (M×Q, row-major).
+    zr: &'a [f64],
+    /// Latent dimension Q.
+    q: usize,
+    /// Number of inducing inputs M.
+    m: usize,
+    /// The centred data Y (N×D).
+    y: MatRef<'a, f64>,
+    kern: &'a KernelParams,
+    /// Blocks of [`BLOCK`] columns of Φ.
+    blocks: usize,
+    /// Whether the blocks run on the pool's threads.
+    parallel: bool,
+}
+
+/// What the bound leaves for the gradient: AAᵀ (both triangles), ‖Y‖², ‖c_Y‖² and tr AAᵀ.
+struct BoundSums {
+    aat: Mat<f64>,
+    yy: f64,
+    cc: f64,
+    tr_aat: f64,
+}
+
+/// K_mm with its jitter (both triangles), its Cholesky factor L_m (upper triangle zeroed) and
+/// the jitter added beyond the relative one.
+fn factor_kmm(space: &Space<'_>, rel_jitter: f64) -> Result<(Mat<f64>, Mat<f64>, f64), NotPd> {
+    let (m, var, par) = (space.m, space.kern.variance, Par::Seq);
     let mut kmm = Mat::zeros(m, m);
-    rbf_lower(zr, q, kern, &mut kmm, Par::Seq);
+    rbf_lower(space.zr, space.q, space.kern, &mut kmm, Par::Seq);
     let mut lm = Mat::zeros(m, m);
     let jitter = cholesky_with_jitter(kmm.as_ref(), rel_jitter * var, lm.as_mut(), par)?;
     for j in 0..m {
@@ -170,9 +214,14 @@ pub(crate) fn eval_sparse_space_in(
             lm[(i, j)] = 0.0;
         }
     }
-    // L_m⁻¹/σ, lower triangular: A = L_m⁻¹ Φ/σ is then a triangular matrix product per block
-    // (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number in the objective:
-    // the central-difference check of ∂L/∂X then failed at 1e-6).
+    Ok((kmm, lm, jitter))
+}
+
+/// L_m⁻¹/σ, lower triangular: A = L_m⁻¹ Φ/σ is then a triangular matrix product per block
+/// (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number in the objective:
+/// the central-difference check of ∂L/∂X then failed at 1e-6).
+fn scaled_inverse_factor(lm: &Mat<f64>, sigma: f64) -> Mat<f64> {
+    let (m, par) = (lm.nrows(), Par::Seq);
     let mut linv = Mat::<f64>::identity(m, m);
     solve_lower_triangular_in_place(lm.as_ref(), linv.as_mut(), par);
     clear_upper_simd_state();
@@ -181,14 +230,28 @@ pub(crate) fn eval_sparse_space_in(
             linv[(i, j)] = if i >= j { linv[(i, j)] / sigma } else { 0.0 };
         }
     }
-    let scaled = ScaledZ::new(zr, q, kern);
+    linv
+}
 
-    // First pass: Φ (kept for the second when `grad`), and per block AAᵀ (lower) and AY.
+/// First pass: Φ (kept in `phi` for the second when `grad`), and per block AAᵀ (lower) and AY
+/// with A = `linv` Φ; returns their sums, AAᵀ with both triangles.
+fn first_pass(
+    space: &Space<'_>,
+    linv: &Mat<f64>,
+    grad: bool,
+    phi: &mut Vec<f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let Space {
+        xr, q, m, y, kern, ..
+    } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let var = kern.variance;
+    let scaled = ScaledZ::new(space.zr, q, kern);
     let chunks: Vec<Option<&mut [f64]>> = if grad {
-        work.phi.resize(m * n, 0.0);
-        work.phi.chunks_mut(m * BLOCK).map(Some).collect()
+        phi.resize(m * n, 0.0);
+        phi.chunks_mut(m * BLOCK).map(Some).collect()
     } else {
-        (0..blocks).map(|_| None).collect()
+        (0..space.blocks).map(|_| None).collect()
     };
     let first = |b: usize, chunk: Option<&mut [f64]>| {
         let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
@@ -238,7 +301,7 @@ pub(crate) fn eval_sparse_space_in(
         clear_upper_simd_state();
         (aat, ay)
     };
-    let parts = map_blocks(chunks, parallel, first);
+    let parts = map_blocks(chunks, space.parallel, first);
     let mut aat = Mat::<f64>::zeros(m, m);
     let mut ay = Mat::<f64>::zeros(m, d);
     for (pa, py) in &parts {
@@ -255,6 +318,12 @@ pub(crate) fn eval_sparse_space_in(
             aat[(i, j)] = aat[(j, i)];
         }
     }
+    (aat, ay)
+}
+
+/// The Cholesky factor L_B of B = I + AAᵀ (upper triangle zeroed).
+fn factor_b(aat: &Mat<f64>) -> Result<Mat<f64>, NotPd> {
+    let (m, par) = (aat.nrows(), Par::Seq);
     let mut lb = Mat::zeros(m, m);
     let b = Mat::from_fn(m, m, |i, j| aat[(i, j)] + if i == j { 1.0 } else { 0.0 });
     if cholesky_with_jitter(b.as_ref(), 0.0, lb.as_mut(), par)? > 0.0 {
@@ -266,6 +335,25 @@ pub(crate) fn eval_sparse_space_in(
             lb[(i, j)] = 0.0;
         }
     }
+    Ok(lb)
+}
+
+/// The negative bound from AAᵀ, AY and the factors L_m, L_B (its gradient still zero), and
+/// what the gradient needs of it.
+fn bound(
+    space: &Space<'_>,
+    aat: Mat<f64>,
+    ay: Mat<f64>,
+    lm: Mat<f64>,
+    lb: Mat<f64>,
+    jitter: f64,
+) -> (SparseEval, BoundSums) {
+    let Space { q, m, y, kern, .. } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let (df, nf) = (d as f64, n as f64);
+    let var = kern.variance;
+    let s2 = kern.noise;
+    let par = Par::Seq;
     // c = L_B⁻¹ A Y, β = L_B⁻ᵀ c.
     let mut cy = ay;
     solve_lower_triangular_in_place(lb.as_ref(), cy.as_mut(), par);
@@ -287,7 +375,7 @@ pub(crate) fn eval_sparse_space_in(
         + 0.5 * (yy - cc) / s2
         + 0.5 * df * (nf * var - s2 * tr_aat) / s2;
     let factors = SparseFactors { lm, lb, beta };
-    let mut out = SparseEval {
+    let out = SparseEval {
         nll,
         jitter,
         d_variance: 0.0,
@@ -295,11 +383,66 @@ pub(crate) fn eval_sparse_space_in(
         d_noise: 0.0,
         factors,
     };
-    if !grad {
-        return Ok(out);
-    }
-    let SparseFactors { lm, lb, beta } = &out.factors;
+    (
+        out,
+        BoundSums {
+            aat,
+            yy,
+            cc,
+            tr_aat,
+        },
+    )
+}
 
+/// The gradient into `out`: ∂L/∂σ², ∂L/∂α², ∂L/∂ℓ, and ∂L/∂X, ∂L/∂Z added to `dx`, `dz`
+/// (row-major) when given. `phi` holds Φ from the first pass.
+fn gradient(
+    space: &Space<'_>,
+    out: &mut SparseEval,
+    kmm: &Mat<f64>,
+    sums: &BoundSums,
+    phi: &[f64],
+    dx: Option<&mut [f64]>,
+    dz: Option<&mut [f64]>,
+) {
+    let Space {
+        zr, q, m, y, kern, ..
+    } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let (df, nf) = (d as f64, n as f64);
+    let var = kern.variance;
+    let s2 = kern.noise;
+    let SparseFactors { lm, lb, beta } = &out.factors;
+    let (gw, d_noise) = noise_gradient(space, lb, beta, sums);
+    out.d_noise = d_noise;
+    let gmm = kmm_gradient(&gw, &sums.aat, lm, df);
+    let (c2, lbeta) = phi_gradient_factors(&gw, lm, beta, s2, df);
+    // W1 = ∂L/∂K_mm ∘ K_mm; W2 = ∂L/∂Φ ∘ Φ block by block (second pass).
+    let w1 = Mat::from_fn(m, m, |i, j| gmm[(i, j)] * kmm[(i, j)]);
+    let mean: Vec<f64> = (0..q)
+        .map(|t| (0..m).map(|i| zr[i * q + t]).sum::<f64>() / m.max(1) as f64)
+        .collect();
+    let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
+    let total = second_pass(space, &c2, &lbeta, &mean, zc.as_ref(), phi, dx);
+    let (sum_w, d_l) = chain(w1.as_ref(), &total, zc.as_ref(), kern, dz);
+    out.d_variance = sum_w / var + 0.5 * df * nf / s2;
+    out.d_lengthscale = d_l;
+}
+
+/// G_w = D/2 B⁻¹ + ββᵀ/(2σ²), and ∂L/∂σ².
+fn noise_gradient(
+    space: &Space<'_>,
+    lb: &Mat<f64>,
+    beta: &Mat<f64>,
+    sums: &BoundSums,
+) -> (Mat<f64>, f64) {
+    let Space { m, y, kern, .. } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let (df, nf) = (d as f64, n as f64);
+    let var = kern.variance;
+    let s2 = kern.noise;
+    let par = Par::Seq;
+    let (aat, yy, cc, tr_aat) = (&sums.aat, sums.yy, sums.cc, sums.tr_aat);
     // B⁻¹ = L_B⁻ᵀ L_B⁻¹.
     let mut binv = Mat::<f64>::identity(m, m);
     solve_lower_triangular_in_place(lb.as_ref(), binv.as_mut(), par);
@@ -319,12 +462,16 @@ pub(crate) fn eval_sparse_space_in(
     let tr_gw_aat: f64 = (0..m)
         .map(|j| (0..m).map(|i| gw[(i, j)] * aat[(i, j)]).sum::<f64>())
         .sum();
-    out.d_noise = 0.5 * nf * df / s2 - 0.5 * yy / (s2 * s2) + cc / (s2 * s2)
+    let d_noise = 0.5 * nf * df / s2 - 0.5 * yy / (s2 * s2) + cc / (s2 * s2)
         - 0.5 * df * nf * var / (s2 * s2)
         + 0.5 * df * tr_aat / s2
         - tr_gw_aat / s2;
+    (gw, d_noise)
+}
 
-    // ∂L/∂K_mm = L_m⁻ᵀ S L_m⁻¹ with S = G_w − D/2 I + D/2 AAᵀ.
+/// ∂L/∂K_mm = L_m⁻ᵀ S L_m⁻¹ with S = G_w − D/2 I + D/2 AAᵀ, symmetrised.
+fn kmm_gradient(gw: &Mat<f64>, aat: &Mat<f64>, lm: &Mat<f64>, df: f64) -> Mat<f64> {
+    let (m, par) = (lm.nrows(), Par::Seq);
     let mut gmm = Mat::from_fn(m, m, |i, j| {
         gw[(i, j)] + 0.5 * df * aat[(i, j)] - if i == j { 0.5 * df } else { 0.0 }
     });
@@ -333,8 +480,20 @@ pub(crate) fn eval_sparse_space_in(
     solve_upper_triangular_in_place(lm.transpose(), gmm_t.as_mut(), par);
     clear_upper_simd_state();
     // gmm_t = L_m⁻ᵀ (L_m⁻ᵀ S)ᵀ = L_m⁻ᵀ S L_m⁻¹ (S symmetric): symmetrise the rounding.
-    let gmm = Mat::from_fn(m, m, |i, j| 0.5 * (gmm_t[(i, j)] + gmm_t[(j, i)]));
+    Mat::from_fn(m, m, |i, j| 0.5 * (gmm_t[(i, j)] + gmm_t[(j, i)]))
+}
 
+/// The two factors of ∂L/∂Φ = σ⁻² [L_m⁻ᵀ (2G_w − D I) L_m⁻¹] Φ − σ⁻³ (L_m⁻ᵀ β) Yᵀ: the M×M
+/// matrix in brackets over σ² (symmetrised) and −L_m⁻ᵀ β / σ³.
+fn phi_gradient_factors(
+    gw: &Mat<f64>,
+    lm: &Mat<f64>,
+    beta: &Mat<f64>,
+    s2: f64,
+    df: f64,
+) -> (Mat<f64>, Mat<f64>) {
+    let (m, par) = (lm.nrows(), Par::Seq);
+    let sigma = s2.sqrt();
     // ∂L/∂Φ = σ⁻¹ L_m⁻ᵀ ((2G_w − D I) A − βYᵀ/σ²)
     //       = σ⁻² [L_m⁻ᵀ (2G_w − D I) L_m⁻¹] Φ − σ⁻³ (L_m⁻ᵀ β) Yᵀ: M×M work, then two products.
     let mut c2 = Mat::from_fn(m, m, |i, j| {
@@ -350,18 +509,29 @@ pub(crate) fn eval_sparse_space_in(
     lbeta
         .col_iter_mut()
         .for_each(|c| c.iter_mut().for_each(|v| *v *= -1.0 / (s2 * sigma)));
+    (c2, lbeta)
+}
 
-    // W1 = ∂L/∂K_mm ∘ K_mm; W2 = ∂L/∂Φ ∘ Φ block by block (second pass).
-    let w1 = Mat::from_fn(m, m, |i, j| gmm[(i, j)] * kmm[(i, j)]);
-    let mean: Vec<f64> = (0..q)
-        .map(|t| (0..m).map(|i| zr[i * q + t]).sum::<f64>() / m.max(1) as f64)
-        .collect();
-    let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
+/// Second pass: W2 = ∂L/∂Φ ∘ Φ block by block, from the factors of ∂L/∂Φ (`c2`, `lbeta`) and
+/// Φ (`phi`), reduced at once to its sums (coordinates centred on Z's `mean`; `zc` is Z
+/// centred); ∂L/∂X added to `dx` when given.
+fn second_pass(
+    space: &Space<'_>,
+    c2: &Mat<f64>,
+    lbeta: &Mat<f64>,
+    mean: &[f64],
+    zc: MatRef<'_, f64>,
+    phi: &[f64],
+    dx: Option<&mut [f64]>,
+) -> W2Sums {
+    let Space {
+        xr, q, m, y, kern, ..
+    } = *space;
+    let n = y.nrows();
     let dx_chunks: Vec<Option<&mut [f64]>> = match dx {
         Some(dx) => dx.chunks_mut(BLOCK * q).map(Some).collect(),
-        None => (0..blocks).map(|_| None).collect(),
+        None => (0..space.blocks).map(|_| None).collect(),
     };
-    let phi = &work.phi;
     let second = |b: usize, dx_b: Option<&mut [f64]>| {
         let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
         let phi_b = MatRef::from_column_major_slice(&phi[j0 * m..(j0 + nb) * m], m, nb);
@@ -391,15 +561,12 @@ pub(crate) fn eval_sparse_space_in(
         let xc = Mat::from_fn(nb, q, |j, t| xr[(j0 + j) * q + t] - mean[t]);
         w2_block(w2.as_ref(), xc.as_ref(), zc.as_ref(), kern, dx_b)
     };
-    let parts = map_blocks(dx_chunks, parallel, second);
+    let parts = map_blocks(dx_chunks, space.parallel, second);
     let mut total = W2Sums::zeros(m, q);
     for p in &parts {
         total.add(p);
     }
-    let (sum_w, d_l) = chain(w1.as_ref(), &total, zc.as_ref(), kern, dz);
-    out.d_variance = sum_w / var + 0.5 * df * nf / s2;
-    out.d_lengthscale = d_l;
-    Ok(out)
+    total
 }
 
 /// Inducing inputs divided by the lengthscales, dimension by dimension (contiguous over the
