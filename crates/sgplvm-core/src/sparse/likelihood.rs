@@ -16,7 +16,10 @@
 //! `∂L/∂σ² = N D/(2σ²) − ‖Y‖²/(2σ⁴) + ‖c_Y‖²/σ⁴ − D N α²/(2σ⁴) + D tr(AAᵀ)/(2σ²)
 //!           − tr(G_w A Aᵀ)/σ²`,
 //! and the diagonal of K_nn adds `D N/(2σ²)` to ∂L/∂α². The kernel matrices' derivatives then
-//! give ∂L/∂α², ∂L/∂ℓ, ∂L/∂X and ∂L/∂Z by weighted sums (`chain`).
+//! give ∂L/∂α², ∂L/∂ℓ, ∂L/∂X and ∂L/∂Z by weighted sums (`chain`). The gradient's steps are in
+//! `likelihood/gradient.rs`.
+
+mod gradient;
 
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::BlockStructure;
@@ -29,6 +32,7 @@ use rayon::prelude::*;
 use crate::kernel::{rbf_lower, KernelParams};
 use crate::likelihood::{cholesky_with_jitter, NotPd};
 use crate::simd::{clear_upper_simd_state, exp_neg, vectorized};
+use gradient::gradient;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -148,19 +152,63 @@ pub(crate) fn eval_sparse_space_in(
     dz: Option<&mut [f64]>,
     work: &mut SparseWork,
 ) -> Result<SparseEval, NotPd> {
-    let (n, d) = (y.nrows(), y.ncols());
-    let m = zr.len() / q.max(1);
-    let (df, nf) = (d as f64, n as f64);
-    let var = kern.variance;
-    let s2 = kern.noise;
-    let sigma = s2.sqrt();
-    let par = Par::Seq;
-    let blocks = n.div_ceil(BLOCK);
-    let parallel = blocks > 1 && crate::pool::on_pool_thread();
+    let blocks = y.nrows().div_ceil(BLOCK);
+    let space = Space {
+        xr,
+        zr,
+        q,
+        m: zr.len() / q.max(1),
+        y,
+        kern,
+        blocks,
+        parallel: blocks > 1 && crate::pool::on_pool_thread(),
+    };
+    let (kmm, lm, jitter) = factor_kmm(&space, rel_jitter)?;
+    let linv = scaled_inverse_factor(&lm, kern.noise.sqrt());
+    let (aat, ay) = first_pass(&space, &linv, grad, &mut work.phi);
+    let lb = factor_b(&aat)?;
+    let (mut out, sums) = bound(&space, aat, ay, lm, lb, jitter);
+    if !grad {
+        return Ok(out);
+    }
+    gradient(&space, &mut out, &kmm, &sums, &work.phi, dx, dz);
+    Ok(out)
+}
 
-    // K_mm and its factor.
+/// What every step of one space's evaluation reads: the inputs of [`eval_sparse_space_in`]
+/// and the number of inducing inputs and of blocks derived from them.
+struct Space<'a> {
+    /// Latent points X (N×Q, row-major).
+    xr: &'a [f64],
+    /// Inducing inputs Z (M×Q, row-major).
+    zr: &'a [f64],
+    /// Latent dimension Q.
+    q: usize,
+    /// Number of inducing inputs M.
+    m: usize,
+    /// The centred data Y (N×D).
+    y: MatRef<'a, f64>,
+    kern: &'a KernelParams,
+    /// Blocks of [`BLOCK`] columns of Φ.
+    blocks: usize,
+    /// Whether the blocks run on the pool's threads.
+    parallel: bool,
+}
+
+/// What the bound leaves for the gradient: AAᵀ (both triangles), ‖Y‖², ‖c_Y‖² and tr AAᵀ.
+struct BoundSums {
+    aat: Mat<f64>,
+    yy: f64,
+    cc: f64,
+    tr_aat: f64,
+}
+
+/// K_mm with its jitter (both triangles), its Cholesky factor L_m (upper triangle zeroed) and
+/// the jitter added beyond the relative one.
+fn factor_kmm(space: &Space<'_>, rel_jitter: f64) -> Result<(Mat<f64>, Mat<f64>, f64), NotPd> {
+    let (m, var, par) = (space.m, space.kern.variance, Par::Seq);
     let mut kmm = Mat::zeros(m, m);
-    rbf_lower(zr, q, kern, &mut kmm, Par::Seq);
+    rbf_lower(space.zr, space.q, space.kern, &mut kmm, Par::Seq);
     let mut lm = Mat::zeros(m, m);
     let jitter = cholesky_with_jitter(kmm.as_ref(), rel_jitter * var, lm.as_mut(), par)?;
     for j in 0..m {
@@ -170,9 +218,14 @@ pub(crate) fn eval_sparse_space_in(
             lm[(i, j)] = 0.0;
         }
     }
-    // L_m⁻¹/σ, lower triangular: A = L_m⁻¹ Φ/σ is then a triangular matrix product per block
-    // (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number in the objective:
-    // the central-difference check of ∂L/∂X then failed at 1e-6).
+    Ok((kmm, lm, jitter))
+}
+
+/// L_m⁻¹/σ, lower triangular: A = L_m⁻¹ Φ/σ is then a triangular matrix product per block
+/// (forming ΦΦᵀ first, as GPy does, would square K_mm's condition number in the objective:
+/// the central-difference check of ∂L/∂X then failed at 1e-6).
+fn scaled_inverse_factor(lm: &Mat<f64>, sigma: f64) -> Mat<f64> {
+    let (m, par) = (lm.nrows(), Par::Seq);
     let mut linv = Mat::<f64>::identity(m, m);
     solve_lower_triangular_in_place(lm.as_ref(), linv.as_mut(), par);
     clear_upper_simd_state();
@@ -181,14 +234,28 @@ pub(crate) fn eval_sparse_space_in(
             linv[(i, j)] = if i >= j { linv[(i, j)] / sigma } else { 0.0 };
         }
     }
-    let scaled = ScaledZ::new(zr, q, kern);
+    linv
+}
 
-    // First pass: Φ (kept for the second when `grad`), and per block AAᵀ (lower) and AY.
+/// First pass: Φ (kept in `phi` for the second when `grad`), and per block AAᵀ (lower) and AY
+/// with A = `linv` Φ; returns their sums, AAᵀ with both triangles.
+fn first_pass(
+    space: &Space<'_>,
+    linv: &Mat<f64>,
+    grad: bool,
+    phi: &mut Vec<f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let Space {
+        xr, q, m, y, kern, ..
+    } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let var = kern.variance;
+    let scaled = ScaledZ::new(space.zr, q, kern);
     let chunks: Vec<Option<&mut [f64]>> = if grad {
-        work.phi.resize(m * n, 0.0);
-        work.phi.chunks_mut(m * BLOCK).map(Some).collect()
+        phi.resize(m * n, 0.0);
+        phi.chunks_mut(m * BLOCK).map(Some).collect()
     } else {
-        (0..blocks).map(|_| None).collect()
+        (0..space.blocks).map(|_| None).collect()
     };
     let first = |b: usize, chunk: Option<&mut [f64]>| {
         let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
@@ -238,7 +305,7 @@ pub(crate) fn eval_sparse_space_in(
         clear_upper_simd_state();
         (aat, ay)
     };
-    let parts = map_blocks(chunks, parallel, first);
+    let parts = map_blocks(chunks, space.parallel, first);
     let mut aat = Mat::<f64>::zeros(m, m);
     let mut ay = Mat::<f64>::zeros(m, d);
     for (pa, py) in &parts {
@@ -255,6 +322,12 @@ pub(crate) fn eval_sparse_space_in(
             aat[(i, j)] = aat[(j, i)];
         }
     }
+    (aat, ay)
+}
+
+/// The Cholesky factor L_B of B = I + AAᵀ (upper triangle zeroed).
+fn factor_b(aat: &Mat<f64>) -> Result<Mat<f64>, NotPd> {
+    let (m, par) = (aat.nrows(), Par::Seq);
     let mut lb = Mat::zeros(m, m);
     let b = Mat::from_fn(m, m, |i, j| aat[(i, j)] + if i == j { 1.0 } else { 0.0 });
     if cholesky_with_jitter(b.as_ref(), 0.0, lb.as_mut(), par)? > 0.0 {
@@ -266,6 +339,25 @@ pub(crate) fn eval_sparse_space_in(
             lb[(i, j)] = 0.0;
         }
     }
+    Ok(lb)
+}
+
+/// The negative bound from AAᵀ, AY and the factors L_m, L_B (its gradient still zero), and
+/// what the gradient needs of it.
+fn bound(
+    space: &Space<'_>,
+    aat: Mat<f64>,
+    ay: Mat<f64>,
+    lm: Mat<f64>,
+    lb: Mat<f64>,
+    jitter: f64,
+) -> (SparseEval, BoundSums) {
+    let Space { q, m, y, kern, .. } = *space;
+    let (n, d) = (y.nrows(), y.ncols());
+    let (df, nf) = (d as f64, n as f64);
+    let var = kern.variance;
+    let s2 = kern.noise;
+    let par = Par::Seq;
     // c = L_B⁻¹ A Y, β = L_B⁻ᵀ c.
     let mut cy = ay;
     solve_lower_triangular_in_place(lb.as_ref(), cy.as_mut(), par);
@@ -287,7 +379,7 @@ pub(crate) fn eval_sparse_space_in(
         + 0.5 * (yy - cc) / s2
         + 0.5 * df * (nf * var - s2 * tr_aat) / s2;
     let factors = SparseFactors { lm, lb, beta };
-    let mut out = SparseEval {
+    let out = SparseEval {
         nll,
         jitter,
         d_variance: 0.0,
@@ -295,111 +387,15 @@ pub(crate) fn eval_sparse_space_in(
         d_noise: 0.0,
         factors,
     };
-    if !grad {
-        return Ok(out);
-    }
-    let SparseFactors { lm, lb, beta } = &out.factors;
-
-    // B⁻¹ = L_B⁻ᵀ L_B⁻¹.
-    let mut binv = Mat::<f64>::identity(m, m);
-    solve_lower_triangular_in_place(lb.as_ref(), binv.as_mut(), par);
-    solve_upper_triangular_in_place(lb.transpose(), binv.as_mut(), par);
-    clear_upper_simd_state();
-    // G_w = D/2 B⁻¹ + ββᵀ/(2σ²).
-    let mut gw = Mat::from_fn(m, m, |i, j| 0.5 * df * 0.5 * (binv[(i, j)] + binv[(j, i)]));
-    matmul(
-        gw.as_mut(),
-        Accum::Add,
-        beta.as_ref(),
-        beta.transpose(),
-        0.5 / s2,
-        par,
-    );
-    clear_upper_simd_state();
-    let tr_gw_aat: f64 = (0..m)
-        .map(|j| (0..m).map(|i| gw[(i, j)] * aat[(i, j)]).sum::<f64>())
-        .sum();
-    out.d_noise = 0.5 * nf * df / s2 - 0.5 * yy / (s2 * s2) + cc / (s2 * s2)
-        - 0.5 * df * nf * var / (s2 * s2)
-        + 0.5 * df * tr_aat / s2
-        - tr_gw_aat / s2;
-
-    // ∂L/∂K_mm = L_m⁻ᵀ S L_m⁻¹ with S = G_w − D/2 I + D/2 AAᵀ.
-    let mut gmm = Mat::from_fn(m, m, |i, j| {
-        gw[(i, j)] + 0.5 * df * aat[(i, j)] - if i == j { 0.5 * df } else { 0.0 }
-    });
-    solve_upper_triangular_in_place(lm.transpose(), gmm.as_mut(), par);
-    let mut gmm_t = gmm.transpose().to_owned();
-    solve_upper_triangular_in_place(lm.transpose(), gmm_t.as_mut(), par);
-    clear_upper_simd_state();
-    // gmm_t = L_m⁻ᵀ (L_m⁻ᵀ S)ᵀ = L_m⁻ᵀ S L_m⁻¹ (S symmetric): symmetrise the rounding.
-    let gmm = Mat::from_fn(m, m, |i, j| 0.5 * (gmm_t[(i, j)] + gmm_t[(j, i)]));
-
-    // ∂L/∂Φ = σ⁻¹ L_m⁻ᵀ ((2G_w − D I) A − βYᵀ/σ²)
-    //       = σ⁻² [L_m⁻ᵀ (2G_w − D I) L_m⁻¹] Φ − σ⁻³ (L_m⁻ᵀ β) Yᵀ: M×M work, then two products.
-    let mut c2 = Mat::from_fn(m, m, |i, j| {
-        2.0 * gw[(i, j)] - if i == j { df } else { 0.0 }
-    });
-    solve_upper_triangular_in_place(lm.transpose(), c2.as_mut(), par);
-    let mut c2t = c2.transpose().to_owned();
-    solve_upper_triangular_in_place(lm.transpose(), c2t.as_mut(), par);
-    let c2 = Mat::from_fn(m, m, |i, j| 0.5 * (c2t[(i, j)] + c2t[(j, i)]) / s2);
-    let mut lbeta = beta.clone();
-    solve_upper_triangular_in_place(lm.transpose(), lbeta.as_mut(), par);
-    clear_upper_simd_state();
-    lbeta
-        .col_iter_mut()
-        .for_each(|c| c.iter_mut().for_each(|v| *v *= -1.0 / (s2 * sigma)));
-
-    // W1 = ∂L/∂K_mm ∘ K_mm; W2 = ∂L/∂Φ ∘ Φ block by block (second pass).
-    let w1 = Mat::from_fn(m, m, |i, j| gmm[(i, j)] * kmm[(i, j)]);
-    let mean: Vec<f64> = (0..q)
-        .map(|t| (0..m).map(|i| zr[i * q + t]).sum::<f64>() / m.max(1) as f64)
-        .collect();
-    let zc = Mat::from_fn(m, q, |i, t| zr[i * q + t] - mean[t]);
-    let dx_chunks: Vec<Option<&mut [f64]>> = match dx {
-        Some(dx) => dx.chunks_mut(BLOCK * q).map(Some).collect(),
-        None => (0..blocks).map(|_| None).collect(),
-    };
-    let phi = &work.phi;
-    let second = |b: usize, dx_b: Option<&mut [f64]>| {
-        let (j0, nb) = (b * BLOCK, BLOCK.min(n - b * BLOCK));
-        let phi_b = MatRef::from_column_major_slice(&phi[j0 * m..(j0 + nb) * m], m, nb);
-        let mut w2 = Mat::zeros(m, nb);
-        matmul(
-            w2.as_mut(),
-            Accum::Replace,
-            c2.as_ref(),
-            phi_b,
-            1.0,
-            Par::Seq,
-        );
-        matmul(
-            w2.as_mut(),
-            Accum::Add,
-            lbeta.as_ref(),
-            y.subrows(j0, nb).transpose(),
-            1.0,
-            Par::Seq,
-        );
-        clear_upper_simd_state();
-        for j in 0..nb {
-            for (g, p) in w2.col_as_slice_mut(j).iter_mut().zip(phi_b.col(j).iter()) {
-                *g *= p;
-            }
-        }
-        let xc = Mat::from_fn(nb, q, |j, t| xr[(j0 + j) * q + t] - mean[t]);
-        w2_block(w2.as_ref(), xc.as_ref(), zc.as_ref(), kern, dx_b)
-    };
-    let parts = map_blocks(dx_chunks, parallel, second);
-    let mut total = W2Sums::zeros(m, q);
-    for p in &parts {
-        total.add(p);
-    }
-    let (sum_w, d_l) = chain(w1.as_ref(), &total, zc.as_ref(), kern, dz);
-    out.d_variance = sum_w / var + 0.5 * df * nf / s2;
-    out.d_lengthscale = d_l;
-    Ok(out)
+    (
+        out,
+        BoundSums {
+            aat,
+            yy,
+            cc,
+            tr_aat,
+        },
+    )
 }
 
 /// Inducing inputs divided by the lengthscales, dimension by dimension (contiguous over the
@@ -461,127 +457,6 @@ pub(crate) fn cross_kernel(
     let mut phi = vec![0.0; m * n];
     ScaledZ::new(zr, q, kern).fill(&xr[..n * q], kern.variance, &mut phi);
     MatRef::from_column_major_slice(&phi, m, n).to_owned()
-}
-
-/// What one block of W2 = ∂L/∂Φ ∘ Φ contributes to the gradients (coordinates centred on Z's
-/// mean): its row sums, W2 X_c (M×Q) and per dimension Σ_j x_j (c_j x_j − (W2ᵀ Z_c)_j).
-struct W2Sums {
-    rows: Vec<f64>,
-    w2x: Mat<f64>,
-    from_x: Vec<f64>,
-}
-
-impl W2Sums {
-    fn zeros(m: usize, q: usize) -> Self {
-        Self {
-            rows: vec![0.0; m],
-            w2x: Mat::zeros(m, q),
-            from_x: vec![0.0; q],
-        }
-    }
-
-    fn add(&mut self, o: &W2Sums) {
-        self.rows.iter_mut().zip(&o.rows).for_each(|(a, b)| *a += b);
-        self.w2x += &o.w2x;
-        self.from_x
-            .iter_mut()
-            .zip(&o.from_x)
-            .for_each(|(a, b)| *a += b);
-    }
-}
-
-/// The sums of one block of W2 (M×b) at centred latent points `xc` (b×Q); ∂L/∂X of the block
-/// added to `dx` (row-major b×Q) when given.
-fn w2_block(
-    w2: MatRef<'_, f64>,
-    xc: MatRef<'_, f64>,
-    zc: MatRef<'_, f64>,
-    kern: &KernelParams,
-    dx: Option<&mut [f64]>,
-) -> W2Sums {
-    let (m, nb, q) = (w2.nrows(), w2.ncols(), xc.ncols());
-    let mut out = W2Sums::zeros(m, q);
-    let mut cols = vec![0.0; nb];
-    for (j, c) in cols.iter_mut().enumerate() {
-        let col = w2.col(j);
-        let mut s = 0.0;
-        for (r, &v) in out.rows.iter_mut().zip(col.iter()) {
-            *r += v;
-            s += v;
-        }
-        *c = s;
-    }
-    matmul(out.w2x.as_mut(), Accum::Replace, w2, xc, 1.0, Par::Seq);
-    let mut w2tz = Mat::zeros(nb, q);
-    matmul(
-        w2tz.as_mut(),
-        Accum::Replace,
-        w2.transpose(),
-        zc,
-        1.0,
-        Par::Seq,
-    );
-    clear_upper_simd_state();
-    let mut dx = dx;
-    for t in 0..q {
-        let l2 = kern.lengthscale[t] * kern.lengthscale[t];
-        // Σ_ij W2_ij (z_i − x_j)² = Σ_i z_i (r2_i z_i − (W2 X)_i) + Σ_j x_j (c2_j x_j − (W2ᵀZ)_j).
-        let mut s = 0.0;
-        for j in 0..nb {
-            s += xc[(j, t)] * (cols[j] * xc[(j, t)] - w2tz[(j, t)]);
-        }
-        out.from_x[t] = s;
-        if let Some(dx) = dx.as_deref_mut() {
-            // ∂k(z_i, x_j)/∂x_j = k (z_i − x_j)/ℓ².
-            for j in 0..nb {
-                dx[j * q + t] += (w2tz[(j, t)] - cols[j] * xc[(j, t)]) / l2;
-            }
-        }
-    }
-    out
-}
-
-/// From W1 = ∂L/∂K_mm ∘ K_mm (M×M, symmetric) and the summed blocks of W2 = ∂L/∂Φ ∘ Φ:
-/// Σ W1 + Σ W2 (for ∂L/∂α²) and ∂L/∂ℓ_t; ∂L/∂Z added to `dz` (row-major) when given.
-/// Coordinates are centred on Z's mean (`zc`; the kernel is translation invariant) to limit
-/// cancellation.
-fn chain(
-    w1: MatRef<'_, f64>,
-    w2: &W2Sums,
-    zc: MatRef<'_, f64>,
-    kern: &KernelParams,
-    mut dz: Option<&mut [f64]>,
-) -> (f64, Vec<f64>) {
-    let (m, q) = (zc.nrows(), zc.ncols());
-    let r1: Vec<f64> = (0..m).map(|i| (0..m).map(|j| w1[(i, j)]).sum()).collect();
-    let r2 = &w2.rows;
-    let mut w1z = Mat::zeros(m, q);
-    matmul(w1z.as_mut(), Accum::Replace, w1, zc, 1.0, Par::Seq);
-    clear_upper_simd_state();
-    let sum_w = r1.iter().sum::<f64>() + r2.iter().sum::<f64>();
-    let mut d_l = vec![0.0; q];
-    for t in 0..q {
-        let l = kern.lengthscale[t];
-        let l2 = l * l;
-        // Σ_ij W1_ij (z_i − z_j)² = 2 Σ_i z_i (r1_i z_i − (W1 Z)_i).
-        let mut s = 0.0;
-        for i in 0..m {
-            s += 2.0 * zc[(i, t)] * (r1[i] * zc[(i, t)] - w1z[(i, t)]);
-        }
-        for i in 0..m {
-            s += zc[(i, t)] * (r2[i] * zc[(i, t)] - w2.w2x[(i, t)]);
-        }
-        s += w2.from_x[t];
-        d_l[t] = s / (l2 * l);
-        if let Some(dz) = dz.as_deref_mut() {
-            for i in 0..m {
-                let from_kmm = -2.0 * (r1[i] * zc[(i, t)] - w1z[(i, t)]);
-                let from_kmn = -(r2[i] * zc[(i, t)] - w2.w2x[(i, t)]);
-                dz[i * q + t] += (from_kmm + from_kmn) / l2;
-            }
-        }
-    }
-    (sum_w, d_l)
 }
 
 #[cfg(test)]

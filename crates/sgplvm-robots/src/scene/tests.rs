@@ -1,5 +1,9 @@
+use std::path::PathBuf;
+
+use super::whole_scene::ENCODE_BATCH;
 use super::*;
-use crate::joint_state::{list_channels, read_joint_states};
+use crate::joint_state::{list_channels, read_joint_states, JointStates, JOINT_STATE_SCHEMA};
+use crate::urdf::Robot;
 
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("sgplvm-scene-{}-{name}", std::process::id()));

@@ -18,11 +18,16 @@
 //! mesh files that do not exist (meshes are never opened).
 //!
 //! `mod.rs` holds the robot model and its queries (joint order, limits, forward kinematics);
-//! `parse.rs` holds the three loading steps.
+//! `parse.rs` loads a text: the depth guard, then the three steps — `check.rs` (1, and the
+//! pose convention and the size limits), normalisation and urdf-rs (2, in `parse.rs`),
+//! `tree.rs` (3).
 
+mod check;
 mod parse;
+mod tree;
 
-pub use parse::{pose_from_xyz_rpy, MAX_DEPTH, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+pub use check::{pose_from_xyz_rpy, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+pub use parse::MAX_DEPTH;
 
 use std::collections::HashMap;
 use std::path::Path;
