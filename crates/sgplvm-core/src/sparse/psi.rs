@@ -390,6 +390,168 @@ struct BlockGrad {
     w_sum: Vec<f64>,
 }
 
+/// What every block of [`psi_chain`] reads: the statistics' inputs, the derivatives it is
+/// given (∂L/∂Ψ₂ symmetrised, row-major) and the kept Ψ₂ₙ values.
+struct Chain<'a> {
+    sh: Shared,
+    mean: &'a [f64],
+    var: &'a [f64],
+    psi1: MatRef<'a, f64>,
+    pairs: &'a [Vec<f64>],
+    g1: MatRef<'a, f64>,
+    g2s: Vec<f64>,
+}
+
+impl Chain<'_> {
+    /// Ψ₁'s share for the frames `start..start + len`: w = ∂L/∂Ψ₁ ∘ Ψ₁ row by row, into the
+    /// frames' ∂μ and ∂S (`dm`, `ds`, the block's rows) and the block's sums.
+    #[inline(always)]
+    fn psi1_block(
+        &self,
+        start: usize,
+        len: usize,
+        dm: &mut [f64],
+        ds: &mut [f64],
+        out: &mut BlockGrad,
+    ) {
+        let (sh, mean, var, g1, psi1) = (&self.sh, self.mean, self.var, self.g1, self.psi1);
+        let (m, q, u) = (sh.m, sh.q, &sh.u);
+        let mut w = vec![0.0; m];
+        for (k, i) in (start..start + len).enumerate() {
+            let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
+            let (dmu, dsn) = (&mut dm[k * q..(k + 1) * q], &mut ds[k * q..(k + 1) * q]);
+            let f = Frame::new(sh, s);
+            // Ψ₁: w = ∂L/∂Ψ₁ ∘ Ψ₁ over the row.
+            for j in 0..m {
+                w[j] = g1[(i, j)] * psi1[(i, j)];
+            }
+            let w1 = sum(&w);
+            out.d_variance += w1 / sh.variance;
+            for t in 0..q {
+                let (z, z2) = (sh.zcol(t), &sh.zt2[t * m..(t + 1) * m]);
+                let (wz1, wzz) = (dot(&w, z), dot(&w, z2));
+                let (bt, mt) = (f.b[t], mu[t]);
+                // Σ w (μ − z)².
+                let p = mt * mt * w1 - 2.0 * mt * wz1 + wzz;
+                dmu[t] -= bt * (mt * w1 - wz1);
+                dsn[t] += 0.5 * (bt * bt * p - bt * w1);
+                out.d_u[t] += w1 * s[t] / (2.0 * u[t] * (u[t] + s[t])) + 0.5 * bt * bt * p;
+                for j in 0..m {
+                    out.d_z[j * q + t] += w[j] * bt * (mt - z[j]);
+                }
+            }
+        }
+    }
+
+    /// Ψ₂'s share for the block, pair by pair for all its frames at once.
+    #[inline(always)]
+    fn psi2_block(
+        &self,
+        start: usize,
+        len: usize,
+        dm: &mut [f64],
+        ds: &mut [f64],
+        out: &mut BlockGrad,
+    ) {
+        let (sh, mean, var, pairs, g2s) = (&self.sh, self.mean, self.var, self.pairs, &self.g2s);
+        let (m, q, u) = (sh.m, sh.q, &sh.u);
+        // Ψ₂ₙ for the whole block, pair by pair (a ≥ j; W is symmetric, so a pair off the
+        // diagonal stands for (a, j) and (j, a)): W = ∂L/∂Ψ₂ ∘ Ψ₂ₙ, its row sums r[a] and
+        // WZ[t][a], per frame of the block.
+        let lanes = Lanes::new(sh, mean, var, start, len);
+        // Arrays over the block's frames have the padded length.
+        let len = lanes.padded;
+        let mut c = vec![0.0; q];
+        let mut r = vec![0.0; m * len];
+        // zᵀ W z per dimension and frame: zwz[t*len + k].
+        let mut zwz = vec![0.0; q * len];
+        let mut pair = vec![0.0; len];
+        let kept = pairs.get(start / BLOCK);
+        let mut index = 0;
+        for a in 0..m {
+            for j in 0..=a {
+                match kept {
+                    Some(k) => pair.copy_from_slice(&k[index * len..(index + 1) * len]),
+                    None => lanes.psi2_pair(sh, a, j, &mut c, &mut pair),
+                }
+                index += 1;
+                let g = g2s[a * m + j];
+                pair.iter_mut().for_each(|v| *v *= g);
+                out.w_sum[a * m + j] += sum(&pair);
+                let twice = if a == j { 1.0 } else { 2.0 };
+                for (x, p) in r[a * len..(a + 1) * len].iter_mut().zip(&pair) {
+                    *x += p;
+                }
+                if a != j {
+                    for (x, p) in r[j * len..(j + 1) * len].iter_mut().zip(&pair) {
+                        *x += p;
+                    }
+                }
+                for t in 0..q {
+                    let (za, zj) = (sh.zt[t * m + a], sh.zt[t * m + j]);
+                    let c2 = twice * za * zj;
+                    for (x, p) in zwz[t * len..(t + 1) * len].iter_mut().zip(&pair) {
+                        *x += c2 * p;
+                    }
+                    // −Σ_k a_t W_k[a, j] z_j (and its mirror) of ∂/∂Z.
+                    let d = dot(&lanes.a[t * len..(t + 1) * len], &pair);
+                    out.d_z[a * q + t] -= zj * d;
+                    if a != j {
+                        out.d_z[j * q + t] -= za * d;
+                    }
+                }
+            }
+        }
+        // Per frame: s = Σ r, and per dimension rᵀz, rᵀz² (vectorised over frames).
+        let mut s_tot = vec![0.0; len];
+        for a in 0..m {
+            for (x, v) in s_tot.iter_mut().zip(&r[a * len..(a + 1) * len]) {
+                *x += v;
+            }
+        }
+        for x in &s_tot {
+            out.d_variance += 2.0 * x / sh.variance;
+        }
+        let (mut rz, mut rzz) = (vec![0.0; len], vec![0.0; len]);
+        for t in 0..q {
+            rz.iter_mut().for_each(|v| *v = 0.0);
+            rzz.iter_mut().for_each(|v| *v = 0.0);
+            for a in 0..m {
+                let (za, za2) = (sh.zt[t * m + a], sh.zt2[t * m + a]);
+                let ra = &r[a * len..(a + 1) * len];
+                for k in 0..len {
+                    rz[k] += ra[k] * za;
+                    rzz[k] += ra[k] * za2;
+                }
+            }
+            let zwz = &zwz[t * len..(t + 1) * len];
+            let (at, mu_t, s_t) = (
+                &lanes.a[t * len..(t + 1) * len],
+                &lanes.mu[t * len..(t + 1) * len],
+                &lanes.s[t * len..(t + 1) * len],
+            );
+            for k in 0..lanes.len {
+                let (a, mt, st, sk) = (at[k], mu_t[k], s_t[k], s_tot[k]);
+                // Σ W (μ − z̄)².
+                let p = mt * mt * sk - 2.0 * mt * rz[k] + 0.5 * rzz[k] + 0.5 * zwz[k];
+                dm[k * q + t] -= 2.0 * a * (mt * sk - rz[k]);
+                ds[k * q + t] += 2.0 * a * a * p - a * sk;
+                out.d_u[t] += sk * st / (u[t] * (u[t] + 2.0 * st)) + a * a * p;
+            }
+            // ∂/∂z_jt += Σ_k a_k (2μ_k − z_jt) r_k[j] (the W z part was added pair by pair).
+            let mut am = vec![0.0; len];
+            for k in 0..len {
+                am[k] = 2.0 * at[k] * mu_t[k];
+            }
+            for j in 0..m {
+                let zj = sh.zt[t * m + j];
+                let rj = &r[j * len..(j + 1) * len];
+                out.d_z[j * q + t] += dot(&am, rj) - zj * dot(at, rj);
+            }
+        }
+    }
+}
+
 /// The derivatives of a scalar L through the Ψ statistics of [`psi_stats`], given `g0 = ∂L/∂ψ₀`,
 /// `g1 = ∂L/∂Ψ₁` (N×M) and `g2 = ∂L/∂Ψ₂` (M×M; symmetrised here). Ψ₁ is taken from `psi1` (it
 /// was computed already), and Ψ₂ₙ from `pairs` ([`Psi::pairs`]) or, when that is empty, formed
@@ -411,10 +573,18 @@ pub(crate) fn psi_chain(
     let n = mean.len() / q.max(1);
     let sh = Shared::new(zr, q, kern);
     let m = sh.m;
-    let u = &sh.u;
     let g2s: Vec<f64> = (0..m * m)
         .map(|i| 0.5 * (g2[(i / m, i % m)] + g2[(i % m, i / m)]))
         .collect();
+    let chain = Chain {
+        sh,
+        mean,
+        var,
+        psi1,
+        pairs,
+        g1,
+        g2s,
+    };
     let mut d_mean = vec![0.0; n * q];
     let mut d_var = vec![0.0; n * q];
     let chunks: Vec<std::sync::Mutex<(&mut [f64], &mut [f64])>> = d_mean
@@ -434,130 +604,28 @@ pub(crate) fn psi_chain(
                 d_u: vec![0.0; q],
                 w_sum: vec![0.0; m * m],
             };
-            let mut w = vec![0.0; m];
-            for (k, i) in (start..start + len).enumerate() {
-                let (mu, s) = (&mean[i * q..(i + 1) * q], &var[i * q..(i + 1) * q]);
-                let (dmu, dsn) = (&mut dm[k * q..(k + 1) * q], &mut ds[k * q..(k + 1) * q]);
-                let f = Frame::new(&sh, s);
-                // Ψ₁: w = ∂L/∂Ψ₁ ∘ Ψ₁ over the row.
-                for j in 0..m {
-                    w[j] = g1[(i, j)] * psi1[(i, j)];
-                }
-                let w1 = sum(&w);
-                out.d_variance += w1 / sh.variance;
-                for t in 0..q {
-                    let (z, z2) = (sh.zcol(t), &sh.zt2[t * m..(t + 1) * m]);
-                    let (wz1, wzz) = (dot(&w, z), dot(&w, z2));
-                    let (bt, mt) = (f.b[t], mu[t]);
-                    // Σ w (μ − z)².
-                    let p = mt * mt * w1 - 2.0 * mt * wz1 + wzz;
-                    dmu[t] -= bt * (mt * w1 - wz1);
-                    dsn[t] += 0.5 * (bt * bt * p - bt * w1);
-                    out.d_u[t] += w1 * s[t] / (2.0 * u[t] * (u[t] + s[t])) + 0.5 * bt * bt * p;
-                    for j in 0..m {
-                        out.d_z[j * q + t] += w[j] * bt * (mt - z[j]);
-                    }
-                }
-            }
-            // Ψ₂ₙ for the whole block, pair by pair (a ≥ j; W is symmetric, so a pair off the
-            // diagonal stands for (a, j) and (j, a)): W = ∂L/∂Ψ₂ ∘ Ψ₂ₙ, its row sums r[a] and
-            // WZ[t][a], per frame of the block.
-            let lanes = Lanes::new(&sh, mean, var, start, len);
-            // Arrays over the block's frames have the padded length.
-            let len = lanes.padded;
-            let mut c = vec![0.0; q];
-            let mut r = vec![0.0; m * len];
-            // zᵀ W z per dimension and frame: zwz[t*len + k].
-            let mut zwz = vec![0.0; q * len];
-            let mut pair = vec![0.0; len];
-            let kept = pairs.get(start / BLOCK);
-            let mut index = 0;
-            for a in 0..m {
-                for j in 0..=a {
-                    match kept {
-                        Some(k) => pair.copy_from_slice(&k[index * len..(index + 1) * len]),
-                        None => lanes.psi2_pair(&sh, a, j, &mut c, &mut pair),
-                    }
-                    index += 1;
-                    let g = g2s[a * m + j];
-                    pair.iter_mut().for_each(|v| *v *= g);
-                    out.w_sum[a * m + j] += sum(&pair);
-                    let twice = if a == j { 1.0 } else { 2.0 };
-                    for (x, p) in r[a * len..(a + 1) * len].iter_mut().zip(&pair) {
-                        *x += p;
-                    }
-                    if a != j {
-                        for (x, p) in r[j * len..(j + 1) * len].iter_mut().zip(&pair) {
-                            *x += p;
-                        }
-                    }
-                    for t in 0..q {
-                        let (za, zj) = (sh.zt[t * m + a], sh.zt[t * m + j]);
-                        let c2 = twice * za * zj;
-                        for (x, p) in zwz[t * len..(t + 1) * len].iter_mut().zip(&pair) {
-                            *x += c2 * p;
-                        }
-                        // −Σ_k a_t W_k[a, j] z_j (and its mirror) of ∂/∂Z.
-                        let d = dot(&lanes.a[t * len..(t + 1) * len], &pair);
-                        out.d_z[a * q + t] -= zj * d;
-                        if a != j {
-                            out.d_z[j * q + t] -= za * d;
-                        }
-                    }
-                }
-            }
-            // Per frame: s = Σ r, and per dimension rᵀz, rᵀz² (vectorised over frames).
-            let mut s_tot = vec![0.0; len];
-            for a in 0..m {
-                for (x, v) in s_tot.iter_mut().zip(&r[a * len..(a + 1) * len]) {
-                    *x += v;
-                }
-            }
-            for x in &s_tot {
-                out.d_variance += 2.0 * x / sh.variance;
-            }
-            let (mut rz, mut rzz) = (vec![0.0; len], vec![0.0; len]);
-            for t in 0..q {
-                rz.iter_mut().for_each(|v| *v = 0.0);
-                rzz.iter_mut().for_each(|v| *v = 0.0);
-                for a in 0..m {
-                    let (za, za2) = (sh.zt[t * m + a], sh.zt2[t * m + a]);
-                    let ra = &r[a * len..(a + 1) * len];
-                    for k in 0..len {
-                        rz[k] += ra[k] * za;
-                        rzz[k] += ra[k] * za2;
-                    }
-                }
-                let zwz = &zwz[t * len..(t + 1) * len];
-                let (at, mu_t, s_t) = (
-                    &lanes.a[t * len..(t + 1) * len],
-                    &lanes.mu[t * len..(t + 1) * len],
-                    &lanes.s[t * len..(t + 1) * len],
-                );
-                for k in 0..lanes.len {
-                    let (a, mt, st, sk) = (at[k], mu_t[k], s_t[k], s_tot[k]);
-                    // Σ W (μ − z̄)².
-                    let p = mt * mt * sk - 2.0 * mt * rz[k] + 0.5 * rzz[k] + 0.5 * zwz[k];
-                    dm[k * q + t] -= 2.0 * a * (mt * sk - rz[k]);
-                    ds[k * q + t] += 2.0 * a * a * p - a * sk;
-                    out.d_u[t] += sk * st / (u[t] * (u[t] + 2.0 * st)) + a * a * p;
-                }
-                // ∂/∂z_jt += Σ_k a_k (2μ_k − z_jt) r_k[j] (the W z part was added pair by pair).
-                let mut am = vec![0.0; len];
-                for k in 0..len {
-                    am[k] = 2.0 * at[k] * mu_t[k];
-                }
-                for j in 0..m {
-                    let zj = sh.zt[t * m + j];
-                    let rj = &r[j * len..(j + 1) * len];
-                    out.d_z[j * q + t] += dot(&am, rj) - zj * dot(at, rj);
-                }
-            }
+            chain.psi1_block(start, len, dm, ds, &mut out);
+            chain.psi2_block(start, len, dm, ds, &mut out);
             out
         },
     );
+    drop(chunks);
+    finish_chain(&chain.sh, kern, parts, g0 * n as f64, d_mean, d_var)
+}
+
+/// [`psi_chain`]'s end: the blocks' sums added in order, then the frame-independent terms
+/// (W̄'s Δ² and Δ), and ∂/∂ℓ from ∂/∂u.
+fn finish_chain(
+    sh: &Shared,
+    kern: &KernelParams,
+    parts: Vec<BlockGrad>,
+    d_psi0: f64,
+    d_mean: Vec<f64>,
+    d_var: Vec<f64>,
+) -> PsiGrad {
+    let (m, q, u) = (sh.m, sh.q, &sh.u);
     let mut d_z = vec![0.0; m * q];
-    let mut d_variance = g0 * n as f64;
+    let mut d_variance = d_psi0;
     let mut d_u = vec![0.0; q];
     let mut w_sum = vec![0.0; m * m];
     for part in parts {
