@@ -238,7 +238,22 @@ pub(crate) fn eval_bayes_space(
     out.d_z = pg.d_z;
     out.d_variance = pg.d_variance;
     out.d_lengthscale = pg.d_lengthscale;
-    // K_mm's share: k(Z, Z) = α² exp(−½ Σ Δ²/u).
+    add_kmm_share(&mut out, gk.as_ref(), kz.as_ref(), zr, kern, jitter);
+    Ok(out)
+}
+
+/// Adds K_mm's share of the gradient, given `gk = ∂L/∂K_mm` and `kz = k(Z, Z)` (without the
+/// jitter): `k(Z, Z) = α² exp(−½ Σ Δ²/u)` gives ∂/∂α², ∂/∂ℓ and ∂/∂Z; a relative jitter adds
+/// its own ∂/∂α².
+fn add_kmm_share(
+    out: &mut BayesSpaceEval,
+    gk: MatRef<'_, f64>,
+    kz: MatRef<'_, f64>,
+    zr: &[f64],
+    kern: &KernelParams,
+    jitter: Jitter,
+) {
+    let (m, q) = (kz.nrows(), kern.lengthscale.len());
     let mut weighted = 0.0;
     for a in 0..m {
         for bb in 0..m {
@@ -260,7 +275,6 @@ pub(crate) fn eval_bayes_space(
     if let Jitter::Relative(c) = jitter {
         out.d_variance += c * (0..m).map(|i| gk[(i, i)]).sum::<f64>();
     }
-    Ok(out)
 }
 
 /// `KL(q(X) ‖ N(0, I)) = ½ Σ (μ² + S − log S − 1)`, and its gradient added to `d_mean`,
