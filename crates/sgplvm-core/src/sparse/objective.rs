@@ -514,7 +514,9 @@ impl SharedGplvm {
         let mut g = vec![0.0; theta.len()];
         let (f, _) = obj.eval_full(&theta, &mut g)?;
         let q = self.q();
-        let (ll, zl) = (obj.latent_len(), obj.var_len() + obj.z_len());
+        // The kernels' block follows the latent one, q(X)'s variances (Bayesian) and Z, whose
+        // gradients `Params` has no place for.
+        let (ll, skipped) = (obj.latent_len(), obj.var_len() + obj.z_len());
         let r = ll / q;
         let lat_g = Mat::from_fn(r, q, |i, j| g[j * r + i]);
         let latent = match &self.latent {
@@ -525,7 +527,7 @@ impl SharedGplvm {
             },
         };
         let mut spaces = Vec::new();
-        let mut off = ll + zl;
+        let mut off = ll + skipped;
         for s in &self.spaces {
             let t = &g[off..off + q + 2];
             spaces.push((
