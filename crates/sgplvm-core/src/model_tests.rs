@@ -4,7 +4,7 @@
 use crate::test_support::*;
 
 #[test]
-fn bad_input_is_a_typed_error() {
+fn bad_training_input_is_a_typed_error() {
     let (h, r1, _, _) = demo(20, 0);
     let cfg = ModelConfig::default().with_latent_dim(2);
     let o = quick(2);
@@ -98,8 +98,26 @@ fn bad_input_is_a_typed_error() {
         ),
         Err(Error::InvalidValue { .. })
     ));
+}
 
-    let m = fit(&[("human", h.as_ref()), ("r", r1.as_ref())], "human", &cfg).expect("fit");
+#[test]
+fn misuse_of_a_trained_model_is_a_typed_error() {
+    let (h, r1, _, _) = demo(20, 0);
+    let cfg = ModelConfig::default().with_latent_dim(2);
+    let o = quick(2);
+    let mut nan = r1.clone();
+    nan[(3, 2)] = f64::NAN;
+    let mut inf = h.clone();
+    inf[(0, 0)] = f64::INFINITY;
+    let short = r1.subrows(0, 10).to_owned();
+    let m = SharedGplvm::fit(
+        &cfg,
+        &[("human", h.as_ref()), ("r", r1.as_ref())],
+        "human",
+        &o,
+        None,
+    )
+    .expect("fit");
     assert!(matches!(
         m.predict(h.as_ref(), "coman", false),
         Err(Error::NotAnOutput { .. })

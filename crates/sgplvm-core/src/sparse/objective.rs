@@ -216,93 +216,11 @@ impl<'a> SparseObjective<'a> {
         }
         let owned_z = (zl > 0).then(|| rows_of_col_major(&theta[ll + vl..ll + vl + zl], q));
         let zr = owned_z.as_deref().unwrap_or(&st.z_rows);
-        let evaluated = self.evaluated();
-        let mut kernels = Vec::with_capacity(evaluated.len());
-        for (i, &s) in evaluated.iter().enumerate() {
-            let off = ll + vl + zl + i * (q + 2);
-            let k = decode_kernel(&theta[off..off + q + 2], q);
-            if !k.is_valid() {
-                return Err(Error::InvalidValue {
-                    what: format!("kernel of '{}'", m.spaces[s].name),
-                    reason: "overflow".into(),
-                });
-            }
-            kernels.push(k);
-        }
-        let with_x = ll > 0;
-        let with_z = zl > 0;
-        let one = |((&s, k), work): ((&usize, &KernelParams), &mut SparseWork)| {
-            let space = &m.spaces[s];
-            let named = |e: crate::likelihood::NotPd| e.in_space(&space.name);
-            if bayes {
-                let e = eval_bayes_space(
-                    xr,
-                    sr,
-                    zr,
-                    q,
-                    space.data.as_ref(),
-                    k,
-                    Jitter::Relative(RELATIVE_JITTER),
-                    true,
-                )
-                .map_err(named)?;
-                return Ok(SpaceTerms {
-                    nll: e.nll,
-                    d_variance: e.d_variance,
-                    d_lengthscale: e.d_lengthscale,
-                    d_noise: e.d_noise,
-                    dx: if with_x { e.d_mean } else { Vec::new() },
-                    ds: if vl > 0 { e.d_var } else { Vec::new() },
-                    dz: if with_z { e.d_z } else { Vec::new() },
-                });
-            }
-            let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
-            let mut dz = vec![0.0; if with_z { zl } else { 0 }];
-            let e = eval_sparse_space_in(
-                xr,
-                zr,
-                q,
-                space.data.as_ref(),
-                k,
-                RELATIVE_JITTER,
-                true,
-                with_x.then_some(&mut dx[..]),
-                with_z.then_some(&mut dz[..]),
-                work,
-            )
-            .map_err(named)?;
-            Ok(SpaceTerms {
-                nll: e.nll,
-                d_variance: e.d_variance,
-                d_lengthscale: e.d_lengthscale,
-                d_noise: e.d_noise,
-                dx,
-                ds: Vec::new(),
-                dz,
-            })
-        };
-        let mut guard = lock(&self.works);
-        let works: &mut Vec<SparseWork> = &mut guard;
-        let results: Vec<Result<SpaceTerms>> = if n >= PARALLEL_FROM {
-            in_pool(|| {
-                evaluated
-                    .par_iter()
-                    .zip(kernels.par_iter())
-                    .zip(works.par_iter_mut())
-                    .map(one)
-                    .collect()
-            })
-        } else {
-            evaluated
-                .iter()
-                .zip(kernels.iter())
-                .zip(works.iter_mut())
-                .map(one)
-                .collect()
-        };
-        drop(guard);
+        let kernels = self.decode_kernels(&theta[ll + vl + zl..])?;
+        let inputs = Inputs { xr, sr, zr, bayes };
+        let results = self.evaluate_spaces(&inputs, &kernels);
         let mut total = self.constant;
-        let mut dx = vec![0.0; if with_x { n * q } else { 0 }];
+        let mut dx = vec![0.0; if ll > 0 { n * q } else { 0 }];
         let mut ds = vec![0.0; vl];
         let mut dz = vec![0.0; zl];
         for (i, (r, k)) in results.into_iter().zip(&kernels).enumerate() {
@@ -323,6 +241,136 @@ impl<'a> SparseObjective<'a> {
             // Full mode trains the means and the variances: both gradients are there.
             total += kl_divergence(xr, sr, Some((&mut dx, &mut ds)));
         }
+        self.write_latent_gradient(&dx, &ds, sr, &dz, grad);
+        Ok((total, dx))
+    }
+
+    /// The evaluated spaces' kernels from their block of θ (`block` starts at the first).
+    fn decode_kernels(&self, block: &[f64]) -> Result<Vec<KernelParams>> {
+        let q = self.model.q();
+        self.evaluated()
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| {
+                let k = decode_kernel(&block[i * (q + 2)..(i + 1) * (q + 2)], q);
+                match k.is_valid() {
+                    true => Ok(k),
+                    false => Err(Error::InvalidValue {
+                        what: format!("kernel of '{}'", self.model.spaces[s].name),
+                        reason: "overflow".into(),
+                    }),
+                }
+            })
+            .collect()
+    }
+
+    /// Every evaluated space's bound and gradients, on the pool's threads from
+    /// [`PARALLEL_FROM`] frames.
+    fn evaluate_spaces(
+        &self,
+        inputs: &Inputs<'_>,
+        kernels: &[KernelParams],
+    ) -> Vec<Result<SpaceTerms>> {
+        let evaluated = self.evaluated();
+        let one = |((&s, k), work): ((&usize, &KernelParams), &mut SparseWork)| {
+            self.space_terms(s, k, inputs, work)
+        };
+        let mut guard = lock(&self.works);
+        let works: &mut Vec<SparseWork> = &mut guard;
+        if self.model.n() >= PARALLEL_FROM {
+            in_pool(|| {
+                evaluated
+                    .par_iter()
+                    .zip(kernels.par_iter())
+                    .zip(works.par_iter_mut())
+                    .map(one)
+                    .collect()
+            })
+        } else {
+            evaluated
+                .iter()
+                .zip(kernels.iter())
+                .zip(works.iter_mut())
+                .map(one)
+                .collect()
+        }
+    }
+
+    /// Space `s`'s share: the Bayesian bound or the point model's sparse bound, with the
+    /// gradients θ holds (latent, variances, Z).
+    fn space_terms(
+        &self,
+        s: usize,
+        k: &KernelParams,
+        inputs: &Inputs<'_>,
+        work: &mut SparseWork,
+    ) -> Result<SpaceTerms> {
+        let space = &self.model.spaces[s];
+        let q = self.model.q();
+        let named = |e: crate::likelihood::NotPd| e.in_space(&space.name);
+        let (with_x, with_var, with_z) =
+            (self.latent_len() > 0, self.var_len() > 0, self.z_len() > 0);
+        if inputs.bayes {
+            let e = eval_bayes_space(
+                inputs.xr,
+                inputs.sr,
+                inputs.zr,
+                q,
+                space.data.as_ref(),
+                k,
+                Jitter::Relative(RELATIVE_JITTER),
+                true,
+            )
+            .map_err(named)?;
+            return Ok(SpaceTerms {
+                nll: e.nll,
+                d_variance: e.d_variance,
+                d_lengthscale: e.d_lengthscale,
+                d_noise: e.d_noise,
+                dx: if with_x { e.d_mean } else { Vec::new() },
+                ds: if with_var { e.d_var } else { Vec::new() },
+                dz: if with_z { e.d_z } else { Vec::new() },
+            });
+        }
+        let mut dx = vec![0.0; if with_x { self.model.n() * q } else { 0 }];
+        let mut dz = vec![0.0; self.z_len()];
+        let e = eval_sparse_space_in(
+            inputs.xr,
+            inputs.zr,
+            q,
+            space.data.as_ref(),
+            k,
+            RELATIVE_JITTER,
+            true,
+            with_x.then_some(&mut dx[..]),
+            with_z.then_some(&mut dz[..]),
+            work,
+        )
+        .map_err(named)?;
+        Ok(SpaceTerms {
+            nll: e.nll,
+            d_variance: e.d_variance,
+            d_lengthscale: e.d_lengthscale,
+            d_noise: e.d_noise,
+            dx,
+            ds: Vec::new(),
+            dz,
+        })
+    }
+
+    /// Writes the row-major gradients of the latent points `dx`, of q(X)'s variances `ds`
+    /// (as ∂/∂log S, `sr` the variances) and of Z `dz` into θ's column-major blocks; the
+    /// latent block through the back constraint when there is one.
+    fn write_latent_gradient(
+        &self,
+        dx: &[f64],
+        ds: &[f64],
+        sr: &[f64],
+        dz: &[f64],
+        grad: &mut [f64],
+    ) {
+        let (n, q) = (self.model.n(), self.model.q());
+        let (ll, vl, zl) = (self.latent_len(), self.var_len(), self.z_len());
         if vl > 0 {
             // ∂/∂log S = S ∂/∂S.
             let nr = vl / q;
@@ -332,7 +380,7 @@ impl<'a> SparseObjective<'a> {
                 }
             }
         }
-        if with_z {
+        if zl > 0 {
             let mz = zl / q;
             for j in 0..q {
                 for i in 0..mz {
@@ -340,32 +388,26 @@ impl<'a> SparseObjective<'a> {
                 }
             }
         }
-        if with_x {
-            let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
-            match &self.kcn {
-                Some(kcn) => {
-                    let r = kcn.nrows();
-                    let out = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], r, q);
-                    faer::linalg::matmul::matmul(
-                        out,
-                        Accum::Replace,
-                        kcn.as_ref(),
-                        dxm.as_ref(),
-                        1.0,
-                        Par::Seq,
-                    );
-                    clear_upper_simd_state();
-                }
-                None => {
-                    for j in 0..q {
-                        for i in 0..n {
-                            grad[j * n + i] = dxm[(i, j)];
-                        }
+        if ll == 0 {
+            return;
+        }
+        let dxm = Mat::from_fn(n, q, |i, j| dx[i * q + j]);
+        match &self.kcn {
+            Some(kcn) => {
+                let r = kcn.nrows();
+                let out = faer::MatMut::from_column_major_slice_mut(&mut grad[..ll], r, q);
+                let (a, b) = (kcn.as_ref(), dxm.as_ref());
+                faer::linalg::matmul::matmul(out, Accum::Replace, a, b, 1.0, Par::Seq);
+                clear_upper_simd_state();
+            }
+            None => {
+                for j in 0..q {
+                    for i in 0..n {
+                        grad[j * n + i] = dxm[(i, j)];
                     }
                 }
             }
         }
-        Ok((total, dx))
     }
 
     /// Latent points row-major from the latent block of θ.
@@ -390,6 +432,16 @@ impl<'a> SparseObjective<'a> {
             None => row_major(lat),
         }
     }
+}
+
+/// What every space's evaluation reads, row-major: the latent points (or q(X)'s means), q(X)'s
+/// variances (empty for the point model) and Z.
+struct Inputs<'x> {
+    xr: &'x [f64],
+    sr: &'x [f64],
+    zr: &'x [f64],
+    /// Whether the model is Bayesian.
+    bayes: bool,
 }
 
 /// One space's share of an evaluation: its term, its kernel's derivatives and its derivatives
