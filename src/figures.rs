@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use sgplvm_core::{BackConstraint, SharedGplvm};
 
-use crate::experiment::{ModelKind, Results, RunRecord};
+use crate::results::{ModelKind, Results, RunRecord};
 use sgplvm_robots::dataset::Dataset;
 use sgplvm_robots::series::seconds_from_ns;
 

@@ -14,12 +14,12 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{BackConstraint, GpRegression, Mat, MatRef, SharedGplvm, Validation};
 
-use super::all_frames::{self, AllFrames, AllFramesRecord};
+use super::all_frames;
 use super::less_data::{rows_of, subset};
 use super::{
-    fit, mean_squared_error, model_config, stages, stop_reason, validation, DirectRecord,
-    ExperimentConfig, ExperimentData, ExperimentError, LessDataRecord, ModelKind, Recorder,
-    Results, RunRecord, SplitData,
+    fit, mean_squared_error, model_config, stages, stop_reason, validation, AllFrames,
+    AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData, ExperimentError,
+    LessDataRecord, ModelKind, Recorder, Results, RunRecord, SplitData,
 };
 
 /// What one task trains. Robots are indices into [`ExperimentData::robots`], fractions into

@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use sgplvm_core::BackConstraint;
 
-use super::{AllFramesRecord, ModelKind, Results, RunRecord, Shipped};
+use crate::results::{AllFramesRecord, ModelKind, Results, RunRecord, Shipped};
 use crate::stats::{self, Bootstrap, Interval, StatsError};
 
 /// Runs per model below which the report shows its statistics but judges no claim (a bootstrap
@@ -996,8 +996,8 @@ mod tests {
     //! are known. Differences that are the same in every pair have a degenerate bootstrap
     //! interval (every resample has the same mean), so their intervals are known exactly.
 
-    use super::super::{AllFramesRecord, DirectRecord, ExperimentConfig, LessDataRecord};
     use super::*;
+    use crate::results::{AllFramesRecord, DirectRecord, ExperimentConfig, LessDataRecord};
 
     const RUNS: usize = 10;
 
