@@ -28,9 +28,9 @@ pub struct ExperimentConfig {
     #[serde(default = "default_direct_max_iters")]
     pub direct_max_iters: usize,
     /// `Some(p)`: every training chooses its iteration budget on the held-out training frames
-    /// ([`ExperimentData::validation`]) with patience `p`, as `train` does by default; `None`:
-    /// the paper's fixed budgets (`max_iters`, `transfer_max_iters`). Results written before
-    /// validation existed read as `None`.
+    /// ([`ExperimentData::validation`](crate::pipeline::ExperimentData::validation)) with
+    /// patience `p`, as `train` does by default; `None`: the paper's fixed budgets (`max_iters`,
+    /// `transfer_max_iters`). Results written before validation existed read as `None`.
     #[serde(default)]
     pub patience: Option<usize>,
     /// Fractions of the training frames of the less-data study (Fig. 9); empty: not run (and
@@ -44,7 +44,8 @@ pub struct ExperimentConfig {
     #[serde(default)]
     pub max_seconds: Option<f64>,
     /// `Some(M)`: the all-frames study — per run and robot, the sparse model with M inducing
-    /// inputs trained on every training frame ([`ExperimentData::all_frames`]) beside the
+    /// inputs trained on every training frame
+    /// ([`ExperimentData::all_frames`](crate::pipeline::ExperimentData::all_frames)) beside the
     /// subsampled exact baseline. `None`: not run (and in results written before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inducing: Option<usize>,

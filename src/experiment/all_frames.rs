@@ -4,10 +4,11 @@
 //! demonstrations keep every 40 Hz frame and mark every 12th frame of the training motions as
 //! the training set. With [`ExperimentConfig::inducing`] set, the experiment also trains, for
 //! each run and robot, the sparse model (M inducing inputs, Titsias' bound) on *every* frame of
-//! the training motions ([`AllFrames`]), with the same seed, latent dimension, iteration budget
-//! and budget selection as the subsampled exact baseline of that run, and records its test error
-//! on the same test frames ([`AllFramesRecord`]). The report sets the two side by side, paired
-//! by run.
+//! the training motions ([`AllFrames`](crate::pipeline::AllFrames)), with the same seed, latent
+//! dimension, iteration budget and budget selection as the subsampled exact baseline of that
+//! run, and records its test error on the same test frames
+//! ([`AllFramesRecord`](crate::results::AllFramesRecord)). The report sets the two side by side,
+//! paired by run.
 //!
 //! Settings covered ([`BACK_CONSTRAINTS`]): fully trained human + robot models with input back
 //! constraints (M back-constraint centres), the paper's recommended setting. The iteration
