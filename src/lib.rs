@@ -24,4 +24,5 @@ pub mod figures;
 pub mod files;
 pub mod pipeline;
 pub mod plots;
+pub mod results;
 pub mod stats;

@@ -10,7 +10,7 @@ use sgplvm_core::{
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset, ValidationSplit};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
-use crate::experiment::{mean_squared_error, AllFrames, ExperimentData, ModelKind, SplitData};
+use crate::results::ModelKind;
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
@@ -76,6 +76,58 @@ pub enum PipelineError {
         /// `training` or `test`.
         split: &'static str,
     },
+}
+
+/// Training and test matrices of one observation space (rows are frames).
+#[derive(Debug, Clone)]
+pub struct SplitData {
+    /// Training frames.
+    pub train: Mat<f64>,
+    /// Test frames.
+    pub test: Mat<f64>,
+}
+
+/// The human input and every robot, split into training and test frames.
+#[derive(Debug, Clone)]
+pub struct ExperimentData {
+    /// Name of the input space (the human).
+    pub input_name: String,
+    /// The human joint angles.
+    pub human: SplitData,
+    /// The robots' joint commands, by name.
+    pub robots: Vec<(String, SplitData)>,
+    /// Rows of the training matrices held out to choose each training's iteration budget
+    /// (see [`ExperimentConfig::patience`](crate::results::ExperimentConfig::patience)).
+    pub validation: Vec<usize>,
+    /// The training frames at full rate, for the all-frames study
+    /// ([`ExperimentConfig::inducing`](crate::results::ExperimentConfig::inducing)); `None` when it is not run.
+    pub all_frames: Option<AllFrames>,
+}
+
+/// The training frames at full rate: every frame of the training motions (test frames are the
+/// experiment's usual ones).
+#[derive(Debug, Clone)]
+pub struct AllFrames {
+    /// The human's frames.
+    pub human: Mat<f64>,
+    /// Every robot's frames, in the order of [`ExperimentData::robots`].
+    pub robots: Vec<Mat<f64>>,
+    /// Rows held out to choose the iteration budget (the same motions as
+    /// [`ExperimentData::validation`] holds out of the subsampled frames).
+    pub validation: Vec<usize>,
+}
+
+/// Mean squared error between two matrices of the same shape.
+pub fn mean_squared_error(predicted: MatRef<'_, f64>, desired: MatRef<'_, f64>) -> f64 {
+    let n = (predicted.nrows() * predicted.ncols()).max(1);
+    let mut sum = 0.0;
+    for j in 0..predicted.ncols() {
+        for i in 0..predicted.nrows() {
+            let d = predicted[(i, j)] - desired[(i, j)];
+            sum += d * d;
+        }
+    }
+    sum / n as f64
 }
 
 /// A dataset and a name for it in messages.

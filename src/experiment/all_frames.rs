@@ -4,10 +4,11 @@
 //! demonstrations keep every 40 Hz frame and mark every 12th frame of the training motions as
 //! the training set. With [`ExperimentConfig::inducing`] set, the experiment also trains, for
 //! each run and robot, the sparse model (M inducing inputs, Titsias' bound) on *every* frame of
-//! the training motions ([`AllFrames`]), with the same seed, latent dimension, iteration budget
-//! and budget selection as the subsampled exact baseline of that run, and records its test error
-//! on the same test frames ([`AllFramesRecord`]). The report sets the two side by side, paired
-//! by run.
+//! the training motions ([`AllFrames`](crate::pipeline::AllFrames)), with the same seed, latent
+//! dimension, iteration budget and budget selection as the subsampled exact baseline of that
+//! run, and records its test error on the same test frames
+//! ([`AllFramesRecord`](crate::results::AllFramesRecord)). The report sets the two side by side,
+//! paired by run.
 //!
 //! Settings covered ([`BACK_CONSTRAINTS`]): fully trained human + robot models with input back
 //! constraints (M back-constraint centres), the paper's recommended setting. The iteration
@@ -19,55 +20,12 @@
 //! transfer's budget on held-out frames is not supported by the core, and a fixed budget would
 //! not be compared like for like) and multi-robot models.
 
-use serde::{Deserialize, Serialize};
-use sgplvm_core::{BackConstraint, Mat};
+use sgplvm_core::BackConstraint;
 
 use super::{ExperimentConfig, ExperimentData, ExperimentError};
 
 /// The back constraints of the all-frames study: the ones the sparse model supports.
 pub(super) const BACK_CONSTRAINTS: [BackConstraint; 1] = [BackConstraint::Input];
-
-/// The training frames at full rate: every frame of the training motions (test frames are the
-/// experiment's usual ones).
-#[derive(Debug, Clone)]
-pub struct AllFrames {
-    /// The human's frames.
-    pub human: Mat<f64>,
-    /// Every robot's frames, in the order of [`super::ExperimentData::robots`].
-    pub robots: Vec<Mat<f64>>,
-    /// Rows held out to choose the iteration budget (the same motions as
-    /// [`super::ExperimentData::validation`] holds out of the subsampled frames).
-    pub validation: Vec<usize>,
-}
-
-/// One sparse model trained on every training frame.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct AllFramesRecord {
-    /// The robot.
-    pub robot: String,
-    /// The back constraint: `input` (the only one the study trains; see the module docs).
-    pub back_constraint: String,
-    /// Run (seed) index: the exact baseline of the same run shares its seed.
-    pub run: usize,
-    /// `true`: trained on every training frame; `false`: the control, the sparse model on the
-    /// subsampled training frames of the exact baseline.
-    pub full_rate: bool,
-    /// Training frames used.
-    pub frames: usize,
-    /// Training frames of the exact baseline it is compared with (the subsample).
-    pub subsampled_frames: usize,
-    /// Inducing inputs M.
-    pub inducing: usize,
-    /// Iteration of the final training at which the shipped parameters were reached.
-    pub iteration: usize,
-    /// Training seconds (budget selection included).
-    pub seconds: f64,
-    /// Test MSE (rad²).
-    pub test_mse: f64,
-    /// Why the final training stopped (`time_limit`: cut short by `--max-seconds`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stop_reason: Option<String>,
-}
 
 /// Checks, before anything is trained, that the study can run on `data`: the full-rate frames
 /// are there, and M fits the smallest training set of the study (the control's subsampled

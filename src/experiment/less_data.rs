@@ -9,31 +9,9 @@
 //! frames ([`SharedGplvm::transfer_partial`]). Budgets are chosen on the held-out training frames
 //! among them, as everywhere else in the experiment.
 
-use serde::{Deserialize, Serialize};
 use sgplvm_core::{Mat, MatRef};
 
-use super::{ExperimentConfig, ModelKind};
-
-/// One model of the less-data study.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct LessDataRecord {
-    /// The robot whose test error is recorded.
-    pub robot: String,
-    /// Fraction of the training frames used.
-    pub fraction: f64,
-    /// Training frames used.
-    pub frames: usize,
-    /// [`ModelKind::Baseline`] (trained on those frames alone) or [`ModelKind::Transfer`]
-    /// (from `source_robot`'s model of the same run, trained on all frames).
-    pub model: ModelKind,
-    /// Run (seed) index.
-    pub run: usize,
-    /// For transfers, the robot of the source model.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub source_robot: Option<String>,
-    /// Test MSE (rad²).
-    pub test_mse: f64,
-}
+use super::ExperimentConfig;
 
 /// About `fraction` of `n` training positions, evenly spaced: position p is kept when
 /// ⌊(p + 1)·f⌋ > ⌊p·f⌋ (all of them for f ≥ 1).

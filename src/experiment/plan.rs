@@ -7,20 +7,25 @@
 //! `sgplvm.ray`) runs them as tasks and gets bit-identical records (all but the measured
 //! seconds) because the same code trains the same model from the same inputs. Tasks, their
 //! records and the data travel as JSON ([`Task`], [`TaskResult`], [`ExperimentData::to_json`]),
-//! models as their own bytes ([`SharedGplvm::to_bytes`]).
-
-use std::time::Instant;
+//! models as their own bytes ([`SharedGplvm::to_bytes`](sgplvm_core::SharedGplvm::to_bytes)).
+//!
+//! This file writes the plan and assembles the records; performing a task is in `execution`,
+//! the data's JSON form in `json`.
 
 use serde::{Deserialize, Serialize};
-use sgplvm_core::{BackConstraint, GpRegression, Mat, MatRef, SharedGplvm, Validation};
+use sgplvm_core::BackConstraint;
 
-use super::all_frames::{self, AllFrames, AllFramesRecord};
-use super::less_data::{rows_of, subset};
+use super::all_frames;
+use super::less_data::subset;
 use super::{
-    fit, mean_squared_error, model_config, stages, stop_reason, validation, DirectRecord,
-    ExperimentConfig, ExperimentData, ExperimentError, LessDataRecord, ModelKind, Recorder,
-    Results, RunRecord, SplitData,
+    stages, AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData, ExperimentError,
+    LessDataRecord, Results, RunRecord,
 };
+
+mod execution;
+mod json;
+
+pub use execution::execute;
 
 /// What one task trains. Robots are indices into [`ExperimentData::robots`], fractions into
 /// [`ExperimentConfig::fractions`].
@@ -136,15 +141,75 @@ pub struct TaskResult {
 
 /// Every task of the experiment on `data`, in the order the serial run performs them.
 pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
-    let robots: Vec<&String> = data.robots.iter().map(|(n, _)| n).collect();
-    let frames = data.human.train.nrows();
-    let n = robots.len();
-    let stage_names: Vec<String> = stages(config, n).into_iter().map(|s| s.name).collect();
-    let stage_of = |name: &str| stage_names.iter().position(|s| s == name).unwrap_or(0);
-    let mut tasks: Vec<Task> = Vec::new();
-    let mut push = |stage: usize, context: String, spec, source, keep_model| {
-        let id = tasks.len();
-        tasks.push(Task {
+    let mut planner = Planner::new(config, data);
+    planner.direct();
+    // Input-back-constrained baselines by (run, robot): the less-data transfers' sources.
+    let mut input_sources = vec![vec![0; planner.robots.len()]; config.runs];
+    for bc in BackConstraint::ALL {
+        let is_source = bc != BackConstraint::Output; // Fig. 6 compares fully trained models only.
+        let sources = planner.baselines(bc, is_source);
+        if !is_source {
+            continue;
+        }
+        planner.transfers(bc, &sources);
+        planner.multi(bc);
+        if bc == BackConstraint::Input {
+            input_sources = sources;
+        }
+    }
+    if !config.fractions.is_empty() {
+        planner.less_data(&input_sources);
+    }
+    if let Some(m) = config.inducing {
+        planner.all_frames(m, data);
+    }
+    planner.tasks
+}
+
+/// The plan being written: the tasks so far, and what they are named and grouped by.
+struct Planner<'a> {
+    config: &'a ExperimentConfig,
+    /// The robots' names.
+    robots: Vec<&'a String>,
+    /// Training frames (subsampled).
+    frames: usize,
+    /// The names of the [`stages`], in order.
+    stage_names: Vec<String>,
+    tasks: Vec<Task>,
+}
+
+impl<'a> Planner<'a> {
+    fn new(config: &'a ExperimentConfig, data: &'a ExperimentData) -> Self {
+        let robots: Vec<&String> = data.robots.iter().map(|(n, _)| n).collect();
+        let stage_names = stages(config, robots.len())
+            .into_iter()
+            .map(|s| s.name)
+            .collect();
+        Planner {
+            config,
+            robots,
+            frames: data.human.train.nrows(),
+            stage_names,
+            tasks: Vec::new(),
+        }
+    }
+
+    /// The index of the stage called `name`.
+    fn stage_of(&self, name: &str) -> usize {
+        self.stage_names.iter().position(|s| s == name).unwrap_or(0)
+    }
+
+    /// Appends a task; returns its id.
+    fn push(
+        &mut self,
+        stage: usize,
+        context: String,
+        spec: TaskSpec,
+        source: Option<usize>,
+        keep_model: bool,
+    ) -> usize {
+        let id = self.tasks.len();
+        self.tasks.push(Task {
             id,
             stage,
             context,
@@ -153,26 +218,31 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
             keep_model,
         });
         id
-    };
-    let direct = stage_of("direct GP regression H → R");
-    for (r, robot) in robots.iter().enumerate() {
-        push(
-            direct,
-            format!("direct GP regression H → {robot}"),
-            TaskSpec::Direct { robot: r },
-            None,
-            false,
-        );
     }
-    // Input-back-constrained baselines by (run, robot): the less-data transfers' sources.
-    let mut input_sources = vec![vec![0; n]; config.runs];
-    for bc in BackConstraint::ALL {
-        let is_source = bc != BackConstraint::Output; // Fig. 6 compares fully trained models only.
-        let stage = stage_of(&format!("baselines, {bc} BC"));
-        let mut sources = vec![vec![0; n]; config.runs];
+
+    /// The direct GP regression of every robot.
+    fn direct(&mut self) {
+        let direct = self.stage_of("direct GP regression H → R");
+        for (r, robot) in self.robots.clone().into_iter().enumerate() {
+            self.push(
+                direct,
+                format!("direct GP regression H → {robot}"),
+                TaskSpec::Direct { robot: r },
+                None,
+                false,
+            );
+        }
+    }
+
+    /// The fully trained models with back constraint `bc`, by run and robot; their ids by
+    /// (run, robot). `is_source`: later tasks start from them.
+    fn baselines(&mut self, bc: BackConstraint, is_source: bool) -> Vec<Vec<usize>> {
+        let stage = self.stage_of(&format!("baselines, {bc} BC"));
+        let robots = self.robots.clone();
+        let mut sources = vec![vec![0; robots.len()]; self.config.runs];
         for (run, ids) in sources.iter_mut().enumerate() {
             for (r, robot) in robots.iter().enumerate() {
-                ids[r] = push(
+                ids[r] = self.push(
                     stage,
                     format!("baseline {robot}, {bc} back constraints, run {run}"),
                     TaskSpec::Baseline {
@@ -185,18 +255,22 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                 );
             }
         }
-        if !is_source {
-            continue;
-        }
-        let stage = stage_of(&format!("transfers, {bc} BC"));
+        sources
+    }
+
+    /// The transfers from each baseline of `sources` (by run and robot) to every other robot.
+    fn transfers(&mut self, bc: BackConstraint, sources: &[Vec<usize>]) {
+        let stage = self.stage_of(&format!("transfers, {bc} BC"));
+        let robots = self.robots.clone();
+        let transfers_per_run = self.config.transfers_per_run;
         for (run, ids) in sources.iter().enumerate() {
             for (s, source_name) in robots.iter().enumerate() {
                 for (t, target) in robots.iter().enumerate() {
                     if t == s {
                         continue;
                     }
-                    for k in 0..config.transfers_per_run {
-                        push(
+                    for k in 0..transfers_per_run {
+                        self.push(
                             stage,
                             format!(
                                 "transfer {source_name} → {target}, {bc} back constraints, run {run}.{k}"
@@ -206,7 +280,7 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                                 source_run: run,
                                 source: s,
                                 target: t,
-                                run: run * config.transfers_per_run + k,
+                                run: run * transfers_per_run + k,
                             },
                             Some(ids[s]),
                             false,
@@ -215,9 +289,13 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                 }
             }
         }
-        let stage = stage_of(&format!("multi-robot, {bc} BC"));
-        for run in 0..config.runs {
-            push(
+    }
+
+    /// The multi-robot models with back constraint `bc`, one per run.
+    fn multi(&mut self, bc: BackConstraint) {
+        let stage = self.stage_of(&format!("multi-robot, {bc} BC"));
+        for run in 0..self.config.runs {
+            self.push(
                 stage,
                 format!("multi-robot, {bc} back constraints, run {run}"),
                 TaskSpec::Multi {
@@ -228,20 +306,23 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                 false,
             );
         }
-        if bc == BackConstraint::Input {
-            input_sources = sources;
-        }
     }
-    if !config.fractions.is_empty() {
-        let stage = stage_of("less data, input BC");
-        for (f, &fraction) in config.fractions.iter().enumerate() {
+
+    /// The less-data study: per fraction, run and robot, the robot trained on the fraction alone
+    /// and transferred to from each other robot's input-back-constrained baseline
+    /// (`input_sources`, by run and robot).
+    fn less_data(&mut self, input_sources: &[Vec<usize>]) {
+        let stage = self.stage_of("less data, input BC");
+        let robots = self.robots.clone();
+        let frames = self.frames;
+        for (f, &fraction) in self.config.fractions.iter().enumerate() {
             for (run, ids) in input_sources.iter().enumerate() {
                 for (t, target) in robots.iter().enumerate() {
                     let context = format!(
                         "less data: {target} on {} of {frames} frames, run {run}",
                         subset(frames, fraction).len()
                     );
-                    push(
+                    self.push(
                         stage,
                         context.clone(),
                         TaskSpec::LessDataBaseline {
@@ -256,7 +337,7 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                         if s == t {
                             continue;
                         }
-                        push(
+                        self.push(
                             stage,
                             format!("{context}, from {source_name}"),
                             TaskSpec::LessDataTransfer {
@@ -273,15 +354,19 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
             }
         }
     }
-    if let Some(m) = config.inducing {
+
+    /// The all-frames study with `m` inducing inputs: per back constraint, on the subsample and
+    /// on every frame, run and robot.
+    fn all_frames(&mut self, m: usize, data: &ExperimentData) {
         let all = data.all_frames.as_ref().map_or(0, |a| a.human.nrows());
+        let robots = self.robots.clone();
         for bc in all_frames::BACK_CONSTRAINTS {
             for full_rate in [false, true] {
-                let stage = stage_of(&all_frames::stage_name(config, bc, full_rate));
-                let count = if full_rate { all } else { frames };
-                for run in 0..config.runs {
+                let stage = self.stage_of(&all_frames::stage_name(self.config, bc, full_rate));
+                let count = if full_rate { all } else { self.frames };
+                for run in 0..self.config.runs {
                     for (r, robot) in robots.iter().enumerate() {
-                        push(
+                        self.push(
                             stage,
                             format!(
                                 "sparse (M = {m}): {robot} on {count} frames, {bc} back constraints, run {run}"
@@ -298,362 +383,6 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
                     }
                 }
             }
-        }
-    }
-    tasks
-}
-
-/// Performs one task of [`plan`] on `data` with `config`; `source` is the model of the task's
-/// [`Task::source`] (required when it has one). Returns its records and, when
-/// [`Task::keep_model`], its model.
-pub fn execute(
-    task: &Task,
-    data: &ExperimentData,
-    config: &ExperimentConfig,
-    source: Option<&SharedGplvm>,
-) -> Result<(TaskResult, Option<SharedGplvm>), ExperimentError> {
-    let fail = |source| ExperimentError::Model {
-        context: task.context.clone(),
-        source,
-    };
-    let robot = |r: usize| {
-        data.robots.get(r).ok_or_else(|| ExperimentError::Task {
-            context: task.context.clone(),
-            problem: format!("robot {r} of {} robots", data.robots.len()),
-        })
-    };
-    let need_source = || {
-        source.ok_or_else(|| ExperimentError::Task {
-            context: task.context.clone(),
-            problem: "the model of its source task was not given".into(),
-        })
-    };
-    let human_test = data.human.test.as_ref();
-    let input = data.input_name.as_str();
-    let mut result = TaskResult {
-        task: task.id,
-        ..TaskResult::default()
-    };
-    let mut model = None;
-    match task.spec {
-        TaskSpec::Direct { robot: r } => {
-            let (name, split) = robot(r)?;
-            let options = config.options(config.direct_max_iters);
-            let started = Instant::now();
-            let regression =
-                GpRegression::fit(data.human.train.as_ref(), split.train.as_ref(), &options)
-                    .map_err(fail)?;
-            let seconds = started.elapsed().as_secs_f64();
-            let predicted = regression.predict(human_test).map_err(fail)?;
-            result.direct = Some(DirectRecord {
-                robot: name.clone(),
-                test_mse: mean_squared_error(predicted.as_ref(), split.test.as_ref()),
-                seconds,
-            });
-        }
-        TaskSpec::Baseline {
-            back_constraint: bc,
-            run,
-            robot: r,
-        } => {
-            let (name, split) = robot(r)?;
-            let options = config.options(config.max_iters);
-            let spaces = [
-                (input, data.human.train.as_ref()),
-                (name.as_str(), split.train.as_ref()),
-            ];
-            let mut recorder =
-                Recorder::new(human_test, vec![(name.as_str(), split.test.as_ref())]);
-            let m = fit(
-                config,
-                data,
-                bc,
-                run,
-                &spaces,
-                &options,
-                Some(&mut |it, m| recorder.record(it, m)),
-            )
-            .map_err(fail)?;
-            result.runs = recorder
-                .into_records(&m, ModelKind::Baseline, bc, run, None)
-                .map_err(fail)?;
-            model = Some(m);
-        }
-        TaskSpec::Transfer {
-            back_constraint: bc,
-            source_run,
-            source: s,
-            target: t,
-            run,
-        } => {
-            let source = need_source()?;
-            let (source_name, _) = robot(s)?;
-            let (target, split) = robot(t)?;
-            let options = config.options(config.transfer_max_iters);
-            let seed = config.seed + run as u64;
-            let train = split.train.as_ref();
-            let mut recorder =
-                Recorder::new(human_test, vec![(target.as_str(), split.test.as_ref())]);
-            let cb: sgplvm_core::Callback<'_> = &mut |it, m| recorder.record(it, m);
-            let m = match validation(config, data) {
-                Some(v) => {
-                    source.transfer_validated(target, train, Some(seed), &options, &v, Some(cb))
-                }
-                None => source.transfer_seeded(target, train, seed, &options, Some(cb)),
-            }
-            .map_err(fail)?;
-            result.runs = recorder
-                .into_records(
-                    &m,
-                    ModelKind::Transfer,
-                    bc,
-                    run,
-                    Some((source_name.as_str(), source_run)),
-                )
-                .map_err(fail)?;
-        }
-        TaskSpec::Multi {
-            back_constraint: bc,
-            run,
-        } => {
-            let options = config.options(config.max_iters);
-            let mut spaces = vec![(input, data.human.train.as_ref())];
-            spaces.extend(
-                data.robots
-                    .iter()
-                    .map(|(n, s)| (n.as_str(), s.train.as_ref())),
-            );
-            let tests = data
-                .robots
-                .iter()
-                .map(|(n, s)| (n.as_str(), s.test.as_ref()))
-                .collect();
-            let mut recorder = Recorder::new(human_test, tests);
-            let m = fit(
-                config,
-                data,
-                bc,
-                run,
-                &spaces,
-                &options,
-                Some(&mut |it, m| recorder.record(it, m)),
-            )
-            .map_err(fail)?;
-            result.runs = recorder
-                .into_records(&m, ModelKind::Multi, bc, run, None)
-                .map_err(fail)?;
-        }
-        TaskSpec::LessDataBaseline {
-            fraction,
-            run,
-            target: t,
-        } => {
-            let (target, split) = robot(t)?;
-            let less = LessData::new(task, data, config, fraction)?;
-            let joints = rows_of(split.train.as_ref(), &less.rows);
-            let spaces = [
-                (input, less.human.as_ref()),
-                (target.as_str(), joints.as_ref()),
-            ];
-            let model_config = model_config(config, BackConstraint::Input, run);
-            let options = config.options(config.max_iters);
-            let m = match &less.validation {
-                Some(v) => {
-                    SharedGplvm::fit_validated(&model_config, &spaces, input, &options, v, None)
-                }
-                None => SharedGplvm::fit(&model_config, &spaces, input, &options, None),
-            }
-            .map_err(fail)?;
-            let predicted = m.predict(human_test, target, false).map_err(fail)?.mean;
-            result.less_data = Some(less.record(target, split, run, None, predicted));
-        }
-        TaskSpec::LessDataTransfer {
-            fraction,
-            run,
-            target: t,
-            source: s,
-        } => {
-            let source = need_source()?;
-            let (source_name, _) = robot(s)?;
-            let (target, split) = robot(t)?;
-            let less = LessData::new(task, data, config, fraction)?;
-            let joints = rows_of(split.train.as_ref(), &less.rows);
-            let options = config.options(config.transfer_max_iters);
-            let seed = config.seed + run as u64;
-            let partial = source
-                .transfer_partial(
-                    target,
-                    &less.rows,
-                    joints.as_ref(),
-                    Some(seed),
-                    &options,
-                    less.validation.as_ref(),
-                )
-                .map_err(fail)?;
-            let predicted = partial.predict(source, human_test).map_err(fail)?;
-            result.less_data = Some(less.record(target, split, run, Some(source_name), predicted));
-        }
-        TaskSpec::AllFrames {
-            back_constraint: bc,
-            full_rate,
-            run,
-            robot: r,
-        } => {
-            let (name, split) = robot(r)?;
-            result.all_frames = Some(all_frames_record(
-                task,
-                data,
-                config,
-                (bc, full_rate),
-                run,
-                r,
-                name,
-                split,
-            )?);
-        }
-    }
-    Ok((result, model.filter(|_| task.keep_model)))
-}
-
-/// Trains the sparse model of the all-frames study for robot `r` (`name`, test frames in
-/// `split`) and records its test error.
-#[allow(clippy::too_many_arguments)]
-fn all_frames_record(
-    task: &Task,
-    data: &ExperimentData,
-    config: &ExperimentConfig,
-    (bc, full_rate): (BackConstraint, bool),
-    run: usize,
-    r: usize,
-    name: &str,
-    split: &SplitData,
-) -> Result<AllFramesRecord, ExperimentError> {
-    let missing = |problem: String| ExperimentError::Task {
-        context: task.context.clone(),
-        problem,
-    };
-    let fail = |source| ExperimentError::Model {
-        context: task.context.clone(),
-        source,
-    };
-    let inducing = config
-        .inducing
-        .ok_or_else(|| missing("the configuration sets no inducing inputs".into()))?;
-    let (human, joints, held) = if full_rate {
-        let all: &AllFrames = data.all_frames.as_ref().ok_or_else(|| {
-            missing("the experiment data holds no full-rate training frames (all_frames)".into())
-        })?;
-        let joints = all.robots.get(r).ok_or_else(|| {
-            missing(format!(
-                "robot {r} of the {} robots of the full-rate frames",
-                all.robots.len()
-            ))
-        })?;
-        (all.human.as_ref(), joints.as_ref(), &all.validation)
-    } else {
-        let (_, split) = data
-            .robots
-            .get(r)
-            .ok_or_else(|| missing(format!("robot {r} of {} robots", data.robots.len())))?;
-        (
-            data.human.train.as_ref(),
-            split.train.as_ref(),
-            &data.validation,
-        )
-    };
-    let input = data.input_name.as_str();
-    let spaces = [(input, human), (name, joints)];
-    let model = model_config(config, bc, run).with_inducing(Some(inducing));
-    let options = config.options(config.max_iters);
-    let m = match config.patience {
-        Some(p) => {
-            let v = Validation::new(held.clone()).with_patience(p);
-            SharedGplvm::fit_validated(&model, &spaces, input, &options, &v, None)
-        }
-        None => SharedGplvm::fit(&model, &spaces, input, &options, None),
-    }
-    .map_err(fail)?;
-    let predicted = m
-        .predict(data.human.test.as_ref(), name, false)
-        .map_err(fail)?
-        .mean;
-    Ok(AllFramesRecord {
-        robot: name.to_string(),
-        back_constraint: bc.to_string(),
-        run,
-        full_rate,
-        frames: human.nrows(),
-        subsampled_frames: data.human.train.nrows(),
-        inducing,
-        iteration: super::shipped_iteration(&m),
-        seconds: super::shipped_seconds(&m),
-        test_mse: mean_squared_error(predicted.as_ref(), split.test.as_ref()),
-        stop_reason: stop_reason(&m),
-    })
-}
-
-/// The frames of one fraction of the less-data study.
-struct LessData {
-    fraction: f64,
-    /// Training rows used.
-    rows: Vec<usize>,
-    /// The human's training frames among them.
-    human: Mat<f64>,
-    /// Budgets chosen on the held-out frames among them (positions in `rows`).
-    validation: Option<Validation>,
-}
-
-impl LessData {
-    fn new(
-        task: &Task,
-        data: &ExperimentData,
-        config: &ExperimentConfig,
-        fraction: usize,
-    ) -> Result<Self, ExperimentError> {
-        let fraction = *config
-            .fractions
-            .get(fraction)
-            .ok_or_else(|| ExperimentError::Task {
-                context: task.context.clone(),
-                problem: format!("fraction {fraction} of {}", config.fractions.len()),
-            })?;
-        let rows = subset(data.human.train.nrows(), fraction);
-        let held: Vec<usize> = (0..rows.len())
-            .filter(|&i| data.validation.binary_search(&rows[i]).is_ok())
-            .collect();
-        let validation = config
-            .patience
-            .filter(|_| !held.is_empty())
-            .map(|p| Validation::new(held).with_patience(p));
-        let human = rows_of(data.human.train.as_ref(), &rows);
-        Ok(LessData {
-            fraction,
-            rows,
-            human,
-            validation,
-        })
-    }
-
-    fn record(
-        &self,
-        target: &str,
-        split: &SplitData,
-        run: usize,
-        source_robot: Option<&String>,
-        predicted: Mat<f64>,
-    ) -> LessDataRecord {
-        LessDataRecord {
-            robot: target.to_string(),
-            fraction: self.fraction,
-            frames: self.rows.len(),
-            model: if source_robot.is_some() {
-                ModelKind::Transfer
-            } else {
-                ModelKind::Baseline
-            },
-            run,
-            source_robot: source_robot.cloned(),
-            test_mse: mean_squared_error(predicted.as_ref(), split.test.as_ref()),
         }
     }
 }
@@ -696,157 +425,6 @@ pub fn assemble(
     Ok(out)
 }
 
-/// A matrix as it travels in JSON (row-major values).
-#[derive(Serialize, Deserialize)]
-struct MatrixJson {
-    rows: usize,
-    cols: usize,
-    values: Vec<f64>,
-}
-
-impl MatrixJson {
-    fn from(m: MatRef<'_, f64>) -> Self {
-        MatrixJson {
-            rows: m.nrows(),
-            cols: m.ncols(),
-            values: (0..m.nrows())
-                .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
-                .collect(),
-        }
-    }
-
-    fn into_mat(self, what: &str) -> Result<Mat<f64>, String> {
-        if self.rows.checked_mul(self.cols) != Some(self.values.len()) {
-            return Err(format!(
-                "{what}: {} values; expected rows × cols = {} × {}",
-                self.values.len(),
-                self.rows,
-                self.cols
-            ));
-        }
-        let cols = self.cols;
-        Ok(Mat::from_fn(self.rows, cols, |i, j| {
-            self.values[i * cols + j]
-        }))
-    }
-}
-
-#[derive(Serialize, Deserialize)]
-struct SplitJson {
-    train: MatrixJson,
-    test: MatrixJson,
-}
-
-#[derive(Serialize, Deserialize)]
-struct DataJson {
-    input_name: String,
-    human: SplitJson,
-    robots: Vec<(String, SplitJson)>,
-    validation: Vec<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    all_frames: Option<AllFramesJson>,
-}
-
-/// [`AllFrames`] as it travels in JSON.
-#[derive(Serialize, Deserialize)]
-struct AllFramesJson {
-    human: MatrixJson,
-    robots: Vec<MatrixJson>,
-    validation: Vec<usize>,
-}
-
-impl AllFramesJson {
-    fn from(a: &AllFrames) -> Self {
-        AllFramesJson {
-            human: MatrixJson::from(a.human.as_ref()),
-            robots: a
-                .robots
-                .iter()
-                .map(|m| MatrixJson::from(m.as_ref()))
-                .collect(),
-            validation: a.validation.clone(),
-        }
-    }
-
-    fn into_all_frames(self) -> Result<AllFrames, String> {
-        Ok(AllFrames {
-            human: self.human.into_mat("all_frames.human")?,
-            robots: self
-                .robots
-                .into_iter()
-                .enumerate()
-                .map(|(k, m)| m.into_mat(&format!("all_frames.robots[{k}]")))
-                .collect::<Result<_, String>>()?,
-            validation: self.validation,
-        })
-    }
-}
-
-impl SplitJson {
-    fn from(s: &SplitData) -> Self {
-        SplitJson {
-            train: MatrixJson::from(s.train.as_ref()),
-            test: MatrixJson::from(s.test.as_ref()),
-        }
-    }
-
-    fn into_split(self, what: &str) -> Result<SplitData, String> {
-        Ok(SplitData {
-            train: self.train.into_mat(&format!("{what}.train"))?,
-            test: self.test.into_mat(&format!("{what}.test"))?,
-        })
-    }
-}
-
-impl ExperimentData {
-    /// The data as JSON (exact: floats round-trip), to send to other processes.
-    pub fn to_json(&self) -> Vec<u8> {
-        let data = DataJson {
-            input_name: self.input_name.clone(),
-            human: SplitJson::from(&self.human),
-            robots: self
-                .robots
-                .iter()
-                .map(|(n, s)| (n.clone(), SplitJson::from(s)))
-                .collect(),
-            validation: self.validation.clone(),
-            all_frames: self.all_frames.as_ref().map(AllFramesJson::from),
-        };
-        // Finite matrices and plain fields: serialising cannot fail.
-        serde_json::to_vec(&data).unwrap_or_default()
-    }
-
-    /// The data back from [`ExperimentData::to_json`].
-    pub fn from_json(bytes: &[u8]) -> Result<Self, ExperimentError> {
-        let bad = |problem: String| ExperimentError::Task {
-            context: "experiment data".into(),
-            problem,
-        };
-        let data: DataJson = serde_json::from_slice(bytes).map_err(|e| bad(e.to_string()))?;
-        let robots = data
-            .robots
-            .into_iter()
-            .map(|(n, s)| {
-                let split = s.into_split(&format!("robots.{n}"))?;
-                Ok((n, split))
-            })
-            .collect::<Result<Vec<_>, String>>()
-            .map_err(bad)?;
-        let all_frames = data
-            .all_frames
-            .map(AllFramesJson::into_all_frames)
-            .transpose()
-            .map_err(bad)?;
-        Ok(ExperimentData {
-            input_name: data.input_name,
-            human: data.human.into_split("human").map_err(bad)?,
-            robots,
-            validation: data.validation,
-            all_frames,
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     //! The pieces against the serial run: tasks executed out of order (sources first), their
@@ -854,6 +432,7 @@ mod tests {
 
     use super::*;
     use crate::experiment::tests::toy;
+    use sgplvm_core::SharedGplvm;
 
     fn config() -> ExperimentConfig {
         ExperimentConfig {
