@@ -1,7 +1,10 @@
 //! Import tests on files written here (the human model's own motion, hand-computed poses);
 //! real captures are tested in `tests/capture_real.rs` and the Python suite.
 
+use nalgebra::Vector3;
+
 use super::*;
+use crate::Robot;
 
 /// Writes `rows` as a BVH in a fresh temporary folder and imports it.
 fn round_trip(rows: &[[f64; 18]], frame_time: f64, options: &ImportOptions) -> CapturedMotion {

@@ -1,0 +1,236 @@
+//! The robots as the node drives them: each [`Drive`] checked against its model and turned
+//! into a [`Driven`] (its joint order, safety rule and command publisher), the distinct models
+//! they share, and the live view that shows them.
+
+use std::sync::Arc;
+
+use ros2_client::dds::Node;
+use sgplvm_core::SharedGplvm;
+use sgplvm_robots::limits::CommandLimits;
+
+use super::dds::{command_publisher, CommandPublisher};
+use super::{Drive, TeleopOptions};
+use crate::commands::CommandForm;
+use crate::gate::{Decision, Gate};
+use crate::LiveError;
+
+/// One robot as the node drives it.
+pub(super) struct Driven {
+    pub(super) drive: Drive,
+    /// The model's joint names for the robot (its output columns).
+    pub(super) joints: Vec<String>,
+    /// Positions of the model's joints in the sent order.
+    pub(super) order: Vec<usize>,
+    /// The names in the sent order.
+    pub(super) sent_names: Vec<String>,
+    pub(super) gate: Gate,
+    pub(super) publisher: CommandPublisher,
+    pub(super) topic: String,
+    pub(super) mean: Vec<f64>,
+    pub(super) sd: Vec<f64>,
+    pub(super) command: Vec<f64>,
+    pub(super) sent: Vec<f64>,
+    pub(super) last: Option<Decision>,
+    /// Which of the distinct models (their latent points per frame) drives this robot.
+    pub(super) model_slot: usize,
+}
+
+/// A distinct model among the robots' and its latent point of the current frame (computed once
+/// per frame for all the robots it drives).
+pub(super) struct LatentSlot {
+    pub(super) model: std::sync::Arc<SharedGplvm>,
+    pub(super) x: Vec<f64>,
+    pub(super) ok: bool,
+}
+
+/// The human's joint names of the models (all must agree).
+pub(super) fn human_joints(drives: &[Drive]) -> Result<Vec<String>, LiveError> {
+    let names = |m: &SharedGplvm| -> Vec<String> {
+        let input = m.input_name().to_string();
+        m.column_names(&input)
+            .map(<[String]>::to_vec)
+            .unwrap_or_else(|| {
+                (0..m.space_dim(&input).unwrap_or(0))
+                    .map(|j| format!("{input}_{j}"))
+                    .collect()
+            })
+    };
+    let first = drives
+        .first()
+        .ok_or_else(|| LiveError::Config("no robot to drive".into()))?;
+    let h = names(&first.model);
+    for d in &drives[1..] {
+        if names(&d.model) != h {
+            return Err(LiveError::Config(format!(
+                "the models for {} and {} take different human joints",
+                first.robot, d.robot
+            )));
+        }
+    }
+    Ok(h)
+}
+
+/// Every robot of `drives` as the node drives it, and the distinct models among theirs.
+pub(super) fn drive_all(
+    node: &mut Node,
+    drives: Vec<Drive>,
+    options: &TeleopOptions,
+    log: &mut dyn FnMut(&str),
+) -> Result<(Vec<Driven>, Vec<LatentSlot>), LiveError> {
+    let shared = drives.len() > 1;
+    let mut driven = Vec::with_capacity(drives.len());
+    let mut slots: Vec<LatentSlot> = Vec::new();
+    for drive in drives {
+        let model_slot = slot_of(&mut slots, &drive.model);
+        driven.push(drive_one(node, drive, model_slot, options, shared, log)?);
+    }
+    Ok((driven, slots))
+}
+
+/// The index of `model` among `slots`, added if it is not there yet.
+fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<SharedGplvm>) -> usize {
+    match slots
+        .iter()
+        .position(|s| std::sync::Arc::ptr_eq(&s.model, model))
+    {
+        Some(k) => k,
+        None => {
+            slots.push(LatentSlot {
+                model: model.clone(),
+                x: vec![0.0; model.latent_points().ncols()],
+                ok: false,
+            });
+            slots.len() - 1
+        }
+    }
+}
+
+/// One robot checked against its model, with its safety rule and command publisher.
+fn drive_one(
+    node: &mut Node,
+    drive: Drive,
+    model_slot: usize,
+    options: &TeleopOptions,
+    shared: bool,
+    log: &mut dyn FnMut(&str),
+) -> Result<Driven, LiveError> {
+    let model = &drive.model;
+    if !model.output_names().contains(&drive.robot.as_str()) {
+        return Err(LiveError::Config(format!(
+            "the model does not know robot `{}`; it predicts for {:?}",
+            drive.robot,
+            model.output_names()
+        )));
+    }
+    let joints: Vec<String> = model
+        .column_names(&drive.robot)
+        .map(<[String]>::to_vec)
+        .ok_or_else(|| {
+            LiveError::Config(format!("the model names no joints for `{}`", drive.robot))
+        })?;
+    let (sent_names, order) = sent_order(&drive, &joints, options)?;
+    let limits = CommandLimits::for_joints(&drive.body, &joints)
+        .map_err(|e| LiveError::Config(e.to_string()))?;
+    let threshold = match options.gate.threshold {
+        Some(t) => t,
+        None => model
+            .trust_threshold(&drive.robot)
+            .map_err(|e| LiveError::Config(e.to_string()))?,
+    } * options.gate.threshold_scale;
+    let topic = match &options.command_topic {
+        Some(t) => t.replace("{robot}", &drive.robot),
+        None => options.form.default_topic(&drive.robot, shared),
+    };
+    let publisher = command_publisher(node, &topic, options.form, options.command_qos)?;
+    let d = joints.len();
+    log(&format!(
+        "{}: {} joints as {} on {topic}; trust threshold {threshold:.4}",
+        drive.robot,
+        d,
+        options.form.name()
+    ));
+    Ok(Driven {
+        gate: Gate::new(limits, threshold, options.gate.return_speed),
+        drive,
+        joints,
+        order,
+        sent_names,
+        publisher,
+        topic,
+        mean: vec![0.0; d],
+        sd: vec![0.0; d],
+        command: vec![0.0; d],
+        sent: vec![0.0; d],
+        last: None,
+        model_slot,
+    })
+}
+
+/// The joint names a robot's commands carry, in their order, and where each is among the
+/// model's `joints`.
+fn sent_order(
+    drive: &Drive,
+    joints: &[String],
+    options: &TeleopOptions,
+) -> Result<(Vec<String>, Vec<usize>), LiveError> {
+    let sent_names = match (options.form, &options.joint_order) {
+        (CommandForm::Forward, Some(order)) => order.clone(),
+        (CommandForm::Forward, None) => drive
+            .body
+            .joint_names()
+            .into_iter()
+            .filter(|n| joints.contains(n))
+            .collect(),
+        _ => joints.to_vec(),
+    };
+    let order: Vec<usize> = sent_names
+        .iter()
+        .map(|n| {
+            joints.iter().position(|j| j == n).ok_or_else(|| {
+                LiveError::Config(format!(
+                    "--joints names `{n}`, which is not a joint of `{}`'s model: {joints:?}",
+                    drive.robot
+                ))
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    if order.len() != joints.len() {
+        return Err(LiveError::Config(format!(
+            "`{}`: the command names {} joints, the model predicts {}",
+            drive.robot,
+            order.len(),
+            joints.len()
+        )));
+    }
+    Ok((sent_names, order))
+}
+
+/// The live view of the driven robots, when `options` asks for one.
+pub(super) fn start_view(
+    options: &TeleopOptions,
+    driven: &[Driven],
+    human: &[String],
+    log: &mut dyn FnMut(&str),
+) -> Result<Option<crate::view::LiveView>, LiveError> {
+    Ok(match options.view {
+        Some(addr) => {
+            let robots = driven
+                .iter()
+                .map(|r| crate::view::ViewRobot {
+                    name: r.drive.robot.clone(),
+                    body: r.drive.body.clone(),
+                    joints: r.joints.clone(),
+                })
+                .collect();
+            let q = driven[0].drive.model.latent_points().ncols();
+            let v = crate::view::LiveView::start(addr, human.to_vec(), robots, q)?;
+            log(&format!(
+                "live view: Foxglove WebSocket on ws://{}:{}",
+                addr.ip(),
+                v.port()
+            ));
+            Some(v)
+        }
+        None => None,
+    })
+}

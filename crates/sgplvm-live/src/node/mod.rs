@@ -1,0 +1,224 @@
+//! `sgplvm teleop`'s ROS 2 participant: the human's `sensor_msgs/msg/JointState` in, each
+//! robot's command out, through the model and the safety rule ([`crate::gate`]), with a
+//! `diagnostic_msgs/msg/DiagnosticArray` status.
+//!
+//! One thread: a mio poll waits for the input subscription (or the next stale deadline, or the
+//! next status tick); every waiting message is taken and only the newest is used (the input is
+//! a stream of poses; a late one is worth nothing).
+
+//!
+//! The module's parts: `dds` (QoS, names, the participant, the command publishers), `drive`
+//! (each robot checked against its model, with its safety rule and publisher), `session` (the
+//! loop, one wake-up at a time) and `status` (the `DiagnosticArray`).
+
+mod dds;
+mod drive;
+mod session;
+mod status;
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use ros2_client::dds::{Node, Publisher, Subscription};
+use serde::Serialize;
+use sgplvm_core::SharedGplvm;
+use sgplvm_robots::Robot;
+
+use crate::commands::CommandForm;
+use crate::gate::GateOptions;
+use crate::msgs::{types, DiagnosticArray, JointState};
+use crate::LiveError;
+use dds::{dds, type_of};
+pub(crate) use dds::{new_node, qos, topic_name};
+use drive::{drive_all, human_joints, start_view};
+use session::{Parts, Session};
+
+/// One robot the node drives, with the model that predicts for it and its URDF (limits).
+#[derive(Clone)]
+pub struct Drive {
+    /// The robot's name: a robot space of `model`.
+    pub robot: String,
+    /// The model.
+    pub model: Arc<SharedGplvm>,
+    /// The robot's body (for its joint limits).
+    pub body: Robot,
+}
+
+/// Quality of service of one side of the node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reliability {
+    /// Best effort, keep last 1 (ROS 2's sensor-data profile).
+    BestEffort,
+    /// Reliable, keep last 10.
+    Reliable,
+}
+
+/// How the node runs.
+#[derive(Debug, Clone)]
+pub struct TeleopOptions {
+    /// DDS domain (ROS 2's `ROS_DOMAIN_ID`).
+    pub domain_id: u16,
+    /// The human's JointState topic.
+    pub input_topic: String,
+    /// QoS of the input (default: the sensor-data profile).
+    pub input_qos: Reliability,
+    /// The command's message.
+    pub form: CommandForm,
+    /// Command topic; `{robot}` is replaced by the robot's name. `None`: the form's default.
+    pub command_topic: Option<String>,
+    /// QoS of the commands (default: reliable).
+    pub command_qos: Reliability,
+    /// For `forward`: the controller's joint order (default: the URDF's order of the model's
+    /// joints).
+    pub joint_order: Option<Vec<String>>,
+    /// The safety rule's parameters.
+    pub gate: GateOptions,
+    /// The status topic.
+    pub status_topic: String,
+    /// Stop after this many input frames (tests, benchmarks).
+    pub max_frames: Option<usize>,
+    /// Seconds between status messages when nothing changes.
+    pub status_period_s: f64,
+    /// Serve the live view (Foxglove WebSocket) on this address.
+    pub view: Option<std::net::SocketAddr>,
+}
+
+impl Default for TeleopOptions {
+    fn default() -> Self {
+        TeleopOptions {
+            domain_id: 0,
+            input_topic: "/human/joint_states".into(),
+            input_qos: Reliability::BestEffort,
+            form: CommandForm::JointState,
+            command_topic: None,
+            command_qos: Reliability::Reliable,
+            joint_order: None,
+            gate: GateOptions::default(),
+            status_topic: "/sgplvm/status".into(),
+            max_frames: None,
+            status_period_s: 1.0,
+            view: None,
+        }
+    }
+}
+
+/// Per-frame receive-to-publish times, microseconds.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Latency {
+    /// Frames measured.
+    pub frames: usize,
+    /// Median.
+    pub p50_us: f64,
+    /// 99th percentile.
+    pub p99_us: f64,
+    /// Largest.
+    pub max_us: f64,
+}
+
+impl Latency {
+    fn of(mut v: Vec<f64>) -> Latency {
+        if v.is_empty() {
+            return Latency::default();
+        }
+        v.sort_by(|a, b| a.total_cmp(b));
+        let at = |p: f64| v[((p * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        Latency {
+            frames: v.len(),
+            p50_us: at(0.5),
+            p99_us: at(0.99),
+            max_us: v[v.len() - 1],
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct TeleopSummary {
+    /// Input frames used.
+    pub frames: usize,
+    /// Input messages dropped, by kind (`NaN`, `missing joints`, `unknown names`, `malformed`).
+    pub dropped: BTreeMap<String, usize>,
+    /// Messages taken but superseded by a newer one before they were used.
+    pub superseded: usize,
+    /// Receive-to-publish time per frame (all robots' commands published).
+    pub latency: Latency,
+    /// Per robot: the rule's counts.
+    pub robots: BTreeMap<String, RobotSummary>,
+}
+
+/// One robot's counts.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RobotSummary {
+    /// Frames not trusted.
+    pub untrusted: usize,
+    /// Commands the position limits moved.
+    pub position_clamped: usize,
+    /// Commands the velocity limits slowed.
+    pub velocity_clamped: usize,
+    /// Times the input went stale.
+    pub stale: usize,
+    /// The trust threshold used (standardised standard deviation).
+    pub threshold: f64,
+}
+
+/// Runs the node until `stop` is set (or `max_frames` input frames were used); `log` receives
+/// one line per warning and state change.
+pub fn teleop(
+    drives: Vec<Drive>,
+    options: &TeleopOptions,
+    stop: &AtomicBool,
+    log: &mut dyn FnMut(&str),
+) -> Result<TeleopSummary, LiveError> {
+    let human = human_joints(&drives)?;
+    let mut node = new_node(options.domain_id, "sgplvm_teleop")?;
+    let input = subscribe_input(&mut node, options)?;
+    let status = status_publisher(&mut node, options)?;
+    let (driven, slots) = drive_all(&mut node, drives, options, log)?;
+    let view = start_view(options, &driven, &human, log)?;
+    let parts = Parts {
+        human,
+        input,
+        status,
+        driven,
+        slots,
+        view,
+    };
+    let mut session = Session::new(options, parts)?;
+    while !stop.load(Ordering::Relaxed) && options.max_frames.is_none_or(|m| session.frames() < m) {
+        session.step(log)?;
+    }
+    session.finish(log)
+}
+
+/// The subscription to the human's JointState topic.
+fn subscribe_input(
+    node: &mut Node,
+    options: &TeleopOptions,
+) -> Result<Subscription<JointState>, LiveError> {
+    let input_topic = node
+        .create_topic(
+            &topic_name(&options.input_topic)?,
+            type_of(types::JOINT_STATE),
+            &qos(options.input_qos),
+        )
+        .map_err(|e| dds(format!("{e:?}")))?;
+    node.create_subscription(&input_topic, Some(qos(options.input_qos)))
+        .map_err(|e| dds(format!("{e:?}")))
+}
+
+/// The publisher of the status topic.
+fn status_publisher(
+    node: &mut Node,
+    options: &TeleopOptions,
+) -> Result<Publisher<DiagnosticArray>, LiveError> {
+    let status_topic = node
+        .create_topic(
+            &topic_name(&options.status_topic)?,
+            type_of(types::DIAGNOSTIC_ARRAY),
+            &qos(Reliability::Reliable),
+        )
+        .map_err(|e| dds(format!("{e:?}")))?;
+    node.create_publisher(&status_topic, None)
+        .map_err(|e| dds(format!("{e:?}")))
+}

@@ -1,0 +1,436 @@
+//! The node's loop, one wake-up at a time: wait for the input (or the next stale deadline, or
+//! the next status tick), take every waiting message and use only the newest for every robot,
+//! hold when the input goes stale, and publish the status when it changed or is due.
+
+use std::time::{Duration, Instant};
+
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::dds::{Publisher, Subscription};
+
+use super::dds::dds;
+use super::drive::{Driven, LatentSlot};
+use super::status::publish_status;
+use super::{Latency, RobotSummary, TeleopOptions, TeleopSummary};
+use crate::commands::Command;
+use crate::gate::{Decision, Reason};
+use crate::msgs::{DiagnosticArray, JointState, Time};
+use crate::LiveError;
+
+/// Everything the loop keeps from one wake-up to the next.
+///
+/// The fields are dropped in their order here, which is the order in which `teleop` dropped
+/// them when they were its local variables.
+pub(super) struct Session<'a> {
+    options: &'a TeleopOptions,
+    events: Events,
+    poll: Poll,
+    view: Option<crate::view::LiveView>,
+    slots: Vec<LatentSlot>,
+    driven: Vec<Driven>,
+    status: Publisher<DiagnosticArray>,
+    input: Subscription<JointState>,
+    /// The models' human joint names.
+    human: Vec<String>,
+    start: Instant,
+    summary: TeleopSummary,
+    warned: Vec<String>,
+    latencies: Vec<f64>,
+    /// The human frame in the models' joint order.
+    h: Vec<f64>,
+    /// The names of the last message and where each model joint is among them.
+    layout: (Vec<String>, Vec<usize>),
+    last_input: Option<Instant>,
+    last_stamp: Option<i64>,
+    period_s: f64,
+    stale: bool,
+    next_status: Instant,
+    timeout: Duration,
+    status_period: Duration,
+    status_due: bool,
+}
+
+/// What the loop starts from: the input, the status publisher, the robots and their models,
+/// the live view.
+pub(super) struct Parts {
+    pub(super) human: Vec<String>,
+    pub(super) input: Subscription<JointState>,
+    pub(super) status: Publisher<DiagnosticArray>,
+    pub(super) driven: Vec<Driven>,
+    pub(super) slots: Vec<LatentSlot>,
+    pub(super) view: Option<crate::view::LiveView>,
+}
+
+impl<'a> Session<'a> {
+    /// The loop's state before its first wake-up, the input registered with the poll.
+    pub(super) fn new(options: &'a TeleopOptions, parts: Parts) -> Result<Self, LiveError> {
+        let Parts {
+            human,
+            mut input,
+            status,
+            driven,
+            slots,
+            view,
+        } = parts;
+        let poll = Poll::new().map_err(|e| dds(e.to_string()))?;
+        poll.registry()
+            .register(&mut input, Token(0), Interest::READABLE)
+            .map_err(|e| dds(e.to_string()))?;
+        let events = Events::with_capacity(8);
+        let start = Instant::now();
+        let h = vec![0.0; human.len()];
+        Ok(Session {
+            options,
+            events,
+            poll,
+            view,
+            slots,
+            driven,
+            status,
+            input,
+            human,
+            start,
+            summary: TeleopSummary::default(),
+            warned: Vec::new(),
+            latencies: Vec::new(),
+            h,
+            layout: (Vec::new(), Vec::new()),
+            last_input: None,
+            last_stamp: None,
+            period_s: 0.025,
+            stale: false,
+            next_status: Instant::now(),
+            timeout: Duration::from_secs_f64(options.gate.timeout_s.max(1e-3)),
+            status_period: Duration::from_secs_f64(options.status_period_s.max(0.01)),
+            status_due: true,
+        })
+    }
+
+    /// Input frames used so far.
+    pub(super) fn frames(&self) -> usize {
+        self.summary.frames
+    }
+
+    /// One wake-up: wait, use the newest message, check for stale input, publish the status
+    /// if due.
+    pub(super) fn step(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), LiveError> {
+        self.wait()?;
+        if let Some((msg, received)) = self.newest(log) {
+            self.use_message(&msg, received, log)?;
+        }
+        self.check_stale(log)?;
+        if self.status_due || Instant::now() >= self.next_status {
+            publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
+            self.status_due = false;
+            self.next_status = Instant::now() + self.status_period;
+        }
+        Ok(())
+    }
+
+    /// Waits for the input, the next stale deadline or the next status tick.
+    fn wait(&mut self) -> Result<(), LiveError> {
+        let now = Instant::now();
+        let mut wait = self.next_status.saturating_duration_since(now);
+        if let (Some(t), false) = (self.last_input, self.stale) {
+            wait = wait.min((t + self.timeout).saturating_duration_since(now));
+        }
+        // A signal (Ctrl-C, SIGTERM) interrupts the wait: the loop then sees the stop flag.
+        match self
+            .poll
+            .poll(&mut self.events, Some(wait.min(Duration::from_millis(100))))
+        {
+            Err(e) if e.kind() != std::io::ErrorKind::Interrupted => {
+                return Err(dds(e.to_string()))
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The newest waiting message and when it was taken; the older ones are counted as
+    /// superseded, one that cannot be decoded as malformed.
+    fn newest(&mut self, log: &mut dyn FnMut(&str)) -> Option<(JointState, Instant)> {
+        let mut newest: Option<(JointState, Instant)> = None;
+        loop {
+            match self.input.take() {
+                Ok(Some((msg, _info))) => {
+                    if newest.is_some() {
+                        self.summary.superseded += 1;
+                    }
+                    newest = Some((msg, Instant::now()));
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    *self.summary.dropped.entry("malformed".into()).or_default() += 1;
+                    warn_once(
+                        &mut self.warned,
+                        "malformed",
+                        &format!(
+                            "a message on {} could not be decoded ({e:?}): dropped",
+                            self.options.input_topic
+                        ),
+                        log,
+                    );
+                    break;
+                }
+            }
+        }
+        newest
+    }
+
+    /// Uses a message for every robot, or counts and reports why it is dropped.
+    fn use_message(
+        &mut self,
+        msg: &JointState,
+        received: Instant,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<(), LiveError> {
+        match human_frame(msg, &self.human, &mut self.layout, &mut self.h) {
+            Err(kind) => {
+                *self.summary.dropped.entry(kind.0.to_string()).or_default() += 1;
+                warn_once(
+                    &mut self.warned,
+                    kind.0,
+                    &format!("{}: dropped (counted; this is said once)", kind.1),
+                    log,
+                );
+                Ok(())
+            }
+            Ok(()) => self.follow(msg.header.stamp, received, log),
+        }
+    }
+
+    /// The human frame in `h` (stamped `stamp`, taken at `received`) through every robot's
+    /// model and safety rule, then to the live view.
+    fn follow(
+        &mut self,
+        stamp: Time,
+        received: Instant,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<(), LiveError> {
+        if let Some(prev) = self.last_stamp {
+            let dt = (stamp.to_ns() - prev) as f64 * 1e-9;
+            if dt > 0.0 && dt < 1.0 {
+                self.period_s = dt;
+            }
+        }
+        self.last_stamp = Some(stamp.to_ns());
+        let now_s = received.duration_since(self.start).as_secs_f64();
+        for slot in &mut self.slots {
+            slot.ok = slot.model.latent_frame(&self.h, &mut slot.x).is_ok();
+        }
+        for r in &mut self.driven {
+            let slot = &self.slots[r.model_slot];
+            let changed = command(r, slot, self.options, stamp, self.period_s, now_s, log)?;
+            self.status_due |= changed;
+        }
+        self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
+        if let Some(v) = self.view.as_mut() {
+            let latent = &self.slots[self.driven[0].model_slot];
+            show(
+                v,
+                &self.driven,
+                &self.h,
+                latent.ok.then_some(&latent.x[..]),
+                stamp.to_ns(),
+                log,
+            );
+        }
+        self.summary.frames += 1;
+        self.last_input = Some(received);
+        if self.stale {
+            self.stale = false;
+            self.status_due = true;
+        }
+        Ok(())
+    }
+
+    /// Stale input: hold and report.
+    fn check_stale(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), LiveError> {
+        if let (Some(t), false) = (self.last_input, self.stale) {
+            if t.elapsed() > self.timeout {
+                self.stale = true;
+                self.status_due = true;
+                log(&format!(
+                    "stale input: no human frame on {} for {:.0} ms: holding",
+                    self.options.input_topic,
+                    self.timeout.as_secs_f64() * 1e3
+                ));
+                for r in &mut self.driven {
+                    if let Some(d) = r.gate.stale(&mut r.command) {
+                        for (k, &j) in r.order.iter().enumerate() {
+                            r.sent[k] = r.command[j];
+                        }
+                        let stamp = Time::from_ns(self.last_stamp.unwrap_or(0));
+                        r.publisher.publish(
+                            Command::build(
+                                self.options.form,
+                                &r.sent_names,
+                                &r.sent,
+                                stamp,
+                                self.period_s,
+                            ),
+                            &r.topic,
+                        )?;
+                        r.last = Some(d);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The last status and what the run did.
+    pub(super) fn finish(mut self, log: &mut dyn FnMut(&str)) -> Result<TeleopSummary, LiveError> {
+        publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
+        self.summary.latency = Latency::of(std::mem::take(&mut self.latencies));
+        for r in &self.driven {
+            let c = r.gate.counts();
+            self.summary.robots.insert(
+                r.drive.robot.clone(),
+                RobotSummary {
+                    untrusted: c.untrusted,
+                    position_clamped: c.position_clamped,
+                    velocity_clamped: c.velocity_clamped,
+                    stale: c.stale,
+                    threshold: r.gate.threshold(),
+                },
+            );
+        }
+        Ok(self.summary)
+    }
+}
+
+/// One robot's step for the current frame: its model's prediction through its safety rule,
+/// the command published unless the rule is still waiting; whether its state changed (then it
+/// is logged).
+fn command(
+    r: &mut Driven,
+    slot: &LatentSlot,
+    options: &TeleopOptions,
+    stamp: Time,
+    period_s: f64,
+    now_s: f64,
+    log: &mut dyn FnMut(&str),
+) -> Result<bool, LiveError> {
+    // A prediction that fails (not a number) is not trusted: the robot holds.
+    let sd = match slot.ok {
+        true => slot
+            .model
+            .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.mean, &mut r.sd)
+            .unwrap_or(f64::NAN),
+        false => f64::NAN,
+    };
+    let decision = r.gate.step(now_s, &r.mean, sd, &mut r.command);
+    if decision.reason != Reason::Waiting {
+        for (k, &j) in r.order.iter().enumerate() {
+            r.sent[k] = r.command[j];
+        }
+        let c = Command::build(options.form, &r.sent_names, &r.sent, stamp, period_s);
+        r.publisher.publish(c, &r.topic)?;
+    }
+    if decision.changed {
+        log(&format!(
+            "{}: {} (sd {:.4}, threshold {:.4})",
+            r.drive.robot,
+            decision.reason.as_str(),
+            sd,
+            r.gate.threshold()
+        ));
+    }
+    r.last = Some(decision);
+    Ok(decision.changed)
+}
+
+/// Sends one frame to the live view (after the commands: it is not on their path); a failure
+/// is logged, the node goes on.
+fn show(
+    view: &mut crate::view::LiveView,
+    driven: &[Driven],
+    h: &[f64],
+    latent: Option<&[f64]>,
+    time_ns: i64,
+    log: &mut dyn FnMut(&str),
+) {
+    let state = |d: Option<Decision>| match d.map(|d| d.reason) {
+        Some(Reason::Following) | None => 0.0,
+        Some(Reason::Holding) => 1.0,
+        Some(Reason::Returning) => 2.0,
+        Some(Reason::Stale) => 3.0,
+        Some(Reason::Waiting) => 4.0,
+    };
+    let robots: Vec<(&[f64], &[f64], [f64; 3])> = driven
+        .iter()
+        .map(|r| {
+            (
+                r.command.as_slice(),
+                r.sd.as_slice(),
+                [
+                    r.last.map(|d| d.sd).unwrap_or(f64::NAN),
+                    r.gate.threshold(),
+                    state(r.last),
+                ],
+            )
+        })
+        .collect();
+    let sent = match latent {
+        Some(x) => view.frame(time_ns, h, &robots, x),
+        None => Err(LiveError::View(
+            "the frame's latent point is not a number".into(),
+        )),
+    };
+    if let Err(e) = sent {
+        log(&format!("warning: {e}"));
+    }
+}
+
+/// Logs `text` the first time `kind` happens.
+fn warn_once(warned: &mut Vec<String>, kind: &str, text: &str, log: &mut dyn FnMut(&str)) {
+    if !warned.iter().any(|k| k == kind) {
+        warned.push(kind.to_string());
+        log(&format!("warning: {text}"));
+    }
+}
+
+/// The model's human joints of `msg` into `h`, or why the message is dropped (kind, text).
+fn human_frame(
+    msg: &JointState,
+    human: &[String],
+    layout: &mut (Vec<String>, Vec<usize>),
+    h: &mut [f64],
+) -> Result<(), (&'static str, String)> {
+    if msg.position.len() != msg.name.len() {
+        return Err((
+            "malformed",
+            format!(
+                "a message with {} names and {} positions",
+                msg.name.len(),
+                msg.position.len()
+            ),
+        ));
+    }
+    if layout.0 != msg.name {
+        if let Some(unknown) = msg.name.iter().find(|n| !human.contains(n)) {
+            return Err(("unknown names", format!("a message with the unknown joint `{unknown}` (the model takes the human model's {} joints)", human.len())));
+        }
+        let mut at = Vec::with_capacity(human.len());
+        for j in human {
+            match msg.name.iter().position(|n| n == j) {
+                Some(k) => at.push(k),
+                None => {
+                    return Err((
+                        "missing joints",
+                        format!("a message missing the joint `{j}`"),
+                    ))
+                }
+            }
+        }
+        *layout = (msg.name.clone(), at);
+    }
+    for (v, &k) in h.iter_mut().zip(&layout.1) {
+        *v = msg.position[k];
+    }
+    if let Some(k) = h.iter().position(|v| !v.is_finite()) {
+        return Err(("NaN", format!("a message with {} for `{}`", h[k], human[k])));
+    }
+    Ok(())
+}

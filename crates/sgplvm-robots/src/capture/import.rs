@@ -1,0 +1,371 @@
+//! One capture imported, in named steps: each arm's calibration from the rest pose, the span
+//! of frames asked for, the fit of every frame, the calibration frame some files start with,
+//! the fit's report, and the resampling onto the output clock.
+
+use std::path::Path;
+
+use nalgebra::{DMatrix, Vector3};
+
+use super::fit::{mirror_rotation, mirror_vector, ArmAngles, ArmTarget, HumanArms, RestFrames};
+use super::skeleton::{side_index, ArmPose, Skeleton};
+use super::{
+    Bvh, CaptureError, CaptureSource, CapturedMotion, FitReport, ImportOptions, Units,
+    ELBOW_ANGLE_LIMIT_DEG, MAX_OUTPUT_FRAMES, WORST_RESIDUAL_LIMIT_M,
+};
+use crate::series::median;
+use crate::{Robot, Side};
+
+/// One arm's calibration: its rest frames in the left arm's convention.
+struct ArmCalibration {
+    rest: RestFrames,
+}
+
+/// A unit vector from `a` to `b`, or `fallback` where they coincide.
+fn direction(a: &Vector3<f64>, b: &Vector3<f64>, fallback: Vector3<f64>) -> Vector3<f64> {
+    (b - a).try_normalize(1e-12).unwrap_or(fallback)
+}
+
+/// Turns a captured arm pose into the fit's target (left arm's convention).
+fn arm_target(pose: &ArmPose, side: Side, has_clavicle: bool, cal: &ArmCalibration) -> ArmTarget {
+    let m = |v: Vector3<f64>| match side {
+        Side::Left => v,
+        Side::Right => mirror_vector(v),
+    };
+    let mr = |r: &nalgebra::Rotation3<f64>| match side {
+        Side::Left => *r,
+        Side::Right => mirror_rotation(r),
+    };
+    let down = -Vector3::z();
+    let upper = m(direction(&pose.shoulder, &pose.elbow, down));
+    ArmTarget {
+        clavicle: (has_clavicle && (pose.shoulder - pose.clavicle).norm() > 1e-9)
+            .then(|| m(direction(&pose.clavicle, &pose.shoulder, Vector3::y()))),
+        upper_arm: upper,
+        forearm: m(direction(&pose.elbow, &pose.wrist, upper)),
+        upper_arm_frame: mr(&pose.upper_arm_turn) * cal.rest.upper_arm,
+        hand_frame: mr(&pose.hand_turn) * cal.rest.hand,
+    }
+}
+
+/// Imports one BVH file (see the module documentation).
+pub fn import_bvh(
+    path: impl AsRef<Path>,
+    options: &ImportOptions,
+) -> Result<CapturedMotion, CaptureError> {
+    let path = path.as_ref();
+    let bvh = Bvh::read(path)?;
+    import_parsed(&bvh, &path.display().to_string(), options)
+}
+
+/// [`import_bvh`] of an already parsed file; `file` names it in reports and errors.
+pub fn import_parsed(
+    bvh: &Bvh,
+    file: &str,
+    options: &ImportOptions,
+) -> Result<CapturedMotion, CaptureError> {
+    let bad = |message: String| CaptureError::Options {
+        file: file.to_string(),
+        message,
+    };
+    if !(options.rate_hz.is_finite() && options.rate_hz > 0.0 && options.rate_hz <= 10_000.0) {
+        return Err(bad(format!(
+            "rate {} Hz; expected a positive rate up to 10 kHz (40 is the teleoperation rate)",
+            options.rate_hz
+        )));
+    }
+    let frames_in_file = bvh.frames();
+    if frames_in_file < 2 {
+        return Err(bad(format!(
+            "{frames_in_file} frame(s); a motion needs at least 2"
+        )));
+    }
+    let skeleton = Skeleton::identify(bvh, options.map.as_ref(), file)?;
+    let human = Robot::builtin("human")?;
+    let model = HumanArms::new(&human)?;
+    let calibration = calibrate(bvh, &skeleton, &model);
+    let dt = bvh.frame_time;
+    let (first, last) = import_span(bvh, options, &bad)?;
+    let fits = fit_frames(bvh, &skeleton, &model, &calibration, first, last);
+    let start_row = calibration_frame(&fits.angles, bvh, options);
+    let t0 = (first + start_row) as f64 * dt;
+    let fit = fit_report(&fits, start_row, dt, &model.joint_names);
+    // Resample onto the output clock.
+    let span = (last - first - start_row) as f64 * dt;
+    let (out, times_ns) = resample(&fits.angles, start_row, dt, span, options, &bad)?;
+    let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
+    Ok(CapturedMotion {
+        times_ns,
+        joint_names: model.joint_names.clone(),
+        positions: out,
+        source: CaptureSource {
+            file: file.to_string(),
+            skeleton: skeleton.scheme.clone(),
+            frame_rate: 1.0 / dt,
+            frames_in_file,
+            span_s: (t0, t0 + span),
+            calibration_frame_dropped: start_row == 1,
+            units: units
+                .map(|u| u.name().to_string())
+                .unwrap_or_else(|| "unknown".into()),
+            arm_length: skeleton.arm_length * units.map(Units::metres).unwrap_or(1.0),
+            rate_hz: options.rate_hz,
+            fit,
+        },
+    })
+}
+
+/// Each arm's calibration (left, right): its rest frames, from the file's rest pose.
+fn calibrate(bvh: &Bvh, skeleton: &Skeleton, model: &HumanArms) -> [ArmCalibration; 2] {
+    [Side::Left, Side::Right].map(|side| {
+        let rest = skeleton.rest_pose(bvh, side);
+        let has_clavicle = skeleton.arms[side_index(side)].clavicle.is_some();
+        let provisional = ArmCalibration {
+            rest: RestFrames {
+                upper_arm: nalgebra::Rotation3::identity(),
+                hand: nalgebra::Rotation3::identity(),
+            },
+        };
+        let t = arm_target(&rest, side, has_clavicle, &provisional);
+        let hand = match side {
+            Side::Left => direction(&rest.wrist, &rest.hand_tip, t.forearm),
+            Side::Right => mirror_vector(direction(
+                &rest.wrist,
+                &rest.hand_tip,
+                mirror_vector(t.forearm),
+            )),
+        };
+        ArmCalibration {
+            rest: model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand),
+        }
+    })
+}
+
+/// The first and last frame of the span to import (at least two frames).
+fn import_span(
+    bvh: &Bvh,
+    options: &ImportOptions,
+    bad: &impl Fn(String) -> CaptureError,
+) -> Result<(usize, usize), CaptureError> {
+    let frames_in_file = bvh.frames();
+    let dt = bvh.frame_time;
+    let duration = (frames_in_file - 1) as f64 * dt;
+    let from = options.from_s.unwrap_or(0.0);
+    let to = options.to_s.unwrap_or(duration).min(duration);
+    if !(from.is_finite() && to.is_finite() && from >= 0.0 && from < to) {
+        return Err(bad(format!(
+            "time range {from} s to {to} s; expected 0 ≤ from < to within the capture's {duration:.2} s"
+        )));
+    }
+    let first = (from / dt - 1e-6).ceil().max(0.0) as usize;
+    let last = ((to / dt + 1e-6).floor() as usize).min(frames_in_file - 1);
+    if last <= first {
+        return Err(bad(format!(
+            "the range {from} s to {to} s holds fewer than 2 frames"
+        )));
+    }
+    Ok((first, last))
+}
+
+/// Every captured frame's fit: the angles and how far they land from the capture.
+struct FrameFits {
+    /// Joint angles, frames × 18, radians.
+    angles: DMatrix<f64>,
+    /// Per frame and arm (left, then right): the elbow's distance to the capture, metres.
+    elbow_res: Vec<f64>,
+    /// Per frame and arm: the wrist's distance to the capture, metres.
+    wrist_res: Vec<f64>,
+    /// Per frame and arm: the elbow angle's difference, degrees.
+    angle_res: Vec<f64>,
+    /// Per frame: whether an arm is beyond the limits of a faithful frame.
+    beyond: Vec<bool>,
+    /// Per model joint: the frames in which it was held at a limit.
+    at_limit: [usize; 18],
+}
+
+/// Fits every frame from `first` to `last`, both arms, each continuing from its previous
+/// frame's angles.
+fn fit_frames(
+    bvh: &Bvh,
+    skeleton: &Skeleton,
+    model: &HumanArms,
+    calibration: &[ArmCalibration; 2],
+    first: usize,
+    last: usize,
+) -> FrameFits {
+    let n = last - first + 1;
+    let mut angles = DMatrix::<f64>::zeros(n, 18);
+    let mut elbow_res = Vec::with_capacity(2 * n);
+    let mut wrist_res = Vec::with_capacity(2 * n);
+    let mut angle_res = Vec::with_capacity(2 * n);
+    let mut beyond = vec![false; n];
+    let mut at_limit = [0usize; 18];
+    let mut prev: [Option<ArmAngles>; 2] = [None, None];
+    for (row, f) in (first..=last).enumerate() {
+        let values = bvh.frame(f);
+        for side in [Side::Left, Side::Right] {
+            let s = side_index(side);
+            let pose = skeleton.arm_pose(bvh, values, side);
+            let t = arm_target(
+                &pose,
+                side,
+                skeleton.arms[s].clavicle.is_some(),
+                &calibration[s],
+            );
+            let fit = model.fit(side, &t, prev[s].as_ref());
+            prev[s] = Some(fit.angles);
+            for k in 0..9 {
+                angles[(row, 9 * s + k)] = fit.angles[k];
+                at_limit[9 * s + k] += usize::from(fit.clamped[k]);
+            }
+            let points = model.target_points(&t);
+            let (ep, wp) = match side {
+                Side::Left => (points.elbow, points.wrist),
+                Side::Right => (mirror_vector(points.elbow), mirror_vector(points.wrist)),
+            };
+            let (e, w) = model.elbow_and_wrist(side, &fit.angles);
+            let (de, dw) = ((e - ep).norm(), (w - wp).norm());
+            let da = (fit.capture_elbow_angle - fit.angles[5]).abs().to_degrees();
+            beyond[row] |= de > WORST_RESIDUAL_LIMIT_M
+                || dw > WORST_RESIDUAL_LIMIT_M
+                || da > ELBOW_ANGLE_LIMIT_DEG;
+            elbow_res.push(de);
+            wrist_res.push(dw);
+            angle_res.push(da);
+        }
+    }
+    FrameFits {
+        angles,
+        elbow_res,
+        wrist_res,
+        angle_res,
+        beyond,
+        at_limit,
+    }
+}
+
+/// The first row of `angles` that is motion: 1 when the first frame is a calibration pose,
+/// else 0.
+fn calibration_frame(angles: &DMatrix<f64>, bvh: &Bvh, options: &ImportOptions) -> usize {
+    let n = angles.nrows();
+    // cgspeed's CMU conversions start with a T-pose frame: a first frame that jumps far more
+    // than any later frame moves is a calibration pose, not motion.
+    let mut start_row = 0;
+    if options.from_s.is_none() && n >= 10 {
+        let jump = |a: usize, b: usize| {
+            (0..18)
+                .map(|k| (angles[(a, k)] - angles[(b, k)]).abs())
+                .fold(0.0, f64::max)
+        };
+        let first_jump = jump(0, 1);
+        let mut next_second: Vec<f64> = (1..(n - 1).min(1 + bvh.frame_rate().ceil() as usize))
+            .map(|r| jump(r, r + 1))
+            .collect();
+        let typical = median(&mut next_second);
+        if first_jump > 0.35 && first_jump > 20.0 * typical {
+            start_row = 1;
+        }
+    }
+    start_row
+}
+
+/// The fit's report over the frames from `start_row` on (`joint_names`: the model's).
+fn fit_report(fits: &FrameFits, start_row: usize, dt: f64, joint_names: &[String]) -> FitReport {
+    let n = fits.angles.nrows();
+    let angles = &fits.angles;
+    let (elbow_res, wrist_res, angle_res, beyond) = if start_row == 1 {
+        (
+            fits.elbow_res[2..].to_vec(),
+            fits.wrist_res[2..].to_vec(),
+            fits.angle_res[2..].to_vec(),
+            fits.beyond[1..].to_vec(),
+        )
+    } else {
+        (
+            fits.elbow_res.clone(),
+            fits.wrist_res.clone(),
+            fits.angle_res.clone(),
+            fits.beyond.clone(),
+        )
+    };
+    let worst = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    let quarter = std::f64::consts::FRAC_PI_2;
+    // Per side, frames where flexion or rotation jumped by more than a quarter turn.
+    let shoulder_switches = (start_row + 1..n)
+        .map(|r| {
+            [[2usize, 4], [11, 13]]
+                .iter()
+                .filter(|pair| {
+                    pair.iter()
+                        .any(|&k| (angles[(r, k)] - angles[(r - 1, k)]).abs() > quarter)
+                })
+                .count()
+        })
+        .sum();
+    FitReport {
+        frames: n - start_row,
+        elbow_median_m: median(&mut elbow_res.clone()),
+        elbow_worst_m: worst(&elbow_res),
+        wrist_median_m: median(&mut wrist_res.clone()),
+        wrist_worst_m: worst(&wrist_res),
+        elbow_angle_median_deg: median(&mut angle_res.clone()),
+        elbow_angle_worst_deg: worst(&angle_res),
+        frames_beyond: beyond.iter().filter(|b| **b).count(),
+        first_beyond_s: beyond.iter().position(|b| *b).map(|r| r as f64 * dt),
+        at_limit: joint_names
+            .iter()
+            .zip(fits.at_limit)
+            .filter(|(_, c)| *c > 0)
+            .map(|(name, c)| (name.clone(), c))
+            .collect(),
+        shoulder_switches,
+    }
+}
+
+/// The angles from `start_row` on (frames `dt` apart, `span` seconds) resampled at
+/// `options.rate_hz`, and the output frames' times.
+fn resample(
+    angles: &DMatrix<f64>,
+    start_row: usize,
+    dt: f64,
+    span: f64,
+    options: &ImportOptions,
+    bad: &impl Fn(String) -> CaptureError,
+) -> Result<(DMatrix<f64>, Vec<i64>), CaptureError> {
+    let n = angles.nrows();
+    let quarter = std::f64::consts::FRAC_PI_2;
+    // A frame time written with few digits (CMU's .0083333) must not lose the last frame.
+    let out_n = (span * options.rate_hz + 1e-3).floor() as usize + 1;
+    if out_n > MAX_OUTPUT_FRAMES {
+        return Err(bad(format!(
+            "{:.0} s at {} Hz would be {out_n} frames; at most {MAX_OUTPUT_FRAMES} are written (lower --rate or cut with --from/--to)",
+            span, options.rate_hz
+        )));
+    }
+    let mut out = DMatrix::<f64>::zeros(out_n, 18);
+    let mut times_ns = Vec::with_capacity(out_n);
+    for k in 0..out_n {
+        let t = k as f64 / options.rate_hz;
+        let x = (t / dt).min((n - 1 - start_row) as f64);
+        let i = (x.floor() as usize).min(n - 2 - start_row);
+        let a = x - i as f64;
+        for side in 0..2 {
+            let arm = 9 * side..9 * side + 9;
+            // Between two frames where a shoulder switched to its other Euler solution the
+            // angles do not lie on a line between the poses: the nearer frame instead.
+            let switched = arm.clone().any(|j| {
+                (angles[(start_row + i + 1, j)] - angles[(start_row + i, j)]).abs() > quarter
+            });
+            for j in arm {
+                let v0 = angles[(start_row + i, j)];
+                let v1 = angles[(start_row + i + 1, j)];
+                out[(k, j)] = match (switched, a < 0.5) {
+                    (false, _) => v0 + a * (v1 - v0),
+                    (true, true) => v0,
+                    (true, false) => v1,
+                };
+            }
+        }
+        times_ns.push(options.start_time_ns + (t * 1e9).round() as i64);
+    }
+    Ok((out, times_ns))
+}
