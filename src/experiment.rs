@@ -22,11 +22,12 @@ use crate::figures;
 use crate::files::atomic_write;
 pub use crate::pipeline::{mean_squared_error, AllFrames, ExperimentData, SplitData};
 pub use crate::results::{
-    AllFramesRecord, DirectRecord, ExperimentConfig, LessDataRecord, ModelKind, Results, RunRecord,
-    Shipped,
+    AllFramesRecord, BayesianStudy, DirectRecord, ExperimentConfig, LessDataRecord, ModelKind,
+    Results, RunRecord, Shipped,
 };
 
 mod all_frames;
+mod bayesian;
 mod less_data;
 mod plan;
 mod report;
@@ -161,6 +162,8 @@ impl<'a> Recorder<'a> {
                     test_mse,
                     shipped: Some(shipped),
                     stop_reason: stop_reason.clone(),
+                    bayesian: false,
+                    ard_weights: Vec::new(),
                 }
             })
             .collect())
@@ -261,6 +264,7 @@ pub fn stages(config: &ExperimentConfig, robots: usize) -> Vec<Stage> {
             }
         }
     }
+    plan.extend(bayesian::stages(config, robots));
     plan
 }
 
@@ -335,18 +339,23 @@ fn validation(config: &ExperimentConfig, data: &ExperimentData) -> Option<Valida
         .map(|p| Validation::new(data.validation.clone()).with_patience(p))
 }
 
-/// A full or multi-robot training of run `run` with back constraint `bc` on `spaces`.
+/// A full or multi-robot training of run `run` with back constraint `bc` on `spaces`: the
+/// paper's model (its budget chosen on held-out frames when the experiment does), or with
+/// `bayesian` the Bayesian study's, trained to convergence or `options`' budget.
 fn fit(
     config: &ExperimentConfig,
     data: &ExperimentData,
-    bc: BackConstraint,
-    run: usize,
+    (bc, run, bayesian): (BackConstraint, usize, bool),
     spaces: &[(&str, MatRef<'_, f64>)],
     options: &TrainOptions,
     callback: Option<sgplvm_core::Callback<'_>>,
 ) -> sgplvm_core::Result<SharedGplvm> {
-    let model = model_config(config, bc, run);
     let input = data.input_name.as_str();
+    if bayesian {
+        let model = bayesian::configure(config, model_config(config, bc, run));
+        return SharedGplvm::fit(&model, spaces, input, options, callback);
+    }
+    let model = model_config(config, bc, run);
     match validation(config, data) {
         Some(v) => SharedGplvm::fit_validated(&model, spaces, input, options, &v, callback),
         None => SharedGplvm::fit(&model, spaces, input, options, callback),
@@ -376,6 +385,9 @@ pub fn write_outputs(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Expe
     }
     if !results.all_frames.is_empty() {
         written.extend(figures::all_frames(results, dir)?);
+    }
+    if let Some(fig12) = figures::ard_weights(results, dir)? {
+        written.extend(fig12);
     }
     let path = dir.join("report.md");
     atomic_write(&path, report(results).as_bytes())?;
@@ -443,6 +455,7 @@ mod tests {
             fractions: vec![0.5],
             max_seconds: None,
             inducing: Some(6),
+            bayesian: None,
         };
         let mut trainings = 0;
         let results = run(&toy(), &config, &mut |_| trainings += 1).unwrap();
@@ -525,6 +538,7 @@ mod tests {
             fractions: Vec::new(),
             max_seconds: None,
             inducing: None,
+            bayesian: None,
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

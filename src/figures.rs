@@ -2,7 +2,8 @@
 //! time for the baseline, transfer and multi-robot models (Figs. 4 and 5) and for the three
 //! back constraints (Fig. 6), with less data (Fig. 9), from each robot to each other (Fig. 10)
 //! and on every frame against a subsample (Fig. 11), each panel with the direct GP regression's
-//! error as a yardstick. From a trained model, the demo's pictures: the shared latent space
+//! error as a yardstick (the Bayesian study's curves beside the paper's model's where it was
+//! run), and the Bayesian model's ARD weights per space (Fig. 12). From a trained model, the demo's pictures: the shared latent space
 //! with key poses and test trajectories (Fig. 7) and predicted against desired joint
 //! trajectories (Fig. 8).
 //!
@@ -17,8 +18,10 @@ use crate::pipeline::PipelineError;
 use crate::plots::{write_figure, Markers, Panel, PlotError, Series};
 use crate::results::{ModelKind, Results, RunRecord};
 
+mod bayesian;
 mod demo;
 
+pub use bayesian::ard_weights;
 pub use demo::{dominant_dims, latent_space, test_motions, trajectories, TestMotion};
 
 /// Errors while drawing the demo's figures.
@@ -42,6 +45,8 @@ struct Curve {
     back_constraint: BackConstraint,
     label: &'static str,
     color: usize,
+    /// The Bayesian study's runs rather than the paper's model's.
+    bayesian: bool,
 }
 
 /// Figs. 4 and 5: per robot, the mean test error (± one standard deviation) of the baseline,
@@ -63,7 +68,9 @@ pub fn learning_curves(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Pl
             back_constraint,
             label,
             color,
+            bayesian: color >= 3,
         };
+        // The Bayesian study's curves (colours 3-5) appear only when it was run.
         let curves = [
             curve(ModelKind::Baseline, "baseline (fully trained)", 0),
             curve(
@@ -72,6 +79,9 @@ pub fn learning_curves(results: &Results, dir: &Path) -> Result<Vec<PathBuf>, Pl
                 1,
             ),
             curve(ModelKind::Multi, "multi-robot", 2),
+            curve(ModelKind::Baseline, "Bayesian baseline", 3),
+            curve(ModelKind::Transfer, "Bayesian transfer", 4),
+            curve(ModelKind::Multi, "Bayesian multi-robot", 5),
         ];
         for by_seconds in [false, true] {
             let panels = robot_panels(results, &curves, by_seconds);
@@ -95,11 +105,14 @@ pub fn back_constraints(results: &Results, dir: &Path) -> Result<[PathBuf; 2], P
         back_constraint,
         label,
         color,
+        bayesian: color >= 3,
     };
     let curves = [
         curve(BackConstraint::None, "no back constraints", 1),
         curve(BackConstraint::Input, "back constraints on the input", 0),
         curve(BackConstraint::Output, "back constraints on the output", 2),
+        curve(BackConstraint::None, "Bayesian, no back constraints", 4),
+        curve(BackConstraint::Input, "Bayesian, input back constraints", 3),
     ];
     let panels = robot_panels(results, &curves, false);
     write_figure(
@@ -367,7 +380,8 @@ fn robot_panels(results: &Results, curves: &[Curve], by_seconds: bool) -> Vec<Pa
             let mut series: Vec<Series> = curves
                 .iter()
                 .filter_map(|c| {
-                    let runs = results.select(robot, c.kind, c.back_constraint.name());
+                    let bc = c.back_constraint.name();
+                    let runs = results.select_of(c.bayesian, robot, c.kind, bc);
                     (!runs.is_empty()).then(|| Series {
                         label: c.label.into(),
                         color: c.color,
@@ -506,6 +520,8 @@ mod tests {
             test_mse: mse.to_vec(),
             shipped: None,
             stop_reason: None,
+            bayesian: false,
+            ard_weights: Vec::new(),
         }
     }
 

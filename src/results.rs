@@ -49,6 +49,30 @@ pub struct ExperimentConfig {
     /// subsampled exact baseline. `None`: not run (and in results written before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inducing: Option<usize>,
+    /// `Some`: the Bayesian study (issue 34) — the Bayesian shared GP-LVM's baselines,
+    /// transfers and multi-robot models beside the paper's, trained to convergence without a
+    /// chosen budget. `None`: not run (and in results written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bayesian: Option<BayesianStudy>,
+}
+
+/// How the Bayesian study trains its models.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BayesianStudy {
+    /// Inducing inputs M of every space.
+    pub inducing: usize,
+    /// Iteration budget of every training (full, transfer and multi-robot): an upper bound,
+    /// training to convergence, never chosen on held-out frames.
+    pub max_iters: usize,
+}
+
+impl BayesianStudy {
+    /// The study's settings unless told otherwise: M = 50 (as `train --bayesian`) and up to
+    /// 1,000 iterations.
+    pub const DEFAULT: BayesianStudy = BayesianStudy {
+        inducing: 50,
+        max_iters: 1000,
+    };
 }
 
 /// The direct regression's budget in results written before it was recorded.
@@ -79,6 +103,7 @@ impl ExperimentConfig {
             fractions: vec![0.1, 0.25, 0.5, 1.0],
             max_seconds: None,
             inducing: None,
+            bayesian: None,
         }
     }
 
@@ -96,6 +121,7 @@ impl ExperimentConfig {
             fractions: vec![0.1, 0.25, 0.5, 1.0],
             max_seconds: None,
             inducing: None,
+            bayesian: None,
         }
     }
 }
@@ -143,6 +169,14 @@ pub struct RunRecord {
     /// short by `--max-seconds`). Absent in results written before it was recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stop_reason: Option<String>,
+    /// A model of the Bayesian study ([`ExperimentConfig::bayesian`]); absent: the paper's
+    /// model.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub bayesian: bool,
+    /// The Bayesian model's ARD weights α²/ℓ² per latent dimension, per space of the shipped
+    /// model (the human first); empty for the paper's model.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ard_weights: Vec<(String, Vec<f64>)>,
 }
 
 /// The model a training hands back, which the report judges: when training reached its
@@ -205,11 +239,28 @@ pub struct Results {
 }
 
 impl Results {
-    /// The runs of one robot, kind of model and back constraint (by name).
+    /// The runs of one robot, kind of model and back constraint (by name) of the paper's model.
     pub(crate) fn select(&self, robot: &str, model: ModelKind, bc: &str) -> Vec<&RunRecord> {
+        self.select_of(false, robot, model, bc)
+    }
+
+    /// The runs of one robot, kind of model and back constraint of the Bayesian study (`true`)
+    /// or of the paper's model (`false`).
+    pub(crate) fn select_of(
+        &self,
+        bayesian: bool,
+        robot: &str,
+        model: ModelKind,
+        bc: &str,
+    ) -> Vec<&RunRecord> {
         self.runs
             .iter()
-            .filter(|r| r.robot == robot && r.model == model && r.back_constraint == bc)
+            .filter(|r| {
+                r.bayesian == bayesian
+                    && r.robot == robot
+                    && r.model == model
+                    && r.back_constraint == bc
+            })
             .collect()
     }
 

@@ -1,12 +1,12 @@
 //! `sgplvm experiment`: the paper's Section IV-B — every run, Figs. 4–6, 9, 10 (and 11 with
-//! `--all-frames`), results.json and report.md. Progress: a bar on a terminal, else one line per group of runs on stderr.
+//! `--all-frames`, 12 with `--bayesian`), results.json and report.md. Progress: a bar on a terminal, else one line per group of runs on stderr.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
-use sgplvm::experiment::{self, ExperimentConfig};
+use sgplvm::experiment::{self, BayesianStudy, ExperimentConfig};
 
 use super::args::{output_folder, parse_seconds, DataArg, ValidationArg};
 use super::progress::{progress_bar, StageLines};
@@ -55,6 +55,19 @@ pub struct ExperimentArgs {
     /// With `--all-frames`: the sparse model's number of inducing inputs M.
     #[arg(long, requires = "all_frames", value_parser = clap::value_parser!(u64).range(1..))]
     inducing: Option<u64>,
+    /// Also train the Bayesian shared GP-LVM (q(X), ARD kernels, inducing inputs): its
+    /// baselines, transfers and multi-robot models with no and input back constraints, with the
+    /// same seeds, each to convergence (never a budget chosen on held-out frames). Figs. 4–6
+    /// get its curves, Fig. 12 its ARD weights, report.md a comparison with the paper's model.
+    #[arg(long)]
+    bayesian: bool,
+    /// With `--bayesian`: inducing inputs M per space.
+    #[arg(long, requires = "bayesian", value_parser = clap::value_parser!(u64).range(1..))]
+    bayesian_inducing: Option<u64>,
+    /// With `--bayesian`: iteration budget of its every training (an upper bound: training stops
+    /// earlier when it converges). `--max-iters` does not apply to it.
+    #[arg(long, requires = "bayesian", value_parser = clap::value_parser!(u64).range(1..))]
+    bayesian_max_iters: Option<u64>,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -82,6 +95,17 @@ impl ExperimentArgs {
         config.inducing = self
             .all_frames
             .then(|| self.inducing.map_or(DEFAULT_INDUCING, |m| m as usize));
+        config.bayesian = self.bayesian.then(|| {
+            let default = BayesianStudy::DEFAULT;
+            BayesianStudy {
+                inducing: self
+                    .bayesian_inducing
+                    .map_or(default.inducing, |m| m as usize),
+                max_iters: self
+                    .bayesian_max_iters
+                    .map_or(default.max_iters, |m| m as usize),
+            }
+        });
         config
     }
 }

@@ -52,7 +52,7 @@ pub enum Command {
     /// Either `--trajectory FILE` (robot joint commands, MCAP JointState or CSV) on `--robot` or
     /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
     Simulate(simulate::SimulateArgs),
-    /// The paper's Section IV-B: Figs. 4-6, 9 and 10 (and 11 with --all-frames), results.json
+    /// The paper's Section IV-B: Figs. 4-6, 9 and 10 (11 with --all-frames, 12 with --bayesian), results.json
     /// and report.md.
     ///
     /// Into --out: results.json (every run), report.md (the paper's claims judged), and each

@@ -15,8 +15,8 @@
 use serde::{Deserialize, Serialize};
 use sgplvm_core::BackConstraint;
 
-use super::all_frames;
 use super::less_data::subset;
+use super::{all_frames, bayesian};
 use super::{
     stages, AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData, ExperimentError,
     LessDataRecord, Results, RunRecord,
@@ -45,6 +45,9 @@ pub enum TaskSpec {
         run: usize,
         /// The robot.
         robot: usize,
+        /// A model of the Bayesian study ([`ExperimentConfig::bayesian`]).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        bayesian: bool,
     },
     /// From the baseline of `source` (run `source_run`) to `target`, seed `config.seed + run`.
     Transfer {
@@ -58,6 +61,9 @@ pub enum TaskSpec {
         target: usize,
         /// Transfer index: source run × transfers per run + k.
         run: usize,
+        /// A model of the Bayesian study ([`ExperimentConfig::bayesian`]).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        bayesian: bool,
     },
     /// Human + all robots, seed `config.seed + run`.
     Multi {
@@ -65,6 +71,9 @@ pub enum TaskSpec {
         back_constraint: BackConstraint,
         /// Run (seed) index.
         run: usize,
+        /// A model of the Bayesian study ([`ExperimentConfig::bayesian`]).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        bayesian: bool,
     },
     /// Less data: `target` trained on a fraction of the frames alone (input back constraints).
     LessDataBaseline {
@@ -163,6 +172,14 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
     if let Some(m) = config.inducing {
         planner.all_frames(m, data);
     }
+    if config.bayesian.is_some() {
+        planner.bayesian = true;
+        for bc in bayesian::BACK_CONSTRAINTS {
+            let sources = planner.baselines(bc, true);
+            planner.transfers(bc, &sources);
+            planner.multi(bc);
+        }
+    }
     planner.tasks
 }
 
@@ -176,6 +193,9 @@ struct Planner<'a> {
     /// The names of the [`stages`], in order.
     stage_names: Vec<String>,
     tasks: Vec<Task>,
+    /// Whether the baselines, transfers and multi-robot models being planned are the Bayesian
+    /// study's.
+    bayesian: bool,
 }
 
 impl<'a> Planner<'a> {
@@ -191,12 +211,30 @@ impl<'a> Planner<'a> {
             frames: data.human.train.nrows(),
             stage_names,
             tasks: Vec::new(),
+            bayesian: false,
         }
     }
 
-    /// The index of the stage called `name`.
+    /// The index of the stage called `name` (of the Bayesian study's stages when planning
+    /// them).
     fn stage_of(&self, name: &str) -> usize {
-        self.stage_names.iter().position(|s| s == name).unwrap_or(0)
+        let name = match self.bayesian {
+            true => bayesian::stage_name(name),
+            false => name.to_string(),
+        };
+        self.stage_names
+            .iter()
+            .position(|s| *s == name)
+            .unwrap_or(0)
+    }
+
+    /// "Bayesian " before a task's context when planning the Bayesian study.
+    fn model_name(&self) -> &'static str {
+        if self.bayesian {
+            "Bayesian "
+        } else {
+            ""
+        }
     }
 
     /// Appends a task; returns its id.
@@ -244,11 +282,15 @@ impl<'a> Planner<'a> {
             for (r, robot) in robots.iter().enumerate() {
                 ids[r] = self.push(
                     stage,
-                    format!("baseline {robot}, {bc} back constraints, run {run}"),
+                    format!(
+                        "{}baseline {robot}, {bc} back constraints, run {run}",
+                        self.model_name()
+                    ),
                     TaskSpec::Baseline {
                         back_constraint: bc,
                         run,
                         robot: r,
+                        bayesian: self.bayesian,
                     },
                     None,
                     is_source,
@@ -273,7 +315,8 @@ impl<'a> Planner<'a> {
                         self.push(
                             stage,
                             format!(
-                                "transfer {source_name} → {target}, {bc} back constraints, run {run}.{k}"
+                                "{}transfer {source_name} → {target}, {bc} back constraints, run {run}.{k}",
+                                self.model_name()
                             ),
                             TaskSpec::Transfer {
                                 back_constraint: bc,
@@ -281,6 +324,7 @@ impl<'a> Planner<'a> {
                                 source: s,
                                 target: t,
                                 run: run * transfers_per_run + k,
+                                bayesian: self.bayesian,
                             },
                             Some(ids[s]),
                             false,
@@ -297,10 +341,14 @@ impl<'a> Planner<'a> {
         for run in 0..self.config.runs {
             self.push(
                 stage,
-                format!("multi-robot, {bc} back constraints, run {run}"),
+                format!(
+                    "{}multi-robot, {bc} back constraints, run {run}",
+                    self.model_name()
+                ),
                 TaskSpec::Multi {
                     back_constraint: bc,
                     run,
+                    bayesian: self.bayesian,
                 },
                 None,
                 false,
@@ -447,6 +495,7 @@ mod tests {
             fractions: vec![0.5],
             max_seconds: None,
             inducing: Some(6),
+            bayesian: None,
         }
     }
 

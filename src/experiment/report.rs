@@ -19,11 +19,13 @@ use crate::results::{ModelKind, Results};
 use crate::stats::{self, Bootstrap};
 
 mod all_frames;
+mod bayesian;
 mod claims;
 mod format;
 mod pairs;
 
 use all_frames::all_frames_section;
+use bayesian::bayesian_section;
 use claims::{claim_1, claim_2, claim_3, claim_4, claim_5, claim_6, verdict, Claim};
 use format::{mean_sd, num, thousands};
 
@@ -192,6 +194,10 @@ pub fn report(results: &Results) -> String {
         out.push('\n');
         out.push_str(&section);
     }
+    if let Some(section) = bayesian_section(results, &boot) {
+        out.push('\n');
+        out.push_str(&section);
+    }
     out.push_str("\n## The paper's claims, one by one\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -210,6 +216,9 @@ pub fn report(results: &Results) -> String {
     );
     if !results.all_frames.is_empty() {
         out.push_str(", fig11.svg/png (every frame against a subsample)");
+    }
+    if results.config.bayesian.is_some() {
+        out.push_str(", fig12.svg/png (the Bayesian model's ARD weights per space)");
     }
     out.push_str("; the dashed line in each panel is the direct GP regression.\n");
     out
@@ -260,6 +269,8 @@ mod tests {
                 test_mse: mse,
             }),
             stop_reason: Some("max_iterations".into()),
+            bayesian: false,
+            ard_weights: Vec::new(),
         }
     }
 

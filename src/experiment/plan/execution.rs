@@ -7,6 +7,7 @@ use std::time::Instant;
 use sgplvm_core::{BackConstraint, GpRegression, Mat, SharedGplvm, Validation};
 
 use super::{Task, TaskResult, TaskSpec};
+use crate::experiment::bayesian;
 use crate::experiment::less_data::{rows_of, subset};
 use crate::experiment::{
     fit, mean_squared_error, model_config, shipped_iteration, shipped_seconds, stop_reason,
@@ -40,8 +41,9 @@ pub fn execute(
             back_constraint: bc,
             run,
             robot: r,
+            bayesian,
         } => {
-            let (runs, m) = job.baseline(bc, run, r)?;
+            let (runs, m) = job.baseline(bc, run, r, bayesian)?;
             result.runs = runs;
             model = Some(m);
         }
@@ -51,11 +53,13 @@ pub fn execute(
             source: s,
             target: t,
             run,
-        } => result.runs = job.transfer(bc, (s, source_run), t, run)?,
+            bayesian,
+        } => result.runs = job.transfer(bc, (s, source_run), t, run, bayesian)?,
         TaskSpec::Multi {
             back_constraint: bc,
             run,
-        } => result.runs = job.multi(bc, run)?,
+            bayesian,
+        } => result.runs = job.multi(bc, run, bayesian)?,
         TaskSpec::LessDataBaseline {
             fraction,
             run,
@@ -117,6 +121,33 @@ impl<'a> Job<'a> {
             })
     }
 
+    /// The options of a training whose paper's budget is `max_iters`: the Bayesian study's
+    /// budget instead for its models.
+    fn options(&self, max_iters: usize, bayesian: bool) -> sgplvm_core::TrainOptions {
+        let study = self.config.bayesian.filter(|_| bayesian);
+        self.config
+            .options(study.map_or(max_iters, |s| s.max_iters))
+    }
+
+    /// The records of a training that handed back `model`: the Bayesian study's marked as such,
+    /// with `model`'s ARD weights.
+    fn records(
+        &self,
+        recorder: Recorder<'_>,
+        model: &SharedGplvm,
+        (kind, bc, run): (ModelKind, BackConstraint, usize),
+        source: Option<(&str, usize)>,
+        bayesian: bool,
+    ) -> Result<Vec<RunRecord>, ExperimentError> {
+        let mut runs = recorder
+            .into_records(model, kind, bc, run, source)
+            .map_err(|e| self.fail(e))?;
+        if bayesian {
+            bayesian::mark(&mut runs, model).map_err(|e| self.fail(e))?;
+        }
+        Ok(runs)
+    }
+
     /// The model of the task's source task.
     fn need_source(&self) -> Result<&'a SharedGplvm, ExperimentError> {
         self.source.ok_or_else(|| ExperimentError::Task {
@@ -151,10 +182,11 @@ impl<'a> Job<'a> {
         bc: BackConstraint,
         run: usize,
         r: usize,
+        bayesian: bool,
     ) -> Result<(Vec<RunRecord>, SharedGplvm), ExperimentError> {
         let (data, config) = (self.data, self.config);
         let (name, split) = self.robot(r)?;
-        let options = config.options(config.max_iters);
+        let options = self.options(config.max_iters, bayesian);
         let spaces = [
             (data.input_name.as_str(), data.human.train.as_ref()),
             (name.as_str(), split.train.as_ref()),
@@ -166,16 +198,13 @@ impl<'a> Job<'a> {
         let m = fit(
             config,
             data,
-            bc,
-            run,
+            (bc, run, bayesian),
             &spaces,
             &options,
             Some(&mut |it, m| recorder.record(it, m)),
         )
         .map_err(|e| self.fail(e))?;
-        let runs = recorder
-            .into_records(&m, ModelKind::Baseline, bc, run, None)
-            .map_err(|e| self.fail(e))?;
+        let runs = self.records(recorder, &m, (ModelKind::Baseline, bc, run), None, bayesian)?;
         Ok((runs, m))
     }
 
@@ -186,12 +215,13 @@ impl<'a> Job<'a> {
         (s, source_run): (usize, usize),
         t: usize,
         run: usize,
+        bayesian: bool,
     ) -> Result<Vec<RunRecord>, ExperimentError> {
         let (data, config) = (self.data, self.config);
         let source = self.need_source()?;
         let (source_name, _) = self.robot(s)?;
         let (target, split) = self.robot(t)?;
-        let options = config.options(config.transfer_max_iters);
+        let options = self.options(config.transfer_max_iters, bayesian);
         let seed = config.seed + run as u64;
         let train = split.train.as_ref();
         let mut recorder = Recorder::new(
@@ -199,26 +229,30 @@ impl<'a> Job<'a> {
             vec![(target.as_str(), split.test.as_ref())],
         );
         let cb: sgplvm_core::Callback<'_> = &mut |it, m| recorder.record(it, m);
-        let m = match validation(config, data) {
+        let m = match validation(config, data).filter(|_| !bayesian) {
             Some(v) => source.transfer_validated(target, train, Some(seed), &options, &v, Some(cb)),
             None => source.transfer_seeded(target, train, seed, &options, Some(cb)),
         }
         .map_err(|e| self.fail(e))?;
-        recorder
-            .into_records(
-                &m,
-                ModelKind::Transfer,
-                bc,
-                run,
-                Some((source_name.as_str(), source_run)),
-            )
-            .map_err(|e| self.fail(e))
+        let source = Some((source_name.as_str(), source_run));
+        self.records(
+            recorder,
+            &m,
+            (ModelKind::Transfer, bc, run),
+            source,
+            bayesian,
+        )
     }
 
     /// Human + all robots trained jointly: its records.
-    fn multi(&self, bc: BackConstraint, run: usize) -> Result<Vec<RunRecord>, ExperimentError> {
+    fn multi(
+        &self,
+        bc: BackConstraint,
+        run: usize,
+        bayesian: bool,
+    ) -> Result<Vec<RunRecord>, ExperimentError> {
         let (data, config) = (self.data, self.config);
-        let options = config.options(config.max_iters);
+        let options = self.options(config.max_iters, bayesian);
         let mut spaces = vec![(data.input_name.as_str(), data.human.train.as_ref())];
         spaces.extend(
             data.robots
@@ -234,16 +268,13 @@ impl<'a> Job<'a> {
         let m = fit(
             config,
             data,
-            bc,
-            run,
+            (bc, run, bayesian),
             &spaces,
             &options,
             Some(&mut |it, m| recorder.record(it, m)),
         )
         .map_err(|e| self.fail(e))?;
-        recorder
-            .into_records(&m, ModelKind::Multi, bc, run, None)
-            .map_err(|e| self.fail(e))
+        self.records(recorder, &m, (ModelKind::Multi, bc, run), None, bayesian)
     }
 
     /// Less data: robot `t` trained fully on fraction `fraction` of the frames alone.

@@ -26,8 +26,20 @@ pub(super) fn by_pair(
     bc: BackConstraint,
     value: impl Fn(&Shipped) -> f64,
 ) -> BTreeMap<usize, f64> {
+    by_pair_of(results, false, robot, kind, bc, value)
+}
+
+/// [`by_pair`] of the Bayesian study's runs (`bayesian`) or the paper's model's.
+pub(super) fn by_pair_of(
+    results: &Results,
+    bayesian: bool,
+    robot: &str,
+    kind: ModelKind,
+    bc: BackConstraint,
+    value: impl Fn(&Shipped) -> f64,
+) -> BTreeMap<usize, f64> {
     let mut groups: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
-    for run in results.select(robot, kind, bc.name()) {
+    for run in results.select_of(bayesian, robot, kind, bc.name()) {
         groups
             .entry(pair_key(run, results.config.transfers_per_run))
             .or_default()
