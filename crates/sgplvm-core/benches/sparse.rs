@@ -1,6 +1,7 @@
 //! Criterion benches of the sparse model (issue 14): one objective + gradient evaluation
 //! (human 18-D + robot 14-D, Q = 5, input back constraints with M centres, Z trained) at
-//! N = 20,000 and M = 100, one-frame and batch prediction at M = 100, and the scaling of one
+//! N = 20,000 and M = 100, one-frame and batch prediction at M = 100 (and one frame of the
+//! Bayesian model at M = 50, issue 34's ≤ 10 µs), and the scaling of one
 //! evaluation over N × M (`SGPLVM_SPARSE_SCALING=1`: N ∈ {1k, 5k, 20k, 100k}, M ∈ {50, 100,
 //! 200}; off by default, it takes minutes).
 //!
@@ -19,8 +20,13 @@ fn data(n: usize) -> (Mat<f64>, Mat<f64>) {
 
 /// The sparse model at its starting point (no training).
 fn model(n: usize, m: usize) -> SharedGplvm {
+    model_of(n, ModelConfig::default().with_inducing(Some(m)))
+}
+
+/// The model `config` describes on `n` frames, at its starting point (no training: the cost of a
+/// prediction does not depend on the parameters' values).
+fn model_of(n: usize, config: ModelConfig) -> SharedGplvm {
     let (h, r) = data(n);
-    let config = ModelConfig::default().with_inducing(Some(m));
     let options = TrainOptions {
         max_iters: 0,
         ..TrainOptions::default()
@@ -69,6 +75,22 @@ fn bench_predict(c: &mut Criterion) {
     g.bench_function("frame_m100", |b| {
         b.iter(|| {
             m.predict_frame(black_box(&frame), "robot", &mut out)
+                .expect("predicts");
+            black_box(out[0])
+        })
+    });
+    // The Bayesian model (issue 34) as `train --bayesian` builds it: M = 50, input back
+    // constraints, Q = 5; its goal is ≤ 10 µs per frame.
+    let bayesian = model_of(
+        1_000,
+        ModelConfig::default()
+            .with_inducing(Some(50))
+            .with_bayesian(true),
+    );
+    g.bench_function("frame_bayesian_m50", |b| {
+        b.iter(|| {
+            bayesian
+                .predict_frame(black_box(&frame), "robot", &mut out)
                 .expect("predicts");
             black_box(out[0])
         })
