@@ -829,8 +829,40 @@ fn experiment_writes_results_in_the_documented_schema() {
         .find(|l| l.trim_start().starts_with("experiment "))
         .unwrap();
     assert!(
-        line.contains("Figs. 4-6, 9 and 10 (and 11 with --all-frames)"),
+        line.contains("Figs. 4-6, 9 and 10 (and 11 with --all-frames, 12 with --bayesian)"),
         "{line}"
+    );
+    // `--from-results` redraws the same figures and report from results.json, training nothing;
+    // a file that is not one is refused, naming it, and nothing is written.
+    let again = f.dir.join("experiment-again");
+    let results_json = out.join("results.json");
+    ok(&[
+        "experiment",
+        "--from-results",
+        s(&results_json),
+        "--out",
+        s(&again),
+    ]);
+    for name in ["fig6.svg", "fig10.svg", "report.md", "results.json"] {
+        assert_eq!(
+            std::fs::read(out.join(name)).unwrap(),
+            std::fs::read(again.join(name)).unwrap(),
+            "{name} differs when redrawn"
+        );
+    }
+    let not_results = f.dir.join("not-results");
+    let e = sgplvm(&[
+        "experiment",
+        "--from-results",
+        s(&f.data),
+        "--out",
+        s(&not_results),
+    ]);
+    let stderr = String::from_utf8_lossy(&e.stderr);
+    assert!(!e.status.success() && !not_results.exists());
+    assert!(
+        stderr.contains(&format!("{}: not the results.json", f.data.display())),
+        "{stderr}"
     );
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 use sgplvm::experiment::{self, BayesianStudy, ExperimentConfig};
 
@@ -68,6 +68,10 @@ pub struct ExperimentArgs {
     /// earlier when it converges). `--max-iters` does not apply to it.
     #[arg(long, requires = "bayesian", value_parser = clap::value_parser!(u64).range(1..))]
     bayesian_max_iters: Option<u64>,
+    /// Train nothing: draw the figures and write report.md into `--out` from a results.json an
+    /// earlier `sgplvm experiment` wrote (e.g. to see a finished run with a newer report).
+    #[arg(long, value_name = "RESULTS_JSON")]
+    from_results: Option<PathBuf>,
     /// Print the results JSON to stdout as well.
     #[arg(long)]
     json: bool,
@@ -111,6 +115,18 @@ impl ExperimentArgs {
 }
 
 pub fn run(args: ExperimentArgs) -> Result<()> {
+    if let Some(path) = &args.from_results {
+        let bytes = std::fs::read(path)
+            .with_context(|| format!("cannot read the results file {}", path.display()))?;
+        let results: experiment::Results = serde_json::from_slice(&bytes).with_context(|| {
+            format!(
+                "{}: not the results.json of `sgplvm experiment`",
+                path.display()
+            )
+        })?;
+        output_folder(&args.out)?;
+        return write(&args, &results);
+    }
     let config = args.config();
     let demos = args.data.load()?;
     output_folder(&args.out)?;
@@ -134,11 +150,17 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
         }
     })?;
     bar.finish_and_clear();
-    let written = experiment::write_outputs(&results, &args.out)?;
+    write(&args, &results)
+}
+
+/// Writes results.json, the figures and report.md into `--out`, and prints the report (or the
+/// JSON with `--json`).
+fn write(args: &ExperimentArgs, results: &experiment::Results) -> Result<()> {
+    let written = experiment::write_outputs(results, &args.out)?;
     if args.json {
-        println!("{}", serde_json::to_string(&results)?);
+        println!("{}", serde_json::to_string(results)?);
     } else {
-        println!("{}", experiment::report(&results));
+        println!("{}", experiment::report(results));
         for path in written {
             eprintln!("wrote {}", path.display());
         }

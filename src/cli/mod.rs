@@ -52,14 +52,16 @@ pub enum Command {
     /// Either `--trajectory FILE` (robot joint commands, MCAP JointState or CSV) on `--robot` or
     /// `--urdf`, or `--model MODEL --input HUMAN_FILE --robot NAME` to predict and then replay.
     Simulate(simulate::SimulateArgs),
-    /// The paper's Section IV-B: Figs. 4-6, 9 and 10 (11 with --all-frames, 12 with --bayesian), results.json
-    /// and report.md.
+    /// The paper's Section IV-B: Figs. 4-6, 9 and 10 (and 11 with --all-frames, 12 with
+    /// --bayesian), results.json and report.md.
     ///
     /// Into --out: results.json (every run), report.md (the paper's claims judged), and each
     /// figure as SVG and PNG: fig4 and fig5 (test error against iterations, and against
     /// seconds as fig4_seconds and fig5_seconds: no and input back constraints), fig6 (the
     /// three back constraints), fig9 (less data), fig10 (transfer to each robot from each
-    /// other robot) and, with --all-frames, fig11 (the sparse model on every frame).
+    /// other robot), with --all-frames fig11 (the sparse model on every frame) and with
+    /// --bayesian fig12 (the Bayesian model's ARD weights per space; its curves join Figs.
+    /// 4-6). `--from-results FILE` redraws them from an earlier results.json.
     ///
     /// Runs every training here, one after another. On a Ray cluster the same trainings run
     /// in parallel with identical results: `pip install "sgplvm[ray]"`, then in Python

@@ -32,9 +32,12 @@ pub(super) fn bayesian_section(results: &Results, boot: &Bootstrap) -> Option<St
          model by the paper's model's, paired by run, with a 95 % bootstrap interval: *better* or \
          *worse* when the interval excludes 1, *no clear difference* otherwise. \"Rise\" is how \
          far the shipped model's test error lies above the lowest on its training curve \
-         (median and largest over runs): a model that needs early stopping rises.\n\n\
-         | robot | model | BC | runs | Bayesian | paper's model | ratio | finding | ÷ direct GP | rise (median, max) | stopped by |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+         (median and largest over runs): a model that needs early stopping rises. \"Late\" is the \
+         change of the test error over the second half of the training (from its middle \
+         iteration to the shipped model; median over runs): whether it is still rising when \
+         training ends.\n\n\
+         | robot | model | BC | runs | Bayesian | paper's model | ratio | finding | ÷ direct GP | rise (median, max) | late | stopped by |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
         study.inducing, study.max_iters
     );
     for robot in &results.robots {
@@ -73,8 +76,10 @@ fn comparison_row(
     let all_bayes: Vec<f64> = runs.iter().map(|r| r.shipped().test_mse).collect();
     let mut rises: Vec<f64> = runs.iter().map(|r| rise(r)).collect();
     rises.sort_by(f64::total_cmp);
+    let mut late: Vec<f64> = runs.iter().map(|r| late_change(r)).collect();
+    late.sort_by(f64::total_cmp);
     format!(
-        "| {robot} | {name} | {bc} | {} | {} | {} | {} | {} | {} | {}, {} | {} |\n",
+        "| {robot} | {name} | {bc} | {} | {} | {} | {} | {} | {} | {}, {} | {} | {} |\n",
         runs.len(),
         mean_sd(&all_bayes, 5),
         mean_sd(&paper, 5),
@@ -83,6 +88,7 @@ fn comparison_row(
         num(stats::mean(&all_bayes) / results.direct_mse(robot), 2),
         percent(stats::quantile(&rises, 0.5)),
         percent(rises.last().copied().unwrap_or(f64::NAN)),
+        signed_percent(stats::quantile(&late, 0.5)),
         stop_reasons(&runs),
     )
 }
@@ -91,6 +97,21 @@ fn comparison_row(
 fn rise(run: &RunRecord) -> f64 {
     let best = run.test_mse.iter().copied().fold(f64::INFINITY, f64::min);
     run.shipped().test_mse / best - 1.0
+}
+
+/// The relative change of a run's test error from its curve's middle iteration to the shipped
+/// model.
+fn late_change(run: &RunRecord) -> f64 {
+    let middle = run.test_mse.get(run.test_mse.len() / 2).copied();
+    middle.map_or(f64::NAN, |m| run.shipped().test_mse / m - 1.0)
+}
+
+/// A relative change as a signed percentage with one decimal ("—" when not finite).
+fn signed_percent(value: f64) -> String {
+    match value.is_finite() {
+        true => super::format::signed(value * 100.0, 1) + " %",
+        false => "—".into(),
+    }
 }
 
 /// A relative change as a percentage with one decimal ("—" when not finite).
