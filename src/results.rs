@@ -56,6 +56,20 @@ pub struct ExperimentConfig {
     pub bayesian: Option<BayesianStudy>,
 }
 
+/// The share of a space's largest ARD weight above which a latent dimension counts as used by
+/// that space (as `train --bayesian` prints).
+pub const ARD_USED_SHARE: f64 = 0.05;
+
+/// Which latent dimensions a space with ARD weights `weights` uses (weight above
+/// [`ARD_USED_SHARE`] of the largest).
+pub fn used_dimensions(weights: &[f64]) -> Vec<bool> {
+    let largest = weights.iter().copied().fold(0.0, f64::max);
+    weights
+        .iter()
+        .map(|w| *w > ARD_USED_SHARE * largest)
+        .collect()
+}
+
 /// How the Bayesian study trains its models.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BayesianStudy {
@@ -262,6 +276,19 @@ impl Results {
                     && r.back_constraint == bc
             })
             .collect()
+    }
+
+    /// The Bayesian study's multi-robot models with back constraint `bc`, one record per run
+    /// (a multi-robot training records one run per robot, each with the model's ARD weights).
+    pub(crate) fn bayesian_multi_models(&self, bc: &str) -> Vec<&RunRecord> {
+        let mut models: Vec<&RunRecord> = Vec::new();
+        for r in &self.runs {
+            let wanted = r.bayesian && r.model == ModelKind::Multi && r.back_constraint == bc;
+            if wanted && !r.ard_weights.is_empty() && !models.iter().any(|m| m.run == r.run) {
+                models.push(r);
+            }
+        }
+        models
     }
 
     /// Mean test error of the shipped models of a group of runs (NaN without runs).

@@ -8,11 +8,7 @@ use std::path::{Path, PathBuf};
 use sgplvm_core::BackConstraint;
 
 use crate::plots::{write_figure, Markers, Panel, PlotError, Series};
-use crate::results::{ModelKind, Results, RunRecord};
-
-/// The share of a space's largest weight below which a dimension counts as switched off for it
-/// (as `train --bayesian` prints).
-const USED_SHARE: f64 = 0.05;
+use crate::results::{Results, ARD_USED_SHARE};
 
 /// Fig. 12: per back constraint of the Bayesian study (a row each) and space (a column each),
 /// every latent dimension's ARD weight relative to the space's largest — the mean over runs
@@ -23,19 +19,7 @@ pub fn ard_weights(results: &Results, dir: &Path) -> Result<Option<[PathBuf; 2]>
     let mut panels = Vec::new();
     let mut columns = 0;
     for bc in [BackConstraint::Input, BackConstraint::None] {
-        let runs: Vec<&RunRecord> = results
-            .runs
-            .iter()
-            .filter(|r| r.bayesian && r.model == ModelKind::Multi)
-            .filter(|r| r.back_constraint == bc.name() && !r.ard_weights.is_empty())
-            .collect();
-        // A multi-robot training records one run per robot, all with the model's weights.
-        let mut models: Vec<&RunRecord> = Vec::new();
-        for r in runs {
-            if !models.iter().any(|m| m.run == r.run) {
-                models.push(r);
-            }
-        }
+        let models = results.bayesian_multi_models(bc.name());
         let Some(first) = models.first() else {
             continue;
         };
@@ -90,10 +74,10 @@ fn space_panel(title: &str, relative: &[Vec<f64>]) -> Panel {
         })
         .collect();
     series.push(Series {
-        label: format!("{:.0} % of the largest", USED_SHARE * 100.0),
+        label: format!("{:.0} % of the largest", ARD_USED_SHARE * 100.0),
         color: 7,
         dashed: true,
-        points: vec![(0.5, USED_SHARE), (q as f64 + 0.5, USED_SHARE)],
+        points: vec![(0.5, ARD_USED_SHARE), (q as f64 + 0.5, ARD_USED_SHARE)],
         band: None,
     });
     let markers = vec![

@@ -10,11 +10,8 @@ use sgplvm_core::BackConstraint;
 use super::format::{mean_sd, num, with_interval};
 use super::judged;
 use super::pairs::{by_pair_of, paired};
-use crate::results::{ModelKind, Results, RunRecord};
+use crate::results::{used_dimensions, ModelKind, Results, RunRecord, ARD_USED_SHARE};
 use crate::stats::{self, Bootstrap, Interval, StatsError};
-
-/// The share of a space's largest ARD weight above which a latent dimension counts as used.
-const USED_SHARE: f64 = 0.05;
 
 /// The section, or `None` when the study was not run.
 pub(super) fn bayesian_section(results: &Results, boot: &Bootstrap) -> Option<String> {
@@ -155,65 +152,54 @@ fn stop_reasons(runs: &[&RunRecord]) -> String {
 /// (Fig. 12 draws the weights).
 fn dimensions_used(results: &Results) -> String {
     let q = results.config.latent_dim;
-    let mut out = format!(
-        "Latent dimensions each space of the Bayesian multi-robot models uses (ARD weight above \
-         {:.0} % of the space's largest; of Q = {q}), mean over runs, and those every space \
-         uses (shared); Fig. 12 draws the weights.\n\n| back constraint | runs | ",
-        USED_SHARE * 100.0
-    );
-    let mut header_done = false;
+    let mut header = None;
     let mut rows = String::new();
     for bc in [BackConstraint::None, BackConstraint::Input] {
-        let mut models: Vec<&RunRecord> = Vec::new();
-        for r in results
-            .runs
-            .iter()
-            .filter(|r| r.bayesian && r.model == ModelKind::Multi && r.back_constraint == bc.name())
-        {
-            if !models.iter().any(|m| m.run == r.run) && !r.ard_weights.is_empty() {
-                models.push(r);
-            }
-        }
+        let models = results.bayesian_multi_models(bc.name());
         let Some(first) = models.first() else {
             continue;
         };
-        if !header_done {
-            for (space, _) in &first.ard_weights {
-                out.push_str(&format!("{space} | "));
-            }
-            out.push_str("shared |\n|---|---|");
-            out.push_str(&"---|".repeat(first.ard_weights.len() + 1));
-            out.push('\n');
-            header_done = true;
-        }
-        let used = |w: &[f64]| -> Vec<bool> {
-            let largest = w.iter().copied().fold(0.0, f64::max);
-            w.iter().map(|v| *v > USED_SHARE * largest).collect()
-        };
+        let spaces: Vec<&str> = first.ard_weights.iter().map(|(s, _)| s.as_str()).collect();
+        header.get_or_insert(format!(
+            "| back constraint | runs | {} | shared |\n|---|---|{}\n",
+            spaces.join(" | "),
+            "---|".repeat(spaces.len() + 1)
+        ));
+        // Per model, which dimensions each space uses.
+        let used: Vec<Vec<Vec<bool>>> = models
+            .iter()
+            .map(|m| {
+                m.ard_weights
+                    .iter()
+                    .map(|(_, w)| used_dimensions(w))
+                    .collect()
+            })
+            .collect();
         rows.push_str(&format!("| {bc} | {} |", models.len()));
-        for s in 0..first.ard_weights.len() {
-            let counts: Vec<f64> = models
+        for s in 0..spaces.len() {
+            let counts: Vec<f64> = used
                 .iter()
-                .filter_map(|m| m.ard_weights.get(s))
-                .map(|(_, w)| used(w).iter().filter(|u| **u).count() as f64)
+                .filter_map(|m| m.get(s))
+                .map(|u| u.iter().filter(|x| **x).count() as f64)
                 .collect();
             rows.push_str(&format!(" {} |", num(stats::mean(&counts), 1)));
         }
-        let shared: Vec<f64> = models
+        let shared: Vec<f64> = used
             .iter()
             .map(|m| {
-                let per_space: Vec<Vec<bool>> =
-                    m.ard_weights.iter().map(|(_, w)| used(w)).collect();
-                (0..q)
-                    .filter(|&t| per_space.iter().all(|u| u.get(t).copied().unwrap_or(false)))
-                    .count() as f64
+                let all = |t: usize| m.iter().all(|u| u.get(t).copied().unwrap_or(false));
+                (0..q).filter(|&t| all(t)).count() as f64
             })
             .collect();
         rows.push_str(&format!(" {} |\n", num(stats::mean(&shared), 1)));
     }
-    if !header_done {
+    let Some(header) = header else {
         return String::new();
-    }
-    out.push_str(&rows);
-    out
+    };
+    format!(
+        "Latent dimensions each space of the Bayesian multi-robot models uses (ARD weight above \
+         {:.0} % of the space's largest; of Q = {q}), mean over runs, and those every space \
+         uses (shared); Fig. 12 draws the weights.\n\n{header}{rows}",
+        ARD_USED_SHARE * 100.0
+    )
 }
