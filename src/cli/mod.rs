@@ -59,8 +59,8 @@ pub enum Command {
     /// figure as SVG and PNG: fig4 and fig5 (test error against iterations, and against
     /// seconds as fig4_seconds and fig5_seconds: no and input back constraints), fig6 (the
     /// three back constraints), fig9 (less data), fig10 (transfer to each robot from each
-    /// other robot), with --all-frames fig11 (the sparse model on every frame) and with
-    /// --bayesian fig12 (the Bayesian model's ARD weights per space; its curves join Figs.
+    /// other robot), with --all-frames, fig11 (the sparse model on every frame) and, with
+    /// --bayesian, fig12 (the Bayesian model's ARD weights per space; its curves join Figs.
     /// 4-6). `--from-results FILE` redraws them from an earlier results.json.
     ///
     /// Runs every training here, one after another. On a Ray cluster the same trainings run
