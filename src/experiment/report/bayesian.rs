@@ -70,7 +70,12 @@ fn comparison_row(
         ModelKind::Transfer => "transfer",
         ModelKind::Multi => "multi-robot",
     };
-    let all_bayes: Vec<f64> = runs.iter().map(|r| r.shipped().test_mse).collect();
+    // Both columns over every run (as the report's first table); the ratio over pairs.
+    let shipped = |bayesian| -> Vec<f64> {
+        let runs = results.select_of(bayesian, robot, kind, bc.name());
+        runs.iter().map(|r| r.shipped().test_mse).collect()
+    };
+    let (all_bayes, all_paper) = (shipped(true), shipped(false));
     let mut rises: Vec<f64> = runs.iter().map(|r| rise(r)).collect();
     rises.sort_by(f64::total_cmp);
     let mut late: Vec<f64> = runs.iter().map(|r| late_change(r)).collect();
@@ -79,7 +84,7 @@ fn comparison_row(
         "| {robot} | {name} | {bc} | {} | {} | {} | {} | {} | {} | {}, {} | {} | {} |\n",
         runs.len(),
         mean_sd(&all_bayes, 5),
-        mean_sd(&paper, 5),
+        mean_sd(&all_paper, 5),
         with_interval(results, ratio, &ci, |v| num(v, 2)),
         finding(results, &ci),
         num(stats::mean(&all_bayes) / results.direct_mse(robot), 2),
