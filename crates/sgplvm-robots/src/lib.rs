@@ -3,6 +3,7 @@
 
 #![deny(clippy::unwrap_used)]
 
+pub mod anatomy;
 pub mod capture;
 pub mod dataset;
 pub mod joint_state;
@@ -20,6 +21,7 @@ pub mod scene;
 pub mod series;
 pub mod urdf;
 
+pub use anatomy::{Anatomy, AnatomyError, AnatomySpec};
 pub use error::{RobotError, RobotResult};
 pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
 pub use models::{Arm, Side};

@@ -176,6 +176,29 @@ impl Chain {
         self.frames(q).origins
     }
 
+    /// Each joint's frame in the base frame at `q`, before its own motion (its origin is the
+    /// joint's origin), in chain order (missing `q` values count as 0).
+    pub fn joint_frames(&self, q: &[f64]) -> Vec<Isometry3<f64>> {
+        let mut t = Isometry3::identity();
+        let mut out = Vec::with_capacity(self.dof());
+        for (i, s) in self.segments.iter().enumerate() {
+            t *= s.pre;
+            out.push(t);
+            t *= motion(s, q.get(i).copied().unwrap_or(0.0));
+        }
+        out
+    }
+
+    /// Each joint's unit axis in the base frame at `q`, in chain order.
+    pub fn joint_axes(&self, q: &[f64]) -> Vec<Vector3<f64>> {
+        self.frames(q).axes
+    }
+
+    /// Whether chain joint `i` slides (prismatic) rather than turns.
+    pub fn is_prismatic(&self, i: usize) -> bool {
+        self.segments.get(i).is_some_and(|s| s.prismatic)
+    }
+
     /// [`Chain::forward`] that rejects a `q` of the wrong length.
     pub fn try_forward(&self, q: &[f64]) -> RobotResult<Isometry3<f64>> {
         self.check(q, "Chain::forward")?;

@@ -2,9 +2,11 @@
 //! demonstrations recorded from a person alone.
 //!
 //! Each frame, each hand of the human model (forward kinematics of the recorded angles) is
-//! taken relative to its shoulder frame, in units of the human's arm length, and the robot's
-//! hand is sent to the same place relative to its own shoulder in units of its own arm length,
-//! as the generator places its key poses. Damped least-squares IK ([`crate::Chain`]) solves
+//! taken relative to its shoulder, in units of the human's reach, in its body frame, and the
+//! robot's hand is sent to the same place relative to its own shoulder in units of its own
+//! reach, in its own body frame, as the generator places its key poses. The robot is an
+//! [`Anatomy`]: each arm moves its own joints only, every other joint (a waist, legs, a head,
+//! grippers) stays at its hold value, and the commands name the anatomy's command joints. Damped least-squares IK ([`crate::Chain`]) solves
 //! each arm, warm-started from the previous frame so that motion stays continuous, with a
 //! null-space pull towards the robot's neutral posture, within the joint limits and, between
 //! frames, within the joint velocity limits. What [`Match`] asks for besides the hands:
@@ -30,14 +32,14 @@
 mod arm;
 pub mod split;
 
-use nalgebra::{DMatrix, Isometry3, Vector3};
+use nalgebra::{DMatrix, Isometry3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::anatomy::Anatomy;
 use crate::dataset::{BodyData, Dataset};
-use crate::generator::{solve_key_poses_for, NEUTRAL};
-use crate::models::Arm;
+use crate::generator::KEY_POSES;
 use crate::series::median;
-use crate::{IkTarget, Robot, RobotError};
+use crate::{IkOptions, IkTarget, Robot, RobotError};
 pub use arm::Redundancy;
 use arm::{ArmRun, Outcome};
 
@@ -107,12 +109,6 @@ pub enum RetargetError {
         /// Why.
         source: RobotError,
     },
-    /// A body lacks the arm convention's links.
-    #[error("{body} has no left/right arm (links left_shoulder, left_hand, right_shoulder and right_hand expected)")]
-    NoArms {
-        /// The body.
-        body: String,
-    },
     /// The human's joints do not match the human model's.
     #[error(
         "the demonstrations' human joints are not the human model's: {}",
@@ -138,12 +134,15 @@ pub struct ReachReport {
     pub mode: Match,
     /// Hand targets (two per frame).
     pub targets: usize,
-    /// Median distance of a hand to its target, over the reachable targets, metres.
-    pub median_m: f64,
-    /// Largest distance over the reachable targets that the velocity limits did not hold back,
-    /// metres (the IK converges to 10 µm where it reaches; a target it leaves beyond the
-    /// tolerance counts as velocity-limited or unreachable).
-    pub worst_m: f64,
+    /// Targets the hand reached: within the tolerance, measured on the commands as written.
+    pub reached: usize,
+    /// Median distance of a hand to its target over the targets reached, metres (`None` when
+    /// none was).
+    pub median_m: Option<f64>,
+    /// Largest distance over the targets reached, metres (`None` when none was; a target left
+    /// beyond the tolerance counts as velocity-limited, another configuration's or
+    /// unreachable).
+    pub worst_m: Option<f64>,
     /// Targets the robot cannot reach within its joint limits from any start tried.
     pub unreachable: usize,
     /// Largest miss of an unreachable target, metres (0 if none).
@@ -173,164 +172,103 @@ pub struct Retargeted {
     pub report: ReachReport,
 }
 
-/// The human side: where the model's hands, elbows and hand frames are, relative to the fixed
-/// shoulder frames, in units of arm length.
-struct HumanArms {
-    arms: [Arm; 2],
+/// One body's arms as retargeting measures them: per arm, the rotation from the body frame
+/// (x forward, y left, z up) into the chain's base frame, the shoulder point there, the reach,
+/// the elbow joint and the hand's orientation at the neutral posture.
+struct ArmFrames {
+    body_in_base: [UnitQuaternion<f64>; 2],
     shoulders: [Vector3<f64>; 2],
-    /// Chain joint of the elbow per arm.
+    reach: [f64; 2],
     elbows: [usize; 2],
-    /// Hand frame orientation at the zero configuration, per arm.
-    zero_hands: [nalgebra::UnitQuaternion<f64>; 2],
+    neutral_hands: [UnitQuaternion<f64>; 2],
 }
 
-/// One arm's targets in one frame, relative to the shoulder in units of arm length.
+impl ArmFrames {
+    fn of(anatomy: &Anatomy) -> Self {
+        let arms = anatomy.arms();
+        let body_in_base = [0, 1].map(|s| {
+            arms[s].base_in_torso.rotation.inverse() * anatomy.body_in_torso()
+        });
+        Self {
+            body_in_base,
+            shoulders: [0, 1].map(|s| arms[s].shoulder_at(&arms[s].neutral)),
+            reach: [0, 1].map(|s| arms[s].reach),
+            elbows: [0, 1].map(|s| arms[s].elbow),
+            neutral_hands: [0, 1].map(|s| arms[s].chain.forward(&arms[s].neutral).rotation),
+        }
+    }
+}
+
+/// The human side: where the model's hands and elbows are relative to its shoulders, in units
+/// of its reach, in its body frame, and how its hands have turned from their neutral posture.
+struct HumanArms {
+    anatomy: Anatomy,
+    frames: ArmFrames,
+}
+
+/// One arm's targets in one frame, relative to the shoulder in units of reach, in the body
+/// frame.
 #[derive(Debug, Clone, Copy)]
 struct Relative {
     hand: Vector3<f64>,
     elbow: Vector3<f64>,
-    /// The hand frame's rotation from its zero-pose orientation (torso frame).
-    turn: nalgebra::UnitQuaternion<f64>,
-}
-
-/// The chain joint most in the middle of the arm at the zero configuration (farthest from both
-/// the shoulder and the hand): the elbow.
-fn elbow_joint(arm: &Arm, shoulder: &Vector3<f64>) -> usize {
-    let zero = vec![0.0; arm.chain.dof()];
-    let origins = arm.chain.joint_origins(&zero);
-    let hand = arm.chain.forward(&zero).translation.vector;
-    (0..origins.len())
-        .max_by(|&a, &b| {
-            let score = |i: usize| {
-                (origins[i] - shoulder)
-                    .norm()
-                    .min((origins[i] - hand).norm())
-            };
-            score(a).total_cmp(&score(b))
-        })
-        .unwrap_or(0)
-}
-
-/// The fixed shoulder frames' positions at the zero configuration.
-fn shoulder_points(
-    robot: &Robot,
-    arms: &[Arm; 2],
-    body: &str,
-) -> Result<[Vector3<f64>; 2], RetargetError> {
-    let zero = vec![0.0; robot.dof()];
-    let at = |arm: &Arm| {
-        robot
-            .forward_kinematics(&zero, &arm.shoulder_link)
-            .map(|p| p.translation.vector)
-            .map_err(|source| RetargetError::Robot {
-                body: body.to_string(),
-                source,
-            })
-    };
-    Ok([at(&arms[0])?, at(&arms[1])?])
-}
-
-/// Both arms of a body with what relative targets are measured from: their shoulder points,
-/// elbow joints and hand rotations at the zero configuration.
-struct ArmGeometry {
-    arms: [Arm; 2],
-    shoulders: [Vector3<f64>; 2],
-    elbows: [usize; 2],
-    zero_hands: [nalgebra::UnitQuaternion<f64>; 2],
-}
-
-impl ArmGeometry {
-    /// The arms of `body` (called `name` in errors).
-    fn of(body: &Robot, name: &str) -> Result<Self, RetargetError> {
-        let arms = body.arms().ok_or_else(|| RetargetError::NoArms {
-            body: name.to_string(),
-        })?;
-        let shoulders = shoulder_points(body, &arms, name)?;
-        let elbows = [0, 1].map(|s| elbow_joint(&arms[s], &shoulders[s]));
-        let zero_hands = [0, 1].map(|s| {
-            let chain = &arms[s].chain;
-            chain.forward(&vec![0.0; chain.dof()]).rotation
-        });
-        Ok(Self {
-            arms,
-            shoulders,
-            elbows,
-            zero_hands,
-        })
-    }
+    /// The hand frame's rotation from its neutral orientation (body frame).
+    turn: UnitQuaternion<f64>,
 }
 
 impl HumanArms {
-    fn new(human: &Robot) -> Result<Self, RetargetError> {
-        let ArmGeometry {
-            arms,
-            shoulders,
-            elbows,
-            zero_hands,
-        } = ArmGeometry::of(human, "human")?;
-        Ok(Self {
-            arms,
-            shoulders,
-            elbows,
-            zero_hands,
-        })
+    fn new(human: Robot) -> Result<Self, RetargetError> {
+        let anatomy = Anatomy::of(human).map_err(|e| RetargetError::Invalid(format!("human: {e}")))?;
+        let frames = ArmFrames::of(&anatomy);
+        Ok(Self { anatomy, frames })
     }
 
     /// Both arms' relative targets for one frame of the model's joint angles.
     fn relative(&self, q: &[f64]) -> [Relative; 2] {
+        let f = &self.frames;
         [0, 1].map(|s| {
-            let arm = &self.arms[s];
+            let arm = &self.anatomy.arms()[s];
             let qa: Vec<f64> = arm.chain.robot_indices().iter().map(|&i| q[i]).collect();
             let tip = arm.chain.forward(&qa);
-            let elbow = arm.chain.joint_origins(&qa)[self.elbows[s]];
+            let elbow = arm.chain.joint_origins(&qa)[f.elbows[s]];
+            let to_body = f.body_in_base[s].inverse();
             Relative {
-                hand: (tip.translation.vector - self.shoulders[s]) / arm.length,
-                elbow: (elbow - self.shoulders[s]) / arm.length,
-                turn: tip.rotation * self.zero_hands[s].inverse(),
+                hand: to_body * (tip.translation.vector - f.shoulders[s]) / f.reach[s],
+                elbow: to_body * (elbow - f.shoulders[s]) / f.reach[s],
+                turn: to_body * (tip.rotation * f.neutral_hands[s].inverse()) * f.body_in_base[s],
             }
         })
     }
 }
 
 /// A robot prepared for retargeting.
-struct RobotArms {
+struct RobotArms<'a> {
     name: String,
-    robot: Robot,
-    arms: [Arm; 2],
-    shoulders: [Vector3<f64>; 2],
-    elbows: [usize; 2],
-    zero_hands: [nalgebra::UnitQuaternion<f64>; 2],
-    /// Neutral posture per arm (the generator's neutral key pose): start and posture pull.
-    neutral: [Vec<f64>; 2],
+    anatomy: &'a Anatomy,
+    frames: ArmFrames,
     /// The middle of every joint's range per arm: where the warm IK's null space pulls, away
     /// from the limits a continuing motion would otherwise get stuck at.
     rest: [Vec<f64>; 2],
-    /// Every key posture per arm: starts when the arm must change configuration.
+    /// Every key posture per arm (the generator's key poses at this robot's reach): starts
+    /// when the arm must change configuration.
     key_postures: [Vec<Vec<f64>>; 2],
     /// Velocity limit per arm joint, rad/s (0: none).
     velocity: [Vec<f64>; 2],
 }
 
-impl RobotArms {
-    fn new(name: &str, robot: Robot) -> Result<Self, RetargetError> {
-        let ArmGeometry {
-            arms,
-            shoulders,
-            elbows,
-            zero_hands,
-        } = ArmGeometry::of(&robot, name)?;
-        let poses = solve_key_poses_for(&robot, name)
-            .map_err(|e| RetargetError::Invalid(format!("{name}: {e}")))?;
-        let all_velocity = robot.velocity_limits();
-        let pick = |arm: &Arm, v: &[f64]| -> Vec<f64> {
-            arm.chain.robot_indices().iter().map(|&i| v[i]).collect()
-        };
-        let neutral = [
-            pick(&arms[0], &poses.postures[NEUTRAL]),
-            pick(&arms[1], &poses.postures[NEUTRAL]),
-        ];
-        let key_postures =
-            [0, 1].map(|s| poses.postures.iter().map(|p| pick(&arms[s], p)).collect());
+impl<'a> RobotArms<'a> {
+    fn new(name: &str, anatomy: &'a Anatomy) -> Self {
+        let frames = ArmFrames::of(anatomy);
+        let all_velocity = anatomy.robot().velocity_limits();
+        let arms = anatomy.arms();
+        let velocity = [0, 1].map(|s| {
+            arms[s]
+                .chain
+                .robot_indices()
+                .iter()
+                .map(|&i| all_velocity[i])
+                .collect()
+        });
         let rest = [0, 1].map(|s| {
             arms[s]
                 .chain
@@ -345,45 +283,82 @@ impl RobotArms {
                 })
                 .collect()
         });
-        let velocity = [pick(&arms[0], &all_velocity), pick(&arms[1], &all_velocity)];
-        Ok(Self {
+        let mut robot = Self {
             name: name.to_string(),
-            robot,
-            arms,
-            shoulders,
-            elbows,
-            zero_hands,
-            neutral,
-            key_postures,
+            anatomy,
+            frames,
             rest,
+            key_postures: [Vec::new(), Vec::new()],
             velocity,
-        })
+        };
+        robot.key_postures = [0, 1].map(|s| robot.solve_key_postures(s));
+        robot
+    }
+
+    /// The neutral posture of arm `s`.
+    fn neutral(&self, s: usize) -> &[f64] {
+        &self.anatomy.arms()[s].neutral
+    }
+
+    /// Arm `s`'s configuration for each of the generator's key poses, from the neutral posture
+    /// and pulled towards it.
+    fn solve_key_postures(&self, s: usize) -> Vec<Vec<f64>> {
+        let arm = &self.anatomy.arms()[s];
+        let options = IkOptions {
+            tolerance: 1e-6,
+            max_iters: 200,
+            restarts: 4,
+            posture_gain: 0.5,
+            rest: Some(arm.neutral.clone()),
+            ..IkOptions::default()
+        };
+        KEY_POSES
+            .iter()
+            .map(|pose| {
+                let rel = if s == 0 { pose.left } else { pose.right };
+                let target = self.place(s, &Vector3::from(rel));
+                arm.chain
+                    .inverse_kinematics(&IkTarget::Position(target), &arm.neutral, &options)
+                    .q
+            })
+            .collect()
+    }
+
+    /// A point of arm `s` given relative to the shoulder in units of reach (body frame), in
+    /// the chain's base frame.
+    fn place(&self, s: usize, rel: &Vector3<f64>) -> Vector3<f64> {
+        let f = &self.frames;
+        f.shoulders[s] + f.reach[s] * (f.body_in_base[s] * rel)
     }
 
     /// The IK target of arm `s` for the human's relative target `r`.
     fn target(&self, s: usize, r: &Relative, mode: Match) -> IkTarget {
-        let scale = self.arms[s].length;
-        let hand = self.shoulders[s] + scale * r.hand;
+        let hand = self.place(s, &r.hand);
         match mode {
             Match::Hands => IkTarget::Position(hand),
             Match::HandsAndElbows => IkTarget::PositionAndJoint {
                 tip: hand,
-                joint: self.elbows[s],
-                point: self.shoulders[s] + scale * r.elbow,
+                joint: self.frames.elbows[s],
+                point: self.place(s, &r.elbow),
             },
-            Match::Poses => IkTarget::Pose(Isometry3::from_parts(
-                hand.into(),
-                r.turn * self.zero_hands[s],
-            )),
+            Match::Poses => {
+                let f = &self.frames;
+                let turn = f.body_in_base[s] * r.turn * f.body_in_base[s].inverse();
+                IkTarget::Pose(Isometry3::from_parts(
+                    hand.into(),
+                    turn * f.neutral_hands[s],
+                ))
+            }
         }
     }
 }
 
 /// Retargets the human of `dataset` (the human model's 18 joints) onto each robot of `robots`
-/// (name and model), frame by frame.
+/// (name and anatomy), frame by frame: each arm over its own joints, every other joint at its
+/// hold value; the commands name the anatomy's command joints.
 pub fn retarget(
     dataset: &Dataset,
-    robots: &[(String, Robot)],
+    robots: &[(String, Anatomy)],
     options: &RetargetOptions,
 ) -> Result<Vec<Retargeted>, RetargetError> {
     let human_model = Robot::builtin("human").map_err(|source| RetargetError::Robot {
@@ -403,7 +378,7 @@ pub fn retarget(
             options.reach_tolerance_m
         )));
     }
-    let human = HumanArms::new(&human_model)?;
+    let human = HumanArms::new(human_model)?;
     let n = dataset.len();
     let targets: Vec<[Relative; 2]> = (0..n)
         .map(|f| {
@@ -411,13 +386,13 @@ pub fn retarget(
             human.relative(&q)
         })
         .collect();
-    robots
+    Ok(robots
         .iter()
-        .map(|(name, robot)| {
-            let arms = RobotArms::new(name, robot.clone())?;
-            Ok(retarget_robot(&arms, &targets, &dataset.times_ns, options))
+        .map(|(name, anatomy)| {
+            let arms = RobotArms::new(name, anatomy);
+            retarget_robot(&arms, &targets, &dataset.times_ns, options)
         })
-        .collect()
+        .collect())
 }
 
 /// One robot, every frame.
@@ -428,20 +403,19 @@ fn retarget_robot(
     options: &RetargetOptions,
 ) -> Retargeted {
     let n = targets.len();
-    let mut positions = DMatrix::<f64>::zeros(n, r.robot.dof());
-    let mut reached = Vec::with_capacity(2 * n);
-    let mut counts = [0usize; 3];
-    let mut worst = [0.0_f64; 3];
-    let mut elbow_misses = Vec::new();
-    let mut orientation_misses = Vec::new();
+    let anatomy = r.anatomy;
+    // Every joint of every frame: the arms' as solved, the rest at their hold values.
+    let hold = anatomy.hold_configuration();
+    let mut full = DMatrix::<f64>::from_fn(n, hold.len(), |_, i| hold[i]);
+    let mut runs = Vec::with_capacity(2);
     for s in 0..2 {
-        let arm = &r.arms[s];
+        let arm = &anatomy.arms()[s];
         let run = ArmRun {
             chain: &arm.chain,
             velocity: &r.velocity[s],
             rest: &r.rest[s],
             key_postures: &r.key_postures[s],
-            neutral: &r.neutral[s],
+            neutral: r.neutral(s),
             targets: targets
                 .iter()
                 .map(|t| r.target(s, &t[s], options.mode))
@@ -452,59 +426,100 @@ fn retarget_robot(
         };
         let frames = run.run(options.redundancy);
         for f in 0..n {
-            let q = &frames.q[f];
-            let kind = match frames.outcome[f] {
-                Outcome::Reached => {
-                    reached.push(frames.miss[f]);
-                    None
-                }
-                Outcome::SpeedLimited => Some(0),
-                Outcome::OtherConfiguration => Some(1),
-                Outcome::Unreachable => Some(2),
-            };
-            if let Some(k) = kind {
-                counts[k] += 1;
-                worst[k] = worst[k].max(frames.miss[f]);
+            for (k, &i) in arm.chain.robot_indices().iter().enumerate() {
+                full[(f, i)] = frames.q[f][k];
             }
+        }
+        runs.push((run, frames));
+    }
+    let mut tally = Tally::default();
+    for (s, (run, frames)) in runs.iter().enumerate() {
+        let chain = &anatomy.arms()[s].chain;
+        for f in 0..n {
+            // Judged on the command as written, not on the arm's own solution.
+            let row: Vec<f64> = full.row(f).iter().copied().collect();
+            let q = chain.extract(&row).unwrap_or_default();
+            let miss = run.miss(f, &q);
+            tally.add(frames.outcome[f], miss, options.reach_tolerance_m);
             match run.targets[f] {
                 IkTarget::PositionAndJoint { joint, point, .. } => {
-                    elbow_misses.push((arm.chain.joint_origins(q)[joint] - point).norm());
+                    tally
+                        .elbow_misses
+                        .push((chain.joint_origins(&q)[joint] - point).norm());
                 }
                 IkTarget::Pose(t) => {
-                    let tip = arm.chain.forward(q);
-                    orientation_misses.push((t.rotation * tip.rotation.inverse()).angle());
+                    let tip = chain.forward(&q);
+                    tally
+                        .orientation_misses
+                        .push((t.rotation * tip.rotation.inverse()).angle());
                 }
                 IkTarget::Position(_) => {}
             }
-            for (k, &i) in arm.chain.robot_indices().iter().enumerate() {
-                positions[(f, i)] = q[k];
-            }
         }
     }
-    let report = ReachReport {
-        robot: r.name.clone(),
-        mode: options.mode,
-        targets: 2 * n,
-        worst_m: reached.iter().copied().fold(0.0, f64::max),
-        median_m: median(&mut reached),
-        velocity_limited: counts[0],
-        velocity_limited_worst_m: worst[0],
-        other_configuration: counts[1],
-        other_configuration_worst_m: worst[1],
-        unreachable: counts[2],
-        unreachable_worst_m: worst[2],
-        elbow_median_m: (options.mode == Match::HandsAndElbows).then(|| median(&mut elbow_misses)),
-        orientation_median_rad: (options.mode == Match::Poses)
-            .then(|| median(&mut orientation_misses)),
-    };
+    let command: Vec<usize> = anatomy
+        .command_joint_names()
+        .iter()
+        .filter_map(|name| anatomy.robot().joint_index(name))
+        .collect();
+    let positions = DMatrix::from_fn(n, command.len(), |f, c| full[(f, command[c])]);
     Retargeted {
         body: BodyData {
             name: r.name.clone(),
             topic: format!("/{}/joint_command", r.name),
-            joint_names: r.robot.joint_names(),
+            joint_names: anatomy.command_joint_names(),
             positions,
         },
-        report,
+        report: tally.report(&r.name, options.mode, 2 * n),
+    }
+}
+
+/// The counts of a reach report as targets are judged.
+#[derive(Default)]
+struct Tally {
+    reached: Vec<f64>,
+    counts: [usize; 3],
+    worst: [f64; 3],
+    elbow_misses: Vec<f64>,
+    orientation_misses: Vec<f64>,
+}
+
+impl Tally {
+    /// One hand target: reached only when the hand is within `tolerance`, whatever the
+    /// arm's run said; a miss the run called reached counts as out of reach.
+    fn add(&mut self, outcome: Outcome, miss: f64, tolerance: f64) {
+        let kind = match outcome {
+            _ if miss <= tolerance => {
+                self.reached.push(miss);
+                return;
+            }
+            Outcome::SpeedLimited => 0,
+            Outcome::OtherConfiguration => 1,
+            Outcome::Unreachable | Outcome::Reached => 2,
+        };
+        self.counts[kind] += 1;
+        self.worst[kind] = self.worst[kind].max(miss);
+    }
+
+    fn report(mut self, robot: &str, mode: Match, targets: usize) -> ReachReport {
+        ReachReport {
+            robot: robot.to_string(),
+            mode,
+            targets,
+            reached: self.reached.len(),
+            worst_m: (!self.reached.is_empty())
+                .then(|| self.reached.iter().copied().fold(0.0, f64::max)),
+            median_m: (!self.reached.is_empty()).then(|| median(&mut self.reached)),
+            velocity_limited: self.counts[0],
+            velocity_limited_worst_m: self.worst[0],
+            other_configuration: self.counts[1],
+            other_configuration_worst_m: self.worst[1],
+            unreachable: self.counts[2],
+            unreachable_worst_m: self.worst[2],
+            elbow_median_m: (mode == Match::HandsAndElbows).then(|| median(&mut self.elbow_misses)),
+            orientation_median_rad: (mode == Match::Poses)
+                .then(|| median(&mut self.orientation_misses)),
+        }
     }
 }
 

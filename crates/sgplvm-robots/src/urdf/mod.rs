@@ -15,7 +15,8 @@
 //! `0.` or `1.6E-4`, a floating root joint (held at its origin: the base is fixed),
 //! `<gazebo>`, `<sensor>`, `<transmission>` and other foreign blocks (ignored), revolute joints
 //! whose lower and upper limits are equal (kept as a movable joint with that one value allowed),
-//! mesh files that do not exist (meshes are never opened).
+//! mesh files that do not exist (meshes are never opened), `<texture/>` elements without a file
+//! (dropped).
 //!
 //! `mod.rs` holds the robot model and its queries (joint order, limits, forward kinematics);
 //! `parse.rs` loads a text: the depth guard, then the three steps — `check.rs` (1, and the

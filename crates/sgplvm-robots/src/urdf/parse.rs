@@ -12,6 +12,10 @@ use crate::error::{RobotError, RobotResult};
 
 /// Fills in what urdf-rs 0.9 insists on but real files omit, and drops what it cannot read.
 fn normalise_for_urdf_rs(el: &mut Element) {
+    // A `<texture/>` without a file (iCub's materials) says nothing; urdf-rs requires the file.
+    el.children.retain(|c| {
+        !matches!(c, Xml::ElementNode(t) if t.name == "texture" && t.get_attribute("filename", None).is_none())
+    });
     for c in &mut el.children {
         if let Xml::ElementNode(child) = c {
             match child.name.as_str() {

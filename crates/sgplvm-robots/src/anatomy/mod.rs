@@ -1,0 +1,546 @@
+//! A robot is more than its URDF: which joints are its arms, which are held still, the body
+//! frame its motions are described in, how far each arm reaches and the posture it rests in.
+//! [`Anatomy`] holds all of that for one robot, so that no other module knows a maker's link
+//! names. Every command that takes a URDF builds one.
+//!
+//! Where it comes from, in order ([`Found`]):
+//! 1. the user: [`AnatomySpec::arms`] (`--arm left=FROM:TO`), or a description file beside the
+//!    URDF (`ROBOT.anatomy.json`, [`AnatomySpec::read`]), which a lab writes once;
+//! 2. sgplvm's own convention (links `left_shoulder`, `left_hand`, `right_shoulder`,
+//!    `right_hand`: the shipped robots);
+//! 3. the URDF's joint names (`left`/`l_`/`_L` … with arm words), else its structure: two serial
+//!    chains of revolute joints branching from one link ([`discover`]).
+//!
+//! Then, at the hold posture (every joint outside the arms at its hold value, [`AnatomySpec::hold`],
+//! default 0 within its limits), from the kinematics alone ([`geometry`]):
+//! - the **shoulder point** of each arm: where its first joints' axes meet (or the point nearest
+//!   to them), in the torso link's frame (the links where the two arms branch);
+//! - the **body frame** (REP-103: x forward, y left, z up): left from the right shoulder to the
+//!   left one, up the root link's z (robots are drawn z up) made square to it, forward = left ×
+//!   up; [`AnatomySpec::up`] and [`AnatomySpec::forward`] override;
+//! - the **reach**: the largest shoulder-to-hand distance within the joint limits (the
+//!   straightened arm), never the zero pose's;
+//! - the **neutral posture**: arms hanging slightly forward (the generator's neutral key pose),
+//!   found by IK within the limits, or given.
+//!
+//! An unusable description (a link that does not exist, an arm that is not a chain below its
+//! first link, arms sharing movable joints, a hold value outside the limits, a file that
+//! contradicts the URDF) is an [`AnatomyError`] naming the file and the link or joint.
+
+mod discover;
+mod file;
+mod geometry;
+mod summary;
+pub mod words;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
+use serde::Serialize;
+
+use crate::kinematics::Chain;
+use crate::models::Side;
+use crate::urdf::Robot;
+use crate::RobotError;
+
+pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
+pub use summary::{AnatomyReport, ArmReport};
+
+/// An arm named by the user: the link it hangs from and its hand link.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub struct ArmSpec {
+    /// The link the arm's first joint hangs from (e.g. the torso link).
+    pub from: String,
+    /// The hand (or tool) link.
+    pub to: String,
+}
+
+impl ArmSpec {
+    /// Parses `FROM:TO`.
+    pub fn parse(text: &str) -> Result<ArmSpec, String> {
+        match text.split_once(':') {
+            Some((from, to)) if !from.trim().is_empty() && !to.trim().is_empty() => Ok(ArmSpec {
+                from: from.trim().to_string(),
+                to: to.trim().to_string(),
+            }),
+            _ => Err(format!(
+                "`{text}`: expected FROM_LINK:TO_LINK (the link the arm hangs from and its hand link)"
+            )),
+        }
+    }
+}
+
+/// Which joints a robot's commands name (`--command-joints arms|all|LIST`).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum CommandJoints {
+    /// The arm joints (the default).
+    #[default]
+    Arms,
+    /// Every movable joint of the URDF, held ones at their hold values.
+    All,
+    /// These joints, in this order (arm joints and held joints).
+    List(Vec<String>),
+}
+
+impl CommandJoints {
+    /// Parses `arms`, `all` or a comma-separated list of joint names.
+    pub fn parse(text: &str) -> CommandJoints {
+        match text.trim() {
+            "arms" => CommandJoints::Arms,
+            "all" => CommandJoints::All,
+            list => CommandJoints::List(
+                list.split(',')
+                    .map(|s| s.trim().to_string())
+                    .filter(|s| !s.is_empty())
+                    .collect(),
+            ),
+        }
+    }
+
+    /// `arms`, `all` or the names joined by commas.
+    pub fn text(&self) -> String {
+        match self {
+            CommandJoints::Arms => "arms".into(),
+            CommandJoints::All => "all".into(),
+            CommandJoints::List(l) => l.join(","),
+        }
+    }
+}
+
+/// What a user says about a robot: everything optional; what is not said is found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AnatomySpec {
+    /// The left and right arm, when named.
+    pub left: Option<ArmSpec>,
+    /// The right arm, when named.
+    pub right: Option<ArmSpec>,
+    /// Hold values of joints outside the arms (radians or metres); the rest hold at 0 within
+    /// their limits.
+    pub hold: BTreeMap<String, f64>,
+    /// The body's up direction in the torso link's frame (default: the root link's z).
+    pub up: Option<Vector3<f64>>,
+    /// The body's forward direction in the torso link's frame (default: left × up).
+    pub forward: Option<Vector3<f64>>,
+    /// The neutral posture's arm joint values (default: found by IK).
+    pub neutral: BTreeMap<String, f64>,
+    /// Which joints commands name.
+    pub command_joints: CommandJoints,
+    /// The file this spec was read from, for messages (`None`: the command line or code).
+    pub source: Option<PathBuf>,
+}
+
+impl AnatomySpec {
+    /// Whether the user said anything at all.
+    pub fn is_empty(&self) -> bool {
+        *self == AnatomySpec::default()
+    }
+
+    /// The arm of `side`, when named.
+    pub fn arm(&self, side: Side) -> Option<&ArmSpec> {
+        match side {
+            Side::Left => self.left.as_ref(),
+            Side::Right => self.right.as_ref(),
+        }
+    }
+
+    /// Sets `side`'s arm from `SIDE=FROM:TO` (the `--arm` flag).
+    pub fn set_arm(&mut self, text: &str) -> Result<(), String> {
+        let (side, arm) = text.split_once('=').ok_or_else(|| {
+            format!("--arm {text}: expected left=FROM_LINK:TO_LINK or right=FROM_LINK:TO_LINK")
+        })?;
+        let arm = ArmSpec::parse(arm).map_err(|e| format!("--arm {e}"))?;
+        match side.trim() {
+            "left" => self.left = Some(arm),
+            "right" => self.right = Some(arm),
+            other => return Err(format!("--arm {text}: `{other}`; expected left or right")),
+        }
+        Ok(())
+    }
+
+    /// Adds `NAME=VALUE` to the hold values (the `--hold` flag).
+    pub fn set_hold(&mut self, text: &str) -> Result<(), String> {
+        let (name, value) = text
+            .split_once('=')
+            .ok_or_else(|| format!("--hold {text}: expected JOINT=VALUE"))?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| format!("--hold {text}: `{value}` is not a finite number"))?;
+        self.hold.insert(name.trim().to_string(), value);
+        Ok(())
+    }
+
+    /// `spec` over `self`: what `spec` says wins, hold and neutral values are merged.
+    pub fn overridden_by(mut self, spec: AnatomySpec) -> AnatomySpec {
+        if spec.left.is_some() {
+            self.left = spec.left;
+        }
+        if spec.right.is_some() {
+            self.right = spec.right;
+        }
+        self.hold.extend(spec.hold);
+        self.neutral.extend(spec.neutral);
+        if spec.up.is_some() {
+            self.up = spec.up;
+        }
+        if spec.forward.is_some() {
+            self.forward = spec.forward;
+        }
+        if spec.command_joints != CommandJoints::Arms {
+            self.command_joints = spec.command_joints;
+        }
+        self
+    }
+}
+
+/// How the arms were found.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Found {
+    /// Named by the user (on the command line or in code).
+    Named,
+    /// Named in a description file.
+    File(String),
+    /// sgplvm's link convention (`left_shoulder`, `left_hand`, …).
+    Convention,
+    /// The joints' names (left/right and arm words).
+    Names,
+    /// The tree's structure (two serial chains from one link; sides from the root's y axis).
+    Structure,
+}
+
+impl fmt::Display for Found {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Found::Named => write!(f, "named by you (--arm)"),
+            Found::File(p) => write!(f, "named in {p}"),
+            Found::Convention => write!(
+                f,
+                "sgplvm's link convention (left_shoulder, left_hand, right_shoulder, right_hand)"
+            ),
+            Found::Names => write!(f, "found by their joint names"),
+            Found::Structure => write!(
+                f,
+                "found by the tree's structure (two serial chains from one link; left is +y of the root link)"
+            ),
+        }
+    }
+}
+
+/// One arm of an [`Anatomy`].
+#[derive(Debug, Clone)]
+pub struct AnatomyArm {
+    /// Left or right.
+    pub side: Side,
+    /// The arm's joints, from the link it hangs from to its hand link (poses in that link's
+    /// frame).
+    pub chain: Chain,
+    /// Pose of the chain's base link in the torso link's frame, at the hold posture.
+    pub base_in_torso: Isometry3<f64>,
+    /// The shoulder point in the torso link's frame.
+    pub shoulder: Vector3<f64>,
+    /// How far off the shoulder point is from the arm's first joint axes (0 where they meet),
+    /// metres.
+    pub shoulder_spread_m: f64,
+    /// How many of the chain's joints come before the shoulder (0: the shoulder point is fixed
+    /// on the link the arm hangs from; TALOS-like arms turn the whole shoulder first).
+    pub shoulder_after: usize,
+    /// The shoulder point in the frame of chain joint `shoulder_after` (the chain's base frame
+    /// when that is 0), so that it moves with the joints before it.
+    pub shoulder_local: Vector3<f64>,
+    /// The largest shoulder-to-hand distance within the joint limits, metres.
+    pub reach: f64,
+    /// The arm's joint values (chain order) of that straightened arm.
+    pub straight: Vec<f64>,
+    /// The shoulder-to-hand distance at the zero configuration (within the limits), metres.
+    pub zero_pose_reach: f64,
+    /// The neutral posture (chain order).
+    pub neutral: Vec<f64>,
+    /// The chain joint at the elbow: the one farthest from both the shoulder and the hand on
+    /// the straightened arm.
+    pub elbow: usize,
+}
+
+impl AnatomyArm {
+    /// The shoulder point in the chain's base frame at the arm's joint values `q`.
+    pub fn shoulder_at(&self, q: &[f64]) -> Vector3<f64> {
+        if self.shoulder_after == 0 {
+            self.shoulder_local
+        } else {
+            (self.chain.joint_frames(q)[self.shoulder_after]
+                * nalgebra::Point3::from(self.shoulder_local))
+            .coords
+        }
+    }
+
+    /// The hand's position in the torso link's frame for the arm's joint values `q` (chain
+    /// order).
+    pub fn hand_in_torso(&self, q: &[f64]) -> Vector3<f64> {
+        (self.base_in_torso * self.chain.forward(q)).translation.vector
+    }
+}
+
+/// A robot with its arms, held joints, body frame, reach and neutral posture (module docs).
+#[derive(Debug, Clone)]
+pub struct Anatomy {
+    robot: Robot,
+    found: Found,
+    arms: [AnatomyArm; 2],
+    torso_link: String,
+    /// Rotation from the body frame (x forward, y left, z up) to the torso link's frame.
+    body_in_torso: UnitQuaternion<f64>,
+    /// The torso link's pose in the root frame at the hold posture.
+    torso_in_root: Isometry3<f64>,
+    /// Every joint's value with the arms at their neutral posture and the rest held.
+    hold: Vec<f64>,
+    /// Indices (configuration order) of the joints outside the arms.
+    held: Vec<usize>,
+    /// Indices (configuration order) of the joints commands name.
+    command: Vec<usize>,
+    notes: Vec<String>,
+}
+
+/// Why a robot's anatomy cannot be had.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AnatomyError {
+    /// The URDF itself is unusable.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    /// No two arms could be told from the URDF.
+    #[error("{file}: cannot tell the robot's two arms: {why}; name them with --arm left=FROM_LINK:TO_LINK --arm right=FROM_LINK:TO_LINK (Python: arms={{\"left\": (FROM, TO), ...}}) or in {description}")]
+    NoArms {
+        /// The URDF.
+        file: String,
+        /// What was found instead.
+        why: String,
+        /// The description file a lab can write.
+        description: String,
+    },
+    /// A link named for an arm does not exist.
+    #[error("{file}: {what}: no link \"{link}\" in the URDF{hint}")]
+    NoSuchLink {
+        /// The URDF (or the description file).
+        file: String,
+        /// Which setting named it (`--arm left`, `arms.left` …).
+        what: String,
+        /// The name.
+        link: String,
+        /// Close names, if any.
+        hint: String,
+    },
+    /// A named arm's hand link is not below its first link.
+    #[error("{file}: {what}: link \"{to}\" is not below link \"{from}\" in the tree, so they bound no chain (\"{to}\" hangs from {path})")]
+    NotAChain {
+        /// The URDF.
+        file: String,
+        /// Which setting named it.
+        what: String,
+        /// The first link.
+        from: String,
+        /// The hand link.
+        to: String,
+        /// The links above `to`, root first.
+        path: String,
+    },
+    /// An arm has too few joints to place its hand.
+    #[error("{file}: the {side} arm {from} → {to} has {count} movable joint(s); at least 3 are needed to place a hand")]
+    TooFewJoints {
+        /// The URDF.
+        file: String,
+        /// Which arm.
+        side: &'static str,
+        /// Its first link.
+        from: String,
+        /// Its hand link.
+        to: String,
+        /// How many movable joints it has.
+        count: usize,
+    },
+    /// Both arms move the same joints (e.g. both start at the pelvis, below a waist).
+    #[error("{file}: the left arm ({lfrom} → {lto}) and the right arm ({rfrom} → {rto}) share the movable joint(s) {joints}; start both arms below them (e.g. --arm left={below}:{lto}): shared joints are held, not moved by either arm")]
+    SharedJoints {
+        /// The URDF.
+        file: String,
+        /// Left arm's first link.
+        lfrom: String,
+        /// Left arm's hand.
+        lto: String,
+        /// Right arm's first link.
+        rfrom: String,
+        /// Right arm's hand.
+        rto: String,
+        /// The shared joints.
+        joints: String,
+        /// The link below the shared joints.
+        below: String,
+    },
+    /// A joint named in a setting is unknown or of the wrong kind.
+    #[error("{file}: {what}: {message}")]
+    Joint {
+        /// The URDF or description file.
+        file: String,
+        /// The setting (`--hold waist_yaw_joint`, `neutral.left_elbow` …).
+        what: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// The geometry cannot give a body frame (shoulders at one point, axes given along each
+    /// other …).
+    #[error("{file}: body frame: {message}")]
+    Frame {
+        /// The URDF.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A description file cannot be read or is malformed.
+    #[error("{file}: {message}")]
+    File {
+        /// The description file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Result alias of this module.
+pub type AnatomyResult<T> = Result<T, AnatomyError>;
+
+impl Anatomy {
+    /// The anatomy of `robot` as `spec` says, found where it does not.
+    pub fn new(robot: Robot, spec: &AnatomySpec) -> AnatomyResult<Anatomy> {
+        let found_arms = discover::arms(&robot, spec)?;
+        geometry::build(robot, found_arms, spec)
+    }
+
+    /// [`Anatomy::new`] with nothing said: found from the URDF alone.
+    pub fn of(robot: Robot) -> AnatomyResult<Anatomy> {
+        Anatomy::new(robot, &AnatomySpec::default())
+    }
+
+    /// A built-in robot's anatomy (the convention's arms; nothing held).
+    pub fn builtin(name: &str) -> AnatomyResult<Anatomy> {
+        Anatomy::of(Robot::builtin(name)?)
+    }
+
+    /// Loads `urdf` with the description file beside it (`ROBOT.anatomy.json`, if there is
+    /// one) and `spec` over it.
+    pub fn load(urdf: &Path, spec: &AnatomySpec) -> AnatomyResult<Anatomy> {
+        let robot = Robot::from_urdf_file(urdf)?;
+        let beside = description_path(urdf);
+        let spec = if beside.is_file() {
+            AnatomySpec::read(&beside)?.overridden_by(spec.clone())
+        } else {
+            spec.clone()
+        };
+        Anatomy::new(robot, &spec)
+    }
+
+    /// The URDF model.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// How the arms were found.
+    pub fn found(&self) -> &Found {
+        &self.found
+    }
+
+    /// Left and right arm.
+    pub fn arms(&self) -> &[AnatomyArm; 2] {
+        &self.arms
+    }
+
+    /// The arm of `side`.
+    pub fn arm(&self, side: Side) -> &AnatomyArm {
+        match side {
+            Side::Left => &self.arms[0],
+            Side::Right => &self.arms[1],
+        }
+    }
+
+    /// The link both arms branch from, whose frame the shoulders and the body frame are given in.
+    pub fn torso_link(&self) -> &str {
+        &self.torso_link
+    }
+
+    /// Rotation from the body frame (x forward, y left, z up) to the torso link's frame.
+    pub fn body_in_torso(&self) -> UnitQuaternion<f64> {
+        self.body_in_torso
+    }
+
+    /// The torso link's pose in the root link's frame at the hold posture.
+    pub fn torso_in_root(&self) -> Isometry3<f64> {
+        self.torso_in_root
+    }
+
+    /// The whole configuration (URDF order) with the arms at their neutral posture and every
+    /// other joint at its hold value.
+    pub fn hold_configuration(&self) -> &[f64] {
+        &self.hold
+    }
+
+    /// Names of the joints outside the arms, with their hold values.
+    pub fn held_joints(&self) -> Vec<(String, f64)> {
+        let names = self.robot.joint_names();
+        self.held
+            .iter()
+            .map(|&i| (names[i].clone(), self.hold[i]))
+            .collect()
+    }
+
+    /// The arm joints: left arm then right, shoulder to hand.
+    pub fn arm_joint_names(&self) -> Vec<String> {
+        self.arms
+            .iter()
+            .flat_map(|a| a.chain.joint_names().iter().cloned())
+            .collect()
+    }
+
+    /// The joints commands name, in order.
+    pub fn command_joint_names(&self) -> Vec<String> {
+        let names = self.robot.joint_names();
+        self.command.iter().map(|&i| names[i].clone()).collect()
+    }
+
+    /// What was noticed on the way (a root frame that is not REP-103, a zero pose that is not
+    /// the straightened arm …), one sentence each.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// The whole configuration for values of some joints (`names`, `values`; the others at
+    /// their hold configuration). Unknown names are an error naming them.
+    pub fn configuration(&self, names: &[String], values: &[f64]) -> Result<Vec<f64>, String> {
+        let mut q = self.hold.clone();
+        for (n, &v) in names.iter().zip(values) {
+            let i = self.robot.joint_index(n).ok_or_else(|| {
+                format!(
+                    "joint `{n}` is not a movable joint of robot `{}`",
+                    self.robot.name()
+                )
+            })?;
+            q[i] = v;
+        }
+        Ok(q)
+    }
+
+    /// The body frame's axes in the root frame at the hold posture: forward, left, up.
+    pub fn body_axes_in_root(&self) -> [Vector3<f64>; 3] {
+        let r = Rotation3::from(self.torso_in_root.rotation * self.body_in_torso);
+        [0, 1, 2].map(|k| r.matrix().column(k).into_owned())
+    }
+
+    /// The description file that says what this anatomy is (to write beside the URDF).
+    pub fn to_file(&self) -> AnatomyFile {
+        AnatomyFile::of(self)
+    }
+}
