@@ -244,7 +244,7 @@ fn write_scenes(demos: &Demonstrations, models: &[StudyModel], out: &Path) -> Re
         let path = out.join(file);
         super::predict::scene::write(
             &m.model,
-            &m.robot,
+            &super::predict::Target::builtin_raw(&m.model, &m.robot)?,
             &super::predict::scene::Frames {
                 times_ns: &times_ns,
                 human: &human_rows,

@@ -1,26 +1,8 @@
-//! The robot bodies whose URDF limits bound the commands `predict` and `teleop` send, and how a
-//! command file says which commands it holds.
+//! How a command file says which commands it holds: raw, or within the robot's URDF limits.
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
-use anyhow::{anyhow, Result};
 use sgplvm::robots::limits::{CommandLimits, LimitCounts};
-use sgplvm::robots::Robot;
-
-/// The body of `robot`: its URDF `urdf` when given, else the built-in robot of that name;
-/// `hint` says how to give a URDF (or do without) when it is neither.
-pub fn robot_body(robot: &str, urdf: Option<&Path>, hint: &str) -> Result<Robot> {
-    match urdf {
-        Some(path) => Ok(Robot::from_urdf_file(path)?),
-        None => Robot::builtin(robot).map_err(|_| {
-            anyhow!(
-                "robot `{robot}` is not built in ({}): its joint limits bound the commands; {hint}",
-                Robot::builtin_names().join(", ")
-            )
-        }),
-    }
-}
 
 /// What a command output holds.
 pub enum Commands {

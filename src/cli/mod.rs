@@ -3,6 +3,7 @@
 //! ([`frames`]) and everything they print as a result ([`report`]).
 
 mod args;
+mod body;
 mod demo;
 mod evaluate;
 mod experiment;
@@ -16,6 +17,7 @@ mod predict;
 mod progress;
 mod report;
 mod retarget;
+mod robot;
 mod simulate;
 #[cfg(feature = "live")]
 mod teleop;
@@ -78,6 +80,10 @@ pub enum Command {
     /// Robot commands for recorded human motion (inverse kinematics of the hands), and the
     /// train/test split: demonstrations for `train`, `transfer` and `experiment`.
     Retarget(retarget::RetargetArgs),
+    /// What sgplvm makes of a robot: its arms (found by the URDF's names or structure, or named
+    /// with --arm), the joints held, the body frame, each arm's reach and neutral posture; with
+    /// --write, the description file beside the URDF that every command reads.
+    Robot(robot::RobotArgs),
     /// Live teleoperation: a ROS 2 node (no ROS install) that turns the human's JointState into
     /// each robot's commands, within its limits and its model's trust, with a status topic.
     #[cfg(feature = "live")]
@@ -103,6 +109,7 @@ impl Command {
             Command::Joints(args) => joints::run(args),
             Command::Import(args) => import::run(args),
             Command::Retarget(args) => retarget::run(args),
+            Command::Robot(args) => robot::run(args),
             #[cfg(feature = "live")]
             Command::Teleop(args) => teleop::run(args),
             #[cfg(feature = "live")]

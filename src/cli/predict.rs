@@ -18,9 +18,13 @@ use sgplvm::robots::limits::{CommandLimits, LimitCounts, LimitedStream};
 use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::{Mat, SharedGplvm};
 
+use sgplvm::robots::anatomy::{Anatomy, CommandColumns};
+use sgplvm::robots::Robot;
+
 use super::args::ModelFileArg;
+use super::body::BodyArgs;
 use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
-use super::limits::{robot_body, Commands};
+use super::limits::Commands;
 
 pub(super) mod scene;
 
@@ -55,32 +59,84 @@ pub struct PredictArgs {
     /// analysis; the output says so).
     #[arg(long)]
     raw: bool,
-    /// The robot's URDF, whose position and velocity limits bound the commands [default: the
-    /// built-in robot of that name].
+    /// The robot's URDF as its maker publishes it: its limits bound the commands, its joints
+    /// outside the arms are held, and the Foxglove scene draws it [default: the built-in robot
+    /// of that name].
     #[arg(long, value_name = "FILE")]
     urdf: Option<PathBuf>,
+    #[command(flatten)]
+    body: BodyArgs,
+}
+
+/// The robot predicted for: its anatomy when known (built in, or `--urdf`), and how its
+/// commands are made from the model's output.
+pub(super) struct Target {
+    /// The robot's name.
+    pub robot: String,
+    /// Its anatomy; `None` for a robot neither built in nor given by URDF (with `--raw`).
+    pub anatomy: Option<Anatomy>,
+    /// The command joints and where each comes from.
+    pub columns: CommandColumns,
+}
+
+impl Target {
+    /// A built-in robot's commands as the model predicts them (for drawing a model's raw
+    /// output).
+    pub fn builtin_raw(model: &SharedGplvm, robot: &str) -> Result<Target> {
+        Ok(Target {
+            robot: robot.to_string(),
+            anatomy: Some(Anatomy::builtin(robot)?),
+            columns: CommandColumns::identity(&model_joint_names(model, robot)),
+        })
+    }
+
+    /// The joints the commands name, in order.
+    pub fn names(&self) -> &[String] {
+        self.columns.names()
+    }
 }
 
 impl PredictArgs {
-    /// What the commands will be: raw, or within the limits of the robot's body (`timed`:
-    /// whether the frames have times for the velocity limits).
-    fn commands(&self, model: &SharedGplvm, timed: bool) -> Result<Commands> {
-        if self.raw {
-            return Ok(Commands::Raw);
+    /// The robot predicted for.
+    fn target(&self, model: &SharedGplvm) -> Result<Target> {
+        let model_columns = model_joint_names(model, &self.robot);
+        let known = self.urdf.is_some() || Robot::builtin_urdf(&self.robot).is_some();
+        if !known && self.raw {
+            return Ok(Target {
+                robot: self.robot.clone(),
+                anatomy: None,
+                columns: CommandColumns::identity(&model_columns),
+            });
         }
-        let body = robot_body(
+        let anatomy = self.body.load(
             &self.robot,
             self.urdf.as_deref(),
-            "give its URDF with --urdf FILE, or write --raw for the model's output as it is",
+            "its joint limits bound the commands: give its URDF with --urdf FILE, or write --raw for the model's output as it is",
         )?;
-        let joints = model_joint_names(model, &self.robot);
-        let limits = CommandLimits::for_joints(&body, &joints).with_context(|| {
-            format!(
-                "the model's {} joints are not all joints of the robot's URDF",
-                self.robot
-            )
-        })?;
-        Ok(Commands::Limited { limits, timed })
+        let columns = if self.raw {
+            CommandColumns::identity(&model_columns)
+        } else {
+            anatomy.command_columns(&model_columns).with_context(|| {
+                format!("the model's {} joints and the robot's URDF", self.robot)
+            })?
+        };
+        Ok(Target {
+            robot: self.robot.clone(),
+            anatomy: Some(anatomy),
+            columns,
+        })
+    }
+
+    /// What the commands will be: raw, or within the limits of the robot's body (`timed`:
+    /// whether the frames have times for the velocity limits).
+    fn commands(&self, target: &Target, timed: bool) -> Result<Commands> {
+        match (&target.anatomy, self.raw) {
+            (Some(anatomy), false) => {
+                let limits = CommandLimits::for_joints(anatomy.robot(), target.names())?;
+                Ok(Commands::Limited { limits, timed })
+            }
+            _ => Ok(Commands::Raw),
+        }
     }
 }
 
@@ -99,19 +155,20 @@ pub fn run(args: PredictArgs) -> Result<()> {
     let model = args.model.load()?;
     let robot = args.robot.as_str();
     require_robot(&model, &args.model.model, robot)?;
-    let robot_joints = model_joint_names(&model, robot);
+    let target = args.target(&model)?;
+    let robot_joints = target.names().to_vec();
     let scene = args.out.ends_with(".mcap") && !args.no_tf;
     if args.input == "-" {
         // Times (hence velocity limits) when the stream's header has a time column: known
         // after the header; the limits are checked before reading it.
-        let commands = args.commands(&model, true)?;
+        let commands = args.commands(&target, true)?;
         if args.out.ends_with(".mcap") {
-            return scene::predict_stream_mcap(&model, robot, &args.out, !args.no_tf, commands);
+            return scene::predict_stream_mcap(&model, &target, &args.out, !args.no_tf, commands);
         }
-        return predict_stream(&model, robot, &robot_joints, &args.out, args.std, commands);
+        return predict_stream(&model, &target, &args.out, args.std, commands);
     }
     let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
-    let commands = args.commands(&model, human.timed)?;
+    let commands = args.commands(&target, human.timed)?;
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
         .predict(human.frames.as_ref(), robot, args.std || scene)
@@ -122,7 +179,7 @@ pub fn run(args: PredictArgs) -> Result<()> {
             .map(|(i, j)| f(m[(i, j)]))
             .collect()
     };
-    let mut mean = rows(&prediction.mean, |v| v);
+    let mut mean = target.columns.rows(&rows(&prediction.mean, |v| v), false);
     let counts = match &commands {
         Commands::Raw => None,
         Commands::Limited { limits, timed } => {
@@ -137,7 +194,10 @@ pub fn run(args: PredictArgs) -> Result<()> {
     let predicted = Predicted {
         frames: prediction.mean.nrows(),
         mean,
-        std: prediction.variance.as_ref().map(|v| rows(v, f64::sqrt)),
+        std: prediction
+            .variance
+            .as_ref()
+            .map(|v| target.columns.rows(&rows(v, f64::sqrt), true)),
         times_ns: human.times_ns.clone(),
         commands,
         counts,
@@ -149,7 +209,7 @@ pub fn run(args: PredictArgs) -> Result<()> {
         let std_topic = args.std.then(|| format!("/{robot}/joint_command_std"));
         scene::write(
             &model,
-            robot,
+            &target,
             &scene::Frames {
                 times_ns: &predicted.times_ns,
                 human: &human_rows,
@@ -274,12 +334,13 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
 /// Teleoperation: CSV lines in on stdin, one prediction line out per line, flushed at once.
 fn predict_stream(
     model: &SharedGplvm,
-    robot: &str,
-    robot_joints: &[String],
+    target: &Target,
     out: &str,
     with_std: bool,
     commands: Commands,
 ) -> Result<()> {
+    let robot = target.robot.as_str();
+    let robot_joints = target.names();
     if out != "-" {
         bail!("--input - streams to stdout or to an .mcap file: use --out - or --out FILE.mcap");
     }
@@ -296,7 +357,10 @@ fn predict_stream(
     writeln!(w, "{}", csv_header(time_column, robot_joints, with_std))?;
     w.flush()?;
     let d = robot_joints.len();
+    let m = target.columns.model_columns();
     let mut human = vec![0.0; wanted.len()];
+    let mut model_out = vec![0.0; m];
+    let mut model_std = vec![0.0; m];
     let mut out = vec![0.0; if with_std { 2 * d } else { d }];
     for (i, line) in lines.enumerate() {
         let line = line.context("stdin")?;
@@ -311,13 +375,15 @@ fn predict_stream(
             let frame = Mat::from_fn(1, human.len(), |_, j| human[j]);
             let p = model.predict(frame.as_ref(), robot, true)?;
             let variance = p.variance.ok_or_else(|| anyhow!("no variance returned"))?;
-            for j in 0..d {
-                out[j] = p.mean[(0, j)];
-                out[d + j] = variance[(0, j)].sqrt();
+            for j in 0..m {
+                model_out[j] = p.mean[(0, j)];
+                model_std[j] = variance[(0, j)].sqrt();
             }
+            target.columns.fill_std(&model_std, &mut out[d..]);
         } else {
-            model.predict_frame(&human, robot, &mut out)?;
+            model.predict_frame(&human, robot, &mut model_out)?;
         }
+        target.columns.fill(&model_out, &mut out[..d]);
         limited.push(&mut out[..d], time);
         writeln!(w, "{}", format_line(time, &out))?;
         w.flush()?;

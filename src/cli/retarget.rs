@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
+use sgplvm::robots::anatomy::Anatomy;
 use sgplvm::robots::capture::{
     read_capture_sources, sources_json, CaptureSource, CAPTURE_METADATA,
 };
@@ -19,6 +20,7 @@ use sgplvm::robots::retarget::{retarget, Match, ReachReport, Redundancy, Retarge
 use sgplvm::robots::Robot;
 
 use super::args::JsonArg;
+use super::body::BodyArgs;
 
 /// Name of the MCAP metadata record with the retargeting's settings and reach reports.
 const RETARGET_METADATA: &str = "sgplvm.retarget";
@@ -32,9 +34,10 @@ pub struct RetargetArgs {
     /// Built-in robots, comma-separated (walkman, coman, centauro, ur5e).
     #[arg(long, value_delimiter = ',')]
     robots: Vec<String>,
-    /// A robot of your own (URDF following the arm convention: links left_shoulder,
-    /// left_hand, right_shoulder, right_hand); repeat for several. Named by --robot in the
-    /// same order, else by the URDF's robot name.
+    /// A robot of your own, its URDF as its maker publishes it (the arms found by its names or
+    /// structure, or named with --arm or in ROBOT.anatomy.json beside it: `sgplvm robot
+    /// FILE.urdf` shows what is found); repeat for several. Named by --robot in the same order,
+    /// else by the URDF's robot name.
     #[arg(long)]
     urdf: Vec<PathBuf>,
     /// Names of the --urdf robots, in their order.
@@ -85,6 +88,8 @@ pub struct RetargetArgs {
     #[arg(long, default_value_t = 3)]
     test_subsample: usize,
     #[command(flatten)]
+    body: BodyArgs,
+    #[command(flatten)]
     json: JsonArg,
 }
 
@@ -110,12 +115,16 @@ fn parse_match(s: &str) -> Result<Match, String> {
 
 pub fn run(args: RetargetArgs) -> Result<()> {
     // The robots, checked before the work starts.
-    let mut robots: Vec<(String, Robot)> = Vec::new();
+    let mut robots: Vec<(String, Anatomy)> = Vec::new();
     for name in &args.robots {
         if name == "human" {
             bail!("--robots: `human` is the demonstrator, not a robot");
         }
-        robots.push((name.clone(), Robot::builtin(name)?));
+        robots.push((
+            name.clone(),
+            args.body
+                .load(name, None, "give its URDF with --urdf FILE")?,
+        ));
     }
     if args.robot.len() > args.urdf.len() {
         bail!(
@@ -125,14 +134,18 @@ pub fn run(args: RetargetArgs) -> Result<()> {
         );
     }
     for (k, path) in args.urdf.iter().enumerate() {
-        let robot = Robot::from_urdf_file(path)?;
-        let name = args
-            .robot
-            .get(k)
-            .cloned()
-            .unwrap_or_else(|| robot.name().to_string());
-        robots.push((name, robot));
+        let name = match args.robot.get(k) {
+            Some(n) => n.clone(),
+            None => Robot::from_urdf_file(path)?.name().to_string(),
+        };
+        let anatomy = args.body.load(&name, Some(path), "")?;
+        for n in anatomy.notes() {
+            eprintln!("{name}: note: {n}");
+        }
+        robots.push((name, anatomy));
     }
+    let names: Vec<&str> = robots.iter().map(|(n, _)| n.as_str()).collect();
+    args.body.check_robots(&names)?;
     if robots.is_empty() {
         bail!("no robot to retarget to: name built-in ones with --robots or give --urdf FILE");
     }
@@ -280,15 +293,18 @@ fn print_reports(
         frames as f64 * reports.len() as f64 / seconds.max(1e-9),
         args.mode.name()
     );
-    println!("robot        reached: median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)");
+    println!("robot        reached (of targets): median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)");
     for r in reports {
+        let reached = match (r.median_m, r.worst_m) {
+            (Some(m), Some(w)) => format!("{:>9.3} mm {:>6.2} mm", mm(m), mm(w)),
+            _ => format!("{:>22}", "none reached"),
+        };
         println!(
-            "{:<12} {:>9.3} mm {:>6.2} mm | {:>5} of {:<6} ({:>5.1} mm) | {:>6} ({:>6.1} mm)  | {:>6} ({:>6.1} mm){}",
+            "{:<12} {:>6} of {:<6} {reached} | {:>5} ({:>5.1} mm) | {:>6} ({:>6.1} mm)  | {:>6} ({:>6.1} mm){}",
             r.robot,
-            mm(r.median_m),
-            mm(r.worst_m),
-            r.unreachable,
+            r.reached,
             r.targets,
+            r.unreachable,
             mm(r.unreachable_worst_m),
             r.velocity_limited,
             mm(r.velocity_limited_worst_m),

@@ -11,7 +11,7 @@ use sgplvm::robots::joint_state::{read_joint_states, JointStates};
 use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, ReplayOptions, TeleopOptions};
 
 use super::args::{load_model, JsonArg};
-use super::limits::robot_body;
+use super::body::BodyArgs;
 
 #[derive(Args)]
 pub struct TeleopArgs {
@@ -22,9 +22,13 @@ pub struct TeleopArgs {
     /// A robot to drive: a robot of its model (repeat for several).
     #[arg(long, required = true)]
     robot: Vec<String>,
-    /// The URDF of a robot that is not built in, as ROBOT=FILE (its limits bound the commands).
+    /// A robot's URDF as its maker publishes it, ROBOT=FILE (its limits bound the commands,
+    /// its joints outside the arms are held, the live view draws it) [default: the built-in
+    /// robot of that name].
     #[arg(long, value_name = "ROBOT=FILE")]
     urdf: Vec<String>,
+    #[command(flatten)]
+    body: BodyArgs,
     /// The human's sensor_msgs/msg/JointState topic (joints matched by name, any order).
     #[arg(long, default_value = "/human/joint_states")]
     input_topic: String,
@@ -38,8 +42,9 @@ pub struct TeleopArgs {
     /// controller's topic goes under /ROBOT/ when several robots share the node].
     #[arg(long)]
     command_topic: Option<String>,
-    /// With --command forward: the controller's joint order, comma-separated [default: the
-    /// URDF's order].
+    /// The joints each command names, in this order, comma-separated (arm joints and held
+    /// ones; e.g. a forward position controller's joints) [default: --command-joints, for
+    /// --command forward in the URDF's order].
     #[arg(long, value_delimiter = ',')]
     joints: Option<Vec<String>>,
     /// QoS of the input: best-effort (ROS 2's sensor-data profile, keep last 1) or reliable.
@@ -154,21 +159,27 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         }
         urdfs.push((robot.to_string(), PathBuf::from(file)));
     }
+    let names: Vec<&str> = args.robot.iter().map(String::as_str).collect();
+    args.body.check_robots(&names)?;
     let mut drives = Vec::with_capacity(args.robot.len());
     for (k, robot) in args.robot.iter().enumerate() {
         let urdf = urdfs
             .iter()
             .find(|(r, _)| r == robot)
             .map(|(_, p)| p.as_path());
-        let body = robot_body(
+        let mut body = args.body.clone();
+        if let Some(list) = &args.joints {
+            body.command_joints.push(list.join(","));
+        }
+        let anatomy = body.load(
             robot,
             urdf,
-            &format!("give its URDF with --urdf {robot}=FILE"),
+            &format!("its joint limits bound the commands: give its URDF with --urdf {robot}=FILE"),
         )?;
         drives.push(Drive {
             robot: robot.clone(),
             model: model_for(k)?,
-            body,
+            anatomy,
         });
     }
     let options = TeleopOptions {

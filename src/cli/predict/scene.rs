@@ -13,7 +13,7 @@ use sgplvm::{Mat, SharedGplvm};
 
 use super::super::frames::{column_order, model_joint_names};
 use super::super::limits::Commands;
-use super::StreamLimits;
+use super::{StreamLimits, Target};
 use sgplvm::csv::read_header;
 
 /// Where the human's root link stands in `world` (metres): on the left, seen from the front.
@@ -35,30 +35,35 @@ pub struct Frames<'a> {
     pub latent: &'a [f64],
 }
 
-/// The two bodies (human, robot) with the joint names of their columns.
-fn bodies(model: &SharedGplvm, robot: &str) -> Result<Vec<(SceneBody, Vec<String>)>> {
+/// The two bodies (human, robot) with the joint names of their columns: the robot as its
+/// anatomy has it (its own URDF), drawn with the joints it is commanded.
+fn bodies(model: &SharedGplvm, target: &Target) -> Result<Vec<(SceneBody, Vec<String>)>> {
     let human = model.input_name();
-    let body = |name: &str, topic: String, at| {
-        SceneBody::builtin(name, &topic, at).with_context(|| {
-            format!("cannot draw '{name}' in the MCAP output: it is not a built-in body; write --no-tf for joint commands only")
-        })
+    let robot = target.robot.as_str();
+    let human_body = SceneBody::builtin(human, &format!("/{human}/joint_states"), HUMAN_AT)
+        .with_context(|| {
+            format!("cannot draw '{human}' in the MCAP output: it is not a built-in body; write --no-tf for joint commands only")
+        })?;
+    let Some(anatomy) = &target.anatomy else {
+        bail!("cannot draw '{robot}' in the MCAP output: it is neither built in nor given by --urdf FILE; give its URDF, or write --no-tf for joint commands only");
+    };
+    let robot_body = SceneBody {
+        name: robot.to_string(),
+        robot: anatomy.robot().clone(),
+        placement: nalgebra::Isometry3::translation(ROBOT_AT[0], ROBOT_AT[1], ROBOT_AT[2]),
+        joint_topic: format!("/{robot}/joint_command"),
     };
     Ok(vec![
-        (
-            body(human, format!("/{human}/joint_states"), HUMAN_AT)?,
-            model_joint_names(model, human),
-        ),
-        (
-            body(robot, format!("/{robot}/joint_command"), ROBOT_AT)?,
-            model_joint_names(model, robot),
-        ),
+        (human_body, model_joint_names(model, human)),
+        (robot_body, target.names().to_vec()),
     ])
 }
 
 /// The per-frame topics beside the bodies: the `_std` JointState (with `--std`), the standard
 /// deviation and the latent point as Float64MultiArray.
-fn arrays(model: &SharedGplvm, robot: &str, std_topic: Option<&str>) -> Vec<ArrayTopic> {
-    let joints = model_joint_names(model, robot);
+fn arrays(model: &SharedGplvm, target: &Target, std_topic: Option<&str>) -> Vec<ArrayTopic> {
+    let robot = target.robot.as_str();
+    let joints = target.names().to_vec();
     let d = joints.len();
     let mut arrays: Vec<ArrayTopic> = std_topic
         .map(|t| ArrayTopic::joint_state(t, joints))
@@ -80,13 +85,13 @@ fn arrays(model: &SharedGplvm, robot: &str, std_topic: Option<&str>) -> Vec<Arra
 /// Writes a whole prediction as a scene, atomically.
 pub fn write(
     model: &SharedGplvm,
-    robot: &str,
+    target: &Target,
     f: &Frames<'_>,
     std_topic: Option<&str>,
     metadata: (String, std::collections::BTreeMap<String, String>),
     out: &str,
 ) -> Result<()> {
-    let bodies = bodies(model, robot)?;
+    let bodies = bodies(model, target)?;
     let states = [f.human, f.mean]
         .iter()
         .zip(&bodies)
@@ -99,7 +104,7 @@ pub fn write(
         .zip(&states)
         .map(|((body, _), states)| SceneSeries { body, states })
         .collect();
-    let topics = arrays(model, robot, std_topic);
+    let topics = arrays(model, target, std_topic);
     let values: Vec<&[f64]> = topics
         .iter()
         .map(|t| {
@@ -129,7 +134,7 @@ pub fn write(
 /// place, not renamed into place: a recording in progress is meant to be seen.
 pub fn predict_stream_mcap(
     model: &SharedGplvm,
-    robot: &str,
+    target: &Target,
     out: &str,
     tf: bool,
     commands: Commands,
@@ -139,16 +144,18 @@ pub fn predict_stream_mcap(
     let (header, header_line) = read_header(&mut lines, "stdin")?;
     let wanted = model_joint_names(model, model.input_name());
     let order = column_order(&wanted, &header.joints, "stdin")?;
-    let topics = arrays(model, robot, None);
+    let robot = target.robot.as_str();
+    let topics = arrays(model, target, None);
     let mut limited = StreamLimits::new(commands, header.time_column.as_deref());
     let options = SceneOptions {
         tf,
         metadata: vec![limited.commands.metadata(robot, None)],
         ..SceneOptions::default()
     };
-    let mut writer = SceneWriter::create(out, bodies(model, robot)?, topics, &options, true)?;
+    let mut writer = SceneWriter::create(out, bodies(model, target)?, topics, &options, true)?;
     let mut human = vec![0.0; wanted.len()];
-    let d = model_joint_names(model, robot).len();
+    let d = target.names().len();
+    let m = target.columns.model_columns();
     let mut frame = 0i64;
     for (i, line) in lines.enumerate() {
         let line = line.context("stdin")?;
@@ -174,19 +181,23 @@ pub fn predict_stream_mcap(
         }
         let h = Mat::from_fn(1, human.len(), |_, j| human[j]);
         let p = model.predict(h.as_ref(), robot, true)?;
-        let mut mean: Vec<f64> = (0..d).map(|j| p.mean[(0, j)]).collect();
+        let model_mean: Vec<f64> = (0..m).map(|j| p.mean[(0, j)]).collect();
+        let mut mean = vec![0.0; d];
+        target.columns.fill(&model_mean, &mut mean);
         limited.push(&mut mean, time);
-        let std: Vec<f64> = match &p.variance {
-            Some(v) => (0..d).map(|j| v[(0, j)].sqrt()).collect(),
-            None => vec![f64::NAN; d],
+        let model_std: Vec<f64> = match &p.variance {
+            Some(v) => (0..m).map(|j| v[(0, j)].sqrt()).collect(),
+            None => vec![f64::NAN; m],
         };
+        let mut std = vec![0.0; d];
+        target.columns.fill_std(&model_std, &mut std);
         let latent: Vec<f64> = (0..p.latent.ncols()).map(|j| p.latent[(0, j)]).collect();
         writer.write_frame(time_ns, &[&human, &mean], &[&std, &latent])?;
         frame += 1;
     }
     let frames = writer.frames();
     writer.finish()?;
-    limited.report(robot, &model_joint_names(model, robot));
+    limited.report(robot, target.names());
     eprintln!(
         "wrote {frames} frames of {robot} joint commands to {out} (topic /{robot}/joint_command)"
     );

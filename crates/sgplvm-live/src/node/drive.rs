@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use ros2_client::dds::Node;
 use sgplvm_core::SharedGplvm;
+use sgplvm_robots::anatomy::CommandColumns;
 use sgplvm_robots::limits::CommandLimits;
 
 use super::dds::{command_publisher, CommandPublisher};
@@ -17,15 +18,21 @@ use crate::LiveError;
 /// One robot as the node drives it.
 pub(super) struct Driven {
     pub(super) drive: Drive,
-    /// The model's joint names for the robot (its output columns).
+    /// The joints the robot's commands name (the anatomy's command joints).
     pub(super) joints: Vec<String>,
-    /// Positions of the model's joints in the sent order.
+    /// How a command is made from the model's output columns.
+    pub(super) columns: CommandColumns,
+    /// Positions of the command's joints in the sent order.
     pub(super) order: Vec<usize>,
     /// The names in the sent order.
     pub(super) sent_names: Vec<String>,
     pub(super) gate: Gate,
     pub(super) publisher: CommandPublisher,
     pub(super) topic: String,
+    /// The model's output (its columns) and its standard deviations.
+    pub(super) model_mean: Vec<f64>,
+    pub(super) model_sd: Vec<f64>,
+    /// The target command (command joints) and its standard deviations (held joints: 0).
     pub(super) mean: Vec<f64>,
     pub(super) sd: Vec<f64>,
     pub(super) command: Vec<f64>,
@@ -122,14 +129,19 @@ fn drive_one(
             model.output_names()
         )));
     }
-    let joints: Vec<String> = model
+    let model_columns: Vec<String> = model
         .column_names(&drive.robot)
         .map(<[String]>::to_vec)
         .ok_or_else(|| {
-            LiveError::Config(format!("the model names no joints for `{}`", drive.robot))
+            LiveError::Config(format!("the model names no joints for `{}` (fit it with column names: Python fit(..., column_names=...), or train with the CLI)", drive.robot))
         })?;
+    let columns = drive
+        .anatomy
+        .command_columns(&model_columns)
+        .map_err(|e| LiveError::Config(format!("{}: {e}", drive.robot)))?;
+    let joints = columns.names().to_vec();
     let (sent_names, order) = sent_order(&drive, &joints, options)?;
-    let limits = CommandLimits::for_joints(&drive.body, &joints)
+    let limits = CommandLimits::for_joints(drive.anatomy.robot(), &joints)
         .map_err(|e| LiveError::Config(e.to_string()))?;
     let threshold = match options.gate.threshold {
         Some(t) => t,
@@ -143,6 +155,7 @@ fn drive_one(
     };
     let publisher = command_publisher(node, &topic, options.form, options.command_qos)?;
     let d = joints.len();
+    let m = model_columns.len();
     log(&format!(
         "{}: {} joints as {} on {topic}; trust threshold {threshold:.4}",
         drive.robot,
@@ -153,10 +166,13 @@ fn drive_one(
         gate: Gate::new(limits, threshold, options.gate.return_speed),
         drive,
         joints,
+        columns,
         order,
         sent_names,
         publisher,
         topic,
+        model_mean: vec![0.0; m],
+        model_sd: vec![0.0; m],
         mean: vec![0.0; d],
         sd: vec![0.0; d],
         command: vec![0.0; d],
@@ -176,7 +192,8 @@ fn sent_order(
     let sent_names = match (options.form, &options.joint_order) {
         (CommandForm::Forward, Some(order)) => order.clone(),
         (CommandForm::Forward, None) => drive
-            .body
+            .anatomy
+            .robot()
             .joint_names()
             .into_iter()
             .filter(|n| joints.contains(n))
@@ -188,7 +205,7 @@ fn sent_order(
         .map(|n| {
             joints.iter().position(|j| j == n).ok_or_else(|| {
                 LiveError::Config(format!(
-                    "--joints names `{n}`, which is not a joint of `{}`'s model: {joints:?}",
+                    "--joints names `{n}`, which is not one of `{}`'s command joints: {joints:?}",
                     drive.robot
                 ))
             })
@@ -196,7 +213,7 @@ fn sent_order(
         .collect::<Result<_, _>>()?;
     if order.len() != joints.len() {
         return Err(LiveError::Config(format!(
-            "`{}`: the command names {} joints, the model predicts {}",
+            "`{}`: the controller's order names {} joints, the commands {}",
             drive.robot,
             order.len(),
             joints.len()
@@ -218,7 +235,7 @@ pub(super) fn start_view(
                 .iter()
                 .map(|r| crate::view::ViewRobot {
                     name: r.drive.robot.clone(),
-                    body: r.drive.body.clone(),
+                    body: r.drive.anatomy.robot().clone(),
                     joints: r.joints.clone(),
                 })
                 .collect();

@@ -23,7 +23,7 @@ use std::sync::Arc;
 use ros2_client::dds::{Node, Publisher, Subscription};
 use serde::Serialize;
 use sgplvm_core::SharedGplvm;
-use sgplvm_robots::Robot;
+use sgplvm_robots::Anatomy;
 
 use crate::commands::CommandForm;
 use crate::gate::GateOptions;
@@ -41,8 +41,9 @@ pub struct Drive {
     pub robot: String,
     /// The model.
     pub model: Arc<SharedGplvm>,
-    /// The robot's body (for its joint limits).
-    pub body: Robot,
+    /// The robot's anatomy: its URDF (joint limits, the live view), the joints its commands
+    /// name and the hold values of those the model does not predict.
+    pub anatomy: Anatomy,
 }
 
 /// Quality of service of one side of the node.
@@ -69,8 +70,8 @@ pub struct TeleopOptions {
     pub command_topic: Option<String>,
     /// QoS of the commands (default: reliable).
     pub command_qos: Reliability,
-    /// For `forward`: the controller's joint order (default: the URDF's order of the model's
-    /// joints).
+    /// For `forward`: the controller's joint order, a permutation of the robot's command joints
+    /// (default: the URDF's order of the command joints).
     pub joint_order: Option<Vec<String>>,
     /// The safety rule's parameters.
     pub gate: GateOptions,

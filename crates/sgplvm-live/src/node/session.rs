@@ -316,10 +316,12 @@ fn command(
     let sd = match slot.ok {
         true => slot
             .model
-            .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.mean, &mut r.sd)
+            .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.model_mean, &mut r.model_sd)
             .unwrap_or(f64::NAN),
         false => f64::NAN,
     };
+    r.columns.fill(&r.model_mean, &mut r.mean);
+    r.columns.fill_std(&r.model_sd, &mut r.sd);
     let decision = r.gate.step(now_s, &r.mean, sd, &mut r.command);
     if decision.reason != Reason::Waiting {
         for (k, &j) in r.order.iter().enumerate() {

@@ -168,9 +168,9 @@ impl AnatomySpec {
             Some(serde_json::Value::Array(list)) => CommandJoints::List(
                 list.iter()
                     .map(|v| {
-                        v.as_str().map(str::to_string).ok_or_else(|| {
-                            bad(format!("command_joints: {v} is not a joint name"))
-                        })
+                        v.as_str()
+                            .map(str::to_string)
+                            .ok_or_else(|| bad(format!("command_joints: {v} is not a joint name")))
                     })
                     .collect::<AnatomyResult<_>>()?,
             ),

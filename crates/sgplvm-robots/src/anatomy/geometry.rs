@@ -25,7 +25,10 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         .source
         .as_ref()
         .map_or_else(|| file_of(&robot), |p| p.display().to_string());
-    let chains = [chain_of(&robot, &found.arms[0])?, chain_of(&robot, &found.arms[1])?];
+    let chains = [
+        chain_of(&robot, &found.arms[0])?,
+        chain_of(&robot, &found.arms[1])?,
+    ];
     for (raw, chain) in found.arms.iter().zip(&chains) {
         if chain.dof() < 3 {
             return Err(AnatomyError::TooFewJoints {
@@ -48,9 +51,8 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
     for (raw, chain) in found.arms.iter().zip(chains) {
         arms.push(arm_geometry(&robot, raw, chain, &hold, &torso_in_root)?);
     }
-    let [mut left, mut right]: [AnatomyArm; 2] = arms
-        .try_into()
-        .map_err(|_| AnatomyError::Frame {
+    let [mut left, mut right]: [AnatomyArm; 2] =
+        arms.try_into().map_err(|_| AnatomyError::Frame {
             file: file.clone(),
             message: "expected two arms".into(),
         })?;
@@ -61,7 +63,9 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
             hold[i] = arm.neutral[k];
         }
     }
-    let held: Vec<usize> = (0..robot.dof()).filter(|i| !arm_joints.contains(i)).collect();
+    let held: Vec<usize> = (0..robot.dof())
+        .filter(|i| !arm_joints.contains(i))
+        .collect();
     let command = command_joints(&robot, &arm_joints, &spec.command_joints, &file)?;
     let mut anatomy = Anatomy {
         found: found.found,
@@ -257,7 +261,13 @@ fn maximise(
         all.push(
             bounded
                 .iter()
-                .map(|&(lo, hi)| if hi > lo { rng.random_range(lo..=hi) } else { lo })
+                .map(|&(lo, hi)| {
+                    if hi > lo {
+                        rng.random_range(lo..=hi)
+                    } else {
+                        lo
+                    }
+                })
                 .collect(),
         );
     }
@@ -585,7 +595,9 @@ fn notes(a: &Anatomy) -> Vec<String> {
     let root = a.robot.root_link();
     let axis_name = |v: &Vector3<f64>| {
         let names = ["x", "y", "z"];
-        let k = (0..3).max_by(|&i, &j| v[i].abs().total_cmp(&v[j].abs())).unwrap_or(0);
+        let k = (0..3)
+            .max_by(|&i, &j| v[i].abs().total_cmp(&v[j].abs()))
+            .unwrap_or(0);
         if v[k].abs() > 0.9 {
             format!("{}{}", if v[k] > 0.0 { "+" } else { "-" }, names[k])
         } else {

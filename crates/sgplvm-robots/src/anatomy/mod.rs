@@ -27,6 +27,7 @@
 //! first link, arms sharing movable joints, a hold value outside the limits, a file that
 //! contradicts the URDF) is an [`AnatomyError`] naming the file and the link or joint.
 
+mod commands;
 mod discover;
 mod file;
 mod geometry;
@@ -48,6 +49,7 @@ use crate::models::Side;
 use crate::urdf::Robot;
 use crate::RobotError;
 
+pub use commands::CommandColumns;
 pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
 pub use summary::{AnatomyReport, ArmReport};
 
@@ -283,7 +285,9 @@ impl AnatomyArm {
     /// The hand's position in the torso link's frame for the arm's joint values `q` (chain
     /// order).
     pub fn hand_in_torso(&self, q: &[f64]) -> Vector3<f64> {
-        (self.base_in_torso * self.chain.forward(q)).translation.vector
+        (self.base_in_torso * self.chain.forward(q))
+            .translation
+            .vector
     }
 }
 

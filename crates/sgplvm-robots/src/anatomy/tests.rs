@@ -99,7 +99,9 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
     for w in ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint"] {
         assert!(held.contains(&w.to_string()), "{w}");
     }
-    assert!(held.iter().all(|n| !n.contains("shoulder") && !n.contains("wrist")));
+    assert!(held
+        .iter()
+        .all(|n| !n.contains("shoulder") && !n.contains("wrist")));
     // The zero pose bends the elbow 90°: the reach comes from the straightened arm, which is
     // longer, and a note says so.
     assert!(left.zero_pose_reach < 0.8 * left.reach, "{left:?}");
@@ -117,7 +119,10 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
             Side::Left => Vector3::new(0.15, 0.05, -0.85),
             Side::Right => Vector3::new(0.15, -0.05, -0.85),
         };
-        assert!((rel - want).norm() * a.arm(side).reach < 0.005, "{side:?}: {rel}");
+        assert!(
+            (rel - want).norm() * a.arm(side).reach < 0.005,
+            "{side:?}: {rel}"
+        );
     }
 }
 
@@ -164,7 +169,8 @@ fn icub_root_with_x_backward_and_y_right_gives_a_forward_facing_body_frame() {
 fn named_arms_holds_and_the_errors_of_unusable_descriptions() {
     let mut spec = AnatomySpec::default();
     spec.set_arm("left=torso_link:left_wrist_yaw_link").unwrap();
-    spec.set_arm("right=torso_link:right_wrist_yaw_link").unwrap();
+    spec.set_arm("right=torso_link:right_wrist_yaw_link")
+        .unwrap();
     spec.set_hold("waist_pitch_joint=0.2").unwrap();
     let a = load("g1_29dof.urdf", &spec);
     assert_eq!(a.found(), &Found::Named);
@@ -177,13 +183,19 @@ fn named_arms_holds_and_the_errors_of_unusable_descriptions() {
     shared.set_arm("left=pelvis:left_rubber_hand").unwrap();
     shared.set_arm("right=pelvis:right_rubber_hand").unwrap();
     let e = error("g1_29dof.urdf", &shared);
-    assert!(e.contains("g1_29dof.urdf") && e.contains("waist_yaw_joint"), "{e}");
+    assert!(
+        e.contains("g1_29dof.urdf") && e.contains("waist_yaw_joint"),
+        "{e}"
+    );
     assert!(e.contains("--arm left=torso_link:left_rubber_hand"), "{e}");
 
     let mut missing = spec.clone();
     missing.set_arm("left=torso_link:left_palm").unwrap();
     let e = error("g1_29dof.urdf", &missing);
-    assert!(e.contains("--arm left") && e.contains("\"left_palm\""), "{e}");
+    assert!(
+        e.contains("--arm left") && e.contains("\"left_palm\""),
+        "{e}"
+    );
 
     let mut upside = spec.clone();
     upside.set_arm("left=left_rubber_hand:torso_link").unwrap();
@@ -273,7 +285,10 @@ fn a_description_file_round_trips_and_bad_files_are_refused() {
     for (text, says) in [
         ("{\"sgplvm_anatomy\": 2}", "expected 1"),
         ("{\"arms\": {}}", "missing"),
-        ("{\"sgplvm_anatomy\": 1, \"arm\": {}}", "unknown field `arm`"),
+        (
+            "{\"sgplvm_anatomy\": 1, \"arm\": {}}",
+            "unknown field `arm`",
+        ),
         (
             "{\"sgplvm_anatomy\": 1, \"arms\": {\"middle\": \"a:b\", \"left\": \"a:b\"}}",
             "arms.middle",
@@ -284,7 +299,10 @@ fn a_description_file_round_trips_and_bad_files_are_refused() {
         let e = Anatomy::load(&urdf, &AnatomySpec::default())
             .unwrap_err()
             .to_string();
-        assert!(e.contains("g1.anatomy.json") && e.contains(says), "{text}: {e}");
+        assert!(
+            e.contains("g1.anatomy.json") && e.contains(says),
+            "{text}: {e}"
+        );
     }
     // A file naming a link the URDF does not have names the file and the link.
     std::fs::write(
@@ -295,7 +313,10 @@ fn a_description_file_round_trips_and_bad_files_are_refused() {
     let e = Anatomy::load(&urdf, &AnatomySpec::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("g1.anatomy.json: arms.left") && e.contains("\"lhand\""), "{e}");
+    assert!(
+        e.contains("g1.anatomy.json: arms.left") && e.contains("\"lhand\""),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -343,6 +364,12 @@ fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
     )
     .unwrap_err()
     .to_string();
-    assert!(e.starts_with("stick.urdf: cannot tell the robot's two arms"), "{e}");
-    assert!(e.contains("--arm left=FROM_LINK:TO_LINK") && e.contains("stick.anatomy.json"), "{e}");
+    assert!(
+        e.starts_with("stick.urdf: cannot tell the robot's two arms"),
+        "{e}"
+    );
+    assert!(
+        e.contains("--arm left=FROM_LINK:TO_LINK") && e.contains("stick.anatomy.json"),
+        "{e}"
+    );
 }

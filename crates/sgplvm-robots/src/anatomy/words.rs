@@ -90,8 +90,8 @@ const TORSO: &[&str] = &[
     "waist", "torso", "chest", "spine", "trunk", "pelvis", "lumbar", "back",
 ];
 const ARM: &[&str] = &[
-    "arm", "shoulder", "sh", "shld", "shldr", "elbow", "elb", "el", "forearm", "upperarm",
-    "wrist", "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
+    "arm", "shoulder", "sh", "shld", "shldr", "elbow", "elb", "el", "forearm", "upperarm", "wrist",
+    "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
 ];
 
 /// The part a name's words say it belongs to; gripper, leg and head words win over arm words
@@ -135,7 +135,10 @@ mod tests {
 
     #[test]
     fn words_split_as_makers_write_names() {
-        assert_eq!(words("left_shoulder_pitch_joint"), ["left", "shoulder", "pitch", "joint"]);
+        assert_eq!(
+            words("left_shoulder_pitch_joint"),
+            ["left", "shoulder", "pitch", "joint"]
+        );
         assert_eq!(words("LShSag"), ["l", "sh", "sag"]);
         assert_eq!(words("LeftForeArm"), ["left", "fore", "arm"]);
         assert_eq!(words("j_arm1_1"), ["j", "arm", "1", "1"]);

@@ -186,9 +186,8 @@ struct ArmFrames {
 impl ArmFrames {
     fn of(anatomy: &Anatomy) -> Self {
         let arms = anatomy.arms();
-        let body_in_base = [0, 1].map(|s| {
-            arms[s].base_in_torso.rotation.inverse() * anatomy.body_in_torso()
-        });
+        let body_in_base =
+            [0, 1].map(|s| arms[s].base_in_torso.rotation.inverse() * anatomy.body_in_torso());
         Self {
             body_in_base,
             shoulders: [0, 1].map(|s| arms[s].shoulder_at(&arms[s].neutral)),
@@ -218,7 +217,8 @@ struct Relative {
 
 impl HumanArms {
     fn new(human: Robot) -> Result<Self, RetargetError> {
-        let anatomy = Anatomy::of(human).map_err(|e| RetargetError::Invalid(format!("human: {e}")))?;
+        let anatomy =
+            Anatomy::of(human).map_err(|e| RetargetError::Invalid(format!("human: {e}")))?;
         let frames = ArmFrames::of(&anatomy);
         Ok(Self { anatomy, frames })
     }
