@@ -2,28 +2,18 @@
 //! the hands (optionally elbows or hand orientations), and the train/test split: demonstrations
 //! that `train`, `transfer` and `experiment` read like the generated ones.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
-use sgplvm::robots::capture::{
-    read_capture_sources, sources_json, CaptureSource, CAPTURE_METADATA,
-};
-use sgplvm::robots::dataset::{
-    concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset,
-};
-use sgplvm::robots::joint_state::Compression;
-use sgplvm::robots::retarget::split::{split_into_blocks, SplitOptions, SplitRule, SplitSummary};
-use sgplvm::robots::retarget::{retarget, Match, ReachReport, Redundancy, RetargetOptions};
+use sgplvm::robots::retarget::file::{retarget_files, TestChoice};
+use sgplvm::robots::retarget::split::{SplitOptions, SplitSummary};
+use sgplvm::robots::retarget::{Match, ReachReport, Redundancy, RetargetOptions};
 use sgplvm::robots::Robot;
 
 use super::args::JsonArg;
 use super::body::BodyArgs;
-
-/// Name of the MCAP metadata record with the retargeting's settings and reach reports.
-const RETARGET_METADATA: &str = "sgplvm.retarget";
 
 #[derive(Args)]
 pub struct RetargetArgs {
@@ -154,23 +144,9 @@ pub fn run(args: RetargetArgs) -> Result<()> {
             bail!("robot `{name}` named twice");
         }
     }
-    // The human, one file after another.
-    let mut parts = Vec::with_capacity(args.demos.len());
-    let mut sources: Vec<CaptureSource> = Vec::new();
-    let mut stems = Vec::new();
-    for path in &args.demos {
-        let ds = load_demonstrations(path)?;
-        let mut file_sources = read_capture_sources(path)?;
-        // Each input file is one part; its capture files (if it was imported from several)
-        // stay its segments.
-        stems.extend(file_stems(&ds, &file_sources, path));
-        sources.append(&mut file_sources);
-        parts.push(Dataset {
-            robots: Vec::new(),
-            ..ds
-        });
+    if args.split == SplitArg::Blocks && !args.test_files.is_empty() {
+        bail!("--test-files goes with --split files");
     }
-    let mut dataset = concatenate(&parts, 1_000_000_000)?;
     let options = RetargetOptions {
         mode: args.mode,
         redundancy: match args.redundancy {
@@ -181,102 +157,28 @@ pub fn run(args: RetargetArgs) -> Result<()> {
         ..RetargetOptions::default()
     };
     let split = SplitOptions {
-        rule: match args.split {
-            SplitArg::Blocks => SplitRule::Blocks {
-                test_every: args.test_every,
-            },
-            SplitArg::Files => SplitRule::Files {
-                test: test_file_indices(&args.test_files, &stems)?,
-            },
-        },
         block_s: args.block_seconds,
         guard_s: args.guard_seconds,
         train_subsample: args.train_subsample,
         test_subsample: args.test_subsample,
+        ..SplitOptions::default()
     };
-    if args.split == SplitArg::Blocks && !args.test_files.is_empty() {
-        bail!("--test-files goes with --split files");
-    }
-    let started = std::time::Instant::now();
-    let results = retarget(&dataset, &robots, &options)?;
-    let seconds = started.elapsed().as_secs_f64();
-    let summary = split_into_blocks(&mut dataset, &split)?;
-    let reports: Vec<ReachReport> = results.iter().map(|r| r.report.clone()).collect();
-    dataset.robots = results.into_iter().map(|r| r.body).collect();
-    let mut extra = Vec::new();
-    if !sources.is_empty() {
-        let mut m = BTreeMap::new();
-        m.insert("json".to_string(), sources_json(sources.iter())?);
-        extra.push((CAPTURE_METADATA.to_string(), m));
-    }
-    let mut m = BTreeMap::new();
-    m.insert(
-        "json".to_string(),
-        serde_json::to_string(&serde_json::json!({ "match": args.mode, "redundancy": options.redundancy, "split": split, "summary": summary, "reach": reports }))?,
-    );
-    extra.push((RETARGET_METADATA.to_string(), m));
-    write_demonstrations_with_metadata(&args.out, &dataset, Compression::Zstd, extra)?;
+    let test = match args.split {
+        SplitArg::Blocks => TestChoice::EveryNthBlock(args.test_every),
+        SplitArg::Files => TestChoice::Files(args.test_files.clone()),
+    };
+    let done = retarget_files(&args.demos, &robots, &options, &split, &test, &args.out)?;
     if args.json.json {
         println!(
             "{}",
             serde_json::to_string_pretty(
-                &serde_json::json!({ "split": summary, "reach": reports, "seconds": seconds })
+                &serde_json::json!({ "split": done.split, "reach": done.reach, "seconds": done.seconds })
             )?
         );
     } else {
-        print_reports(&reports, &summary, dataset.len(), seconds, &args);
+        print_reports(&done.reach, &done.split, done.frames, done.seconds, &args);
     }
     Ok(())
-}
-
-/// Names of the files behind the segments of one input: the capture files it was imported
-/// from, or the input file itself.
-fn file_stems(ds: &Dataset, sources: &[CaptureSource], path: &std::path::Path) -> Vec<String> {
-    let stem = |p: &str| {
-        std::path::Path::new(p)
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| p.to_string())
-    };
-    if sources.len() == ds.segments.len() {
-        sources.iter().map(|s| stem(&s.file)).collect()
-    } else {
-        let base = stem(&path.display().to_string());
-        (0..ds.segments.len())
-            .map(|k| {
-                if ds.segments.len() == 1 {
-                    base.clone()
-                } else {
-                    format!("{base}#{k}")
-                }
-            })
-            .collect()
-    }
-}
-
-/// The indices of `--test-files` among the input files `stems`.
-fn test_file_indices(names: &[String], stems: &[String]) -> Result<Vec<usize>> {
-    if names.is_empty() {
-        bail!(
-            "--split files needs --test-files NAME[,NAME...] (of: {})",
-            stems.join(", ")
-        );
-    }
-    names
-        .iter()
-        .map(|n| {
-            stems
-                .iter()
-                .position(|s| s == n)
-                .or_else(|| n.parse::<usize>().ok().filter(|&i| i < stems.len()))
-                .ok_or_else(|| {
-                    anyhow!(
-                        "--test-files: no file `{n}`; the files are: {}",
-                        stems.join(", ")
-                    )
-                })
-        })
-        .collect()
 }
 
 fn print_reports(

@@ -12,6 +12,7 @@ mod experiment;
 mod guard;
 mod model;
 mod regression;
+mod retarget;
 mod robots;
 
 /// The native part of the `sgplvm` Python package.
@@ -34,6 +35,7 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(demos::load_demonstrations, m)?)?;
     m.add_function(wrap_pyfunction!(demos::read_bvh, m)?)?;
     m.add_function(wrap_pyfunction!(demos::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(retarget::retarget_native, m)?)?;
     m.add_function(wrap_pyfunction!(guard::panic_for_tests, m)?)?;
     m.add_function(wrap_pyfunction!(experiment::experiment_config, m)?)?;
     m.add_function(wrap_pyfunction!(experiment::experiment_data, m)?)?;

@@ -12,7 +12,7 @@ only their latent-to-output mapping.
 """
 
 from ._sgplvm import Robot, __version__
-from ._io import load_demonstrations, read_bvh, read_joint_states, simulate, write_joint_states
+from ._io import load_demonstrations, read_bvh, read_joint_states, retarget, simulate, write_joint_states
 from ._model import DEFAULT_PATIENCE, GPRegression, SharedGPLVM
 
 __all__ = [
@@ -22,6 +22,7 @@ __all__ = [
     "load_demonstrations",
     "read_bvh",
     "read_joint_states",
+    "retarget",
     "write_joint_states",
     "simulate",
     "DEFAULT_PATIENCE",

@@ -115,3 +115,61 @@ def simulate(robot: Union[str, PathLike], joint_names: Sequence[str], times: Any
     if q.ndim != 2:
         raise ValueError(f"positions: expected a 2-D array (frames × joints), got {q.ndim}-D")
     return _sgplvm.simulate(os.fspath(robot), list(joint_names), t, q)
+
+
+def retarget(
+    robots: Union[Sequence[str], Dict[str, Any]],
+    human: Any = None,
+    times_ns: Any = None,
+    *,
+    demos: Union[None, PathLike, Sequence[PathLike]] = None,
+    out: Optional[PathLike] = None,
+    match: str = "hands",
+    redundancy: str = "continuous",
+    velocity_limits: bool = True,
+    block_seconds: float = 4.0,
+    test_every: int = 4,
+    test_files: Optional[Sequence[str]] = None,
+    guard_seconds: float = 0.5,
+    train_subsample: int = 12,
+    test_subsample: int = 3,
+) -> Dict[str, Any]:
+    """Robot commands for a human's motion, like ``sgplvm retarget``: each robot's hands placed
+    where the person's are relative to the shoulders (in units of reach, in each body's own
+    frame), each arm moving its own joints, every other joint held.
+
+    ``robots`` is a list of built-in names or a dict name → :class:`Robot` (e.g.
+    ``Robot.from_urdf(path, arms=...)``) or built-in name. The human is either ``human``, an
+    (n, 18) array of the human model's joint angles with ``times_ns`` (n,) int64, or ``demos``,
+    MCAP files (e.g. from ``sgplvm import``). ``match``, ``redundancy`` and ``velocity_limits``
+    are the CLI's ``--match``, ``--redundancy`` and ``--no-velocity-limits``.
+
+    Without ``out``: returns ``{robot: {"joint_names", "positions" (n, joints), "report"}}``.
+    With ``out`` (and ``demos``): writes the demonstrations split for training, as the CLI does
+    (``block_seconds``, ``test_every`` or ``test_files``, ``guard_seconds``,
+    ``train_subsample``, ``test_subsample``), and returns the report (``frames``, ``split``,
+    ``reach``, ``seconds``, ``files``); :func:`load_demonstrations` reads the file."""
+    named = dict(robots) if isinstance(robots, dict) else {name: name for name in robots}
+    files = None
+    if demos is not None:
+        files = [os.fspath(demos)] if isinstance(demos, (str, os.PathLike)) else [os.fspath(d) for d in demos]
+    h = None if human is None else _real(human, "human", np.float64)
+    if h is not None and h.ndim != 2:
+        raise ValueError(f"human: expected a 2-D array (frames × 18), got {h.ndim}-D")
+    t = None if times_ns is None else _real(times_ns, "times_ns", np.int64).reshape(-1)
+    return _sgplvm.retarget_native(
+        named,
+        match,
+        redundancy,
+        bool(velocity_limits),
+        h,
+        t,
+        files,
+        None if out is None else os.fspath(out),
+        float(block_seconds),
+        int(test_every),
+        None if test_files is None else list(test_files),
+        float(guard_seconds),
+        int(train_subsample),
+        int(test_subsample),
+    )

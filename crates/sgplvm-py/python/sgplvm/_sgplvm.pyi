@@ -128,8 +128,20 @@ class Robot:
     @staticmethod
     def builtin_urdf(name: str) -> str: ...
     @staticmethod
-    def from_urdf(path: _Path, base: Optional[str] = None, tip: Optional[str] = None) -> "Robot":
-        """Loads a URDF file; with ``base``/``tip`` the body is restricted to that chain."""
+    def from_urdf(
+        path: _Path,
+        base: Optional[str] = None,
+        tip: Optional[str] = None,
+        *,
+        arms: Optional[Dict[str, Tuple[str, str]]] = None,
+        hold: Optional[Dict[str, float]] = None,
+        up: Optional[Tuple[float, float, float]] = None,
+        forward: Optional[Tuple[float, float, float]] = None,
+        command_joints: Union[None, str, List[str]] = None,
+    ) -> "Robot":
+        """Loads a URDF file as its maker publishes it; ``arms``, ``hold``, ``up``, ``forward``
+        and ``command_joints`` say what its names do not; with ``base``/``tip`` the body is
+        restricted to that chain."""
     @property
     def name(self) -> str: ...
     @property
@@ -140,6 +152,18 @@ class Robot:
     def link_names(self) -> List[str]: ...
     def forward_kinematics(self, q: Sequence[float], link: Optional[str] = None) -> _F64:
         """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
+    @property
+    def anatomy(self) -> Dict[str, Any]:
+        """Arms, held joints, body frame, reach, neutral posture and notes."""
+    def summary(self) -> str: ...
+    @property
+    def command_joint_names(self) -> List[str]: ...
+    @property
+    def held_joints(self) -> List[Tuple[str, float]]: ...
+    @property
+    def hold_configuration(self) -> List[float]: ...
+    def description(self) -> str:
+        """The description file's JSON (``ROBOT.anatomy.json``) that keeps this anatomy."""
 
 def canonical_back_constraint(value: object) -> Optional[str]: ...
 def sparse_bound(
@@ -195,6 +219,24 @@ def simulate(
     robot: str, joint_names: List[str], times: _F64, positions: _F64
 ) -> Dict[str, Any]:
     """Replays a joint trajectory in rapier; returns tracking errors, limit violations, collisions."""
+
+def retarget_native(
+    robots: Dict[str, Any],
+    mode: str,
+    redundancy: str,
+    velocity_limits: bool,
+    human: Optional[_F64] = None,
+    times_ns: Optional[npt.NDArray[np.int64]] = None,
+    demos: Optional[List[str]] = None,
+    out: Optional[str] = None,
+    block_seconds: float = 4.0,
+    test_every: int = 4,
+    test_files: Optional[List[str]] = None,
+    guard_seconds: float = 0.5,
+    train_subsample: int = 12,
+    test_subsample: int = 3,
+) -> Any:
+    """Robot commands for a human's motion (see ``sgplvm.retarget``)."""
 
 # The experiment as tasks (sgplvm.ray schedules them; `sgplvm experiment` runs them in order).
 def experiment_config(name: str) -> str:

@@ -97,6 +97,17 @@ impl Anatomy {
     pub fn command_columns(&self, model_columns: &[String]) -> AnatomyResult<CommandColumns> {
         let names = self.command_joint_names();
         let robot_names = self.robot.joint_names();
+        // A model column that is no joint of the robot is a model of another robot.
+        if let Some(stray) = model_columns.iter().find(|m| !robot_names.contains(m)) {
+            return Err(AnatomyError::Joint {
+                file: self.robot.source().to_string(),
+                what: format!("model column {stray}"),
+                message: format!(
+                    "is not a movable joint of robot `{}`: the model was trained for another robot",
+                    self.robot.name()
+                ),
+            });
+        }
         let sources = names
             .iter()
             .map(|n| {
@@ -118,17 +129,6 @@ impl Anatomy {
                 }
             })
             .collect::<AnatomyResult<Vec<_>>>()?;
-        // A model column that is no joint of the robot is a model of another robot.
-        if let Some(stray) = model_columns.iter().find(|m| !robot_names.contains(m)) {
-            return Err(AnatomyError::Joint {
-                file: self.robot.source().to_string(),
-                what: format!("model column {stray}"),
-                message: format!(
-                    "is not a movable joint of robot `{}`: the model was trained for another robot",
-                    self.robot.name()
-                ),
-            });
-        }
         Ok(CommandColumns {
             names,
             sources,

@@ -1,4 +1,4 @@
-//! Anatomies of the shipped robots, of published URDFs (tests/fixtures/published: Unitree G1,
+//! Anatomies of the shipped robots, of published URDFs (data/urdf/published: Unitree G1,
 //! Rethink Baxter, iCub) and of small hand-written ones; and the errors of unusable
 //! descriptions.
 
@@ -8,7 +8,7 @@ use super::*;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/published")
+        .join("../../data/urdf/published")
         .join(name)
 }
 

@@ -30,6 +30,7 @@
 //! [`split`] then cuts the frames into blocks and chooses the train/test split.
 
 mod arm;
+pub mod file;
 pub mod split;
 
 use nalgebra::{DMatrix, Isometry3, UnitQuaternion, Vector3};

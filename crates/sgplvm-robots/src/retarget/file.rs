@@ -1,0 +1,171 @@
+//! Retargeting whole files: human demonstrations (MCAP, e.g. from `sgplvm import`) in, the
+//! robots' commands split for training out (MCAP: the human, each robot's
+//! `/NAME/joint_command`, blocks as segments, the split and the reach reports as metadata) —
+//! what `sgplvm retarget` and Python's `sgplvm.retarget(..., out=...)` both do.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::split::{split_into_blocks, SplitOptions, SplitRule, SplitSummary};
+use super::{retarget, ReachReport, RetargetError, RetargetOptions};
+use crate::anatomy::Anatomy;
+use crate::capture::{read_capture_sources, sources_json, CaptureSource, CAPTURE_METADATA};
+use crate::dataset::{concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset};
+use crate::joint_state::Compression;
+
+/// Name of the MCAP metadata record with the retargeting's settings and reach reports.
+pub const RETARGET_METADATA: &str = "sgplvm.retarget";
+
+/// Which frames are kept for testing, as a user names them.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TestChoice {
+    /// Every `n`-th block.
+    EveryNthBlock(usize),
+    /// These files (by file stem or 0-based index), whole.
+    Files(Vec<String>),
+}
+
+/// What retargeting a set of files did.
+#[derive(Debug, Clone, Serialize)]
+pub struct FilesRetargeted {
+    /// Frames retargeted.
+    pub frames: usize,
+    /// The split.
+    pub split: SplitSummary,
+    /// Per robot, how its hands followed.
+    pub reach: Vec<ReachReport>,
+    /// Seconds the retargeting took (without reading and writing).
+    pub seconds: f64,
+    /// The file stems of the inputs' segments (what `TestChoice::Files` names).
+    pub files: Vec<String>,
+}
+
+/// The demonstrations of `demos`, one after another, with their capture sources and the stem
+/// of each segment's file.
+pub fn read_human(
+    demos: &[PathBuf],
+) -> Result<(Dataset, Vec<CaptureSource>, Vec<String>), RetargetError> {
+    let mut parts = Vec::with_capacity(demos.len());
+    let mut sources: Vec<CaptureSource> = Vec::new();
+    let mut stems = Vec::new();
+    let invalid = |e: &dyn std::fmt::Display| RetargetError::Invalid(e.to_string());
+    for path in demos {
+        let ds = load_demonstrations(path).map_err(|e| invalid(&e))?;
+        let mut file_sources = read_capture_sources(path).map_err(|e| invalid(&e))?;
+        // Each input file is one part; its capture files (if it was imported from several)
+        // stay its segments.
+        stems.extend(file_stems(&ds, &file_sources, path));
+        sources.append(&mut file_sources);
+        parts.push(Dataset {
+            robots: Vec::new(),
+            ..ds
+        });
+    }
+    let dataset = concatenate(&parts, 1_000_000_000).map_err(|e| invalid(&e))?;
+    Ok((dataset, sources, stems))
+}
+
+/// Retargets the human of `demos` onto `robots`, splits the frames as `split` and `test` say
+/// and writes the demonstrations to `out` (whole or not at all).
+pub fn retarget_files(
+    demos: &[PathBuf],
+    robots: &[(String, Anatomy)],
+    options: &RetargetOptions,
+    split: &SplitOptions,
+    test: &TestChoice,
+    out: &Path,
+) -> Result<FilesRetargeted, RetargetError> {
+    let (mut dataset, sources, stems) = read_human(demos)?;
+    let mut split = split.clone();
+    split.rule = match test {
+        TestChoice::EveryNthBlock(n) => SplitRule::Blocks { test_every: *n },
+        TestChoice::Files(names) => SplitRule::Files {
+            test: test_file_indices(names, &stems)?,
+        },
+    };
+    let started = std::time::Instant::now();
+    let results = retarget(&dataset, robots, options)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let summary = split_into_blocks(&mut dataset, &split)?;
+    let reach: Vec<ReachReport> = results.iter().map(|r| r.report.clone()).collect();
+    dataset.robots = results.into_iter().map(|r| r.body).collect();
+    let mut extra = Vec::new();
+    if !sources.is_empty() {
+        let mut m = BTreeMap::new();
+        let json = sources_json(sources.iter())
+            .map_err(|e| RetargetError::Invalid(e.to_string()))?;
+        m.insert("json".to_string(), json);
+        extra.push((CAPTURE_METADATA.to_string(), m));
+    }
+    let mut m = BTreeMap::new();
+    let settings = serde_json::json!({
+        "match": options.mode,
+        "redundancy": options.redundancy,
+        "split": split,
+        "summary": summary,
+        "reach": reach,
+    });
+    m.insert("json".to_string(), settings.to_string());
+    extra.push((RETARGET_METADATA.to_string(), m));
+    write_demonstrations_with_metadata(out, &dataset, Compression::Zstd, extra)
+        .map_err(|e| RetargetError::Invalid(e.to_string()))?;
+    Ok(FilesRetargeted {
+        frames: dataset.len(),
+        split: summary,
+        reach,
+        seconds,
+        files: stems,
+    })
+}
+
+/// Names of the files behind the segments of one input: the capture files it was imported
+/// from, or the input file itself.
+fn file_stems(ds: &Dataset, sources: &[CaptureSource], path: &Path) -> Vec<String> {
+    let stem = |p: &str| {
+        Path::new(p)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| p.to_string())
+    };
+    if sources.len() == ds.segments.len() {
+        sources.iter().map(|s| stem(&s.file)).collect()
+    } else {
+        let base = stem(&path.display().to_string());
+        (0..ds.segments.len())
+            .map(|k| {
+                if ds.segments.len() == 1 {
+                    base.clone()
+                } else {
+                    format!("{base}#{k}")
+                }
+            })
+            .collect()
+    }
+}
+
+/// The indices of the test files named among the input files `stems`.
+fn test_file_indices(names: &[String], stems: &[String]) -> Result<Vec<usize>, RetargetError> {
+    if names.is_empty() {
+        return Err(RetargetError::Invalid(format!(
+            "--split files needs --test-files NAME[,NAME...] (of: {})",
+            stems.join(", ")
+        )));
+    }
+    names
+        .iter()
+        .map(|n| {
+            stems
+                .iter()
+                .position(|s| s == n)
+                .or_else(|| n.parse::<usize>().ok().filter(|&i| i < stems.len()))
+                .ok_or_else(|| {
+                    RetargetError::Invalid(format!(
+                        "--test-files: no file `{n}`; the files are: {}",
+                        stems.join(", ")
+                    ))
+                })
+        })
+        .collect()
+}
