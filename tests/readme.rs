@@ -103,13 +103,19 @@ fn root() -> PathBuf {
 }
 
 /// A scratch folder laid out like a fresh clone for the commands: `data/demos` with the shipped
-/// demonstration files.
+/// demonstration files, `data/urdf/published` with the published robots.
 fn fresh_clone_folder() -> PathBuf {
     let dir = scratch("readme");
     let demos = dir.join("data").join("demos");
     std::fs::create_dir_all(&demos).unwrap();
     for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
         std::fs::copy(root().join("data/demos").join(file), demos.join(file)).unwrap();
+    }
+    let published = dir.join("data").join("urdf").join("published");
+    std::fs::create_dir_all(&published).unwrap();
+    for entry in std::fs::read_dir(root().join("data/urdf/published")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, published.join(path.file_name().unwrap())).unwrap();
     }
     dir
 }

@@ -99,7 +99,9 @@ pub fn retarget_native<'py>(
         let robots = anatomies(robots)?;
         if let Some(out) = out {
             let demos = demos.ok_or_else(|| {
-                PyValueError::new_err("out= writes demonstrations: give the human as demos= (MCAP files)")
+                PyValueError::new_err(
+                    "out= writes demonstrations: give the human as demos= (MCAP files)",
+                )
             })?;
             let split = SplitOptions {
                 block_s: block_seconds,
@@ -185,11 +187,9 @@ fn human_dataset(
     }
     let times: Vec<i64> = match times_ns {
         Some(t) => t.as_array().to_vec(),
-        None => {
-            return Err(PyValueError::new_err(
-                "times_ns: the frames' times (int64 nanoseconds) are needed for the velocity limits",
-            ))
-        }
+        None => return Err(PyValueError::new_err(
+            "times_ns: the frames' times (int64 nanoseconds) are needed for the velocity limits",
+        )),
     };
     if times.len() != h.nrows() || times.windows(2).any(|w| w[1] <= w[0]) {
         return Err(PyValueError::new_err(format!(

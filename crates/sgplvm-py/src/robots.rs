@@ -67,7 +67,9 @@ fn spec_of(
     }
     for (name, value) in hold.unwrap_or_default() {
         if !value.is_finite() {
-            return Err(PyValueError::new_err(format!("hold[{name:?}] is {value}; expected a finite number")));
+            return Err(PyValueError::new_err(format!(
+                "hold[{name:?}] is {value}; expected a finite number"
+            )));
         }
         spec.hold.insert(name, value);
     }
@@ -77,7 +79,9 @@ fn spec_of(
         spec.command_joints = match c.extract::<String>() {
             Ok(text) => CommandJoints::parse(&text),
             Err(_) => CommandJoints::List(c.extract::<Vec<String>>().map_err(|_| {
-                PyValueError::new_err("command_joints: expected \"arms\", \"all\" or a list of joint names")
+                PyValueError::new_err(
+                    "command_joints: expected \"arms\", \"all\" or a list of joint names",
+                )
             })?),
         };
     }

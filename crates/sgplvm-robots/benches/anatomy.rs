@@ -16,7 +16,13 @@ const G1: &str = include_str!("../../../data/urdf/published/g1_29dof.urdf");
 /// `extra` more links in all.
 fn g1_with(extra: usize) -> String {
     let mut more = String::new();
-    let hosts = ["torso_link", "pelvis", "left_wrist_yaw_link", "right_wrist_yaw_link", "left_knee_link"];
+    let hosts = [
+        "torso_link",
+        "pelvis",
+        "left_wrist_yaw_link",
+        "right_wrist_yaw_link",
+        "left_knee_link",
+    ];
     let mut n = 0;
     for side in ["left", "right"] {
         for f in 0..5 {

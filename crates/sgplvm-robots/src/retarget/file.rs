@@ -12,7 +12,9 @@ use super::split::{split_into_blocks, SplitOptions, SplitRule, SplitSummary};
 use super::{retarget, ReachReport, RetargetError, RetargetOptions};
 use crate::anatomy::Anatomy;
 use crate::capture::{read_capture_sources, sources_json, CaptureSource, CAPTURE_METADATA};
-use crate::dataset::{concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset};
+use crate::dataset::{
+    concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset,
+};
 use crate::joint_state::Compression;
 
 /// Name of the MCAP metadata record with the retargeting's settings and reach reports.
@@ -94,8 +96,8 @@ pub fn retarget_files(
     let mut extra = Vec::new();
     if !sources.is_empty() {
         let mut m = BTreeMap::new();
-        let json = sources_json(sources.iter())
-            .map_err(|e| RetargetError::Invalid(e.to_string()))?;
+        let json =
+            sources_json(sources.iter()).map_err(|e| RetargetError::Invalid(e.to_string()))?;
         m.insert("json".to_string(), json);
         extra.push((CAPTURE_METADATA.to_string(), m));
     }

@@ -1,0 +1,241 @@
+//! Robots as their makers publish them, through the command line: `sgplvm robot` says what it
+//! finds and keeps it in a description file; `retarget` holds the joints outside the arms
+//! exactly and reaches what is reachable; `train` and `predict` (a Foxglove scene drawn from
+//! the robot's own URDF) follow; unusable descriptions fail naming the file and the link, and
+//! write nothing.
+
+use std::path::{Path, PathBuf};
+
+mod common;
+use common::{fails_on_one_line, ok, s, scratch};
+use sgplvm::robots::dataset::load_demonstrations;
+
+fn published(file: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/urdf/published")
+        .join(file)
+}
+
+/// A copy of the G1 in its own folder (so that a description file can be written beside it).
+fn g1_copy(dir: &Path) -> PathBuf {
+    let urdf = dir.join("g1.urdf");
+    std::fs::copy(published("g1_29dof.urdf"), &urdf).unwrap();
+    urdf
+}
+
+#[test]
+fn robot_reports_what_it_finds_and_keeps_it() {
+    let dir = scratch("robot-describe");
+    let urdf = g1_copy(&dir);
+    let json = ok(&["robot", s(&urdf), "--json"]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(report["found"], "names");
+    assert_eq!(report["torso_link"], "torso_link");
+    assert_eq!(report["arms"][1]["to"], "right_rubber_hand");
+    assert_eq!(report["held"].as_array().unwrap().len(), 15);
+    let text = ok(&["robot", s(&published("icub.urdf"))]);
+    assert!(
+        text.contains("forward is -x, left -y and up +z of base_link"),
+        "{text}"
+    );
+    // Written once, read by every command: here `robot` itself, with a hold from the file.
+    ok(&[
+        "robot",
+        s(&urdf),
+        "--hold",
+        "waist_yaw_joint=0.25",
+        "--write",
+    ]);
+    let kept = dir.join("g1.anatomy.json");
+    assert!(kept.is_file());
+    let again: serde_json::Value =
+        serde_json::from_str(&ok(&["robot", s(&urdf), "--json"])).unwrap();
+    assert_eq!(again["found"]["file"], s(&kept));
+    let held = again["held"].as_array().unwrap();
+    assert!(held
+        .iter()
+        .any(|h| h[0] == "waist_yaw_joint" && h[1] == 0.25));
+}
+
+#[test]
+fn unusable_descriptions_fail_naming_the_file_and_link_and_write_nothing() {
+    let dir = scratch("robot-bad");
+    let urdf = g1_copy(&dir);
+    let kept = dir.join("g1.anatomy.json");
+    let waist = fails_on_one_line(&[
+        "robot",
+        s(&urdf),
+        "--arm",
+        "left=pelvis:left_rubber_hand",
+        "--arm",
+        "right=pelvis:right_rubber_hand",
+        "--write",
+    ]);
+    assert!(
+        waist.contains("g1.urdf") && waist.contains("waist_yaw_joint"),
+        "{waist}"
+    );
+    let missing = fails_on_one_line(&[
+        "robot",
+        s(&urdf),
+        "--arm",
+        "left=torso_link:left_palm",
+        "--arm",
+        "right=torso_link:right_rubber_hand",
+    ]);
+    assert!(
+        missing.contains("--arm left") && missing.contains("\"left_palm\""),
+        "{missing}"
+    );
+    let hold = fails_on_one_line(&["robot", s(&urdf), "--hold", "left_elbow_joint=0.3"]);
+    assert!(hold.contains("is an arm joint"), "{hold}");
+    assert!(!kept.exists());
+    // A URDF with no two arms to find.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("crates/sgplvm-robots/tests/fixtures/kuka_iiwa.urdf");
+    let none = fails_on_one_line(&["robot", s(&kuka)]);
+    assert!(
+        none.contains("kuka_iiwa.urdf: cannot tell the robot's two arms"),
+        "{none}"
+    );
+    let out = dir.join("never.mcap");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/demos/bimanual.mcap");
+    fails_on_one_line(&[
+        "retarget",
+        "--demos",
+        s(&data),
+        "--urdf",
+        s(&kuka),
+        "--out",
+        s(&out),
+    ]);
+    assert!(!out.exists());
+    let builtin = fails_on_one_line(&["robot", "coman", "--write"]);
+    assert!(builtin.contains("built-in"), "{builtin}");
+}
+
+#[test]
+fn a_published_humanoid_is_retargeted_trained_and_drawn_with_its_waist_held() {
+    let dir = scratch("robot-g1");
+    let urdf = published("g1_29dof.urdf");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/demos/bimanual.mcap");
+    let demos = dir.join("g1-demos.mcap");
+    let out = ok(&[
+        "retarget",
+        "--demos",
+        s(&data),
+        "--urdf",
+        s(&urdf),
+        "--robot",
+        "g1",
+        "--hold",
+        "waist_pitch_joint=0.1",
+        "--command-joints",
+        "all",
+        "--json",
+        "--out",
+        s(&demos),
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let reach = &report["reach"][0];
+    assert!(reach["worst_m"].as_f64().unwrap() <= 0.005, "{reach}");
+    let reached = reach["reached"].as_f64().unwrap() / reach["targets"].as_f64().unwrap();
+    assert!(reached > 0.99, "{reach}");
+    // Every joint outside the arms at its hold value in every frame, exactly.
+    let ds = load_demonstrations(&demos).unwrap();
+    let g1 = ds.robot("g1").unwrap();
+    assert_eq!(g1.joint_names.len(), 29);
+    for (name, value) in [
+        ("waist_pitch_joint", 0.1),
+        ("waist_yaw_joint", 0.0),
+        ("left_knee_joint", 0.0),
+    ] {
+        let c = g1.joint_names.iter().position(|n| n == name).unwrap();
+        assert!(g1.positions.column(c).iter().all(|&v| v == value), "{name}");
+    }
+    let model = dir.join("g1.sgp");
+    ok(&[
+        "train",
+        "--data",
+        s(&demos),
+        "--robot",
+        "g1",
+        "--max-iters",
+        "30",
+        "--out",
+        s(&model),
+    ]);
+    let human = dir.join("human.mcap");
+    ok(&[
+        "export",
+        "--demos",
+        s(&demos),
+        "--body",
+        "human",
+        "--out",
+        s(&human),
+    ]);
+    // The arm joints by default; the scene carries the G1's own URDF, its links prefixed.
+    let scene = dir.join("g1.mcap");
+    ok(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--input",
+        s(&human),
+        "--robot",
+        "g1",
+        "--urdf",
+        s(&urdf),
+        "--out",
+        s(&scene),
+    ]);
+    let read = sgplvm::robots::joint_state::read_topics(&scene, &[]).unwrap();
+    let topics: Vec<&str> = read.channels.iter().map(|c| c.topic.as_str()).collect();
+    for t in [
+        "/g1/robot_description",
+        "/g1/joint_command",
+        "/tf",
+        "/tf_static",
+    ] {
+        assert!(topics.contains(&t), "{t} not in {topics:?}");
+    }
+    let csv = dir.join("g1.csv");
+    ok(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--input",
+        s(&human),
+        "--robot",
+        "g1",
+        "--urdf",
+        s(&urdf),
+        "--out",
+        s(&csv),
+    ]);
+    let header = std::fs::read_to_string(&csv).unwrap();
+    let columns = header.lines().nth(1).unwrap();
+    assert_eq!(columns.split(',').count(), 1 + 14, "{columns}");
+    assert!(
+        columns.starts_with("time,left_shoulder_pitch_joint"),
+        "{columns}"
+    );
+    // A command joint the model does not predict and the robot does not hold is refused.
+    let bad = fails_on_one_line(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--input",
+        s(&human),
+        "--robot",
+        "g1",
+        "--urdf",
+        s(&urdf),
+        "--command-joints",
+        "left_elbow_joint,nonsense_joint",
+        "--out",
+        s(&csv),
+    ]);
+    assert!(bad.contains("nonsense_joint"), "{bad}");
+}
