@@ -188,12 +188,44 @@ fn nearest_point(origins: &[Vector3<f64>], axes: &[Vector3<f64>]) -> Option<(Vec
     Some((point, spread))
 }
 
-/// The shoulder of a chain at `q`: among groups of two or three consecutive revolute joints
-/// starting at one of the first three, no two of them parallel, the group whose axes meet
-/// (within [`MEET_FRACTION`] of the arm's length), most axes first, then earliest; else the
-/// group whose axes come nearest. Gives the number of chain joints before the group, the
-/// group's size, the point (base frame) and its distance to the farthest axis.
-fn shoulder_of(chain: &Chain, q: &[f64]) -> (usize, usize, Vector3<f64>, f64) {
+/// Which end of the arm a group of meeting axes is sought at.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum End {
+    /// The shoulder: groups ending before the elbow, the one ending nearest it first (a
+    /// person's collarbone joints come before the shoulder's).
+    Shoulder,
+    /// The wrist: groups starting after the elbow, the one ending nearest the hand first.
+    Wrist,
+}
+
+/// The chain joint most in the middle of the arm at `q` (farthest from both its first joint
+/// and the hand), the first and last joints aside: a first guess of the elbow, which tells the
+/// shoulder's joints from the wrist's.
+fn elbow_guess(chain: &Chain, q: &[f64]) -> usize {
+    let origins = chain.joint_origins(q);
+    let hand = chain.forward(q).translation.vector;
+    let n = origins.len();
+    let score = |i: usize| {
+        (origins[i] - origins[0])
+            .norm()
+            .min((origins[i] - hand).norm())
+    };
+    let best = (1..n.saturating_sub(1).max(1))
+        .map(score)
+        .fold(0.0, f64::max);
+    // Joints at one point (an elbow and a forearm roll) tie: the first of them.
+    (1..n.saturating_sub(1).max(1))
+        .find(|&i| score(i) >= best - 1e-3)
+        .unwrap_or(0)
+}
+
+/// Where a group of the chain's axes meets at `q`: among groups of two or three consecutive
+/// revolute joints on `end`'s side of the (guessed) elbow, no two of them parallel, the group
+/// whose axes meet (within [`MEET_FRACTION`] of the arm's length), nearest the elbow (shoulder)
+/// or the hand (wrist) first, then the most axes; else the group whose axes come nearest. Gives
+/// the group's first joint, its size, the point (base frame) and its distance to the farthest
+/// axis.
+fn meeting_axes(chain: &Chain, q: &[f64], end: End) -> (usize, usize, Vector3<f64>, f64) {
     let frames = chain.joint_frames(q);
     let axes = chain.joint_axes(q);
     let origins: Vec<Vector3<f64>> = frames.iter().map(|f| f.translation.vector).collect();
@@ -203,11 +235,17 @@ fn shoulder_of(chain: &Chain, q: &[f64]) -> (usize, usize, Vector3<f64>, f64) {
         .sum::<f64>()
         + (chain.forward(q).translation.vector - origins[origins.len() - 1]).norm();
     let meet = (MEET_FRACTION * length).max(0.005);
+    let n = chain.dof();
+    let elbow = elbow_guess(chain, q);
     let mut groups = Vec::new();
-    for start in 0..chain.dof().min(3) {
-        for len in [3usize, 2] {
-            let range = start..(start + len).min(chain.dof());
-            if range.len() < 2 || range.clone().any(|i| chain.is_prismatic(i)) {
+    for len in [3usize, 2] {
+        for start in 0..n {
+            let range = start..(start + len).min(n);
+            let side = match end {
+                End::Shoulder => range.end <= elbow,
+                End::Wrist => range.start > elbow,
+            };
+            if !side || range.len() < 2 || range.clone().any(|i| chain.is_prismatic(i)) {
                 continue;
             }
             let parallel = range.clone().any(|i| {
@@ -221,18 +259,34 @@ fn shoulder_of(chain: &Chain, q: &[f64]) -> (usize, usize, Vector3<f64>, f64) {
             }
             if let Some((p, spread)) = nearest_point(&origins[range.clone()], &axes[range.clone()])
             {
-                groups.push((start, range.len(), p, spread));
+                // Rank: nearer the elbow (shoulder) or the hand (wrist) first.
+                let rank = match end {
+                    End::Shoulder => elbow - range.end,
+                    End::Wrist => n - range.end,
+                };
+                groups.push((start, range.len(), p, spread, rank));
             }
         }
     }
     let meeting = groups
         .iter()
         .filter(|g| g.3 <= meet)
-        .min_by(|a, b| (std::cmp::Reverse(a.1), a.0).cmp(&(std::cmp::Reverse(b.1), b.0)));
+        .min_by(|a, b| (a.4, std::cmp::Reverse(a.1)).cmp(&(b.4, std::cmp::Reverse(b.1))));
     let chosen = meeting.or_else(|| groups.iter().min_by(|a, b| a.3.total_cmp(&b.3)));
-    match chosen {
-        Some(&(start, len, p, spread)) => (start, len, p, spread),
-        None => (0, 1, origins[0], 0.0),
+    match (chosen, end) {
+        (Some(&(start, len, p, spread, _)), _) => (start, len, p, spread),
+        (None, End::Shoulder) => (0, 1, origins[0], 0.0),
+        (None, End::Wrist) => (n - 1, 1, origins[n - 1], 0.0),
+    }
+}
+
+/// A point of the chain's base frame at `q` expressed in the frame of chain joint `after`
+/// (before its motion), so that it rides on the joints before `after`.
+fn riding(chain: &Chain, q: &[f64], after: usize, point: Vector3<f64>) -> Vector3<f64> {
+    if after == 0 {
+        point
+    } else {
+        (chain.joint_frames(q)[after].inverse() * nalgebra::Point3::from(point)).coords
     }
 }
 
@@ -339,23 +393,21 @@ fn arm_geometry(
         .iter()
         .map(|&(lo, hi)| if lo <= hi { 0.0_f64.clamp(lo, hi) } else { 0.0 })
         .collect();
-    let (group, size, axes_point, spread) = shoulder_of(&chain, &zero);
-    // The convention's shoulder link is fixed on the torso; a shoulder found from the axes
-    // rides on the joints before them.
-    let (after, point) = match &raw.shoulder_link {
+    let (group, size, axes_point, spread) = meeting_axes(&chain, &zero, End::Shoulder);
+    // The shoulder rides on the joints before its group (TALOS turns its whole shoulder
+    // first; a person lifts the collarbone); the convention's shoulder link names the point.
+    let point = match &raw.shoulder_link {
         Some(link) => {
             let at = base_in_torso.inverse()
                 * (torso_in_root.inverse() * robot.forward_kinematics(hold, link)?);
-            (0, at.translation.vector)
+            at.translation.vector
         }
-        None => (group, axes_point),
+        None => axes_point,
     };
-    // The shoulder point in the frame of the joint it rides on (the base frame for the first).
-    let local = if after == 0 {
-        point
-    } else {
-        (chain.joint_frames(&zero)[after].inverse() * nalgebra::Point3::from(point)).coords
-    };
+    let after = group;
+    let local = riding(&chain, &zero, after, point);
+    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist);
+    let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
     let distal = (group + size).min(chain.dof())..chain.dof();
     let with = |tail: &[f64]| -> Vec<f64> {
         let mut q = zero.clone();
@@ -404,6 +456,8 @@ fn arm_geometry(
         },
         shoulder_after: after,
         shoulder_local: local,
+        wrist_after,
+        wrist_local,
         base_in_torso,
         reach,
         straight,

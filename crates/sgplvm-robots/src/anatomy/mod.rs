@@ -44,6 +44,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
+use crate::kinematics::tasks::LinkPoint;
 use crate::kinematics::Chain;
 use crate::models::Side;
 use crate::urdf::Robot;
@@ -257,6 +258,10 @@ pub struct AnatomyArm {
     /// The shoulder point in the frame of chain joint `shoulder_after` (the chain's base frame
     /// when that is 0), so that it moves with the joints before it.
     pub shoulder_local: Vector3<f64>,
+    /// The first chain joint of the wrist (the last joints whose axes meet).
+    pub wrist_after: usize,
+    /// The wrist centre in the frame of chain joint `wrist_after` (before its motion).
+    pub wrist_local: Vector3<f64>,
     /// The largest shoulder-to-hand distance within the joint limits, metres.
     pub reach: f64,
     /// The arm's joint values (chain order) of that straightened arm.
@@ -282,6 +287,53 @@ impl AnatomyArm {
         }
     }
 
+    /// The arm's landmarks (shoulder, elbow, wrist centre, hand) as points fixed on the
+    /// robot's links, for tasks evaluated on the whole robot.
+    pub fn landmarks(&self, robot: &Robot) -> ArmLandmarks {
+        let on_joint = |k: usize, local: Vector3<f64>| -> LinkPoint {
+            // A joint's frame before its motion is its parent link's frame times its origin.
+            match self.chain.robot_indices().get(k).map(|&i| robot.movable[i]) {
+                Some(j) => {
+                    let joint = &robot.joints[j];
+                    LinkPoint {
+                        link: joint.parent,
+                        local: (joint.origin * nalgebra::Point3::from(local)).coords,
+                    }
+                }
+                None => LinkPoint {
+                    link: robot.root,
+                    local,
+                },
+            }
+        };
+        let base = robot
+            .link_index
+            .get(self.chain.base())
+            .copied()
+            .unwrap_or(robot.root);
+        let shoulder = if self.shoulder_after == 0 {
+            LinkPoint {
+                link: base,
+                local: self.shoulder_local,
+            }
+        } else {
+            on_joint(self.shoulder_after, self.shoulder_local)
+        };
+        ArmLandmarks {
+            shoulder,
+            elbow: on_joint(self.elbow, Vector3::zeros()),
+            wrist: on_joint(self.wrist_after, self.wrist_local),
+            hand: LinkPoint {
+                link: robot
+                    .link_index
+                    .get(self.chain.tip())
+                    .copied()
+                    .unwrap_or(robot.root),
+                local: Vector3::zeros(),
+            },
+        }
+    }
+
     /// The hand's position in the torso link's frame for the arm's joint values `q` (chain
     /// order).
     pub fn hand_in_torso(&self, q: &[f64]) -> Vector3<f64> {
@@ -289,6 +341,19 @@ impl AnatomyArm {
             .translation
             .vector
     }
+}
+
+/// An arm's landmarks as points fixed on the robot's links.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmLandmarks {
+    /// The shoulder centre.
+    pub shoulder: LinkPoint,
+    /// The elbow (the elbow joint's origin).
+    pub elbow: LinkPoint,
+    /// The wrist centre.
+    pub wrist: LinkPoint,
+    /// The hand (the hand link's origin).
+    pub hand: LinkPoint,
 }
 
 /// A robot with its arms, held joints, body frame, reach and neutral posture (module docs).

@@ -54,7 +54,15 @@ fn builtins_follow_the_convention_with_nothing_held() {
                 .forward_kinematics(a.hold_configuration(), &link)
                 .unwrap();
             assert!((a.arm(side).shoulder - at.translation.vector).norm() < 1e-12);
-            assert_eq!(a.arm(side).shoulder_after, 0);
+            // Where the first axes meet the shoulder is fixed on the torso; the person's rides
+            // on the collarbone's two joints, WALK-MAN's (whose first axis misses the others)
+            // on its first.
+            let after = match name {
+                "human" => 2,
+                "walkman" => 1,
+                _ => 0,
+            };
+            assert_eq!(a.arm(side).shoulder_after, after, "{name}");
         }
     }
     // Arms straight at zero: the reach is the zero pose's (to within the elbows' offsets).
@@ -71,6 +79,40 @@ fn builtins_follow_the_convention_with_nothing_held() {
     // The human's reach is its arm's length, 0.414 of its height of 1.75 m.
     let human = Anatomy::builtin("human").unwrap();
     assert!((human.arm(Side::Left).reach - 0.414 * 1.75).abs() < 1e-6);
+}
+
+#[test]
+fn landmarks_sit_on_the_links_where_the_arms_joints_are() {
+    use crate::kinematics::frames::{Ancestry, RobotFrames};
+    for name in ["coman", "human"] {
+        let a = Anatomy::builtin(name).unwrap();
+        let robot = a.robot();
+        let ancestry = Ancestry::of(robot);
+        let q: Vec<f64> = (0..robot.dof()).map(|i| 0.2 * (i as f64).sin()).collect();
+        let frames = RobotFrames::new(robot, &ancestry, &q);
+        for arm in a.arms() {
+            let qa = arm.chain.extract(&q).unwrap();
+            let marks = arm.landmarks(robot);
+            let in_root = |p: Vector3<f64>| {
+                (robot.forward_kinematics(&q, arm.chain.base()).unwrap()
+                    * nalgebra::Point3::from(p))
+                .coords
+            };
+            let elbow = in_root(arm.chain.joint_origins(&qa)[arm.elbow]);
+            assert!((marks.elbow.at(&frames) - elbow).norm() < 1e-12, "{name}");
+            let shoulder = in_root(arm.shoulder_at(&qa));
+            assert!(
+                (marks.shoulder.at(&frames) - shoulder).norm() < 1e-12,
+                "{name}"
+            );
+            let hand = in_root(arm.chain.forward(&qa).translation.vector);
+            assert!((marks.hand.at(&frames) - hand).norm() < 1e-12, "{name}");
+            // The wrist centre is on the forearm, between the elbow and the hand.
+            let w = marks.wrist.at(&frames);
+            assert!((w - elbow).norm() > 0.5 * (hand - elbow).norm(), "{name}");
+            assert!((w - hand).norm() < 0.5 * (hand - elbow).norm(), "{name}");
+        }
+    }
 }
 
 #[test]

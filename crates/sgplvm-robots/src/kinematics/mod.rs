@@ -16,7 +16,11 @@
 //! `mod.rs` cuts the chain out of the robot and computes its forward kinematics and Jacobian;
 //! `ik.rs` solves inverse kinematics on it.
 
+pub mod collision;
+pub mod frames;
 mod ik;
+pub mod qp;
+pub mod tasks;
 
 pub use ik::{IkOptions, IkSolution, IkTarget};
 

@@ -191,7 +191,11 @@ impl ArmFrames {
             [0, 1].map(|s| arms[s].base_in_torso.rotation.inverse() * anatomy.body_in_torso());
         Self {
             body_in_base,
-            shoulders: [0, 1].map(|s| arms[s].shoulder_at(&arms[s].neutral)),
+            // The shoulder where it is with the arm's joints at zero: a point fixed on the
+            // torso, which the hands are placed from.
+            shoulders: [0, 1].map(|s| {
+                (arms[s].base_in_torso.inverse() * nalgebra::Point3::from(arms[s].shoulder)).coords
+            }),
             reach: [0, 1].map(|s| arms[s].reach),
             elbows: [0, 1].map(|s| arms[s].elbow),
             neutral_hands: [0, 1].map(|s| arms[s].chain.forward(&arms[s].neutral).rotation),

@@ -43,9 +43,8 @@ fn relative_hands(anatomy: &Anatomy, q: &[f64]) -> [Vector3<f64>; 2] {
     [0, 1].map(|s| {
         let arm = &anatomy.arms()[s];
         let hand = torso.inverse() * robot.forward_kinematics(q, arm.chain.tip()).unwrap();
-        let qa = arm.chain.extract(q).unwrap();
-        let shoulder = arm.base_in_torso * nalgebra::Point3::from(arm.shoulder_at(&qa));
-        anatomy.body_in_torso().inverse() * (hand.translation.vector - shoulder.coords) / arm.reach
+        // Hands are placed relative to the shoulder where it is with the arm's joints at 0.
+        anatomy.body_in_torso().inverse() * (hand.translation.vector - arm.shoulder) / arm.reach
     })
 }
 

@@ -1,0 +1,283 @@
+//! A robot's own collision shapes and the pairs of them that can meet, with their distances
+//! and closest points at a configuration (parry, which rapier already uses): what the
+//! self-collision limit of differential IK and the live safety step are made of.
+//!
+//! Shapes are the URDF's `<collision>` elements: boxes, cylinders, capsules and spheres, and
+//! meshes where a loader turns them into convex hulls; what cannot be checked (a mesh not
+//! found) is listed, never silently dropped. A pair of shapes *can meet* when their links move
+//! relative to each other through the moving joints, are not neighbours (one joint apart) and
+//! are apart at the reference posture (pairs already touching there, like an upper arm's
+//! capsule reaching into the shoulder's, are the model's own overlap, as in MoveIt's "never in
+//! collision / adjacent" lists).
+
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use rapier3d::parry;
+use rapier3d::parry::shape::SharedShape;
+
+use super::frames::{Ancestry, RobotFrames};
+use crate::urdf::{pose_from_xyz_rpy, Robot};
+
+/// One collision shape of a link.
+#[derive(Clone)]
+pub struct LinkShape {
+    /// The link (index into [`Robot::link_names`]).
+    pub link: usize,
+    /// The shape (parry, single precision).
+    pub shape: SharedShape,
+    /// Its pose in the link's frame.
+    pub local: Isometry3<f64>,
+}
+
+/// Two shapes near each other at a configuration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Proximity {
+    /// The pair (index into [`CollisionModel::pairs`]).
+    pub pair: usize,
+    /// Signed distance, metres (negative: penetrating).
+    pub distance: f64,
+    /// The closest point on the first shape (root frame).
+    pub point_a: Vector3<f64>,
+    /// The closest point on the second shape (root frame).
+    pub point_b: Vector3<f64>,
+    /// Unit normal from the first shape towards the second.
+    pub normal: Vector3<f64>,
+}
+
+/// A robot's collision shapes and the pairs of them that can meet.
+#[derive(Clone)]
+pub struct CollisionModel {
+    shapes: Vec<LinkShape>,
+    pairs: Vec<(usize, usize)>,
+    unchecked: Vec<String>,
+    overlapping_at_reference: usize,
+}
+
+/// Turns a mesh collision element (file name as written in the URDF, scale) into a shape, or
+/// says why it cannot.
+pub type MeshLoader<'a> = dyn Fn(&str, [f64; 3]) -> Result<SharedShape, String> + 'a;
+
+fn pose_to_parry(p: &Isometry3<f64>) -> parry::math::Pose {
+    let t = p.translation.vector;
+    let q = p.rotation;
+    parry::math::Pose::from_parts(
+        parry::math::Vector::new(t.x as f32, t.y as f32, t.z as f32),
+        parry::math::Rot3::from_xyzw(q.i as f32, q.j as f32, q.k as f32, q.w as f32),
+    )
+}
+
+fn vec_from_parry(v: parry::math::Vector) -> Vector3<f64> {
+    Vector3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z))
+}
+
+/// The shape of one URDF collision geometry (URDF cylinders and capsules lie along z; parry's
+/// cylinder along y, hence a turn).
+fn shape_of(
+    geometry: &urdf_rs::Geometry,
+    meshes: Option<&MeshLoader<'_>>,
+) -> Result<(SharedShape, Isometry3<f64>), String> {
+    let z_to_y = Isometry3::from_parts(
+        nalgebra::Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2),
+    );
+    Ok(match geometry {
+        urdf_rs::Geometry::Box { size } => (
+            SharedShape::cuboid(
+                (size[0] / 2.0) as f32,
+                (size[1] / 2.0) as f32,
+                (size[2] / 2.0) as f32,
+            ),
+            Isometry3::identity(),
+        ),
+        urdf_rs::Geometry::Cylinder { radius, length } => (
+            SharedShape::cylinder((length / 2.0) as f32, *radius as f32),
+            z_to_y,
+        ),
+        urdf_rs::Geometry::Capsule { radius, length } => (
+            SharedShape::capsule_z((length / 2.0) as f32, *radius as f32),
+            Isometry3::identity(),
+        ),
+        urdf_rs::Geometry::Sphere { radius } => {
+            (SharedShape::ball(*radius as f32), Isometry3::identity())
+        }
+        urdf_rs::Geometry::Mesh { filename, scale } => {
+            let scale = scale.as_ref().map_or([1.0; 3], |s| [s[0], s[1], s[2]]);
+            let loader = meshes.ok_or_else(|| format!("mesh {filename} (meshes not loaded)"))?;
+            (loader(filename, scale)?, Isometry3::identity())
+        }
+    })
+}
+
+impl CollisionModel {
+    /// The collision model of `robot`: its shapes (meshes through `meshes`, when given) and
+    /// the pairs that can meet when the joints `moving` (indices into [`Robot::joints`]) move,
+    /// judged at the reference configuration `reference`.
+    pub fn new(
+        robot: &Robot,
+        ancestry: &Ancestry,
+        moving: &[usize],
+        reference: &[f64],
+        meshes: Option<&MeshLoader<'_>>,
+    ) -> CollisionModel {
+        let mut shapes = Vec::new();
+        let mut unchecked = Vec::new();
+        for link in &robot.urdf.links {
+            let Some(&l) = robot.link_index.get(&link.name) else {
+                continue;
+            };
+            for c in &link.collision {
+                let origin = pose_from_xyz_rpy(
+                    [c.origin.xyz[0], c.origin.xyz[1], c.origin.xyz[2]],
+                    [c.origin.rpy[0], c.origin.rpy[1], c.origin.rpy[2]],
+                );
+                match shape_of(&c.geometry, meshes) {
+                    Ok((shape, turn)) => shapes.push(LinkShape {
+                        link: l,
+                        shape,
+                        local: origin * turn,
+                    }),
+                    Err(why) => unchecked.push(format!("{}: {why}", link.name)),
+                }
+            }
+        }
+        let moves = |link: usize| -> Vec<usize> {
+            ancestry
+                .above(link)
+                .iter()
+                .copied()
+                .filter(|j| moving.contains(j))
+                .collect()
+        };
+        let neighbours = |a: usize, b: usize| {
+            let one_apart = |child: usize, parent: usize| {
+                robot.parent_joint[child].is_some_and(|j| robot.joints[j].parent == parent)
+            };
+            one_apart(a, b) || one_apart(b, a)
+        };
+        let mut model = CollisionModel {
+            shapes,
+            pairs: Vec::new(),
+            unchecked,
+            overlapping_at_reference: 0,
+        };
+        let frames = RobotFrames::new(robot, ancestry, reference);
+        for i in 0..model.shapes.len() {
+            for k in (i + 1)..model.shapes.len() {
+                let (a, b) = (model.shapes[i].link, model.shapes[k].link);
+                if a == b || neighbours(a, b) || moves(a) == moves(b) {
+                    continue;
+                }
+                if model
+                    .distance(&frames, i, k, 0.0)
+                    .is_some_and(|p| p.1 <= 0.0)
+                {
+                    model.overlapping_at_reference += 1;
+                    continue;
+                }
+                model.pairs.push((i, k));
+            }
+        }
+        model
+    }
+
+    /// The shapes.
+    pub fn shapes(&self) -> &[LinkShape] {
+        &self.shapes
+    }
+
+    /// The pairs of shapes (indices into [`CollisionModel::shapes`]) that can meet.
+    pub fn pairs(&self) -> &[(usize, usize)] {
+        &self.pairs
+    }
+
+    /// What could not be checked (collision elements that gave no shape), one line each.
+    pub fn unchecked(&self) -> &[String] {
+        &self.unchecked
+    }
+
+    /// Pairs left out because their shapes overlap at the reference posture.
+    pub fn overlapping_at_reference(&self) -> usize {
+        self.overlapping_at_reference
+    }
+
+    /// The pair's two link indices.
+    pub fn pair_links(&self, pair: usize) -> (usize, usize) {
+        let (i, k) = self.pairs[pair];
+        (self.shapes[i].link, self.shapes[k].link)
+    }
+
+    /// The contact of shapes `i` and `k` when within `within` metres: (normal-carrying contact,
+    /// distance).
+    fn distance(
+        &self,
+        frames: &RobotFrames,
+        i: usize,
+        k: usize,
+        within: f64,
+    ) -> Option<(parry::query::Contact, f64)> {
+        let (a, b) = (&self.shapes[i], &self.shapes[k]);
+        let pa = pose_to_parry(&(frames.link(a.link) * a.local));
+        let pb = pose_to_parry(&(frames.link(b.link) * b.local));
+        let c = parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
+            .ok()??;
+        let d = f64::from(c.dist);
+        Some((c, d))
+    }
+
+    /// Every pair within `within` metres at `frames`, with its closest points and normal.
+    pub fn proximities(&self, frames: &RobotFrames, within: f64) -> Vec<Proximity> {
+        self.pairs
+            .iter()
+            .enumerate()
+            .filter_map(|(p, &(i, k))| {
+                let (c, d) = self.distance(frames, i, k, within)?;
+                Some(Proximity {
+                    pair: p,
+                    distance: d,
+                    point_a: vec_from_parry(c.point1),
+                    point_b: vec_from_parry(c.point2),
+                    normal: vec_from_parry(c.normal1),
+                })
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coman_arms_crossing_in_front_of_the_torso_touch_and_are_measured() {
+        let robot = Robot::builtin("coman").unwrap();
+        let ancestry = Ancestry::of(&robot);
+        let moving = robot.movable.clone();
+        let zero = robot.neutral_configuration();
+        let model = CollisionModel::new(&robot, &ancestry, &moving, &zero, None);
+        assert!(model.unchecked().is_empty());
+        assert!(!model.pairs().is_empty());
+        let frames = RobotFrames::new(&robot, &ancestry, &zero);
+        // Arms hanging: nothing within 1 mm.
+        assert!(model.proximities(&frames, 0.001).is_empty());
+        // Both hands brought to one point in front of the chest: they meet.
+        let mut q = zero.clone();
+        for hand in ["left_hand", "right_hand"] {
+            let chain = robot.chain("DWYTorso", hand).unwrap();
+            let target = crate::IkTarget::Position(Vector3::new(0.22, 0.0, 0.0));
+            let sol = chain.inverse_kinematics(
+                &target,
+                &chain.extract(&zero).unwrap(),
+                &crate::IkOptions::default(),
+            );
+            assert!(sol.converged, "{hand}");
+            for (k, &i) in chain.robot_indices().iter().enumerate() {
+                q[i] = sol.q[k];
+            }
+        }
+        let frames = RobotFrames::new(&robot, &ancestry, &q);
+        let near = model.proximities(&frames, 0.0);
+        assert!(near.iter().any(|p| p.distance < 0.0), "{near:?}");
+        for p in &near {
+            assert!((p.normal.norm() - 1.0).abs() < 1e-5);
+        }
+    }
+}

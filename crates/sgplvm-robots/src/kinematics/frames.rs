@@ -1,0 +1,165 @@
+//! The whole robot at one configuration: every link's pose in the root frame and every movable
+//! joint's origin and axis there, in one pass over the tree, so that the Jacobian of any point
+//! on any link with respect to any set of joints is a few cross products.
+//!
+//! For a point p on link L and a revolute joint j above L (origin oⱼ, unit axis aⱼ), the
+//! column of ∂p/∂qⱼ is aⱼ × (p − oⱼ); for a prismatic joint it is aⱼ; for a joint not above L
+//! it is 0.
+
+use nalgebra::{Isometry3, Matrix3xX, Vector3};
+
+use crate::urdf::{JointKind, Robot};
+
+/// A robot's links and joints at one configuration (root frame).
+#[derive(Debug, Clone)]
+pub struct RobotFrames {
+    /// Pose of each link (index as [`Robot::link_names`]).
+    links: Vec<Isometry3<f64>>,
+    /// Origin of each joint's frame (index as [`Robot::joints`]), before its motion.
+    origins: Vec<Vector3<f64>>,
+    /// Unit axis of each joint in the root frame.
+    axes: Vec<Vector3<f64>>,
+}
+
+/// For each link, the movable joints above it (configuration indices) and their joint indices:
+/// computed once per robot.
+#[derive(Debug, Clone)]
+pub struct Ancestry {
+    /// Per link: the joint indices (into [`Robot::joints`]) of the movable joints above it.
+    above: Vec<Vec<usize>>,
+    /// Joints in an order where each joint comes after the one above it.
+    order: Vec<usize>,
+}
+
+impl Ancestry {
+    /// The ancestry of `robot`'s links.
+    pub fn of(robot: &Robot) -> Ancestry {
+        let above = (0..robot.links.len())
+            .map(|l| {
+                robot
+                    .path_to(l)
+                    .into_iter()
+                    .filter(|&j| robot.joints[j].kind.is_movable())
+                    .collect()
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..robot.joints.len()).collect();
+        order.sort_by_key(|&j| robot.path_to(robot.joints[j].child).len());
+        Ancestry { above, order }
+    }
+
+    /// The movable joints (indices into [`Robot::joints`]) above link `link`.
+    pub fn above(&self, link: usize) -> &[usize] {
+        &self.above[link]
+    }
+}
+
+impl RobotFrames {
+    /// The frames of `robot` at `q` (configuration order; missing values count as 0).
+    pub fn new(robot: &Robot, ancestry: &Ancestry, q: &[f64]) -> RobotFrames {
+        let mut links = vec![Isometry3::identity(); robot.links.len()];
+        let mut origins = vec![Vector3::zeros(); robot.joints.len()];
+        let mut axes = vec![Vector3::zeros(); robot.joints.len()];
+        for &j in &ancestry.order {
+            let joint = &robot.joints[j];
+            let frame = links[joint.parent] * joint.origin;
+            origins[j] = frame.translation.vector;
+            axes[j] = frame.rotation * joint.axis.into_inner();
+            let value = joint
+                .q_index
+                .map_or(0.0, |i| q.get(i).copied().unwrap_or(0.0));
+            links[joint.child] = links[joint.parent] * joint.transform(value);
+        }
+        RobotFrames {
+            links,
+            origins,
+            axes,
+        }
+    }
+
+    /// Pose of link `link` (index) in the root frame.
+    pub fn link(&self, link: usize) -> &Isometry3<f64> {
+        &self.links[link]
+    }
+
+    /// The Jacobian (3 × `active.len()`) of the point `point` (root frame) fixed on link
+    /// `link`, with respect to the joints `active` (indices into [`Robot::joints`]).
+    pub fn point_jacobian(
+        &self,
+        robot: &Robot,
+        ancestry: &Ancestry,
+        link: usize,
+        point: &Vector3<f64>,
+        active: &[usize],
+    ) -> Matrix3xX<f64> {
+        let mut jac = Matrix3xX::zeros(active.len());
+        for &j in ancestry.above(link) {
+            let Some(col) = active.iter().position(|&a| a == j) else {
+                continue;
+            };
+            let c = if robot.joints[j].kind == JointKind::Prismatic {
+                self.axes[j]
+            } else {
+                self.axes[j].cross(&(point - self.origins[j]))
+            };
+            jac.set_column(col, &c);
+        }
+        jac
+    }
+
+    /// The angular Jacobian (3 × `active.len()`) of link `link`: the root-frame axis of each
+    /// revolute joint of `active` above it.
+    pub fn angular_jacobian(
+        &self,
+        robot: &Robot,
+        ancestry: &Ancestry,
+        link: usize,
+        active: &[usize],
+    ) -> Matrix3xX<f64> {
+        let mut jac = Matrix3xX::zeros(active.len());
+        for &j in ancestry.above(link) {
+            if robot.joints[j].kind == JointKind::Prismatic {
+                continue;
+            }
+            if let Some(col) = active.iter().position(|&a| a == j) {
+                jac.set_column(col, &self.axes[j]);
+            }
+        }
+        jac
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_equal_forward_kinematics_and_jacobians_equal_finite_differences() {
+        let robot = Robot::builtin("walkman").unwrap();
+        let ancestry = Ancestry::of(&robot);
+        let q: Vec<f64> = (0..robot.dof())
+            .map(|i| 0.3 * (i as f64 * 0.7).sin())
+            .collect();
+        let frames = RobotFrames::new(&robot, &ancestry, &q);
+        for (l, name) in robot.link_names().iter().enumerate() {
+            let fk = robot.forward_kinematics(&q, name).unwrap();
+            assert!((fk.translation.vector - frames.link(l).translation.vector).norm() < 1e-12);
+            assert!(fk.rotation.angle_to(&frames.link(l).rotation) < 1e-12);
+        }
+        let hand = robot.link_index["left_hand"];
+        let active: Vec<usize> = robot.movable.clone();
+        let local = nalgebra::Point3::new(0.01, -0.02, 0.03);
+        let at = |q: &[f64]| (robot.forward_kinematics(q, "left_hand").unwrap() * local).coords;
+        let p = at(&q);
+        let jac = frames.point_jacobian(&robot, &ancestry, hand, &p, &active);
+        for (c, &j) in active.iter().enumerate() {
+            let i = robot.joints[j].q_index.unwrap();
+            let h = 1e-6;
+            let (mut a, mut b) = (q.clone(), q.clone());
+            a[i] += h;
+            b[i] -= h;
+            let fd = (at(&a) - at(&b)) / (2.0 * h);
+            assert!((fd - jac.column(c)).norm() < 1e-8, "joint {i}");
+        }
+    }
+}

@@ -1,0 +1,238 @@
+//! One step of differential inverse kinematics as a small quadratic program, the shape of mink
+//! and Pink: weighted *tasks* (least-squares objectives on the joint step) and *limits* (linear
+//! inequalities on it), composed freely:
+//!
+//! ```text
+//! min_Δq  Σₖ wₖ ‖Jₖ Δq − eₖ‖² + λ ‖Δq‖²    s.t.  lo ≤ Δq ≤ hi,   Aᵢ Δq ≤ bᵢ
+//! ```
+//!
+//! i.e. `½ Δqᵀ H Δq + gᵀ Δq` with `H = 2 (Σ wₖ JₖᵀJₖ + λ I)` and `g = −2 Σ wₖ Jₖᵀ eₖ`. The
+//! unconstrained minimiser (one Cholesky solve) is taken when it satisfies every limit — the
+//! common case, and then it is the QP's solution too; otherwise Clarabel (a maintained
+//! interior-point solver in pure Rust) solves the QP.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
+};
+use nalgebra::{DMatrix, DVector};
+
+/// Why a step could not be solved.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum QpError {
+    /// The limits admit no step (e.g. a collision limit that the position limits forbid
+    /// moving away from).
+    #[error("the limits admit no step (the QP solver reports {0})")]
+    Infeasible(String),
+    /// A task or limit is not a finite number.
+    #[error("a task or limit is not a finite number")]
+    NotFinite,
+}
+
+/// How the step was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Solved {
+    /// The unconstrained minimiser satisfied every limit.
+    Unconstrained,
+    /// A limit was active: the QP solver found the step.
+    Constrained,
+}
+
+/// One step's quadratic program over `n` joint variables.
+#[derive(Debug, Clone)]
+pub struct Step {
+    h: DMatrix<f64>,
+    g: DVector<f64>,
+    lower: DVector<f64>,
+    upper: DVector<f64>,
+    rows: Vec<(DVector<f64>, f64)>,
+}
+
+impl Step {
+    /// An empty step over `n` variables with damping `lambda` (≥ 0) and no bounds.
+    pub fn new(n: usize, lambda: f64) -> Step {
+        Step {
+            h: DMatrix::identity(n, n) * (2.0 * lambda.max(0.0)),
+            g: DVector::zeros(n),
+            lower: DVector::from_element(n, f64::NEG_INFINITY),
+            upper: DVector::from_element(n, f64::INFINITY),
+            rows: Vec::new(),
+        }
+    }
+
+    /// The number of variables.
+    pub fn dim(&self) -> usize {
+        self.g.len()
+    }
+
+    /// Adds the task `w ‖J Δq − e‖²` (`jacobian` is `m × n`, `error` has `m` entries).
+    pub fn add_task(&mut self, jacobian: &DMatrix<f64>, error: &DVector<f64>, weight: f64) {
+        if weight <= 0.0 || jacobian.nrows() == 0 {
+            return;
+        }
+        let jt = jacobian.transpose();
+        self.h += (&jt * jacobian) * (2.0 * weight);
+        self.g -= (jt * error) * (2.0 * weight);
+    }
+
+    /// Narrows the bounds of variable `i` to `[lo, hi]` (intersected with what is there; an
+    /// empty intersection keeps the bound nearest to the other).
+    pub fn bound(&mut self, i: usize, lo: f64, hi: f64) {
+        let (l, u) = (self.lower[i].max(lo), self.upper[i].min(hi));
+        if l <= u {
+            self.lower[i] = l;
+            self.upper[i] = u;
+        } else if hi < self.lower[i] {
+            self.upper[i] = self.lower[i];
+        } else {
+            self.lower[i] = self.upper[i];
+        }
+    }
+
+    /// Adds the limit `aᵀ Δq ≤ b`.
+    pub fn add_row(&mut self, a: DVector<f64>, b: f64) {
+        self.rows.push((a, b));
+    }
+
+    /// Whether `x` satisfies every bound and row within `tol`.
+    fn feasible(&self, x: &DVector<f64>, tol: f64) -> bool {
+        (0..x.len()).all(|i| x[i] >= self.lower[i] - tol && x[i] <= self.upper[i] + tol)
+            && self.rows.iter().all(|(a, b)| a.dot(x) <= b + tol)
+    }
+
+    /// The step: the unconstrained minimiser where it satisfies every limit, else the QP's
+    /// solution.
+    pub fn solve(&self) -> Result<(DVector<f64>, Solved), QpError> {
+        if self.h.iter().chain(self.g.iter()).any(|v| !v.is_finite())
+            || self
+                .rows
+                .iter()
+                .any(|(a, b)| b.is_nan() || a.iter().any(|v| !v.is_finite()))
+        {
+            return Err(QpError::NotFinite);
+        }
+        if let Some(ch) = self.h.clone().cholesky() {
+            let x = -ch.solve(&self.g);
+            if self.feasible(&x, 1e-12) {
+                return Ok((x, Solved::Unconstrained));
+            }
+        }
+        self.solve_qp().map(|x| (x, Solved::Constrained))
+    }
+
+    /// Clarabel on `½ xᵀ H x + gᵀ x` s.t. `x ≤ upper`, `−x ≤ −lower`, rows.
+    fn solve_qp(&self) -> Result<DVector<f64>, QpError> {
+        let n = self.dim();
+        // The upper triangle of H, column by column.
+        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+        for c in 0..n {
+            for r in 0..=c {
+                if self.h[(r, c)] != 0.0 {
+                    rowval.push(r);
+                    nzval.push(self.h[(r, c)]);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        let p = CscMatrix::new(n, n, colptr, rowval, nzval);
+        // Constraint rows: finite upper bounds, finite lower bounds, then the rows.
+        let mut dense: Vec<(Vec<(usize, f64)>, f64)> = Vec::new();
+        for i in 0..n {
+            if self.upper[i].is_finite() {
+                dense.push((vec![(i, 1.0)], self.upper[i]));
+            }
+            if self.lower[i].is_finite() {
+                dense.push((vec![(i, -1.0)], -self.lower[i]));
+            }
+        }
+        for (a, b) in &self.rows {
+            let entries: Vec<(usize, f64)> = a
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| **v != 0.0)
+                .map(|(i, v)| (i, *v))
+                .collect();
+            dense.push((entries, *b));
+        }
+        let m = dense.len();
+        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+        for c in 0..n {
+            for (r, (entries, _)) in dense.iter().enumerate() {
+                if let Some((_, v)) = entries.iter().find(|(i, _)| *i == c) {
+                    rowval.push(r);
+                    nzval.push(*v);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        let a = CscMatrix::new(m, n, colptr, rowval, nzval);
+        let b: Vec<f64> = dense.iter().map(|(_, b)| *b).collect();
+        let cones = [NonnegativeConeT(m)];
+        let settings = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .max_iter(100)
+            .build()
+            .map_err(|e| QpError::Infeasible(format!("settings: {e}")))?;
+        let q: Vec<f64> = self.g.iter().copied().collect();
+        let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings)
+            .map_err(|e| QpError::Infeasible(format!("{e:?}")))?;
+        solver.solve();
+        match solver.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {
+                Ok(DVector::from_vec(solver.solution.x.clone()))
+            }
+            other => Err(QpError::Infeasible(format!("{other:?}"))),
+        }
+    }
+
+    /// The objective `½ xᵀ H x + gᵀ x` at `x`.
+    pub fn objective(&self, x: &DVector<f64>) -> f64 {
+        0.5 * x.dot(&(&self.h * x)) + self.g.dot(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_unconstrained_step_is_least_squares_and_limits_bind_as_a_qp() {
+        // Two variables, task: x = (1, 2) with weight 1, tiny damping.
+        let mut s = Step::new(2, 1e-9);
+        s.add_task(
+            &DMatrix::identity(2, 2),
+            &DVector::from_vec(vec![1.0, 2.0]),
+            1.0,
+        );
+        let (x, how) = s.solve().unwrap();
+        assert_eq!(how, Solved::Unconstrained);
+        assert!((x - DVector::from_vec(vec![1.0, 2.0])).norm() < 1e-6);
+        // A bound binds: x₁ ≤ 0.5.
+        s.bound(0, -1.0, 0.5);
+        let (x, how) = s.solve().unwrap();
+        assert_eq!(how, Solved::Constrained);
+        assert!(
+            (x[0] - 0.5).abs() < 1e-6 && (x[1] - 2.0).abs() < 1e-6,
+            "{x}"
+        );
+        // A row binds: x₀ + x₁ ≤ 1 (with x₀ ≤ 0.5): the projection of (1, 2) is (0, 1) but
+        // for the bound; the optimum of ‖x − (1,2)‖² on x₀+x₁ ≤ 1 is (0, 1).
+        s.add_row(DVector::from_vec(vec![1.0, 1.0]), 1.0);
+        let (x, _) = s.solve().unwrap();
+        assert!(
+            (x[0] - 0.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+            "{x}"
+        );
+        // Contradicting limits are an error, not a step.
+        s.add_row(DVector::from_vec(vec![-1.0, 0.0]), -0.8);
+        assert!(matches!(s.solve(), Err(QpError::Infeasible(_))));
+        let mut bad = Step::new(1, 0.0);
+        bad.add_task(
+            &DMatrix::identity(1, 1),
+            &DVector::from_vec(vec![f64::NAN]),
+            1.0,
+        );
+        assert_eq!(bad.solve().unwrap_err(), QpError::NotFinite);
+    }
+}
