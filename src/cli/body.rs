@@ -83,22 +83,17 @@ impl BodyArgs {
         for h in self.hold.iter().filter_map(|s| for_robot(s, robot)) {
             spec.set_hold(h).map_err(|e| anyhow!(e))?;
         }
-        if let Some(u) = self.up.iter().filter_map(|s| for_robot(s, robot)).last() {
+        if let Some(u) = self.up.iter().rev().find_map(|s| for_robot(s, robot)) {
             spec.up = Some(direction(u, "--up")?);
         }
-        if let Some(f) = self
-            .forward
-            .iter()
-            .filter_map(|s| for_robot(s, robot))
-            .last()
-        {
+        if let Some(f) = self.forward.iter().rev().find_map(|s| for_robot(s, robot)) {
             spec.forward = Some(direction(f, "--forward")?);
         }
         if let Some(c) = self
             .command_joints
             .iter()
-            .filter_map(|s| for_robot(s, robot))
-            .last()
+            .rev()
+            .find_map(|s| for_robot(s, robot))
         {
             spec.command_joints = CommandJoints::parse(c);
         }

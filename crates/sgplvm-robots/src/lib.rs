@@ -17,6 +17,7 @@ pub mod names;
 pub mod panics;
 pub mod physics;
 pub mod retarget;
+pub mod safety;
 pub mod scene;
 pub mod series;
 pub mod urdf;

@@ -251,12 +251,14 @@ fn check_shared(tree: &Tree, arms: &[RawArm; 2]) -> AnatomyResult<()> {
         .map_or_else(String::new, |j| robot.links[j.child].clone());
     Err(AnatomyError::SharedJoints {
         file: file_of(robot),
-        lfrom: arms[0].base.clone(),
-        lto: arms[0].hand.clone(),
-        rfrom: arms[1].base.clone(),
-        rto: arms[1].hand.clone(),
-        joints: few(&shared, 4),
-        below,
+        arms: Box::new(super::SharedArms {
+            lfrom: arms[0].base.clone(),
+            lto: arms[0].hand.clone(),
+            rfrom: arms[1].base.clone(),
+            rto: arms[1].hand.clone(),
+            joints: few(&shared, 4),
+            below,
+        }),
     })
 }
 

@@ -4,15 +4,15 @@
 //! names. Every command that takes a URDF builds one.
 //!
 //! Where it comes from, in order ([`Found`]):
-//! 1. the user: [`AnatomySpec::arms`] (`--arm left=FROM:TO`), or a description file beside the
+//! 1. the user: [`AnatomySpec::left`] and [`AnatomySpec::right`] (`--arm left=FROM:TO`), or a description file beside the
 //!    URDF (`ROBOT.anatomy.json`, [`AnatomySpec::read`]), which a lab writes once;
 //! 2. sgplvm's own convention (links `left_shoulder`, `left_hand`, `right_shoulder`,
 //!    `right_hand`: the shipped robots);
 //! 3. the URDF's joint names (`left`/`l_`/`_L` … with arm words), else its structure: two serial
-//!    chains of revolute joints branching from one link ([`discover`]).
+//!    chains of revolute joints branching from one link (`discover.rs`).
 //!
 //! Then, at the hold posture (every joint outside the arms at its hold value, [`AnatomySpec::hold`],
-//! default 0 within its limits), from the kinematics alone ([`geometry`]):
+//! default 0 within its limits), from the kinematics alone (`geometry.rs`):
 //! - the **shoulder point** of each arm: where its first joints' axes meet (or the point nearest
 //!   to them), in the torso link's frame (the links where the two arms branch);
 //! - the **body frame** (REP-103: x forward, y left, z up): left from the right shoulder to the
@@ -434,22 +434,12 @@ pub enum AnatomyError {
         count: usize,
     },
     /// Both arms move the same joints (e.g. both start at the pelvis, below a waist).
-    #[error("{file}: the left arm ({lfrom} → {lto}) and the right arm ({rfrom} → {rto}) share the movable joint(s) {joints}; start both arms below them (e.g. --arm left={below}:{lto}): shared joints are held, not moved by either arm")]
+    #[error("{file}: the left arm ({} → {}) and the right arm ({} → {}) share the movable joint(s) {}; start both arms below them (e.g. --arm left={}:{}): shared joints are held, not moved by either arm", .arms.lfrom, .arms.lto, .arms.rfrom, .arms.rto, .arms.joints, .arms.below, .arms.lto)]
     SharedJoints {
         /// The URDF.
         file: String,
-        /// Left arm's first link.
-        lfrom: String,
-        /// Left arm's hand.
-        lto: String,
-        /// Right arm's first link.
-        rfrom: String,
-        /// Right arm's hand.
-        rto: String,
-        /// The shared joints.
-        joints: String,
-        /// The link below the shared joints.
-        below: String,
+        /// The two arms and what they share.
+        arms: Box<SharedArms>,
     },
     /// A joint named in a setting is unknown or of the wrong kind.
     #[error("{file}: {what}: {message}")]
@@ -478,6 +468,23 @@ pub enum AnatomyError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Two named arms that share movable joints ([`AnatomyError::SharedJoints`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SharedArms {
+    /// Left arm's first link.
+    pub lfrom: String,
+    /// Left arm's hand.
+    pub lto: String,
+    /// Right arm's first link.
+    pub rfrom: String,
+    /// Right arm's hand.
+    pub rto: String,
+    /// The shared joints.
+    pub joints: String,
+    /// The link below the shared joints.
+    pub below: String,
 }
 
 /// Result alias of this module.

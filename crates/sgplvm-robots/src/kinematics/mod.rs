@@ -19,6 +19,7 @@
 pub mod collision;
 pub mod frames;
 mod ik;
+pub mod limits;
 pub mod qp;
 pub mod tasks;
 

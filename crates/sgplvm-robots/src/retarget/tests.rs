@@ -135,11 +135,10 @@ fn elbows_and_poses_cost_reach_but_match_more() {
             let q: Vec<f64> = out.body.positions.row(f).iter().copied().collect();
             let qh: Vec<f64> = ds.human.positions.row(f).iter().copied().collect();
             let rel = human.relative(&qh);
-            for s in 0..2 {
-                let arm = &anatomy.arms()[s];
+            for (s, (arm, r)) in anatomy.arms().iter().zip(&rel).enumerate() {
                 let qa = arm.chain.extract(&q).unwrap();
                 let e = arm.chain.joint_origins(&qa)[arm.elbow];
-                total += (e - robot.place(s, &rel[s].elbow)).norm();
+                total += (e - robot.place(s, &r.elbow)).norm();
             }
         }
         total
