@@ -308,8 +308,8 @@ fn parse_uri(uri: &str) -> Result<Target<'_>, MeshMiss> {
             // file:///abs, file://localhost/abs; anything else is taken as a path (ROS's
             // resource_retriever does the same with file://relative).
             let path = rest.strip_prefix("localhost").unwrap_or(rest);
-            let decoded = percent_decode(path)
-                .ok_or_else(|| malformed("bad %-escape in the file:// URI"))?;
+            let decoded =
+                percent_decode(path).ok_or_else(|| malformed("bad %-escape in the file:// URI"))?;
             if decoded.is_empty() {
                 return Err(malformed("file:// without a path"));
             }
@@ -435,10 +435,8 @@ mod tests {
     fn scratch(tag: &str) -> PathBuf {
         static N: AtomicUsize = AtomicUsize::new(0);
         let n = N.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!(
-            "sgplvm-meshes-{tag}-{}-{n}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("sgplvm-meshes-{tag}-{}-{n}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir.canonicalize().unwrap()
