@@ -18,7 +18,7 @@
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -59,7 +59,7 @@ pub struct LiveView {
 fn placed(name: &str, robot: Robot, topic: String, y: f64) -> SceneBody {
     SceneBody {
         name: name.to_string(),
-        meshes: mesh_search(&robot),
+        meshes: MeshSearch::for_robot(&robot),
         robot,
         placement: Isometry3::from_parts(
             Translation3::new(0.0, y, 0.0),
@@ -67,14 +67,6 @@ fn placed(name: &str, robot: Robot, topic: String, y: f64) -> SceneBody {
         ),
         joint_topic: topic,
     }
-}
-
-/// Where the meshes of a robot loaded from a URDF file are found (beside the file, then the
-/// ROS environment); None for a built-in robot.
-fn mesh_search(robot: &Robot) -> Option<MeshSearch> {
-    let source = robot.source();
-    (!source.starts_with("builtin:"))
-        .then(|| MeshSearch::for_urdf_file(Path::new(source)).with_env())
 }
 
 /// The mesh files the view serves, by every URI a viewer may ask for.

@@ -41,8 +41,15 @@ pub const PACKAGE_SEARCH_DEPTH: usize = 3;
 const MAX_FOLDERS_SEARCHED: usize = 4096;
 
 /// Where the mesh files a URDF names are looked for: the URDF file's directory, explicit
-/// package paths and the ROS environment (see the [module documentation](self)). The default
-/// search knows no directory: it resolves absolute paths and `file://` URIs only.
+/// package paths and the ROS environment, in this order:
+///
+/// | URI | where it is looked for |
+/// |---|---|
+/// | `meshes/arm.stl` | the URDF file's directory |
+/// | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
+/// | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry |
+///
+/// The default search knows no directory: it resolves absolute paths and `file://` URIs only.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct MeshSearch {
     /// Directory relative mesh paths are resolved against (the URDF file's).
@@ -158,6 +165,16 @@ impl MeshSearch {
             _ => PathBuf::from("."),
         };
         MeshSearch::new().with_urdf_dir(dir)
+    }
+
+    /// The search for a robot loaded from a URDF file: beside that file
+    /// ([`Robot::source`](super::Robot::source) taken as its path), then the ROS environment
+    /// ([`MeshSearch::with_env`]). None for a built-in robot (`builtin:NAME`), which has no
+    /// meshes.
+    pub fn for_robot(robot: &super::Robot) -> Option<Self> {
+        let source = robot.source();
+        (!source.starts_with("builtin:"))
+            .then(|| MeshSearch::for_urdf_file(Path::new(source)).with_env())
     }
 
     /// Resolves relative paths against `dir`.
