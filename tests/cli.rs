@@ -1248,6 +1248,9 @@ fn simulate_finds_collision_meshes_through_package_paths() {
         "{missing}"
     );
     assert!(missing.contains("--package-path DIR"), "{missing}");
+    let typo = dir.join("shar");
+    let err = fails_on_one_line(&[&args[..], &["--package-path", s(&typo)]].concat());
+    assert!(err.contains("shar: no such folder"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

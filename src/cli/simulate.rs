@@ -89,6 +89,12 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
+    if let Some(dir) = args.package_paths.iter().find(|d| !d.is_dir()) {
+        bail!(
+            "--package-path {}: no such folder; expected a folder holding ROS packages (or a package)",
+            dir.display()
+        );
+    }
     let meshes = mesh_search(args.urdf.as_deref(), &args.package_paths);
     let options = ReplayOptions {
         record_simulated: args.out.is_some(),
