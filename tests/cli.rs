@@ -1165,6 +1165,95 @@ fn simulate_prints_a_summary_and_details_on_request() {
     );
 }
 
+/// `simulate --package-path`: a URDF whose collision mesh is `package://…` (an STL cube
+/// written here) simulates it as a convex hull; without the package path the summary says the
+/// mesh could not be checked and how to give it; `--out` names the mesh by its file:// URI.
+#[test]
+fn simulate_finds_collision_meshes_through_package_paths() {
+    let dir = scratch("simulate-meshes");
+    let mesh = dir.join("share/sgplvm_cli_meshes/meshes/cube.stl");
+    std::fs::create_dir_all(mesh.parent().unwrap()).unwrap();
+    let mut stl = String::from("solid cube\n");
+    for (a, b, c) in [
+        (0, 1, 2),
+        (0, 1, 4),
+        (0, 2, 4),
+        (7, 6, 5),
+        (7, 6, 3),
+        (7, 5, 3),
+    ] {
+        let v = |i: i32| format!("vertex {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+        stl += &format!(
+            "facet normal 0 0 0\nouter loop\n{}{}{}endloop\nendfacet\n",
+            v(a),
+            v(b),
+            v(c)
+        );
+    }
+    stl += "endsolid cube\n";
+    std::fs::write(&mesh, stl).unwrap();
+    let urdf = dir.join("robot/meshy.urdf");
+    std::fs::create_dir_all(urdf.parent().unwrap()).unwrap();
+    let inertial = r#"<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>"#;
+    std::fs::write(
+        &urdf,
+        format!(
+            r#"<robot name="meshy">
+  <link name="base">{inertial}<collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="arm">{inertial}<collision><geometry>
+    <mesh filename="package://sgplvm_cli_meshes/meshes/cube.stl" scale="0.1 0.1 0.1"/></geometry></collision></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0.5 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
+</robot>"#
+        ),
+    )
+    .unwrap();
+    let trajectory = dir.join("hold.csv");
+    std::fs::write(&trajectory, "time,j\n0,0\n0.1,0\n").unwrap();
+    let out = dir.join("replay.mcap");
+    let args = [
+        "simulate",
+        "--urdf",
+        s(&urdf),
+        "--trajectory",
+        s(&trajectory),
+    ];
+    let found = ok(&[
+        &args[..],
+        &["--package-path", s(&dir.join("share")), "--out", s(&out)],
+    ]
+    .concat());
+    assert!(
+        found.contains("collision meshes: 1 simulated as convex hulls"),
+        "{found}"
+    );
+    assert!(
+        found.contains("no self-collisions among the 2 collision shapes checked\n"),
+        "{found}"
+    );
+    let uri = format!("file://{}", s(&mesh.canonicalize().unwrap()));
+    let bytes = std::fs::read(&out).unwrap();
+    let description = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .find(|m| m.channel.topic == "/robot/robot_description")
+        .expect("a robot description");
+    let description = String::from_utf8_lossy(&description.data);
+    assert!(description.contains(&uri), "no {uri} in {description}");
+    let missing = ok(&args);
+    assert!(
+        missing.contains(
+            "no self-collisions among the 1 collision shape checked; 1 collision mesh of link \"arm\" could not be checked (not found)"
+        ),
+        "{missing}"
+    );
+    assert!(missing.contains("--package-path DIR"), "{missing}");
+    let typo = dir.join("shar");
+    let err = fails_on_one_line(&[&args[..], &["--package-path", s(&typo)]].concat());
+    assert!(err.contains("shar: no such folder"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn predict_std_output_replays_in_simulate() {
     let f = fixture();

@@ -492,6 +492,20 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
             line(violation(v, &amount, &limit));
         }
     }
+    if report.mesh_hulls > 0 || !report.unchecked_meshes.is_empty() {
+        line(format!(
+            "collision meshes: {} simulated as convex hulls (read in {:.2} s), {} not",
+            report.mesh_hulls,
+            report.mesh_seconds,
+            report.unchecked_meshes.len()
+        ));
+    }
+    line(report.self_collision_summary());
+    // Why meshes were left out: the first (it says what to give) or, with verbose, each.
+    let shown = if verbose { usize::MAX } else { 1 };
+    for m in report.unchecked_meshes.iter().take(shown) {
+        line(format!("  link {}: {}", m.link, m.message));
+    }
     collisions(&report.collisions, verbose, &mut line);
     let details =
         report.limit_violations.len() + report.velocity_violations.len() + report.collisions.len();
@@ -521,7 +535,6 @@ fn violation(v: &LimitViolation, amount: &str, limit: &str) -> String {
 /// Self-collisions: per pair of links, the count and the deepest; with `verbose` every one.
 fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(String)) {
     if collisions.is_empty() {
-        line("no self-collisions".into());
         return;
     }
     let mut pairs: Vec<(&str, &str, usize, &Collision)> = Vec::new();
@@ -540,11 +553,7 @@ fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(Str
         }
     }
     pairs.sort_by(|a, b| b.3.max_penetration.total_cmp(&a.3.max_penetration));
-    line(format!(
-        "self-collisions: {} intervals between {} pair(s) of links; deepest per pair:",
-        collisions.len(),
-        pairs.len()
-    ));
+    line("deepest self-collision per pair of links:".into());
     for (a, b, n, c) in &pairs {
         line(format!(
             "  {a} ↔ {b}: {n} time(s), deepest {:.1} mm at {:.3} s",
@@ -609,6 +618,10 @@ mod tests {
             velocity_violations: vec![beyond("LShLat", 4.95, -4.0), beyond("slide", 0.1, 0.5)],
             collisions: Vec::new(),
             warnings: Vec::new(),
+            collision_shapes: 0,
+            mesh_hulls: 0,
+            mesh_seconds: 0.0,
+            unchecked_meshes: Vec::new(),
             simulated: None,
         };
         let text = replay_text("test.urdf", &report, false);

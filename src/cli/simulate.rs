@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
 use super::args::load_model;
@@ -21,9 +22,16 @@ pub struct SimulateArgs {
     /// A built-in robot (walkman, coman, centauro, human, ur5e) or the robot of the model.
     #[arg(long, required_unless_present = "urdf")]
     robot: Option<String>,
-    /// A URDF file instead of a built-in robot.
+    /// A URDF file instead of a built-in robot. Its collision meshes (STL, COLLADA, OBJ) are
+    /// simulated as convex hulls: relative paths are found beside the file, package://PKG/…
+    /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH.
     #[arg(long, conflicts_with = "model")]
     urdf: Option<PathBuf>,
+    /// A folder holding ROS packages (package://PKG/… is DIR/PKG/…, or a PKG folder with a
+    /// package.xml a few levels down), or a package folder itself; searched before
+    /// ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. Repeatable.
+    #[arg(long = "package-path", value_name = "DIR")]
+    package_paths: Vec<PathBuf>,
     /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column;
     /// the `<joint>_std` columns of `sgplvm predict --std` output are ignored).
     #[arg(long, required_unless_present = "model", conflicts_with = "model")]
@@ -81,8 +89,16 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
+    if let Some(dir) = args.package_paths.iter().find(|d| !d.is_dir()) {
+        bail!(
+            "--package-path {}: no such folder; expected a folder holding ROS packages (or a package)",
+            dir.display()
+        );
+    }
+    let meshes = mesh_search(args.urdf.as_deref(), &args.package_paths);
     let options = ReplayOptions {
         record_simulated: args.out.is_some(),
+        meshes: meshes.clone(),
         ..ReplayOptions::default()
     };
     let detail = format!(
@@ -94,9 +110,25 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     activity.finish();
     let report = report.map_err(|e| in_trajectory(e, args.trajectory.as_deref()))?;
     if let Some(out) = &args.out {
-        scene::write(out, &xml, &source, robot, &trajectory, t0, &report)?;
+        let body = scene::Body {
+            xml: &xml,
+            source: &source,
+            name: robot,
+            meshes,
+        };
+        scene::write(out, &body, &trajectory, t0, &report)?;
     }
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
+}
+
+/// Where the robot's meshes are found: beside the URDF file (none for a built-in robot), in
+/// the package paths given, then through ROS_PACKAGE_PATH and AMENT_PREFIX_PATH.
+fn mesh_search(urdf: Option<&Path>, package_paths: &[PathBuf]) -> MeshSearch {
+    let search = urdf.map_or_else(MeshSearch::new, MeshSearch::for_urdf_file);
+    package_paths
+        .iter()
+        .fold(search, |s, dir| s.with_package_path(dir))
+        .with_env()
 }
 
 /// A replay error, with the trajectory file named when the error is about the trajectory (its

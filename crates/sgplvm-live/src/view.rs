@@ -9,8 +9,16 @@
 //! `/ROBOT/prediction_std` (the predictive standard deviation per joint), `/latent` (the
 //! latent point) and `/ROBOT/trust` (`[sd, threshold, state]`, state 0 following, 1 holding,
 //! 2 moving to the last trusted target, 3 stale input, 4 waiting for a first trusted frame).
+//!
+//! A robot loaded from a URDF file has its meshes found beside that file and through
+//! `ROS_PACKAGE_PATH` / `AMENT_PREFIX_PATH` ([`MeshSearch`]): its description names each one
+//! found by its absolute `file://` URI, and the server answers Foxglove's asset requests
+//! (the protocol's `fetchAsset`) for exactly those files, under that URI or the one the URDF
+//! gives (`package://…`, a relative path), so that a viewer on another machine draws them too.
 
+use std::collections::HashMap;
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -18,7 +26,9 @@ use foxglove::{
     ChannelBuilder, Context, RawChannel, Schema, WebSocketServer, WebSocketServerHandle,
 };
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use sgplvm_robots::physics::MAX_MESH_BYTES;
 use sgplvm_robots::scene::{ArrayTopic, SceneBody, SceneOptions, SceneStream};
+use sgplvm_robots::urdf::MeshSearch;
 use sgplvm_robots::Robot;
 
 use crate::LiveError;
@@ -49,6 +59,7 @@ pub struct LiveView {
 fn placed(name: &str, robot: Robot, topic: String, y: f64) -> SceneBody {
     SceneBody {
         name: name.to_string(),
+        meshes: MeshSearch::for_robot(&robot),
         robot,
         placement: Isometry3::from_parts(
             Translation3::new(0.0, y, 0.0),
@@ -56,6 +67,31 @@ fn placed(name: &str, robot: Robot, topic: String, y: f64) -> SceneBody {
         ),
         joint_topic: topic,
     }
+}
+
+/// The mesh files the view serves, by every URI a viewer may ask for.
+type Assets = HashMap<String, PathBuf>;
+
+/// Every mesh file of `bodies` that their searches find.
+fn assets<'a>(bodies: impl IntoIterator<Item = &'a SceneBody>) -> Assets {
+    bodies.into_iter().flat_map(|b| b.mesh_files()).collect()
+}
+
+/// The content of the asset `uri`: one of `assets` only (a viewer cannot read other files).
+fn fetch(assets: &Assets, uri: &str) -> Result<Vec<u8>, String> {
+    let path = assets
+        .get(uri)
+        .ok_or_else(|| format!("{uri}: not a mesh of the robots in this view"))?;
+    let size = std::fs::metadata(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .len();
+    if size > MAX_MESH_BYTES {
+        return Err(format!(
+            "{}: {size} bytes; meshes of at most {MAX_MESH_BYTES} bytes are served",
+            path.display()
+        ));
+    }
+    std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 impl LiveView {
@@ -92,6 +128,7 @@ impl LiveView {
             ));
         }
         arrays.push(ArrayTopic::float64("/latent", "latent", latent_dim));
+        let assets = assets(bodies.iter().map(|(b, _)| b));
         let stream = SceneStream::new(bodies, arrays, &SceneOptions::default())
             .map_err(|e| LiveError::Config(e.to_string()))?;
         let context = Context::new();
@@ -109,10 +146,15 @@ impl LiveView {
                 .map_err(|e| LiveError::View(format!("channel {}: {e}", spec.topic)))?;
             channels.push(channel);
         }
-        let server = WebSocketServer::new()
+        let mut server = WebSocketServer::new()
             .name("sgplvm teleop")
             .bind(addr.ip().to_string(), addr.port())
-            .context(&context)
+            .context(&context);
+        if !assets.is_empty() {
+            server = server
+                .fetch_asset_handler_blocking_fn(move |_client, uri: String| fetch(&assets, &uri));
+        }
+        let server = server
             .start_blocking()
             .map_err(|e| LiveError::View(format!("cannot serve on {addr}: {e}")))?;
         let port = server.port();
@@ -178,5 +220,97 @@ impl Drop for LiveView {
         if let Some(server) = self.server.take() {
             server.stop().wait_blocking();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::TcpStream;
+    use tungstenite::client::IntoClientRequest;
+    use tungstenite::stream::MaybeTlsStream;
+    use tungstenite::{Message, WebSocket};
+
+    /// A URDF file with one mesh beside it, in a fresh folder: (URDF path, mesh path).
+    fn robot_with_a_mesh() -> (PathBuf, PathBuf) {
+        let dir = std::env::temp_dir().join(format!("sgplvm-view-assets-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("meshes")).unwrap();
+        let mesh = dir.join("meshes/arm.stl");
+        std::fs::write(&mesh, "solid arm\nendsolid arm\n").unwrap();
+        let urdf = dir.join("arm.urdf");
+        std::fs::write(
+            &urdf,
+            r#"<robot name="arm"><link name="base"/>
+              <link name="arm"><visual><geometry><mesh filename="meshes/arm.stl"/></geometry></visual></link>
+              <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+                <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+            </robot>"#,
+        )
+        .unwrap();
+        (urdf, std::fs::canonicalize(mesh).unwrap())
+    }
+
+    /// Asks for `uri` and returns (status, error message or data) of the answer.
+    fn fetch_over(
+        ws: &mut WebSocket<MaybeTlsStream<TcpStream>>,
+        uri: &str,
+        id: u32,
+    ) -> (u8, Vec<u8>) {
+        let request = serde_json::json!({"op": "fetchAsset", "uri": uri, "requestId": id});
+        ws.send(Message::text(request.to_string())).unwrap();
+        loop {
+            if let Message::Binary(data) = ws.read().unwrap() {
+                // opcode 4, request id, status, error length, error, data.
+                if data[0] == 4 && u32::from_le_bytes(data[1..5].try_into().unwrap()) == id {
+                    let status = data[5];
+                    let len = u32::from_le_bytes(data[6..10].try_into().unwrap()) as usize;
+                    let body = if status == 0 {
+                        data[10 + len..].to_vec()
+                    } else {
+                        data[10..10 + len].to_vec()
+                    };
+                    return (status, body);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_view_serves_the_meshes_of_its_robots_and_nothing_else() {
+        let (urdf, mesh) = robot_with_a_mesh();
+        let robot = Robot::from_urdf_file(&urdf).unwrap();
+        let human = Robot::builtin("human").unwrap().joint_names();
+        let robots = vec![ViewRobot {
+            name: "arm".into(),
+            body: robot,
+            joints: vec!["j".into()],
+        }];
+        let view = LiveView::start("127.0.0.1:0".parse().unwrap(), human, robots, 2).unwrap();
+        let mut request = format!("ws://127.0.0.1:{}", view.port())
+            .into_client_request()
+            .unwrap();
+        request
+            .headers_mut()
+            .insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+        let (mut ws, _) = tungstenite::connect(request).unwrap();
+        // The server says it serves assets.
+        let info = loop {
+            if let Message::Text(text) = ws.read().unwrap() {
+                if text.contains("\"serverInfo\"") {
+                    break text.to_string();
+                }
+            }
+        };
+        assert!(info.contains("\"assets\""), "{info}");
+        let content = std::fs::read(&mesh).unwrap();
+        let file = sgplvm_robots::urdf::file_uri(&mesh);
+        assert_eq!(fetch_over(&mut ws, &file, 1), (0, content.clone()));
+        assert_eq!(fetch_over(&mut ws, "meshes/arm.stl", 2), (0, content));
+        let (status, message) = fetch_over(&mut ws, "file:///etc/passwd", 3);
+        assert_eq!(status, 1);
+        assert!(String::from_utf8_lossy(&message).contains("not a mesh"));
+        drop(ws);
+        drop(view);
+        std::fs::remove_dir_all(urdf.parent().unwrap()).unwrap();
     }
 }

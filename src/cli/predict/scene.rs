@@ -52,6 +52,7 @@ fn bodies(model: &SharedGplvm, target: &Target) -> Result<Vec<(SceneBody, Vec<St
         robot: anatomy.robot().clone(),
         placement: nalgebra::Isometry3::translation(ROBOT_AT[0], ROBOT_AT[1], ROBOT_AT[2]),
         joint_topic: format!("/{robot}/joint_command"),
+        meshes: sgplvm::robots::urdf::MeshSearch::for_robot(anatomy.robot()),
     };
     Ok(vec![
         (human_body, model_joint_names(model, human)),

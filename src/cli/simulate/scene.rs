@@ -12,19 +12,30 @@ use sgplvm::robots::scene::{
     replay_markers, write_scene_with_markers, ArraySeries, ArrayTopic, SceneBody, SceneOptions,
     SceneSeries,
 };
+use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{Robot, Trajectory};
 
+/// The replayed robot: its URDF text, the file it came from, its name in the scene and where
+/// its meshes are found.
+pub struct Body<'a> {
+    pub xml: &'a str,
+    pub source: &'a str,
+    pub name: &'a str,
+    pub meshes: MeshSearch,
+}
+
 /// Writes the replay of `trajectory` (times from 0; `t0` seconds is the first frame's time in
-/// the input) on the robot of `xml` to `out`, atomically.
+/// the input) on `replayed` to `out`, atomically.
 pub fn write(
     out: &Path,
-    xml: &str,
-    source: &str,
-    name: &str,
+    replayed: &Body<'_>,
     trajectory: &Trajectory,
     t0: f64,
     report: &ReplayReport,
 ) -> Result<()> {
+    let Body {
+        xml, source, name, ..
+    } = *replayed;
     let shown = out.display();
     if name.is_empty() || name.contains('/') {
         bail!("{shown}: the robot's name '{name}' cannot prefix its topics and frames; name it with --robot NAME (no '/')");
@@ -53,6 +64,7 @@ pub fn write(
         robot,
         placement: Isometry3::identity(),
         joint_topic: format!("/{name}/joint_states"),
+        meshes: Some(replayed.meshes.clone()),
     };
     let states = JointStates::new(
         times_ns.clone(),

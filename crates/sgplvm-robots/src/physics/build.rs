@@ -15,7 +15,9 @@ use rapier3d::geometry::{ColliderBuilder, SolverFlags};
 use rapier3d::math::{Real, Vector};
 use rapier3d::pipeline::{ActiveHooks, PairFilterContext, PhysicsHooks, PhysicsWorld};
 use rapier3d_urdf::urdf_rs;
-use rapier3d_urdf::{UrdfJointHandle, UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot};
+use rapier3d_urdf::{
+    UrdfCollider, UrdfJointHandle, UrdfLoaderOptions, UrdfMultibodyOptions, UrdfRobot,
+};
 
 use super::model::{element_of_joint, PreparedModel};
 use super::{PhysicsError, ReplayOptions, Trajectory};
@@ -176,7 +178,7 @@ impl Scene {
     ) -> Result<Scene, PhysicsError> {
         let robot = &model.robot;
         let mut warnings = model.warnings.clone();
-        let (urdf_robot, sources) = load_links(robot, file, &mut warnings);
+        let (urdf_robot, sources) = load_links(model, file, &mut warnings);
         let mut world = PhysicsWorld::new();
         world.gravity = if options.gravity {
             Vector::new(0.0, 0.0, -GRAVITY)
@@ -215,23 +217,48 @@ impl Scene {
     }
 }
 
-/// rapier's copy of the URDF links and joints, with masses completed and each branch leaving
-/// a fixed link rooted on its own twin of that link; plus the URDF joint of each rapier joint.
+/// Every collider's template: massless (the URDF gives the masses) and filtered by
+/// [`SelfCollisionFilter`].
+fn collider_blueprint() -> ColliderBuilder {
+    ColliderBuilder::default()
+        .density(0.0)
+        .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
+}
+
+/// rapier's copy of the URDF links and joints, with the meshes' hulls attached to their links,
+/// masses completed and each branch leaving a fixed link rooted on its own twin of that link;
+/// plus the URDF joint of each rapier joint.
 fn load_links(
-    robot: &urdf_rs::Robot,
+    model: &PreparedModel,
     file: &str,
     warnings: &mut Vec<String>,
 ) -> (UrdfRobot, Vec<usize>) {
+    let robot = &model.robot;
     let loader_options = UrdfLoaderOptions {
         make_roots_fixed: true,
         enable_joint_collisions: false,
-        collider_blueprint: ColliderBuilder::default()
-            .density(0.0)
-            .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS),
+        collider_blueprint: collider_blueprint(),
         rigid_body_blueprint: RigidBodyBuilder::dynamic().can_sleep(false),
         ..UrdfLoaderOptions::default()
     };
     let mut urdf_robot = UrdfRobot::from_robot(robot, loader_options, Path::new("."));
+    // Links holding a collision mesh are never squeezed away (its placeholder box keeps them
+    // non-empty), and a link's body sits at the URDF link frame: a hull's pose in its link is
+    // its collision origin.
+    for hull in &model.hulls {
+        if let Some(link) = urdf_robot
+            .links
+            .iter_mut()
+            .find(|l| l.urdf_link_index == hull.link)
+        {
+            let mut builder = collider_blueprint().position(hull.pose);
+            builder.shape = hull.shape.clone();
+            link.colliders.push(UrdfCollider {
+                collider: builder.build(),
+                visual: None,
+            });
+        }
+    }
     for link in &mut urdf_robot.links {
         let source = &robot.links[link.urdf_link_index];
         for collider in &mut link.colliders {

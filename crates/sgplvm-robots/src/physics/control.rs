@@ -156,13 +156,19 @@ pub(super) fn simulate(
     }
     let wall_seconds = started.elapsed().as_secs_f64();
     let duration = clock.duration();
-    Ok(recorder.finish(
+    let collision_shapes = scene.world.colliders.len();
+    let mut report = recorder.finish(
         trajectory,
         duration,
         clock.steps,
         wall_seconds,
         scene.warnings,
-    ))
+    );
+    report.collision_shapes = collision_shapes;
+    report.mesh_hulls = model.hulls.len();
+    report.mesh_seconds = model.mesh_seconds;
+    report.unchecked_meshes = model.unchecked_meshes.clone();
+    Ok(report)
 }
 
 /// Holds every joint at its initial position for `steps` physics steps.

@@ -12,6 +12,10 @@
 //! Self-collisions are watched between every pair of links that are not neighbours in the
 //! kinematic tree (see [`ReplayOptions::ignored_pairs`] for the exact rule); contacts push the
 //! links apart as they would on the real robot unless [`ReplayOptions::contact_response`] is off.
+//! Collision shapes are the URDF's boxes, cylinders, capsules and spheres, and the convex
+//! hulls of its collision meshes where [`ReplayOptions::meshes`] finds them; a mesh that
+//! cannot be found or read is listed in [`ReplayReport::unchecked_meshes`], and
+//! [`ReplayReport::self_collision_summary`] says what was not checked.
 //!
 //! # Example
 //! ```
@@ -42,13 +46,14 @@
 //! # Stages
 //! A replay runs in four stages, one file each: [`ReplayOptions`] are range-checked
 //! (`options`) and the [`Trajectory`] validated (`trajectory`); the URDF is checked and
-//! prepared for a fixed base (`model`) and loaded into rapier with one motor per movable joint
-//! (`build`); the control loop steps the physics (`control`); and what it measured becomes
+//! prepared for a fixed base (`model`, its collision meshes made convex hulls by `hulls`) and
+//! loaded into rapier with one motor per movable joint (`build`); the control loop steps the physics (`control`); and what it measured becomes
 //! the [`ReplayReport`] (`report`). Every failure is a [`PhysicsError`] (`error`).
 
 mod build;
 mod control;
 mod error;
+mod hulls;
 mod model;
 mod options;
 mod report;
@@ -57,6 +62,7 @@ mod trajectory;
 use rapier3d_urdf::urdf_rs;
 
 pub use error::PhysicsError;
+pub use hulls::{MeshProblem, UncheckedMesh, MAX_MESH_BYTES};
 pub use options::ReplayOptions;
 pub use report::{Collision, JointTracking, LimitViolation, ReplayReport};
 pub use trajectory::Trajectory;
@@ -84,7 +90,7 @@ pub fn replay_urdf(
 ) -> Result<ReplayReport, PhysicsError> {
     options.validate()?;
     trajectory.validate()?;
-    let model = model::prepare_model(robot, source)?;
+    let model = model::prepare_model(robot, source, &options.meshes)?;
     // rapier asserts a few invariants of its own; anything we did not foresee becomes an
     // error value instead of tearing down the caller.
     match crate::panics::catch(|| control::simulate(&model, source, trajectory, options)) {

@@ -1,26 +1,37 @@
 //! The first stage of a replay: the URDF (as urdf-rs parsed it) checked for what the
-//! simulator needs — one tree of uniquely named links, finite numbers, primitive collision
-//! shapes, axes and limits — and adjusted for a fixed-base replay (floating roots fixed,
-//! zero-range revolute joints made continuous). It also decides which link pairs are
-//! neighbours and never collision-checked.
+//! simulator needs — one tree of uniquely named links, finite numbers, collision shapes, axes
+//! and limits — and adjusted for a fixed-base replay (floating roots fixed, zero-range
+//! revolute joints made continuous). Collision meshes are taken out of the URDF and made
+//! convex hulls (`hulls`). It also decides which link pairs are neighbours and never
+//! collision-checked.
 
 use std::collections::HashMap;
 
 use rapier3d_urdf::urdf_rs;
 
+use super::hulls::{self, MeshCollision, MeshHull, UncheckedMesh};
 use super::PhysicsError;
-use crate::urdf::{MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+use crate::urdf::{MeshSearch, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 /// A checked, simulation-ready copy of the URDF.
 pub(super) struct PreparedModel {
-    /// The URDF with floating roots fixed and zero-range revolute joints made continuous.
+    /// The URDF with floating roots fixed and zero-range revolute joints made continuous;
+    /// every collision mesh replaced by a zero-size box (which rapier3d-urdf skips, and which
+    /// keeps the link from being squeezed away as empty).
     pub(super) robot: urdf_rs::Robot,
-    /// For each link: whether it carries a collision shape rapier will build.
+    /// For each link: whether it carries a collision shape the replay will build (a
+    /// primitive, or a mesh's hull).
     pub(super) has_shape: Vec<bool>,
     /// Link pairs (by URDF link index) never checked, as a dense symmetric matrix.
     pub(super) neighbours: Vec<bool>,
-    /// What was worked around (skipped meshes, fixed floating joints ...).
+    /// What was worked around (fixed floating joints ...).
     pub(super) warnings: Vec<String>,
+    /// The collision meshes made convex hulls.
+    pub(super) hulls: Vec<MeshHull>,
+    /// The collision meshes left out, with why.
+    pub(super) unchecked_meshes: Vec<UncheckedMesh>,
+    /// Seconds spent finding, reading and hulling the meshes.
+    pub(super) mesh_seconds: f64,
 }
 
 /// `<joint name="...">`, as error messages name a joint.
@@ -55,17 +66,21 @@ fn finite3(v: &[f64; 3]) -> bool {
 /// For each link, its parent joint and parent link (URDF indices), `None` for a root.
 type ParentOf = Vec<Option<(usize, usize)>>;
 
-/// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed.
+/// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed, and makes
+/// the collision meshes `meshes` finds convex hulls.
 pub(super) fn prepare_model(
     robot: &urdf_rs::Robot,
     file: &str,
+    meshes: &MeshSearch,
 ) -> Result<PreparedModel, PhysicsError> {
     let err = ModelErr { file };
     let mut robot = robot.clone();
     let mut warnings = Vec::new();
     let link_index = index_links(&robot.links, &err)?;
-    for link in &mut robot.links {
-        check_link(link, &err, &mut warnings)?;
+    let mut mesh_collisions = Vec::new();
+    let mut has_shape = vec![false; robot.links.len()];
+    for (i, link) in robot.links.iter_mut().enumerate() {
+        has_shape[i] = check_link(i, link, &err, &mut mesh_collisions)?;
     }
     let mut parent_of = vec![None; robot.links.len()];
     for (j, joint) in robot.joints.iter_mut().enumerate() {
@@ -78,17 +93,19 @@ pub(super) fn prepare_model(
         check_joint_type(joint, element, &err, &mut warnings)?;
     }
     check_acyclic(&robot, &parent_of, &err)?;
-    let has_shape: Vec<bool> = robot
-        .links
-        .iter()
-        .map(|l| !l.collision.is_empty())
-        .collect();
+    let loaded = hulls::load(&mesh_collisions, &robot.links, meshes);
+    for hull in &loaded.hulls {
+        has_shape[hull.link] = true;
+    }
     let neighbours = neighbour_matrix(&robot, &parent_of, &has_shape);
     Ok(PreparedModel {
         robot,
         has_shape,
         neighbours,
         warnings,
+        hulls: loaded.hulls,
+        unchecked_meshes: loaded.unchecked,
+        mesh_seconds: loaded.seconds,
     })
 }
 
@@ -112,14 +129,15 @@ fn index_links(
     Ok(link_index)
 }
 
-/// Geometry and inertia sanity (parry builds shapes from whatever numbers it gets); mesh
-/// collision shapes are dropped with a warning.
+/// Geometry and inertia sanity (parry builds shapes from whatever numbers it gets); collision
+/// meshes are moved to `meshes` (link `index`), a zero-size box left in their place. Returns
+/// whether the link keeps a primitive collision shape.
 fn check_link(
+    index: usize,
     link: &mut urdf_rs::Link,
     err: &ModelErr<'_>,
-    warnings: &mut Vec<String>,
-) -> Result<(), PhysicsError> {
-    let file = err.file;
+    meshes: &mut Vec<MeshCollision>,
+) -> Result<bool, PhysicsError> {
     let element = element_of_link(link);
     let inertial = &link.inertial;
     let i = &inertial.inertia;
@@ -135,8 +153,8 @@ fn check_link(
             format!("expected a mass in 0..={MAX_MASS_KG} kg, inertia components of at most {MAX_INERTIA} kg·m² in size and an origin within {MAX_LENGTH_M} m"),
         ));
     }
-    let mut kept = Vec::new();
-    for collision in link.collision.drain(..) {
+    let mut primitive = false;
+    for collision in &mut link.collision {
         let ok_pose = finite3(&collision.origin.xyz.0) && finite3(&collision.origin.rpy.0);
         let ok_size = |v: f64| v > 0.0 && v <= MAX_LENGTH_M;
         let ok_shape = match &collision.geometry {
@@ -144,12 +162,8 @@ fn check_link(
             urdf_rs::Geometry::Cylinder { radius, length }
             | urdf_rs::Geometry::Capsule { radius, length } => ok_size(*radius) && ok_size(*length),
             urdf_rs::Geometry::Sphere { radius } => ok_size(*radius),
-            urdf_rs::Geometry::Mesh { filename, .. } => {
-                warnings.push(format!(
-                    "{file}: {element}: collision mesh \"{filename}\" skipped (only boxes, cylinders, capsules and spheres are simulated)"
-                ));
-                continue;
-            }
+            // The scale is checked with the mesh: a bad one leaves the mesh unchecked.
+            urdf_rs::Geometry::Mesh { .. } => true,
         };
         if !(ok_pose && ok_shape) {
             return Err(err.at(
@@ -157,10 +171,23 @@ fn check_link(
                 format!("expected shape sizes in (0, {MAX_LENGTH_M}] m and an origin within {MAX_LENGTH_M} m"),
             ));
         }
-        kept.push(collision);
+        let placeholder = urdf_rs::Geometry::Box {
+            size: urdf_rs::Vec3([0.0; 3]),
+        };
+        match std::mem::replace(&mut collision.geometry, placeholder) {
+            urdf_rs::Geometry::Mesh { filename, scale } => meshes.push(MeshCollision {
+                link: index,
+                origin: collision.origin.clone(),
+                filename,
+                scale: scale.map_or([1.0; 3], |s| s.0),
+            }),
+            geometry => {
+                collision.geometry = geometry;
+                primitive = true;
+            }
+        }
     }
-    link.collision = kept;
-    Ok(())
+    Ok(primitive)
 }
 
 /// The (parent, child) link indices of `joint`: both declared, the child of no other joint.
@@ -357,7 +384,7 @@ mod tests {
 
     fn neighbours(xml: &str) -> (Vec<String>, Vec<bool>) {
         let robot = urdf_rs::read_from_string(xml).unwrap();
-        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new()).unwrap();
         let names = model.robot.links.iter().map(|l| l.name.clone()).collect();
         (names, model.neighbours)
     }
@@ -398,7 +425,7 @@ mod tests {
                 r#"<axis xyz="0 1 0"/><limit lower="0" upper="0""#,
             );
         let robot = urdf_rs::read_from_string(&xml).unwrap();
-        let model = prepare_model(&robot, "tree.urdf").unwrap();
+        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new()).unwrap();
         let kind = |name: &str| {
             model
                 .robot
@@ -423,7 +450,10 @@ mod tests {
         back.parent.link = "b".into();
         back.child.link = "base".into();
         robot.joints.push(back);
-        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+            .err()
+            .unwrap()
+            .to_string();
         assert!(err.contains("cycle"), "{err}");
 
         let mut robot = urdf_rs::read_from_string(TREE).unwrap();
@@ -432,7 +462,10 @@ mod tests {
         extra.name = "j_c2".into();
         extra.parent.link = "b".into();
         robot.joints.push(extra);
-        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+            .err()
+            .unwrap()
+            .to_string();
         assert!(
             err.contains("<joint name=\"j_c2\">") && err.contains("tree"),
             "{err}"
@@ -440,12 +473,18 @@ mod tests {
 
         let mut robot = urdf_rs::read_from_string(TREE).unwrap();
         robot.links[2].collision[0].geometry = urdf_rs::Geometry::Sphere { radius: -0.1 };
-        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+            .err()
+            .unwrap()
+            .to_string();
         assert!(err.contains("<link name=\"b\"> <collision>"), "{err}");
 
         let mut robot = urdf_rs::read_from_string(TREE).unwrap();
         robot.joints[0].axis.xyz = urdf_rs::Vec3([0.0, 0.0, 0.0]);
-        let err = prepare_model(&robot, "t.urdf").err().unwrap().to_string();
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+            .err()
+            .unwrap()
+            .to_string();
         assert!(err.contains("<joint name=\"j_a\"> <axis>"), "{err}");
     }
 }

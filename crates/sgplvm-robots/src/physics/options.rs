@@ -2,6 +2,7 @@
 //! range check that [`super::replay`] runs before anything is built.
 
 use super::PhysicsError;
+use crate::urdf::MeshSearch;
 
 /// How a trajectory is replayed. `ReplayOptions::default()` gives the setting: 1 kHz
 /// physics, gravity on, critically damped PD motors, limits enforced, contacts solved.
@@ -65,6 +66,11 @@ pub struct ReplayOptions {
     /// Whether to return the simulated joint positions at the trajectory's frame times in
     /// [`ReplayReport::simulated`](super::ReplayReport::simulated) (default false).
     pub record_simulated: bool,
+    /// Where the URDF's collision meshes are looked for; each one found becomes a convex hull,
+    /// each one missing is listed in [`ReplayReport::unchecked_meshes`](super::ReplayReport::unchecked_meshes).
+    /// The default search resolves absolute paths and `file://` URIs only: give it the URDF
+    /// file's directory ([`MeshSearch::for_urdf_file`]) and package paths for the rest.
+    pub meshes: MeshSearch,
 }
 
 impl Default for ReplayOptions {
@@ -88,6 +94,7 @@ impl Default for ReplayOptions {
             solver_iterations: 1,
             max_steps: 10_000_000,
             record_simulated: false,
+            meshes: MeshSearch::new(),
         }
     }
 }

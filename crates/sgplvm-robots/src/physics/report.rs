@@ -9,7 +9,7 @@ use std::hash::Hash;
 
 use serde::Serialize;
 
-use super::Trajectory;
+use super::{MeshProblem, Trajectory, UncheckedMesh};
 
 /// Tracking quality of one joint over every physics step.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -85,11 +85,29 @@ pub struct ReplayReport {
     pub velocity_violations: Vec<LimitViolation>,
     /// Self-collisions, ordered by start time; consecutive steps in contact form one event.
     pub collisions: Vec<Collision>,
-    /// Things the model loader worked around (mesh shapes skipped, floating roots fixed ...).
+    /// Things the model loader worked around (floating roots fixed ...).
     pub warnings: Vec<String>,
+    /// Collision shapes in the simulation: the URDF's primitives and its meshes' hulls.
+    pub collision_shapes: usize,
+    /// Collision meshes simulated as convex hulls.
+    pub mesh_hulls: usize,
+    /// Wall-clock seconds spent finding, reading and hulling the collision meshes.
+    pub mesh_seconds: f64,
+    /// Collision meshes that could not be found, read or hulled, in URDF order: their links
+    /// were simulated without them, and collisions with them were not checked.
+    pub unchecked_meshes: Vec<UncheckedMesh>,
     /// The simulated positions at the trajectory's frame times, same columns as
     /// [`ReplayReport::joints`], when [`ReplayOptions::record_simulated`](crate::physics::ReplayOptions::record_simulated) is set.
     pub simulated: Option<Trajectory>,
+}
+
+/// `1 one` or `n many`.
+fn plural(n: usize, one: &str, many: &str) -> String {
+    if n == 1 {
+        format!("1 {one}")
+    } else {
+        format!("{n} {many}")
+    }
 }
 
 /// A physics step and its trajectory time, seconds.
@@ -431,8 +449,84 @@ impl Recorder {
             velocity_violations,
             collisions,
             warnings,
+            collision_shapes: 0,
+            mesh_hulls: 0,
+            mesh_seconds: 0.0,
+            unchecked_meshes: Vec::new(),
             simulated,
         }
+    }
+}
+
+impl ReplayReport {
+    /// One sentence on the self-collisions and on what could not be checked, e.g. "no
+    /// self-collisions among the 38 collision shapes checked; 4 collision meshes of links a, b
+    /// could not be checked (not found)". It never says "no self-collisions" alone when
+    /// collision meshes were left out.
+    pub fn self_collision_summary(&self) -> String {
+        let shapes = plural(self.collision_shapes, "collision shape", "collision shapes");
+        let mut text = if self.collision_shapes == 0 {
+            "self-collisions not checked: no collision shapes".to_string()
+        } else if self.collisions.is_empty() {
+            format!("no self-collisions among the {shapes} checked")
+        } else {
+            let mut pairs: Vec<(&str, &str)> = self
+                .collisions
+                .iter()
+                .map(|c| (c.link_a.as_str(), c.link_b.as_str()))
+                .collect();
+            pairs.sort_unstable();
+            pairs.dedup();
+            format!(
+                "{} between {} among the {shapes} checked",
+                plural(
+                    self.collisions.len(),
+                    "self-collision interval",
+                    "self-collision intervals"
+                ),
+                plural(pairs.len(), "pair of links", "pairs of links"),
+            )
+        };
+        if let Some(unchecked) = self.unchecked_summary() {
+            text.push_str("; ");
+            text.push_str(&unchecked);
+        }
+        text
+    }
+
+    /// "4 collision meshes of links a, b could not be checked (not found)", or None when every
+    /// collision mesh was simulated.
+    pub fn unchecked_summary(&self) -> Option<String> {
+        let meshes = &self.unchecked_meshes;
+        if meshes.is_empty() {
+            return None;
+        }
+        let mut links: Vec<String> = Vec::new();
+        let mut problems: Vec<(MeshProblem, usize)> = Vec::new();
+        for m in meshes {
+            if !links.contains(&m.link) {
+                links.push(m.link.clone());
+            }
+            match problems.iter_mut().find(|(p, _)| *p == m.problem) {
+                Some((_, n)) => *n += 1,
+                None => problems.push((m.problem, 1)),
+            }
+        }
+        let why = if problems.len() == 1 {
+            problems[0].0.describe().to_string()
+        } else {
+            problems
+                .iter()
+                .map(|(p, n)| format!("{n} {}", p.describe()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        Some(format!(
+            "{} of {} {} could not be checked ({why})",
+            plural(meshes.len(), "collision mesh", "collision meshes"),
+            if links.len() == 1 { "link" } else { "links" },
+            crate::names::few(&links, crate::names::SHOWN),
+        ))
     }
 }
 

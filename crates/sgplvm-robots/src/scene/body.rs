@@ -3,11 +3,13 @@
 //! (unique names, known joints), and a body being encoded ([`BodyChannel`]: where its columns
 //! go in its robot's configuration, its channels and frame names).
 
+use std::path::PathBuf;
+
 use nalgebra::{Isometry3, Translation3};
 
 use super::SceneOptions;
 use crate::joint_state::{JointStateError, Result};
-use crate::urdf::Robot;
+use crate::urdf::{file_uri, MeshSearch, Robot};
 
 /// One body of a scene: its kinematic model, where it stands, and the topic and joint order
 /// of its joint states.
@@ -21,6 +23,10 @@ pub struct SceneBody {
     pub placement: Isometry3<f64>,
     /// Topic of its joint states, e.g. `/coman/joint_command`.
     pub joint_topic: String,
+    /// Where its mesh files are found: each one found is written into the description as an
+    /// absolute `file://` URI (which Foxglove desktop loads); the others, and all of them
+    /// when `None` (the built-in bodies, which have no meshes), are left as the URDF gives them.
+    pub meshes: Option<MeshSearch>,
 }
 
 impl SceneBody {
@@ -39,6 +45,7 @@ impl SceneBody {
                 nalgebra::UnitQuaternion::identity(),
             ),
             joint_topic: joint_topic.to_string(),
+            meshes: None,
         })
     }
 
@@ -47,12 +54,20 @@ impl SceneBody {
         format!("/{}/robot_description", self.name)
     }
 
-    /// The body's URDF with every link renamed `<name>/<link>` (joints keep their names), as
-    /// written on the description topic.
+    /// The body's URDF with every link renamed `<name>/<link>` (joints keep their names) and
+    /// every mesh [`SceneBody::meshes`] finds named by its absolute `file://` URI, as written
+    /// on the description topic.
     pub fn prefixed_urdf(&self) -> Result<String> {
         let mut urdf = self.robot.urdf().clone();
         let p = |s: &mut String| *s = format!("{}/{s}", self.name);
         urdf.links.iter_mut().for_each(|l| p(&mut l.name));
+        if let Some(search) = &self.meshes {
+            for filename in mesh_filenames(&mut urdf) {
+                if let Ok(uri) = search.resolve_file_uri(filename) {
+                    *filename = uri;
+                }
+            }
+        }
         for j in &mut urdf.joints {
             p(&mut j.parent.link);
             p(&mut j.child.link);
@@ -67,6 +82,39 @@ impl SceneBody {
     pub(super) fn frame(&self, link: usize) -> String {
         format!("{}/{}", self.name, self.robot.links[link])
     }
+
+    /// Every mesh file of the body that [`SceneBody::meshes`] finds (visual and collision),
+    /// each under the URI its URDF gives and under its `file://` URI, the names a viewer may
+    /// ask for: the files a live view may serve. Empty without a search.
+    pub fn mesh_files(&self) -> Vec<(String, PathBuf)> {
+        let Some(search) = &self.meshes else {
+            return Vec::new();
+        };
+        let mut urdf = self.robot.urdf().clone();
+        let mut files: Vec<(String, PathBuf)> = Vec::new();
+        for filename in mesh_filenames(&mut urdf) {
+            if let Ok(path) = search.resolve(filename) {
+                for uri in [filename.clone(), file_uri(&path)] {
+                    if !files.iter().any(|(u, _)| *u == uri) {
+                        files.push((uri, path.clone()));
+                    }
+                }
+            }
+        }
+        files
+    }
+}
+
+/// The `filename` of every `<mesh>` of `urdf`, visual and collision, in file order.
+fn mesh_filenames(urdf: &mut urdf_rs::Robot) -> impl Iterator<Item = &mut String> {
+    urdf.links.iter_mut().flat_map(|link| {
+        let visual = link.visual.iter_mut().map(|v| &mut v.geometry);
+        let collision = link.collision.iter_mut().map(|c| &mut c.geometry);
+        visual.chain(collision).filter_map(|g| match g {
+            urdf_rs::Geometry::Mesh { filename, .. } => Some(filename),
+            _ => None,
+        })
+    })
 }
 /// A body with its joint names and, per name, the joint's index in its robot's configuration.
 pub(super) type PreparedBody = (SceneBody, Vec<String>, Vec<Option<usize>>);

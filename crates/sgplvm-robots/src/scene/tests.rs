@@ -381,3 +381,64 @@ fn a_stream_sends_what_the_file_holds() {
     );
     std::fs::remove_dir_all(path.parent().expect("dir")).ok();
 }
+
+#[test]
+fn the_description_names_found_meshes_by_absolute_file_uris() {
+    let path = tmp("meshes");
+    let dir = path.parent().expect("dir").join("robot");
+    std::fs::create_dir_all(dir.join("meshes")).expect("dir");
+    std::fs::write(dir.join("meshes/arm.stl"), "solid arm\nendsolid arm\n").expect("mesh");
+    let urdf = dir.join("arm.urdf");
+    std::fs::write(
+        &urdf,
+        r#"<robot name="arm">
+          <link name="base"><visual><geometry><mesh filename="package://nowhere/base.dae"/></geometry></visual></link>
+          <link name="arm"><visual><geometry><mesh filename="meshes/arm.stl" scale="0.001 0.001 0.001"/></geometry></visual>
+            <collision><geometry><mesh filename="meshes/arm.stl"/></geometry></collision></link>
+          <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+            <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+        </robot>"#,
+    )
+    .expect("urdf");
+    let robot = Robot::from_urdf_file(&urdf).expect("robot");
+    let body = SceneBody {
+        name: "arm".into(),
+        robot,
+        placement: nalgebra::Isometry3::identity(),
+        joint_topic: "/arm/joint_states".into(),
+        meshes: Some(crate::urdf::MeshSearch::for_urdf_file(&urdf)),
+    };
+    let states =
+        JointStates::new(vec![0, 25_000_000], vec!["j".into()], vec![0.0, 0.1]).expect("states");
+    write_scene(
+        &path,
+        &[SceneSeries {
+            body: &body,
+            states: &states,
+        }],
+        &[],
+        &SceneOptions::default(),
+    )
+    .expect("writes");
+    let mesh = std::fs::canonicalize(dir.join("meshes/arm.stl")).expect("mesh");
+    let uri = crate::urdf::file_uri(&mesh);
+    assert!(uri.starts_with("file:///") && uri.ends_with("/robot/meshes/arm.stl"));
+    let bytes = std::fs::read(&path).expect("read");
+    let description = mcap::MessageStream::new(&bytes)
+        .expect("mcap")
+        .map(|m| m.expect("message"))
+        .find(|m| m.channel.topic == "/arm/robot_description")
+        .expect("a description");
+    let text = String::from_utf8_lossy(&description.data);
+    // Visual and collision: found, and absolute; the package nobody gave stays as it was.
+    assert_eq!(text.matches(uri.as_str()).count(), 2, "{text}");
+    assert!(!text.contains("\"meshes/arm.stl\""), "{text}");
+    assert!(text.contains("package://nowhere/base.dae"), "{text}");
+    // The files a live view would serve, under both names.
+    let files = body.mesh_files();
+    assert_eq!(
+        files,
+        vec![("meshes/arm.stl".to_string(), mesh.clone()), (uri, mesh)]
+    );
+    std::fs::remove_dir_all(path.parent().expect("dir")).expect("clean");
+}

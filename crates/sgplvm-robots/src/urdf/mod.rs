@@ -21,13 +21,16 @@
 //! `mod.rs` holds the robot model and its queries (joint order, limits, forward kinematics);
 //! `parse.rs` loads a text: the depth guard, then the three steps — `check.rs` (1, and the
 //! pose convention and the size limits), normalisation and urdf-rs (2, in `parse.rs`),
-//! `tree.rs` (3).
+//! `tree.rs` (3). `meshes.rs` finds the mesh files a URDF names ([`MeshSearch`]: relative
+//! paths, `file://` and `package://` URIs) for the physics replay and the scene files.
 
 mod check;
+mod meshes;
 mod parse;
 mod tree;
 
 pub use check::{pose_from_xyz_rpy, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+pub use meshes::{file_uri, MeshMiss, MeshSearch, PACKAGE_SEARCH_DEPTH};
 pub use parse::MAX_DEPTH;
 
 use std::collections::HashMap;

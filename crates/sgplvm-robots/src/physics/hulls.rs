@@ -1,0 +1,272 @@
+//! Collision meshes in the replay: every `<collision>` `<mesh>` that the replay's
+//! [`MeshSearch`] finds is read (STL, COLLADA or OBJ, by `mesh-loader`) and becomes the convex
+//! hull of its vertices, scaled by the mesh's `scale`, placed at the collision's `<origin>` in
+//! its link. One hull per `<collision>` element, whatever the number of meshes in the file
+//! (a hull is the cheapest shape parry tests for contact and never misses a contact the
+//! mesh has; it reports contacts in the mesh's concave places too). A mesh that cannot be found,
+//! read or made a hull is an [`UncheckedMesh`] of the report: its link is simulated without it.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use rapier3d::geometry::SharedShape;
+use rapier3d::glamx::EulerRot;
+use rapier3d::math::{Pose, Real, Rotation, Vector};
+use rapier3d_urdf::urdf_rs;
+use serde::Serialize;
+
+use crate::urdf::{MeshSearch, MAX_LENGTH_M};
+
+/// Mesh files larger than this are not read (bytes): 256 MiB, ten times the largest mesh of
+/// the published robot descriptions we know.
+pub const MAX_MESH_BYTES: u64 = 256 << 20;
+
+/// Why a collision mesh was left out of the replay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum MeshProblem {
+    /// The file was not found (see [`crate::urdf::MeshMiss`]).
+    NotFound,
+    /// The file could not be read or parsed (I/O error, unknown format, malformed content,
+    /// too large).
+    Unreadable,
+    /// The file was read but gives no usable hull: no vertices, all in a plane, non-finite,
+    /// or farther than [`MAX_LENGTH_M`] from the link; or the mesh's scale is unusable.
+    Unusable,
+}
+
+impl MeshProblem {
+    /// A few words for summaries: "not found", "unreadable", "no usable hull".
+    pub fn describe(self) -> &'static str {
+        match self {
+            MeshProblem::NotFound => "not found",
+            MeshProblem::Unreadable => "unreadable",
+            MeshProblem::Unusable => "no usable hull",
+        }
+    }
+}
+
+/// A collision mesh the replay could not simulate: its link's collisions with it were not
+/// checked.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UncheckedMesh {
+    /// The link's URDF name.
+    pub link: String,
+    /// The mesh's file name as the URDF gives it.
+    pub uri: String,
+    /// The kind of problem.
+    pub problem: MeshProblem,
+    /// What went wrong, naming the file (and what was tried, for a file not found).
+    pub message: String,
+}
+
+/// A `<collision>` `<mesh>` of a link, taken out of the URDF before rapier loads it.
+#[derive(Debug, Clone)]
+pub(super) struct MeshCollision {
+    /// URDF index of the link.
+    pub(super) link: usize,
+    /// The collision's `<origin>` in the link frame.
+    pub(super) origin: urdf_rs::Pose,
+    /// The mesh's `filename`.
+    pub(super) filename: String,
+    /// The mesh's `scale` (1 1 1 when absent).
+    pub(super) scale: [f64; 3],
+}
+
+/// A collision mesh made a convex hull, ready to be attached to its link's body.
+#[derive(Clone)]
+pub(super) struct MeshHull {
+    /// URDF index of the link.
+    pub(super) link: usize,
+    /// Pose of the hull in the link frame.
+    pub(super) pose: Pose,
+    /// The hull.
+    pub(super) shape: SharedShape,
+}
+
+/// What became of a URDF's collision meshes.
+#[derive(Default)]
+pub(super) struct LoadedMeshes {
+    /// The hulls, in URDF order.
+    pub(super) hulls: Vec<MeshHull>,
+    /// The meshes left out, in URDF order.
+    pub(super) unchecked: Vec<UncheckedMesh>,
+    /// Wall-clock seconds spent finding, reading and hulling.
+    pub(super) seconds: f64,
+}
+
+/// A problem and its message.
+type Failure = (MeshProblem, String);
+
+/// The vertices of a mesh file (every mesh of it), shared between collisions naming it.
+type Vertices = Arc<Vec<[f32; 3]>>;
+
+/// Finds, reads and hulls every mesh of `meshes` (links named by `links`).
+pub(super) fn load(
+    meshes: &[MeshCollision],
+    links: &[urdf_rs::Link],
+    search: &MeshSearch,
+) -> LoadedMeshes {
+    let started = Instant::now();
+    let mut loaded = LoadedMeshes::default();
+    let mut files: HashMap<PathBuf, Result<Vertices, Failure>> = HashMap::new();
+    for mesh in meshes {
+        let link_name = links.get(mesh.link).map_or("", |l| l.name.as_str());
+        let hull = search
+            .resolve(&mesh.filename)
+            .map_err(|miss| (MeshProblem::NotFound, miss.to_string()))
+            .and_then(|path| {
+                let vertices = files
+                    .entry(path.clone())
+                    .or_insert_with(|| read_vertices(&path))
+                    .clone()?;
+                hull_of(&vertices, mesh.scale)
+                    .map_err(|why| (MeshProblem::Unusable, format!("{}: {why}", path.display())))
+            });
+        match hull {
+            Ok(shape) => loaded.hulls.push(MeshHull {
+                link: mesh.link,
+                pose: pose_of(&mesh.origin),
+                shape,
+            }),
+            Err((problem, message)) => loaded.unchecked.push(UncheckedMesh {
+                link: link_name.to_string(),
+                uri: mesh.filename.clone(),
+                problem,
+                message,
+            }),
+        }
+    }
+    loaded.seconds = started.elapsed().as_secs_f64();
+    loaded
+}
+
+/// A URDF `<origin>` as a rapier pose (`rpy` fixed-axis: `Rz(yaw) Ry(pitch) Rx(roll)`, as
+/// rapier3d-urdf places primitives).
+fn pose_of(origin: &urdf_rs::Pose) -> Pose {
+    let (xyz, rpy) = (origin.xyz.0, origin.rpy.0);
+    Pose::from_parts(
+        Vector::new(xyz[0] as Real, xyz[1] as Real, xyz[2] as Real),
+        Rotation::from_euler(
+            EulerRot::ZYX,
+            rpy[2] as Real,
+            rpy[1] as Real,
+            rpy[0] as Real,
+        ),
+    )
+}
+
+/// Every vertex of the mesh file `path`; the format is told by the extension (`.stl`, `.dae`,
+/// `.obj`, any case), else by the content.
+fn read_vertices(path: &Path) -> Result<Vertices, Failure> {
+    let shown = path.display();
+    let unreadable = |why: String| (MeshProblem::Unreadable, format!("{shown}: {why}"));
+    let size = std::fs::metadata(path)
+        .map_err(|e| unreadable(e.to_string()))?
+        .len();
+    if size > MAX_MESH_BYTES {
+        return Err(unreadable(format!(
+            "{size} bytes; expected a mesh file of at most {MAX_MESH_BYTES} bytes"
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(|e| unreadable(e.to_string()))?;
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let loader = mesh_loader::Loader::default();
+    // The parsers are third-party code reading untrusted files: a panic is a malformed file.
+    let parsed = crate::panics::catch(|| match extension.as_deref() {
+        Some("stl") => loader.load_stl_from_slice(&bytes, path),
+        Some("dae") => loader.load_collada_from_slice(&bytes, path),
+        // Materials (.mtl) do not matter for collisions: none is read.
+        Some("obj") => loader.load_obj_from_slice_with_reader(&bytes, path, |_| {
+            Err(std::io::Error::from(std::io::ErrorKind::NotFound))
+        }),
+        _ => loader.load_from_slice(&bytes, path),
+    });
+    let scene = match parsed {
+        Ok(Ok(scene)) => scene,
+        Ok(Err(e)) => {
+            return Err(unreadable(format!(
+                "{} (expected an STL, COLLADA or OBJ mesh)",
+                crate::panics::one_line(&e.to_string())
+            )))
+        }
+        Err(panic) => {
+            return Err(unreadable(format!(
+                "the mesh reader failed on it: {}",
+                crate::panics::one_line(&panic)
+            )))
+        }
+    };
+    let vertices: Vec<[f32; 3]> = scene
+        .meshes
+        .iter()
+        .flat_map(|m| m.vertices.iter().copied())
+        .collect();
+    Ok(Arc::new(vertices))
+}
+
+/// The convex hull of `vertices` scaled by `scale`, or why there is none.
+fn hull_of(vertices: &[[f32; 3]], scale: [f64; 3]) -> Result<SharedShape, String> {
+    if !scale
+        .iter()
+        .all(|s| s.is_finite() && *s != 0.0 && s.abs() <= MAX_LENGTH_M)
+    {
+        return Err(format!(
+            "scale {scale:?}; expected non-zero factors of at most {MAX_LENGTH_M} in size"
+        ));
+    }
+    if vertices.is_empty() {
+        return Err("no vertices".into());
+    }
+    let mut points = Vec::with_capacity(vertices.len());
+    for v in vertices {
+        let p = [
+            f64::from(v[0]) * scale[0],
+            f64::from(v[1]) * scale[1],
+            f64::from(v[2]) * scale[2],
+        ];
+        if !p.iter().all(|x| x.is_finite() && x.abs() <= MAX_LENGTH_M) {
+            return Err(format!(
+                "vertex {p:?} (scaled) is not finite or beyond {MAX_LENGTH_M} m"
+            ));
+        }
+        points.push(Vector::new(p[0] as Real, p[1] as Real, p[2] as Real));
+    }
+    let span = bounding_diameter(&points);
+    let hull = crate::panics::catch(|| {
+        SharedShape::convex_hull(&points).map(|shape| {
+            // parry returns a flat polyhedron for points in a plane: no solid.
+            let volume = shape.mass_properties(1.0).mass();
+            (shape, volume)
+        })
+    });
+    match hull {
+        Ok(Some((shape, volume))) if volume.is_finite() && volume > 1e-9 * span.powi(3) => {
+            Ok(shape)
+        }
+        Ok(_) => Err(format!(
+            "its {} vertices span no volume (all in a plane or a line); expected a solid",
+            points.len()
+        )),
+        Err(panic) => Err(format!(
+            "the convex hull failed: {}",
+            crate::panics::one_line(&panic)
+        )),
+    }
+}
+
+/// The diagonal of the points' bounding box.
+fn bounding_diameter(points: &[Vector]) -> Real {
+    let (mut lo, mut hi) = (Vector::splat(Real::MAX), Vector::splat(Real::MIN));
+    for p in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (hi - lo).length()
+}
