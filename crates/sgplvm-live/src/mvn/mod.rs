@@ -109,12 +109,14 @@
 
 pub mod assemble;
 pub mod datagram;
+pub mod receiver;
 mod segments;
 
 pub use datagram::{
     decode, decode_part, encode, Header, MvnPart, MvnPose, PoseType, SegmentCounts, SegmentPose,
     DEFAULT_PORT, HEADER_BYTES,
 };
+pub use receiver::{MvnReceiver, MvnSender, ReceiverCounts, ReceiverOptions};
 pub use segments::{segment_id, segment_name, BODY_SEGMENTS, FINGER_SEGMENTS, PROP_SEGMENTS};
 
 /// What is wrong with a datagram, or with using one; every variant says what was expected.
