@@ -108,10 +108,12 @@
 //! Values are kept as the f32 they travel as, so that type 02 round-trips exactly.
 
 pub mod assemble;
+pub mod body;
 pub mod datagram;
 pub mod receiver;
 mod segments;
 
+pub use body::WorldPose;
 pub use datagram::{
     decode, decode_part, encode, Header, MvnPart, MvnPose, PoseType, SegmentCounts, SegmentPose,
     DEFAULT_PORT, HEADER_BYTES,
