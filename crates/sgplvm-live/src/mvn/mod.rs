@@ -113,6 +113,9 @@ pub mod datagram;
 pub mod receiver;
 mod segments;
 
+#[cfg(test)]
+mod tests;
+
 pub use body::WorldPose;
 pub use datagram::{
     decode, decode_part, encode, Header, MvnPart, MvnPose, PoseType, SegmentCounts, SegmentPose,
