@@ -18,6 +18,7 @@
 pub mod commands;
 pub mod gate;
 pub mod msgs;
+pub mod mvn;
 pub mod node;
 pub mod replay;
 pub mod view;
