@@ -15,7 +15,7 @@
 use nalgebra::DVector;
 
 use crate::anatomy::Anatomy;
-use crate::kinematics::collision::{CollisionModel, MeshLoader};
+use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::{Ancestry, RobotFrames};
 use crate::kinematics::limits::{collision_limit, position_limits, velocity_limits};
 use crate::kinematics::qp::Step;
@@ -74,12 +74,11 @@ pub struct SafetyStep {
 
 impl SafetyStep {
     /// The safety step of `anatomy`'s joints `joints` (movable joints of its robot; others
-    /// keep their hold values), meshes loaded by `meshes` where given.
+    /// keep their hold values), its collision meshes found where the anatomy finds them.
     pub fn new(
         anatomy: &Anatomy,
         joints: &[String],
         options: SafetyOptions,
-        meshes: Option<&MeshLoader<'_>>,
     ) -> Result<SafetyStep, String> {
         let robot = anatomy.robot().clone();
         let ancestry = Ancestry::of(&robot);
@@ -93,7 +92,7 @@ impl SafetyStep {
             active.push(robot.movable[i]);
         }
         let base = anatomy.hold_configuration().to_vec();
-        let collision = CollisionModel::new(&robot, &ancestry, &active, &base, meshes);
+        let collision = anatomy.collision_model(&q_index);
         Ok(SafetyStep {
             robot,
             ancestry,
@@ -202,7 +201,7 @@ mod tests {
         let anatomy = Anatomy::builtin("coman").unwrap();
         let robot = anatomy.robot().clone();
         let names = robot.joint_names();
-        let mut safety = SafetyStep::new(&anatomy, &names, SafetyOptions::default(), None).unwrap();
+        let mut safety = SafetyStep::new(&anatomy, &names, SafetyOptions::default()).unwrap();
         // Both hands at one point in front of the chest: in collision.
         let zero = robot.neutral_configuration();
         let mut crossed = zero.clone();
@@ -238,7 +237,7 @@ mod tests {
         }
         assert!(depth(&out) > -1e-4, "still {} m deep", depth(&out));
         // A step input: from hanging arms to the far end of every joint, 25 ms later.
-        let mut s = SafetyStep::new(&anatomy, &names, SafetyOptions::default(), None).unwrap();
+        let mut s = SafetyStep::new(&anatomy, &names, SafetyOptions::default()).unwrap();
         let mut a = vec![0.0; names.len()];
         s.step(&zero, 0.0, &mut a);
         let far: Vec<f64> = robot.joint_limits().iter().map(|l| l.1).collect();

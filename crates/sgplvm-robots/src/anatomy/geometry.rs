@@ -10,7 +10,7 @@ use super::{Anatomy, AnatomyArm, AnatomyError, AnatomyResult, AnatomySpec, Comma
 use crate::generator::{KEY_POSES, NEUTRAL};
 use crate::kinematics::Chain;
 use crate::models::Side;
-use crate::urdf::Robot;
+use crate::urdf::{MeshSearch, Robot};
 use crate::{IkOptions, IkTarget};
 
 /// Axes closer than this (sine of their angle) count as parallel.
@@ -77,6 +77,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         held,
         command,
         notes: found.notes,
+        meshes: MeshSearch::for_robot(&robot).unwrap_or_default(),
         robot,
     };
     anatomy.notes.extend(notes(&anatomy));

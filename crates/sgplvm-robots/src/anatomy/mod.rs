@@ -44,7 +44,11 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
+use crate::kinematics::collision::CollisionModel;
+use crate::kinematics::frames::Ancestry;
 use crate::kinematics::tasks::LinkPoint;
+use crate::physics::mesh_hull;
+use crate::urdf::MeshSearch;
 use crate::kinematics::Chain;
 use crate::models::Side;
 use crate::urdf::Robot;
@@ -374,6 +378,8 @@ pub struct Anatomy {
     /// Indices (configuration order) of the joints commands name.
     command: Vec<usize>,
     notes: Vec<String>,
+    /// Where the URDF's meshes are found (beside it, then the ROS paths).
+    meshes: MeshSearch,
 }
 
 /// Why a robot's anatomy cannot be had.
@@ -613,6 +619,28 @@ impl Anatomy {
     pub fn body_axes_in_root(&self) -> [Vector3<f64>; 3] {
         let r = Rotation3::from(self.torso_in_root.rotation * self.body_in_torso);
         [0, 1, 2].map(|k| r.matrix().column(k).into_owned())
+    }
+
+    /// Where the robot's meshes are found.
+    pub fn meshes(&self) -> &MeshSearch {
+        &self.meshes
+    }
+
+    /// Finds the robot's meshes through `search` (e.g. with the `--package-path` folders).
+    pub fn with_meshes(mut self, search: MeshSearch) -> Anatomy {
+        self.meshes = search;
+        self
+    }
+
+    /// The robot's own collision shapes (meshes as convex hulls where found) and the pairs of
+    /// them that can meet when the joints `moving` (configuration indices) move, judged at the
+    /// hold posture.
+    pub fn collision_model(&self, moving: &[usize]) -> CollisionModel {
+        let ancestry = Ancestry::of(&self.robot);
+        let joints: Vec<usize> = moving.iter().map(|&i| self.robot.movable[i]).collect();
+        let search = &self.meshes;
+        let loader = |file: &str, scale: [f64; 3]| mesh_hull(search, file, scale);
+        CollisionModel::new(&self.robot, &ancestry, &joints, &self.hold, Some(&loader))
     }
 
     /// The description file that says what this anatomy is (to write beside the URDF).
