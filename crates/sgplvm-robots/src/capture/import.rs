@@ -100,6 +100,7 @@ pub fn import_parsed(
         source: CaptureSource {
             file: file.to_string(),
             skeleton: skeleton.scheme.clone(),
+            body_axes: format!("from the skeleton's geometry: {}", skeleton.axes_from),
             frame_rate: 1.0 / dt,
             frames_in_file,
             span_s: (t0, t0 + span),
