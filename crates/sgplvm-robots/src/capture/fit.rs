@@ -361,7 +361,15 @@ impl HumanArms {
         let (e, p) = clavicle.map(|d| clavicle_angles(&d)).unwrap_or((0.0, 0.0));
         let rc = clavicle_rotation(e, p);
         let u = rc.inverse() * upper_arm;
-        let (a, f) = (u.y.clamp(-1.0, 1.0).asin(), u.x.atan2(-u.z));
+        // At the gimbal point (the upper arm straight out to the side of the clavicle: a
+        // T-pose) flexion is undefined; the arm reached by abduction alone (palms down) is
+        // taken, not whichever of 0 and 180° the sign of a zero would pick.
+        let f = if u.x.hypot(u.z) < 1e-9 {
+            0.0
+        } else {
+            u.x.atan2(-u.z)
+        };
+        let a = u.y.clamp(-1.0, 1.0).asin();
         let bend = forearm - upper_arm * forearm.dot(&upper_arm);
         let upper = if bend.norm() > 0.05 {
             // A bent rest elbow fixes the twist by its hinge plane.
