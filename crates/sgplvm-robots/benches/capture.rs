@@ -13,7 +13,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use sgplvm_robots::capture::{import_parsed, write_bvh, Bvh, ImportOptions};
 use sgplvm_robots::dataset::load_demonstrations;
 use sgplvm_robots::retarget::{retarget, Match, Redundancy, RetargetOptions};
-use sgplvm_robots::Robot;
+use sgplvm_robots::Anatomy;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -60,7 +60,10 @@ fn import(c: &mut Criterion) {
 fn retargeting(c: &mut Criterion) {
     let demos =
         load_demonstrations(data("captured.mcap")).expect("the shipped captured demonstrations");
-    let coman = vec![("coman".to_string(), Robot::builtin("coman").expect("COMAN"))];
+    let coman = vec![(
+        "coman".to_string(),
+        Anatomy::builtin("coman").expect("COMAN"),
+    )];
     let mut group = c.benchmark_group("retarget");
     group.sample_size(10);
     group.throughput(Throughput::Elements(demos.len() as u64));

@@ -89,11 +89,11 @@ impl Rig {
     /// The arms 45° down from the T-pose in the zero pose.
     fn a_pose() -> Rig {
         let mut frames = vec![Rotation3::identity(); JOINTS.len()];
-        for j in 7..=9 {
-            frames[j] = rot(0, 45f64.to_radians());
+        for f in &mut frames[7..=9] {
+            *f = rot(0, 45f64.to_radians());
         }
-        for j in 11..=13 {
-            frames[j] = rot(0, -45f64.to_radians());
+        for f in &mut frames[11..=13] {
+            *f = rot(0, -45f64.to_radians());
         }
         Rig {
             frames,
@@ -128,7 +128,7 @@ impl Rig {
 /// The motion: per frame, the root's place and every joint's rotation relative to its parent
 /// in the T-pose rig (body axes). Frames 0–29 hang the arms (elbows a little bent), 30–59
 /// raise the left arm and wave.
-fn motion(frames: usize) -> Vec<(Vector3<f64>, Vec<Rotation3<f64>>)> {
+fn motion(frames: usize) -> Motion {
     (0..frames)
         .map(|f| {
             let t = f as f64 / 30.0;
@@ -182,7 +182,7 @@ fn world(root: &Vector3<f64>, m: &[Rotation3<f64>]) -> (Vec<Vector3<f64>>, Vec<R
 
 /// The motion written through `rig` as BVH text: every joint's world rotation is the T-pose
 /// rig's times its rig frame, its offset the T-pose offset in its parent's rig frame.
-fn write(rig: &Rig, motion: &[(Vector3<f64>, Vec<Rotation3<f64>>)]) -> String {
+fn write(rig: &Rig, motion: &Motion) -> String {
     let b = b();
     let v3 = |v: Vector3<f64>| {
         let f = b * v;
@@ -203,8 +203,7 @@ fn write(rig: &Rig, motion: &[(Vector3<f64>, Vec<Rotation3<f64>>)]) -> String {
         }
         d
     };
-    for j in 0..JOINTS.len() {
-        let (name, parent, offset) = JOINTS[j];
+    for (j, &(name, parent, offset)) in JOINTS.iter().enumerate() {
         let pad = "  ".repeat(depth(j));
         let kind = if parent.is_none() { "ROOT" } else { "JOINT" };
         let channels = if rig.six_channels || j < 2 {
@@ -276,9 +275,18 @@ fn import(text: &str, name: &str) -> CapturedMotion {
     .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
-/// Per frame and arm (left, right): the imported model's upper-arm and forearm directions and
-/// the wrist's height below the shoulder in arm lengths, torso (`T8`) frame.
-fn model_arms(m: &CapturedMotion) -> Vec<[(Vector3<f64>, Vector3<f64>, f64); 2]> {
+/// One arm of the imported model: upper-arm and forearm directions and the wrist's height
+/// below the shoulder in arm lengths, torso (`T8`) frame.
+type ModelArm = (Vector3<f64>, Vector3<f64>, f64);
+
+/// One arm of the motion: upper-arm and forearm directions seen from the chest.
+type TrueArm = (Vector3<f64>, Vector3<f64>);
+
+/// Per frame, the root's place and every joint's rotation relative to its parent.
+type Motion = Vec<(Vector3<f64>, Vec<Rotation3<f64>>)>;
+
+/// Per frame and arm (left, right): the imported model's arm.
+fn model_arms(m: &CapturedMotion) -> Vec<[ModelArm; 2]> {
     let human = Robot::builtin("human").expect("human");
     (0..m.positions.nrows())
         .map(|r| {
@@ -304,9 +312,7 @@ fn model_arms(m: &CapturedMotion) -> Vec<[(Vector3<f64>, Vector3<f64>, f64); 2]>
 }
 
 /// Per frame and arm: the motion's upper-arm and forearm directions seen from the chest.
-fn true_arms(
-    motion: &[(Vector3<f64>, Vec<Rotation3<f64>>)],
-) -> Vec<[(Vector3<f64>, Vector3<f64>); 2]> {
+fn true_arms(motion: &Motion) -> Vec<[TrueArm; 2]> {
     motion
         .iter()
         .map(|(root, m)| {
@@ -327,10 +333,7 @@ fn elevation_heading(d: &Vector3<f64>) -> (f64, f64) {
 }
 
 /// Largest angle between the imported and the true segment directions, degrees.
-fn worst_direction_error(
-    model: &[[(Vector3<f64>, Vector3<f64>, f64); 2]],
-    truth: &[[(Vector3<f64>, Vector3<f64>); 2]],
-) -> f64 {
+fn worst_direction_error(model: &[[ModelArm; 2]], truth: &[[TrueArm; 2]]) -> f64 {
     let angle = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
     model
         .iter()

@@ -285,8 +285,17 @@ fn floor_skeleton(clavicle: [f64; 3], upper_arm: [f64; 3], neck: [f64; 3]) -> Bv
         neck[0], neck[1], neck[2]
     ));
     for (side, x) in [("Left", 1.0), ("Right", -1.0)] {
-        let offs = [clavicle, upper_arm, [x * 28.0, 0.0, 0.0], [x * 25.0, 0.0, 0.0]];
-        for (k, (name, o)) in ["Shoulder", "Arm", "ForeArm", "Hand"].iter().zip(offs).enumerate() {
+        let offs = [
+            clavicle,
+            upper_arm,
+            [x * 28.0, 0.0, 0.0],
+            [x * 25.0, 0.0, 0.0],
+        ];
+        for (k, (name, o)) in ["Shoulder", "Arm", "ForeArm", "Hand"]
+            .iter()
+            .zip(offs)
+            .enumerate()
+        {
             let ox = if k < 2 { x * o[0] } else { o[0] };
             t.push_str(&format!(
                 "JOINT {side}{name}\n{{\nOFFSET {ox} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
@@ -322,7 +331,9 @@ fn body_axes_come_from_the_clavicles_and_the_spine_not_the_floor_joint() {
     let s = Skeleton::identify(&bvh, None, "floor.bvh").unwrap();
     assert!((s.axes * Vector3::y() - Vector3::x()).norm() < 1e-12);
     assert!(
-        s.axes_from.starts_with("left from `RightArm` to `LeftArm` (the joints above them at zero rotation)"),
+        s.axes_from.starts_with(
+            "left from `RightArm` to `LeftArm` (the joints above them at zero rotation)"
+        ),
         "{}",
         s.axes_from
     );
