@@ -214,6 +214,8 @@ struct FrameFits {
     beyond: Vec<bool>,
     /// Per model joint: the frames in which it was held at a limit.
     at_limit: [usize; 18],
+    /// Per model joint: whether it was held at a limit in the first frame.
+    first_at_limit: [bool; 18],
 }
 
 /// Fits every frame from `first` to `last`, both arms, each continuing from its previous
@@ -233,6 +235,7 @@ fn fit_frames(
     let mut angle_res = Vec::with_capacity(2 * n);
     let mut beyond = vec![false; n];
     let mut at_limit = [0usize; 18];
+    let mut first_at_limit = [false; 18];
     let mut prev: [Option<ArmAngles>; 2] = [None, None];
     for (row, f) in (first..=last).enumerate() {
         let values = bvh.frame(f);
@@ -250,6 +253,9 @@ fn fit_frames(
             for k in 0..9 {
                 angles[(row, 9 * s + k)] = fit.angles[k];
                 at_limit[9 * s + k] += usize::from(fit.clamped[k]);
+                if row == 0 {
+                    first_at_limit[9 * s + k] = fit.clamped[k];
+                }
             }
             let points = model.target_points(&t);
             let (ep, wp) = match side {
@@ -274,6 +280,7 @@ fn fit_frames(
         angle_res,
         beyond,
         at_limit,
+        first_at_limit,
     }
 }
 
@@ -345,9 +352,12 @@ fn fit_report(fits: &FrameFits, start_row: usize, dt: f64, joint_names: &[String
         elbow_angle_worst_deg: worst(&angle_res),
         frames_beyond: beyond.iter().filter(|b| **b).count(),
         first_beyond_s: beyond.iter().position(|b| *b).map(|r| r as f64 * dt),
+        // A calibration frame left out is not counted (its share would pass 100 %).
         at_limit: joint_names
             .iter()
             .zip(fits.at_limit)
+            .zip(fits.first_at_limit)
+            .map(|((name, c), first)| (name, c - usize::from(start_row == 1 && first)))
             .filter(|(_, c)| *c > 0)
             .map(|(name, c)| (name.clone(), c))
             .collect(),

@@ -100,9 +100,16 @@ fn a_calibration_first_frame_is_dropped() {
     }
     rows[0] = [0.0; 18];
     rows[0][3] = 1.5; // a T-pose-like first frame
+    rows[0][0] = 1.2; // its clavicle beyond the elevation limit (0.79)
     let m = round_trip(&rows, 1.0 / 120.0, &ImportOptions::default());
     assert!(m.source.calibration_frame_dropped);
     assert!((m.positions[(0, 5)] - 1.01).abs() < 1e-6);
+    // The frame left out is not counted at a limit.
+    assert!(
+        m.source.fit.at_limit.is_empty(),
+        "{:?}",
+        m.source.fit.at_limit
+    );
 }
 
 #[test]
