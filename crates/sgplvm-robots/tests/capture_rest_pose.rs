@@ -12,6 +12,7 @@
 //! kind: the imported upper arm and forearm against the capture's own, seen in a frame built
 //! from its chest's children (left from the right clavicle's root to the left's, up from the
 //! chest to the neck), and prints the hand's height below the shoulder in arm lengths.
+//! `SGPLVM_REST_POSE_WRITE=FOLDER` keeps the three synthetic rigs' files there, for other tools.
 
 use std::path::PathBuf;
 
