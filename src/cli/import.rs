@@ -129,6 +129,9 @@ fn summary(s: &CaptureSource, frames_out: usize) {
         s.rate_hz,
         if s.calibration_frame_dropped { " (first frame left out: a calibration pose)" } else { "" }
     );
+    if !s.body_axes.is_empty() {
+        println!("  body axes {}", s.body_axes);
+    }
     let units = if s.units == "unknown" {
         "units unknown".to_string()
     } else {

@@ -9,7 +9,8 @@ are not committed.
 The check does not reuse the importer's code: a small numpy BVH reader here computes the
 capture's joints in the world and its upper torso's rotation, takes the segment directions into
 the torso's body axes (up from the root to the neck, left from shoulder to shoulder, in the rest
-pose, as the importer documents), and the capture, scaled to the model's segment lengths along
+pose: for these three T-pose files the importer's axes from the skeleton's geometry, left between
+the clavicles' roots, are the same to 3e-6 rad), and the capture, scaled to the model's segment lengths along
 those directions from the model's sternoclavicular joint, must put elbow and wrist within 1 cm
 (median) and 3 cm (worst) of the model's (forward kinematics of the imported angles), with the
 elbow angle within 2 degrees; and the importer must report what this check measures."""

@@ -22,7 +22,11 @@
 //! frame is kept. Twists that positions cannot tell (shoulder rotation with a straight elbow,
 //! pronation) come from the capture's segment orientations, calibrated on its rest pose: every
 //! channel at zero is taken as no twist (a T- or A-pose with palms down, or arms hanging with
-//! palms facing the body, as capture systems define it).
+//! palms facing the body, as capture systems define it). Where the rest pose holds the upper
+//! arm at the shoulder's gimbal point (a T-pose with flat clavicles; the line of bones that
+//! is the zero pose of a rig whose bones lie along local x), "no twist" is undefined there:
+//! the elbow's hinge, as the motion bends it, sets the upper arm's twist instead, and the
+//! hand's follows it (its rest orientation relative to the upper arm's).
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -272,6 +276,13 @@ fn choose_turn(v: f64, near: f64, lim: (f64, f64)) -> f64 {
 /// the other: continuity first, so that angles do not flip by half a turn at a limit.
 const BRANCH_SWITCH_MARGIN: f64 = 0.5;
 
+/// How near the shoulder's gimbal point (the sine of the angle, about 3°) a rest pose's upper
+/// arm must lie for its twist to be untold ([`HumanArms::rest_twist_untold`]): there the
+/// flexion, and with it the twist taken as none, swings by up to half a turn for a hundredth
+/// of a degree. Rigs whose bones lie along local x have their arms within 1e-5 of it at rest;
+/// the T-poses of the CMU, Mixamo and DAZ files shipped or tested lie 0.15 (9°) and further.
+pub const REST_GIMBAL: f64 = 0.05;
+
 /// Gauss–Newton iterations of the refinement at a limit (it starts from the clamped closed
 /// form, a few steps from its optimum).
 const REFINE_ITERATIONS: usize = 30;
@@ -348,26 +359,54 @@ impl HumanArms {
         }
     }
 
+    /// Whether a rest pose with these directions (left convention, body axes) leaves the
+    /// shoulder's twist untold: the elbow straight and the upper arm straight out to the side
+    /// of the clavicle (within [`REST_GIMBAL`]), where flexion and rotation turn about one axis.
+    pub fn rest_twist_untold(
+        &self,
+        clavicle: Option<Vector3<f64>>,
+        upper_arm: Vector3<f64>,
+        forearm: Vector3<f64>,
+    ) -> bool {
+        let (e, p) = clavicle.map(|d| clavicle_angles(&d)).unwrap_or((0.0, 0.0));
+        let u = clavicle_rotation(e, p).inverse() * upper_arm;
+        let bend = forearm - upper_arm * forearm.dot(&upper_arm);
+        bend.norm() <= 0.05 && u.x.hypot(u.z) < REST_GIMBAL
+    }
+
     /// The model frames at the capture's rest pose, with no twist: the calibration of
     /// [`ArmTarget::upper_arm_frame`] and [`ArmTarget::hand_frame`]. `hand` is the rest
-    /// direction wrist → hand end.
+    /// direction wrist → hand end; `hinge`, where the rest leaves the twist untold
+    /// ([`HumanArms::rest_twist_untold`]), the direction a bent elbow takes the forearm in the
+    /// upper arm's rest orientation, as the motion shows it.
     pub fn rest_frames(
         &self,
         clavicle: Option<Vector3<f64>>,
         upper_arm: Vector3<f64>,
         forearm: Vector3<f64>,
         hand: Vector3<f64>,
+        hinge: Option<Vector3<f64>>,
     ) -> RestFrames {
         let (e, p) = clavicle.map(|d| clavicle_angles(&d)).unwrap_or((0.0, 0.0));
         let rc = clavicle_rotation(e, p);
         let u = rc.inverse() * upper_arm;
-        let (a, f) = (u.y.clamp(-1.0, 1.0).asin(), u.x.atan2(-u.z));
+        let untold = u.x.hypot(u.z) < REST_GIMBAL;
+        let a = u.y.clamp(-1.0, 1.0).asin();
         let bend = forearm - upper_arm * forearm.dot(&upper_arm);
         let upper = if bend.norm() > 0.05 {
             // A bent rest elbow fixes the twist by its hinge plane.
             hinge_frame(&upper_arm, &bend)
+        } else if untold {
+            // At the gimbal point (a T-pose with flat clavicles, or the line of bones an
+            // x-bone rig's zero pose is) flexion is undefined and the sign of a zero would
+            // pick 0 or 180°: the elbow's hinge as the motion bends it, else the arm reached by
+            // abduction alone (palms down).
+            match hinge {
+                Some(h) => hinge_frame(&upper_arm, &h),
+                None => rc * shoulder_rotation(0.0, a, 0.0),
+            }
         } else {
-            rc * shoulder_rotation(f, a, 0.0)
+            rc * shoulder_rotation(u.x.atan2(-u.z), a, 0.0)
         };
         let fu = upper.inverse() * forearm;
         let g = fu.x.atan2(-fu.z);

@@ -100,6 +100,7 @@ pub fn import_parsed(
         source: CaptureSource {
             file: file.to_string(),
             skeleton: skeleton.scheme.clone(),
+            body_axes: format!("from the skeleton's geometry: {}", skeleton.axes_from),
             frame_rate: 1.0 / dt,
             frames_in_file,
             span_s: (t0, t0 + span),
@@ -114,7 +115,8 @@ pub fn import_parsed(
     })
 }
 
-/// Each arm's calibration (left, right): its rest frames, from the file's rest pose.
+/// Each arm's calibration (left, right): its rest frames, from the file's rest pose (and,
+/// where that pose leaves the shoulder's twist untold, the elbow's hinge in the motion).
 fn calibrate(bvh: &Bvh, skeleton: &Skeleton, model: &HumanArms) -> [ArmCalibration; 2] {
     [Side::Left, Side::Right].map(|side| {
         let rest = skeleton.rest_pose(bvh, side);
@@ -126,18 +128,50 @@ fn calibrate(bvh: &Bvh, skeleton: &Skeleton, model: &HumanArms) -> [ArmCalibrati
             },
         };
         let t = arm_target(&rest, side, has_clavicle, &provisional);
-        let hand = match side {
-            Side::Left => direction(&rest.wrist, &rest.hand_tip, t.forearm),
-            Side::Right => mirror_vector(direction(
-                &rest.wrist,
-                &rest.hand_tip,
-                mirror_vector(t.forearm),
-            )),
+        let m = |v: Vector3<f64>| match side {
+            Side::Left => v,
+            Side::Right => mirror_vector(v),
+        };
+        let hand = m(direction(&rest.wrist, &rest.hand_tip, m(t.forearm)));
+        let hinge = if model.rest_twist_untold(t.clavicle, t.upper_arm, t.forearm) {
+            elbow_hinge(bvh, skeleton, side).map(m)
+        } else {
+            None
         };
         ArmCalibration {
-            rest: model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand),
+            rest: model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand, hinge),
         }
     })
+}
+
+/// Most frames [`elbow_hinge`] looks at (evenly spaced over the file).
+const HINGE_FRAMES: usize = 2000;
+
+/// Where the capture's elbow of arm `side` bends the forearm, as a direction in the upper arm's
+/// rest orientation (body axes, the arm's own side): the forearm's part across the upper arm,
+/// taken back through the upper arm's turn from its rest, summed over the frames in which the
+/// elbow is bent by more than 6° (so the more bent weigh more); `None` if it never bends that
+/// far or bends no consistent way (the sum less than half the summed lengths).
+fn elbow_hinge(bvh: &Bvh, skeleton: &Skeleton, side: Side) -> Option<Vector3<f64>> {
+    let frames = bvh.frames();
+    let step = frames.div_ceil(HINGE_FRAMES).max(1);
+    let mut sum = Vector3::zeros();
+    let mut total = 0.0;
+    for f in (0..frames).step_by(step) {
+        let pose = skeleton.arm_pose(bvh, bvh.frame(f), side);
+        let (Some(u), Some(w)) = (
+            (pose.elbow - pose.shoulder).try_normalize(1e-12),
+            (pose.wrist - pose.elbow).try_normalize(1e-12),
+        ) else {
+            continue;
+        };
+        let bend = w - u * w.dot(&u);
+        if bend.norm() > 0.1 {
+            sum += pose.upper_arm_turn.inverse() * bend;
+            total += bend.norm();
+        }
+    }
+    (total > 0.0 && sum.norm() > 0.5 * total).then(|| sum.normalize())
 }
 
 /// The first and last frame of the span to import (at least two frames).
@@ -180,6 +214,8 @@ struct FrameFits {
     beyond: Vec<bool>,
     /// Per model joint: the frames in which it was held at a limit.
     at_limit: [usize; 18],
+    /// Per model joint: whether it was held at a limit in the first frame.
+    first_at_limit: [bool; 18],
 }
 
 /// Fits every frame from `first` to `last`, both arms, each continuing from its previous
@@ -199,6 +235,7 @@ fn fit_frames(
     let mut angle_res = Vec::with_capacity(2 * n);
     let mut beyond = vec![false; n];
     let mut at_limit = [0usize; 18];
+    let mut first_at_limit = [false; 18];
     let mut prev: [Option<ArmAngles>; 2] = [None, None];
     for (row, f) in (first..=last).enumerate() {
         let values = bvh.frame(f);
@@ -216,6 +253,9 @@ fn fit_frames(
             for k in 0..9 {
                 angles[(row, 9 * s + k)] = fit.angles[k];
                 at_limit[9 * s + k] += usize::from(fit.clamped[k]);
+                if row == 0 {
+                    first_at_limit[9 * s + k] = fit.clamped[k];
+                }
             }
             let points = model.target_points(&t);
             let (ep, wp) = match side {
@@ -240,6 +280,7 @@ fn fit_frames(
         angle_res,
         beyond,
         at_limit,
+        first_at_limit,
     }
 }
 
@@ -311,9 +352,12 @@ fn fit_report(fits: &FrameFits, start_row: usize, dt: f64, joint_names: &[String
         elbow_angle_worst_deg: worst(&angle_res),
         frames_beyond: beyond.iter().filter(|b| **b).count(),
         first_beyond_s: beyond.iter().position(|b| *b).map(|r| r as f64 * dt),
+        // A calibration frame left out is not counted (its share would pass 100 %).
         at_limit: joint_names
             .iter()
             .zip(fits.at_limit)
+            .zip(fits.first_at_limit)
+            .map(|((name, c), first)| (name, c - usize::from(start_row == 1 && first)))
             .filter(|(_, c)| *c > 0)
             .map(|(name, c)| (name.clone(), c))
             .collect(),

@@ -3,7 +3,8 @@
 //!
 //! 1. [`bvh`] reads the file (any channel order, 6-channel joints, End Sites).
 //! 2. [`skeleton`] finds the arms by their names (or a map file) and expresses every frame in
-//!    the upper torso's frame, so the whole body's walking, turning and bending stays out.
+//!    the upper torso's frame, so the whole body's walking, turning and bending stays out; the
+//!    torso's body axes come from the skeleton's geometry, whatever its zero pose ([`axes`]).
 //! 3. [`fit`] turns each arm's pose into the model's 9 angles in closed form, segment by
 //!    segment, scaled to the model's segment lengths; the model's forward kinematics then checks
 //!    the elbow and wrist against the scaled capture ([`FitReport`]).
@@ -14,6 +15,7 @@
 //! into a [`Dataset`] (one segment per file) whose MCAP carries every file's [`CaptureSource`]
 //! in its [`CAPTURE_METADATA`] record.
 
+pub mod axes;
 pub mod bvh;
 pub mod fit;
 pub mod skeleton;
@@ -259,6 +261,10 @@ pub struct CaptureSource {
     pub file: String,
     /// The naming scheme that identified the arms (or `map file`).
     pub skeleton: String,
+    /// Which joints gave the upper torso's body axes ([`axes::BodyAxes::found_from`]; empty in
+    /// files imported before it was recorded).
+    #[serde(default)]
+    pub body_axes: String,
     /// The capture's frame rate, Hz.
     pub frame_rate: f64,
     /// Frames in the file.

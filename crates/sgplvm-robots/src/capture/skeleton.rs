@@ -9,16 +9,17 @@
 //! explicit [`ArmMap`] (`--map FILE`).
 //!
 //! The upper torso is the joint the clavicles hang from. Its body axes (x forward, y left,
-//! z up, those of the human model's `T8`) come from the file's rest pose, every channel at
-//! zero: up from the root towards the neck, left from the right to the left shoulder. They are
-//! fixed in the torso, so walking, turning and bending of the whole body do not reach the
-//! arms.
+//! z up, those of the human model's `T8`) come from the skeleton's geometry, whatever its zero
+//! pose looks like ([`super::axes`]): left from the right clavicle's root to the left one's,
+//! up from the pelvis to the neck along the spine. They are fixed in the torso, so walking,
+//! turning and bending of the whole body do not reach the arms.
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Rotation3, Vector3};
 use serde::Deserialize;
 
+use super::axes::body_axes;
 use super::bvh::Bvh;
 use super::CaptureError;
 use crate::Side;
@@ -247,6 +248,8 @@ pub struct Skeleton {
     pub arms: [ArmJoints; 2],
     /// Body axes as columns (forward, left, up) in the torso's frame.
     pub axes: Rotation3<f64>,
+    /// Which joints gave the body axes (for reports).
+    pub axes_from: String,
     /// Upper arm plus forearm length at rest, in the file's units.
     pub arm_length: f64,
 }
@@ -296,29 +299,6 @@ impl Skeleton {
                 bvh.joints[top(&arms[1])].name
             ),
         })?;
-        let root = 0;
-        let rest = |j: usize| bvh.rest_position(root, j).unwrap_or_else(Vector3::zeros);
-        let shoulders = [rest(arms[0].upper_arm), rest(arms[1].upper_arm)];
-        let neck = (torso + 1..bvh.joints.len())
-            .filter(|&j| bvh.path(torso, j).is_some())
-            .find(|&j| {
-                let n = normalise(&bvh.joints[j].name);
-                n.contains("neck") || n.contains("head")
-            });
-        let up_point = match neck {
-            Some(n) => rest(n),
-            None => 0.5 * (shoulders[0] + shoulders[1]),
-        };
-        let up = up_point - rest(root);
-        let left = shoulders[0] - shoulders[1];
-        let axes = body_axes(left, up).ok_or_else(|| CaptureError::Skeleton {
-            file: file.to_string(),
-            message: format!(
-                "cannot tell the torso's axes: the shoulders `{}` and `{}` are at the same place, or in line with the spine, in the rest pose",
-                bvh.joints[arms[0].upper_arm].name,
-                bvh.joints[arms[1].upper_arm].name
-            ),
-        })?;
         let arm_length =
             bvh.joints[arms[0].forearm].offset.norm() + bvh.joints[arms[0].hand].offset.norm();
         if arm_length.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -330,11 +310,13 @@ impl Skeleton {
                 ),
             });
         }
+        let axes = body_axes(bvh, torso, &arms, arm_length, file)?;
         Ok(Skeleton {
             scheme,
             torso,
             arms,
-            axes,
+            axes: axes.rotation,
+            axes_from: axes.found_from,
             arm_length,
         })
     }
@@ -416,16 +398,6 @@ pub(crate) fn side_index(side: Side) -> usize {
         Side::Left => 0,
         Side::Right => 1,
     }
-}
-
-/// Body axes (forward, left, up) as the columns of a rotation, from a left and an up vector.
-fn body_axes(left: Vector3<f64>, up: Vector3<f64>) -> Option<Rotation3<f64>> {
-    let up = up.try_normalize(1e-9)?;
-    let left = (left - up * left.dot(&up)).try_normalize(1e-9)?;
-    let forward = left.cross(&up);
-    Some(Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[
-        forward, left, up,
-    ])))
 }
 
 /// The nearest joint above both `a` and `b`.

@@ -100,9 +100,16 @@ fn a_calibration_first_frame_is_dropped() {
     }
     rows[0] = [0.0; 18];
     rows[0][3] = 1.5; // a T-pose-like first frame
+    rows[0][0] = 1.2; // its clavicle beyond the elevation limit (0.79)
     let m = round_trip(&rows, 1.0 / 120.0, &ImportOptions::default());
     assert!(m.source.calibration_frame_dropped);
     assert!((m.positions[(0, 5)] - 1.01).abs() < 1e-6);
+    // The frame left out is not counted at a limit.
+    assert!(
+        m.source.fit.at_limit.is_empty(),
+        "{:?}",
+        m.source.fit.at_limit
+    );
 }
 
 #[test]
@@ -274,4 +281,99 @@ fn naming_schemes_are_recognised() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("`jLeftShoulder` names segment `nope`"), "{e}");
+}
+
+/// A two-arm skeleton under a floor joint: `clavicle` and `upper_arm` are the left arm's
+/// offsets (the right arm mirrors x), `neck` the neck's from the chest.
+fn floor_skeleton(clavicle: [f64; 3], upper_arm: [f64; 3], neck: [f64; 3]) -> Bvh {
+    let mut t = String::from("HIERARCHY\nROOT floor\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\nJOINT Hips\n{\nOFFSET 0 90 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT LeftUpLeg\n{\nOFFSET 10 0 0\nEnd Site\n{\nOFFSET 0 -40 0\n}\n}\nJOINT RightUpLeg\n{\nOFFSET -10 0 0\nEnd Site\n{\nOFFSET 0 -40 0\n}\n}\nJOINT Chest\n{\nOFFSET 0 30 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n");
+    t.push_str(&format!(
+        "JOINT Neck\n{{\nOFFSET {} {} {}\nEnd Site\n{{\nOFFSET 0 10 0\n}}\n}}\n",
+        neck[0], neck[1], neck[2]
+    ));
+    for (side, x) in [("Left", 1.0), ("Right", -1.0)] {
+        let offs = [
+            clavicle,
+            upper_arm,
+            [x * 28.0, 0.0, 0.0],
+            [x * 25.0, 0.0, 0.0],
+        ];
+        for (k, (name, o)) in ["Shoulder", "Arm", "ForeArm", "Hand"]
+            .iter()
+            .zip(offs)
+            .enumerate()
+        {
+            let ox = if k < 2 { x * o[0] } else { o[0] };
+            t.push_str(&format!(
+                "JOINT {side}{name}\n{{\nOFFSET {ox} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
+                o[1], o[2]
+            ));
+        }
+        t.push_str("End Site\n{\nOFFSET 0 0 0\n}\n}\n}\n}\n}\n");
+    }
+    t.push_str("}\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n");
+    t.push_str(&["0"; 36].join(" "));
+    t.push('\n');
+    Bvh::parse(&t, "floor.bvh").unwrap()
+}
+
+#[test]
+fn body_axes_come_from_the_clavicles_and_the_spine_not_the_floor_joint() {
+    // Clavicles up the spine in the zero pose (as where bones lie along local x): the roots of
+    // the clavicles still give left, the spine from the hips (where the legs part) up; the
+    // floor joint's 90 below the hips plays no part.
+    let bvh = floor_skeleton([3.0, 15.0, 0.0], [0.0, 15.0, 0.0], [0.0, 20.0, 0.0]);
+    let s = Skeleton::identify(&bvh, None, "floor.bvh").unwrap();
+    let axes = s.axes.matrix();
+    let expect = [Vector3::z(), Vector3::x(), Vector3::y()];
+    for (k, e) in expect.iter().enumerate() {
+        assert!((axes.column(k) - e).norm() < 1e-12, "{axes}");
+    }
+    assert_eq!(
+        s.axes_from,
+        "left from `RightShoulder` to `LeftShoulder` (fixed in `Chest`), up from `Hips` to `Neck` along the spine"
+    );
+    // Clavicles starting at the chest joint: the shoulders, at the clavicles' zero rotation.
+    let bvh = floor_skeleton([0.0, 0.0, 0.0], [15.0, 2.0, 0.0], [0.0, 20.0, 0.0]);
+    let s = Skeleton::identify(&bvh, None, "floor.bvh").unwrap();
+    assert!((s.axes * Vector3::y() - Vector3::x()).norm() < 1e-12);
+    assert!(
+        s.axes_from.starts_with(
+            "left from `RightArm` to `LeftArm` (the joints above them at zero rotation)"
+        ),
+        "{}",
+        s.axes_from
+    );
+}
+
+#[test]
+fn a_torso_whose_axes_cannot_be_told_is_an_error_naming_the_joints() {
+    // Both arms start at one place all the way down to the shoulders.
+    let bvh = floor_skeleton([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 20.0, 0.0]);
+    let e = Skeleton::identify(&bvh, None, "floor.bvh")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("floor.bvh: cannot tell the torso's axes: the arms `LeftArm` and `RightArm` start at the same place"),
+        "{e}"
+    );
+    // Clavicles apart only along the spine (one above the other cannot be: mirrored in x,
+    // so left and up coincide when the spine runs along x).
+    let bvh = floor_skeleton([3.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 0.0, 0.0]);
+    let text = bvh_with_spine_along_x(&bvh);
+    let e = Skeleton::identify(&text, None, "floor.bvh")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("cannot tell the torso's axes: the line from `RightShoulder` to `LeftShoulder` (left) runs along the spine from `Hips` to `Neck` (up)"),
+        "{e}"
+    );
+}
+
+/// `bvh` with the chest above the hips along x (and the neck on the chest joint).
+fn bvh_with_spine_along_x(bvh: &Bvh) -> Bvh {
+    let mut b = bvh.clone();
+    let chest = b.joint("Chest").unwrap();
+    b.joints[chest].offset = Vector3::new(30.0, 0.0, 0.0);
+    b
 }
