@@ -808,55 +808,25 @@ fn mvn_frame_gives_the_importers_arm_poses() {
 
 #[test]
 fn mvn_frame_through_the_importers_arm_fit() {
-    use sgplvm_robots::capture::{ArmPose, ArmTarget, HumanArms};
+    use sgplvm_robots::capture::{HumanArms, PoseFitter};
     use sgplvm_robots::Side;
-    // The steps capture::import takes for a BVH frame (`arm_target`, `calibrate`; private
-    // there), on an MVN frame.
-    let mirror = |v: Vector3<f64>, side: Side| match side {
-        Side::Left => v,
-        Side::Right => Vector3::new(v.x, -v.y, v.z),
-    };
-    let mirror_r = |r: &Rotation3<f64>, side: Side| match side {
-        Side::Left => *r,
-        Side::Right => {
-            let m = nalgebra::Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, 1.0));
-            Rotation3::from_matrix_unchecked(m * r.matrix() * m)
-        }
-    };
-    let dir = |a: Vector3<f64>, b: Vector3<f64>| (b - a).normalize();
-    let target = |p: &ArmPose, side: Side, rest: (Rotation3<f64>, Rotation3<f64>)| ArmTarget {
-        clavicle: Some(mirror(dir(p.clavicle, p.shoulder), side)),
-        upper_arm: mirror(dir(p.shoulder, p.elbow), side),
-        forearm: mirror(dir(p.elbow, p.wrist), side),
-        upper_arm_frame: mirror_r(&p.upper_arm_turn, side) * rest.0,
-        hand_frame: mirror_r(&p.hand_turn, side) * rest.1,
-    };
+    // The importer's own per-frame fit, on an MVN frame.
     let model = HumanArms::new(&sgplvm_robots::Robot::builtin("human").unwrap()).unwrap();
     let frame = arms_frame();
-    for side in [Side::Left, Side::Right] {
-        let rest = frame.rest_arm_pose(side).unwrap();
-        let t = target(&rest, side, (Rotation3::identity(), Rotation3::identity()));
-        let hand = mirror(dir(rest.wrist, rest.hand_tip), side);
-        let cal = model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand);
-        let t = target(
-            &frame.arm_pose(side).unwrap(),
-            side,
-            (cal.upper_arm, cal.hand),
-        );
-        let fit = model.fit(side, &t, None);
-        assert!(
-            (fit.capture_elbow_angle.to_degrees() - 90.0).abs() < 1e-3,
-            "{side:?}: {fit:?}"
-        );
+    let rest = [Side::Left, Side::Right].map(|side| frame.rest_arm_pose(side).unwrap());
+    let mut fitter = PoseFitter::new(model, [&rest[0], &rest[1]], [true, true], &|_| None);
+    let poses = [Side::Left, Side::Right].map(|side| frame.arm_pose(side).unwrap());
+    for (fit, side) in fitter
+        .fit([&poses[0], &poses[1]])
+        .iter()
+        .zip([Side::Left, Side::Right])
+    {
         assert!(
             (fit.angles[5].to_degrees() - 90.0).abs() < 1.0,
             "{side:?}: {fit:?}"
         );
-        let points = model.target_points(&t);
-        let (e, w) = model.elbow_and_wrist(side, &fit.angles);
-        let (pe, pw) = (mirror(points.elbow, side), mirror(points.wrist, side));
         assert!(
-            (e - pe).norm() < 0.01 && (w - pw).norm() < 0.01,
+            fit.elbow_m < 0.01 && fit.wrist_m < 0.01,
             "{side:?}: {fit:?}"
         );
     }

@@ -47,10 +47,10 @@ use serde::Serialize;
 use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::Ancestry;
 use crate::kinematics::tasks::LinkPoint;
-use crate::physics::mesh_hull;
-use crate::urdf::MeshSearch;
 use crate::kinematics::Chain;
 use crate::models::Side;
+use crate::physics::mesh_hull;
+use crate::urdf::MeshSearch;
 use crate::urdf::Robot;
 use crate::RobotError;
 

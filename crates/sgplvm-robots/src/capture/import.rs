@@ -6,46 +6,15 @@ use std::path::Path;
 
 use nalgebra::{DMatrix, Vector3};
 
-use super::fit::{mirror_rotation, mirror_vector, ArmAngles, ArmTarget, HumanArms, RestFrames};
-use super::skeleton::{side_index, ArmPose, Skeleton};
+use super::fit::HumanArms;
+use super::skeleton::Skeleton;
+use super::stream::PoseFitter;
 use super::{
     Bvh, CaptureError, CaptureSource, CapturedMotion, FitReport, ImportOptions, Units,
-    ELBOW_ANGLE_LIMIT_DEG, MAX_OUTPUT_FRAMES, WORST_RESIDUAL_LIMIT_M,
+    MAX_OUTPUT_FRAMES,
 };
 use crate::series::median;
 use crate::{Robot, Side};
-
-/// One arm's calibration: its rest frames in the left arm's convention.
-struct ArmCalibration {
-    rest: RestFrames,
-}
-
-/// A unit vector from `a` to `b`, or `fallback` where they coincide.
-fn direction(a: &Vector3<f64>, b: &Vector3<f64>, fallback: Vector3<f64>) -> Vector3<f64> {
-    (b - a).try_normalize(1e-12).unwrap_or(fallback)
-}
-
-/// Turns a captured arm pose into the fit's target (left arm's convention).
-fn arm_target(pose: &ArmPose, side: Side, has_clavicle: bool, cal: &ArmCalibration) -> ArmTarget {
-    let m = |v: Vector3<f64>| match side {
-        Side::Left => v,
-        Side::Right => mirror_vector(v),
-    };
-    let mr = |r: &nalgebra::Rotation3<f64>| match side {
-        Side::Left => *r,
-        Side::Right => mirror_rotation(r),
-    };
-    let down = -Vector3::z();
-    let upper = m(direction(&pose.shoulder, &pose.elbow, down));
-    ArmTarget {
-        clavicle: (has_clavicle && (pose.shoulder - pose.clavicle).norm() > 1e-9)
-            .then(|| m(direction(&pose.clavicle, &pose.shoulder, Vector3::y()))),
-        upper_arm: upper,
-        forearm: m(direction(&pose.elbow, &pose.wrist, upper)),
-        upper_arm_frame: mr(&pose.upper_arm_turn) * cal.rest.upper_arm,
-        hand_frame: mr(&pose.hand_turn) * cal.rest.hand,
-    }
-}
 
 /// Imports one BVH file (see the module documentation).
 pub fn import_bvh(
@@ -81,21 +50,21 @@ pub fn import_parsed(
     }
     let skeleton = Skeleton::identify(bvh, options.map.as_ref(), file)?;
     let human = Robot::builtin("human")?;
-    let model = HumanArms::new(&human)?;
-    let calibration = calibrate(bvh, &skeleton, &model);
+    let mut fitter = fitter(bvh, &skeleton, HumanArms::new(&human)?);
     let dt = bvh.frame_time;
     let (first, last) = import_span(bvh, options, &bad)?;
-    let fits = fit_frames(bvh, &skeleton, &model, &calibration, first, last);
+    let fits = fit_frames(bvh, &skeleton, &mut fitter, first, last);
+    let joint_names = fitter.model().joint_names.clone();
     let start_row = calibration_frame(&fits.angles, bvh, options);
     let t0 = (first + start_row) as f64 * dt;
-    let fit = fit_report(&fits, start_row, dt, &model.joint_names);
+    let fit = fit_report(&fits, start_row, dt, &joint_names);
     // Resample onto the output clock.
     let span = (last - first - start_row) as f64 * dt;
     let (out, times_ns) = resample(&fits.angles, start_row, dt, span, options, &bad)?;
     let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
     Ok(CapturedMotion {
         times_ns,
-        joint_names: model.joint_names.clone(),
+        joint_names,
         positions: out,
         source: CaptureSource {
             file: file.to_string(),
@@ -115,32 +84,13 @@ pub fn import_parsed(
     })
 }
 
-/// Each arm's calibration (left, right): its rest frames, from the file's rest pose (and,
-/// where that pose leaves the shoulder's twist untold, the elbow's hinge in the motion).
-fn calibrate(bvh: &Bvh, skeleton: &Skeleton, model: &HumanArms) -> [ArmCalibration; 2] {
-    [Side::Left, Side::Right].map(|side| {
-        let rest = skeleton.rest_pose(bvh, side);
-        let has_clavicle = skeleton.arms[side_index(side)].clavicle.is_some();
-        let provisional = ArmCalibration {
-            rest: RestFrames {
-                upper_arm: nalgebra::Rotation3::identity(),
-                hand: nalgebra::Rotation3::identity(),
-            },
-        };
-        let t = arm_target(&rest, side, has_clavicle, &provisional);
-        let m = |v: Vector3<f64>| match side {
-            Side::Left => v,
-            Side::Right => mirror_vector(v),
-        };
-        let hand = m(direction(&rest.wrist, &rest.hand_tip, m(t.forearm)));
-        let hinge = if model.rest_twist_untold(t.clavicle, t.upper_arm, t.forearm) {
-            elbow_hinge(bvh, skeleton, side).map(m)
-        } else {
-            None
-        };
-        ArmCalibration {
-            rest: model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand, hinge),
-        }
+/// The fit of the file's frames, calibrated on its rest pose (and, where that pose leaves the
+/// shoulder's twist untold, on the elbow's hinge in the motion).
+fn fitter(bvh: &Bvh, skeleton: &Skeleton, model: HumanArms) -> PoseFitter {
+    let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
+    let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
+    PoseFitter::new(model, [&rest[0], &rest[1]], has_clavicle, &|side| {
+        elbow_hinge(bvh, skeleton, side)
     })
 }
 
@@ -223,8 +173,7 @@ struct FrameFits {
 fn fit_frames(
     bvh: &Bvh,
     skeleton: &Skeleton,
-    model: &HumanArms,
-    calibration: &[ArmCalibration; 2],
+    fitter: &mut PoseFitter,
     first: usize,
     last: usize,
 ) -> FrameFits {
@@ -236,20 +185,11 @@ fn fit_frames(
     let mut beyond = vec![false; n];
     let mut at_limit = [0usize; 18];
     let mut first_at_limit = [false; 18];
-    let mut prev: [Option<ArmAngles>; 2] = [None, None];
     for (row, f) in (first..=last).enumerate() {
         let values = bvh.frame(f);
-        for side in [Side::Left, Side::Right] {
-            let s = side_index(side);
-            let pose = skeleton.arm_pose(bvh, values, side);
-            let t = arm_target(
-                &pose,
-                side,
-                skeleton.arms[s].clavicle.is_some(),
-                &calibration[s],
-            );
-            let fit = model.fit(side, &t, prev[s].as_ref());
-            prev[s] = Some(fit.angles);
+        let poses = [Side::Left, Side::Right].map(|side| skeleton.arm_pose(bvh, values, side));
+        let fits = fitter.fit([&poses[0], &poses[1]]);
+        for (s, fit) in fits.iter().enumerate() {
             for k in 0..9 {
                 angles[(row, 9 * s + k)] = fit.angles[k];
                 at_limit[9 * s + k] += usize::from(fit.clamped[k]);
@@ -257,20 +197,10 @@ fn fit_frames(
                     first_at_limit[9 * s + k] = fit.clamped[k];
                 }
             }
-            let points = model.target_points(&t);
-            let (ep, wp) = match side {
-                Side::Left => (points.elbow, points.wrist),
-                Side::Right => (mirror_vector(points.elbow), mirror_vector(points.wrist)),
-            };
-            let (e, w) = model.elbow_and_wrist(side, &fit.angles);
-            let (de, dw) = ((e - ep).norm(), (w - wp).norm());
-            let da = (fit.capture_elbow_angle - fit.angles[5]).abs().to_degrees();
-            beyond[row] |= de > WORST_RESIDUAL_LIMIT_M
-                || dw > WORST_RESIDUAL_LIMIT_M
-                || da > ELBOW_ANGLE_LIMIT_DEG;
-            elbow_res.push(de);
-            wrist_res.push(dw);
-            angle_res.push(da);
+            beyond[row] |= fit.beyond();
+            elbow_res.push(fit.elbow_m);
+            wrist_res.push(fit.wrist_m);
+            angle_res.push(fit.elbow_angle_deg);
         }
     }
     FrameFits {

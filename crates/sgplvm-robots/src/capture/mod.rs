@@ -19,6 +19,7 @@ pub mod axes;
 pub mod bvh;
 pub mod fit;
 pub mod skeleton;
+pub mod stream;
 pub mod write;
 
 mod import;
@@ -33,6 +34,7 @@ pub use bvh::{Bvh, BvhError, BvhJoint, Channel};
 pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use import::{import_bvh, import_parsed};
 pub use skeleton::{ArmMap, ArmPose, Skeleton, SCHEMES};
+pub use stream::{ArmFitResult, PoseFitter};
 pub use write::write_bvh;
 
 use crate::dataset::{concatenate, BodyData, Dataset};

@@ -146,7 +146,11 @@ pub(super) fn load(
 
 /// The convex hull of the collision mesh `filename` (as the URDF names it) scaled by `scale`,
 /// found through `search`; what went wrong, naming the file, when it cannot be had.
-pub fn mesh_hull(search: &MeshSearch, filename: &str, scale: [f64; 3]) -> Result<SharedShape, String> {
+pub fn mesh_hull(
+    search: &MeshSearch,
+    filename: &str,
+    scale: [f64; 3],
+) -> Result<SharedShape, String> {
     let path = search.resolve(filename).map_err(|miss| miss.to_string())?;
     let vertices = read_vertices(&path).map_err(|(_, message)| message)?;
     hull_of(&vertices, scale).map_err(|why| format!("{}: {why}", path.display()))
