@@ -9,6 +9,7 @@ use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
 use sgplvm::robots::retarget::file::{retarget_files, TestChoice};
 use sgplvm::robots::retarget::split::{SplitOptions, SplitSummary};
+use sgplvm::robots::retarget::whole_arm::{Weights, WholeArmOptions};
 use sgplvm::robots::retarget::{Match, ReachReport, Redundancy, RetargetOptions};
 use sgplvm::robots::Robot;
 
@@ -37,12 +38,21 @@ pub struct RetargetArgs {
     /// segments and the split as metadata).
     #[arg(long)]
     out: PathBuf,
-    /// What the robot matches: hands (positions; the fastest, fewest misses), hands+elbows (the
-    /// elbow follows the person's as far as the hand allows: about 1.1× the time), poses (hand
-    /// orientation too: six constraints on seven joints, more targets out of reach, about 2×
-    /// the time).
-    #[arg(long = "match", value_parser = parse_match, default_value = "hands")]
+    /// What the robot matches: arms (the person's arm posture: upper arm and forearm
+    /// directions and the hand, weighed, out of self-collision, a function of the pose),
+    /// hands (positions only, each frame continuing the last), hands+elbows (the elbow follows
+    /// the person's as far as the hand allows), poses (hand orientation too).
+    #[arg(long = "match", value_parser = parse_match, default_value = "arms")]
     mode: Match,
+    /// With --match arms: the tasks' weights, comma-separated NAME=VALUE of upper (the upper
+    /// arm's direction), forearm, hand (its position, as a fraction of the reach), orientation
+    /// (the hand's turn; 0: free) and posture (the pull towards the neutral posture).
+    #[arg(long, value_parser = parse_weights, default_value = "upper=1,forearm=1,hand=4,orientation=0,posture=0.01")]
+    weights: Weights,
+    /// With --match arms: how far apart the robot's own collision shapes stay, metres (0
+    /// turns the self-collision limit off).
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
     /// How each arm's redundancy (7 joints for 3 hand coordinates) is resolved: `continuous`
     /// (each frame continues the last: the hands follow closely, but one hand position may come
     /// with several postures, depending on the path) or `canonical` (the IK solution from the
@@ -99,8 +109,37 @@ enum SplitArg {
     Files,
 }
 
+fn parse_weights(s: &str) -> Result<Weights, String> {
+    let mut w = Weights::default();
+    for part in s.split(',').filter(|p| !p.trim().is_empty()) {
+        let (name, value) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}`: expected NAME=VALUE"))?;
+        let v: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| format!("`{part}`: expected a weight ≥ 0"))?;
+        match name.trim() {
+            "upper" => w.upper_arm = v,
+            "forearm" => w.forearm = v,
+            "hand" => w.hand = v,
+            "orientation" => w.orientation = v,
+            "posture" => w.posture = v,
+            other => {
+                return Err(format!(
+                    "`{other}`: expected upper, forearm, hand, orientation or posture"
+                ))
+            }
+        }
+    }
+    Ok(w)
+}
+
 fn parse_match(s: &str) -> Result<Match, String> {
-    Match::parse(s).ok_or_else(|| format!("unknown `{s}`; expected hands, hands+elbows or poses"))
+    Match::parse(s)
+        .ok_or_else(|| format!("unknown `{s}`; expected arms, hands, hands+elbows or poses"))
 }
 
 pub fn run(args: RetargetArgs) -> Result<()> {
@@ -154,6 +193,12 @@ pub fn run(args: RetargetArgs) -> Result<()> {
             RedundancyArg::Continuous => Redundancy::Continuous,
         },
         velocity_limits: !args.no_velocity_limits,
+        whole_arm: WholeArmOptions {
+            weights: args.weights.clone(),
+            margin_m: args.margin.max(0.0),
+            self_collision: args.margin > 0.0,
+            ..WholeArmOptions::default()
+        },
         ..RetargetOptions::default()
     };
     let split = SplitOptions {
@@ -188,13 +233,27 @@ fn print_reports(
     seconds: f64,
     args: &RetargetArgs,
 ) {
-    let mm = |m: f64| m * 1000.0;
     println!(
         "retargeted {frames} frames to {} robot(s) in {seconds:.1} s ({:.0} frames/s per robot); match: {}",
         reports.len(),
         frames as f64 * reports.len() as f64 / seconds.max(1e-9),
         args.mode.name()
     );
+    if args.mode == Match::Arms {
+        print_postures(reports);
+    } else {
+        print_hands(reports);
+    }
+    println!(
+        "split: {} blocks of {} s, {} for testing; {} training and {} test frames kept ({} guard frames left out)",
+        s.blocks, args.block_seconds, s.test_blocks, s.train_frames, s.test_frames, s.guard_frames
+    );
+    println!("wrote {}", args.out.display());
+}
+
+/// Per robot, how the hands followed (the hand-matching modes).
+fn print_hands(reports: &[ReachReport]) {
+    let mm = |m: f64| m * 1000.0;
     println!("robot        reached (of targets): median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)");
     for r in reports {
         let reached = match (r.median_m, r.worst_m) {
@@ -219,9 +278,37 @@ fn print_reports(
             }
         );
     }
-    println!(
-        "split: {} blocks of {} s, {} for testing; {} training and {} test frames kept ({} guard frames left out)",
-        s.blocks, args.block_seconds, s.test_blocks, s.train_frames, s.test_frames, s.guard_frames
-    );
-    println!("wrote {}", args.out.display());
+}
+
+/// Per robot, how the arm postures followed and how near the robot came to itself
+/// (`--match arms`).
+fn print_postures(reports: &[ReachReport]) {
+    println!("robot        upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)");
+    for r in reports {
+        let Some(p) = &r.posture else { continue };
+        println!(
+            "{:<12} {:>5.1}° {:>5.1}°        | {:>5.1}° {:>5.1}°         | {:>5.1} % {:>5.1} % ({:>5.1} %)                | {:>6} {:>6}                        | {} ({:.1} mm, {:.0} mm)",
+            r.robot,
+            p.upper_arm_deg[0],
+            p.upper_arm_deg[1],
+            p.forearm_deg[0],
+            p.forearm_deg[1],
+            100.0 * p.hand_of_reach[0],
+            100.0 * p.hand_of_reach[1],
+            100.0 * p.hands_within_5pct,
+            p.velocity_limited_frames,
+            p.collision_limited_frames,
+            p.colliding_frames,
+            1e3 * p.closest_m,
+            1e3 * p.margin_m,
+        );
+        if !p.unchecked.is_empty() {
+            println!(
+                "{:<12} self-collision not checked for {} collision element(s): {}",
+                r.robot,
+                p.unchecked.len(),
+                p.unchecked.first().map_or("", String::as_str)
+            );
+        }
+    }
 }

@@ -176,13 +176,33 @@ impl SafetyStep {
                 ));
             }
         }
-        let delta = match step.solve() {
+        let mut delta = match step.solve() {
             Ok((d, _)) => d,
             Err(_) => {
                 outcome.infeasible = true;
                 DVector::zeros(n)
             }
         };
+        // The linearised distances bind only near; a long step can still pass through a
+        // shape: the step is cut back until nothing overlaps (from a command that did not).
+        if self.options.self_collision && self.last.is_some() {
+            let overlaps = |d: &DVector<f64>| {
+                let x: Vec<f64> = from.iter().zip(d.iter()).map(|(f, d)| f + d).collect();
+                let frames = RobotFrames::new(&self.robot, &self.ancestry, &self.full(&x));
+                self.collision
+                    .proximities(&frames, 0.0)
+                    .iter()
+                    .any(|p| p.distance < 0.0)
+            };
+            let mut cut = 0;
+            while cut < 12 && overlaps(&delta) {
+                delta *= 0.5;
+                cut += 1;
+            }
+            if cut == 12 {
+                delta.fill(0.0);
+            }
+        }
         for (k, o) in out.iter_mut().enumerate().take(n) {
             *o = from[k] + delta[k];
         }

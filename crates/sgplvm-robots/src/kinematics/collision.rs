@@ -26,6 +26,9 @@ pub struct LinkShape {
     pub shape: SharedShape,
     /// Its pose in the link's frame.
     pub local: Isometry3<f64>,
+    /// The centre of a sphere holding it, in the link's frame, and its radius: a cheap test
+    /// before parry's.
+    pub bound: (Vector3<f64>, f64),
 }
 
 /// Two shapes near each other at a configuration.
@@ -130,11 +133,18 @@ impl CollisionModel {
                     [c.origin.rpy[0], c.origin.rpy[1], c.origin.rpy[2]],
                 );
                 match shape_of(&c.geometry, meshes) {
-                    Ok((shape, turn)) => shapes.push(LinkShape {
-                        link: l,
-                        shape,
-                        local: origin * turn,
-                    }),
+                    Ok((shape, turn)) => {
+                        let local = origin * turn;
+                        let sphere = shape.compute_local_bounding_sphere();
+                        let centre =
+                            (local * nalgebra::Point3::from(vec_from_parry(sphere.center))).coords;
+                        shapes.push(LinkShape {
+                            link: l,
+                            shape,
+                            local,
+                            bound: (centre, f64::from(sphere.radius)),
+                        });
+                    }
                     Err(why) => unchecked.push(format!("{}: {why}", link.name)),
                 }
             }
@@ -225,9 +235,18 @@ impl CollisionModel {
 
     /// Every pair within `within` metres at `frames`, with its closest points and normal.
     pub fn proximities(&self, frames: &RobotFrames, within: f64) -> Vec<Proximity> {
+        let centres: Vec<Vector3<f64>> = self
+            .shapes
+            .iter()
+            .map(|s| (frames.link(s.link) * nalgebra::Point3::from(s.bound.0)).coords)
+            .collect();
         self.pairs
             .iter()
             .enumerate()
+            .filter(|&(_, &(i, k))| {
+                (centres[i] - centres[k]).norm() - self.shapes[i].bound.1 - self.shapes[k].bound.1
+                    <= within
+            })
             .filter_map(|(p, &(i, k))| {
                 let (c, d) = self.distance(frames, i, k, within)?;
                 Some(Proximity {

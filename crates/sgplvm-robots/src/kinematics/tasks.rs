@@ -105,6 +105,32 @@ impl TaskContext<'_> {
 }
 
 impl Task {
+    /// The task's error alone at `ctx` (what [`Task::linearize`] gives without the Jacobian).
+    pub fn error(&self, ctx: &TaskContext<'_>) -> DVector<f64> {
+        match self {
+            Task::Direction { from, to, target } => {
+                let d = to.at(ctx.frames) - from.at(ctx.frames);
+                let u = d / d.norm().max(1e-9);
+                DVector::from_column_slice((target - u).as_slice())
+            }
+            Task::Position {
+                point,
+                target,
+                scale,
+            } => DVector::from_column_slice(
+                ((target - point.at(ctx.frames)) / scale.max(1e-9)).as_slice(),
+            ),
+            Task::Orientation { link, target } => {
+                let r = ctx.frames.link(*link).rotation;
+                DVector::from_column_slice((target * r.inverse()).scaled_axis().as_slice())
+            }
+            Task::Posture { target } => DVector::from_iterator(
+                target.len(),
+                target.iter().zip(ctx.active_values()).map(|(t, v)| t - v),
+            ),
+        }
+    }
+
     /// The task's error and Jacobian at `ctx`.
     pub fn linearize(&self, ctx: &TaskContext<'_>) -> (DVector<f64>, DMatrix<f64>) {
         match self {

@@ -54,8 +54,9 @@ pub fn read_human(
     let mut stems = Vec::new();
     let invalid = |e: &dyn std::fmt::Display| RetargetError::Invalid(e.to_string());
     for path in demos {
-        let ds = load_demonstrations(path).map_err(|e| invalid(&e))?;
+        let mut ds = load_demonstrations(path).map_err(|e| invalid(&e))?;
         let mut file_sources = read_capture_sources(path).map_err(|e| invalid(&e))?;
+        files_again(&mut ds, file_sources.len());
         // Each input file is one part; its capture files (if it was imported from several)
         // stay its segments.
         stems.extend(file_stems(&ds, &file_sources, path));
@@ -120,6 +121,35 @@ pub fn retarget_files(
         seconds,
         files: stems,
     })
+}
+
+/// A file retargeted before holds its capture files cut into blocks: its segments become its
+/// capture files again — the runs of frames between the gaps that joined them — when there
+/// are as many runs as capture files, so that retargeting it again splits it as the first
+/// time.
+fn files_again(ds: &mut Dataset, files: usize) {
+    if files == 0 || ds.segments.len() == files || ds.len() < 2 {
+        return;
+    }
+    let mut steps: Vec<i64> = ds.times_ns.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_unstable();
+    let typical = steps[steps.len() / 2].max(1);
+    let mut starts = vec![0];
+    starts.extend((1..ds.len()).filter(|&i| ds.times_ns[i] - ds.times_ns[i - 1] > 2 * typical));
+    if starts.len() != files {
+        return;
+    }
+    ds.segments = starts
+        .iter()
+        .enumerate()
+        .map(|(k, &start)| crate::dataset::Segment {
+            start,
+            end: starts.get(k + 1).copied().unwrap_or(ds.len()),
+            from_pose: None,
+            to_pose: None,
+            repetition: None,
+        })
+        .collect();
 }
 
 /// Names of the files behind the segments of one input: the capture files it was imported

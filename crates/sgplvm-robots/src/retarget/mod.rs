@@ -32,6 +32,7 @@
 mod arm;
 pub mod file;
 pub mod split;
+pub mod whole_arm;
 
 use nalgebra::{DMatrix, Isometry3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -44,11 +45,15 @@ use crate::{IkOptions, IkTarget, Robot, RobotError};
 pub use arm::Redundancy;
 use arm::{ArmRun, Outcome};
 
-/// What the robot's arm matches besides the hand's position.
+/// What the robot's arm matches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Match {
-    /// Hand positions only (the default).
+    /// The person's arm posture (the default): the upper arm's and forearm's directions and
+    /// the hand's position, weighed, by differential IK with self-collision avoidance, a
+    /// function of the pose ([`whole_arm`]).
     #[default]
+    Arms,
+    /// Hand positions only.
     Hands,
     /// Hand positions, and the elbows as near the human's as the hands allow.
     HandsAndElbows,
@@ -57,9 +62,10 @@ pub enum Match {
 }
 
 impl Match {
-    /// The command-line name: `hands`, `hands+elbows` or `poses`.
+    /// The command-line name: `arms`, `hands`, `hands+elbows` or `poses`.
     pub fn name(self) -> &'static str {
         match self {
+            Match::Arms => "arms",
             Match::Hands => "hands",
             Match::HandsAndElbows => "hands+elbows",
             Match::Poses => "poses",
@@ -68,9 +74,14 @@ impl Match {
 
     /// Parses a command-line name.
     pub fn parse(s: &str) -> Option<Match> {
-        [Match::Hands, Match::HandsAndElbows, Match::Poses]
-            .into_iter()
-            .find(|m| m.name() == s)
+        [
+            Match::Arms,
+            Match::Hands,
+            Match::HandsAndElbows,
+            Match::Poses,
+        ]
+        .into_iter()
+        .find(|m| m.name() == s)
     }
 }
 
@@ -85,15 +96,18 @@ pub struct RetargetOptions {
     pub velocity_limits: bool,
     /// A hand this close to its target (metres) has reached it.
     pub reach_tolerance_m: f64,
+    /// Whole-arm retargeting's settings ([`Match::Arms`]).
+    pub whole_arm: whole_arm::WholeArmOptions,
 }
 
 impl Default for RetargetOptions {
     fn default() -> Self {
         Self {
-            mode: Match::Hands,
+            mode: Match::Arms,
             redundancy: Redundancy::Continuous,
             velocity_limits: true,
             reach_tolerance_m: 0.005,
+            whole_arm: whole_arm::WholeArmOptions::default(),
         }
     }
 }
@@ -162,6 +176,13 @@ pub struct ReachReport {
     pub elbow_median_m: Option<f64>,
     /// With [`Match::Poses`]: median orientation error of the hands, radians.
     pub orientation_median_rad: Option<f64>,
+    /// With [`Match::Arms`]: hand targets the hand missed by more than the tolerance because
+    /// the arm's posture was weighed against them.
+    #[serde(default)]
+    pub compromised: usize,
+    /// With [`Match::Arms`]: how the arm postures followed, and the self-collisions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub posture: Option<whole_arm::PostureReport>,
 }
 
 /// One robot's retargeted commands.
@@ -340,7 +361,7 @@ impl<'a> RobotArms<'a> {
     fn target(&self, s: usize, r: &Relative, mode: Match) -> IkTarget {
         let hand = self.place(s, &r.hand);
         match mode {
-            Match::Hands => IkTarget::Position(hand),
+            Match::Hands | Match::Arms => IkTarget::Position(hand),
             Match::HandsAndElbows => IkTarget::PositionAndJoint {
                 tip: hand,
                 joint: self.frames.elbows[s],
@@ -391,6 +412,21 @@ pub fn retarget(
             human.relative(&q)
         })
         .collect();
+    if options.mode == Match::Arms {
+        let human_gauge = whole_arm::PostureGauge::of(&human.anatomy);
+        let postures: Vec<[whole_arm::ArmPosture; 2]> = (0..n)
+            .map(|f| {
+                let q: Vec<f64> = dataset.human.positions.row(f).iter().copied().collect();
+                human_gauge.measure(&human.anatomy, &q)
+            })
+            .collect();
+        return robots
+            .iter()
+            .map(|(name, anatomy)| {
+                retarget_whole_arm(name, anatomy, &postures, &dataset.times_ns, options)
+            })
+            .collect();
+    }
     Ok(robots
         .iter()
         .map(|(name, anatomy)| {
@@ -398,6 +434,49 @@ pub fn retarget(
             retarget_robot(&arms, &targets, &dataset.times_ns, options)
         })
         .collect())
+}
+
+/// One robot by whole-arm retargeting ([`Match::Arms`]).
+fn retarget_whole_arm(
+    name: &str,
+    anatomy: &Anatomy,
+    postures: &[[whole_arm::ArmPosture; 2]],
+    times_ns: &[i64],
+    options: &RetargetOptions,
+) -> Result<Retargeted, RetargetError> {
+    let (full, misses, posture) = whole_arm::run(
+        anatomy,
+        postures,
+        times_ns,
+        &options.whole_arm,
+        options.velocity_limits,
+    )
+    .map_err(|e| RetargetError::Invalid(format!("{name}: {e}")))?;
+    let mut tally = Tally::default();
+    for &miss in &misses {
+        tally.add(Outcome::Reached, miss, options.reach_tolerance_m);
+    }
+    let mut report = tally.report(name, options.mode, misses.len());
+    // A miss the posture weighed against is no target out of reach.
+    report.compromised = report.unreachable;
+    report.unreachable = 0;
+    report.unreachable_worst_m = 0.0;
+    report.posture = Some(posture);
+    let command: Vec<usize> = anatomy
+        .command_joint_names()
+        .iter()
+        .filter_map(|n| anatomy.robot().joint_index(n))
+        .collect();
+    let n = postures.len();
+    Ok(Retargeted {
+        body: BodyData {
+            name: name.to_string(),
+            topic: format!("/{name}/joint_command"),
+            joint_names: anatomy.command_joint_names(),
+            positions: DMatrix::from_fn(n, command.len(), |f, c| full[(f, command[c])]),
+        },
+        report,
+    })
 }
 
 /// One robot, every frame.
@@ -524,6 +603,8 @@ impl Tally {
             elbow_median_m: (mode == Match::HandsAndElbows).then(|| median(&mut self.elbow_misses)),
             orientation_median_rad: (mode == Match::Poses)
                 .then(|| median(&mut self.orientation_misses)),
+            compromised: 0,
+            posture: None,
         }
     }
 }

@@ -2,6 +2,7 @@ use super::split::{split_into_blocks, SplitOptions, SplitRule};
 use super::*;
 use crate::dataset::Segment;
 use crate::generator::solve_key_poses;
+use crate::retarget::whole_arm;
 
 /// A human moving through its key postures (smoothstep between them), `per_motion` frames each
 /// at 40 Hz, as one unlabelled segment.
@@ -51,7 +52,11 @@ fn relative_hands(anatomy: &Anatomy, q: &[f64]) -> [Vector3<f64>; 2] {
 #[test]
 fn hands_follow_the_human_s_hands_scaled_within_limits_and_speeds() {
     let ds = human_tour(&[0, 1, 3, 4, 8, 0], 40);
-    let out = retarget(&ds, &coman(), &RetargetOptions::default()).unwrap();
+    let hands = RetargetOptions {
+        mode: Match::Hands,
+        ..RetargetOptions::default()
+    };
+    let out = retarget(&ds, &coman(), &hands).unwrap();
     let r = &out[0];
     let robot = Robot::builtin("coman").unwrap();
     let (ra, ha) = (
@@ -273,4 +278,103 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("at least one must test and one train"), "{e}");
+}
+
+/// The arm postures of a retargeted robot (left, right) at every frame, measured apart from
+/// the code under test's targets: directions between its landmarks in its body frame.
+fn robot_postures(anatomy: &Anatomy, out: &Retargeted) -> Vec<[whole_arm::ArmPosture; 2]> {
+    let gauge = whole_arm::PostureGauge::of(anatomy);
+    (0..out.body.positions.nrows())
+        .map(|f| {
+            let row: Vec<f64> = out.body.positions.row(f).iter().copied().collect();
+            let q = anatomy.configuration(&out.body.joint_names, &row).unwrap();
+            gauge.measure(anatomy, &q)
+        })
+        .collect()
+}
+
+#[test]
+fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision() {
+    // Through every key pose, hands meeting in front of the chest included.
+    let ds = human_tour(&[0, 1, 5, 6, 14, 8, 4, 15, 0], 40);
+    let out = retarget(&ds, &coman(), &RetargetOptions::default())
+        .unwrap()
+        .remove(0);
+    let report = out.report.posture.as_ref().unwrap();
+    assert!(
+        report.upper_arm_deg[0] < 10.0 && report.forearm_deg[0] < 10.0,
+        "{report:?}"
+    );
+    assert_eq!(report.colliding_frames, 0, "{report:?}");
+    assert!(report.closest_m > report.margin_m - 2e-3, "{report:?}");
+    assert!(report.pairs > 0 && report.unchecked.is_empty());
+    // The robot's own postures measured here agree with the report's targets: the person's.
+    let anatomy = Anatomy::builtin("coman").unwrap();
+    let human = Anatomy::builtin("human").unwrap();
+    let human_gauge = whole_arm::PostureGauge::of(&human);
+    let got = robot_postures(&anatomy, &out);
+    let mut errors = Vec::new();
+    for (f, g) in got.iter().enumerate() {
+        let q: Vec<f64> = ds.human.positions.row(f).iter().copied().collect();
+        let want = human_gauge.measure(&human, &q);
+        for s in 0..2 {
+            errors.push(g[s].upper_arm.angle(&want[s].upper_arm).to_degrees());
+        }
+    }
+    let median = crate::series::median(&mut errors);
+    assert!(
+        (median - report.upper_arm_deg[0]).abs() < 1e-6,
+        "{median} vs {report:?}"
+    );
+    // Limits: positions within the URDF's, steps within the velocity limits.
+    let limits = anatomy.robot().joint_limits();
+    let speed = anatomy.robot().velocity_limits();
+    for f in 0..ds.len() {
+        for j in 0..14 {
+            let v = out.body.positions[(f, j)];
+            assert!(v >= limits[j].0 - 1e-9 && v <= limits[j].1 + 1e-9);
+            if f > 0 {
+                let step = (v - out.body.positions[(f - 1, j)]).abs();
+                assert!(
+                    step <= speed[j] * 0.025 + 1e-9,
+                    "joint {j} frame {f}: {step}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn whole_arm_posture_is_a_function_of_the_pose_not_of_the_path() {
+    // A capture played forwards, and in shuffled blocks: the same pose, the same posture.
+    let forwards = human_tour(&[0, 1, 3, 4, 8, 9, 0], 30);
+    let n = forwards.len();
+    let block = 30;
+    let order: Vec<usize> = [5, 2, 0, 4, 1, 3]
+        .iter()
+        .flat_map(|&b| (b * block..((b + 1) * block).min(n)).collect::<Vec<_>>())
+        .collect();
+    let mut shuffled = forwards.clone();
+    shuffled.human.positions = DMatrix::from_fn(order.len(), 18, |i, j| {
+        forwards.human.positions[(order[i], j)]
+    });
+    shuffled.times_ns = (0..order.len() as i64)
+        .map(|i| 1_000_000_000 + i * 25_000_000)
+        .collect();
+    shuffled.segments[0].end = order.len();
+    shuffled.train = (0..order.len()).collect();
+    // No velocity limit: the commands are the solutions themselves.
+    let options = RetargetOptions {
+        velocity_limits: false,
+        ..RetargetOptions::default()
+    };
+    let a = retarget(&forwards, &coman(), &options).unwrap().remove(0);
+    let b = retarget(&shuffled, &coman(), &options).unwrap().remove(0);
+    let mut worst = 0.0_f64;
+    for (i, &f) in order.iter().enumerate() {
+        for j in 0..14 {
+            worst = worst.max((a.body.positions[(f, j)] - b.body.positions[(i, j)]).abs());
+        }
+    }
+    assert!(worst.to_degrees() < 1.0, "{}°", worst.to_degrees());
 }
