@@ -15,11 +15,13 @@
 //!    motion slowly instead of stopping half-way; otherwise it stays where it holds.) Before
 //!    any frame was trusted nothing is sent ([`Reason::Waiting`]).
 //! 2. **Limits.** Whatever the target, the command sent is within each joint's velocity limit
-//!    of the previous command sent (over the seconds between them) and within its position
-//!    limits ([`sgplvm_robots::limits::CommandLimits`]); every joint moved is counted.
+//!    of the previous command sent (over the seconds between the two sends, on the node's
+//!    clock: the stale hold is a command sent too, and the human frames' stamps play no part)
+//!    and within its position limits ([`sgplvm_robots::limits::CommandLimits`]); every joint
+//!    moved is counted.
 //! 3. **Stale input.** No human frame for [`GateOptions::timeout_s`]: the robot holds its last
-//!    command, and the status says so, until frames come again (then it follows from where it
-//!    is, within its velocity limits: no jump).
+//!    command (sent again, and timed as sent), and the status says so, until frames come again
+//!    (then it follows from where it is, within its velocity limits: no jump).
 //!
 //! [`Decision`] says what happened and why, for the status the node publishes.
 
@@ -113,7 +115,7 @@ pub struct Gate {
     limits: CommandLimits,
     threshold: f64,
     return_speed: f64,
-    /// The command last sent and when (seconds on the node's clock).
+    /// The command last sent and when it was sent (seconds on the node's clock).
     last_sent: Option<(Vec<f64>, f64)>,
     /// The last trusted prediction, within the position limits.
     last_trusted: Option<Vec<f64>>,
@@ -182,9 +184,11 @@ impl Gate {
         }
     }
 
-    /// One human frame at `now` seconds: the model predicted `prediction` with standard
-    /// deviation `sd`; the command to send is written to `command` (untouched, and nothing to
-    /// send, when the decision is [`Reason::Waiting`]).
+    /// One human frame, its command to be sent at `now` seconds on the node's clock (the
+    /// clock of every command this gate sends: the velocity limits hold over the time between
+    /// two sends): the model predicted `prediction` with standard deviation `sd`; the command
+    /// to send is written to `command` (untouched, and nothing to send, when the decision is
+    /// [`Reason::Waiting`]).
     pub fn step(&mut self, now: f64, prediction: &[f64], sd: f64, command: &mut [f64]) -> Decision {
         self.counts.frames += 1;
         let trusted = sd.is_finite() && sd <= self.threshold;
@@ -230,11 +234,13 @@ impl Gate {
         self.decide(reason, sd, clamped)
     }
 
-    /// No frame came for longer than the timeout: hold (the command to repeat, if any, is
-    /// written to `command`).
-    pub fn stale(&mut self, command: &mut [f64]) -> Option<Decision> {
-        let (q, _) = self.last_sent.as_ref()?;
+    /// No frame came for longer than the timeout: hold. The command to repeat, if any, is
+    /// written to `command`, to be sent at `now` seconds on the node's clock: the next command
+    /// moves within the velocity limits over the time since this one.
+    pub fn stale(&mut self, now: f64, command: &mut [f64]) -> Option<Decision> {
+        let (q, t) = self.last_sent.as_mut()?;
         command.copy_from_slice(q);
+        *t = t.max(now);
         if self.reason != Some(Reason::Stale) {
             self.counts.stale += 1;
         }
@@ -324,14 +330,14 @@ mod tests {
         let mut g = gate();
         let mut c = [0.0; 2];
         assert!(
-            g.stale(&mut c).is_none(),
+            g.stale(0.0, &mut c).is_none(),
             "nothing sent yet: nothing to hold"
         );
         g.step(0.0, &[0.3, 0.1], 0.1, &mut c);
-        let d = g.stale(&mut c).unwrap();
+        let d = g.stale(0.1, &mut c).unwrap();
         assert_eq!((d.reason, c), (Reason::Stale, [0.3, 0.1]));
         assert!(d.changed);
-        assert!(!g.stale(&mut c).unwrap().changed);
+        assert!(!g.stale(0.2, &mut c).unwrap().changed);
         assert_eq!(g.counts().stale, 1);
         // Frames again: follows within the velocity limit from the held command.
         let d = g.step(2.0, &[0.4, 0.1], 0.1, &mut c);
@@ -360,5 +366,37 @@ mod tests {
             g.step(0.025, &[0.1, 0.1], f64::NAN, &mut c).reason,
             Reason::Holding
         );
+    }
+
+    #[test]
+    fn after_silence_the_first_command_moves_within_the_velocity_limit_of_the_hold() {
+        // Issue 44: the input stops, the node sends the hold at the timeout (0.1 s), frames
+        // come back 30 ms after the hold with a pose 1 rad away. The robot received the hold
+        // 30 ms before: 4 rad/s allow 0.12 rad, not the 0.52 rad of the 0.13 s since the last
+        // frame's command.
+        let mut g = gate();
+        let mut c = [0.0; 2];
+        g.step(0.0, &[0.0, 0.0], 0.1, &mut c);
+        g.stale(0.1, &mut c).unwrap();
+        let d = g.step(0.13, &[1.0, 0.0], 0.1, &mut c);
+        assert_eq!(d.reason, Reason::Following);
+        assert!((c[0] - 4.0 * 0.03).abs() < 1e-12, "{c:?}");
+        assert_eq!(d.clamped.velocity, 1);
+        // The 400 ms pause of the issue: the hold at 0.1 s, the next frame at 0.4 s.
+        let mut g = gate();
+        g.step(0.0, &[0.0, 0.0], 0.1, &mut c);
+        g.stale(0.1, &mut c).unwrap();
+        g.step(0.4, &[2.0, 0.0], 0.1, &mut c);
+        assert!((c[0] - 4.0 * 0.3).abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn a_stale_hold_never_moves_the_clock_back() {
+        let mut g = gate();
+        let mut c = [0.0; 2];
+        g.step(1.0, &[0.0, 0.0], 0.1, &mut c);
+        g.stale(0.5, &mut c).unwrap(); // an earlier time: the command's own time is kept
+        g.step(1.01, &[1.0, 0.0], 0.1, &mut c);
+        assert!((c[0] - 0.04).abs() < 1e-12, "{c:?}");
     }
 }

@@ -214,13 +214,12 @@ impl<'a> Session<'a> {
             }
         }
         self.last_stamp = Some(stamp.to_ns());
-        let now_s = received.duration_since(self.start).as_secs_f64();
         for slot in &mut self.slots {
             slot.ok = slot.model.latent_frame(&self.h, &mut slot.x).is_ok();
         }
         for r in &mut self.driven {
             let slot = &self.slots[r.model_slot];
-            let changed = command(r, slot, self.options, stamp, self.period_s, now_s, log)?;
+            let changed = command(r, slot, self.options, stamp, self.period_s, self.start, log)?;
             self.status_due |= changed;
         }
         self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
@@ -256,7 +255,10 @@ impl<'a> Session<'a> {
                     self.timeout.as_secs_f64() * 1e3
                 ));
                 for r in &mut self.driven {
-                    if let Some(d) = r.gate.stale(&mut r.command) {
+                    // The hold is a command sent now: the next one moves within the velocity
+                    // limits over the time since it.
+                    let now_s = self.start.elapsed().as_secs_f64();
+                    if let Some(d) = r.gate.stale(now_s, &mut r.command) {
                         for (k, &j) in r.order.iter().enumerate() {
                             r.sent[k] = r.command[j];
                         }
@@ -309,7 +311,7 @@ fn command(
     options: &TeleopOptions,
     stamp: Time,
     period_s: f64,
-    now_s: f64,
+    start: Instant,
     log: &mut dyn FnMut(&str),
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
@@ -322,6 +324,9 @@ fn command(
     };
     r.columns.fill(&r.model_mean, &mut r.mean);
     r.columns.fill_std(&r.model_sd, &mut r.sd);
+    // The gate's clock is the send clock: the command goes out right after this step, and the
+    // velocity limits hold over the time between two sends, whatever the frames' stamps say.
+    let now_s = start.elapsed().as_secs_f64();
     let decision = r.gate.step(now_s, &r.mean, sd, &mut r.command);
     if decision.reason != Reason::Waiting {
         for (k, &j) in r.order.iter().enumerate() {
