@@ -8,6 +8,7 @@ use std::sync::Arc;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::joint_state::{read_joint_states, JointStates};
+use sgplvm_live::gate::Signals;
 use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, ReplayOptions, TeleopOptions};
 
 use super::args::{load_model, JsonArg};
@@ -60,14 +61,28 @@ pub struct TeleopArgs {
     /// is stale.
     #[arg(long, default_value_t = 0.1)]
     timeout: f64,
+    /// Which signals hold a robot when beyond their thresholds: reconstruction (how far the
+    /// human pose is from the model's reconstruction of it: it sees input far from every
+    /// training pose), sd (the robot prediction's standard deviation: larger on any motion
+    /// the training did not repeat) or both (either holds).
+    #[arg(long, value_enum, default_value = "reconstruction")]
+    gate: GateArg,
+    /// The reconstruction threshold (the human space's units, radians) instead of the model's
+    /// (the larger of the 99th percentile of its training frames' errors, each reconstructed
+    /// with its group of training frames held out, and the mean pose's error on them).
+    #[arg(long)]
+    reconstruction_threshold: Option<f64>,
+    /// The model's reconstruction threshold multiplied by this [default: 1].
+    #[arg(long)]
+    reconstruction_scale: Option<f64>,
     /// The trust threshold (standardised predictive standard deviation) instead of the model's
     /// (the 99th percentile over its training frames, each predicted with its group of
-    /// training frames held out).
+    /// training frames held out); with --gate sd or both.
     #[arg(long)]
     trust_threshold: Option<f64>,
-    /// The model's trust threshold multiplied by this.
-    #[arg(long, default_value_t = 1.0)]
-    trust_scale: f64,
+    /// The model's trust threshold multiplied by this, with --gate sd or both [default: 1].
+    #[arg(long)]
+    trust_scale: Option<f64>,
     /// Fraction of each joint's velocity limit at which an untrusted robot moves towards its
     /// last trusted target.
     #[arg(long, default_value_t = 0.25)]
@@ -94,6 +109,70 @@ enum QosArg {
     BestEffort,
     /// Reliable.
     Reliable,
+}
+
+/// `--gate`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum GateArg {
+    /// The reconstruction error of the human frame.
+    Reconstruction,
+    /// The robot prediction's standard deviation.
+    Sd,
+    /// Either beyond its threshold holds.
+    Both,
+}
+
+impl TeleopArgs {
+    /// The safety rule's parameters; a threshold given for a signal that does not gate is an
+    /// error (it would change nothing).
+    fn gate(&self) -> Result<GateOptions> {
+        let signals = match self.gate {
+            GateArg::Reconstruction => Signals::Reconstruction,
+            GateArg::Sd => Signals::Sd,
+            GateArg::Both => Signals::Both,
+        };
+        let given = |flags: [(&str, Option<f64>); 2], gates: bool, gate: &str| -> Result<()> {
+            for (flag, value) in flags {
+                if let (Some(v), false) = (value, gates) {
+                    bail!("{flag} {v}: that signal does not hold the robots with --gate {gate}; add --gate both (or --gate {})", if flag.starts_with("--trust") { "sd" } else { "reconstruction" });
+                }
+                if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                    bail!("{flag} {v}: expected a number ≥ 0");
+                }
+            }
+            Ok(())
+        };
+        let name = self
+            .gate
+            .to_possible_value()
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default();
+        given(
+            [
+                ("--trust-threshold", self.trust_threshold),
+                ("--trust-scale", self.trust_scale),
+            ],
+            signals.sd(),
+            &name,
+        )?;
+        given(
+            [
+                ("--reconstruction-threshold", self.reconstruction_threshold),
+                ("--reconstruction-scale", self.reconstruction_scale),
+            ],
+            signals.reconstruction(),
+            &name,
+        )?;
+        Ok(GateOptions {
+            signals,
+            threshold: self.trust_threshold,
+            threshold_scale: self.trust_scale.unwrap_or(1.0),
+            reconstruction_threshold: self.reconstruction_threshold,
+            reconstruction_scale: self.reconstruction_scale.unwrap_or(1.0),
+            return_speed: self.return_speed,
+            timeout_s: self.timeout,
+        })
+    }
 }
 
 impl QosArg {
@@ -190,12 +269,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         command_topic: args.command_topic.clone(),
         command_qos: args.command_qos.reliability(),
         joint_order: args.joints.clone(),
-        gate: GateOptions {
-            threshold: args.trust_threshold,
-            threshold_scale: args.trust_scale,
-            return_speed: args.return_speed,
-            timeout_s: args.timeout,
-        },
+        gate: args.gate()?,
         status_topic: args.status_topic.clone(),
         max_frames: args.max_frames,
         status_period_s: 1.0,
@@ -226,8 +300,8 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         );
         for (robot, r) in &summary.robots {
             eprintln!(
-                "{robot}: {} frames not trusted (threshold {:.4}), {} commands held within position limits, {} within velocity limits, input stale {} time(s)",
-                r.untrusted, r.threshold, r.position_clamped, r.velocity_clamped, r.stale
+                "{robot}: {} frames not trusted, {} commands held within position limits, {} within velocity limits, input stale {} time(s)",
+                r.untrusted, r.position_clamped, r.velocity_clamped, r.stale
             );
         }
         for (kind, n) in &summary.dropped {

@@ -14,7 +14,10 @@
 //! Since 2026-12 the payload may hold `trust`, each robot space's trust threshold (`trust`
 //! module), and `trust_groups`, the groups of training frames they were computed by: files
 //! without them load as before and get the thresholds computed when asked for (by consecutive
-//! blocks of training frames).
+//! blocks of training frames). Since issue 44 it may also hold `reconstruction`, the human space's
+//! reconstruction threshold (`reconstruction` module), computed by the same groups; files
+//! without it load as before and get it computed when asked for. Both are optional fields of
+//! format 2 (and 3): a library from before them ignores them.
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
@@ -281,6 +284,10 @@ struct ModelFile {
     /// blocks).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     trust_groups: Option<Vec<usize>>,
+    /// The reconstruction threshold (`reconstruction` module; absent in files written before
+    /// it existed, whose threshold is computed when asked for).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    reconstruction: Option<f64>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -350,6 +357,7 @@ impl SharedGplvm {
                 .filter_map(|name| Some((name.to_string(), self.trust_threshold(name).ok()?)))
                 .collect(),
             trust_groups: self.trust_groups.clone(),
+            reconstruction: self.reconstruction_threshold().ok(),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -542,6 +550,12 @@ impl SharedGplvm {
                 .map_err(|e| corrupt(format!("trust_groups: {e}")))?;
         }
         model.trust = f.trust;
+        if let Some(t) = f.reconstruction {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(corrupt(format!("reconstruction threshold {t}")));
+            }
+            model.reconstruction = Some(t);
+        }
         model.rebuild()?;
         Ok(model)
     }

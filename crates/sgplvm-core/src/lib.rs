@@ -43,6 +43,7 @@
 //! | `regression.rs` | [`GpRegression`]: the direct-mapping yardstick, and the regression the input map uses |
 //! | `input_map.rs` | the human → latent GP regression of models without input back constraints |
 //! | `predict.rs` | human → latent → robot, single frame and batch; the prediction caches |
+//! | `reconstruction.rs` | how far a human frame is from the poses the model learned: the human space's reconstruction error h → x → ĥ and its threshold from held-out groups ([`SharedGplvm::reconstruction_threshold`]) |
 //! | `params.rs` | [`Params`] in natural units, [`SharedGplvm::set_params`] |
 //! | `model.rs` | the [`SharedGplvm`] struct and its accessors |
 //! | `io.rs` | the versioned model file |
@@ -112,6 +113,7 @@ mod partial;
 mod pool;
 mod predict;
 mod preprocess;
+mod reconstruction;
 mod regression;
 mod simd;
 mod sparse;
@@ -135,6 +137,7 @@ pub use params::{LatentParams, Params};
 pub use partial::PartialTransfer;
 pub use predict::Prediction;
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
+pub use reconstruction::{ReconstructionCalibration, RECONSTRUCTION_PERCENTILE};
 pub use regression::GpRegression;
 pub use sparse::bayesian::{bayesian_bound, BayesianBound, Jitter, SpaceGradient};
 pub use sparse::objective::SparseEvaluator;

@@ -104,6 +104,9 @@ pub struct SharedGplvm {
     /// The groups of training frames the trust thresholds hold out in turn (`None`: the
     /// `trust` module's consecutive blocks).
     pub(crate) trust_groups: Option<Vec<usize>>,
+    /// The reconstruction threshold as read from a model file (`reconstruction`); computed
+    /// when asked for otherwise.
+    pub(crate) reconstruction: Option<f64>,
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
     pub(crate) map_stale: bool,
@@ -181,6 +184,7 @@ impl SharedGplvm {
             sparse: None,
             trust: std::collections::BTreeMap::new(),
             trust_groups: None,
+            reconstruction: None,
             map_stale: false,
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),

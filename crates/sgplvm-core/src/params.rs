@@ -167,6 +167,8 @@ impl SharedGplvm {
             s.kernel = k;
         }
         self.update_latent_points();
+        // New parameters, a new reconstruction threshold: computed when asked for.
+        self.reconstruction = None;
         if let Some(refitted) = self.prepared.take().and_then(|p| p.map) {
             // The map refitted after an earlier `set_params` is the better warm start.
             self.map = Some(refitted);
@@ -195,6 +197,7 @@ impl SharedGplvm {
             // New parameters, new thresholds: computed when asked for.
             trust: std::collections::BTreeMap::new(),
             trust_groups: self.trust_groups.clone(),
+            reconstruction: None,
             map_stale: self.map_stale,
             x: self.x.clone(),
             x_rows: self.x_rows.clone(),

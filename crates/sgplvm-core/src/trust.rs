@@ -38,7 +38,7 @@ pub const TRUST_BLOCKS: usize = 9;
 
 /// The group of each of `n` training frames without given groups: [`TRUST_BLOCKS`] consecutive
 /// blocks.
-fn default_groups(n: usize) -> Vec<usize> {
+pub(crate) fn default_groups(n: usize) -> Vec<usize> {
     (0..n).map(|i| i * TRUST_BLOCKS / n.max(1)).collect()
 }
 
@@ -120,7 +120,7 @@ pub(crate) fn held_out_sd(
 }
 
 /// The `p`-quantile (nearest rank) of `v`.
-fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
+pub(crate) fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let rank = ((p * v.len() as f64).ceil() as usize).clamp(1, v.len());
     v[rank - 1]
@@ -163,6 +163,7 @@ impl SharedGplvm {
         }
         self.trust_groups = Some(groups);
         self.trust.clear();
+        self.reconstruction = None;
         Ok(())
     }
 

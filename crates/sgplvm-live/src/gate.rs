@@ -3,36 +3,81 @@
 //!
 //! For each robot, each human frame:
 //!
-//! 1. **Trust.** The prediction's standard deviation σ (the model's standardised units) is
-//!    compared with the robot's trust threshold τ (`sgplvm_core`'s `trust` module: the 99th
-//!    percentile over the training frames, each predicted with its group of training frames
-//!    held out). σ ≤ τ: the prediction is the target, and the *last trusted target*. σ > τ (or
-//!    σ not a number): the frame is not trusted: the robot **holds** the command it was last
-//!    sent, and from the next untrusted frame on **moves towards the last trusted target** at
-//!    [`GateOptions::return_speed`] of each joint's velocity limit, until a frame is trusted
-//!    again. (The last trusted target is where the robot was going when the model was last
-//!    sure: when the velocity limits had it lagging behind a fast motion, it completes that
-//!    motion slowly instead of stopping half-way; otherwise it stays where it holds.) Before
-//!    any frame was trusted nothing is sent ([`Reason::Waiting`]).
+//! 1. **Trust.** Two signals say whether the model knows the frame (`sgplvm_core`'s
+//!    `reconstruction` and `trust` modules), each with a threshold computed from the training
+//!    frames with their group held out:
+//!    - the *reconstruction error* e: how far the human pose is from the model's own
+//!      reconstruction of it (h → x → ĥ), against its threshold τₑ (the larger of the 99th
+//!      percentile of the held-out frames' errors and the mean pose's held-out error). It sees
+//!      an input far from every training pose, which a far input's latent point (near the
+//!      origin, inside the data) hides from σ. It gates by default ([`Signals::Reconstruction`]).
+//!    - the robot prediction's *standard deviation* σ (standardised), against the trust
+//!      threshold τ (the 99th percentile over the held-out frames). It is larger on any motion
+//!      the training did not repeat, and holding on it stops a robot on a third of the shipped
+//!      test motions; it gates when asked ([`Signals::Sd`], [`Signals::Both`]).
+//!
+//!    Within the thresholds of the gating signals: the prediction is the target, and the *last
+//!    trusted target*. Beyond one (or a signal not a number, whichever gates): the frame is not
+//!    trusted: the robot **holds** the command it was last sent, and from the next untrusted
+//!    frame on **moves towards the last trusted target** at [`GateOptions::return_speed`] of
+//!    each joint's velocity limit, until a frame is trusted again. (The last trusted target is
+//!    where the robot was going when the model was last sure: when the velocity limits had it
+//!    lagging behind a fast motion, it completes that motion slowly instead of stopping
+//!    half-way; otherwise it stays where it holds.) Before any frame was trusted nothing is
+//!    sent ([`Reason::Waiting`]).
 //! 2. **Limits.** Whatever the target, the command sent is within each joint's velocity limit
-//!    of the previous command sent (over the seconds between them) and within its position
-//!    limits ([`sgplvm_robots::limits::CommandLimits`]); every joint moved is counted.
+//!    of the previous command sent (over the seconds between the two sends, on the node's
+//!    clock: the stale hold is a command sent too, and the human frames' stamps play no part)
+//!    and within its position limits ([`sgplvm_robots::limits::CommandLimits`]); every joint
+//!    moved is counted.
 //! 3. **Stale input.** No human frame for [`GateOptions::timeout_s`]: the robot holds its last
-//!    command, and the status says so, until frames come again (then it follows from where it
-//!    is, within its velocity limits: no jump).
+//!    command (sent again, and timed as sent), and the status says so, until frames come again
+//!    (then it follows from where it is, within its velocity limits: no jump).
 //!
 //! [`Decision`] says what happened and why, for the status the node publishes.
 
+use sgplvm_core::SharedGplvm;
 use sgplvm_robots::limits::{Clamped, CommandLimits};
+
+/// Which signals gate (hold the robot when beyond their thresholds).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Signals {
+    /// The reconstruction error of the human frame (the default).
+    #[default]
+    Reconstruction,
+    /// The robot prediction's standard deviation.
+    Sd,
+    /// Either beyond its threshold holds the robot.
+    Both,
+}
+
+impl Signals {
+    /// Whether the reconstruction error gates.
+    pub fn reconstruction(self) -> bool {
+        matches!(self, Signals::Reconstruction | Signals::Both)
+    }
+
+    /// Whether the standard deviation gates.
+    pub fn sd(self) -> bool {
+        matches!(self, Signals::Sd | Signals::Both)
+    }
+}
 
 /// The rule's parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GateOptions {
+    /// Which signals gate.
+    pub signals: Signals,
     /// Predictions less certain than this (standardised standard deviation) are not trusted;
     /// `None`: the model's trust threshold.
     pub threshold: Option<f64>,
     /// The threshold is multiplied by this (1: the model's 99th percentile as it is).
     pub threshold_scale: f64,
+    /// Human frames whose reconstruction error is above this are not trusted; `None`: the
+    /// model's reconstruction threshold.
+    pub reconstruction_threshold: Option<f64>,
+    /// The reconstruction threshold is multiplied by this.
+    pub reconstruction_scale: f64,
     /// Fraction of each joint's velocity limit at which an untrusted robot moves towards its
     /// last trusted target.
     pub return_speed: f64,
@@ -43,12 +88,103 @@ pub struct GateOptions {
 impl Default for GateOptions {
     fn default() -> Self {
         GateOptions {
+            signals: Signals::default(),
             threshold: None,
             threshold_scale: 1.0,
+            reconstruction_threshold: None,
+            reconstruction_scale: 1.0,
             return_speed: 0.25,
             timeout_s: 0.1,
         }
     }
+}
+
+/// The thresholds a robot's gate compares its signals with (already scaled), and which gate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// Which signals gate.
+    pub signals: Signals,
+    /// The trust threshold (standardised standard deviation).
+    pub sd: f64,
+    /// The reconstruction threshold (the human space's standardised units).
+    pub reconstruction: f64,
+}
+
+impl Thresholds {
+    /// The thresholds for `robot` of `model` under `options`: the given ones, else the
+    /// model's, each times its scale.
+    pub fn of(
+        model: &SharedGplvm,
+        robot: &str,
+        options: &GateOptions,
+    ) -> Result<Thresholds, crate::LiveError> {
+        let config = |e: sgplvm_core::Error| crate::LiveError::Config(format!("{robot}: {e}"));
+        let sd = match options.threshold {
+            Some(t) => t,
+            None => model.trust_threshold(robot).map_err(config)?,
+        };
+        let reconstruction = match options.reconstruction_threshold {
+            Some(t) => t,
+            None => model.reconstruction_threshold().map_err(config)?,
+        };
+        Ok(Thresholds {
+            signals: options.signals,
+            sd: sd * options.threshold_scale,
+            reconstruction: reconstruction * options.reconstruction_scale,
+        })
+    }
+
+    /// Whether a frame with these signals is trusted: every gating signal within its
+    /// threshold, and neither signal not a number (a failed prediction or reconstruction).
+    pub fn trusts(&self, frame: Frame) -> bool {
+        let finite = frame.sd.is_finite() && frame.reconstruction.is_finite();
+        finite
+            && (!self.signals.sd() || frame.sd <= self.sd)
+            && (!self.signals.reconstruction() || frame.reconstruction <= self.reconstruction)
+    }
+
+    /// Which signals of `frame` hold the robot: those that gate and are beyond their
+    /// thresholds, and those that are not a number (the standard deviation, the reconstruction
+    /// error).
+    pub fn beyond(&self, frame: Frame) -> (bool, bool) {
+        (
+            frame.sd.is_nan() || (self.signals.sd() && frame.sd > self.sd),
+            frame.reconstruction.is_nan()
+                || (self.signals.reconstruction() && frame.reconstruction > self.reconstruction),
+        )
+    }
+}
+
+impl std::fmt::Display for Thresholds {
+    /// `reconstruction threshold 0.2259 (holds), trust threshold 0.0964 (reported)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let role = |gates: bool| if gates { "holds" } else { "reported" };
+        write!(
+            f,
+            "reconstruction threshold {:.4} ({}), trust threshold {:.4} ({})",
+            self.reconstruction,
+            role(self.signals.reconstruction()),
+            self.sd,
+            role(self.signals.sd())
+        )
+    }
+}
+
+/// One frame's signals for one robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// The robot prediction's standard deviation (standardised).
+    pub sd: f64,
+    /// The human frame's reconstruction error (the human space's standardised units).
+    pub reconstruction: f64,
+}
+
+impl Frame {
+    /// No frame (a stale step): both not a number.
+    pub const NONE: Frame = Frame {
+        sd: f64::NAN,
+        reconstruction: f64::NAN,
+    };
 }
 
 /// Why the robot did what it did this frame.
@@ -84,8 +220,8 @@ impl Reason {
 pub struct Decision {
     /// What the robot does ([`Reason::Waiting`]: no command to send).
     pub reason: Reason,
-    /// The prediction's standard deviation (standardised), `NaN` for a stale step.
-    pub sd: f64,
+    /// The frame's signals ([`Frame::NONE`] for a stale step).
+    pub frame: Frame,
     /// What the limits moved.
     pub clamped: Clamped,
     /// Whether the reason differs from the previous frame's (worth a status message).
@@ -111,9 +247,9 @@ pub struct GateCounts {
 #[derive(Debug, Clone)]
 pub struct Gate {
     limits: CommandLimits,
-    threshold: f64,
+    thresholds: Thresholds,
     return_speed: f64,
-    /// The command last sent and when (seconds on the node's clock).
+    /// The command last sent and when it was sent (seconds on the node's clock).
     last_sent: Option<(Vec<f64>, f64)>,
     /// The last trusted prediction, within the position limits.
     last_trusted: Option<Vec<f64>>,
@@ -124,13 +260,12 @@ pub struct Gate {
 }
 
 impl Gate {
-    /// A gate for a robot with `limits`, trusting predictions up to `threshold` (standardised
-    /// standard deviation, already scaled), moving back at `return_speed` of the velocity
-    /// limits.
-    pub fn new(limits: CommandLimits, threshold: f64, return_speed: f64) -> Gate {
+    /// A gate for a robot with `limits`, trusting frames within `thresholds`, moving back at
+    /// `return_speed` of the velocity limits.
+    pub fn new(limits: CommandLimits, thresholds: Thresholds, return_speed: f64) -> Gate {
         Gate {
             limits,
-            threshold,
+            thresholds,
             return_speed,
             last_sent: None,
             last_trusted: None,
@@ -140,9 +275,15 @@ impl Gate {
         }
     }
 
-    /// The trust threshold in use.
+    /// The trust threshold (standardised standard deviation; it gates if
+    /// [`Thresholds::signals`] says so).
     pub fn threshold(&self) -> f64 {
-        self.threshold
+        self.thresholds.sd
+    }
+
+    /// The thresholds in use.
+    pub fn thresholds(&self) -> &Thresholds {
+        &self.thresholds
     }
 
     /// The limits in use.
@@ -165,7 +306,7 @@ impl Gate {
         self.last_sent.as_ref().map(|(q, _)| q.as_slice())
     }
 
-    fn decide(&mut self, reason: Reason, sd: f64, clamped: Clamped) -> Decision {
+    fn decide(&mut self, reason: Reason, frame: Frame, clamped: Clamped) -> Decision {
         let changed = self.reason != Some(reason);
         self.reason = Some(reason);
         if clamped.position > 0 {
@@ -176,18 +317,26 @@ impl Gate {
         }
         Decision {
             reason,
-            sd,
+            frame,
             clamped,
             changed,
         }
     }
 
-    /// One human frame at `now` seconds: the model predicted `prediction` with standard
-    /// deviation `sd`; the command to send is written to `command` (untouched, and nothing to
-    /// send, when the decision is [`Reason::Waiting`]).
-    pub fn step(&mut self, now: f64, prediction: &[f64], sd: f64, command: &mut [f64]) -> Decision {
+    /// One human frame, its command to be sent at `now` seconds on the node's clock (the
+    /// clock of every command this gate sends: the velocity limits hold over the time between
+    /// two sends): the model predicted `prediction`, with the signals `frame`; the command to
+    /// send is written to `command` (untouched, and nothing to send, when the decision is
+    /// [`Reason::Waiting`]).
+    pub fn step(
+        &mut self,
+        now: f64,
+        prediction: &[f64],
+        frame: Frame,
+        command: &mut [f64],
+    ) -> Decision {
         self.counts.frames += 1;
-        let trusted = sd.is_finite() && sd <= self.threshold;
+        let trusted = self.thresholds.trusts(frame);
         if !trusted {
             self.counts.untrusted += 1;
         }
@@ -195,7 +344,7 @@ impl Gate {
         let reason = match (trusted, self.reason) {
             (true, _) => Reason::Following,
             (false, _) if previous.is_none() => {
-                return self.decide(Reason::Waiting, sd, Clamped::default());
+                return self.decide(Reason::Waiting, frame, Clamped::default());
             }
             (false, Some(Reason::Holding | Reason::Returning)) => Reason::Returning,
             (false, _) => Reason::Holding,
@@ -227,18 +376,20 @@ impl Gate {
         self.clamped_joints
             .extend((0..command.len()).filter(|&k| command[k] != wanted[k]));
         self.last_sent = Some((command.to_vec(), now));
-        self.decide(reason, sd, clamped)
+        self.decide(reason, frame, clamped)
     }
 
-    /// No frame came for longer than the timeout: hold (the command to repeat, if any, is
-    /// written to `command`).
-    pub fn stale(&mut self, command: &mut [f64]) -> Option<Decision> {
-        let (q, _) = self.last_sent.as_ref()?;
+    /// No frame came for longer than the timeout: hold. The command to repeat, if any, is
+    /// written to `command`, to be sent at `now` seconds on the node's clock: the next command
+    /// moves within the velocity limits over the time since this one.
+    pub fn stale(&mut self, now: f64, command: &mut [f64]) -> Option<Decision> {
+        let (q, t) = self.last_sent.as_mut()?;
         command.copy_from_slice(q);
+        *t = t.max(now);
         if self.reason != Some(Reason::Stale) {
             self.counts.stale += 1;
         }
-        Some(self.decide(Reason::Stale, f64::NAN, Clamped::default()))
+        Some(self.decide(Reason::Stale, Frame::NONE, Clamped::default()))
     }
 }
 
@@ -247,31 +398,51 @@ mod tests {
     use super::*;
     use sgplvm_robots::Robot;
 
-    fn gate() -> Gate {
+    /// A gate on COMAN's LShSag and LShLat (4 rad/s each) gated by `signals`: σ ≤ 0.5 and
+    /// e ≤ 0.2 are trusted.
+    fn gate_on(signals: Signals) -> Gate {
         let robot = Robot::builtin("coman").unwrap();
         let joints: Vec<String> = robot.joint_names()[..2].to_vec(); // LShSag, LShLat (4 rad/s)
+        let thresholds = Thresholds {
+            signals,
+            sd: 0.5,
+            reconstruction: 0.2,
+        };
         Gate::new(
             CommandLimits::for_joints(&robot, &joints).unwrap(),
-            0.5,
+            thresholds,
             0.25,
         )
+    }
+
+    /// The gate of the tests of the standard deviation's rule.
+    fn gate() -> Gate {
+        gate_on(Signals::Sd)
+    }
+
+    /// A frame of standard deviation `sd` whose pose the model reconstructs well.
+    fn sd(sd: f64) -> Frame {
+        Frame {
+            sd,
+            reconstruction: 0.01,
+        }
     }
 
     #[test]
     fn trusted_frames_follow_within_the_velocity_limit() {
         let mut g = gate();
         let mut c = [0.0; 2];
-        let d = g.step(0.0, &[0.1, 0.2], 0.1, &mut c);
+        let d = g.step(0.0, &[0.1, 0.2], sd(0.1), &mut c);
         assert_eq!((d.reason, c), (Reason::Following, [0.1, 0.2]));
         // 25 ms later a jump of 1 rad: at most 0.1 rad (4 rad/s).
-        let d = g.step(0.025, &[1.1, 0.2], 0.1, &mut c);
+        let d = g.step(0.025, &[1.1, 0.2], sd(0.1), &mut c);
         assert!((c[0] - 0.2).abs() < 1e-12 && d.clamped.velocity == 1);
         assert_eq!(g.clamped_joints(), &[0]);
         // Beyond LShLat's upper limit (2.094): held at it, once the speed allows.
         let mut t = 0.025;
         for _ in 0..40 {
             t += 0.025;
-            g.step(t, &[0.2, 3.0], 0.1, &mut c);
+            g.step(t, &[0.2, 3.0], sd(0.1), &mut c);
         }
         assert_eq!(c[1], 2.094);
         assert!(g.counts().position_clamped > 0);
@@ -281,12 +452,12 @@ mod tests {
     fn untrusted_frames_hold_then_return_to_the_last_trusted_command() {
         let mut g = gate();
         let mut c = [0.0; 2];
-        g.step(0.0, &[0.0, 0.0], 0.1, &mut c);
-        g.step(0.025, &[0.05, 0.0], 0.1, &mut c);
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c);
+        g.step(0.025, &[0.05, 0.0], sd(0.1), &mut c);
         // A trusted frame that the velocity limit cuts short, then distrust.
-        g.step(0.05, &[0.5, 0.0], 0.2, &mut c); // sent [0.15, 0], trusted
+        g.step(0.05, &[0.5, 0.0], sd(0.2), &mut c); // sent [0.15, 0], trusted
         assert!((c[0] - 0.15).abs() < 1e-12);
-        let d = g.step(0.075, &[2.0, 1.0], 0.9, &mut c);
+        let d = g.step(0.075, &[2.0, 1.0], sd(0.9), &mut c);
         assert_eq!(d.reason, Reason::Holding);
         assert!(
             (c[0] - 0.15).abs() < 1e-12 && c[1] == 0.0,
@@ -295,12 +466,12 @@ mod tests {
         assert!(d.changed);
         // The last trusted target is [0.5, 0]: the robot moves on towards it at a quarter of
         // 4 rad/s, 0.025 rad in 25 ms.
-        let d = g.step(0.1, &[2.0, 1.0], 0.9, &mut c);
+        let d = g.step(0.1, &[2.0, 1.0], sd(0.9), &mut c);
         assert_eq!(d.reason, Reason::Returning);
         assert!((c[0] - 0.175).abs() < 1e-12 && c[1] == 0.0, "{c:?}");
         assert_eq!(g.counts().untrusted, 2);
         // Trust again: follows, from where it is, within the velocity limit.
-        let d = g.step(0.125, &[1.0, 0.0], 0.1, &mut c);
+        let d = g.step(0.125, &[1.0, 0.0], sd(0.1), &mut c);
         assert_eq!(d.reason, Reason::Following);
         assert!((c[0] - 0.275).abs() < 1e-12);
     }
@@ -309,12 +480,12 @@ mod tests {
     fn returning_moves_back_at_the_return_speed() {
         let mut g = gate();
         let mut c = [0.0; 2];
-        g.step(0.0, &[0.0, 0.0], 0.1, &mut c); // trusted target 0
-                                               // The robot sits elsewhere (as if the velocity limit had it lagging).
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c); // trusted target 0
+                                                   // The robot sits elsewhere (as if the velocity limit had it lagging).
         g.last_sent = Some((vec![0.4, 0.0], 1.0));
-        g.step(1.0, &[9.0, 9.0], 2.0, &mut c); // holding at [0.4, 0]
+        g.step(1.0, &[9.0, 9.0], sd(2.0), &mut c); // holding at [0.4, 0]
         assert!((c[0] - 0.4).abs() < 1e-12);
-        let d = g.step(1.1, &[9.0, 9.0], 2.0, &mut c); // 0.1 s at 0.25 × 4 rad/s = 0.1 rad
+        let d = g.step(1.1, &[9.0, 9.0], sd(2.0), &mut c); // 0.1 s at 0.25 × 4 rad/s = 0.1 rad
         assert_eq!(d.reason, Reason::Returning);
         assert!((c[0] - 0.3).abs() < 1e-12, "{c:?}");
     }
@@ -324,17 +495,17 @@ mod tests {
         let mut g = gate();
         let mut c = [0.0; 2];
         assert!(
-            g.stale(&mut c).is_none(),
+            g.stale(0.0, &mut c).is_none(),
             "nothing sent yet: nothing to hold"
         );
-        g.step(0.0, &[0.3, 0.1], 0.1, &mut c);
-        let d = g.stale(&mut c).unwrap();
+        g.step(0.0, &[0.3, 0.1], sd(0.1), &mut c);
+        let d = g.stale(0.1, &mut c).unwrap();
         assert_eq!((d.reason, c), (Reason::Stale, [0.3, 0.1]));
         assert!(d.changed);
-        assert!(!g.stale(&mut c).unwrap().changed);
+        assert!(!g.stale(0.2, &mut c).unwrap().changed);
         assert_eq!(g.counts().stale, 1);
         // Frames again: follows within the velocity limit from the held command.
-        let d = g.step(2.0, &[0.4, 0.1], 0.1, &mut c);
+        let d = g.step(2.0, &[0.4, 0.1], sd(0.1), &mut c);
         assert_eq!(d.reason, Reason::Following);
         assert!(d.changed);
     }
@@ -343,10 +514,10 @@ mod tests {
     fn nothing_is_sent_before_a_frame_is_trusted() {
         let mut g = gate();
         let mut c = [7.0; 2];
-        let d = g.step(0.0, &[1.0, 1.0], 0.9, &mut c);
+        let d = g.step(0.0, &[1.0, 1.0], sd(0.9), &mut c);
         assert_eq!((d.reason, c), (Reason::Waiting, [7.0, 7.0]));
         assert!(g.last_sent().is_none());
-        let d = g.step(0.025, &[0.1, 0.2], 0.1, &mut c);
+        let d = g.step(0.025, &[0.1, 0.2], sd(0.1), &mut c);
         assert_eq!((d.reason, c), (Reason::Following, [0.1, 0.2]));
         assert_eq!(g.counts().untrusted, 1);
     }
@@ -355,10 +526,121 @@ mod tests {
     fn a_nan_standard_deviation_is_not_trusted() {
         let mut g = gate();
         let mut c = [0.0; 2];
-        g.step(0.0, &[0.0, 0.0], 0.1, &mut c);
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c);
         assert_eq!(
-            g.step(0.025, &[0.1, 0.1], f64::NAN, &mut c).reason,
+            g.step(0.025, &[0.1, 0.1], sd(f64::NAN), &mut c).reason,
             Reason::Holding
         );
+    }
+
+    #[test]
+    fn after_silence_the_first_command_moves_within_the_velocity_limit_of_the_hold() {
+        // Issue 44: the input stops, the node sends the hold at the timeout (0.1 s), frames
+        // come back 30 ms after the hold with a pose 1 rad away. The robot received the hold
+        // 30 ms before: 4 rad/s allow 0.12 rad, not the 0.52 rad of the 0.13 s since the last
+        // frame's command.
+        let mut g = gate();
+        let mut c = [0.0; 2];
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c);
+        g.stale(0.1, &mut c).unwrap();
+        let d = g.step(0.13, &[1.0, 0.0], sd(0.1), &mut c);
+        assert_eq!(d.reason, Reason::Following);
+        assert!((c[0] - 4.0 * 0.03).abs() < 1e-12, "{c:?}");
+        assert_eq!(d.clamped.velocity, 1);
+        // The 400 ms pause of the issue: the hold at 0.1 s, the next frame at 0.4 s.
+        let mut g = gate();
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c);
+        g.stale(0.1, &mut c).unwrap();
+        g.step(0.4, &[2.0, 0.0], sd(0.1), &mut c);
+        assert!((c[0] - 4.0 * 0.3).abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn a_stale_hold_never_moves_the_clock_back() {
+        let mut g = gate();
+        let mut c = [0.0; 2];
+        g.step(1.0, &[0.0, 0.0], sd(0.1), &mut c);
+        g.stale(0.5, &mut c).unwrap(); // an earlier time: the command's own time is kept
+        g.step(1.01, &[1.0, 0.0], sd(0.1), &mut c);
+        assert!((c[0] - 0.04).abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn the_reconstruction_error_gates_by_default_and_either_signal_with_both() {
+        assert_eq!(GateOptions::default().signals, Signals::Reconstruction);
+        let frame = |sd, reconstruction| Frame { sd, reconstruction };
+        let mut c = [0.0; 2];
+        // The reconstruction alone: a large σ is followed, a large e held.
+        let mut g = gate_on(Signals::Reconstruction);
+        assert_eq!(
+            g.step(0.0, &[0.1, 0.0], frame(0.9, 0.1), &mut c).reason,
+            Reason::Following
+        );
+        let d = g.step(0.025, &[0.2, 0.0], frame(0.1, 0.3), &mut c);
+        assert_eq!((d.reason, c[0]), (Reason::Holding, 0.1));
+        assert_eq!(g.thresholds().beyond(d.frame), (false, true));
+        // Both: either beyond its threshold holds.
+        let mut g = gate_on(Signals::Both);
+        g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
+        assert_eq!(
+            g.step(0.025, &[0.2, 0.0], frame(0.9, 0.1), &mut c).reason,
+            Reason::Holding
+        );
+        let mut g = gate_on(Signals::Both);
+        g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
+        let d = g.step(0.025, &[0.2, 0.0], frame(0.9, 0.3), &mut c);
+        assert_eq!(g.thresholds().beyond(d.frame), (true, true));
+        // A signal that is not a number holds, whether it gates or not.
+        for signals in [Signals::Sd, Signals::Reconstruction] {
+            let mut g = gate_on(signals);
+            g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
+            let d = g.step(0.025, &[0.2, 0.0], frame(0.1, f64::NAN), &mut c);
+            assert_eq!(d.reason, Reason::Holding, "{signals:?}");
+            assert_eq!(g.thresholds().beyond(d.frame), (false, true));
+        }
+        // At the threshold: trusted.
+        let t = gate_on(Signals::Both).thresholds;
+        assert!(t.trusts(frame(0.5, 0.2)) && !t.trusts(frame(0.5, 0.2 + 1e-12)));
+    }
+
+    #[test]
+    fn thresholds_are_the_models_or_the_given_ones_times_their_scales() {
+        use sgplvm_core::{Mat, ModelConfig, TrainOptions};
+        let n = 30;
+        let h = Mat::from_fn(n, 4, |i, j| ((i as f64) * 0.2 + j as f64).sin());
+        let r = Mat::from_fn(n, 3, |i, j| ((i as f64) * 0.2 + 0.5 * j as f64).cos());
+        let config = ModelConfig::default().with_latent_dim(2);
+        let options = TrainOptions::default().with_max_iters(5);
+        let spaces = [("human", h.as_ref()), ("robot", r.as_ref())];
+        let m = SharedGplvm::fit(&config, &spaces, "human", &options, None).unwrap();
+        let (sd, e) = (
+            m.trust_threshold("robot").unwrap(),
+            m.reconstruction_threshold().unwrap(),
+        );
+        let t = Thresholds::of(&m, "robot", &GateOptions::default()).unwrap();
+        assert_eq!(
+            (t.signals, t.sd, t.reconstruction),
+            (Signals::Reconstruction, sd, e)
+        );
+        let options = GateOptions {
+            signals: Signals::Both,
+            threshold_scale: 2.0,
+            reconstruction_scale: 3.0,
+            ..GateOptions::default()
+        };
+        let t = Thresholds::of(&m, "robot", &options).unwrap();
+        assert_eq!((t.sd, t.reconstruction), (2.0 * sd, 3.0 * e));
+        let options = GateOptions {
+            threshold: Some(0.7),
+            reconstruction_threshold: Some(0.05),
+            reconstruction_scale: 2.0,
+            ..GateOptions::default()
+        };
+        let t = Thresholds::of(&m, "robot", &options).unwrap();
+        assert_eq!((t.sd, t.reconstruction), (0.7, 0.1));
+        let err = Thresholds::of(&m, "nao", &GateOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("nao"), "{err}");
     }
 }

@@ -12,7 +12,7 @@ use sgplvm_robots::limits::CommandLimits;
 use super::dds::{command_publisher, CommandPublisher};
 use super::{Drive, TeleopOptions};
 use crate::commands::CommandForm;
-use crate::gate::{Decision, Gate};
+use crate::gate::{Decision, Gate, Thresholds};
 use crate::LiveError;
 
 /// One robot as the node drives it.
@@ -143,12 +143,7 @@ fn drive_one(
     let (sent_names, order) = sent_order(&drive, &joints, options)?;
     let limits = CommandLimits::for_joints(drive.anatomy.robot(), &joints)
         .map_err(|e| LiveError::Config(e.to_string()))?;
-    let threshold = match options.gate.threshold {
-        Some(t) => t,
-        None => model
-            .trust_threshold(&drive.robot)
-            .map_err(|e| LiveError::Config(e.to_string()))?,
-    } * options.gate.threshold_scale;
+    let thresholds = Thresholds::of(model, &drive.robot, &options.gate)?;
     let topic = match &options.command_topic {
         Some(t) => t.replace("{robot}", &drive.robot),
         None => options.form.default_topic(&drive.robot, shared),
@@ -157,13 +152,13 @@ fn drive_one(
     let d = joints.len();
     let m = model_columns.len();
     log(&format!(
-        "{}: {} joints as {} on {topic}; trust threshold {threshold:.4}",
+        "{}: {} joints as {} on {topic}; {thresholds}",
         drive.robot,
         d,
         options.form.name()
     ));
     Ok(Driven {
-        gate: Gate::new(limits, threshold, options.gate.return_speed),
+        gate: Gate::new(limits, thresholds, options.gate.return_speed),
         drive,
         joints,
         columns,

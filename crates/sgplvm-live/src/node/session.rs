@@ -12,7 +12,7 @@ use super::drive::{Driven, LatentSlot};
 use super::status::publish_status;
 use super::{Latency, RobotSummary, TeleopOptions, TeleopSummary};
 use crate::commands::Command;
-use crate::gate::{Decision, Reason};
+use crate::gate::{Decision, Frame, Reason};
 use crate::msgs::{DiagnosticArray, JointState, Time};
 use crate::LiveError;
 
@@ -26,6 +26,8 @@ pub(super) struct Session<'a> {
     poll: Poll,
     view: Option<crate::view::LiveView>,
     slots: Vec<LatentSlot>,
+    /// The current frame's reconstruction error under each distinct model (`slots`' order).
+    reconstruction: Vec<f64>,
     driven: Vec<Driven>,
     status: Publisher<DiagnosticArray>,
     input: Subscription<JointState>,
@@ -83,6 +85,7 @@ impl<'a> Session<'a> {
             events,
             poll,
             view,
+            reconstruction: vec![f64::NAN; slots.len()],
             slots,
             driven,
             status,
@@ -214,13 +217,26 @@ impl<'a> Session<'a> {
             }
         }
         self.last_stamp = Some(stamp.to_ns());
-        let now_s = received.duration_since(self.start).as_secs_f64();
-        for slot in &mut self.slots {
+        for (slot, e) in self.slots.iter_mut().zip(&mut self.reconstruction) {
             slot.ok = slot.model.latent_frame(&self.h, &mut slot.x).is_ok();
+            // Not a number (the robots hold) when the pose cannot be reconstructed.
+            *e = match slot.ok {
+                true => slot
+                    .model
+                    .reconstruction_error(&self.h, &slot.x)
+                    .unwrap_or(f64::NAN),
+                false => f64::NAN,
+            };
         }
         for r in &mut self.driven {
             let slot = &self.slots[r.model_slot];
-            let changed = command(r, slot, self.options, stamp, self.period_s, now_s, log)?;
+            let e = self.reconstruction[r.model_slot];
+            let sent = Sent {
+                stamp,
+                period_s: self.period_s,
+                start: self.start,
+            };
+            let changed = command(r, slot, e, self.options, sent, log)?;
             self.status_due |= changed;
         }
         self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
@@ -256,7 +272,10 @@ impl<'a> Session<'a> {
                     self.timeout.as_secs_f64() * 1e3
                 ));
                 for r in &mut self.driven {
-                    if let Some(d) = r.gate.stale(&mut r.command) {
+                    // The hold is a command sent now: the next one moves within the velocity
+                    // limits over the time since it.
+                    let now_s = self.start.elapsed().as_secs_f64();
+                    if let Some(d) = r.gate.stale(now_s, &mut r.command) {
                         for (k, &j) in r.order.iter().enumerate() {
                             r.sent[k] = r.command[j];
                         }
@@ -300,16 +319,23 @@ impl<'a> Session<'a> {
     }
 }
 
-/// One robot's step for the current frame: its model's prediction through its safety rule,
-/// the command published unless the rule is still waiting; whether its state changed (then it
-/// is logged).
+/// What a command carries and when it is sent: the stamp of the human frame it answers, the
+/// input's period (a trajectory point's time) and the node's clock.
+struct Sent {
+    stamp: Time,
+    period_s: f64,
+    start: Instant,
+}
+
+/// One robot's step for the current frame (its pose's reconstruction error `e` under the
+/// robot's model): its model's prediction through its safety rule, the command published
+/// unless the rule is still waiting; whether its state changed (then it is logged).
 fn command(
     r: &mut Driven,
     slot: &LatentSlot,
+    e: f64,
     options: &TeleopOptions,
-    stamp: Time,
-    period_s: f64,
-    now_s: f64,
+    sent: Sent,
     log: &mut dyn FnMut(&str),
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
@@ -322,21 +348,35 @@ fn command(
     };
     r.columns.fill(&r.model_mean, &mut r.mean);
     r.columns.fill_std(&r.model_sd, &mut r.sd);
-    let decision = r.gate.step(now_s, &r.mean, sd, &mut r.command);
+    let frame = Frame {
+        sd,
+        reconstruction: e,
+    };
+    // The gate's clock is the send clock: the command goes out right after this step, and the
+    // velocity limits hold over the time between two sends, whatever the frames' stamps say.
+    let now_s = sent.start.elapsed().as_secs_f64();
+    let decision = r.gate.step(now_s, &r.mean, frame, &mut r.command);
     if decision.reason != Reason::Waiting {
         for (k, &j) in r.order.iter().enumerate() {
             r.sent[k] = r.command[j];
         }
-        let c = Command::build(options.form, &r.sent_names, &r.sent, stamp, period_s);
+        let c = Command::build(
+            options.form,
+            &r.sent_names,
+            &r.sent,
+            sent.stamp,
+            sent.period_s,
+        );
         r.publisher.publish(c, &r.topic)?;
     }
     if decision.changed {
+        let t = r.gate.thresholds();
         log(&format!(
-            "{}: {} (sd {:.4}, threshold {:.4})",
+            "{}: {} (reconstruction error {e:.4}, threshold {:.4}; sd {sd:.4}, threshold {:.4})",
             r.drive.robot,
             decision.reason.as_str(),
-            sd,
-            r.gate.threshold()
+            t.reconstruction,
+            t.sd,
         ));
     }
     r.last = Some(decision);
@@ -367,7 +407,7 @@ fn show(
                 r.command.as_slice(),
                 r.sd.as_slice(),
                 [
-                    r.last.map(|d| d.sd).unwrap_or(f64::NAN),
+                    r.last.map(|d| d.frame.sd).unwrap_or(f64::NAN),
                     r.gate.threshold(),
                     state(r.last),
                 ],

@@ -5,7 +5,7 @@ use ros2_client::dds::Publisher;
 
 use super::drive::Driven;
 use super::TeleopSummary;
-use crate::gate::Reason;
+use crate::gate::{Frame, Reason, Signals};
 use crate::msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time, OK, STALE, WARN};
 use crate::LiveError;
 
@@ -28,26 +28,7 @@ pub(super) fn publish_status(
             None => (OK, "waiting for the first human frame".to_string()),
             Some(Reason::Following) => (OK, "following".to_string()),
             Some(Reason::Stale) => (STALE, "stale input: holding the last command".to_string()),
-            Some(reason) => {
-                let sd = r.last.map(|d| d.sd).unwrap_or(f64::NAN);
-                // The joints the model is least sure of.
-                let mut by_sd: Vec<usize> = (0..r.sd.len()).collect();
-                by_sd.sort_by(|&a, &b| r.sd[b].total_cmp(&r.sd[a]));
-                let worst: Vec<String> = by_sd
-                    .iter()
-                    .take(3)
-                    .map(|&k| format!("{} ({:.3} rad)", r.joints[k], r.sd[k]))
-                    .collect();
-                (
-                    WARN,
-                    format!(
-                        "{}: prediction sd {sd:.4} above the trust threshold {:.4}; least certain joints: {}",
-                        reason.as_str(),
-                        r.gate.threshold(),
-                        worst.join(", ")
-                    ),
-                )
-            }
+            Some(reason) => (WARN, format!("{}: {}", reason.as_str(), why_untrusted(r))),
         };
         let limited: Vec<String> = match r.last {
             Some(d) if !d.clamped.is_none() => r
@@ -77,9 +58,22 @@ pub(super) fn publish_status(
                 ),
                 kv(
                     "sd",
-                    r.last.map(|d| format!("{:.6}", d.sd)).unwrap_or_default(),
+                    r.last
+                        .map(|d| format!("{:.6}", d.frame.sd))
+                        .unwrap_or_default(),
                 ),
                 kv("threshold", format!("{:.6}", r.gate.threshold())),
+                kv(
+                    "reconstruction",
+                    r.last
+                        .map(|d| format!("{:.6}", d.frame.reconstruction))
+                        .unwrap_or_default(),
+                ),
+                kv(
+                    "reconstruction_threshold",
+                    format!("{:.6}", r.gate.thresholds().reconstruction),
+                ),
+                kv("gate", gating(r.gate.thresholds().signals).into()),
                 kv("frames", c.frames.to_string()),
                 kv("untrusted", c.untrusted.to_string()),
                 kv("position_clamped", c.position_clamped.to_string()),
@@ -133,4 +127,45 @@ pub(super) fn publish_status(
         ));
     }
     Ok(())
+}
+
+/// The signals that gate, for the status's `gate` value.
+fn gating(signals: Signals) -> &'static str {
+    match signals {
+        Signals::Reconstruction => "reconstruction",
+        Signals::Sd => "sd",
+        Signals::Both => "reconstruction, sd",
+    }
+}
+
+/// Why the last frame of `r` was not trusted: each signal beyond its threshold (or not a
+/// number), the standard deviation's with the joints the model is least sure of.
+fn why_untrusted(r: &Driven) -> String {
+    let frame = r.last.map(|d| d.frame).unwrap_or(Frame::NONE);
+    let t = r.gate.thresholds();
+    let (sd, reconstruction) = t.beyond(frame);
+    let mut why = Vec::with_capacity(2);
+    if reconstruction {
+        why.push(format!(
+            "pose reconstruction error {:.4} above its threshold {:.4} (not a pose the model learned)",
+            frame.reconstruction, t.reconstruction
+        ));
+    }
+    if sd {
+        // The joints the model is least sure of.
+        let mut by_sd: Vec<usize> = (0..r.sd.len()).collect();
+        by_sd.sort_by(|&a, &b| r.sd[b].total_cmp(&r.sd[a]));
+        let worst: Vec<String> = by_sd
+            .iter()
+            .take(3)
+            .map(|&k| format!("{} ({:.3} rad)", r.joints[k], r.sd[k]))
+            .collect();
+        why.push(format!(
+            "prediction sd {:.4} above the trust threshold {:.4}; least certain joints: {}",
+            frame.sd,
+            t.sd,
+            worst.join(", ")
+        ));
+    }
+    why.join("; ")
 }
