@@ -87,6 +87,10 @@ pub struct TeleopArgs {
     /// last trusted target.
     #[arg(long, default_value_t = 0.25)]
     return_speed: f64,
+    /// How far apart the robot's own collision shapes stay, metres: every command is the
+    /// nearest one that keeps them so (0: no self-collision limit).
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
     /// The status topic (diagnostic_msgs/msg/DiagnosticArray).
     #[arg(long, default_value = "/sgplvm/status")]
     status_topic: String,
@@ -171,6 +175,7 @@ impl TeleopArgs {
             reconstruction_scale: self.reconstruction_scale.unwrap_or(1.0),
             return_speed: self.return_speed,
             timeout_s: self.timeout,
+            collision_margin_m: (self.margin > 0.0).then_some(self.margin),
         })
     }
 }
@@ -281,6 +286,12 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             args.timeout
         );
     }
+    if !(args.margin.is_finite() && args.margin >= 0.0) {
+        bail!(
+            "--margin {}: expected metres ≥ 0 (0: no self-collision limit)",
+            args.margin
+        );
+    }
     if !(args.return_speed.is_finite() && args.return_speed >= 0.0) {
         bail!(
             "--return-speed {}: expected a fraction ≥ 0 of the velocity limits",
@@ -300,8 +311,8 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         );
         for (robot, r) in &summary.robots {
             eprintln!(
-                "{robot}: {} frames not trusted, {} commands held within position limits, {} within velocity limits, input stale {} time(s)",
-                r.untrusted, r.position_clamped, r.velocity_clamped, r.stale
+                "{robot}: {} frames not trusted, {} commands held within position limits, {} within velocity limits, {} kept out of self-collision, input stale {} time(s)",
+                r.untrusted, r.position_clamped, r.velocity_clamped, r.collision_limited, r.stale
             );
         }
         for (kind, n) in &summary.dropped {

@@ -38,6 +38,7 @@
 
 use sgplvm_core::SharedGplvm;
 use sgplvm_robots::limits::{Clamped, CommandLimits};
+use sgplvm_robots::safety::SafetyStep;
 
 /// Which signals gate (hold the robot when beyond their thresholds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -83,6 +84,9 @@ pub struct GateOptions {
     pub return_speed: f64,
     /// Seconds without a human frame after which the input is stale.
     pub timeout_s: f64,
+    /// How far apart the robot's own collision shapes stay, metres; `None`: no self-collision
+    /// limit.
+    pub collision_margin_m: Option<f64>,
 }
 
 impl Default for GateOptions {
@@ -95,6 +99,7 @@ impl Default for GateOptions {
             reconstruction_scale: 1.0,
             return_speed: 0.25,
             timeout_s: 0.1,
+            collision_margin_m: Some(0.01),
         }
     }
 }
@@ -241,6 +246,8 @@ pub struct GateCounts {
     pub velocity_clamped: usize,
     /// Times the input went stale.
     pub stale: usize,
+    /// Commands the self-collision limit moved (two of the robot's shapes within the margin).
+    pub collision_limited: usize,
 }
 
 /// The rule's state for one robot.
@@ -257,6 +264,11 @@ pub struct Gate {
     counts: GateCounts,
     /// The joints the limits moved in the last command.
     clamped_joints: Vec<usize>,
+    /// The nearest safe command (self-collision with a margin), where the robot's collision
+    /// shapes are known.
+    safety: Option<Box<SafetyStep>>,
+    /// The pair of links the last command kept apart, and their distance (metres).
+    near: Option<(String, String, f64)>,
 }
 
 impl Gate {
@@ -272,7 +284,22 @@ impl Gate {
             reason: None,
             counts: GateCounts::default(),
             clamped_joints: Vec::new(),
+            safety: None,
+            near: None,
         }
+    }
+
+    /// The gate with the self-collision limit of `safety` (over the same joints, in the same
+    /// order): every command is then the nearest one keeping the robot's own shapes apart.
+    pub fn with_safety(mut self, safety: SafetyStep) -> Gate {
+        self.safety = Some(Box::new(safety));
+        self
+    }
+
+    /// The pair of links the self-collision limit kept apart in the last command, and their
+    /// distance (metres).
+    pub fn near(&self) -> Option<&(String, String, f64)> {
+        self.near.as_ref()
     }
 
     /// The trust threshold (standardised standard deviation; it gates if
@@ -372,11 +399,30 @@ impl Gate {
             command,
             previous.as_ref().map(|(q, t)| (q.as_slice(), now - t)),
         );
+        self.keep_apart(command, previous.as_ref(), now);
         self.clamped_joints.clear();
         self.clamped_joints
             .extend((0..command.len()).filter(|&k| command[k] != wanted[k]));
         self.last_sent = Some((command.to_vec(), now));
         self.decide(reason, frame, clamped)
+    }
+
+    /// The self-collision limit on a command already within the position and velocity limits.
+    fn keep_apart(&mut self, command: &mut [f64], previous: Option<&(Vec<f64>, f64)>, now: f64) {
+        let Some(safety) = self.safety.as_mut() else {
+            return;
+        };
+        let asked = command.to_vec();
+        let outcome = safety.step_from(
+            &asked,
+            previous.map(|(q, t)| (q.as_slice(), *t)),
+            now,
+            command,
+        );
+        self.near = outcome.near.into_iter().min_by(|a, b| a.2.total_cmp(&b.2));
+        if self.near.is_some() && outcome.changed {
+            self.counts.collision_limited += 1;
+        }
     }
 
     /// No frame came for longer than the timeout: hold. The command to repeat, if any, is

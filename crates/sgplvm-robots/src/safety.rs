@@ -59,6 +59,7 @@ pub struct SafetyOutcome {
 }
 
 /// The safety step of one robot's commanded joints.
+#[derive(Clone)]
 pub struct SafetyStep {
     robot: Robot,
     ancestry: Ancestry,
@@ -70,6 +71,17 @@ pub struct SafetyStep {
     base: Vec<f64>,
     last: Option<(Vec<f64>, f64)>,
     options: SafetyOptions,
+}
+
+impl std::fmt::Debug for SafetyStep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SafetyStep")
+            .field("robot", &self.robot.name())
+            .field("joints", &self.active.len())
+            .field("pairs", &self.collision.pairs().len())
+            .field("options", &self.options)
+            .finish()
+    }
 }
 
 impl SafetyStep {
@@ -130,8 +142,27 @@ impl SafetyStep {
     }
 
     /// The command to send for `asked` (commanded joints' values) at `now_s` seconds (the
-    /// clock the robot receives commands by), written to `out`.
+    /// clock the robot receives commands by), written to `out`; the command before is the one
+    /// this step sent last.
     pub fn step(&mut self, asked: &[f64], now_s: f64, out: &mut [f64]) -> SafetyOutcome {
+        let last = self.last.take();
+        self.step_from(
+            asked,
+            last.as_ref().map(|(q, t)| (q.as_slice(), *t)),
+            now_s,
+            out,
+        )
+    }
+
+    /// [`SafetyStep::step`] from the command `last` sent at its time (`None`: none sent yet).
+    pub fn step_from(
+        &mut self,
+        asked: &[f64],
+        last: Option<(&[f64], f64)>,
+        now_s: f64,
+        out: &mut [f64],
+    ) -> SafetyOutcome {
+        self.last = last.map(|(q, t)| (q.to_vec(), t));
         let from: Vec<f64> = match &self.last {
             Some((q, _)) => q.clone(),
             None => asked.to_vec(),

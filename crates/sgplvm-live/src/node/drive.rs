@@ -8,6 +8,7 @@ use ros2_client::dds::Node;
 use sgplvm_core::SharedGplvm;
 use sgplvm_robots::anatomy::CommandColumns;
 use sgplvm_robots::limits::CommandLimits;
+use sgplvm_robots::safety::{SafetyOptions, SafetyStep};
 
 use super::dds::{command_publisher, CommandPublisher};
 use super::{Drive, TeleopOptions};
@@ -157,8 +158,35 @@ fn drive_one(
         d,
         options.form.name()
     ));
+    let mut gate = Gate::new(limits, thresholds, options.gate.return_speed);
+    if let Some(margin) = options.gate.collision_margin_m {
+        let safety = SafetyStep::new(
+            &drive.anatomy,
+            &joints,
+            SafetyOptions {
+                margin_m: margin,
+                ..SafetyOptions::default()
+            },
+        )
+        .map_err(LiveError::Config)?;
+        let model = safety.collision();
+        log(&format!(
+            "{}: self-collision limit on {} pairs of its shapes, {:.0} mm apart{}",
+            drive.robot,
+            model.pairs().len(),
+            margin * 1e3,
+            match model.unchecked().len() {
+                0 => String::new(),
+                n => format!(
+                    "; {n} collision element(s) not checked (e.g. {})",
+                    model.unchecked()[0]
+                ),
+            }
+        ));
+        gate = gate.with_safety(safety);
+    }
     Ok(Driven {
-        gate: Gate::new(limits, thresholds, options.gate.return_speed),
+        gate,
         drive,
         joints,
         columns,

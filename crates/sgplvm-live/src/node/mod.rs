@@ -159,8 +159,12 @@ pub struct RobotSummary {
     pub velocity_clamped: usize,
     /// Times the input went stale.
     pub stale: usize,
+    /// Commands the self-collision limit moved.
+    pub collision_limited: usize,
     /// The trust threshold used (standardised standard deviation).
     pub threshold: f64,
+    /// The reconstruction threshold used (radians, RMS over the human's joints).
+    pub reconstruction_threshold: f64,
 }
 
 /// Runs the node until `stop` is set (or `max_frames` input frames were used); `log` receives

@@ -311,7 +311,9 @@ impl<'a> Session<'a> {
                     position_clamped: c.position_clamped,
                     velocity_clamped: c.velocity_clamped,
                     stale: c.stale,
+                    collision_limited: c.collision_limited,
                     threshold: r.gate.threshold(),
+                    reconstruction_threshold: r.gate.thresholds().reconstruction,
                 },
             );
         }

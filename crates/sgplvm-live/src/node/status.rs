@@ -42,10 +42,15 @@ pub(super) fn publish_status(
         entries.push(DiagnosticStatus {
             level,
             name: format!("sgplvm/{}", r.drive.robot),
-            message: if limited.is_empty() {
-                message
-            } else {
-                format!("{message}; held within its limits: {}", limited.join(", "))
+            message: {
+                let mut m = message;
+                if !limited.is_empty() {
+                    m = format!("{m}; held within its limits: {}", limited.join(", "));
+                }
+                if let Some((a, b, d)) = r.gate.near() {
+                    m = format!("{m}; kept {a} and {b} apart ({:.1} mm)", d * 1e3);
+                }
+                m
             },
             hardware_id: r.drive.robot.clone(),
             values: vec![
@@ -79,6 +84,14 @@ pub(super) fn publish_status(
                 kv("position_clamped", c.position_clamped.to_string()),
                 kv("velocity_clamped", c.velocity_clamped.to_string()),
                 kv("stale", c.stale.to_string()),
+                kv("collision_limited", c.collision_limited.to_string()),
+                kv(
+                    "near",
+                    r.gate
+                        .near()
+                        .map(|(a, b, d)| format!("{a} {b} {d:.4}"))
+                        .unwrap_or_default(),
+                ),
             ],
         });
     }

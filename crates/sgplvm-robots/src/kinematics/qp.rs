@@ -125,7 +125,97 @@ impl Step {
                 return Ok((x, Solved::Constrained));
             }
         }
+        // Rows bind too: a primal active set from the zero step where that is feasible (the
+        // last command kept every limit); the interior-point solver otherwise.
+        if self.feasible(&DVector::zeros(self.dim()), 0.0) {
+            if let Some(x) = self.active_set() {
+                return Ok((x, Solved::Constrained));
+            }
+        }
         self.solve_qp().map(|x| (x, Solved::Constrained))
+    }
+
+    /// Every limit as a row `aᵀx ≤ b`: the finite bounds, then the rows.
+    fn all_rows(&self) -> Vec<(DVector<f64>, f64)> {
+        let n = self.dim();
+        let mut rows = Vec::with_capacity(2 * n + self.rows.len());
+        for i in 0..n {
+            if self.upper[i].is_finite() {
+                rows.push((
+                    DVector::from_fn(n, |k, _| if k == i { 1.0 } else { 0.0 }),
+                    self.upper[i],
+                ));
+            }
+            if self.lower[i].is_finite() {
+                rows.push((
+                    DVector::from_fn(n, |k, _| if k == i { -1.0 } else { 0.0 }),
+                    -self.lower[i],
+                ));
+            }
+        }
+        rows.extend(self.rows.iter().cloned());
+        rows
+    }
+
+    /// The primal active-set method from `x = 0` (feasible): the step to the minimiser with
+    /// the working set's rows held tight, cut at the first row it would cross (which joins the
+    /// set); at a minimiser on the set, a row with a negative multiplier leaves it; done when
+    /// none has. `None` if it does not settle or a system is singular.
+    fn active_set(&self) -> Option<DVector<f64>> {
+        let n = self.dim();
+        let rows = self.all_rows();
+        let mut x = DVector::zeros(n);
+        let mut work: Vec<usize> = Vec::new();
+        for _ in 0..(4 * rows.len() + 10) {
+            let w = work.len();
+            // KKT: [H Aᵀ; A 0] [p; λ] = [−(Hx + g); 0]
+            let mut kkt = DMatrix::zeros(n + w, n + w);
+            kkt.view_mut((0, 0), (n, n)).copy_from(&self.h);
+            for (r, &k) in work.iter().enumerate() {
+                for c in 0..n {
+                    kkt[(n + r, c)] = rows[k].0[c];
+                    kkt[(c, n + r)] = rows[k].0[c];
+                }
+            }
+            let mut rhs = DVector::zeros(n + w);
+            rhs.rows_mut(0, n).copy_from(&(-(&self.h * &x + &self.g)));
+            let sol = kkt.lu().solve(&rhs)?;
+            let p = sol.rows(0, n).into_owned();
+            if p.amax() < 1e-12 {
+                // A minimiser on the working set: drop the row with the most negative multiplier.
+                let drop = (0..w)
+                    .filter(|&r| sol[n + r] < -1e-12)
+                    .min_by(|&a, &b| sol[n + a].total_cmp(&sol[n + b]));
+                match drop {
+                    Some(r) => {
+                        work.remove(r);
+                        continue;
+                    }
+                    None => return Some(x),
+                }
+            }
+            // The longest step along p that crosses no row outside the working set.
+            let mut alpha = 1.0;
+            let mut blocking = None;
+            for (k, (a, b)) in rows.iter().enumerate() {
+                if work.contains(&k) {
+                    continue;
+                }
+                let ap = a.dot(&p);
+                if ap > 1e-14 {
+                    let room = ((b - a.dot(&x)) / ap).max(0.0);
+                    if room < alpha {
+                        alpha = room;
+                        blocking = Some(k);
+                    }
+                }
+            }
+            x += &p * alpha;
+            if let Some(k) = blocking {
+                work.push(k);
+            }
+        }
+        None
     }
 
     /// The minimiser within the bounds alone, by an active set: variables beyond a bound are
@@ -315,6 +405,26 @@ mod tests {
             let by_set = box_only.box_active_set().unwrap();
             let by_qp = box_only.solve_qp().unwrap();
             assert!((by_set - by_qp).amax() < 1e-6);
+        }
+        // And with rows too, from a feasible zero step.
+        for _ in 0..50 {
+            let n = 6;
+            let a = DMatrix::from_fn(8, n, |_, _| rand());
+            let e = DVector::from_fn(8, |_, _| 2.0 * rand());
+            let mut s = Step::new(n, 1e-3);
+            s.add_task(&a, &e, 1.0);
+            for i in 0..n {
+                s.bound(i, -0.3, 0.3);
+            }
+            for _ in 0..3 {
+                s.add_row(
+                    DVector::from_fn(n, |_, _| rand()),
+                    0.05 + 0.1 * rand().abs(),
+                );
+            }
+            let by_set = s.active_set().unwrap();
+            let by_qp = s.solve_qp().unwrap();
+            assert!((&by_set - &by_qp).amax() < 1e-6, "{by_set} vs {by_qp}");
         }
         let mut bad = Step::new(1, 0.0);
         bad.add_task(
