@@ -8,6 +8,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use sgplvm::robots::anatomy::{Anatomy, AnatomySpec, CommandJoints};
+use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::Robot;
 
 // The flags a robot's anatomy takes. With several robots in one command a setting may be
@@ -35,6 +36,11 @@ pub struct BodyArgs {
     /// hold values) or a comma-separated list, in order.
     #[arg(long = "command-joints", value_name = "[ROBOT/]arms|all|LIST")]
     pub command_joints: Vec<String>,
+    /// A folder where `package://PKG/...` meshes of a URDF are found (DIR/PKG or DIR itself;
+    /// repeatable; ROS_PACKAGE_PATH and AMENT_PREFIX_PATH are searched after): the robot's
+    /// collision meshes keep it out of self-collision, and Foxglove draws them.
+    #[arg(long = "package-path", value_name = "DIR")]
+    pub package_path: Vec<std::path::PathBuf>,
 }
 
 /// `ROBOT/rest` for robot `robot` or unqualified: the rest, when it applies to `robot`.
@@ -125,7 +131,16 @@ impl BodyArgs {
     pub fn load(&self, name: &str, urdf: Option<&Path>, hint: &str) -> Result<Anatomy> {
         let spec = self.spec(name)?;
         let anatomy = match urdf {
-            Some(path) => Anatomy::load(path, &spec)?,
+            Some(path) => {
+                let mut search = MeshSearch::for_urdf_file(path);
+                for dir in &self.package_path {
+                    if !dir.is_dir() {
+                        bail!("--package-path {}: not a folder", dir.display());
+                    }
+                    search = search.with_package_path(dir);
+                }
+                Anatomy::load(path, &spec)?.with_meshes(search.with_env())
+            }
             None => {
                 let robot = Robot::builtin(name).map_err(|_| {
                     anyhow!(

@@ -287,7 +287,7 @@ fn print_postures(reports: &[ReachReport]) {
     for r in reports {
         let Some(p) = &r.posture else { continue };
         println!(
-            "{:<12} {:>5.1}° {:>5.1}°        | {:>5.1}° {:>5.1}°         | {:>5.1} % {:>5.1} % ({:>5.1} %)                | {:>6} {:>6}                        | {} ({:.1} mm, {:.0} mm)",
+            "{:<12} {:>5.1}° {:>5.1}°        | {:>5.1}° {:>5.1}°         | {:>5.1} % {:>5.1} % ({:>5.1} %)                | {:>6} {:>6}                        | {} ({}, {:.0} mm)",
             r.robot,
             p.upper_arm_deg[0],
             p.upper_arm_deg[1],
@@ -299,7 +299,11 @@ fn print_postures(reports: &[ReachReport]) {
             p.velocity_limited_frames,
             p.collision_limited_frames,
             p.colliding_frames,
-            1e3 * p.closest_m,
+            if p.pairs == 0 {
+                "no pair checked".to_string()
+            } else {
+                format!("{:.1} mm", 1e3 * p.closest_m)
+            },
             1e3 * p.margin_m,
         );
         if !p.unchecked.is_empty() {

@@ -121,7 +121,7 @@ def reached_fraction(report):
 def test_retarget_numpy_holds_the_waist_and_reaches_what_is_reachable():
     human, times = human_frames()
     g1 = sgplvm.Robot.from_urdf(PUBLISHED / "g1_29dof.urdf", hold={"waist_pitch_joint": 0.1}, command_joints="all")
-    out = sgplvm.retarget({"g1": g1, "coman": "coman"}, human, times)
+    out = sgplvm.retarget({"g1": g1, "coman": "coman"}, human, times, match="hands")
     r = out["g1"]
     names = r["joint_names"]
     assert len(names) == 29 and r["positions"].shape == (len(times), 29)
@@ -148,9 +148,12 @@ def test_talos_two_joint_torso_and_gripper_mimics_held():
     assert {"torso_1_joint", "torso_2_joint", "gripper_left_joint", "gripper_left_inner_double_joint"} <= set(held)
     assert a["arms"][0]["joints"] == [f"arm_left_{k}_joint" for k in range(1, 8)]
     human, times = human_frames(200)
-    rep = sgplvm.retarget({"talos": robot}, human, times)["talos"]["report"]
+    rep = sgplvm.retarget({"talos": robot}, human, times, match="hands")["talos"]["report"]
     assert rep["worst_m"] is None or rep["worst_m"] <= 0.005
     assert reached_fraction(rep) > 0.8, rep
+    # Whole-arm (the default): the person's arm posture.
+    posture = sgplvm.retarget({"talos": robot}, human, times)["talos"]["report"]["posture"]
+    assert posture["upper_arm_deg"][0] < 10 and posture["forearm_deg"][0] < 10, posture
 
 
 def test_retarget_to_a_file_then_train_and_predict_a_published_robot(tmp_path):

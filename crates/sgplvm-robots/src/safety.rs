@@ -104,7 +104,7 @@ impl SafetyStep {
             active.push(robot.movable[i]);
         }
         let base = anatomy.hold_configuration().to_vec();
-        let collision = anatomy.collision_model(&q_index);
+        let collision = anatomy.collision_model(&q_index, options.margin_m);
         Ok(SafetyStep {
             robot,
             ancestry,
@@ -186,6 +186,7 @@ impl SafetyStep {
             velocity_limits(&mut step, &ctx, dt);
         }
         let mut outcome = SafetyOutcome::default();
+        let mut within_detect = false;
         if self.options.self_collision {
             let near = collision_limit(
                 &mut step,
@@ -195,6 +196,7 @@ impl SafetyStep {
                 self.options.detect_m,
                 1.0,
             );
+            within_detect = !near.is_empty();
             for p in near
                 .iter()
                 .filter(|p| p.distance < self.options.margin_m + 1e-3)
@@ -216,7 +218,10 @@ impl SafetyStep {
         };
         // The linearised distances bind only near; a long step can still pass through a
         // shape: the step is cut back until nothing overlaps (from a command that did not).
-        if self.options.self_collision && self.last.is_some() {
+        // No shape near and a step too short to close the detection distance (a metre of
+        // lever per radian, more than any arm here has): nothing can overlap.
+        let short = !within_detect && delta.amax() < self.options.detect_m;
+        if self.options.self_collision && self.last.is_some() && !short {
             let overlaps = |d: &DVector<f64>| {
                 let x: Vec<f64> = from.iter().zip(d.iter()).map(|(f, d)| f + d).collect();
                 let frames = RobotFrames::new(&self.robot, &self.ancestry, &self.full(&x));

@@ -124,7 +124,7 @@ def retarget(
     *,
     demos: Union[None, PathLike, Sequence[PathLike]] = None,
     out: Optional[PathLike] = None,
-    match: str = "hands",
+    match: str = "arms",
     redundancy: str = "continuous",
     velocity_limits: bool = True,
     block_seconds: float = 4.0,
@@ -141,8 +141,10 @@ def retarget(
     ``robots`` is a list of built-in names or a dict name → :class:`Robot` (e.g.
     ``Robot.from_urdf(path, arms=...)``) or built-in name. The human is either ``human``, an
     (n, 18) array of the human model's joint angles with ``times_ns`` (n,) int64, or ``demos``,
-    MCAP files (e.g. from ``sgplvm import``). ``match``, ``redundancy`` and ``velocity_limits``
-    are the CLI's ``--match``, ``--redundancy`` and ``--no-velocity-limits``.
+    MCAP files (e.g. from ``sgplvm import``). ``match`` (``"arms"``: the person's arm posture,
+    out of self-collision; ``"hands"``, ``"hands+elbows"``, ``"poses"``), ``redundancy`` and
+    ``velocity_limits`` are the CLI's ``--match``, ``--redundancy`` and
+    ``--no-velocity-limits``.
 
     Without ``out``: returns ``{robot: {"joint_names", "positions" (n, joints), "report"}}``.
     With ``out`` (and ``demos``): writes the demonstrations split for training, as the CLI does

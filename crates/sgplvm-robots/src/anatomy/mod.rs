@@ -634,13 +634,21 @@ impl Anatomy {
 
     /// The robot's own collision shapes (meshes as convex hulls where found) and the pairs of
     /// them that can meet when the joints `moving` (configuration indices) move, judged at the
-    /// hold posture.
-    pub fn collision_model(&self, moving: &[usize]) -> CollisionModel {
+    /// hold posture (pairs nearer than `apart` metres there are the model's own closeness and
+    /// left out).
+    pub fn collision_model(&self, moving: &[usize], apart: f64) -> CollisionModel {
         let ancestry = Ancestry::of(&self.robot);
         let joints: Vec<usize> = moving.iter().map(|&i| self.robot.movable[i]).collect();
         let search = &self.meshes;
         let loader = |file: &str, scale: [f64; 3]| mesh_hull(search, file, scale);
-        CollisionModel::new(&self.robot, &ancestry, &joints, &self.hold, Some(&loader))
+        CollisionModel::new(
+            &self.robot,
+            &ancestry,
+            &joints,
+            &self.hold,
+            apart,
+            Some(&loader),
+        )
     }
 
     /// The description file that says what this anatomy is (to write beside the URDF).

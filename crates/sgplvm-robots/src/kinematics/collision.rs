@@ -113,12 +113,14 @@ fn shape_of(
 impl CollisionModel {
     /// The collision model of `robot`: its shapes (meshes through `meshes`, when given) and
     /// the pairs that can meet when the joints `moving` (indices into [`Robot::joints`]) move,
-    /// judged at the reference configuration `reference`.
+    /// judged at the reference configuration `reference`: pairs nearer than `apart` there (their
+    /// own overlap, or the margin a step will keep) are left out.
     pub fn new(
         robot: &Robot,
         ancestry: &Ancestry,
         moving: &[usize],
         reference: &[f64],
+        apart: f64,
         meshes: Option<&MeshLoader<'_>>,
     ) -> CollisionModel {
         let mut shapes = Vec::new();
@@ -177,8 +179,8 @@ impl CollisionModel {
                     continue;
                 }
                 if model
-                    .distance(&frames, i, k, 0.0)
-                    .is_some_and(|p| p.1 <= 0.0)
+                    .distance(&frames, i, k, apart)
+                    .is_some_and(|p| p.1 <= apart)
                 {
                     model.overlapping_at_reference += 1;
                     continue;
@@ -204,7 +206,8 @@ impl CollisionModel {
         &self.unchecked
     }
 
-    /// Pairs left out because their shapes overlap at the reference posture.
+    /// Pairs left out because their shapes overlap, or come nearer than the margin, at the
+    /// reference posture.
     pub fn overlapping_at_reference(&self) -> usize {
         self.overlapping_at_reference
     }
@@ -271,7 +274,7 @@ mod tests {
         let ancestry = Ancestry::of(&robot);
         let moving = robot.movable.clone();
         let zero = robot.neutral_configuration();
-        let model = CollisionModel::new(&robot, &ancestry, &moving, &zero, None);
+        let model = CollisionModel::new(&robot, &ancestry, &moving, &zero, 0.0, None);
         assert!(model.unchecked().is_empty());
         assert!(!model.pairs().is_empty());
         let frames = RobotFrames::new(&robot, &ancestry, &zero);

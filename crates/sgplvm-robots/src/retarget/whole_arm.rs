@@ -204,7 +204,7 @@ pub(super) fn run(
         .filter_map(|n| robot.joint_index(n))
         .collect();
     let active: Vec<usize> = q_index.iter().map(|&i| robot.movable[i]).collect();
-    let model = anatomy.collision_model(&q_index);
+    let model = anatomy.collision_model(&q_index, options.margin_m);
     let mut safety = SafetyStep::new(
         anatomy,
         &arm_names,
@@ -333,8 +333,8 @@ impl FrameSolver<'_> {
     ) -> (usize, usize) {
         let tasks = self.tasks(target);
         let mut cold = hold.to_vec();
-        let (s1, c1) = self.solve(&mut cold, &tasks);
-        let (s2, c2) = self.solve(q, &tasks);
+        let (s1, c1) = self.converge(&mut cold, &tasks);
+        let (s2, c2) = self.converge(q, &tasks);
         // The previous posture only where the neutral start found a worse optimum, not where
         // the two differ by what convergence leaves undecided.
         let (cost_cold, cost_warm) = (self.cost(&cold, &tasks), self.cost(q, &tasks));
@@ -342,6 +342,25 @@ impl FrameSolver<'_> {
             *q = cold;
         }
         (s1 + s2, c1 + c2)
+    }
+
+    /// Converges `q` onto the tasks, the self-collision limit only where the tasks alone end
+    /// with two shapes nearer than the margin (shapes are the costly part: meshes' hulls).
+    fn converge(&self, q: &mut [f64], tasks: &[(Task, f64)]) -> (usize, usize) {
+        let (mut steps, mut constrained) = self.solve(q, tasks, false);
+        if self.options.self_collision {
+            let frames = RobotFrames::new(self.anatomy.robot(), &self.gauge.ancestry, q);
+            if !self
+                .model
+                .proximities(&frames, self.options.margin_m)
+                .is_empty()
+            {
+                let (s, c) = self.solve(q, tasks, true);
+                steps += s;
+                constrained += c;
+            }
+        }
+        (steps, constrained)
     }
 
     /// The objective at `q`: the tasks' weighted squared errors.
@@ -361,9 +380,9 @@ impl FrameSolver<'_> {
             .sum()
     }
 
-    /// Converges `q` (the whole configuration) onto the tasks; returns the steps taken and
-    /// how many had an active limit.
-    fn solve(&self, q: &mut [f64], tasks: &[(Task, f64)]) -> (usize, usize) {
+    /// Converges `q` (the whole configuration) onto the tasks, with the self-collision limit
+    /// when `collisions`; returns the steps taken and how many had an active limit.
+    fn solve(&self, q: &mut [f64], tasks: &[(Task, f64)], collisions: bool) -> (usize, usize) {
         let robot = self.anatomy.robot();
         let (mut steps, mut constrained) = (0, 0);
         // A trust region: a step is taken only if it lowers the objective (or keeps a collision
@@ -389,7 +408,7 @@ impl FrameSolver<'_> {
             position_limits(&mut step, &ctx, Some(radius));
             // Near another shape the step keeps its distance: taken whatever it costs the
             // tasks (the objective does not see the collision limit).
-            let near = self.options.self_collision
+            let near = collisions
                 && !collision_limit(
                     &mut step,
                     &ctx,
@@ -400,6 +419,8 @@ impl FrameSolver<'_> {
                 )
                 .is_empty();
             let Ok((delta, how)) = step.solve() else {
+                // Limits that admit no step (shapes that cannot all be kept apart): the tasks
+                // decide, and the command sent is kept safe.
                 break;
             };
             steps += 1;
