@@ -25,7 +25,10 @@ own code (not sgplvm's Rust metrics), in one run.
   weights (mink weighs ‖cost·e‖²): upper arm 1, forearm 1, hand 2/reach, posture 0.1. The
   command is then the nearest safe one, as sgplvm's safety step: one ``solve_ik`` from the
   command before with a ``PostureTask`` on the converged posture, ``VelocityLimit`` (the URDF's
-  velocities over the frame's dt), ``ConfigurationLimit`` and ``CollisionAvoidanceLimit``.
+  velocities over the frame's dt), ``ConfigurationLimit`` and ``CollisionAvoidanceLimit``. mink
+  runs twice: as it is usually run (from the previous frame only) and as sgplvm runs (also from
+  the neutral posture, that one kept where its objective is lower by 0.1 %); the rows without
+  the command step show the converged IK, and sgplvm's objective is compared at both.
 * Measured alike: per frame and arm the direction errors (degrees), the hand error (fraction of
   reach), hands within 5 % of reach, self-collision with MuJoCo's ``mj_geomDistance`` over the
   pairs that can meet (sgplvm's rule: not neighbours, apart at the neutral posture), the fastest
@@ -544,7 +547,9 @@ def main():
         ("mink, converged IK before the command step", judge(mink_ideal), "—"),
         ("mink two starts, converged IK before the command step", judge(mink2_ideal), "—"),
     ]
-    print(f"{args.robot}, {args.demos} ({n} frames, {1 / np.median(np.diff(times_s)) if n > 1 else 0:.0f} Hz); "
+    shown = pathlib.Path(args.demos).resolve()
+    shown = shown.relative_to(ROOT) if shown.is_relative_to(ROOT) else shown
+    print(f"{args.robot}, {shown} ({n} frames, {1 / np.median(np.diff(times_s)) if n > 1 else 0:.0f} Hz); "
           f"{len(judge.pairs)} geom pairs that can meet (sgplvm's report: {ours['report']['posture']['pairs']}); "
           f"{platform.node()}, {platform.python_version()}, mujoco {mujoco.__version__}")
     print()
