@@ -222,6 +222,7 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
     // model's output as it is, with its standard deviation).
     let csv = f.dir.join("coman.csv");
     let mcap = f.dir.join("coman.mcap");
+    // Without the self-collision limit: the position and velocity limits alone, checked below.
     ok(&[
         "predict",
         "--model",
@@ -230,9 +231,30 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
         s(&f.data),
         "--robot",
         "coman",
+        "--margin",
+        "0",
         "--out",
         s(&csv),
     ]);
+    // By default the commands are kept out of self-collision too, and stderr says how many.
+    let safe = f.dir.join("coman-safe.csv");
+    let said = sgplvm(&[
+        "predict",
+        "--model",
+        s(coman),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--out",
+        s(&safe),
+    ]);
+    assert!(said.status.success());
+    let err = String::from_utf8_lossy(&said.stderr);
+    assert!(err.contains("self-collision"), "{err}");
+    assert!(std::fs::read_to_string(&safe)
+        .unwrap()
+        .starts_with("# coman commands: within the robot's URDF position and velocity limits and out of self-collision"));
     ok(&[
         "predict",
         "--model",

@@ -3,17 +3,21 @@
 use std::collections::BTreeMap;
 
 use sgplvm::robots::limits::{CommandLimits, LimitCounts};
+use sgplvm::robots::safety::SafetyStep;
 
 /// What a command output holds.
 pub enum Commands {
     /// The model's output, bounded by nothing.
     Raw,
-    /// Within the position limits, and the velocity limits when `timed`.
+    /// Within the position limits, and the velocity limits when `timed`; out of
+    /// self-collision when `safety` is given.
     Limited {
         /// The limits.
         limits: CommandLimits,
         /// Whether the frames have times (else the velocity limits cannot apply).
         timed: bool,
+        /// The nearest safe command (the robot's own shapes kept a margin apart).
+        safety: Option<Box<SafetyStep>>,
     },
 }
 
@@ -23,6 +27,13 @@ impl Commands {
         match self {
             Commands::Raw => format!(
                 "{robot} commands: raw model output, not bounded by the robot's joint limits (--raw)"
+            ),
+            Commands::Limited {
+                timed: true,
+                safety: Some(_),
+                ..
+            } => format!(
+                "{robot} commands: within the robot's URDF position and velocity limits and out of self-collision (--raw for the model's output)"
             ),
             Commands::Limited { timed: true, .. } => format!(
                 "{robot} commands: within the robot's URDF position and velocity limits (--raw for the model's output)"
@@ -52,6 +63,63 @@ impl Commands {
             map.insert("frames".into(), c.commands.to_string());
             map.insert("frames_limited".into(), c.commands_clamped.to_string());
         }
+        if let Commands::Limited {
+            safety: Some(s), ..
+        } = self
+        {
+            map.insert(
+                "self_collision_pairs".into(),
+                s.collision().pairs().len().to_string(),
+            );
+        }
         ("sgplvm.predict".into(), map)
     }
+}
+
+/// What the self-collision limit did to a series of commands.
+#[derive(Default)]
+pub struct KeptApart {
+    /// Commands it moved.
+    pub commands: usize,
+    /// The nearest pair of links it kept apart, and their distance (metres).
+    pub closest: Option<(String, String, f64)>,
+}
+
+impl KeptApart {
+    /// Counts one command's outcome.
+    pub fn add(&mut self, outcome: sgplvm::robots::safety::SafetyOutcome) {
+        if outcome.changed && !outcome.near.is_empty() {
+            self.commands += 1;
+        }
+        for n in outcome.near {
+            if self.closest.as_ref().is_none_or(|c| n.2 < c.2) {
+                self.closest = Some(n);
+            }
+        }
+    }
+
+    /// One line for stderr.
+    pub fn summary(&self, robot: &str) -> String {
+        match &self.closest {
+            Some((a, b, d)) => format!(
+                "{} {robot} commands kept out of self-collision (closest: {a} and {b}, {:.1} mm)",
+                self.commands,
+                d * 1e3
+            ),
+            None => format!("no {robot} command came near a self-collision"),
+        }
+    }
+}
+
+/// Keeps a series of commands (`rows`, row-major, `d` per command, at `times` seconds, or
+/// untimed) out of self-collision, one command after another.
+pub fn keep_apart(safety: &mut SafetyStep, rows: &mut [f64], d: usize, times: &[f64]) -> KeptApart {
+    let mut kept = KeptApart::default();
+    let mut out = vec![0.0; d];
+    for (f, row) in rows.chunks_exact_mut(d.max(1)).enumerate() {
+        let now = times.get(f).copied().unwrap_or(f as f64);
+        kept.add(safety.step(row, now, &mut out));
+        row.copy_from_slice(&out);
+    }
+    kept
 }

@@ -19,12 +19,13 @@ use sgplvm::robots::series::seconds_from_ns;
 use sgplvm::{Mat, SharedGplvm};
 
 use sgplvm::robots::anatomy::{Anatomy, CommandColumns};
+use sgplvm::robots::safety::{SafetyOptions, SafetyStep};
 use sgplvm::robots::Robot;
 
 use super::args::ModelFileArg;
 use super::body::BodyArgs;
 use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
-use super::limits::Commands;
+use super::limits::{keep_apart, Commands, KeptApart};
 
 pub(super) mod scene;
 
@@ -64,6 +65,10 @@ pub struct PredictArgs {
     /// of that name].
     #[arg(long, value_name = "FILE")]
     urdf: Option<PathBuf>,
+    /// How far apart the robot's own collision shapes stay, metres: each command is the
+    /// nearest one that keeps them so (0: no self-collision limit; --raw: none either).
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
     #[command(flatten)]
     body: BodyArgs,
 }
@@ -128,12 +133,37 @@ impl PredictArgs {
     }
 
     /// What the commands will be: raw, or within the limits of the robot's body (`timed`:
-    /// whether the frames have times for the velocity limits).
+    /// whether the frames have times for the velocity limits) and out of self-collision.
     fn commands(&self, target: &Target, timed: bool) -> Result<Commands> {
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            bail!(
+                "--margin {}: expected metres ≥ 0 (0: no self-collision limit)",
+                self.margin
+            );
+        }
         match (&target.anatomy, self.raw) {
             (Some(anatomy), false) => {
                 let limits = CommandLimits::for_joints(anatomy.robot(), target.names())?;
-                Ok(Commands::Limited { limits, timed })
+                let safety = (self.margin > 0.0)
+                    .then(|| {
+                        SafetyStep::new(
+                            anatomy,
+                            target.names(),
+                            SafetyOptions {
+                                margin_m: self.margin,
+                                velocity_limits: timed,
+                                ..SafetyOptions::default()
+                            },
+                        )
+                    })
+                    .transpose()
+                    .map_err(|e| anyhow!(e))?
+                    .map(Box::new);
+                Ok(Commands::Limited {
+                    limits,
+                    timed,
+                    safety,
+                })
             }
             _ => Ok(Commands::Raw),
         }
@@ -180,15 +210,25 @@ pub fn run(args: PredictArgs) -> Result<()> {
             .collect()
     };
     let mut mean = target.columns.rows(&rows(&prediction.mean, |v| v), false);
-    let counts = match &commands {
+    let mut commands = commands;
+    let mut kept = None;
+    let counts = match &mut commands {
         Commands::Raw => None,
-        Commands::Limited { limits, timed } => {
+        Commands::Limited {
+            limits,
+            timed,
+            safety,
+        } => {
             let times: Vec<f64> = if *timed {
                 human.times_ns.iter().map(|&t| seconds_from_ns(t)).collect()
             } else {
                 Vec::new()
             };
-            Some(limits.apply_all(&mut mean, &times))
+            let counts = limits.apply_all(&mut mean, &times);
+            if let Some(s) = safety.as_mut() {
+                kept = Some(keep_apart(s, &mut mean, target.names().len(), &times));
+            }
+            Some(counts)
         }
     };
     let predicted = Predicted {
@@ -234,6 +274,9 @@ pub fn run(args: PredictArgs) -> Result<()> {
     }
     if let Some(counts) = &predicted.counts {
         eprintln!("{}", counts.summary(robot, &robot_joints));
+    }
+    if let Some(k) = &kept {
+        eprintln!("{}", k.summary(robot));
     }
     Ok(())
 }
@@ -399,6 +442,10 @@ pub(super) struct StreamLimits {
     stream: Option<LimitedStream>,
     /// Seconds per unit of the time column (`None`: no times).
     time_unit: Option<f64>,
+    /// What the self-collision limit did.
+    kept: KeptApart,
+    /// Frames pushed.
+    frames: usize,
 }
 
 impl StreamLimits {
@@ -406,10 +453,11 @@ impl StreamLimits {
     pub fn new(commands: Commands, time_column: Option<&str>) -> StreamLimits {
         let time_unit = time_column.map(|c| if c == "time_ns" { 1e-9 } else { 1.0 });
         let (commands, stream) = match commands {
-            Commands::Limited { limits, .. } => (
+            Commands::Limited { limits, safety, .. } => (
                 Commands::Limited {
                     limits: limits.clone(),
                     timed: time_unit.is_some(),
+                    safety,
                 },
                 Some(LimitedStream::new(limits)),
             ),
@@ -419,20 +467,39 @@ impl StreamLimits {
             commands,
             stream,
             time_unit,
+            kept: KeptApart::default(),
+            frames: 0,
         }
     }
 
-    /// Moves one frame's command within the limits (`time`: its time column's value).
+    /// Moves one frame's command within the limits (`time`: its time column's value) and out
+    /// of self-collision.
     pub fn push(&mut self, command: &mut [f64], time: Option<f64>) {
+        let seconds = time.zip(self.time_unit).map(|(t, u)| t * u);
         if let Some(s) = self.stream.as_mut() {
-            s.push(command, time.zip(self.time_unit).map(|(t, u)| t * u));
+            s.push(command, seconds);
         }
+        if let Commands::Limited {
+            safety: Some(s), ..
+        } = &mut self.commands
+        {
+            let asked = command.to_vec();
+            let now = seconds.unwrap_or(self.frames as f64);
+            self.kept.add(s.step(&asked, now, command));
+        }
+        self.frames += 1;
     }
 
     /// Says on stderr what the limits moved.
     pub fn report(&self, robot: &str, joints: &[String]) {
         if let Some(s) = &self.stream {
             eprintln!("{}", s.counts().summary(robot, joints));
+        }
+        if let Commands::Limited {
+            safety: Some(_), ..
+        } = &self.commands
+        {
+            eprintln!("{}", self.kept.summary(robot));
         }
     }
 }

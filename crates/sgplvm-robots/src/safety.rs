@@ -18,7 +18,7 @@ use crate::anatomy::Anatomy;
 use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::{Ancestry, RobotFrames};
 use crate::kinematics::limits::{collision_limit, position_limits, velocity_limits};
-use crate::kinematics::qp::Step;
+use crate::kinematics::qp::{Solved, Step};
 use crate::kinematics::tasks::TaskContext;
 use crate::urdf::Robot;
 
@@ -209,11 +209,11 @@ impl SafetyStep {
                 ));
             }
         }
-        let mut delta = match step.solve() {
-            Ok((d, _)) => d,
+        let (mut delta, free) = match step.solve() {
+            Ok((d, how)) => (d, how == Solved::Unconstrained),
             Err(_) => {
                 outcome.infeasible = true;
-                DVector::zeros(n)
+                (DVector::zeros(n), false)
             }
         };
         // The linearised distances bind only near; a long step can still pass through a
@@ -221,6 +221,7 @@ impl SafetyStep {
         // No shape near and a step too short to close the detection distance (a metre of
         // lever per radian, more than any arm here has): nothing can overlap.
         let short = !within_detect && delta.amax() < self.options.detect_m;
+        let mut cuts = 0;
         if self.options.self_collision && self.last.is_some() && !short {
             let overlaps = |d: &DVector<f64>| {
                 let x: Vec<f64> = from.iter().zip(d.iter()).map(|(f, d)| f + d).collect();
@@ -238,9 +239,15 @@ impl SafetyStep {
             if cut == 12 {
                 delta.fill(0.0);
             }
+            cuts = cut;
         }
-        for (k, o) in out.iter_mut().enumerate().take(n) {
-            *o = from[k] + delta[k];
+        if free && cuts == 0 {
+            // No limit bound: the command asked for, exactly.
+            out[..n].copy_from_slice(asked);
+        } else {
+            for (k, o) in out.iter_mut().enumerate().take(n) {
+                *o = from[k] + delta[k];
+            }
         }
         outcome.changed = out.iter().zip(asked).any(|(o, a)| (o - a).abs() > 1e-9);
         self.last = Some((out[..n].to_vec(), now_s));
