@@ -226,7 +226,9 @@ pub fn run(args: PredictArgs) -> Result<()> {
             };
             let counts = limits.apply_all(&mut mean, &times);
             if let Some(s) = safety.as_mut() {
-                kept = Some(keep_apart(s, &mut mean, target.names().len(), &times));
+                // From the first frame: an absolute clock leaves too few digits for a step.
+                let since: Vec<f64> = times.iter().map(|t| t - times[0]).collect();
+                kept = Some(keep_apart(s, &mut mean, target.names().len(), &since));
             }
             Some(counts)
         }
@@ -446,6 +448,8 @@ pub(super) struct StreamLimits {
     kept: KeptApart,
     /// Frames pushed.
     frames: usize,
+    /// The first frame's time, seconds.
+    t0: Option<f64>,
 }
 
 impl StreamLimits {
@@ -469,6 +473,7 @@ impl StreamLimits {
             time_unit,
             kept: KeptApart::default(),
             frames: 0,
+            t0: None,
         }
     }
 
@@ -484,7 +489,9 @@ impl StreamLimits {
         } = &mut self.commands
         {
             let asked = command.to_vec();
-            let now = seconds.unwrap_or(self.frames as f64);
+            // From the first frame: an absolute clock leaves too few digits for a step.
+            let t0 = *self.t0.get_or_insert(seconds.unwrap_or(0.0));
+            let now = seconds.map_or(self.frames as f64, |t| t - t0);
             self.kept.add(s.step(&asked, now, command));
         }
         self.frames += 1;

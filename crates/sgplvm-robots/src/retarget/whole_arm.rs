@@ -234,7 +234,10 @@ pub(super) fn run(
         tally.steps += steps;
         tally.constrained += constrained;
         let asked: Vec<f64> = q_index.iter().map(|&i| ideal[i]).collect();
-        let outcome = safety.step(&asked, times_ns[f] as f64 * 1e-9, &mut sent);
+        // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
+        // too few digits for a 25 ms step's velocity limit.
+        let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
+        let outcome = safety.step(&asked, now, &mut sent);
         if outcome.changed {
             if outcome.near.is_empty() {
                 tally.velocity_limited += 1;
