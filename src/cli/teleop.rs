@@ -33,6 +33,11 @@ pub struct TeleopArgs {
     /// The human's sensor_msgs/msg/JointState topic (joints matched by name, any order).
     #[arg(long, default_value = "/human/joint_states")]
     input_topic: String,
+    /// Where the human comes from: `joint-state` (the human model's angles on --input-topic)
+    /// or `mvn[:ADDR:PORT]` (an Xsens MVN suit's network stream, UDP, pose datagrams 01 or 02;
+    /// default 0.0.0.0:9763), each frame fitted as `sgplvm import` fits a file's.
+    #[arg(long, default_value = "joint-state", value_parser = parse_input)]
+    input: HumanInput,
     /// The command's message: joint-state (sensor_msgs/JointState on /ROBOT/joint_command),
     /// forward (std_msgs/Float64MultiArray for ros2_control's forward position controller),
     /// trajectory (trajectory_msgs/JointTrajectory, one point one frame ahead) or xbot
@@ -189,6 +194,30 @@ impl QosArg {
     }
 }
 
+/// Where the human comes from: the JointState topic (`None`) or an MVN stream's address.
+#[derive(Clone, Copy, Debug)]
+struct HumanInput(Option<std::net::SocketAddr>);
+
+/// `joint-state` or `mvn[:ADDR:PORT]`.
+fn parse_input(s: &str) -> Result<HumanInput, String> {
+    match s {
+        "joint-state" => Ok(HumanInput(None)),
+        "mvn" => Ok(HumanInput(Some(std::net::SocketAddr::from((
+            [0, 0, 0, 0],
+            9763,
+        ))))),
+        other => match other.strip_prefix("mvn:") {
+            Some(addr) => addr
+                .parse()
+                .map(|a| HumanInput(Some(a)))
+                .map_err(|_| format!("`{addr}`: expected ADDR:PORT, e.g. 0.0.0.0:9763")),
+            None => Err(format!(
+                "unknown `{other}`; expected joint-state or mvn[:ADDR:PORT]"
+            )),
+        },
+    }
+}
+
 fn parse_form(s: &str) -> Result<CommandForm, String> {
     CommandForm::parse(s)
         .ok_or_else(|| format!("unknown `{s}`; expected joint-state, forward, trajectory or xbot"))
@@ -279,6 +308,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         max_frames: args.max_frames,
         status_period_s: 1.0,
         view: args.foxglove,
+        mvn: args.input.0,
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(
@@ -326,8 +356,11 @@ pub fn run(args: TeleopArgs) -> Result<()> {
 pub struct ReplayArgs {
     /// Human frames: an MCAP with the human's JointState topic (--topic), e.g. from `sgplvm
     /// import`, `sgplvm export --body human` or a ROS 2 recording; published with its stamps.
+    #[arg(long, required_unless_present = "bvh", conflicts_with = "bvh")]
+    input: Option<PathBuf>,
+    /// Or a motion capture (BVH), imported as `sgplvm import` does (40 Hz).
     #[arg(long)]
-    input: PathBuf,
+    bvh: Option<PathBuf>,
     /// The topic to publish on (and, for a plain MCAP, to read).
     #[arg(long, default_value = "/human/joint_states")]
     topic: String,
@@ -349,6 +382,22 @@ pub struct ReplayArgs {
     /// Stop after this many messages.
     #[arg(long)]
     max_messages: Option<usize>,
+    /// Send the frames as `joint-state` (the human model's angles on --topic) or as `mvn` (an
+    /// Xsens MVN network stream of the human model's segments, UDP to --to), for `teleop
+    /// --input mvn`.
+    #[arg(long = "as", value_enum, default_value = "joint-state")]
+    send_as: SendAs,
+    /// With --as mvn: where to send, ADDR:PORT.
+    #[arg(long, default_value = "127.0.0.1:9763")]
+    to: std::net::SocketAddr,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SendAs {
+    /// sensor_msgs/msg/JointState on ROS 2.
+    JointState,
+    /// Xsens MVN network streaming, UDP.
+    Mvn,
 }
 
 /// The human series of `path`: its JointState `topic` as recorded (stamps and all).
@@ -357,7 +406,18 @@ fn human_series(path: &std::path::Path, topic: &str) -> Result<JointStates> {
 }
 
 pub fn run_replay(args: ReplayArgs) -> Result<()> {
-    let series = human_series(&args.input, &args.topic)?;
+    let (series, source) = match (&args.input, &args.bvh) {
+        (Some(input), _) => (human_series(input, &args.topic)?, input.clone()),
+        (None, Some(bvh)) => {
+            let m = sgplvm::robots::capture::import_bvh(bvh, &Default::default())?;
+            let values = (0..m.positions.nrows())
+                .flat_map(|i| (0..m.positions.ncols()).map(move |j| (i, j)))
+                .map(|(i, j)| m.positions[(i, j)])
+                .collect();
+            (JointStates::new(m.times_ns, m.joint_names, values)?, bvh.clone())
+        }
+        (None, None) => bail!("name the frames to replay: --input MCAP or --bvh FILE"),
+    };
     let options = ReplayOptions {
         domain_id: domain_id(args.domain_id)?,
         topic: args.topic.clone(),
@@ -371,12 +431,15 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
     eprintln!(
         "replaying {} frames of {} ({} joints) on {}{}",
         series.len(),
-        args.input.display(),
+        source.display(),
         series.dof(),
         args.topic,
         if args.looped { ", looped" } else { "" }
     );
-    let sent = sgplvm_live::replay(&series, &options, &stop)?;
+    let sent = match args.send_as {
+        SendAs::JointState => sgplvm_live::replay(&series, &options, &stop)?,
+        SendAs::Mvn => sgplvm_live::replay_mvn(&series, args.to, &options, &stop)?,
+    };
     eprintln!("published {sent} messages");
     Ok(())
 }

@@ -26,7 +26,7 @@ pub mod view;
 pub use commands::CommandForm;
 pub use gate::{Gate, GateOptions};
 pub use node::{teleop, Drive, Reliability, TeleopOptions, TeleopSummary};
-pub use replay::{replay, ReplayOptions};
+pub use replay::{replay, replay_mvn, ReplayOptions};
 
 /// What went wrong in the live node.
 #[derive(Debug, thiserror::Error)]

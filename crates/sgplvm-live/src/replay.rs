@@ -128,3 +128,82 @@ pub fn replay(
     }
     Ok(sent)
 }
+
+/// Sends `series` (the human model's angles) as an Xsens MVN stream to `to` (type 02 pose
+/// datagrams, the human model's segments as [`crate::mvn::HumanSegments`] places them) at its
+/// own times scaled by `options.rate` (a receiver calibrates on any frame: the segments'
+/// offsets in their parents' frames are the null pose's): the live chain with a suit's
+/// protocol and no suit. Returns the frames sent.
+pub fn replay_mvn(
+    series: &JointStates,
+    to: std::net::SocketAddr,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+) -> Result<usize, LiveError> {
+    use crate::mvn::{HumanSegments, MvnSender, PoseType};
+    if series.is_empty() {
+        return Err(LiveError::Config(
+            "nothing to replay: the series has no frames".into(),
+        ));
+    }
+    if !(options.rate.is_finite() && options.rate > 0.0) {
+        return Err(LiveError::Config(format!(
+            "rate {}; expected a positive speed factor",
+            options.rate
+        )));
+    }
+    let config = |e: String| LiveError::Config(format!("--as mvn: {e}"));
+    let segments = HumanSegments::new().map_err(|e| config(e.to_string()))?;
+    let model = sgplvm_robots::Robot::builtin("human")
+        .map_err(|e| config(e.to_string()))?
+        .joint_names();
+    let order: Vec<usize> = model
+        .iter()
+        .map(|n| {
+            series.names.iter().position(|s| s == n).ok_or_else(|| {
+                config(format!(
+                    "the series has no joint `{n}` of the human model (an MVN frame needs all 18)"
+                ))
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let sender = MvnSender::new(to).map_err(|e| config(e.to_string()))?;
+    let send = |q: &[f64], sample: u32, t_ms: u32| -> Result<(), LiveError> {
+        let frame = segments
+            .frame(q, sample, t_ms)
+            .map_err(|e| config(e.to_string()))?;
+        sender
+            .send(&frame, PoseType::Quaternion)
+            .map_err(|e| config(e.to_string()))
+    };
+    let t0 = series.times_ns[0];
+    let start = Instant::now() + Duration::from_millis(50);
+    let mut sent = 0usize;
+    let mut sample: u32 = 1;
+    let mut lap_start = 0i64;
+    let span = series.times_ns[series.len() - 1] - t0 + 25_000_000;
+    'outer: loop {
+        for (k, &t) in series.times_ns.iter().enumerate() {
+            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
+                break 'outer;
+            }
+            let offset_ns = lap_start + (t - t0);
+            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+            let row = series.row(k);
+            let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
+            let t_ms = u32::try_from(offset_ns / 1_000_000).unwrap_or(u32::MAX);
+            send(&q, sample, t_ms)?;
+            sample = sample.wrapping_add(1);
+            sent += 1;
+        }
+        if !options.looped {
+            break;
+        }
+        lap_start += span;
+    }
+    Ok(sent)
+}

@@ -152,7 +152,7 @@ impl BodyData {
 }
 
 /// Median of `v` (0 for none), sorting it.
-pub(crate) fn median(v: &mut [f64]) -> f64 {
+pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

@@ -110,6 +110,7 @@
 pub mod assemble;
 pub mod body;
 pub mod datagram;
+pub mod human;
 pub mod receiver;
 mod segments;
 
@@ -121,6 +122,7 @@ pub use datagram::{
     decode, decode_part, encode, Header, MvnPart, MvnPose, PoseType, SegmentCounts, SegmentPose,
     DEFAULT_PORT, HEADER_BYTES,
 };
+pub use human::{HumanSegments, MvnFit};
 pub use receiver::{MvnReceiver, MvnSender, ReceiverCounts, ReceiverOptions};
 pub use segments::{segment_id, segment_name, BODY_SEGMENTS, FINGER_SEGMENTS, PROP_SEGMENTS};
 

@@ -831,3 +831,43 @@ fn mvn_frame_through_the_importers_arm_fit() {
         );
     }
 }
+
+#[test]
+fn the_human_model_s_angles_come_back_through_mvn_and_the_importer_s_fit() {
+    use super::human::{HumanSegments, MvnFit};
+    let human = HumanSegments::new().unwrap();
+    let mut fit = MvnFit::new();
+    let robot = sgplvm_robots::Robot::builtin("human").unwrap();
+    let limits = robot.joint_limits();
+    // The null pose first (the stream's calibration), then poses across the joints' ranges.
+    let mut t_pose = vec![0.0; 18];
+    t_pose[3] = std::f64::consts::FRAC_PI_2;
+    t_pose[12] = std::f64::consts::FRAC_PI_2;
+    let mut worst = 0.0_f64;
+    for k in 0..60 {
+        let q: Vec<f64> = if k == 0 {
+            t_pose.clone()
+        } else {
+            limits
+                .iter()
+                .enumerate()
+                .map(|(j, &(lo, hi))| {
+                    let s = 0.5 + 0.4 * ((k * 7 + j * 3) as f64).sin();
+                    lo + s * (hi - lo) * 0.8 + 0.1 * (hi - lo)
+                })
+                .collect()
+        };
+        let frame = human.frame(&q, k as u32, 0).unwrap();
+        let bytes = encode(&frame, PoseType::Quaternion).unwrap();
+        let back = decode(&bytes).unwrap();
+        let (angles, fits) = fit.angles(&back).unwrap();
+        for f in &fits {
+            assert!(f.elbow_m < 1e-3 && f.wrist_m < 1e-3, "{k}: {f:?}");
+        }
+        for j in 0..18 {
+            worst = worst.max((angles[j] - q[j]).abs());
+        }
+    }
+    // Single precision travels (the quaternions and positions are f32).
+    assert!(worst < 1e-3, "worst angle difference {worst} rad");
+}

@@ -13,6 +13,7 @@
 
 mod dds;
 mod drive;
+mod mvn_input;
 mod session;
 mod status;
 
@@ -83,6 +84,9 @@ pub struct TeleopOptions {
     pub status_period_s: f64,
     /// Serve the live view (Foxglove WebSocket) on this address.
     pub view: Option<std::net::SocketAddr>,
+    /// Take the human from an Xsens MVN stream on this UDP address (each frame fitted as
+    /// `sgplvm import` fits a file's) instead of the JointState topic.
+    pub mvn: Option<std::net::SocketAddr>,
 }
 
 impl Default for TeleopOptions {
@@ -100,6 +104,7 @@ impl Default for TeleopOptions {
             max_frames: None,
             status_period_s: 1.0,
             view: None,
+            mvn: None,
         }
     }
 }
@@ -146,6 +151,9 @@ pub struct TeleopSummary {
     pub latency: Latency,
     /// Per robot: the rule's counts.
     pub robots: BTreeMap<String, RobotSummary>,
+    /// With an MVN input: its datagrams, frames and the fit's residuals.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mvn: Option<mvn_input::MvnSummary>,
 }
 
 /// One robot's counts.
@@ -181,8 +189,19 @@ pub fn teleop(
     let status = status_publisher(&mut node, options)?;
     let (driven, slots) = drive_all(&mut node, drives, options, log)?;
     let view = start_view(options, &driven, &human, log)?;
+    let mvn = options
+        .mvn
+        .map(|addr| {
+            let m = mvn_input::MvnInput::bind(addr, &human)?;
+            if let Ok(a) = m.receiver.local_addr() {
+                log(&format!("input: Xsens MVN stream on udp://{a}"));
+            }
+            Ok::<_, LiveError>(m)
+        })
+        .transpose()?;
     let parts = Parts {
         human,
+        mvn,
         input,
         status,
         driven,

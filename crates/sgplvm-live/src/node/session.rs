@@ -9,6 +9,7 @@ use ros2_client::dds::{Publisher, Subscription};
 
 use super::dds::dds;
 use super::drive::{Driven, LatentSlot};
+use super::mvn_input::MvnInput;
 use super::status::publish_status;
 use super::{Latency, RobotSummary, TeleopOptions, TeleopSummary};
 use crate::commands::Command;
@@ -31,6 +32,8 @@ pub(super) struct Session<'a> {
     driven: Vec<Driven>,
     status: Publisher<DiagnosticArray>,
     input: Subscription<JointState>,
+    /// The MVN stream, when the human comes from a suit.
+    mvn: Option<MvnInput>,
     /// The models' human joint names.
     human: Vec<String>,
     start: Instant,
@@ -55,6 +58,7 @@ pub(super) struct Session<'a> {
 /// the live view.
 pub(super) struct Parts {
     pub(super) human: Vec<String>,
+    pub(super) mvn: Option<MvnInput>,
     pub(super) input: Subscription<JointState>,
     pub(super) status: Publisher<DiagnosticArray>,
     pub(super) driven: Vec<Driven>,
@@ -67,6 +71,7 @@ impl<'a> Session<'a> {
     pub(super) fn new(options: &'a TeleopOptions, parts: Parts) -> Result<Self, LiveError> {
         let Parts {
             human,
+            mut mvn,
             mut input,
             status,
             driven,
@@ -77,6 +82,11 @@ impl<'a> Session<'a> {
         poll.registry()
             .register(&mut input, Token(0), Interest::READABLE)
             .map_err(|e| dds(e.to_string()))?;
+        if let Some(m) = mvn.as_mut() {
+            poll.registry()
+                .register(&mut m.receiver, Token(1), Interest::READABLE)
+                .map_err(|e| dds(e.to_string()))?;
+        }
         let events = Events::with_capacity(8);
         let start = Instant::now();
         let h = vec![0.0; human.len()];
@@ -90,6 +100,7 @@ impl<'a> Session<'a> {
             driven,
             status,
             input,
+            mvn,
             human,
             start,
             summary: TeleopSummary::default(),
@@ -119,6 +130,16 @@ impl<'a> Session<'a> {
         self.wait()?;
         if let Some((msg, received)) = self.newest(log) {
             self.use_message(&msg, received, log)?;
+        }
+        if let Some(m) = self.mvn.as_mut() {
+            let received = Instant::now();
+            if m.newest(&mut self.h, log) {
+                // The suit's frames carry no ROS stamp: the node's clock stamps them.
+                let now = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+                self.follow(Time::from_ns(now), received, log)?;
+            }
         }
         self.check_stale(log)?;
         if self.status_due || Instant::now() >= self.next_status {
@@ -266,9 +287,12 @@ impl<'a> Session<'a> {
             if t.elapsed() > self.timeout {
                 self.stale = true;
                 self.status_due = true;
+                let source = match self.options.mvn {
+                    Some(a) => format!("the MVN stream (udp://{a})"),
+                    None => self.options.input_topic.clone(),
+                };
                 log(&format!(
-                    "stale input: no human frame on {} for {:.0} ms: holding",
-                    self.options.input_topic,
+                    "stale input: no human frame on {source} for {:.0} ms: holding",
                     self.timeout.as_secs_f64() * 1e3
                 ));
                 for r in &mut self.driven {
@@ -302,6 +326,7 @@ impl<'a> Session<'a> {
     pub(super) fn finish(mut self, log: &mut dyn FnMut(&str)) -> Result<TeleopSummary, LiveError> {
         publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
         self.summary.latency = Latency::of(std::mem::take(&mut self.latencies));
+        self.summary.mvn = self.mvn.as_ref().map(MvnInput::summary);
         for r in &self.driven {
             let c = r.gate.counts();
             self.summary.robots.insert(

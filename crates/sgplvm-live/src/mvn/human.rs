@@ -1,0 +1,141 @@
+//! The human model's angles as MVN frames, and MVN frames back into the human model's angles
+//! through the importer's per-frame fit ([`sgplvm_robots::capture::PoseFitter`]): what `sgplvm
+//! replay --as mvn` sends and what `sgplvm teleop --input mvn` takes.
+//!
+//! A frame's segments are the human model's links at the frame's angles — `T8` its root, each
+//! arm's `…Shoulder` (clavicle), `…UpperArm`, `…ForeArm` and `…Hand` the links after the
+//! sternoclavicular, shoulder, elbow and wrist joints, at those joints — turned, as MVN's are,
+//! so that every segment's orientation is the identity in MVN's null pose (the T-pose: both
+//! arms abducted 90°, nothing else bent).
+
+use nalgebra::{Isometry3, Rotation3};
+use sgplvm_robots::capture::{ArmFitResult, HumanArms, PoseFitter};
+use sgplvm_robots::{Robot, Side};
+
+use super::body::WorldPose;
+use super::datagram::MvnPose;
+use super::MvnError;
+
+/// The human model's link of each MVN arm segment (left arm; the right's say `right`).
+const LINKS: [(&str, &str); 4] = [
+    ("Shoulder", "clavicle"),
+    ("UpperArm", "upper_arm"),
+    ("ForeArm", "forearm"),
+    ("Hand", "hand_segment"),
+];
+
+/// The human model, and its links' orientations in the null pose.
+pub struct HumanSegments {
+    robot: Robot,
+    /// Per segment name, its link and the link's rotation in the T-pose.
+    segments: Vec<(String, String, Rotation3<f64>)>,
+}
+
+impl HumanSegments {
+    /// The shipped human model's segments.
+    pub fn new() -> Result<HumanSegments, MvnError> {
+        let robot = Robot::builtin("human").map_err(|e| MvnError::Segment {
+            name: "human".into(),
+            message: e.to_string(),
+        })?;
+        let names = robot.joint_names();
+        let mut t_pose = vec![0.0; robot.dof()];
+        for n in ["jLeftShoulder_abduction", "jRightShoulder_abduction"] {
+            if let Some(i) = names.iter().position(|x| x == n) {
+                t_pose[i] = std::f64::consts::FRAC_PI_2;
+            }
+        }
+        let mut segments = Vec::new();
+        for (side, prefix) in [("Left", "left"), ("Right", "right")] {
+            for (segment, link) in LINKS {
+                let link = format!("{prefix}_{link}");
+                let rest = robot.forward_kinematics(&t_pose, &link).map_err(|e| {
+                    MvnError::Segment {
+                        name: link.clone(),
+                        message: e.to_string(),
+                    }
+                })?;
+                segments.push((
+                    format!("{side}{segment}"),
+                    link,
+                    Rotation3::from(rest.rotation),
+                ));
+            }
+        }
+        Ok(HumanSegments { robot, segments })
+    }
+
+    /// The frame of the human model's angles `q` (its joint order): `T8` at the origin with
+    /// the body's axes, the arms' segments as the module docs say.
+    pub fn frame(&self, q: &[f64], sample: u32, time_ms: u32) -> Result<MvnPose, MvnError> {
+        let bad = |e: sgplvm_robots::RobotError| MvnError::Segment {
+            name: "human".into(),
+            message: e.to_string(),
+        };
+        let mut poses: Vec<(&str, WorldPose)> = vec![(
+            "T8",
+            WorldPose {
+                position: nalgebra::Vector3::zeros(),
+                rotation: Rotation3::identity(),
+            },
+        )];
+        for (segment, link, rest) in &self.segments {
+            let pose: Isometry3<f64> = self.robot.forward_kinematics(q, link).map_err(bad)?;
+            poses.push((
+                segment.as_str(),
+                WorldPose {
+                    position: pose.translation.vector,
+                    rotation: Rotation3::from(pose.rotation) * rest.inverse(),
+                },
+            ));
+        }
+        MvnPose::from_world_poses(sample, time_ms, 0, poses)
+    }
+}
+
+/// The stream's fit: calibrated on the first frame's null pose, then each frame's arms fitted
+/// as the importer fits a file's.
+pub struct MvnFit {
+    fitter: Option<PoseFitter>,
+}
+
+impl MvnFit {
+    /// A fit not calibrated yet.
+    pub fn new() -> MvnFit {
+        MvnFit { fitter: None }
+    }
+
+    /// The human model's 18 angles (left arm, then right) of `pose`, with the fit's residuals.
+    pub fn angles(&mut self, pose: &MvnPose) -> Result<([f64; 18], [ArmFitResult; 2]), MvnError> {
+        let arms = [pose.arm_pose(Side::Left)?, pose.arm_pose(Side::Right)?];
+        if self.fitter.is_none() {
+            let rest = [pose.rest_arm_pose(Side::Left)?, pose.rest_arm_pose(Side::Right)?];
+            let robot = Robot::builtin("human").map_err(|e| MvnError::Segment {
+                name: "human".into(),
+                message: e.to_string(),
+            })?;
+            let model = HumanArms::new(&robot).map_err(|e| MvnError::Segment {
+                name: "human".into(),
+                message: e.to_string(),
+            })?;
+            self.fitter = Some(PoseFitter::new(
+                model,
+                [&rest[0], &rest[1]],
+                [true, true],
+                &|_| None,
+            ));
+        }
+        let fitter = self.fitter.as_mut().ok_or_else(|| MvnError::Segment {
+            name: "human".into(),
+            message: "not calibrated".into(),
+        })?;
+        let fits = fitter.fit([&arms[0], &arms[1]]);
+        Ok((PoseFitter::angles(&fits), fits))
+    }
+}
+
+impl Default for MvnFit {
+    fn default() -> Self {
+        MvnFit::new()
+    }
+}
