@@ -237,8 +237,12 @@ fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() 
         "--json",
     ]);
     let v: serde_json::Value = serde_json::from_str(&report).expect("json");
+    // The robots take the person's arm posture (whole-arm retargeting, the default).
     for r in v["reach"].as_array().expect("reach") {
-        assert!(r["worst_m"].as_f64().expect("worst") <= 0.005, "{r}");
+        let p = &r["posture"];
+        assert!(p["upper_arm_deg"][0].as_f64().expect("upper") < 10.0, "{r}");
+        assert!(p["forearm_deg"][0].as_f64().expect("forearm") < 10.0, "{r}");
+        assert_eq!(p["colliding_frames"], 0, "{r}");
     }
     ok(&[
         "train",

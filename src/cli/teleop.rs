@@ -414,7 +414,10 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
                 .flat_map(|i| (0..m.positions.ncols()).map(move |j| (i, j)))
                 .map(|(i, j)| m.positions[(i, j)])
                 .collect();
-            (JointStates::new(m.times_ns, m.joint_names, values)?, bvh.clone())
+            (
+                JointStates::new(m.times_ns, m.joint_names, values)?,
+                bvh.clone(),
+            )
         }
         (None, None) => bail!("name the frames to replay: --input MCAP or --bvh FILE"),
     };

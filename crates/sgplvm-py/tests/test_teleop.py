@@ -441,7 +441,8 @@ def relaxed_urdf(tmp, robot):
 
 def test_commands_equal_predict_for_two_robots_at_once(tmp, data, models):
     """A Cyclone publisher sends 3 s of a recorded test motion at 40 Hz; a Cyclone subscriber
-    receives both robots' commands from one node; each equals ``predict --raw`` on the same frame
+    receives both robots' commands from one node (the self-collision limit off: only the position
+    limits may move a command here); each equals ``predict --raw`` on the same frame
     (matched by the stamp it carries) to 1e-10 (one frame against predict's batch: the same sums
     in another order), or, where the model's output left the robot's position limits, that output
     held at the limit."""
@@ -449,7 +450,7 @@ def test_commands_equal_predict_for_two_robots_at_once(tmp, data, models):
     urdfs = {r: relaxed_urdf(tmp, r) for r in ["coman", "walkman"]}
     node = Teleop(tmp, domain, [
         "--model", str(models["multi"]), "--robot", "coman", "--robot", "walkman",
-        "--reconstruction-threshold", "1e9",
+        "--reconstruction-threshold", "1e9", "--margin", "0",
         "--urdf", f"coman={urdfs['coman'][0]}", "--urdf", f"walkman={urdfs['walkman'][0]}",
     ])
     try:
@@ -804,7 +805,7 @@ def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
     k = int(beyond[0])
     domain = next_domain()
     urdf, _ = relaxed_urdf(tmp, "coman")  # position limits only
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--reconstruction-threshold", "1e9", "--urdf", f"coman={urdf}", "--timeout", "5"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5"])
     try:
         ros = Ros2(domain)
         w = ros.writer("/human/joint_states", JointState)
@@ -903,3 +904,95 @@ def test_live_view_serves_foxglove(tmp, data, models):
     rate = (len(tf) - 1) / (tf[-1] - tf[0])
     assert 30 <= rate <= 50, rate
     assert len(result["counts"].get("/coman/joint_command", [])) >= 0.9 * len(data["rows"])
+
+
+def _quaternion(m):
+    """w, x, y, z of a rotation matrix (Shepperd's method)."""
+    t = m[0, 0] + m[1, 1] + m[2, 2]
+    if t > 0:
+        s = 2.0 * np.sqrt(1.0 + t)
+        return (0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s)
+    i = int(np.argmax([m[0, 0], m[1, 1], m[2, 2]]))
+    j, k = (i + 1) % 3, (i + 2) % 3
+    s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+    q = [0.0, 0.0, 0.0, 0.0]
+    q[0] = (m[k, j] - m[j, k]) / s
+    q[1 + i] = 0.25 * s
+    q[1 + j] = (m[j, i] + m[i, j]) / s
+    q[1 + k] = (m[k, i] + m[i, k]) / s
+    return tuple(q)
+
+
+def _mvn_frames(rows):
+    """Type 02 datagrams of the human model at each row of angles, written with the
+    specification's tables (mvn_spec.py): the arms' segments are the model's links at the
+    sternoclavicular, shoulder, elbow and wrist joints, turned so that the T-pose (both arms
+    abducted 90°) is every segment's identity, MVN's null pose; the other segments stand still."""
+    import mvn_spec
+
+    human = sgplvm.Robot.builtin("human")
+    names = human.joint_names
+    t_pose = np.zeros(len(names))
+    for i, n in enumerate(names):
+        if n.endswith("Shoulder_abduction"):
+            t_pose[i] = np.pi / 2
+    links = {"Shoulder": "clavicle", "UpperArm": "upper_arm", "ForeArm": "forearm", "Hand": "hand_segment"}
+    rest = {
+        (side, part): human.forward_kinematics(t_pose, f"{side.lower()}_{link}")[:3, :3]
+        for side in ("Left", "Right")
+        for part, link in links.items()
+    }
+    still = mvn_spec.t_pose()
+    t8 = np.array(still["T8"][0])
+    datagrams = []
+    for k, q in enumerate(rows):
+        segments = dict(still)
+        for side in ("Left", "Right"):
+            for part, link in links.items():
+                pose = human.forward_kinematics(q, f"{side.lower()}_{link}")
+                r = pose[:3, :3] @ rest[(side, part)].T
+                segments[side + part] = (tuple(t8 + pose[:3, 3]), _quaternion(r))
+        datagrams.append(mvn_spec.quaternion_datagram(k + 1, segments))
+    return datagrams
+
+
+def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, models):
+    """Datagrams written from the MVN specification's tables (mvn_spec.py, independent of the
+    node's decoder) carry a recorded test motion as a suit would; the node fits each frame with
+    the importer's fit and sends commands equal to ``predict --raw`` on the angles the frames were
+    made from — to the single precision MVN sends (f32 positions and quaternions)."""
+    import socket
+
+    import mvn_spec
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    domain = next_domain()
+    urdf = relaxed_urdf(tmp, "coman")
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", f"mvn:127.0.0.1:{port}",
+        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+    ])
+    rows = data["rows"][:60]
+    try:
+        ros = Ros2(domain)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        for d in _mvn_frames(rows):
+            mvn_spec.send([d], port=port)
+            time.sleep(0.025)
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    assert summary["mvn"]["frames"] == len(rows), (summary, err)
+    assert summary["mvn"]["worst_m"] < 1e-4, summary["mvn"]
+    joints, raw = predict_raw(tmp, models["coman"], "coman", data["names"], rows, data["times_ns"][:60])
+    lo, hi, _ = limits(urdf[1], joints)
+    # One command per frame; after the last, the stale input's hold may repeat it once.
+    assert len(rows) <= len(commands) <= len(rows) + 1, (len(commands), err)
+    commands = commands[: len(rows)]
+    worst = max(
+        float(np.max(np.abs(np.array(c.position) - np.clip(raw[k], lo, hi)))) for k, c in enumerate(commands)
+    )
+    assert worst < 1e-4, worst

@@ -49,12 +49,13 @@ impl HumanSegments {
         for (side, prefix) in [("Left", "left"), ("Right", "right")] {
             for (segment, link) in LINKS {
                 let link = format!("{prefix}_{link}");
-                let rest = robot.forward_kinematics(&t_pose, &link).map_err(|e| {
-                    MvnError::Segment {
-                        name: link.clone(),
-                        message: e.to_string(),
-                    }
-                })?;
+                let rest =
+                    robot
+                        .forward_kinematics(&t_pose, &link)
+                        .map_err(|e| MvnError::Segment {
+                            name: link.clone(),
+                            message: e.to_string(),
+                        })?;
                 segments.push((
                     format!("{side}{segment}"),
                     link,
@@ -109,7 +110,10 @@ impl MvnFit {
     pub fn angles(&mut self, pose: &MvnPose) -> Result<([f64; 18], [ArmFitResult; 2]), MvnError> {
         let arms = [pose.arm_pose(Side::Left)?, pose.arm_pose(Side::Right)?];
         if self.fitter.is_none() {
-            let rest = [pose.rest_arm_pose(Side::Left)?, pose.rest_arm_pose(Side::Right)?];
+            let rest = [
+                pose.rest_arm_pose(Side::Left)?,
+                pose.rest_arm_pose(Side::Right)?,
+            ];
             let robot = Robot::builtin("human").map_err(|e| MvnError::Segment {
                 name: "human".into(),
                 message: e.to_string(),

@@ -37,7 +37,10 @@ pub(super) struct MvnInput {
 
 impl MvnInput {
     /// Listens on `addr` for the models whose human joints are `human`.
-    pub(super) fn bind(addr: std::net::SocketAddr, human: &[String]) -> Result<MvnInput, LiveError> {
+    pub(super) fn bind(
+        addr: std::net::SocketAddr,
+        human: &[String],
+    ) -> Result<MvnInput, LiveError> {
         let model = sgplvm_robots::Robot::builtin("human")
             .map_err(|e| LiveError::Config(e.to_string()))?
             .joint_names();
@@ -86,7 +89,10 @@ impl MvnInput {
                 true
             }
             Err(e) => {
-                log(&format!("--input mvn: frame {} not used: {e}", pose.sample_counter));
+                log(&format!(
+                    "--input mvn: frame {} not used: {e}",
+                    pose.sample_counter
+                ));
                 false
             }
         }
