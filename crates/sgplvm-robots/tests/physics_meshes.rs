@@ -248,7 +248,8 @@ fn meshes_not_found_or_unreadable_are_reported_not_checked() {
 
 #[test]
 fn published_g1_without_its_meshes_says_what_it_could_not_check() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/published/g1_29dof.urdf");
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/urdf/published/g1_29dof.urdf");
     let xml = std::fs::read_to_string(&path).unwrap();
     let trajectory = Trajectory::new(
         vec!["left_elbow_joint".into()],
