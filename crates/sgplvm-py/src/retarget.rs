@@ -26,7 +26,7 @@ fn retarget_error(e: RetargetError) -> PyErr {
 fn options(mode: &str, redundancy: &str, velocity_limits: bool) -> PyResult<RetargetOptions> {
     let mode = Match::parse(mode).ok_or_else(|| {
         PyValueError::new_err(format!(
-            "match is {mode:?}; expected \"hands\", \"hands+elbows\" or \"poses\""
+            "match is {mode:?}; expected \"arms\", \"hands\", \"hands+elbows\" or \"poses\""
         ))
     })?;
     let redundancy = match redundancy {

@@ -26,6 +26,7 @@ __all__ = [
     "load_demonstrations",
     "read_bvh",
     "read_joint_states",
+    "retarget_native",
     "simulate",
     "sparse_bound",
     "write_joint_states",
