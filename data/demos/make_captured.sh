@@ -36,6 +36,9 @@ demos=()
 for entry in "${trials[@]}"; do
   IFS='|' read -r trial url md5 span <<<"$entry"
   bvh="$cache/$trial.bvh"
+  if [ ! -f "$bvh" ] && [ -f "data/capture/cmu-$trial.bvh" ]; then
+    cp "data/capture/cmu-$trial.bvh" "$bvh"   # shipped with the repository (data/capture)
+  fi
   if [ ! -f "$bvh" ]; then
     echo "downloading $trial from $url"
     curl -fsSL "$url" -o "$bvh.part" && mv "$bvh.part" "$bvh"
