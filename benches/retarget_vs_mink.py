@@ -564,7 +564,7 @@ def main():
     print(f"sgplvm: {ours_s:.2f} s ({p['steps_per_frame']:.1f} Gauss–Newton steps a frame, two starts each; "
           f"its own report: upper {p['upper_arm_deg'][0]:.1f}/{p['upper_arm_deg'][1]:.1f}°, forearm "
           f"{p['forearm_deg'][0]:.1f}/{p['forearm_deg'][1]:.1f}°, hand {p['hand_of_reach'][0]:.3f}/{p['hand_of_reach'][1]:.3f}, "
-          f"{100 * p['hands_within_5pct']:.1f} % within 5 %, {p['colliding_frames']} colliding, closest {1e3 * p['closest_m']:.1f} mm, "
+          f"{100 * p['hands_within_5pct']:.1f} % within 5 %, {p['colliding_frames']} colliding, closest {'(none near)' if p['closest_m'] is None else format(1e3 * p['closest_m'], '.1f') + ' mm'}, "
           f"velocity-limited frames {p['velocity_limited_frames']}, collision-limited {p['collision_limited_frames']})")
     print(f"mink: {mink_s:.2f} s ({mink_steps:.1f} solve_ik steps a frame from the previous frame, "
           f"{mink_fails} QP failures); two starts: {mink2_s:.2f} s ({mink2_steps:.1f} steps a frame, {mink2_fails} failures)")

@@ -1,13 +1,15 @@
-//! Every shell command of README.md runs as written: the test parses the README's ```bash
-//! blocks and runs each command line, top to bottom, in one scratch folder holding a copy of the
-//! shipped demonstrations (as a fresh clone would), with the `sgplvm` this build made first on
-//! the PATH (`cargo run --release --` stands for it too). A command is skipped only when an
-//! HTML comment `<!-- readme-test: skip `PREFIX` (reason) -->` just above its block names the
-//! start of the line and says why; a marker that matches no command is an error. A block under
-//! `<!-- readme-test: loopback (reason) -->` (a live ROS 2 session: DDS finds its peers by
-//! multicast) runs as one script, background jobs and all, in a network namespace holding only
-//! the loopback device (`unshare -n`; where that is not permitted the block is skipped, and with
-//! `CI=true` that is a failure). The files the commands write must be ignored by `.gitignore`.
+//! Every shell command of README.md and of the guides under docs/ runs as written: the test
+//! parses each document's ```bash blocks and runs each command line, top to bottom, in a scratch
+//! folder of the document's own holding a copy of the shipped data (as a fresh clone would:
+//! the demonstrations, the capture, the published robots), with the `sgplvm` this build made
+//! first on the PATH (`cargo run --release --` stands for it too). A command is skipped only
+//! when an HTML comment `<!-- readme-test: skip `PREFIX` (reason) -->` just above its block
+//! names the start of the line and says why; a marker that matches no command is an error. A
+//! block under `<!-- readme-test: loopback (reason) -->` (a live ROS 2 session: DDS finds its
+//! peers by multicast) runs as one script, background jobs and all, in a network namespace
+//! holding only the loopback device (`unshare -n`; where that is not permitted the block is
+//! skipped, and with `CI=true` that is a failure). The files the commands write must be ignored
+//! by `.gitignore`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,7 +17,7 @@ use std::process::Command;
 mod common;
 use common::{s, scratch};
 
-/// One ```bash block of the README: its command lines and the skip markers above it.
+/// One ```bash block of a document: its command lines and the skip markers above it.
 struct Block {
     /// The line number (1-based) of the opening fence.
     line: usize,
@@ -26,7 +28,7 @@ struct Block {
     loopback: bool,
 }
 
-/// The README's bash blocks. A marker line is `<!-- readme-test: skip `PREFIX` (reason) -->`.
+/// A document's bash blocks. A marker line is `<!-- readme-test: skip `PREFIX` (reason) -->`.
 fn bash_blocks(readme: &str) -> Vec<Block> {
     let mut blocks = Vec::new();
     let mut pending: Vec<(String, String)> = Vec::new();
@@ -41,7 +43,7 @@ fn bash_blocks(readme: &str) -> Vec<Block> {
             let reason = reason.trim().trim_start_matches('(').trim_end_matches(')');
             assert!(
                 !reason.trim().is_empty(),
-                "README.md:{}: a loopback marker must say why: {line}",
+                "line {}: a loopback marker must say why: {line}",
                 i + 1
             );
             loopback = true;
@@ -53,11 +55,11 @@ fn bash_blocks(readme: &str) -> Vec<Block> {
         {
             let (prefix, rest) = marker
                 .split_once('`')
-                .unwrap_or_else(|| panic!("README.md:{}: unclosed ` in {line}", i + 1));
+                .unwrap_or_else(|| panic!("line {}: unclosed ` in {line}", i + 1));
             let reason = rest.trim().trim_start_matches('(').trim_end_matches(')');
             assert!(
                 !reason.trim().is_empty(),
-                "README.md:{}: a skip marker must say why: {line}",
+                "line {}: a skip marker must say why: {line}",
                 i + 1
             );
             pending.push((prefix.to_string(), reason.to_string()));
@@ -102,20 +104,22 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A scratch folder laid out like a fresh clone for the commands: `data/demos` with the shipped
-/// demonstration files, `data/urdf/published` with the published robots.
-fn fresh_clone_folder() -> PathBuf {
-    let dir = scratch("readme");
+/// A scratch folder laid out like a fresh clone for one document's commands: `data/demos` with
+/// the shipped demonstration files, the published robots, the capture and the Foxglove layout.
+fn fresh_clone_folder(name: &str) -> PathBuf {
+    let dir = scratch(&format!("readme-{name}"));
     let demos = dir.join("data").join("demos");
     std::fs::create_dir_all(&demos).unwrap();
     for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
         std::fs::copy(root().join("data/demos").join(file), demos.join(file)).unwrap();
     }
-    let published = dir.join("data").join("urdf").join("published");
-    std::fs::create_dir_all(&published).unwrap();
-    for entry in std::fs::read_dir(root().join("data/urdf/published")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, published.join(path.file_name().unwrap())).unwrap();
+    for folder in ["data/urdf/published", "data/capture", "data/foxglove"] {
+        let copy = dir.join(folder);
+        std::fs::create_dir_all(&copy).unwrap();
+        for entry in std::fs::read_dir(root().join(folder)).unwrap() {
+            let path = entry.unwrap().path();
+            std::fs::copy(&path, copy.join(path.file_name().unwrap())).unwrap();
+        }
     }
     dir
 }
@@ -140,32 +144,33 @@ fn as_run(command: &str) -> String {
     }
 }
 
-/// Panics with the output of a README command (or block) unless it succeeded without a panic.
-fn check(out: std::process::Output, what: &str, block: usize) {
+/// Panics with the output of a document's command (or block), `at` naming the document and the
+/// block's line, unless it succeeded without a panic.
+fn check(out: std::process::Output, what: &str, at: &str) {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         out.status.success() && !stderr.contains("panicked"),
-        "README.md block at line {block}: `{what}` failed ({}):\n{stderr}",
+        "{at}: `{what}` failed ({}):\n{stderr}",
         out.status
     );
 }
 
-/// Runs one README command line with bash in `dir`, `sgplvm` first on the PATH; panics with its
+/// Runs one command line with bash in `dir`, `sgplvm` first on the PATH; panics with its
 /// output unless it succeeds without a panic.
-fn run(command: &str, dir: &Path, block: usize) {
+fn run(command: &str, dir: &Path, at: &str) {
     let out = Command::new("bash")
         .args(["-o", "pipefail", "-c", &as_run(command)])
         .current_dir(dir)
         .env("PATH", path_with_sgplvm())
         .output()
         .expect("bash runs");
-    check(out, command, block);
+    check(out, command, at);
 }
 
 /// Runs a block's command lines as one bash script (background jobs and `wait` included) in a
 /// network namespace of its own holding only the loopback device, with multicast on it, for at
 /// most 5 minutes. Returns false when no such namespace can be made here.
-fn run_on_loopback(commands: &[&String], dir: &Path, block: usize) -> bool {
+fn run_on_loopback(commands: &[&String], dir: &Path, at: &str) -> bool {
     // Root: `unshare -n`; else unprivileged user namespaces: `unshare -rn`.
     let flag = ["-n", "-rn"].into_iter().find(|flag| {
         Command::new("unshare")
@@ -177,11 +182,9 @@ fn run_on_loopback(commands: &[&String], dir: &Path, block: usize) -> bool {
         let ci = std::env::var("CI").is_ok_and(|v| v.eq_ignore_ascii_case("true"));
         assert!(
             !ci,
-            "README.md block at line {block}: neither `unshare -n` nor `unshare -rn` is permitted, and with CI=true the live block must run"
+            "{at}: neither `unshare -n` nor `unshare -rn` is permitted, and with CI=true the live block must run"
         );
-        eprintln!(
-            "README.md block at line {block}: skipped (no network namespace can be made here)"
-        );
+        eprintln!("{at}: skipped (no network namespace can be made here)");
         return false;
     };
     let script: Vec<String> = commands.iter().map(|c| as_run(c)).collect();
@@ -198,7 +201,7 @@ fn run_on_loopback(commands: &[&String], dir: &Path, block: usize) -> bool {
         .env("PATH", path_with_sgplvm())
         .output()
         .expect("unshare runs");
-    check(out, &script, block);
+    check(out, &script, at);
     true
 }
 
@@ -222,13 +225,35 @@ fn files_under(dir: &Path, skip: &Path) -> Vec<PathBuf> {
     found
 }
 
-#[test]
-fn every_readme_command_runs_as_written() {
-    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
-    let blocks = bash_blocks(&readme);
-    let dir = fresh_clone_folder();
+/// The documents whose commands run, with the fewest commands each must run (the rest skipped
+/// by their markers): the README and every guide under docs/.
+const DOCUMENTS: [(&str, usize); 9] = [
+    ("README.md", 6),
+    ("docs/ten-minutes.md", 7),
+    ("docs/capture.md", 6),
+    ("docs/robots.md", 8),
+    ("docs/training.md", 16),
+    ("docs/experiments.md", 0),
+    ("docs/live.md", 7),
+    ("docs/python.md", 0),
+    ("docs/clusters.md", 0),
+];
+
+/// Runs every command of `document` (relative to the repository's root) in a scratch folder
+/// of its own laid out like a clone, as the module's docs say, and checks that what they wrote
+/// is ignored by `.gitignore`.
+fn run_document(document: &str) {
+    let (_, fewest) = DOCUMENTS
+        .iter()
+        .find(|(d, _)| *d == document)
+        .unwrap_or_else(|| panic!("{document} is not in DOCUMENTS"));
+    let text = std::fs::read_to_string(root().join(document)).unwrap();
+    let blocks = bash_blocks(&text);
+    let dir = fresh_clone_folder(&document.replace(['/', '.'], "-"));
     let mut ran = 0;
+    let mut generated = false;
     for block in &blocks {
+        let at = format!("{document}, block at line {}", block.line);
         let mut used = vec![false; block.skips.len()];
         let mut to_run = Vec::new();
         for command in &block.commands {
@@ -238,35 +263,37 @@ fn every_readme_command_runs_as_written() {
                 None => to_run.push(command),
             }
         }
+        generated |= to_run
+            .iter()
+            .any(|c| c.starts_with("sgplvm generate --out data/demos"));
         if block.loopback {
-            if run_on_loopback(&to_run, &dir, block.line) {
+            if run_on_loopback(&to_run, &dir, &at) {
                 ran += to_run.len();
             }
         } else {
             for command in to_run {
-                run(command, &dir, block.line);
+                run(command, &dir, &at);
                 ran += 1;
             }
         }
         for ((prefix, _), used) in block.skips.iter().zip(used) {
-            assert!(
-                used,
-                "README.md block at line {}: the skip marker `{prefix}` matches no command",
-                block.line
-            );
+            assert!(used, "{at}: the skip marker `{prefix}` matches no command");
         }
     }
-    // The demo, the command-line tour: far more than a handful.
-    assert!(ran >= 15, "only {ran} README commands ran");
-    // `generate` rewrote the shipped demonstrations byte for byte, as the README says.
-    for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
-        let shipped = std::fs::read(root().join("data/demos").join(file)).unwrap();
-        let made = std::fs::read(dir.join("data/demos").join(file)).unwrap();
-        assert!(shipped == made, "generate did not reproduce {file}");
+    assert!(ran >= *fewest, "{document}: only {ran} commands ran");
+    // `generate` rewrote the shipped demonstrations byte for byte, as the guide says.
+    if generated {
+        for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
+            let shipped = std::fs::read(root().join("data/demos").join(file)).unwrap();
+            let made = std::fs::read(dir.join("data/demos").join(file)).unwrap();
+            assert!(shipped == made, "generate did not reproduce {file}");
+        }
     }
     // What the commands wrote stays out of `git status` in a clone.
     let written = files_under(&dir, &dir.join("data"));
-    assert!(written.len() >= 10, "{written:?}");
+    if written.is_empty() {
+        return;
+    }
     let check = Command::new("git")
         .args(["check-ignore", "--no-index", "--verbose", "--non-matching"])
         .args(written.iter().map(|p| s(p)))
@@ -284,8 +311,62 @@ fn every_readme_command_runs_as_written() {
         .collect();
     assert!(
         not_ignored.is_empty(),
-        "README outputs not in .gitignore: {not_ignored:?}"
+        "{document}: outputs not in .gitignore: {not_ignored:?}"
     );
+}
+
+#[test]
+fn every_readme_command_runs_as_written() {
+    run_document("README.md");
+}
+
+#[test]
+fn the_ten_minute_path_runs_as_written() {
+    run_document("docs/ten-minutes.md");
+}
+
+#[test]
+fn the_capture_guide_runs_as_written() {
+    run_document("docs/capture.md");
+}
+
+#[test]
+fn the_robots_guide_runs_as_written() {
+    run_document("docs/robots.md");
+}
+
+#[test]
+fn the_training_guide_runs_as_written() {
+    run_document("docs/training.md");
+}
+
+#[test]
+fn the_live_guide_runs_as_written() {
+    run_document("docs/live.md");
+}
+
+#[test]
+fn the_other_guides_run_as_written() {
+    for document in ["docs/experiments.md", "docs/python.md", "docs/clusters.md"] {
+        run_document(document);
+    }
+}
+
+/// A guide added under docs/ with commands in it is run too: it must be in [`DOCUMENTS`].
+#[test]
+fn every_document_with_commands_is_run() {
+    for entry in std::fs::read_dir(root().join("docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("md") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let name = format!("docs/{}", path.file_name().unwrap().to_str().unwrap());
+        assert!(
+            bash_blocks(&text).is_empty() || DOCUMENTS.iter().any(|(d, _)| *d == name),
+            "{name} has shell blocks but is not in DOCUMENTS (tests/readme.rs)"
+        );
+    }
 }
 
 #[test]
@@ -329,11 +410,20 @@ fn quoted_after(text: &str, before: &str) -> Vec<String> {
         .collect()
 }
 
-/// A reader who runs the command-line block and then the Python examples in the same folder
-/// keeps what both wrote (issue 38: the Python example saved over the CLI's `coman.sgp`).
+/// Every document's text, joined.
+fn all_documents() -> String {
+    DOCUMENTS
+        .iter()
+        .map(|(d, _)| std::fs::read_to_string(root().join(d)).unwrap())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// A reader who runs the guides' command-line blocks and then the Python examples in the same
+/// folder keeps what both wrote (issue 38: the Python example saved over the CLI's `coman.sgp`).
 #[test]
 fn the_python_examples_write_no_file_the_commands_write() {
-    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let readme = all_documents();
     let python = python_blocks(&readme).join("\n");
     let mut written: Vec<String> = quoted_after(&python, "save(");
     written.extend(quoted_after(&python, "out="));
@@ -357,7 +447,7 @@ fn the_python_examples_write_no_file_the_commands_write() {
     for name in &written {
         assert!(
             !outputs.contains(&name.as_str()),
-            "the README's Python writes {name}, which a command of its shell blocks writes too"
+            "the guides' Python writes {name}, which a command of their shell blocks writes too"
         );
     }
 }

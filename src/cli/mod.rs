@@ -67,7 +67,7 @@ pub enum Command {
     ///
     /// Runs every training here, one after another. On a Ray cluster the same trainings run
     /// in parallel with identical results: `pip install "sgplvm[ray]"`, then in Python
-    /// `sgplvm.ray.run_experiment(config="paper", out=DIR)` (see the README, "On a Ray cluster").
+    /// `sgplvm.ray.run_experiment(config="paper", out=DIR)` (see docs/clusters.md).
     Experiment(experiment::ExperimentArgs),
     /// One body's joint series from a demonstration file as CSV or MCAP (e.g. the human's test
     /// frames, the input of `predict` and `simulate --model`).

@@ -299,10 +299,10 @@ fn print_postures(reports: &[ReachReport]) {
             p.velocity_limited_frames,
             p.collision_limited_frames,
             p.colliding_frames,
-            if p.pairs == 0 {
-                "no pair checked".to_string()
-            } else {
-                format!("{:.1} mm", 1e3 * p.closest_m)
+            match (p.pairs, p.closest_m) {
+                (0, _) => "no pair checked".to_string(),
+                (_, None) => "no pair near".to_string(),
+                (_, Some(d)) => format!("{:.1} mm", 1e3 * d),
             },
             1e3 * p.margin_m,
         );

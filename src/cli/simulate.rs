@@ -9,6 +9,7 @@ use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
 use super::args::load_model;
+use super::body::BodyArgs;
 use super::frames::{
     builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
 };
@@ -32,6 +33,10 @@ pub struct SimulateArgs {
     /// ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. Repeatable.
     #[arg(long = "package-path", value_name = "DIR")]
     package_paths: Vec<PathBuf>,
+    /// Hold a joint the trajectory leaves out (waist, legs, head, grippers of a URDF robot) at
+    /// VALUE [default: its hold value, as `sgplvm robot FILE` shows: 0 within its limits].
+    #[arg(long = "hold", value_name = "JOINT=VALUE", requires = "urdf")]
+    hold: Vec<String>,
     /// Joint trajectory to replay (MCAP or CSV with a header of joint names and a time column;
     /// the `<joint>_std` columns of `sgplvm predict --std` output are ignored).
     #[arg(long, required_unless_present = "model", conflicts_with = "model")]
@@ -86,6 +91,9 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             );
         }
     }
+    if let Some(urdf) = &args.urdf {
+        trajectory = with_held_joints(trajectory, urdf, &args.hold)?;
+    }
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
@@ -119,6 +127,51 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         scene::write(out, &body, &trajectory, t0, &report)?;
     }
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
+}
+
+/// The trajectory with a column for every joint of a URDF robot that it leaves out and the
+/// robot's anatomy holds (its waist, legs, head, grippers: `retarget`, `predict` and `teleop`
+/// command the arm joints only), at the hold value, said on stderr. A robot whose arms cannot
+/// be found keeps the trajectory as it is (the replay then names the joints without a column),
+/// unless `--hold` asked for the anatomy.
+fn with_held_joints(trajectory: Trajectory, urdf: &Path, hold: &[String]) -> Result<Trajectory> {
+    let body = BodyArgs {
+        hold: hold.to_vec(),
+        ..BodyArgs::default()
+    };
+    let anatomy = match body.load("robot", Some(urdf), "") {
+        Ok(anatomy) => anatomy,
+        Err(_) if hold.is_empty() => return Ok(trajectory),
+        Err(e) => return Err(e.context("--hold needs the robot's arms")),
+    };
+    let added: Vec<(String, f64)> = anatomy
+        .held_joints()
+        .into_iter()
+        .filter(|(name, _)| !trajectory.joint_names.contains(name))
+        .collect();
+    if added.is_empty() {
+        return Ok(trajectory);
+    }
+    eprintln!(
+        "{}: {} joint(s) without a column held at their hold values ({}; --hold JOINT=VALUE to change)",
+        urdf.display(),
+        added.len(),
+        added
+            .iter()
+            .map(|(n, v)| format!("{n} {v:.3}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let width = trajectory.joint_names.len();
+    let mut names = trajectory.joint_names;
+    names.extend(added.iter().map(|(n, _)| n.clone()));
+    let positions = trajectory
+        .positions
+        .chunks(width.max(1))
+        .take(trajectory.times.len())
+        .flat_map(|row| row.iter().copied().chain(added.iter().map(|(_, v)| *v)))
+        .collect();
+    Ok(Trajectory::new(names, trajectory.times, positions)?)
 }
 
 /// Where the robot's meshes are found: beside the URDF file (none for a built-in robot), in

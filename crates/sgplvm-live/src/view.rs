@@ -7,7 +7,8 @@
 //! body's `/NAME/robot_description` (its URDF) and `/tf_static` (sent again every second, for
 //! viewers that join later: a WebSocket has no latched topics), `/tf` at the input rate,
 //! `/ROBOT/prediction_std` (the predictive standard deviation per joint), `/latent` (the
-//! latent point) and `/ROBOT/trust` (`[sd, threshold, state]`, state 0 following, 1 holding,
+//! latent point) and `/ROBOT/trust` (`[reconstruction error, its threshold, sd, its threshold,
+//! state]`: the gate's two signals, whichever `--gate` uses; state 0 following, 1 holding,
 //! 2 moving to the last trusted target, 3 stale input, 4 waiting for a first trusted frame).
 //!
 //! A robot loaded from a URDF file has its meshes found beside that file and through
@@ -118,8 +119,8 @@ impl LiveView {
             ));
             arrays.push(ArrayTopic::float64(
                 &format!("/{}/trust", r.name),
-                "sd, threshold, state",
-                3,
+                "reconstruction error, reconstruction threshold, sd, sd threshold, state",
+                5,
             ));
             let topic = format!("/{}/joint_command", r.name);
             bodies.push((
@@ -174,12 +175,13 @@ impl LiveView {
     }
 
     /// Sends one frame: the human's joints, each robot's command, and per robot its standard
-    /// deviations and trust (`[sd, threshold, state]`), then the latent point.
+    /// deviations and trust (`[reconstruction error, threshold, sd, threshold, state]`), then
+    /// the latent point.
     pub fn frame(
         &mut self,
         time_ns: i64,
         human: &[f64],
-        robots: &[(&[f64], &[f64], [f64; 3])],
+        robots: &[(&[f64], &[f64], [f64; 5])],
         latent: &[f64],
     ) -> Result<(), LiveError> {
         if self

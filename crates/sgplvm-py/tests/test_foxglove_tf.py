@@ -208,7 +208,7 @@ BODIES = {"human": "/human/joint_states", "coman": "/coman/joint_command"}
 
 
 def check_placements(scene):
-    """The two bodies stand side by side (human left, robot right), as the README says."""
+    """The two bodies stand side by side (human left, robot right), as docs/live.md says."""
     placed = {t.child_frame_id.split("/")[0]: iso(t.transform)
               for t in scene["/tf_static"][0][2].transforms if t.header.frame_id == "world"}
     np.testing.assert_array_equal(placed["human"], HUMAN_AT)

@@ -1,6 +1,6 @@
-"""The README's Python example runs verbatim: every ```python block of README.md is executed, in
-a fresh namespace, from a scratch folder laid out like a clone (``data`` links to the shipped
-demonstrations), so the example must define everything it uses."""
+"""The guides' Python examples run verbatim: every ```python block of README.md and of the guides
+under docs/ is executed, in a fresh namespace, from a scratch folder laid out like a clone
+(``data`` links to the shipped data), so each example must define everything it uses."""
 
 import contextlib
 import io
@@ -37,18 +37,27 @@ def test_python_blocks_are_found():
     assert blocks == ["a = 1\n", "b = 2\n"]
 
 
-def test_the_readme_example_runs_verbatim(tmp_path):
-    blocks = python_blocks((REPO / "README.md").read_text(encoding="utf-8"))
-    assert blocks, "README.md has no python block"
+DOCUMENTS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+
+
+def test_the_guides_examples_run_verbatim(tmp_path):
+    blocks = [
+        (path.relative_to(REPO), block)
+        for path in DOCUMENTS
+        for block in python_blocks(path.read_text(encoding="utf-8"))
+    ]
+    assert len(blocks) >= 2, "the guides have fewer than two python blocks"
     (tmp_path / "data").symlink_to(REPO / "data", target_is_directory=True)
     cwd = os.getcwd()
     os.chdir(tmp_path)
+    ran = set()
     try:
-        for block in blocks:
+        for name, block in blocks:
             namespace: dict = {"__name__": "__readme__"}
             printed = io.StringIO()
             with contextlib.redirect_stdout(printed):
-                exec(compile(block, "README.md", "exec"), namespace)
+                exec(compile(block, str(name), "exec"), namespace)
+            ran.add(str(name))
             # The example's results are what it says they are.
             if "R_hat" in namespace:
                 assert namespace["R_hat"].shape == (len(namespace["test"]), 14)
@@ -58,5 +67,10 @@ def test_the_readme_example_runs_verbatim(tmp_path):
                 saved = sgplvm.SharedGPLVM.load("coman-py.sgp")
                 first = namespace["H"][namespace["test"]][:1]
                 assert (saved.predict(first, robot="coman") == namespace["R_hat"][:1]).all()
+            if "commands" in namespace:
+                # Your capture on your robot: every frame retargeted, the arm joints.
+                assert namespace["commands"].shape == (len(namespace["times_ns"]), 14)
+                assert "upper-arm direction error" in printed.getvalue()
     finally:
         os.chdir(cwd)
+    assert "docs/python.md" in ran, ran

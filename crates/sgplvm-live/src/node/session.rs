@@ -427,15 +427,18 @@ fn show(
         Some(Reason::Stale) => 3.0,
         Some(Reason::Waiting) => 4.0,
     };
-    let robots: Vec<(&[f64], &[f64], [f64; 3])> = driven
+    let robots: Vec<(&[f64], &[f64], [f64; 5])> = driven
         .iter()
         .map(|r| {
+            let t = r.gate.thresholds();
             (
                 r.command.as_slice(),
                 r.sd.as_slice(),
                 [
-                    r.last.map(|d| d.frame.sd).unwrap_or(f64::NAN),
-                    r.gate.threshold(),
+                    r.last.map_or(f64::NAN, |d| d.frame.reconstruction),
+                    t.reconstruction,
+                    r.last.map_or(f64::NAN, |d| d.frame.sd),
+                    t.sd,
                     state(r.last),
                 ],
             )

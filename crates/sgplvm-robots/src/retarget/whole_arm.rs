@@ -173,8 +173,9 @@ pub struct PostureReport {
     pub collision_limited_frames: usize,
     /// Frames in self-collision as sent (shapes overlapping): 0 is the goal.
     pub colliding_frames: usize,
-    /// The closest two shapes that can meet came over all frames as sent, metres.
-    pub closest_m: f64,
+    /// The closest two shapes that can meet came over all frames as sent, metres; `None` when
+    /// no pair ever came near enough to be measured (their bounding spheres stayed apart).
+    pub closest_m: Option<f64>,
     /// The margin kept, metres.
     pub margin_m: f64,
     /// Pairs of shapes that can meet.
@@ -522,7 +523,7 @@ impl Tally {
             velocity_limited_frames: self.velocity_limited,
             collision_limited_frames: self.collision_limited,
             colliding_frames: self.colliding,
-            closest_m: self.closest.unwrap_or(f64::INFINITY).min(1e3),
+            closest_m: self.closest,
             margin_m: options.margin_m,
             pairs: model.pairs().len(),
             unchecked: model.unchecked().to_vec(),
