@@ -268,4 +268,19 @@ fn a_published_humanoid_is_retargeted_trained_and_drawn_with_its_waist_held() {
         s(&csv),
     ]);
     assert!(bad.contains("nonsense_joint"), "{bad}");
+    // The arm joints' commands replay in physics as they are: the joints they leave out (the
+    // waist, the legs) are held at their hold values, as the other commands hold them.
+    let replay = ok(&[
+        "simulate",
+        "--urdf",
+        s(&urdf),
+        "--trajectory",
+        s(&csv),
+        "--hold",
+        "waist_pitch_joint=0.1",
+        "--json",
+    ]);
+    let replay: serde_json::Value = serde_json::from_str(&replay).unwrap();
+    let joints = replay["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), 29, "{replay}");
 }
