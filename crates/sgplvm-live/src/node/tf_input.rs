@@ -1,0 +1,307 @@
+//! The node's TF input (`teleop --input tf`): `/tf` and `/tf_static` into a [`TfBuffer`], the
+//! arms found by the importer's naming schemes (or map), and each newest complete frame set
+//! fitted by the importer's per-frame fit into the human model's angles, in the models' human
+//! joint order.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use ros2_client::dds::{Node, Subscription};
+use ros2_client::qos::{Durability, History, WhenFull};
+use ros2_client::QosProfile;
+use serde::Serialize;
+use sgplvm_robots::capture::ArmMap;
+
+use super::dds::{dds, type_of};
+use super::topic_name;
+use crate::msgs::{types, TFMessage, Time};
+use crate::tf::{identify, Fitted, TfBuffer, STAMP_TOLERANCE_NS, TF_STATIC_TOPIC, TF_TOPIC};
+use crate::LiveError;
+
+/// What the TF input did, for the summary.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct TfSummary {
+    /// TFMessages read (`/tf` and `/tf_static`).
+    pub messages: u64,
+    /// Transforms taken.
+    pub transforms: u64,
+    /// Transforms refused (not finite, not a unit quaternion, unnamed frames).
+    pub bad_transforms: u64,
+    /// Frame sets fitted and used.
+    pub frames: u64,
+    /// Complete frame sets a newer one replaced before they were used.
+    pub superseded: u64,
+    /// Frame sets skipped because a frame the fit needs had no transform at their stamp.
+    pub incomplete: u64,
+    /// Per frame, the skipped sets that lacked it.
+    pub missing: BTreeMap<String, u64>,
+    /// The naming scheme that found the arms (or `map file`), once found.
+    pub skeleton: Option<String>,
+    /// The frame the arms hang from.
+    pub torso: Option<String>,
+    /// Why the arms were not found in the frames received (while they are not).
+    pub error: Option<String>,
+    /// The fit's elbow distance to the scaled capture, median over the frames used, metres
+    /// (as `sgplvm import` reports it).
+    pub elbow_median_m: f64,
+    /// The same for the wrist.
+    pub wrist_median_m: f64,
+    /// The largest of either, metres.
+    pub worst_m: f64,
+}
+
+/// The TF input of a node.
+pub(super) struct TfInput {
+    pub(super) dynamic: Subscription<TFMessage>,
+    pub(super) statics: Subscription<TFMessage>,
+    buffer: TfBuffer,
+    map: Option<ArmMap>,
+    fitted: Option<Fitted>,
+    /// For each of the models' human joints, its index among the human model's 18.
+    order: Vec<usize>,
+    /// The frame names of the last attempt to find the arms.
+    tried: BTreeSet<String>,
+    last_used: Option<i64>,
+    /// Stamps seen of needed frames, newer than the last set used.
+    pending: BTreeSet<i64>,
+    summary: TfSummary,
+    elbow: Vec<f64>,
+    wrist: Vec<f64>,
+    warned: BTreeSet<String>,
+}
+
+/// `/tf`: as tf2's listener, many transforms kept (a publisher may send them one by one);
+/// best effort, so that reliable and best-effort publishers both match.
+fn dynamic_qos() -> QosProfile {
+    QosProfile::subscription_default()
+        .reliability_best_effort()
+        .durability(Durability::Volatile)
+        .history(History::KeepLast { depth: 1000 })
+}
+
+/// `/tf_static`: reliable and transient local (latched), as tf2's static broadcaster publishes.
+fn static_qos() -> QosProfile {
+    QosProfile::subscription_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1000 })
+}
+
+impl TfInput {
+    /// Subscribes to `/tf` and `/tf_static` for the models whose human joints are `human`.
+    pub(super) fn subscribe(
+        node: &mut Node,
+        human: &[String],
+        map: Option<ArmMap>,
+    ) -> Result<TfInput, LiveError> {
+        let order = super::mvn_input::human_order(human, "--input tf")?;
+        let mut sub = |topic: &str, q: QosProfile| -> Result<Subscription<TFMessage>, LiveError> {
+            let t = node
+                .create_topic(&topic_name(topic)?, type_of(types::TF_MESSAGE), &q)
+                .map_err(|e| dds(format!("{e:?}")))?;
+            node.create_subscription(&t, Some(q))
+                .map_err(|e| dds(format!("{e:?}")))
+        };
+        Ok(TfInput {
+            dynamic: sub(TF_TOPIC, dynamic_qos())?,
+            statics: sub(TF_STATIC_TOPIC, static_qos())?,
+            buffer: TfBuffer::new(),
+            map,
+            fitted: None,
+            order,
+            tried: BTreeSet::new(),
+            last_used: None,
+            pending: BTreeSet::new(),
+            summary: TfSummary::default(),
+            elbow: Vec::new(),
+            wrist: Vec::new(),
+            warned: BTreeSet::new(),
+        })
+    }
+
+    /// Every waiting message into the buffer; whether there was one.
+    fn take(&mut self, log: &mut dyn FnMut(&str)) -> bool {
+        let mut any = false;
+        for is_static in [true, false] {
+            loop {
+                let sub = if is_static {
+                    &self.statics
+                } else {
+                    &self.dynamic
+                };
+                match sub.take() {
+                    Ok(Some((msg, _))) => {
+                        any = true;
+                        self.summary.messages += 1;
+                        let (taken, errors) = self.buffer.insert(&msg, is_static);
+                        self.summary.transforms += taken as u64;
+                        self.summary.bad_transforms += errors.len() as u64;
+                        for e in errors {
+                            self.warn(
+                                "bad transform",
+                                &format!("--input tf: {e}: not used (counted; said once)"),
+                                log,
+                            );
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        self.warn(
+                            "malformed",
+                            &format!("--input tf: a TFMessage could not be decoded ({e:?})"),
+                            log,
+                        );
+                        break;
+                    }
+                }
+            }
+        }
+        any
+    }
+
+    fn warn(&mut self, key: &str, line: &str, log: &mut dyn FnMut(&str)) {
+        if self.warned.insert(key.to_string()) {
+            log(line);
+        }
+    }
+
+    /// The newest complete frame set since the last call, fitted, written into `h` (the
+    /// models' order); its stamp, if there was one.
+    pub(super) fn newest(&mut self, h: &mut [f64], log: &mut dyn FnMut(&str)) -> Option<Time> {
+        if !self.take(log) {
+            return None;
+        }
+        if self.fitted.is_none() && !self.find_arms(log) {
+            return None;
+        }
+        let needed_names = self.fitted.as_ref()?.needed().to_vec();
+        let needed: Vec<&str> = needed_names.iter().map(String::as_str).collect();
+        let newer = |s: &i64| self.last_used.is_none_or(|u| *s > u + STAMP_TOLERANCE_NS);
+        self.pending.extend(
+            self.buffer
+                .stamps(needed.iter().copied())
+                .into_iter()
+                .filter(newer),
+        );
+        let stamp = self.pending.iter().rev().copied().find(|&s| {
+            self.buffer
+                .missing(needed.iter().copied(), s, STAMP_TOLERANCE_NS)
+                .is_empty()
+        })?;
+        // The sets older than the one used are given up: superseded or incomplete.
+        let older: Vec<i64> = self
+            .pending
+            .range(..stamp - STAMP_TOLERANCE_NS)
+            .copied()
+            .collect();
+        for s in older {
+            let missing = self
+                .buffer
+                .missing(needed.iter().copied(), s, STAMP_TOLERANCE_NS);
+            self.count_skipped(s, missing, log);
+        }
+        self.pending.retain(|&s| s > stamp + STAMP_TOLERANCE_NS);
+        self.last_used = Some(stamp);
+        let fitted = self.fitted.as_mut()?;
+        match fitted.fit(&self.buffer, stamp, STAMP_TOLERANCE_NS) {
+            Ok((angles, fits)) => {
+                for (hv, &k) in h.iter_mut().zip(&self.order) {
+                    *hv = angles[k];
+                }
+                for f in &fits {
+                    self.elbow.push(f.elbow_m);
+                    self.wrist.push(f.wrist_m);
+                }
+                self.summary.frames += 1;
+                Some(Time::from_ns(stamp))
+            }
+            Err(missing) => {
+                self.count_skipped(stamp, missing, log);
+                None
+            }
+        }
+    }
+
+    /// A set given up: superseded if complete, else incomplete with the frames it lacked.
+    fn count_skipped(&mut self, stamp: i64, missing: Vec<String>, log: &mut dyn FnMut(&str)) {
+        if missing.is_empty() {
+            self.summary.superseded += 1;
+            return;
+        }
+        self.summary.incomplete += 1;
+        for m in &missing {
+            *self.summary.missing.entry(m.clone()).or_default() += 1;
+        }
+        let line = format!(
+            "--input tf: the frame set stamped {:.3} s is incomplete, no transform of {} within {} ms of it: skipped (counted; said once per frame)",
+            stamp as f64 * 1e-9,
+            missing.iter().map(|m| format!("`{m}`")).collect::<Vec<_>>().join(", "),
+            STAMP_TOLERANCE_NS as f64 * 1e-6,
+        );
+        self.warn(&format!("missing {missing:?}"), &line, log);
+    }
+
+    /// Tries to find the arms in the frames received (again whenever new frames appear).
+    fn find_arms(&mut self, log: &mut dyn FnMut(&str)) -> bool {
+        let names = self.buffer.frame_names();
+        if names == self.tried {
+            return false;
+        }
+        self.tried = names;
+        match identify(&self.buffer, self.map.as_ref()) {
+            Ok(f) => {
+                log(&format!(
+                    "--input tf: arms found by {} hanging from `{}`; the fit needs {}",
+                    f.scheme(),
+                    f.torso(),
+                    f.needed().join(", ")
+                ));
+                self.summary.skeleton = Some(f.scheme().to_string());
+                self.summary.torso = Some(f.torso().to_string());
+                self.summary.error = None;
+                self.fitted = Some(f);
+                true
+            }
+            Err(e) => {
+                let message = format!("--input tf: {e}");
+                log(&message);
+                self.summary.error = Some(message);
+                false
+            }
+        }
+    }
+
+    /// What the input did (the sets still pending counted as given up).
+    pub(super) fn summary(&self) -> TfSummary {
+        let mut s = self.summary.clone();
+        if let Some(f) = &self.fitted {
+            for &p in &self.pending {
+                let missing = self.buffer.missing(
+                    f.needed().iter().map(String::as_str),
+                    p,
+                    STAMP_TOLERANCE_NS,
+                );
+                if missing.is_empty() {
+                    s.superseded += 1;
+                } else {
+                    s.incomplete += 1;
+                    for m in missing {
+                        *s.missing.entry(m).or_default() += 1;
+                    }
+                }
+            }
+        }
+        let median = |v: &[f64]| -> f64 {
+            let mut v = v.to_vec();
+            sgplvm_robots::series::median(&mut v)
+        };
+        s.elbow_median_m = median(&self.elbow);
+        s.wrist_median_m = median(&self.wrist);
+        s.worst_m = self
+            .elbow
+            .iter()
+            .chain(&self.wrist)
+            .copied()
+            .fold(0.0, f64::max);
+        s
+    }
+}
