@@ -58,8 +58,8 @@ pub(super) struct TfInput {
     fitted: Option<Fitted>,
     /// For each of the models' human joints, its index among the human model's 18.
     order: Vec<usize>,
-    /// The frame names of the last attempt to find the arms.
-    tried: BTreeSet<String>,
+    /// The tree's shape at the last attempt to find the arms.
+    tried: Option<u64>,
     last_used: Option<i64>,
     /// Stamps seen of needed frames, newer than the last set used.
     pending: BTreeSet<i64>,
@@ -108,7 +108,7 @@ impl TfInput {
             map,
             fitted: None,
             order,
-            tried: BTreeSet::new(),
+            tried: None,
             last_used: None,
             pending: BTreeSet::new(),
             summary: TfSummary::default(),
@@ -170,8 +170,10 @@ impl TfInput {
         if !self.take(log) {
             return None;
         }
-        if self.fitted.is_none() && !self.find_arms(log) {
-            return None;
+        // The arms are found again whenever the tree changes shape (latched frames arriving
+        // after the first dynamic ones, a tracker adding a person's frames).
+        if self.tried != Some(self.buffer.generation()) {
+            self.find_arms(log);
         }
         let needed_names = self.fitted.as_ref()?.needed().to_vec();
         let needed: Vec<&str> = needed_names.iter().map(String::as_str).collect();
@@ -240,13 +242,10 @@ impl TfInput {
         self.warn(&format!("missing {missing:?}"), &line, log);
     }
 
-    /// Tries to find the arms in the frames received (again whenever new frames appear).
-    fn find_arms(&mut self, log: &mut dyn FnMut(&str)) -> bool {
-        let names = self.buffer.frame_names();
-        if names == self.tried {
-            return false;
-        }
-        self.tried = names;
+    /// Finds the arms in the frames received and calibrates the fit on the tree's rest pose;
+    /// where they are not found, an earlier fit stays.
+    fn find_arms(&mut self, log: &mut dyn FnMut(&str)) {
+        self.tried = Some(self.buffer.generation());
         match identify(&self.buffer, self.map.as_ref()) {
             Ok(f) => {
                 log(&format!(
@@ -259,13 +258,13 @@ impl TfInput {
                 self.summary.torso = Some(f.torso().to_string());
                 self.summary.error = None;
                 self.fitted = Some(f);
-                true
             }
             Err(e) => {
                 let message = format!("--input tf: {e}");
                 log(&message);
-                self.summary.error = Some(message);
-                false
+                if self.fitted.is_none() {
+                    self.summary.error = Some(message);
+                }
             }
         }
     }

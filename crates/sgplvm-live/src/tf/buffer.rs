@@ -55,6 +55,8 @@ pub enum TransformError {
 #[derive(Debug, Clone, Default)]
 pub struct TfBuffer {
     frames: BTreeMap<String, History>,
+    /// Counts the changes of the tree's shape (a new frame, a new parent).
+    generation: u64,
 }
 
 /// A TF transform as an isometry (child in parent), checked.
@@ -120,6 +122,9 @@ impl TfBuffer {
             });
         }
         let stamp = t.header.stamp.to_ns();
+        if !self.frames.contains_key(&child) {
+            self.generation += 1;
+        }
         let h = self.frames.entry(child).or_insert_with(|| History {
             parent: parent.clone(),
             is_static,
@@ -127,6 +132,7 @@ impl TfBuffer {
         });
         // A new parent, or a frame moving between /tf and /tf_static: what was kept is void.
         if h.parent != parent || h.is_static != is_static {
+            self.generation += 1;
             h.parent = parent;
             h.is_static = is_static;
             h.entries.clear();
@@ -145,6 +151,11 @@ impl TfBuffer {
             h.entries.pop_front();
         }
         Ok(())
+    }
+
+    /// A number that changes whenever the tree's shape does (a frame appears or changes parent).
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Every frame named so far, as a child or as a parent.
