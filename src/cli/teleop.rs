@@ -381,9 +381,9 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         if let Some(t) = &summary.tf {
             eprintln!(
                 "tf: {} frame sets fitted ({} superseded, {} incomplete); elbow {:.1} mm, wrist {:.1} mm from the capture (medians), {:.1} mm at most",
-                t.frames,
-                t.superseded,
-                t.incomplete,
+                t.sets.frames,
+                t.sets.superseded,
+                t.sets.incomplete,
                 t.elbow_median_m * 1e3,
                 t.wrist_median_m * 1e3,
                 t.worst_m * 1e3

@@ -3,7 +3,7 @@
 //! fitted by the importer's per-frame fit into the human model's angles, in the models' human
 //! joint order.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use ros2_client::dds::{Node, Subscription};
 use ros2_client::qos::{Durability, History, WhenFull};
@@ -14,7 +14,9 @@ use sgplvm_robots::capture::ArmMap;
 use super::dds::{dds, type_of};
 use super::topic_name;
 use crate::msgs::{types, TFMessage, Time};
-use crate::tf::{identify, Fitted, TfBuffer, STAMP_TOLERANCE_NS, TF_STATIC_TOPIC, TF_TOPIC};
+use crate::tf::{
+    identify, Fitted, FrameSets, SetCounts, TfBuffer, STAMP_TOLERANCE_NS, TF_STATIC_TOPIC, TF_TOPIC,
+};
 use crate::LiveError;
 
 /// What the TF input did, for the summary.
@@ -26,14 +28,10 @@ pub struct TfSummary {
     pub transforms: u64,
     /// Transforms refused (not finite, not a unit quaternion, unnamed frames).
     pub bad_transforms: u64,
-    /// Frame sets fitted and used.
-    pub frames: u64,
-    /// Complete frame sets a newer one replaced before they were used.
-    pub superseded: u64,
-    /// Frame sets skipped because a frame the fit needs had no transform at their stamp.
-    pub incomplete: u64,
-    /// Per frame, the skipped sets that lacked it.
-    pub missing: BTreeMap<String, u64>,
+    /// Frame sets fitted and used, superseded, incomplete, and the frames the incomplete ones
+    /// lacked.
+    #[serde(flatten)]
+    pub sets: SetCounts,
     /// The naming scheme that found the arms (or `map file`), once found.
     pub skeleton: Option<String>,
     /// The frame the arms hang from.
@@ -60,9 +58,7 @@ pub(super) struct TfInput {
     order: Vec<usize>,
     /// The tree's shape at the last attempt to find the arms.
     tried: Option<u64>,
-    last_used: Option<i64>,
-    /// Stamps seen of needed frames, newer than the last set used.
-    pending: BTreeSet<i64>,
+    sets: FrameSets,
     summary: TfSummary,
     elbow: Vec<f64>,
     wrist: Vec<f64>,
@@ -109,8 +105,7 @@ impl TfInput {
             fitted: None,
             order,
             tried: None,
-            last_used: None,
-            pending: BTreeSet::new(),
+            sets: FrameSets::new(),
             summary: TfSummary::default(),
             elbow: Vec::new(),
             wrist: Vec::new(),
@@ -175,71 +170,30 @@ impl TfInput {
         if self.tried != Some(self.buffer.generation()) {
             self.find_arms(log);
         }
-        let needed_names = self.fitted.as_ref()?.needed().to_vec();
-        let needed: Vec<&str> = needed_names.iter().map(String::as_str).collect();
-        let newer = |s: &i64| self.last_used.is_none_or(|u| *s > u + STAMP_TOLERANCE_NS);
-        self.pending.extend(
-            self.buffer
-                .stamps(needed.iter().copied())
-                .into_iter()
-                .filter(newer),
-        );
-        let stamp = self.pending.iter().rev().copied().find(|&s| {
-            self.buffer
-                .missing(needed.iter().copied(), s, STAMP_TOLERANCE_NS)
-                .is_empty()
-        })?;
-        // The sets older than the one used are given up: superseded or incomplete.
-        let older: Vec<i64> = self
-            .pending
-            .range(..stamp - STAMP_TOLERANCE_NS)
-            .copied()
-            .collect();
-        for s in older {
-            let missing = self
-                .buffer
-                .missing(needed.iter().copied(), s, STAMP_TOLERANCE_NS);
-            self.count_skipped(s, missing, log);
-        }
-        self.pending.retain(|&s| s > stamp + STAMP_TOLERANCE_NS);
-        self.last_used = Some(stamp);
         let fitted = self.fitted.as_mut()?;
-        match fitted.fit(&self.buffer, stamp, STAMP_TOLERANCE_NS) {
-            Ok((angles, fits)) => {
-                for (hv, &k) in h.iter_mut().zip(&self.order) {
-                    *hv = angles[k];
-                }
-                for f in &fits {
-                    self.elbow.push(f.elbow_m);
-                    self.wrist.push(f.wrist_m);
-                }
-                self.summary.frames += 1;
-                Some(Time::from_ns(stamp))
-            }
-            Err(missing) => {
-                self.count_skipped(stamp, missing, log);
-                None
+        let next = self.sets.next(&self.buffer, fitted.needed());
+        for (stamp, missing) in next.incomplete {
+            let line = format!(
+                "--input tf: the frame set stamped {:.3} s is incomplete, no transform of {} within {} ms of it: skipped (counted; said once per frame)",
+                stamp as f64 * 1e-9,
+                missing.iter().map(|m| format!("`{m}`")).collect::<Vec<_>>().join(", "),
+                STAMP_TOLERANCE_NS as f64 * 1e-6,
+            );
+            if self.warned.insert(format!("missing {missing:?}")) {
+                log(&line);
             }
         }
-    }
-
-    /// A set given up: superseded if complete, else incomplete with the frames it lacked.
-    fn count_skipped(&mut self, stamp: i64, missing: Vec<String>, log: &mut dyn FnMut(&str)) {
-        if missing.is_empty() {
-            self.summary.superseded += 1;
-            return;
+        let stamp = next.stamp?;
+        // Complete by `next`'s own check, so the fit has every transform it needs.
+        let (angles, fits) = fitted.fit(&self.buffer, stamp, STAMP_TOLERANCE_NS).ok()?;
+        for (hv, &k) in h.iter_mut().zip(&self.order) {
+            *hv = angles[k];
         }
-        self.summary.incomplete += 1;
-        for m in &missing {
-            *self.summary.missing.entry(m.clone()).or_default() += 1;
+        for f in &fits {
+            self.elbow.push(f.elbow_m);
+            self.wrist.push(f.wrist_m);
         }
-        let line = format!(
-            "--input tf: the frame set stamped {:.3} s is incomplete, no transform of {} within {} ms of it: skipped (counted; said once per frame)",
-            stamp as f64 * 1e-9,
-            missing.iter().map(|m| format!("`{m}`")).collect::<Vec<_>>().join(", "),
-            STAMP_TOLERANCE_NS as f64 * 1e-6,
-        );
-        self.warn(&format!("missing {missing:?}"), &line, log);
+        Some(Time::from_ns(stamp))
     }
 
     /// Finds the arms in the frames received and calibrates the fit on the tree's rest pose;
@@ -273,21 +227,7 @@ impl TfInput {
     pub(super) fn summary(&self) -> TfSummary {
         let mut s = self.summary.clone();
         if let Some(f) = &self.fitted {
-            for &p in &self.pending {
-                let missing = self.buffer.missing(
-                    f.needed().iter().map(String::as_str),
-                    p,
-                    STAMP_TOLERANCE_NS,
-                );
-                if missing.is_empty() {
-                    s.superseded += 1;
-                } else {
-                    s.incomplete += 1;
-                    for m in missing {
-                        *s.missing.entry(m).or_default() += 1;
-                    }
-                }
-            }
+            s.sets = self.sets.counts(&self.buffer, f.needed());
         }
         let median = |v: &[f64]| -> f64 {
             let mut v = v.to_vec();

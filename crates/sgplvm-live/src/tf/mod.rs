@@ -10,6 +10,7 @@
 //!   import` names a file's joints (its naming schemes, namespace prefixes such as `actor1/`,
 //!   or `--map FILE`), the tree's rest pose (every rotation the identity) the calibration, and
 //!   each complete set fitted by the importer's [`PoseFitter`](sgplvm_robots::capture::PoseFitter);
+//! - [`sets`]: which complete set to fit next, and what became of the others;
 //! - [`HumanTf`]: the human model's angles as a TF tree (what `replay --as tf` publishes).
 //!
 //! # Frame sets
@@ -25,6 +26,7 @@
 
 pub mod buffer;
 pub mod fit;
+pub mod sets;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
@@ -33,6 +35,7 @@ use crate::mvn::{HumanSegments, MvnError};
 
 pub use buffer::{frame_id, ComposeError, TfBuffer, TransformError};
 pub use fit::{identify, skeleton_of, Fitted};
+pub use sets::{FrameSets, Next, SetCounts};
 
 /// How far apart the stamps of one frame set's transforms may be, ns.
 pub const STAMP_TOLERANCE_NS: i64 = 1_000_000;

@@ -221,3 +221,50 @@ fn frames_no_scheme_names_are_refused_naming_the_frames_found() {
     let e = identify(&b, Some(&wrong)).err().unwrap().to_string();
     assert!(e.contains("`Nope`") && e.contains("PortForeArm"), "{e}");
 }
+
+#[test]
+fn sets_are_used_newest_first_and_the_others_counted() {
+    let tree = HumanTf::new("").unwrap();
+    let mut b = TfBuffer::new();
+    b.insert(&tree.static_message(Time::default()), true);
+    let qs = poses(6);
+    let at = |k: usize| 1_000_000_000 + k as i64 * 25_000_000;
+    b.insert(&tree.message(&qs[0], Time::from_ns(at(0))).unwrap(), false);
+    let needed = identify(&b, None).unwrap().needed().to_vec();
+    let mut sets = FrameSets::new();
+    assert_eq!(sets.next(&b, &needed).stamp, Some(at(0)));
+    // Nothing new: nothing to fit.
+    assert_eq!(sets.next(&b, &needed), Next::default());
+    // Sets 1 (complete) and 2 (no right hand) arrive, then half of set 3 (the left arm).
+    b.insert(&tree.message(&qs[1], Time::from_ns(at(1))).unwrap(), false);
+    let mut two = tree.message(&qs[2], Time::from_ns(at(2))).unwrap();
+    two.transforms.retain(|t| t.child_frame_id != "RightHand");
+    b.insert(&two, false);
+    let mut three = tree.message(&qs[3], Time::from_ns(at(3))).unwrap();
+    let right = three.transforms.split_off(4);
+    b.insert(&three, false);
+    // The newest complete set is 1: set 3 is still arriving, set 2 is newer but incomplete
+    // and stays pending (its hand may still come).
+    assert_eq!(sets.next(&b, &needed).stamp, Some(at(1)));
+    // Set 3's right arm: 3 is used, 2 given up for it, its missing hand named.
+    b.insert(&TFMessage { transforms: right }, false);
+    let next = sets.next(&b, &needed);
+    assert_eq!(next.stamp, Some(at(3)));
+    assert_eq!(
+        next.incomplete,
+        vec![(at(2), vec!["RightHand".to_string()])]
+    );
+    // Sets 4 and 5 complete before the next look: 5 used, 4 superseded.
+    for k in [4, 5] {
+        b.insert(&tree.message(&qs[k], Time::from_ns(at(k))).unwrap(), false);
+    }
+    assert_eq!(sets.next(&b, &needed).stamp, Some(at(5)));
+    // A last set without the right hand, pending at the end: counted as incomplete.
+    let mut six = tree.message(&qs[0], Time::from_ns(at(6))).unwrap();
+    six.transforms.retain(|t| t.child_frame_id != "RightHand");
+    b.insert(&six, false);
+    assert_eq!(sets.next(&b, &needed).stamp, None);
+    let c = sets.counts(&b, &needed);
+    assert_eq!((c.frames, c.superseded, c.incomplete), (4, 1, 2));
+    assert_eq!(c.missing, [("RightHand".to_string(), 2)].into());
+}
