@@ -123,7 +123,7 @@ impl Fitted {
 /// knows lists every frame found.
 pub fn identify(buffer: &TfBuffer, map: Option<&ArmMap>) -> Result<Fitted, CaptureError> {
     let bvh = skeleton_of(buffer);
-    let skeleton = Skeleton::identify(&bvh, map, SOURCE)?;
+    let skeleton = Skeleton::identify(&bvh, map, SOURCE).map_err(|e| flat_hint(&bvh, e))?;
     let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(&bvh, side));
     let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
     let model = HumanArms::new(&Robot::builtin("human")?)?;
@@ -142,4 +142,36 @@ pub fn identify(buffer: &TfBuffer, map: Option<&ArmMap>) -> Result<Fitted, Captu
         skeleton,
         fitter,
     })
+}
+
+/// A tree whose frames all hang straight from its roots (every segment's pose given in the
+/// world, as some drivers publish) has no arm chain for the naming schemes to follow: the
+/// error says so, naming the frames.
+fn flat_hint(bvh: &Bvh, e: CaptureError) -> CaptureError {
+    let CaptureError::NoArms { .. } = e else {
+        return e;
+    };
+    let roots: Vec<&str> = bvh
+        .joints
+        .iter()
+        .filter(|j| j.parent.is_none())
+        .map(|j| j.name.as_str())
+        .collect();
+    let flat = bvh.joints.len() > roots.len() + 3
+        && bvh
+            .joints
+            .iter()
+            .all(|j| j.parent.is_none_or(|p| bvh.joints[p].parent.is_none()));
+    if !flat {
+        return e;
+    }
+    let text = e.to_string();
+    let e = text.strip_prefix(&format!("{SOURCE}: ")).unwrap_or(&text);
+    CaptureError::Skeleton {
+        file: SOURCE.to_string(),
+        message: format!(
+            "{e}. Every frame hangs straight from {}: the arms are found along the tree's parent → child chain (clavicle → upper arm → forearm → hand), so publish each segment's transform in its parent segment's frame",
+            roots.iter().map(|r| format!("`{r}`")).collect::<Vec<_>>().join(", ")
+        ),
+    }
 }

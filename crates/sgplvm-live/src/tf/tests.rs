@@ -268,3 +268,21 @@ fn sets_are_used_newest_first_and_the_others_counted() {
     assert_eq!((c.frames, c.superseded, c.incomplete), (4, 1, 2));
     assert_eq!(c.missing, [("RightHand".to_string(), 2)].into());
 }
+
+#[test]
+fn a_flat_tree_is_refused_saying_the_chain_is_needed() {
+    // Every segment in the world frame, as some drivers publish: names right, no chain.
+    let tree = HumanTf::new("").unwrap();
+    let msg = tree.message(&poses(1)[0], Time::from_ns(1_000)).unwrap();
+    let mut b = TfBuffer::new();
+    for t in &msg.transforms {
+        let mut flat = t.clone();
+        flat.header.frame_id = "world".into();
+        b.insert_one(&flat, false).unwrap();
+    }
+    let e = identify(&b, None).err().unwrap().to_string();
+    assert!(
+        e.contains("hangs straight from `world`") && e.contains("LeftForeArm"),
+        "{e}"
+    );
+}
