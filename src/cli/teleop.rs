@@ -261,6 +261,9 @@ fn stop_flag() -> Result<Arc<AtomicBool>> {
 }
 
 pub fn run(args: TeleopArgs) -> Result<()> {
+    if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
+        bail!("--map names a skeleton's frames: it goes with --input tf");
+    }
     let models: Vec<Arc<sgplvm::SharedGplvm>> = args
         .model
         .iter()
@@ -337,9 +340,6 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             _ => None,
         },
     };
-    if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
-        bail!("--map names a skeleton's frames: it goes with --input tf");
-    }
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(
             "--timeout {}: expected a positive number of seconds",
