@@ -33,11 +33,17 @@ pub struct TeleopArgs {
     /// The human's sensor_msgs/msg/JointState topic (joints matched by name, any order).
     #[arg(long, default_value = "/human/joint_states")]
     input_topic: String,
-    /// Where the human comes from: `joint-state` (the human model's angles on --input-topic)
-    /// or `mvn[:ADDR:PORT]` (an Xsens MVN suit's network stream, UDP, pose datagrams 01 or 02;
-    /// default 0.0.0.0:9763), each frame fitted as `sgplvm import` fits a file's.
+    /// Where the human comes from: `joint-state` (the human model's angles on --input-topic),
+    /// `mvn[:ADDR:PORT]` (an Xsens MVN suit's network stream, UDP, pose datagrams 01 or 02;
+    /// default 0.0.0.0:9763) or `tf` (a skeleton's tf2_msgs/TFMessage frames on /tf and
+    /// /tf_static, named as `sgplvm import` names a file's joints, or by --map), each frame
+    /// fitted as `sgplvm import` fits a file's.
     #[arg(long, default_value = "joint-state", value_parser = parse_input)]
     input: HumanInput,
+    /// With --input tf: a JSON map of the human model's joints to the skeleton's frames, as
+    /// `sgplvm import --map` takes (e.g. {"jLeftShoulder": "L_UpperArm", ...}).
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
     /// The command's message: joint-state (sensor_msgs/JointState on /ROBOT/joint_command),
     /// forward (std_msgs/Float64MultiArray for ros2_control's forward position controller),
     /// trajectory (trajectory_msgs/JointTrajectory, one point one frame ahead) or xbot
@@ -194,25 +200,33 @@ impl QosArg {
     }
 }
 
-/// Where the human comes from: the JointState topic (`None`) or an MVN stream's address.
+/// Where the human comes from.
 #[derive(Clone, Copy, Debug)]
-struct HumanInput(Option<std::net::SocketAddr>);
+enum HumanInput {
+    /// The JointState topic.
+    JointState,
+    /// An MVN stream on this UDP address.
+    Mvn(std::net::SocketAddr),
+    /// TF frames on /tf and /tf_static.
+    Tf,
+}
 
-/// `joint-state` or `mvn[:ADDR:PORT]`.
+/// `joint-state`, `mvn[:ADDR:PORT]` or `tf`.
 fn parse_input(s: &str) -> Result<HumanInput, String> {
     match s {
-        "joint-state" => Ok(HumanInput(None)),
-        "mvn" => Ok(HumanInput(Some(std::net::SocketAddr::from((
+        "joint-state" => Ok(HumanInput::JointState),
+        "tf" => Ok(HumanInput::Tf),
+        "mvn" => Ok(HumanInput::Mvn(std::net::SocketAddr::from((
             [0, 0, 0, 0],
             9763,
-        ))))),
+        )))),
         other => match other.strip_prefix("mvn:") {
             Some(addr) => addr
                 .parse()
-                .map(|a| HumanInput(Some(a)))
+                .map(HumanInput::Mvn)
                 .map_err(|_| format!("`{addr}`: expected ADDR:PORT, e.g. 0.0.0.0:9763")),
             None => Err(format!(
-                "unknown `{other}`; expected joint-state or mvn[:ADDR:PORT]"
+                "unknown `{other}`; expected joint-state, mvn[:ADDR:PORT] or tf"
             )),
         },
     }
@@ -247,6 +261,9 @@ fn stop_flag() -> Result<Arc<AtomicBool>> {
 }
 
 pub fn run(args: TeleopArgs) -> Result<()> {
+    if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
+        bail!("--map names a skeleton's frames: it goes with --input tf");
+    }
     let models: Vec<Arc<sgplvm::SharedGplvm>> = args
         .model
         .iter()
@@ -308,7 +325,20 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         max_frames: args.max_frames,
         status_period_s: 1.0,
         view: args.foxglove,
-        mvn: args.input.0,
+        mvn: match args.input {
+            HumanInput::Mvn(a) => Some(a),
+            _ => None,
+        },
+        tf: match args.input {
+            HumanInput::Tf => Some(sgplvm_live::TfInputOptions {
+                map: args
+                    .map
+                    .as_deref()
+                    .map(sgplvm::robots::capture::ArmMap::read)
+                    .transpose()?,
+            }),
+            _ => None,
+        },
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(
@@ -348,6 +378,20 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         for (kind, n) in &summary.dropped {
             eprintln!("dropped: {n} input message(s) ({kind})");
         }
+        if let Some(t) = &summary.tf {
+            eprintln!(
+                "tf: {} frame sets fitted ({} superseded, {} incomplete); elbow {:.1} mm, wrist {:.1} mm from the capture (medians), {:.1} mm at most",
+                t.sets.frames,
+                t.sets.superseded,
+                t.sets.incomplete,
+                t.elbow_median_m * 1e3,
+                t.wrist_median_m * 1e3,
+                t.worst_m * 1e3
+            );
+            if let Some(e) = &t.error {
+                eprintln!("{e}");
+            }
+        }
     }
     Ok(())
 }
@@ -382,14 +426,18 @@ pub struct ReplayArgs {
     /// Stop after this many messages.
     #[arg(long)]
     max_messages: Option<usize>,
-    /// Send the frames as `joint-state` (the human model's angles on --topic) or as `mvn` (an
+    /// Send the frames as `joint-state` (the human model's angles on --topic), as `mvn` (an
     /// Xsens MVN network stream of the human model's segments, UDP to --to), for `teleop
-    /// --input mvn`.
+    /// --input mvn`, or as `tf` (the human model's segments as tf2_msgs/TFMessage on /tf, the
+    /// fixed part on /tf_static, Xsens MVN frame names), for `teleop --input tf`.
     #[arg(long = "as", value_enum, default_value = "joint-state")]
     send_as: SendAs,
     /// With --as mvn: where to send, ADDR:PORT.
     #[arg(long, default_value = "127.0.0.1:9763")]
     to: std::net::SocketAddr,
+    /// With --as tf: a prefix of every frame name (a namespace such as `actor1/`).
+    #[arg(long, default_value = "")]
+    tf_prefix: String,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -398,6 +446,8 @@ enum SendAs {
     JointState,
     /// Xsens MVN network streaming, UDP.
     Mvn,
+    /// tf2_msgs/msg/TFMessage on /tf and /tf_static.
+    Tf,
 }
 
 /// The human series of `path`: its JointState `topic` as recorded (stamps and all).
@@ -436,12 +486,17 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
         series.len(),
         source.display(),
         series.dof(),
-        args.topic,
+        match args.send_as {
+            SendAs::JointState => args.topic.clone(),
+            SendAs::Mvn => format!("udp://{}", args.to),
+            SendAs::Tf => "/tf".to_string(),
+        },
         if args.looped { ", looped" } else { "" }
     );
     let sent = match args.send_as {
         SendAs::JointState => sgplvm_live::replay(&series, &options, &stop)?,
         SendAs::Mvn => sgplvm_live::replay_mvn(&series, args.to, &options, &stop)?,
+        SendAs::Tf => sgplvm_live::replay_tf(&series, &args.tf_prefix, &options, &stop)?,
     };
     eprintln!("published {sent} messages");
     Ok(())

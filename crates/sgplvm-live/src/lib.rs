@@ -6,6 +6,7 @@
 //!   threshold on the model's own predictive standard deviation, stale input), plain functions
 //!   that tests drive without a network;
 //! - [`mod@replay`]: `sgplvm replay`, a recorded human published on the input topic;
+//! - [`tf`]: a person's skeleton as ROS 2 TF frames (`teleop --input tf`, `replay --as tf`);
 //! - [`view`]: the live view, a Foxglove WebSocket server with the scene files' topics;
 //! - [`msgs`]: the ROS 2 messages, field for field.
 //!
@@ -21,12 +22,13 @@ pub mod msgs;
 pub mod mvn;
 pub mod node;
 pub mod replay;
+pub mod tf;
 pub mod view;
 
 pub use commands::CommandForm;
 pub use gate::{Gate, GateOptions};
-pub use node::{teleop, Drive, Reliability, TeleopOptions, TeleopSummary};
-pub use replay::{replay, replay_mvn, ReplayOptions};
+pub use node::{teleop, Drive, Reliability, TeleopOptions, TeleopSummary, TfInputOptions};
+pub use replay::{replay, replay_mvn, replay_tf, ReplayOptions};
 
 /// What went wrong in the live node.
 #[derive(Debug, thiserror::Error)]

@@ -194,6 +194,69 @@ pub struct DiagnosticArray {
     pub status: Vec<DiagnosticStatus>,
 }
 
+/// `geometry_msgs/msg/Vector3`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Vector3 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+/// `geometry_msgs/msg/Quaternion` (x, y, z, w in this order on the wire).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// i part.
+    pub x: f64,
+    /// j part.
+    pub y: f64,
+    /// k part.
+    pub z: f64,
+    /// Real part.
+    pub w: f64,
+}
+
+impl Default for Quaternion {
+    /// The identity, as the `.msg` file's default (`w 1`).
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/msg/Transform`: a child frame's pose in its parent's frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Transform {
+    /// The child's origin in the parent's frame, metres.
+    pub translation: Vector3,
+    /// The child's axes in the parent's frame.
+    pub rotation: Quaternion,
+}
+
+/// `geometry_msgs/msg/TransformStamped`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TransformStamped {
+    /// Stamp, and the parent frame in `frame_id`.
+    pub header: Header,
+    /// The child frame.
+    pub child_frame_id: String,
+    /// The child's pose in the parent's frame.
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/msg/TFMessage`: what `/tf` and `/tf_static` carry.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TFMessage {
+    /// The transforms.
+    pub transforms: Vec<TransformStamped>,
+}
+
 /// ROS 2 package and type name of each message above.
 pub mod types {
     /// `sensor_msgs/msg/JointState`.
@@ -206,6 +269,8 @@ pub mod types {
     pub const XBOT_JOINT_COMMAND: (&str, &str) = ("xbot_msgs", "JointCommand");
     /// `diagnostic_msgs/msg/DiagnosticArray`.
     pub const DIAGNOSTIC_ARRAY: (&str, &str) = ("diagnostic_msgs", "DiagnosticArray");
+    /// `tf2_msgs/msg/TFMessage`.
+    pub const TF_MESSAGE: (&str, &str) = ("tf2_msgs", "TFMessage");
 }
 
 #[cfg(test)]

@@ -141,32 +141,10 @@ pub fn replay_mvn(
     stop: &AtomicBool,
 ) -> Result<usize, LiveError> {
     use crate::mvn::{HumanSegments, MvnSender, PoseType};
-    if series.is_empty() {
-        return Err(LiveError::Config(
-            "nothing to replay: the series has no frames".into(),
-        ));
-    }
-    if !(options.rate.is_finite() && options.rate > 0.0) {
-        return Err(LiveError::Config(format!(
-            "rate {}; expected a positive speed factor",
-            options.rate
-        )));
-    }
+    check(series, options)?;
     let config = |e: String| LiveError::Config(format!("--as mvn: {e}"));
     let segments = HumanSegments::new().map_err(|e| config(e.to_string()))?;
-    let model = sgplvm_robots::Robot::builtin("human")
-        .map_err(|e| config(e.to_string()))?
-        .joint_names();
-    let order: Vec<usize> = model
-        .iter()
-        .map(|n| {
-            series.names.iter().position(|s| s == n).ok_or_else(|| {
-                config(format!(
-                    "the series has no joint `{n}` of the human model (an MVN frame needs all 18)"
-                ))
-            })
-        })
-        .collect::<Result<_, _>>()?;
+    let order = model_order(series, "--as mvn")?;
     let sender = MvnSender::new(to).map_err(|e| config(e.to_string()))?;
     let send = |q: &[f64], sample: u32, t_ms: u32| -> Result<(), LiveError> {
         let frame = segments
@@ -204,6 +182,138 @@ pub fn replay_mvn(
             break;
         }
         lap_start += span;
+    }
+    Ok(sent)
+}
+
+/// A series and options that can be replayed.
+fn check(series: &JointStates, options: &ReplayOptions) -> Result<(), LiveError> {
+    if series.is_empty() {
+        return Err(LiveError::Config(
+            "nothing to replay: the series has no frames".into(),
+        ));
+    }
+    if !(options.rate.is_finite() && options.rate > 0.0) {
+        return Err(LiveError::Config(format!(
+            "rate {}; expected a positive speed factor",
+            options.rate
+        )));
+    }
+    Ok(())
+}
+
+/// For each of the human model's joints, its column in `series` (all 18 are needed to place
+/// the segments); `what` names the output in the error.
+fn model_order(series: &JointStates, what: &str) -> Result<Vec<usize>, LiveError> {
+    let config = |e: String| LiveError::Config(format!("{what}: {e}"));
+    let model = sgplvm_robots::Robot::builtin("human")
+        .map_err(|e| config(e.to_string()))?
+        .joint_names();
+    model
+        .iter()
+        .map(|n| {
+            series.names.iter().position(|s| s == n).ok_or_else(|| {
+                config(format!(
+                    "the series has no joint `{n}` of the human model (the segments' poses need all 18)"
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Publishes `series` (the human model's angles) as a TF tree of the human model's segments
+/// ([`crate::tf::HumanTf`], frame names after `prefix`): the fixed part once on `/tf_static`
+/// (reliable, transient local: latched for late subscribers), then one `TFMessage` per frame
+/// on `/tf` stamped with the frame's time, at its own times scaled by `options.rate`.
+/// `options.topic` is not used. Returns the frames published.
+pub fn replay_tf(
+    series: &JointStates,
+    prefix: &str,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+) -> Result<usize, LiveError> {
+    use crate::msgs::TFMessage;
+    use crate::tf::{HumanTf, TF_STATIC_TOPIC, TF_TOPIC};
+    use ros2_client::qos::{Durability, History, WhenFull};
+    use ros2_client::QosProfile;
+    check(series, options)?;
+    let config = |e: String| LiveError::Config(format!("--as tf: {e}"));
+    let tree = HumanTf::new(prefix).map_err(|e| config(e.to_string()))?;
+    let order = model_order(series, "--as tf")?;
+    let mut node = new_node(options.domain_id, "sgplvm_replay")?;
+    let dds = |e: String| LiveError::Dds { message: e };
+    let (pkg, name) = types::TF_MESSAGE;
+    let mut publisher = |topic: &str, q: QosProfile| -> Result<Publisher<TFMessage>, LiveError> {
+        let t = node
+            .create_topic(&topic_name(topic)?, MessageTypeName::new(pkg, name), &q)
+            .map_err(|e| dds(format!("{e:?}")))?;
+        node.create_publisher(&t, Some(q))
+            .map_err(|e| dds(format!("{e:?}")))
+    };
+    let dynamic = publisher(
+        TF_TOPIC,
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 100 }),
+    )?;
+    let statics = publisher(
+        TF_STATIC_TOPIC,
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 1 }),
+    )?;
+    let fail = |topic: &str, e: String| LiveError::Publish {
+        topic: topic.to_string(),
+        message: e,
+    };
+    statics
+        .publish(tree.static_message(Time::from_ns(series.times_ns[0])))
+        .map_err(|e| fail(TF_STATIC_TOPIC, format!("{e:?}")))?;
+    let waited = Instant::now();
+    while options.wait_s > 0.0
+        && node.subscription_count(TF_TOPIC) == 0
+        && waited.elapsed().as_secs_f64() < options.wait_s
+        && !stop.load(Ordering::Relaxed)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let t0 = series.times_ns[0];
+    let span = series.times_ns[series.len() - 1] - t0;
+    let period = if series.len() > 1 {
+        span / (series.len() as i64 - 1)
+    } else {
+        25_000_000
+    };
+    let start = Instant::now();
+    let mut sent = 0usize;
+    let mut lap: i64 = 0;
+    'outer: loop {
+        for (k, &t) in series.times_ns.iter().enumerate() {
+            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
+                break 'outer;
+            }
+            let offset_ns = lap * (span + period) + (t - t0);
+            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+            let row = series.row(k);
+            let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
+            let msg = tree
+                .message(&q, Time::from_ns(t + lap * (span + period)))
+                .map_err(|e| config(e.to_string()))?;
+            dynamic
+                .publish(msg)
+                .map_err(|e| fail(TF_TOPIC, format!("{e:?}")))?;
+            sent += 1;
+        }
+        if !options.looped {
+            break;
+        }
+        lap += 1;
     }
     Ok(sent)
 }

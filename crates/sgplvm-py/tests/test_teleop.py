@@ -996,3 +996,235 @@ def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, m
         float(np.max(np.abs(np.array(c.position) - np.clip(raw[k], lo, hi)))) for k, c in enumerate(commands)
     )
     assert worst < 1e-4, worst
+
+
+# ----- a skeleton's TF frames (tf2_msgs/TFMessage on /tf and /tf_static) -----
+
+
+@dataclass
+@annotate.final
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+@annotate.final
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+@annotate.final
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3
+    rotation: Quaternion
+
+
+@dataclass
+@annotate.final
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header
+    child_frame_id: str
+    transform: Transform
+
+
+@dataclass
+@annotate.final
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped]
+
+
+def _transform(parent, child, t_ns, p, r):
+    """A TransformStamped of `child` at `p` turned by rotation matrix `r` in `parent`."""
+    w, x, y, z = _quaternion(r)
+    stamp = Time(int(t_ns) // 10**9, int(t_ns) % 10**9)
+    return TransformStamped(
+        Header(stamp, parent), child,
+        Transform(Vector3(*(float(v) for v in p)), Quaternion(float(x), float(y), float(z), float(w))),
+    )
+
+
+# A CMU / Mixamo skeleton under a namespace, as a tracker would publish one: the spine fixed
+# (on /tf_static), the arms moving (on /tf), `Spine1` the upper torso the clavicles hang from.
+TF_PREFIX = "mocap/"
+TF_STATIC = [("world", "Hips", 0.95), ("Hips", "Spine", 0.1), ("Spine", "Spine1", 0.3), ("Spine1", "Neck", 0.2)]
+TF_ARMS = {"Shoulder": "clavicle", "Arm": "upper_arm", "ForeArm": "forearm", "Hand": "hand_segment"}
+
+
+def _tf_static_message():
+    return TFMessage([
+        _transform(TF_PREFIX + p, TF_PREFIX + c, 0, (0.0, 0.0, z), np.eye(3)) for p, c, z in TF_STATIC
+    ])
+
+
+def _tf_arm_messages(rows, times_ns):
+    """Per row of the human model's angles, two TFMessages (left arm, right arm: a publisher may
+    split a time's transforms): each segment is the model's link at the sternoclavicular,
+    shoulder, elbow and wrist joint, turned so that the T-pose is every segment's identity (as
+    MVN's null pose and a BVH's rest), its pose given in its parent segment's frame."""
+    human = sgplvm.Robot.builtin("human")
+    names = human.joint_names
+    t_pose = np.array([np.pi / 2 if n.endswith("Shoulder_abduction") else 0.0 for n in names])
+    rest = {
+        (side, part): human.forward_kinematics(t_pose, f"{side.lower()}_{link}")[:3, :3]
+        for side in ("Left", "Right")
+        for part, link in TF_ARMS.items()
+    }
+    out = []
+    for q, t in zip(rows, times_ns):
+        for side in ("Left", "Right"):
+            parent, pp, pr = TF_PREFIX + "Spine1", np.zeros(3), np.eye(3)
+            transforms = []
+            for part, link in TF_ARMS.items():
+                pose = human.forward_kinematics(q, f"{side.lower()}_{link}")
+                p, r = pose[:3, 3], pose[:3, :3] @ rest[(side, part)].T
+                transforms.append(_transform(parent, TF_PREFIX + side + part, t, pr.T @ (p - pp), pr.T @ r))
+                parent, pp, pr = TF_PREFIX + side + part, p, r
+            out.append(TFMessage(transforms))
+    return out
+
+
+LATCHED = Qos(
+    Policy.Reliability.Reliable(max_blocking_time=1_000_000_000),
+    Policy.Durability.TransientLocal,
+    Policy.History.KeepLast(1),
+)
+
+
+def _commands_equal_predict(tmp, models, urdf, rows, times_ns, commands, tol):
+    """Every command equals ``predict --raw`` on the frame its stamp names (within the relaxed
+    URDF's position limits) to `tol`; returns how many frames were answered."""
+    joints, raw = predict_raw(tmp, models["coman"], "coman", [*sgplvm.Robot.builtin("human").joint_names], rows, times_ns)
+    lo, hi, _ = limits(urdf[1], joints)
+    index = {int(t): k for k, t in enumerate(times_ns)}
+    worst, answered = 0.0, set()
+    for c in commands:
+        k = index[stamp_ns(c.header.stamp)]
+        answered.add(k)
+        assert c.name == joints
+        worst = max(worst, float(np.max(np.abs(np.array(c.position) - np.clip(raw[k], lo, hi)))))
+    assert worst <= tol, worst
+    return len(answered)
+
+
+def test_tf_frames_published_by_cyclone_drive_teleop(tmp, data, models):
+    """Cyclone DDS publishes a person's skeleton as ROS 2 TF frames (CMU names under a
+    namespace; the spine latched on /tf_static before the node is up, the arms on /tf, each
+    time's transforms in two messages); the node finds the arms by the importer's naming
+    schemes, fits every frame set with the importer's fit and sends commands equal to
+    ``predict --raw`` on the angles the frames were made from, to 1e-9 (double precision travels)."""
+    domain = next_domain()
+    ros = Ros2(domain)
+    # Latched before the node exists: transient-local durability hands it over on matching.
+    static_topic = Topic(ros.dp, "rt/tf_static", TFMessage, qos=LATCHED)
+    static_writer = DataWriter(ros.dp, static_topic, qos=LATCHED)
+    static_writer.write(_tf_static_message())
+    urdf = relaxed_urdf(tmp, "coman")
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf",
+        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+    ])
+    # The human model's joint order (the demonstrations' may differ).
+    order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
+    rows = data["rows"][:60][:, order]
+    times_ns = data["times_ns"][:60]
+    try:
+        w = ros.writer("/tf", TFMessage)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        time.sleep(0.5)  # the latched spine reaches the node
+        messages = _tf_arm_messages(rows, times_ns)
+        for k in range(0, len(messages), 2):
+            w.write(messages[k])
+            w.write(messages[k + 1])
+            time.sleep(0.025)
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    tf = summary["tf"]
+    assert tf["skeleton"].startswith("CMU"), (tf, err)
+    assert tf["torso"] == "mocap/Spine1", tf
+    assert tf["frames"] >= 0.95 * len(rows) and tf["incomplete"] == 0, (tf, err)
+    assert tf["worst_m"] < 1e-6, tf
+    answered = _commands_equal_predict(tmp, models, urdf, rows, times_ns, commands, 1e-9)
+    assert answered >= 0.95 * len(rows), (answered, err)
+
+
+def test_tf_frame_missing_is_counted_and_bad_names_are_reported(tmp, data, models):
+    """Sets without the right hand are skipped and counted (the frame named); a skeleton whose
+    names no scheme knows is reported with the frames found."""
+    domain = next_domain()
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf"])
+    order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
+    rows, times_ns = data["rows"][:10][:, order], data["times_ns"][:10]
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/tf", TFMessage)
+        ros.wait_matched()
+        messages = _tf_arm_messages(rows, times_ns)
+        for k in range(0, len(messages), 2):
+            w.write(messages[k])
+            if k >= 10:  # from the 6th frame on, the right arm has no hand
+                messages[k + 1].transforms = [t for t in messages[k + 1].transforms if not t.child_frame_id.endswith("RightHand")]
+            w.write(messages[k + 1])
+            time.sleep(0.025)
+        time.sleep(0.3)
+    finally:
+        summary, err = node.stop()
+    tf = summary["tf"]
+    assert tf["frames"] >= 4 and tf["incomplete"] == 5, (tf, err)
+    assert tf["missing"] == {"mocap/RightHand": 5}, tf
+    assert "mocap/RightHand" in err, err
+    # Names of no scheme.
+    domain = next_domain()
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/tf", TFMessage)
+        ros.wait_matched()
+        w.write(TFMessage([_transform("world", "torso", 1, (0, 0, 1), np.eye(3)), _transform("torso", "limb_a", 1, (0, 0.2, 0), np.eye(3))]))
+        time.sleep(0.5)
+    finally:
+        summary, err = node.stop()
+    assert summary["tf"]["frames"] == 0
+    e = summary["tf"]["error"]
+    assert "cannot tell which segments are the arms" in e and "limb_a" in e and "torso" in e, e
+
+
+def test_replay_as_tf_drives_teleop(tmp, data, models):
+    """``sgplvm replay --as tf`` publishes the human model's segments as a TF tree (Xsens MVN
+    names, the spine latched on /tf_static); ``teleop --input tf`` fits each set back into the
+    angles: commands equal ``predict --raw`` on the recording, stamped with its times."""
+    domain = next_domain()
+    human = tmp / "human_tf.mcap"
+    rows, times = data["rows"][:40], data["times_ns"][:40]
+    sgplvm.write_joint_states(human, "/human/joint_states", times.astype(np.int64), data["names"], rows)
+    urdf = relaxed_urdf(tmp, "coman")
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf",
+        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+    ])
+    try:
+        ros = Ros2(domain)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        out = subprocess.run(
+            [str(sgplvm_binary()), "replay", "--as", "tf", "--tf-prefix", "suit/", "--input", str(human), "--domain-id", str(domain)],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert out.returncode == 0, out.stderr
+        assert "published 40 messages" in out.stderr, out.stderr
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    tf = summary["tf"]
+    assert tf["skeleton"].startswith("Xsens MVN") and tf["torso"] == "suit/T8", (tf, err)
+    assert tf["frames"] >= 38 and tf["worst_m"] < 1e-6, (tf, err)
+    order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
+    answered = _commands_equal_predict(tmp, models, urdf, rows[:, order], times, commands, 1e-9)
+    assert answered >= 38, (answered, err)

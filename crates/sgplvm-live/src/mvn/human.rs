@@ -66,9 +66,9 @@ impl HumanSegments {
         Ok(HumanSegments { robot, segments })
     }
 
-    /// The frame of the human model's angles `q` (its joint order): `T8` at the origin with
-    /// the body's axes, the arms' segments as the module docs say.
-    pub fn frame(&self, q: &[f64], sample: u32, time_ms: u32) -> Result<MvnPose, MvnError> {
+    /// The segments' world poses at the human model's angles `q` (its joint order): `T8` at
+    /// the origin with the body's axes, the arms' segments as the module docs say (MVN names).
+    pub fn world_poses(&self, q: &[f64]) -> Result<Vec<(&str, WorldPose)>, MvnError> {
         let bad = |e: sgplvm_robots::RobotError| MvnError::Segment {
             name: "human".into(),
             message: e.to_string(),
@@ -90,7 +90,12 @@ impl HumanSegments {
                 },
             ));
         }
-        MvnPose::from_world_poses(sample, time_ms, 0, poses)
+        Ok(poses)
+    }
+
+    /// The frame of the human model's angles `q` (its joint order): [`Self::world_poses`].
+    pub fn frame(&self, q: &[f64], sample: u32, time_ms: u32) -> Result<MvnPose, MvnError> {
+        MvnPose::from_world_poses(sample, time_ms, 0, self.world_poses(q)?)
     }
 }
 

@@ -16,6 +16,7 @@ mod drive;
 mod mvn_input;
 mod session;
 mod status;
+mod tf_input;
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -87,6 +88,17 @@ pub struct TeleopOptions {
     /// Take the human from an Xsens MVN stream on this UDP address (each frame fitted as
     /// `sgplvm import` fits a file's) instead of the JointState topic.
     pub mvn: Option<std::net::SocketAddr>,
+    /// Take the human from a skeleton's TF frames on `/tf` and `/tf_static` (each complete set
+    /// fitted as `sgplvm import` fits a file's frame) instead of the JointState topic.
+    pub tf: Option<TfInputOptions>,
+}
+
+/// How the TF input finds the arms.
+#[derive(Debug, Clone, Default)]
+pub struct TfInputOptions {
+    /// The arms' frames named explicitly (as `sgplvm import --map`); `None`: by the importer's
+    /// naming schemes.
+    pub map: Option<sgplvm_robots::capture::ArmMap>,
 }
 
 impl Default for TeleopOptions {
@@ -105,6 +117,7 @@ impl Default for TeleopOptions {
             status_period_s: 1.0,
             view: None,
             mvn: None,
+            tf: None,
         }
     }
 }
@@ -154,6 +167,10 @@ pub struct TeleopSummary {
     /// With an MVN input: its datagrams, frames and the fit's residuals.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mvn: Option<mvn_input::MvnSummary>,
+    /// With a TF input: its messages, frame sets (used, superseded, incomplete) and the fit's
+    /// residuals.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tf: Option<tf_input::TfSummary>,
 }
 
 /// One robot's counts.
@@ -199,9 +216,23 @@ pub fn teleop(
             Ok::<_, LiveError>(m)
         })
         .transpose()?;
+    if options.mvn.is_some() && options.tf.is_some() {
+        return Err(LiveError::Config(
+            "one human input at a time: MVN or TF, not both".into(),
+        ));
+    }
+    let tf = options
+        .tf
+        .as_ref()
+        .map(|t| {
+            log("input: TF frames on /tf and /tf_static");
+            tf_input::TfInput::subscribe(&mut node, &human, t.map.clone())
+        })
+        .transpose()?;
     let parts = Parts {
         human,
         mvn,
+        tf,
         input,
         status,
         driven,

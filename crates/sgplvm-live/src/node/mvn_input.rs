@@ -25,6 +25,25 @@ pub struct MvnSummary {
     pub worst_m: f64,
 }
 
+/// For each of the models' human joints `human`, its index among the human model's 18 (the
+/// fit's output); `what` names the input in the error.
+pub(super) fn human_order(human: &[String], what: &str) -> Result<Vec<usize>, LiveError> {
+    let model = sgplvm_robots::Robot::builtin("human")
+        .map_err(|e| LiveError::Config(e.to_string()))?
+        .joint_names();
+    human
+        .iter()
+        .map(|n| {
+            model.iter().position(|m| m == n).ok_or_else(|| {
+                LiveError::Config(format!(
+                    "{what}: the models take human joint `{n}`, which the human model the input is fitted to does not have (it has {})",
+                    sgplvm_robots::names::few(&model, 4)
+                ))
+            })
+        })
+        .collect()
+}
+
 /// The MVN input of a node.
 pub(super) struct MvnInput {
     pub(super) receiver: MvnReceiver,
@@ -41,20 +60,7 @@ impl MvnInput {
         addr: std::net::SocketAddr,
         human: &[String],
     ) -> Result<MvnInput, LiveError> {
-        let model = sgplvm_robots::Robot::builtin("human")
-            .map_err(|e| LiveError::Config(e.to_string()))?
-            .joint_names();
-        let order = human
-            .iter()
-            .map(|n| {
-                model.iter().position(|m| m == n).ok_or_else(|| {
-                    LiveError::Config(format!(
-                        "--input mvn: the models take human joint `{n}`, which the human model the MVN stream is fitted to does not have (it has {})",
-                        sgplvm_robots::names::few(&model, 4)
-                    ))
-                })
-            })
-            .collect::<Result<_, _>>()?;
+        let order = human_order(human, "--input mvn")?;
         let receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
             .map_err(|e| LiveError::Config(format!("--input mvn: {e}")))?;
         Ok(MvnInput {

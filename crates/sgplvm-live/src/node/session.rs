@@ -11,6 +11,7 @@ use super::dds::dds;
 use super::drive::{Driven, LatentSlot};
 use super::mvn_input::MvnInput;
 use super::status::publish_status;
+use super::tf_input::TfInput;
 use super::{Latency, RobotSummary, TeleopOptions, TeleopSummary};
 use crate::commands::Command;
 use crate::gate::{Decision, Frame, Reason};
@@ -34,6 +35,8 @@ pub(super) struct Session<'a> {
     input: Subscription<JointState>,
     /// The MVN stream, when the human comes from a suit.
     mvn: Option<MvnInput>,
+    /// The TF frames, when the human comes from a skeleton's transforms.
+    tf: Option<TfInput>,
     /// The models' human joint names.
     human: Vec<String>,
     start: Instant,
@@ -59,6 +62,7 @@ pub(super) struct Session<'a> {
 pub(super) struct Parts {
     pub(super) human: Vec<String>,
     pub(super) mvn: Option<MvnInput>,
+    pub(super) tf: Option<TfInput>,
     pub(super) input: Subscription<JointState>,
     pub(super) status: Publisher<DiagnosticArray>,
     pub(super) driven: Vec<Driven>,
@@ -72,6 +76,7 @@ impl<'a> Session<'a> {
         let Parts {
             human,
             mut mvn,
+            mut tf,
             mut input,
             status,
             driven,
@@ -85,6 +90,14 @@ impl<'a> Session<'a> {
         if let Some(m) = mvn.as_mut() {
             poll.registry()
                 .register(&mut m.receiver, Token(1), Interest::READABLE)
+                .map_err(|e| dds(e.to_string()))?;
+        }
+        if let Some(t) = tf.as_mut() {
+            poll.registry()
+                .register(&mut t.dynamic, Token(2), Interest::READABLE)
+                .map_err(|e| dds(e.to_string()))?;
+            poll.registry()
+                .register(&mut t.statics, Token(3), Interest::READABLE)
                 .map_err(|e| dds(e.to_string()))?;
         }
         let events = Events::with_capacity(8);
@@ -101,6 +114,7 @@ impl<'a> Session<'a> {
             status,
             input,
             mvn,
+            tf,
             human,
             start,
             summary: TeleopSummary::default(),
@@ -139,6 +153,12 @@ impl<'a> Session<'a> {
                     .duration_since(std::time::UNIX_EPOCH)
                     .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
                 self.follow(Time::from_ns(now), received, log)?;
+            }
+        }
+        if let Some(t) = self.tf.as_mut() {
+            let received = Instant::now();
+            if let Some(stamp) = t.newest(&mut self.h, log) {
+                self.follow(stamp, received, log)?;
             }
         }
         self.check_stale(log)?;
@@ -287,9 +307,10 @@ impl<'a> Session<'a> {
             if t.elapsed() > self.timeout {
                 self.stale = true;
                 self.status_due = true;
-                let source = match self.options.mvn {
-                    Some(a) => format!("the MVN stream (udp://{a})"),
-                    None => self.options.input_topic.clone(),
+                let source = match (self.options.mvn, &self.options.tf) {
+                    (Some(a), _) => format!("the MVN stream (udp://{a})"),
+                    (None, Some(_)) => "/tf".to_string(),
+                    (None, None) => self.options.input_topic.clone(),
                 };
                 log(&format!(
                     "stale input: no human frame on {source} for {:.0} ms: holding",
@@ -327,6 +348,7 @@ impl<'a> Session<'a> {
         publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
         self.summary.latency = Latency::of(std::mem::take(&mut self.latencies));
         self.summary.mvn = self.mvn.as_ref().map(MvnInput::summary);
+        self.summary.tf = self.tf.as_ref().map(TfInput::summary);
         for r in &self.driven {
             let c = r.gate.counts();
             self.summary.robots.insert(

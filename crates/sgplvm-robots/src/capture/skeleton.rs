@@ -5,8 +5,8 @@
 //! LeftForeArm/LeftHand`, Xsens MVN `LeftShoulder/LeftUpperArm/...`, Xsens BVH exports and
 //! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, Poser/DAZ `lCollar/lShldr/...`, Unreal
 //! and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/hand_l`, Rigify `shoulder.L/upper_arm.L/...`),
-//! namespace prefixes (`mixamorig:`) and case, `_`, `.`, `-` and spaces aside; or by an
-//! explicit [`ArmMap`] (`--map FILE`).
+//! namespace prefixes (`mixamorig:`, a TF frame's `actor1/`) and case, `_`, `.`, `-` and
+//! spaces aside; or by an explicit [`ArmMap`] (`--map FILE`).
 //!
 //! The upper torso is the joint the clavicles hang from. Its body axes (x forward, y left,
 //! z up, those of the human model's `T8`) come from the skeleton's geometry, whatever its zero
@@ -81,9 +81,16 @@ pub const SCHEMES: &[Scheme] = &[
     },
 ];
 
-/// A joint name lower-cased without its namespace (`mixamorig:`), `_`, `.`, `-` and spaces.
+/// A joint name without its namespace: what follows the last `:` (`mixamorig:`) or `/` (a ROS
+/// TF frame's prefix, `actor1/`).
+fn base_name(name: &str) -> &str {
+    name.rsplit([':', '/']).next().unwrap_or(name)
+}
+
+/// A joint name lower-cased without its namespace (`mixamorig:`, `actor1/`), `_`, `.`, `-` and
+/// spaces.
 pub fn normalise(name: &str) -> String {
-    let base = name.rsplit(':').next().unwrap_or(name);
+    let base = base_name(name);
     base.chars()
         .filter(|c| !matches!(c, '_' | '.' | '-' | ' '))
         .flat_map(|c| c.to_lowercase())
@@ -95,7 +102,7 @@ pub fn normalise(name: &str) -> String {
 /// lower-to-upper case change), so that `CC_Base_L_Clavicle` answers to `lclavicle` and
 /// `Bip01 L UpperArm` to `lupperarm`.
 fn name_forms(name: &str) -> Vec<String> {
-    let base = name.rsplit(':').next().unwrap_or(name);
+    let base = base_name(name);
     let mut words: Vec<String> = Vec::new();
     let mut current = String::new();
     let mut prev_lower = false;
@@ -323,6 +330,18 @@ impl Skeleton {
 
     /// The pose of arm `side` in frame `values` (one frame's channels).
     pub fn arm_pose(&self, bvh: &Bvh, values: &[f64], side: Side) -> ArmPose {
+        self.arm_pose_with(bvh, &|k| bvh.joints[k].local(values), side)
+    }
+
+    /// The pose of arm `side` where `local` gives each joint's transform in its parent's frame
+    /// (translation, rotation): a file's frame ([`Skeleton::arm_pose`]) or a live source's, such
+    /// as a ROS 2 TF tree's transforms, composed down from the torso the same way.
+    pub fn arm_pose_with(
+        &self,
+        bvh: &Bvh,
+        local: &dyn Fn(usize) -> (Vector3<f64>, Rotation3<f64>),
+        side: Side,
+    ) -> ArmPose {
         let arm = &self.arms[side_index(side)];
         let to_body = self.axes.inverse();
         // Torso-relative transforms down the arm, joint by joint.
@@ -331,7 +350,7 @@ impl Skeleton {
         let at = |j: usize, pos: &mut Vector3<f64>, rot: &mut Rotation3<f64>, from: usize| {
             if let Some(path) = bvh.path(from, j) {
                 for k in path {
-                    let (t, r) = bvh.joints[k].local(values);
+                    let (t, r) = local(k);
                     *pos += *rot * t;
                     *rot *= r;
                 }
