@@ -1,6 +1,8 @@
 //! Joint frames as CSV: a header of joint names, then one frame per line. An optional first
 //! column named `time` (seconds) or `time_ns` is carried through. Lines starting with `#` are
-//! comments (`sgplvm predict` writes one first, saying whether its commands are limited).
+//! comments, skipped wherever they are: `sgplvm predict` no longer writes any (its CSV starts
+//! with the header, for readers without options; what the commands are goes in the sidecar
+//! `OUT.json`), but files from earlier versions began with one and still read.
 
 use std::io::BufRead;
 
@@ -290,6 +292,18 @@ mod tests {
         assert_eq!(frames.times, Some(vec![0.0, 0.025]));
         assert_eq!(frames.values, vec![1.5, -2.0, 1e-3, 4.0]);
         assert_eq!(frames.rows, 2);
+    }
+
+    #[test]
+    fn files_with_the_comment_line_earlier_predicts_wrote_still_read() {
+        let old = "# coman commands: raw model output\ntime,a\n0,1\n# later\n0.025,2\n";
+        let new = "time,a\n0,1\n0.025,2\n";
+        let (old, new) = (
+            read_frames(old.as_bytes(), "old.csv").unwrap(),
+            read_frames(new.as_bytes(), "new.csv").unwrap(),
+        );
+        assert_eq!(old, new);
+        assert_eq!(old.values, vec![1.0, 2.0]);
     }
 
     /// Hostile but plausible files (issue 13): a byte-order mark, blank lines before the

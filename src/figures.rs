@@ -22,7 +22,9 @@ mod bayesian;
 mod demo;
 
 pub use bayesian::ard_weights;
-pub use demo::{dominant_dims, latent_space, test_motions, trajectories, TestMotion};
+pub use demo::{
+    dominant_dims, latent_space, test_motions, trajectories, TestMotion, LATENT_SPACE_SIZE,
+};
 
 /// Errors while drawing the demo's figures.
 #[derive(Debug, thiserror::Error)]
@@ -498,6 +500,33 @@ mod tests {
             "{seconds:?}"
         );
         assert!(motions.iter().all(|m| !m.unlabelled));
+    }
+
+    #[test]
+    fn fig_7_is_its_documented_size_and_says_what_its_marks_are() {
+        let demos = crate::pipeline::load(None).expect("the shipped demonstrations");
+        let options = sgplvm_core::TrainOptions {
+            max_iters: 2,
+            ..sgplvm_core::TrainOptions::default()
+        };
+        let config = sgplvm_core::ModelConfig::default();
+        let model = demos
+            .train(&["walkman".to_string()], &config, &options, None, None)
+            .unwrap();
+        let dir = std::env::temp_dir().join(format!("sgplvm-fig7-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let [svg, png] =
+            latent_space(&model, &demos, "walkman", &dir.join("latent_space")).unwrap();
+        let png = std::fs::read(png).unwrap();
+        let size = |at: usize| u32::from_be_bytes(png[at..at + 4].try_into().unwrap());
+        // The PNG header: width and height at bytes 16 and 20.
+        assert_eq!((size(16), size(20)), LATENT_SPACE_SIZE);
+        assert_eq!(LATENT_SPACE_SIZE, (1200, 900));
+        let svg = std::fs::read_to_string(svg).unwrap();
+        assert!(svg.contains("width=\"1200\"") && svg.contains("height=\"900\""));
+        // The subtitle explains the hooks that look like arrowheads.
+        assert!(svg.contains("arrowheads"), "{svg:.600}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

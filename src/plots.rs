@@ -42,12 +42,37 @@ pub struct Markers {
     pub label: String,
     /// Palette index.
     pub color: usize,
-    /// Filled circles (key poses) rather than crosses (training points).
+    /// Filled circles (key poses) rather than crosses (training points); the legend shows the
+    /// same ([`Markers::sample`]).
     pub circles: bool,
     /// The points.
     pub points: Vec<(f64, f64)>,
     /// A text drawn next to each point (empty for none).
     pub annotations: Vec<String>,
+}
+
+impl Markers {
+    /// The mark its points are drawn with, which its legend entry shows too.
+    pub fn sample(&self) -> Sample {
+        if self.circles {
+            Sample::Circle
+        } else {
+            Sample::Cross
+        }
+    }
+}
+
+/// What a legend entry shows: a sample of the line, or the mark the points are drawn with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sample {
+    /// A solid line.
+    Line,
+    /// A dashed line.
+    DashedLine,
+    /// A filled circle.
+    Circle,
+    /// A cross (×).
+    Cross,
 }
 
 /// One chart of a figure.
@@ -174,7 +199,7 @@ pub fn write_figure_with(
     };
     let size = (
         layout.panel_size.0 * columns as u32 + legend_width,
-        layout.panel_size.1 * rows as u32 + 40 + 22 * layout.subtitle.len() as u32,
+        layout.panel_size.1 * rows as u32 + title_height(layout.subtitle.len()),
     );
     let svg_path = stem.with_extension("svg");
     let png_path = stem.with_extension("png");
@@ -195,6 +220,12 @@ pub fn write_figure_with(
             .map_err(|message| draw_error(&png_path, message))
     })?;
     Ok([svg_path, png_path])
+}
+
+/// Pixels the title and `subtitle_lines` lines under it take above the panels: a figure is
+/// `panel_size.1 × rows + title_height(subtitle lines)` pixels high.
+pub fn title_height(subtitle_lines: usize) -> u32 {
+    40 + 22 * subtitle_lines as u32
 }
 
 /// Registers the embedded font as `sans-serif` (once per process).
@@ -292,19 +323,27 @@ fn x_tick_label(panel: &Panel, v: f64) -> String {
     }
 }
 
-/// The labelled entries of a panel's legend: label, colour, dashed, circle marker.
-fn legend_entries(panel: &Panel) -> Vec<(&str, usize, bool, bool)> {
+/// The labelled entries of a panel's legend: label, colour and what it shows (a series' line,
+/// dashed or not; the mark its markers are drawn with).
+fn legend_entries(panel: &Panel) -> Vec<(&str, usize, Sample)> {
     panel
         .series
         .iter()
         .filter(|s| !s.label.is_empty())
-        .map(|s| (s.label.as_str(), s.color, s.dashed, false))
+        .map(|s| {
+            let sample = if s.dashed {
+                Sample::DashedLine
+            } else {
+                Sample::Line
+            };
+            (s.label.as_str(), s.color, sample)
+        })
         .chain(
             panel
                 .markers
                 .iter()
                 .filter(|m| !m.label.is_empty())
-                .map(|m| (m.label.as_str(), m.color, false, true)),
+                .map(|m| (m.label.as_str(), m.color, m.sample())),
         )
         .collect()
 }
@@ -361,6 +400,75 @@ mod tests {
             .collect();
         assert!(leftovers.is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The SVG of one panel drawn alone (with `side_legend`, its legend beside the chart).
+    fn panel_svg(panel: Panel, name: &str) -> String {
+        let dir = std::env::temp_dir().join(format!("sgplvm-plot-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let [svg, _] = write_figure(&dir.join("fig"), "Figure", &[panel], 1).unwrap();
+        let text = std::fs::read_to_string(svg).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        text
+    }
+
+    #[test]
+    fn legends_show_the_mark_the_points_are_drawn_with() {
+        let crosses = Markers {
+            label: "training frames".into(),
+            points: vec![(0.0, 0.0), (1.0, 1.0), (2.0, 0.5)],
+            ..Markers::default()
+        };
+        let circles = Markers {
+            label: "key poses".into(),
+            circles: true,
+            points: vec![(0.5, 0.5), (1.5, 0.2)],
+            ..Markers::default()
+        };
+        let dashed = Series {
+            label: "desired".into(),
+            dashed: true,
+            points: vec![(0.0, 1.0), (2.0, 0.0)],
+            ..Series::default()
+        };
+        let panel = Panel {
+            title: "marks".into(),
+            series: vec![dashed],
+            markers: vec![crosses.clone(), circles.clone()],
+            ..Panel::default()
+        };
+        let samples: Vec<Sample> = legend_entries(&panel).iter().map(|e| e.2).collect();
+        assert_eq!(samples, [Sample::DashedLine, Sample::Cross, Sample::Circle]);
+        assert_eq!(
+            (crosses.sample(), circles.sample()),
+            (Sample::Cross, Sample::Circle)
+        );
+        // Drawn: crosses only, in the chart and in its legend (inside the chart or beside it),
+        // so the picture holds no circle at all; with key poses, one circle per pose and one in
+        // the legend.
+        for side_legend in [false, true] {
+            let only_crosses = Panel {
+                markers: vec![crosses.clone()],
+                side_legend,
+                ..panel.clone()
+            };
+            let svg = panel_svg(only_crosses, &format!("crosses-{side_legend}"));
+            assert_eq!(
+                svg.matches("<circle").count(),
+                0,
+                "side legend {side_legend}"
+            );
+            let both = Panel {
+                side_legend,
+                ..panel.clone()
+            };
+            let svg = panel_svg(both, &format!("both-{side_legend}"));
+            assert_eq!(
+                svg.matches("<circle").count(),
+                2 + 1,
+                "side legend {side_legend}"
+            );
+        }
     }
 
     #[test]

@@ -306,3 +306,90 @@ fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() 
     );
     assert!(!p("x.mcap").exists());
 }
+
+#[test]
+fn a_short_capture_retargets_with_the_defaults_and_every_split_says_what_it_did() {
+    let dir = scratch("short-capture");
+    let p = |n: &str| dir.join(n);
+    ok(&[
+        "export",
+        "--data",
+        "data/demos/bimanual.mcap",
+        "--body",
+        "human",
+        "--frames",
+        "all",
+        "--out",
+        s(&p("c.bvh")),
+    ]);
+    // 2.4 s: one block of 4 s, too few for one block in 4 to test.
+    ok(&[
+        "import",
+        s(&p("c.bvh")),
+        "--to",
+        "2.4",
+        "--out",
+        s(&p("short.mcap")),
+    ]);
+    let short = p("short.mcap");
+    let retarget = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "retarget",
+            "--demos",
+            s(&short),
+            "--robots",
+            "coman",
+            "--out",
+        ];
+        let out = p(out);
+        args.push(s(&out));
+        args.extend_from_slice(extra);
+        let output = common::sgplvm(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "{args:?}: {stderr}");
+        let stdout = String::from_utf8(output.stdout).unwrap();
+        (stdout, stderr)
+    };
+    // The defaults: every frame for training, with a warning that says how to ask for it.
+    let (stdout, stderr) = retarget(&[], "r.mcap");
+    assert!(
+        stderr.contains("warning: the frames make 1 block of 4 s")
+            && stderr.contains("`--split none`"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains("split: none: every frame for training (1 block of 4 s, too few for one in 4 to test); 9 training frames kept (1 in 12), no test frames"),
+        "{stdout}"
+    );
+    let ds = sgplvm::robots::dataset::load_demonstrations(p("r.mcap")).unwrap();
+    assert_eq!((ds.train.len(), ds.test.len()), (9, 0));
+    // Asked for: no warning; every frame with --train-subsample 1.
+    let (stdout, stderr) = retarget(&["--split", "none", "--train-subsample", "1"], "n.mcap");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert!(
+        stdout.contains("split: none: every frame for training; 97 training frames kept (1 in 1), no test frames"),
+        "{stdout}"
+    );
+    // Two files, one kept for testing: the report names it, not "blocks of 4 s".
+    ok(&[
+        "import",
+        s(&p("c.bvh")),
+        "--from",
+        "10",
+        "--to",
+        "20",
+        "--out",
+        s(&p("second.mcap")),
+    ]);
+    let second = p("second.mcap");
+    let mut args = vec!["--demos", s(&second)];
+    // Both imported from c.bvh: named by index.
+    args.extend(["--split", "files", "--test-files", "1"]);
+    let (stdout, _) = retarget(&args, "f.mcap");
+    assert!(
+        stdout.contains(
+            "split: files kept whole for testing: c (1 of 2 files; 3 of the 4 blocks of 4 s)"
+        ),
+        "{stdout}"
+    );
+}

@@ -252,9 +252,21 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
     assert!(said.status.success());
     let err = String::from_utf8_lossy(&said.stderr);
     assert!(err.contains("self-collision"), "{err}");
+    // The CSV starts with its header (numpy, pandas and spreadsheets read it without options);
+    // what the commands are is in the sidecar OUT.json and on stderr.
     assert!(std::fs::read_to_string(&safe)
         .unwrap()
-        .starts_with("# coman commands: within the robot's URDF position and velocity limits and out of self-collision"));
+        .starts_with("time,LShSag,"));
+    assert!(err.contains("coman commands: within the robot's URDF position and velocity limits and out of self-collision"), "{err}");
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(f.dir.join("coman-safe.csv.json")).unwrap())
+            .unwrap();
+    assert_eq!(sidecar["sgplvm.predict"]["commands"], "limited");
+    assert_eq!(sidecar["sgplvm.predict"]["limits"], "position and velocity");
+    assert!(sidecar["description"]
+        .as_str()
+        .unwrap()
+        .contains("out of self-collision"));
     ok(&[
         "predict",
         "--model",
@@ -269,10 +281,11 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
         "--raw",
     ]);
     let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(!text.contains('#'), "{:.200}", text);
+    let sidecar = std::fs::read_to_string(f.dir.join("coman.csv.json")).unwrap();
     assert!(
-        text.starts_with("# coman commands: within the robot's URDF position and velocity limits"),
-        "{:.200}",
-        text
+        sidecar.contains("coman commands: within the robot's URDF position and velocity limits"),
+        "{sidecar}"
     );
     let rows = csv_rows(&text);
     let header: Vec<&str> = rows[0].split(',').collect();
@@ -432,11 +445,13 @@ fn predict_streaming(coman: &Path, human_csv: &Path, first: &[f64]) {
         String::from_utf8_lossy(&output.stderr)
     );
     let text = String::from_utf8(output.stdout).unwrap();
+    assert!(text.starts_with("LShSag,"), "{text:.200}");
+    let err = String::from_utf8_lossy(&output.stderr);
     assert!(
-        text.starts_with(
-            "# coman commands: within the robot's URDF position limits (the input has no times"
+        err.contains(
+            "coman commands: within the robot's URDF position limits (the input has no times"
         ),
-        "{text:.200}"
+        "{err}"
     );
     assert_eq!(csv_rows(&text).len(), 4);
     let streamed: Vec<f64> = csv_rows(&text)[1]

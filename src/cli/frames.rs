@@ -62,6 +62,30 @@ pub fn column_order(wanted: &[String], found: &[String], source: &str) -> Result
         .collect())
 }
 
+/// What to do about a space of `model` that stores no joint names (a model fitted in Python
+/// without `column_names`, on a space not named after a built-in body): `None` when it has them.
+pub fn unnamed_space(model: &SharedGplvm, space: &str) -> Option<String> {
+    if model.column_names(space).is_some() {
+        return None;
+    }
+    Some(format!(
+        "the model stores no joint names for its space `{space}`, so its columns are called \
+         {space}_0, {space}_1, …: fit it in Python with the joint names, \
+         `fit(..., column_names={{\"{space}\": demo[...][\"joint_names\"], ...}})` (and \
+         `transfer(..., column_names=...)`), or with spaces named after built-in bodies \
+         (human, {}) whose joints are in the built-in order, which fit names itself",
+        Robot::builtin_names().join(", ")
+    ))
+}
+
+/// Adds [`unnamed_space`]'s advice to `result`'s error when `space` has no joint names.
+pub fn advise_unnamed<T>(result: Result<T>, model: &SharedGplvm, space: &str) -> Result<T> {
+    match (result, unnamed_space(model, space)) {
+        (Err(e), Some(advice)) => Err(e.context(advice)),
+        (result, _) => result,
+    }
+}
+
 /// Fails unless `model` (read from `path`) predicts for `robot`.
 pub fn require_robot(model: &SharedGplvm, path: &Path, robot: &str) -> Result<()> {
     if !model.output_names().contains(&robot) {
@@ -127,6 +151,19 @@ fn read_csv(path: &str) -> Result<CsvFrames> {
 
 /// Reads the human frames of `input` (MCAP or CSV) in the model's human joint order.
 pub fn read_human_frames(
+    model: &SharedGplvm,
+    input: &str,
+    topic: Option<&str>,
+) -> Result<HumanFrames> {
+    advise_unnamed(
+        read_human_frames_named(model, input, topic),
+        model,
+        model.input_name(),
+    )
+}
+
+/// [`read_human_frames`] without the advice for a model that names no joints.
+fn read_human_frames_named(
     model: &SharedGplvm,
     input: &str,
     topic: Option<&str>,

@@ -1,8 +1,9 @@
 //! `sgplvm predict`: robot joint commands from human frames — a file to a file (MCAP or CSV), or
 //! CSV lines streamed from stdin to stdout for teleoperation. The commands are kept within the
 //! robot's URDF position and velocity limits unless `--raw` asks for the model's output as it
-//! is; every output says which it holds (CSV: a first `#` line; MCAP: the metadata record
-//! `sgplvm.predict`).
+//! is; every output says which it holds (CSV: the sidecar `OUT.json` beside the file, or
+//! stderr for stdout; MCAP: the metadata record `sgplvm.predict`). A CSV output starts with its
+//! header, so that numpy, pandas and spreadsheets read it without options.
 
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -24,7 +25,9 @@ use sgplvm::robots::Robot;
 
 use super::args::ModelFileArg;
 use super::body::BodyArgs;
-use super::frames::{column_order, model_joint_names, read_human_frames, require_robot};
+use super::frames::{
+    advise_unnamed, column_order, model_joint_names, read_human_frames, require_robot,
+};
 use super::limits::{keep_apart, Commands, KeptApart};
 
 pub(super) mod scene;
@@ -121,9 +124,13 @@ impl PredictArgs {
         let columns = if self.raw {
             CommandColumns::identity(&model_columns)
         } else {
-            anatomy.command_columns(&model_columns).with_context(|| {
-                format!("the model's {} joints and the robot's URDF", self.robot)
-            })?
+            advise_unnamed(
+                anatomy.command_columns(&model_columns).with_context(|| {
+                    format!("the model's {} joints and the robot's URDF", self.robot)
+                }),
+                model,
+                &self.robot,
+            )?
         };
         Ok(Target {
             robot: self.robot.clone(),
@@ -342,11 +349,37 @@ fn csv_header(time: Option<&str>, joints: &[String], std: bool) -> String {
     header.join(",")
 }
 
-/// Writes the prediction as CSV to a file (atomically) or to stdout (`-`).
+/// The sidecar of a CSV output `out`: `out.json`, what the commands are (the MCAP record
+/// `sgplvm.predict`'s fields, and the sentence stderr says), so that the CSV itself is a header
+/// and rows only.
+pub(super) fn provenance_path(out: &str) -> PathBuf {
+    PathBuf::from(format!("{out}.json"))
+}
+
+/// Writes `out`'s sidecar (atomically): the `sgplvm.predict` record of `commands` as JSON.
+fn write_provenance(
+    out: &str,
+    commands: &Commands,
+    robot: &str,
+    counts: Option<&LimitCounts>,
+) -> Result<()> {
+    let (name, fields) = commands.metadata(robot, counts);
+    let json = serde_json::json!({
+        "csv": Path::new(out).file_name().map(|f| f.to_string_lossy().into_owned()),
+        "description": commands.describe(robot),
+        name: fields,
+    });
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    atomic_write_with(&provenance_path(out), |tmp| std::fs::write(tmp, &text))?;
+    Ok(())
+}
+
+/// Writes the prediction as CSV to a file (atomically, with its sidecar `out.json` saying what
+/// the commands are) or to stdout (`-`, the same said on stderr): the header first, no comment
+/// lines.
 fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool) -> Result<()> {
     let d = joints.len();
     let write = |w: &mut dyn Write| -> std::io::Result<()> {
-        writeln!(w, "# {}", p.commands.describe(robot))?;
         writeln!(w, "{}", csv_header(Some("time"), joints, std))?;
         for i in 0..p.frames {
             let mut values = p.mean[i * d..(i + 1) * d].to_vec();
@@ -362,15 +395,19 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
         w.flush()
     };
     if out == "-" {
+        eprintln!("{}", p.commands.describe(robot));
         write(&mut std::io::stdout().lock())?;
     } else {
         atomic_write_with(Path::new(out), |tmp| {
             let mut file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
             write(&mut file)
         })?;
+        write_provenance(out, &p.commands, robot, p.counts.as_ref())?;
         eprintln!(
-            "wrote {} frames of {robot} joint commands to {out}",
-            p.frames
+            "wrote {} frames of {robot} joint commands to {out} ({}: {})",
+            p.frames,
+            provenance_path(out).display(),
+            p.commands.describe(robot)
         );
     }
     Ok(())
@@ -393,12 +430,18 @@ fn predict_stream(
     let mut lines = stdin.lock().lines();
     let (header, header_line) = read_header(&mut lines, "stdin")?;
     let wanted = model_joint_names(model, model.input_name());
-    let order = column_order(&wanted, &header.joints, "stdin")?;
+    let order = advise_unnamed(
+        column_order(&wanted, &header.joints, "stdin"),
+        model,
+        model.input_name(),
+    )?;
     let stdout = std::io::stdout();
     let mut w = stdout.lock();
     let time_column = header.time_column.as_deref();
     let mut limited = StreamLimits::new(commands, time_column);
-    writeln!(w, "# {}", limited.commands.describe(robot))?;
+    // The header first (numpy, pandas and spreadsheets read it without options); what the
+    // commands are goes to stderr.
+    eprintln!("{}", limited.commands.describe(robot));
     writeln!(w, "{}", csv_header(time_column, robot_joints, with_std))?;
     w.flush()?;
     let d = robot_joints.len();

@@ -7,8 +7,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
-use sgplvm::robots::retarget::file::{retarget_files, TestChoice};
-use sgplvm::robots::retarget::split::{SplitOptions, SplitSummary};
+use sgplvm::robots::names::count;
+use sgplvm::robots::retarget::file::{retarget_files, FilesRetargeted, TestChoice};
+use sgplvm::robots::retarget::split::SplitOptions;
 use sgplvm::robots::retarget::whole_arm::{Weights, WholeArmOptions};
 use sgplvm::robots::retarget::{Match, ReachReport, Redundancy, RetargetOptions};
 use sgplvm::robots::Robot;
@@ -64,8 +65,9 @@ pub struct RetargetArgs {
     /// Let joints move as fast as the IK wants (the URDF velocity limits are kept by default).
     #[arg(long)]
     no_velocity_limits: bool,
-    /// How to choose test motions: `blocks` (every --test-every-th block of --block-seconds) or
-    /// `files` (the --test-files, whole).
+    /// How to choose test motions: `blocks` (every --test-every-th block of --block-seconds;
+    /// a capture too short for one test block trains on every frame, with a warning), `files`
+    /// (the --test-files, whole) or `none` (every frame for training, no test frames).
     #[arg(long, value_enum, default_value = "blocks")]
     split: SplitArg,
     /// With --split files: the test files, by name (file stem) or 0-based index.
@@ -107,6 +109,8 @@ enum SplitArg {
     Blocks,
     /// The files named by --test-files are test files.
     Files,
+    /// No test frames: every frame is for training (a short capture).
+    None,
 }
 
 fn parse_weights(s: &str) -> Result<Weights, String> {
@@ -183,7 +187,7 @@ pub fn run(args: RetargetArgs) -> Result<()> {
             bail!("robot `{name}` named twice");
         }
     }
-    if args.split == SplitArg::Blocks && !args.test_files.is_empty() {
+    if args.split != SplitArg::Files && !args.test_files.is_empty() {
         bail!("--test-files goes with --split files");
     }
     let options = RetargetOptions {
@@ -211,28 +215,30 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     let test = match args.split {
         SplitArg::Blocks => TestChoice::EveryNthBlock(args.test_every),
         SplitArg::Files => TestChoice::Files(args.test_files.clone()),
+        SplitArg::None => TestChoice::AllTraining,
     };
     let done = retarget_files(&args.demos, &robots, &options, &split, &test, &args.out)?;
+    if let Some(why) = &done.split.fallback {
+        eprintln!("warning: {why}");
+    }
     if args.json.json {
         println!(
             "{}",
-            serde_json::to_string_pretty(
-                &serde_json::json!({ "split": done.split, "reach": done.reach, "seconds": done.seconds })
-            )?
+            serde_json::to_string_pretty(&serde_json::json!({
+                "split": done.split,
+                "test_files": done.test_files,
+                "reach": done.reach,
+                "seconds": done.seconds
+            }))?
         );
     } else {
-        print_reports(&done.reach, &done.split, done.frames, done.seconds, &args);
+        print_reports(&done, &args);
     }
     Ok(())
 }
 
-fn print_reports(
-    reports: &[ReachReport],
-    s: &SplitSummary,
-    frames: usize,
-    seconds: f64,
-    args: &RetargetArgs,
-) {
+fn print_reports(done: &FilesRetargeted, args: &RetargetArgs) {
+    let (reports, frames, seconds) = (&done.reach, done.frames, done.seconds);
     println!(
         "retargeted {frames} frames to {} robot(s) in {seconds:.1} s ({:.0} frames/s per robot); match: {}",
         reports.len(),
@@ -244,11 +250,54 @@ fn print_reports(
     } else {
         print_hands(reports);
     }
-    println!(
-        "split: {} blocks of {} s, {} for testing; {} training and {} test frames kept ({} guard frames left out)",
-        s.blocks, args.block_seconds, s.test_blocks, s.train_frames, s.test_frames, s.guard_frames
-    );
+    println!("split: {}", split_line(done, args));
     println!("wrote {}", args.out.display());
+}
+
+/// What the split did, in the terms it was asked in: which blocks or files are for testing,
+/// and the frames kept.
+fn split_line(done: &FilesRetargeted, args: &RetargetArgs) -> String {
+    let s = &done.split;
+    let chosen = match args.split {
+        _ if s.fallback.is_some() => format!(
+            "none: every frame for training ({} of {} s, too few for one in {} to test)",
+            count(s.blocks, "block"),
+            args.block_seconds,
+            args.test_every
+        ),
+        SplitArg::None => "none: every frame for training".to_string(),
+        SplitArg::Files => format!(
+            "files kept whole for testing: {} ({} of {}; {} of the {} of {} s)",
+            done.test_files.join(", "),
+            done.test_files.len(),
+            count(done.files.len(), "file"),
+            s.test_blocks,
+            count(s.blocks, "block"),
+            args.block_seconds
+        ),
+        SplitArg::Blocks => format!(
+            "one block of {} s in {} for testing: {} of {}",
+            args.block_seconds,
+            args.test_every,
+            s.test_blocks,
+            count(s.blocks, "block")
+        ),
+    };
+    if s.test_frames == 0 {
+        return format!(
+            "{chosen}; {} training frames kept (1 in {}), no test frames",
+            s.train_frames, args.train_subsample
+        );
+    }
+    format!(
+        "{chosen}; {} training and {} test frames kept (1 in {} and 1 in {}), {} left out \
+         beside the train/test boundaries",
+        s.train_frames,
+        s.test_frames,
+        args.train_subsample,
+        args.test_subsample,
+        count(s.guard_frames, "guard frame")
+    )
 }
 
 /// Per robot, how the hands followed (the hand-matching modes).

@@ -11,7 +11,7 @@ use sgplvm_robots::series::seconds_from_ns;
 
 use super::FigureError;
 use crate::pipeline::{to_mat, Demonstrations};
-use crate::plots::{write_figure_with, Layout, Markers, Panel, Series};
+use crate::plots::{title_height, write_figure_with, Layout, Markers, Panel, Series};
 
 /// The two latent dimensions that matter most for `robot`: those with the shortest lengthscales.
 pub fn dominant_dims(model: &SharedGplvm, robot: &str) -> (usize, usize) {
@@ -23,10 +23,16 @@ pub fn dominant_dims(model: &SharedGplvm, robot: &str) -> (usize, usize) {
     (order[0], *order.get(1).unwrap_or(&order[0]))
 }
 
+/// Pixels of Fig. 7, width and height ([`latent_space`]), whatever its subtitle's length: the
+/// chart takes what the title and subtitle leave.
+pub const LATENT_SPACE_SIZE: (u32, u32) = (1200, 900);
+
 /// Fig. 7: training latent points (crosses), key poses (circles, where the human holds them)
-/// and the latent paths of every test motion, in the two dominant dimensions; 1200 × 900 pixels,
-/// every key pose's name placed so that none overlaps another (a leader line where a name sits
-/// away from its circle).
+/// and the latent paths of every test motion, in the two dominant dimensions;
+/// [`LATENT_SPACE_SIZE`] (1200 × 900 pixels), every key pose's name placed so that none
+/// overlaps another (a leader line where a name sits away from its circle). The subtitle says
+/// what each mark is, as the legend shows it, and that the sharp hooks of a path — which look
+/// like arrowheads — are the motion turning back: no direction is drawn.
 pub fn latent_space(
     model: &SharedGplvm,
     demos: &Demonstrations,
@@ -62,15 +68,17 @@ pub fn latent_space(
             poses.points.len()
         )
     };
+    let (width, height) = LATENT_SPACE_SIZE;
     let subtitle = wrap(
         &format!(
             "crosses: the {} training frames; {circles}lines: the path of each of the {} test \
-             motions ({} test frames)",
+             motions ({} test frames), whose sharp hooks (like arrowheads) are where the motion \
+             turns back — no direction is drawn",
             x.nrows(),
             motions.len(),
             ds.test.len()
         ),
-        SUBTITLE_CHARS_PER_PIXEL * 1200 / 1000,
+        SUBTITLE_CHARS_PER_PIXEL * width as usize / 1000,
     );
     let mut markers = vec![training];
     if !poses.points.is_empty() {
@@ -90,7 +98,7 @@ pub fn latent_space(
         ..Panel::default()
     };
     let layout = Layout {
-        panel_size: (1200, 900),
+        panel_size: (width, height - title_height(subtitle.len())),
         subtitle,
         ..Layout::grid(1)
     };

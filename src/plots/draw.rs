@@ -7,9 +7,13 @@ use plotters::prelude::*;
 
 use super::placement::{legend_rect, place_annotations, place_legend, Rect};
 use super::{
-    legend_entries, palette, text_size, tick_label, x_tick_label, Grid, Layout, Panel,
+    legend_entries, palette, text_size, tick_label, x_tick_label, Grid, Layout, Panel, Sample,
     ANNOTATION_FONT, ENTRY_HEIGHT, SIDE_LEGEND_WIDTH,
 };
+
+/// Half the size of a cross in a legend, pixels (the chart's crosses are 3: a little larger to
+/// be seen beside the label).
+const LEGEND_CROSS: i32 = 4;
 
 pub(super) fn draw_all<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
@@ -174,25 +178,28 @@ pub(super) fn draw_side_legend<DB: DrawingBackend>(
     panel: &Panel,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let font = ("sans-serif", 12).into_font().color(&BLACK);
-    for (k, (label, color, dashed, circle)) in legend_entries(panel).into_iter().enumerate() {
+    for (k, (label, color, sample)) in legend_entries(panel).into_iter().enumerate() {
         let y = 48 + (k as f64 * ENTRY_HEIGHT) as i32;
         let color = palette(color);
-        if circle {
-            area.draw(&Circle::new((13, y), 4, color.filled()))?;
-        } else if dashed {
-            area.draw(&PathElement::new(
-                vec![(4, y), (10, y)],
-                color.stroke_width(2),
-            ))?;
-            area.draw(&PathElement::new(
-                vec![(15, y), (22, y)],
-                color.stroke_width(2),
-            ))?;
-        } else {
-            area.draw(&PathElement::new(
+        match sample {
+            Sample::Circle => area.draw(&Circle::new((13, y), 4, color.filled()))?,
+            Sample::Cross => {
+                area.draw(&Cross::new((13, y), LEGEND_CROSS, color.stroke_width(1)))?
+            }
+            Sample::DashedLine => {
+                area.draw(&PathElement::new(
+                    vec![(4, y), (10, y)],
+                    color.stroke_width(2),
+                ))?;
+                area.draw(&PathElement::new(
+                    vec![(15, y), (22, y)],
+                    color.stroke_width(2),
+                ))?;
+            }
+            Sample::Line => area.draw(&PathElement::new(
                 vec![(4, y), (22, y)],
                 color.stroke_width(2),
-            ))?;
+            ))?,
         }
         area.draw(&Text::new(label.to_string(), (28, y - 7), font.clone()))?;
     }
@@ -405,21 +412,32 @@ where
     }
     for (m, anchors) in panel.markers.iter().zip(&anchors) {
         let color = palette(m.color);
-        let drawn = if m.circles {
-            chart.draw_series(m.points.iter().map(|&p| Circle::new(p, 5, color.filled())))?
-        } else {
-            chart.draw_series(
-                m.points
-                    .iter()
-                    .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
-            )?
-        };
-        if !m.label.is_empty() && legend_inside {
-            labelled = true;
-            drawn
-                .label(&m.label)
-                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+        // The legend shows the mark the points are drawn with.
+        let labelled_here = !m.label.is_empty() && legend_inside;
+        match m.sample() {
+            Sample::Circle => {
+                let drawn = chart
+                    .draw_series(m.points.iter().map(|&p| Circle::new(p, 5, color.filled())))?;
+                if labelled_here {
+                    drawn
+                        .label(&m.label)
+                        .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+                }
+            }
+            _ => {
+                let drawn = chart.draw_series(
+                    m.points
+                        .iter()
+                        .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
+                )?;
+                if labelled_here {
+                    drawn.label(&m.label).legend(move |(x, y)| {
+                        Cross::new((x + 9, y), LEGEND_CROSS, color.stroke_width(1))
+                    });
+                }
+            }
         }
+        labelled |= labelled_here;
         let sizes: Vec<(f64, f64)> = m
             .annotations
             .iter()

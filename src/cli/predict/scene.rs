@@ -11,7 +11,7 @@ use sgplvm::robots::scene::{
 };
 use sgplvm::{Mat, SharedGplvm};
 
-use super::super::frames::{column_order, model_joint_names};
+use super::super::frames::{advise_unnamed, column_order, model_joint_names};
 use super::super::limits::Commands;
 use super::{StreamLimits, Target};
 use sgplvm::csv::read_header;
@@ -144,7 +144,11 @@ pub fn predict_stream_mcap(
     let mut lines = stdin.lock().lines();
     let (header, header_line) = read_header(&mut lines, "stdin")?;
     let wanted = model_joint_names(model, model.input_name());
-    let order = column_order(&wanted, &header.joints, "stdin")?;
+    let order = advise_unnamed(
+        column_order(&wanted, &header.joints, "stdin"),
+        model,
+        model.input_name(),
+    )?;
     let robot = target.robot.as_str();
     let topics = arrays(model, target, None);
     let mut limited = StreamLimits::new(commands, header.time_column.as_deref());

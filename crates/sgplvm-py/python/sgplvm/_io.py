@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -150,7 +151,9 @@ def retarget(
     With ``out`` (and ``demos``): writes the demonstrations split for training, as the CLI does
     (``block_seconds``, ``test_every`` or ``test_files``, ``guard_seconds``,
     ``train_subsample``, ``test_subsample``), and returns the report (``frames``, ``split``,
-    ``reach``, ``seconds``, ``files``); :func:`load_demonstrations` reads the file."""
+    ``reach``, ``seconds``, ``files``, ``test_files``); :func:`load_demonstrations` reads the
+    file. Demonstrations too short for one test block (fewer than ``test_every`` blocks) go to
+    training whole, with a ``UserWarning`` (``split["fallback"]`` says why)."""
     named = dict(robots) if isinstance(robots, dict) else {name: name for name in robots}
     files = None
     if demos is not None:
@@ -159,7 +162,7 @@ def retarget(
     if h is not None and h.ndim != 2:
         raise ValueError(f"human: expected a 2-D array (frames × 18), got {h.ndim}-D")
     t = None if times_ns is None else _real(times_ns, "times_ns", np.int64).reshape(-1)
-    return _sgplvm.retarget_native(
+    result = _sgplvm.retarget_native(
         named,
         match,
         redundancy,
@@ -175,3 +178,8 @@ def retarget(
         int(train_subsample),
         int(test_subsample),
     )
+    fallback = result.get("split", {}).get("fallback") if out is not None else None
+    if fallback:
+        # A capture too short for a test block: every frame went to training.
+        warnings.warn(fallback, stacklevel=2)
+    return result

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import operator
 import os
-from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -119,6 +119,34 @@ def _check_validation_callback(validation_callback: Any, validation: Any) -> Non
         )
 
 
+def _builtin_joint_names(space: str, columns: int) -> Optional[list]:
+    """The joints of the built-in body named ``space`` (``"human"``, ``"coman"``, …: the order
+    :func:`load_demonstrations` gives them in) when it has ``columns`` of them; else ``None``."""
+    try:
+        names = list(_sgplvm.Robot.builtin(space).joint_names)
+    except ValueError:
+        return None
+    return names if len(names) == columns else None
+
+
+def _named_columns(
+    arrays: List[Tuple[str, np.ndarray]], column_names: Optional[Mapping[str, Any]]
+) -> Optional[List[Tuple[str, list]]]:
+    """The joint names to store per space: those given, else a built-in body's for a space named
+    after it with as many columns (so that the command line can read joint states by name)."""
+    given = {} if column_names is None else {str(k): list(v) for k, v in column_names.items()}
+    names = []
+    for space, data in arrays:
+        found = given.pop(space, None)
+        if found is None:
+            found = _builtin_joint_names(space, data.shape[1])
+        if found is not None:
+            names.append((space, found))
+    # Names of a space that is not in ``spaces``: the native model says which.
+    names.extend(given.items())
+    return names or None
+
+
 def _interrupted_model(error: BaseException) -> "Optional[_sgplvm.NativeModel]":
     """The model trained until a signal (Ctrl-C) interrupted it, which the native training
     attaches to the exception the signal handler raised."""
@@ -188,7 +216,12 @@ class SharedGPLVM:
         With the input plus one robot this is the paper's fully trained model; with several
         robots, the multi-robot model. ``callback(iteration, objective)`` is called after every
         iteration of the final training and stops it by returning ``False``. ``column_names``
-        (joint names per space) are stored in the model. Returns ``self``.
+        (joint names per space) are stored in the model, so that ``sgplvm predict`` and
+        ``sgplvm teleop`` can read joint states by name. A space left out of them that is named
+        after a built-in body (``"human"``, ``"walkman"``, ``"coman"``, ``"centauro"``,
+        ``"ur5e"``) and has its number of columns gets that body's joint names, in the order
+        :func:`load_demonstrations` gives them (``demo["robots"][name]["joint_names"]``): give
+        ``column_names`` when your columns are in another order. Returns ``self``.
 
         ``validation`` chooses how many iterations to train (trained to convergence, the model
         fits the training frames ever better and motions it has not seen worse): the rows it
@@ -265,7 +298,7 @@ class SharedGPLVM:
         if input not in spaces:
             raise ValueError(f"input {input!r} is not one of the spaces {list(spaces)}")
         arrays = [(str(name), _as_matrix(data, f"spaces[{name!r}]")) for name, data in spaces.items()]
-        names = None if column_names is None else [(k, list(v)) for k, v in column_names.items()]
+        names = _named_columns(arrays, column_names)
         frames = len(dict(arrays)[input])
         rows = _validation_rows(validation, frames)
         if self.bayesian and inducing is None:
@@ -311,6 +344,8 @@ class SharedGPLVM:
         """A new model that also predicts robot ``name``: the latent space, the human mapping
         and the existing robots stay frozen; only the new robot's kernel is trained on ``data``
         (the same frames as the human training data). This model is not changed.
+        ``column_names`` (its joint names) default as in :meth:`fit`: a built-in body's when
+        ``name`` is one and ``data`` has its number of columns.
 
         ``validation`` and ``patience`` choose the iteration budget as in :meth:`fit` (the
         held-out rows are predicted from their latent points), and ``validation_callback``
@@ -333,7 +368,7 @@ class SharedGPLVM:
                 _patience(patience),
                 _max_seconds(max_seconds),
                 callback,
-                None if column_names is None else list(column_names),
+                _builtin_joint_names(name, matrix.shape[1]) if column_names is None else list(column_names),
                 validation_callback,
             )
         except BaseException as e:

@@ -360,6 +360,9 @@ pub fn break_field(out: &mut [u8], fields: &[Field], rng: &mut Rng) {
 /// target; anything in tests), given the room it may grow into.
 pub type ByteMutator<'a> = dyn FnMut(&mut Vec<u8>, usize) + 'a;
 
+/// A record's place: its index among the top-level items, and within a chunk its index there.
+type Slot = (usize, Option<usize>);
+
 /// Applies one structural mutation to `m`.
 pub fn mutate_structure(m: &mut Mcap, rng: &mut Rng, bytes: &mut ByteMutator<'_>) {
     let slots = m.record_slots();
@@ -378,171 +381,202 @@ pub fn mutate_structure(m: &mut Mcap, rng: &mut Rng, bytes: &mut ByteMutator<'_>
         .collect();
     match rng.below(12) {
         // A message's payload (the CDR JointState, or JSON), byte by byte.
-        0 | 1 => {
-            if let Some(&s) = messages.get(rng.below(messages.len())) {
-                if let Some(r) = m.rec_mut(s) {
-                    if r.body.len() >= 22 {
-                        let mut payload = r.body.split_off(22);
-                        bytes(&mut payload, 64);
-                        r.body.extend_from_slice(&payload);
-                    }
-                }
-            }
-        }
+        0 | 1 => mutate_payload(m, rng, bytes, &messages),
         // A 4-aligned u32 of a payload (a CDR sequence count or string length) or a u64 of a
         // record's fixed fields (times, ids, sizes) set to an interesting value.
-        2 | 3 => {
-            if let Some(r) = m.rec_mut(slot) {
-                let n = r.body.len();
-                if r.op == op::MESSAGE && n >= 26 && rng.below(2) == 0 {
-                    let at = 22 + 4 + 4 * rng.below((n - 26) / 4 + 1);
-                    if let Some(old) = u32_at(&r.body, at) {
-                        let new = interesting_u32(rng, old);
-                        r.body[at..at + 4].copy_from_slice(&new.to_le_bytes());
-                    }
-                } else if n >= 4 {
-                    let at = rng.below(n - 3);
-                    if n >= 8 && rng.below(2) == 0 {
-                        let at = rng.below(n - 7);
-                        let old = u64_at(&r.body, at).unwrap_or(0);
-                        let new = interesting_u64(rng, old);
-                        r.body[at..at + 8].copy_from_slice(&new.to_le_bytes());
-                    } else {
-                        let old = u32_at(&r.body, at).unwrap_or(0);
-                        let new = interesting_u32(rng, old);
-                        r.body[at..at + 4].copy_from_slice(&new.to_le_bytes());
-                    }
-                }
-            }
-        }
+        2 | 3 => set_interesting_value(m, rng, slot),
         // A message's log time (or publish time) set to an extreme or nearby value.
-        4 => {
-            if let Some(&s) = messages.get(rng.below(messages.len())) {
-                let v = rng.next();
-                if let Some(r) = m.rec_mut(s) {
-                    let at = if rng.below(2) == 0 { 6 } else { 14 };
-                    if let Some(old) = u64_at(&r.body, at) {
-                        let new = match v % 6 {
-                            0 => 0,
-                            1 => i64::MAX as u64,
-                            2 => old.wrapping_add(1_000_000_000_000_000),
-                            3 => old.wrapping_sub(1),
-                            4 => 1 << 63,
-                            _ => old.wrapping_add(v >> 40),
-                        };
-                        r.body[at..at + 8].copy_from_slice(&new.to_le_bytes());
-                    }
-                }
-            }
-        }
+        4 => set_message_time(m, rng, &messages),
         // A channel or schema id pointed elsewhere.
-        5 => {
-            if let Some(r) = m.rec_mut(slot) {
-                if matches!(r.op, op::MESSAGE | op::CHANNEL | op::SCHEMA) && r.body.len() >= 2 {
-                    let v = [0u16, 1, 2, 3, u16::MAX][rng.below(5)];
-                    r.body[..2].copy_from_slice(&v.to_le_bytes());
-                } else if r.op == op::CHANNEL && r.body.len() >= 4 {
-                    let v = [0u16, 1, 2, 3, u16::MAX][rng.below(5)];
-                    r.body[2..4].copy_from_slice(&v.to_le_bytes());
-                }
-            }
-        }
+        5 => repoint_id(m, rng, slot),
         // Any record's body, byte by byte (schema, channel and metadata strings and maps).
-        6 => {
-            if let Some(r) = m.rec_mut(slot) {
-                bytes(&mut r.body, 64);
-            }
-        }
+        6 => mutate_body(m, bytes, slot),
         // An opcode changed.
-        7 => {
-            let new = [
-                op::HEADER,
-                op::FOOTER,
-                op::SCHEMA,
-                op::CHANNEL,
-                op::MESSAGE,
-                op::CHUNK,
-                op::METADATA,
-                op::DATA_END,
-                0x07,
-                0x08,
-                0x09,
-                0x0A,
-                0x0B,
-                0x0D,
-                0x0E,
-                0x80,
-                0xFF,
-            ][rng.below(17)];
-            if let Some(r) = m.rec_mut(slot) {
-                r.op = new;
-            }
-        }
+        7 => change_opcode(m, rng, slot),
         // A record duplicated, deleted, or moved.
-        8 => {
-            let Some(r) = m.rec_mut(slot).cloned() else {
-                return;
-            };
-            let dest = slots[rng.below(slots.len())];
-            match rng.below(3) {
-                0 => insert_at(m, dest, r),
-                1 => remove_at(m, slot),
-                _ => {
-                    remove_at(m, slot);
-                    insert_at(m, dest, r);
-                }
-            }
-        }
+        8 => move_record(m, rng, slot, &slots),
         // A chunk's compression changed, or its time range.
-        9 => {
-            let chunks: Vec<usize> = (0..m.top.len())
-                .filter(|&i| matches!(m.top[i], Top::Chunk(_)))
-                .collect();
-            if let Some(&i) = chunks.get(rng.below(chunks.len())) {
-                let v = rng.next();
-                if let Top::Chunk(c) = &mut m.top[i] {
-                    match v % 5 {
-                        0 => c.compression = String::new(),
-                        1 => c.compression = "zstd".into(),
-                        2 => c.compression = "lz4".into(),
-                        3 => c.start = v >> 8,
-                        _ => c.end = c.start.wrapping_sub(1),
-                    }
-                }
-            }
-        }
+        9 => change_chunk(m, rng),
         // A chunk split in two, or records gathered into a new chunk.
-        10 => {
-            let i = slot.0;
-            match m.top.get(i).cloned() {
-                Some(Top::Chunk(c)) if c.records.len() >= 2 => {
-                    let k = 1 + rng.below(c.records.len() - 1);
-                    let mut a = c.clone();
-                    let mut b = c;
-                    b.records = a.records.split_off(k);
-                    m.top.splice(i..=i, [Top::Chunk(a), Top::Chunk(b)]);
-                }
-                Some(Top::Rec(r)) => {
-                    let compression = ["", "zstd", "lz4"][rng.below(3)].to_string();
-                    m.top[i] = Top::Chunk(Chunk {
-                        start: 0,
-                        end: u64::MAX,
-                        compression,
-                        records: vec![r],
-                    });
-                }
-                _ => {}
+        10 => split_or_gather_chunk(m, rng, slot),
+        // Chunks flattened into top-level records (an unchunked file).
+        _ => flatten_chunks(m),
+    }
+}
+
+/// A message's payload (the CDR JointState, or JSON), byte by byte.
+fn mutate_payload(m: &mut Mcap, rng: &mut Rng, bytes: &mut ByteMutator<'_>, messages: &[Slot]) {
+    if let Some(&s) = messages.get(rng.below(messages.len())) {
+        if let Some(r) = m.rec_mut(s) {
+            if r.body.len() >= 22 {
+                let mut payload = r.body.split_off(22);
+                bytes(&mut payload, 64);
+                r.body.extend_from_slice(&payload);
             }
         }
-        // Chunks flattened into top-level records (an unchunked file).
-        _ => {
-            let top = std::mem::take(&mut m.top);
-            for t in top {
-                match t {
-                    Top::Chunk(c) => m.top.extend(c.records.into_iter().map(Top::Rec)),
-                    r => m.top.push(r),
-                }
+    }
+}
+
+/// A 4-aligned u32 of a payload (a CDR sequence count or string length) or a u64 of a
+/// record's fixed fields (times, ids, sizes) set to an interesting value.
+fn set_interesting_value(m: &mut Mcap, rng: &mut Rng, slot: Slot) {
+    if let Some(r) = m.rec_mut(slot) {
+        let n = r.body.len();
+        if r.op == op::MESSAGE && n >= 26 && rng.below(2) == 0 {
+            let at = 22 + 4 + 4 * rng.below((n - 26) / 4 + 1);
+            if let Some(old) = u32_at(&r.body, at) {
+                let new = interesting_u32(rng, old);
+                r.body[at..at + 4].copy_from_slice(&new.to_le_bytes());
             }
+        } else if n >= 4 {
+            let at = rng.below(n - 3);
+            if n >= 8 && rng.below(2) == 0 {
+                let at = rng.below(n - 7);
+                let old = u64_at(&r.body, at).unwrap_or(0);
+                let new = interesting_u64(rng, old);
+                r.body[at..at + 8].copy_from_slice(&new.to_le_bytes());
+            } else {
+                let old = u32_at(&r.body, at).unwrap_or(0);
+                let new = interesting_u32(rng, old);
+                r.body[at..at + 4].copy_from_slice(&new.to_le_bytes());
+            }
+        }
+    }
+}
+
+/// A message's log time (or publish time) set to an extreme or nearby value.
+fn set_message_time(m: &mut Mcap, rng: &mut Rng, messages: &[Slot]) {
+    if let Some(&s) = messages.get(rng.below(messages.len())) {
+        let v = rng.next();
+        if let Some(r) = m.rec_mut(s) {
+            let at = if rng.below(2) == 0 { 6 } else { 14 };
+            if let Some(old) = u64_at(&r.body, at) {
+                let new = match v % 6 {
+                    0 => 0,
+                    1 => i64::MAX as u64,
+                    2 => old.wrapping_add(1_000_000_000_000_000),
+                    3 => old.wrapping_sub(1),
+                    4 => 1 << 63,
+                    _ => old.wrapping_add(v >> 40),
+                };
+                r.body[at..at + 8].copy_from_slice(&new.to_le_bytes());
+            }
+        }
+    }
+}
+
+/// A channel or schema id pointed elsewhere.
+fn repoint_id(m: &mut Mcap, rng: &mut Rng, slot: Slot) {
+    if let Some(r) = m.rec_mut(slot) {
+        if matches!(r.op, op::MESSAGE | op::CHANNEL | op::SCHEMA) && r.body.len() >= 2 {
+            let v = [0u16, 1, 2, 3, u16::MAX][rng.below(5)];
+            r.body[..2].copy_from_slice(&v.to_le_bytes());
+        } else if r.op == op::CHANNEL && r.body.len() >= 4 {
+            let v = [0u16, 1, 2, 3, u16::MAX][rng.below(5)];
+            r.body[2..4].copy_from_slice(&v.to_le_bytes());
+        }
+    }
+}
+
+/// Any record's body, byte by byte (schema, channel and metadata strings and maps).
+fn mutate_body(m: &mut Mcap, bytes: &mut ByteMutator<'_>, slot: Slot) {
+    if let Some(r) = m.rec_mut(slot) {
+        bytes(&mut r.body, 64);
+    }
+}
+
+/// An opcode changed.
+fn change_opcode(m: &mut Mcap, rng: &mut Rng, slot: Slot) {
+    let new = [
+        op::HEADER,
+        op::FOOTER,
+        op::SCHEMA,
+        op::CHANNEL,
+        op::MESSAGE,
+        op::CHUNK,
+        op::METADATA,
+        op::DATA_END,
+        0x07,
+        0x08,
+        0x09,
+        0x0A,
+        0x0B,
+        0x0D,
+        0x0E,
+        0x80,
+        0xFF,
+    ][rng.below(17)];
+    if let Some(r) = m.rec_mut(slot) {
+        r.op = new;
+    }
+}
+
+/// A record duplicated, deleted, or moved.
+fn move_record(m: &mut Mcap, rng: &mut Rng, slot: Slot, slots: &[Slot]) {
+    let Some(r) = m.rec_mut(slot).cloned() else {
+        return;
+    };
+    let dest = slots[rng.below(slots.len())];
+    match rng.below(3) {
+        0 => insert_at(m, dest, r),
+        1 => remove_at(m, slot),
+        _ => {
+            remove_at(m, slot);
+            insert_at(m, dest, r);
+        }
+    }
+}
+
+/// A chunk's compression changed, or its time range.
+fn change_chunk(m: &mut Mcap, rng: &mut Rng) {
+    let chunks: Vec<usize> = (0..m.top.len())
+        .filter(|&i| matches!(m.top[i], Top::Chunk(_)))
+        .collect();
+    if let Some(&i) = chunks.get(rng.below(chunks.len())) {
+        let v = rng.next();
+        if let Top::Chunk(c) = &mut m.top[i] {
+            match v % 5 {
+                0 => c.compression = String::new(),
+                1 => c.compression = "zstd".into(),
+                2 => c.compression = "lz4".into(),
+                3 => c.start = v >> 8,
+                _ => c.end = c.start.wrapping_sub(1),
+            }
+        }
+    }
+}
+
+/// A chunk split in two, or records gathered into a new chunk.
+fn split_or_gather_chunk(m: &mut Mcap, rng: &mut Rng, slot: Slot) {
+    let i = slot.0;
+    match m.top.get(i).cloned() {
+        Some(Top::Chunk(c)) if c.records.len() >= 2 => {
+            let k = 1 + rng.below(c.records.len() - 1);
+            let mut a = c.clone();
+            let mut b = c;
+            b.records = a.records.split_off(k);
+            m.top.splice(i..=i, [Top::Chunk(a), Top::Chunk(b)]);
+        }
+        Some(Top::Rec(r)) => {
+            let compression = ["", "zstd", "lz4"][rng.below(3)].to_string();
+            m.top[i] = Top::Chunk(Chunk {
+                start: 0,
+                end: u64::MAX,
+                compression,
+                records: vec![r],
+            });
+        }
+        _ => {}
+    }
+}
+
+/// Chunks flattened into top-level records (an unchunked file).
+fn flatten_chunks(m: &mut Mcap) {
+    let top = std::mem::take(&mut m.top);
+    for t in top {
+        match t {
+            Top::Chunk(c) => m.top.extend(c.records.into_iter().map(Top::Rec)),
+            r => m.top.push(r),
         }
     }
 }

@@ -27,6 +27,8 @@ pub enum TestChoice {
     EveryNthBlock(usize),
     /// These files (by file stem or 0-based index), whole.
     Files(Vec<String>),
+    /// None: every frame for training.
+    AllTraining,
 }
 
 /// What retargeting a set of files did.
@@ -42,6 +44,8 @@ pub struct FilesRetargeted {
     pub seconds: f64,
     /// The file stems of the inputs' segments (what `TestChoice::Files` names).
     pub files: Vec<String>,
+    /// The stems of the files kept whole for testing (`TestChoice::Files`), in input order.
+    pub test_files: Vec<String>,
 }
 
 /// The demonstrations of `demos`, one after another, with their capture sources and the stem
@@ -87,6 +91,14 @@ pub fn retarget_files(
         TestChoice::Files(names) => SplitRule::Files {
             test: test_file_indices(names, &stems)?,
         },
+        TestChoice::AllTraining => SplitRule::AllTraining,
+    };
+    let test_files = match &split.rule {
+        SplitRule::Files { test } => (0..stems.len())
+            .filter(|k| test.contains(k))
+            .map(|k| stems[k].clone())
+            .collect(),
+        _ => Vec::new(),
     };
     let started = std::time::Instant::now();
     let results = retarget(&dataset, robots, options)?;
@@ -120,6 +132,7 @@ pub fn retarget_files(
         reach,
         seconds,
         files: stems,
+        test_files,
     })
 }
 

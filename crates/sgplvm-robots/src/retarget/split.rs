@@ -3,7 +3,10 @@
 //! go to the test set, so that test motions are never in training.
 //!
 //! The rule is fixed before any model sees the data: every `test_every`-th block, counting
-//! across files ([`SplitRule::Blocks`]), or the files named ([`SplitRule::Files`]). Frames
+//! across files ([`SplitRule::Blocks`]), the files named ([`SplitRule::Files`]), or none
+//! ([`SplitRule::AllTraining`]: every frame for training, no test frames — what a capture too
+//! short for a test block gets, with a warning, when every `test_every`-th block was asked
+//! for; [`SplitSummary::fallback`] says so). Frames
 //! within `guard_s` of a boundary between a training and a test block belong to neither set:
 //! neighbouring frames are nearly the same pose, and the test must not be a frame away from
 //! training. Training frames are then subsampled (`train_subsample`, as the paper subsampled
@@ -28,6 +31,8 @@ pub enum SplitRule {
         /// Indices of the test files.
         test: Vec<usize>,
     },
+    /// No test blocks: every frame is for training (subsampled by `train_subsample`), no guard.
+    AllTraining,
 }
 
 /// How to split.
@@ -71,6 +76,20 @@ pub struct SplitSummary {
     pub test_frames: usize,
     /// Frames left out as guards.
     pub guard_frames: usize,
+    /// Why every frame went to training although test blocks were asked for (too few blocks
+    /// for one in `test_every` to be a test block: a short capture); `None` when the split is
+    /// the one asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fallback: Option<String>,
+}
+
+/// A block of frames: `start..end` of file `file`, a test block or not.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    start: usize,
+    end: usize,
+    file: usize,
+    test: bool,
 }
 
 /// Cuts every segment of `dataset` into blocks, makes them its segments and sets its train and
@@ -79,49 +98,112 @@ pub fn split_into_blocks(
     dataset: &mut Dataset,
     options: &SplitOptions,
 ) -> Result<SplitSummary, RetargetError> {
-    let bad = |m: String| RetargetError::Invalid(m);
-    if !(options.block_s.is_finite() && options.block_s > 0.0) {
-        return Err(bad(format!(
-            "block length {} s; expected a positive number of seconds",
+    check_options(options, dataset.segments.len())?;
+    let mut blocks = cut_blocks(dataset, options.block_s);
+    let fallback = match &options.rule {
+        SplitRule::Blocks { test_every } if blocks.len() < *test_every => Some(format!(
+            "the frames make {} of {} s, fewer than the {test_every} it takes for one in \
+             {test_every} to test: every frame is for training, none for testing (`--split \
+             none` says so; shorter --block-seconds or a smaller --test-every make test blocks)",
+            crate::names::count(blocks.len(), "block"),
+            options.block_s,
+        )),
+        _ => None,
+    };
+    for (b, block) in blocks.iter_mut().enumerate() {
+        block.test = match &options.rule {
+            _ if fallback.is_some() => false,
+            SplitRule::Blocks { test_every: k } => b % k == k - 1,
+            SplitRule::Files { test } => test.contains(&block.file),
+            SplitRule::AllTraining => false,
+        };
+    }
+    let (train, test, guard_frames) = select_frames(dataset, &blocks, options);
+    let all_training = fallback.is_some() || options.rule == SplitRule::AllTraining;
+    if train.is_empty() || (test.is_empty() && !all_training) {
+        return Err(RetargetError::Invalid(format!(
+            "the split leaves {} training and {} test frames; shorten the blocks (now {} s), \
+             name other test files, or train on every frame (`--split none`)",
+            train.len(),
+            test.len(),
             options.block_s
         )));
+    }
+    let summary = SplitSummary {
+        blocks: blocks.len(),
+        test_blocks: blocks.iter().filter(|b| b.test).count(),
+        train_frames: train.len(),
+        test_frames: test.len(),
+        guard_frames,
+        fallback,
+    };
+    dataset.segments = blocks
+        .iter()
+        .map(|b| Segment {
+            start: b.start,
+            end: b.end,
+            from_pose: None,
+            to_pose: None,
+            repetition: None,
+        })
+        .collect();
+    dataset.train = train;
+    dataset.test = test;
+    dataset
+        .validate()
+        .map_err(|e| RetargetError::Invalid(e.to_string()))?;
+    Ok(summary)
+}
+
+/// Refuses options that cannot split `files` files.
+fn check_options(options: &SplitOptions, files: usize) -> Result<(), RetargetError> {
+    let bad = |m: String| Err(RetargetError::Invalid(m));
+    if !(options.block_s.is_finite() && options.block_s > 0.0) {
+        return bad(format!(
+            "block length {} s; expected a positive number of seconds",
+            options.block_s
+        ));
     }
     if !(options.guard_s.is_finite()
         && options.guard_s >= 0.0
         && options.guard_s < options.block_s / 2.0)
     {
-        return Err(bad(format!(
+        return bad(format!(
             "guard {} s; expected at least 0 and less than half a block ({} s)",
             options.guard_s,
             options.block_s / 2.0
-        )));
+        ));
     }
     if options.train_subsample == 0 || options.test_subsample == 0 {
-        return Err(bad("subsampling steps must be at least 1".into()));
+        return bad("subsampling steps must be at least 1".into());
     }
-    let files = dataset.segments.len();
     match &options.rule {
-        SplitRule::Blocks { test_every } if *test_every < 2 => {
-            return Err(bad(format!("test every {test_every} blocks; expected 2 or more (1 would leave no training block)")));
-        }
+        SplitRule::Blocks { test_every } if *test_every < 2 => bad(format!(
+            "test every {test_every} blocks; expected 2 or more (1 would leave no training block)"
+        )),
         SplitRule::Files { test } => {
             if let Some(&f) = test.iter().find(|&&f| f >= files) {
-                return Err(bad(format!(
+                return bad(format!(
                     "test file {f} named, but there are {files} files (0-based)"
-                )));
+                ));
             }
             if test.is_empty() || test.len() >= files {
-                return Err(bad(format!(
+                return bad(format!(
                     "{} of {files} files named for testing; at least one must test and one train",
                     test.len()
-                )));
+                ));
             }
+            Ok(())
         }
-        SplitRule::Blocks { .. } => {}
+        SplitRule::Blocks { .. } | SplitRule::AllTraining => Ok(()),
     }
+}
+
+/// The blocks of `block_s` seconds of every segment (file) of `dataset`, none a test block yet;
+/// a tail shorter than half a block joins the block before it.
+fn cut_blocks(dataset: &Dataset, block_s: f64) -> Vec<Block> {
     let t = |i: usize| dataset.times_ns[i] as f64 * 1e-9;
-    // Blocks: (start, end, file, is_test).
-    let mut blocks: Vec<(usize, usize, usize, bool)> = Vec::new();
+    let mut blocks = Vec::new();
     for (file, seg) in dataset.segments.iter().enumerate() {
         if seg.is_empty() {
             continue;
@@ -129,8 +211,8 @@ pub fn split_into_blocks(
         let t0 = t(seg.start);
         let mut start = seg.start;
         while start < seg.end {
-            let block_index = ((t(start) - t0) / options.block_s + 1e-9).floor() as usize;
-            let limit = t0 + (block_index + 1) as f64 * options.block_s;
+            let block_index = ((t(start) - t0) / block_s + 1e-9).floor() as usize;
+            let limit = t0 + (block_index + 1) as f64 * block_s;
             let mut end = start;
             while end < seg.end && t(end) < limit - 1e-9 {
                 end += 1;
@@ -138,33 +220,41 @@ pub fn split_into_blocks(
             let end = end.max(start + 1);
             // A tail shorter than half a block joins the block before it (same file).
             let tail = t(seg.end - 1) - t(end.min(seg.end - 1));
-            let end = if end < seg.end && tail < options.block_s / 2.0 {
+            let end = if end < seg.end && tail < block_s / 2.0 {
                 seg.end
             } else {
                 end
             };
-            blocks.push((start, end, file, false));
+            blocks.push(Block {
+                start,
+                end,
+                file,
+                test: false,
+            });
             start = end;
         }
     }
-    let test_every = match &options.rule {
-        SplitRule::Blocks { test_every } => Some(*test_every),
-        SplitRule::Files { .. } => None,
-    };
-    for (b, block) in blocks.iter_mut().enumerate() {
-        block.3 = match (&options.rule, test_every) {
-            (_, Some(k)) => b % k == k - 1,
-            (SplitRule::Files { test }, None) => test.contains(&block.2),
-            _ => false,
-        };
-    }
+    blocks
+}
+
+/// The training and test frames of `blocks` (subsampled, without the guard frames next to a
+/// block of the other set in the same file), and the number of guard frames left out.
+fn select_frames(
+    dataset: &Dataset,
+    blocks: &[Block],
+    options: &SplitOptions,
+) -> (Vec<usize>, Vec<usize>, usize) {
+    let t = |i: usize| dataset.times_ns[i] as f64 * 1e-9;
     let mut train = Vec::new();
     let mut test = Vec::new();
     let mut guard_frames = 0;
-    for (b, &(start, end, file, is_test)) in blocks.iter().enumerate() {
-        let other_before = b > 0 && blocks[b - 1].2 == file && blocks[b - 1].3 != is_test;
-        let other_after =
-            b + 1 < blocks.len() && blocks[b + 1].2 == file && blocks[b + 1].3 != is_test;
+    for (b, block) in blocks.iter().enumerate() {
+        let differs = |other: Option<&Block>| {
+            other.is_some_and(|o| o.file == block.file && o.test != block.test)
+        };
+        let other_before = differs(b.checked_sub(1).and_then(|a| blocks.get(a)));
+        let other_after = differs(blocks.get(b + 1));
+        let (start, end) = (block.start, block.end);
         let usable: Vec<usize> = (start..end)
             .filter(|&i| {
                 let near_start = other_before && t(i) - t(start) < options.guard_s;
@@ -173,45 +263,12 @@ pub fn split_into_blocks(
             })
             .collect();
         guard_frames += (end - start) - usable.len();
-        let step = if is_test {
-            options.test_subsample
+        let (set, step) = if block.test {
+            (&mut test, options.test_subsample)
         } else {
-            options.train_subsample
+            (&mut train, options.train_subsample)
         };
-        let kept = usable.iter().step_by(step).copied();
-        if is_test {
-            test.extend(kept);
-        } else {
-            train.extend(kept);
-        }
+        set.extend(usable.iter().step_by(step).copied());
     }
-    if train.is_empty() || test.is_empty() {
-        return Err(bad(format!(
-            "the split leaves {} training and {} test frames; shorten the blocks (now {} s) or name other test files",
-            train.len(),
-            test.len(),
-            options.block_s
-        )));
-    }
-    let summary = SplitSummary {
-        blocks: blocks.len(),
-        test_blocks: blocks.iter().filter(|b| b.3).count(),
-        train_frames: train.len(),
-        test_frames: test.len(),
-        guard_frames,
-    };
-    dataset.segments = blocks
-        .iter()
-        .map(|&(start, end, _, _)| Segment {
-            start,
-            end,
-            from_pose: None,
-            to_pose: None,
-            repetition: None,
-        })
-        .collect();
-    dataset.train = train;
-    dataset.test = test;
-    dataset.validate().map_err(|e| bad(e.to_string()))?;
-    Ok(summary)
+    (train, test, guard_frames)
 }

@@ -170,6 +170,40 @@ fn a_human_with_other_joints_is_refused() {
 }
 
 #[test]
+fn a_capture_too_short_for_a_test_block_trains_on_every_frame_and_says_why() {
+    // 2.4 s at 40 Hz: one block of 4 s, where one in 4 would test.
+    let mut ds = human_tour(&[0, 1, 2, 3], 32);
+    assert_eq!(ds.len(), 96);
+    let summary = split_into_blocks(&mut ds, &SplitOptions::default()).unwrap();
+    assert_eq!((summary.blocks, summary.test_blocks), (1, 0));
+    assert_eq!((summary.train_frames, summary.test_frames), (8, 0));
+    assert!(ds.test.is_empty() && ds.train == (0..96).step_by(12).collect::<Vec<_>>());
+    let why = summary.fallback.expect("the fallback says why");
+    assert!(
+        why.contains("1 block of 4 s") && why.contains("`--split none`"),
+        "{why}"
+    );
+    // Asked for by name: no fallback to explain, every frame with a subsample of 1.
+    let mut ds = human_tour(&[0, 1, 2, 3], 32);
+    let summary = split_into_blocks(
+        &mut ds,
+        &SplitOptions {
+            rule: SplitRule::AllTraining,
+            train_subsample: 1,
+            ..SplitOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(summary.fallback, None);
+    assert_eq!((summary.train_frames, summary.test_frames), (96, 0));
+    assert_eq!(ds.train.len(), 96);
+    // Enough blocks: the split asked for, as before.
+    let mut ds = human_tour(&[0, 1, 2, 3, 4, 5], 130);
+    let summary = split_into_blocks(&mut ds, &SplitOptions::default()).unwrap();
+    assert!(summary.fallback.is_none() && summary.test_frames > 0);
+}
+
+#[test]
 fn blocks_split_with_guards_and_no_test_frame_in_training() {
     // Two files of 10 s and 6.2 s at 40 Hz.
     let mut ds = human_tour(&[0, 1, 2, 3, 4, 5], 130);
