@@ -100,11 +100,7 @@ pub fn replay(
                 break 'outer;
             }
             let offset_ns = lap * (span + period) + (t - t0);
-            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
-            }
+            sleep_until(start, offset_ns, options.rate);
             let msg = JointState {
                 header: Header {
                     stamp: Time::from_ns(t + lap * (span + period)),
@@ -166,11 +162,7 @@ pub fn replay_mvn(
                 break 'outer;
             }
             let offset_ns = lap_start + (t - t0);
-            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
-            }
+            sleep_until(start, offset_ns, options.rate);
             let row = series.row(k);
             let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
             let t_ms = u32::try_from(offset_ns / 1_000_000).unwrap_or(u32::MAX);
@@ -184,6 +176,15 @@ pub fn replay_mvn(
         lap_start += span;
     }
     Ok(sent)
+}
+
+/// Sleeps until `offset_ns` of recording time after `start`, played `rate` times as fast.
+fn sleep_until(start: Instant, offset_ns: i64, rate: f64) {
+    let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / rate);
+    let now = Instant::now();
+    if due > now {
+        std::thread::sleep(due - now);
+    }
 }
 
 /// A series and options that can be replayed.
@@ -295,11 +296,7 @@ pub fn replay_tf(
                 break 'outer;
             }
             let offset_ns = lap * (span + period) + (t - t0);
-            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
-            }
+            sleep_until(start, offset_ns, options.rate);
             let row = series.row(k);
             let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
             let msg = tree
