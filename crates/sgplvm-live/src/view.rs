@@ -45,6 +45,9 @@ pub struct ViewRobot {
     pub body: Robot,
     /// Its joints, in the order of the commands given to [`LiveView::frame`].
     pub joints: Vec<String>,
+    /// Its whole configuration (the body's joint order) where it is not commanded: the joints
+    /// it holds (a waist, legs) are drawn there.
+    pub rest: Vec<f64>,
 }
 
 /// A running live view.
@@ -57,8 +60,9 @@ pub struct LiveView {
     _context: Arc<Context>,
 }
 
-fn placed(name: &str, robot: Robot, topic: String, y: f64) -> SceneBody {
+fn placed(name: &str, robot: Robot, topic: String, y: f64, rest: Option<Vec<f64>>) -> SceneBody {
     SceneBody {
+        rest,
         name: name.to_string(),
         meshes: MeshSearch::for_robot(&robot),
         robot,
@@ -107,7 +111,7 @@ impl LiveView {
         let human = Robot::builtin("human").map_err(|e| LiveError::Config(e.to_string()))?;
         // The human at y = +0.6 m, the robots at −0.6 m, −1.5 m, … (as predict's scenes).
         let mut bodies = vec![(
-            placed("human", human, "/human/joint_states".into(), 0.6),
+            placed("human", human, "/human/joint_states".into(), 0.6, None),
             human_joints,
         )];
         let mut arrays = Vec::new();
@@ -124,7 +128,7 @@ impl LiveView {
             ));
             let topic = format!("/{}/joint_command", r.name);
             bodies.push((
-                placed(&r.name, r.body, topic, -0.6 - 0.9 * k as f64),
+                placed(&r.name, r.body, topic, -0.6 - 0.9 * k as f64, Some(r.rest)),
                 r.joints,
             ));
         }
@@ -286,6 +290,7 @@ mod tests {
             name: "arm".into(),
             body: robot,
             joints: vec!["j".into()],
+            rest: vec![0.0],
         }];
         let view = LiveView::start("127.0.0.1:0".parse().unwrap(), human, robots, 2).unwrap();
         let mut request = format!("ws://127.0.0.1:{}", view.port())

@@ -53,6 +53,8 @@ fn bodies(model: &SharedGplvm, target: &Target) -> Result<Vec<(SceneBody, Vec<St
         placement: nalgebra::Isometry3::translation(ROBOT_AT[0], ROBOT_AT[1], ROBOT_AT[2]),
         joint_topic: format!("/{robot}/joint_command"),
         meshes: sgplvm::robots::urdf::MeshSearch::for_robot(anatomy.robot()),
+        // The joints it is not commanded (a waist, legs) where they are held.
+        rest: Some(anatomy.hold_configuration().to_vec()),
     };
     Ok(vec![
         (human_body, model_joint_names(model, human)),

@@ -65,6 +65,7 @@ pub fn write(
         placement: Isometry3::identity(),
         joint_topic: format!("/{name}/joint_states"),
         meshes: Some(replayed.meshes.clone()),
+        rest: None,
     };
     let states = JointStates::new(
         times_ns.clone(),

@@ -260,6 +260,7 @@ pub(super) fn start_view(
                     name: r.drive.robot.clone(),
                     body: r.drive.anatomy.robot().clone(),
                     joints: r.joints.clone(),
+                    rest: r.drive.anatomy.hold_configuration().to_vec(),
                 })
                 .collect();
             let q = driven[0].drive.model.latent_points().ncols();

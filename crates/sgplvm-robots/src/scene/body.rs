@@ -27,6 +27,10 @@ pub struct SceneBody {
     /// absolute `file://` URI (which Foxglove desktop loads); the others, and all of them
     /// when `None` (the built-in bodies, which have no meshes), are left as the URDF gives them.
     pub meshes: Option<MeshSearch>,
+    /// The configuration (the robot's joint order) of the joints its joint states do not name,
+    /// e.g. a robot's waist and legs held still while its arms are commanded; `None`, or a
+    /// configuration of another length: the robot's neutral configuration.
+    pub rest: Option<Vec<f64>>,
 }
 
 impl SceneBody {
@@ -46,6 +50,7 @@ impl SceneBody {
             ),
             joint_topic: joint_topic.to_string(),
             meshes: None,
+            rest: None,
         })
     }
 
@@ -180,7 +185,13 @@ impl BodyChannel {
         description_channel: Option<u16>,
     ) -> BodyChannel {
         BodyChannel {
-            q: body.robot.neutral_configuration(),
+            q: {
+                let neutral = body.robot.neutral_configuration();
+                body.rest
+                    .clone()
+                    .filter(|rest| rest.len() == neutral.len())
+                    .unwrap_or(neutral)
+            },
             frames: (0..body.robot.links.len()).map(|l| body.frame(l)).collect(),
             body,
             names,

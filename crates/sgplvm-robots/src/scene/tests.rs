@@ -407,6 +407,7 @@ fn the_description_names_found_meshes_by_absolute_file_uris() {
         placement: nalgebra::Isometry3::identity(),
         joint_topic: "/arm/joint_states".into(),
         meshes: Some(crate::urdf::MeshSearch::for_urdf_file(&urdf)),
+        rest: None,
     };
     let states =
         JointStates::new(vec![0, 25_000_000], vec!["j".into()], vec![0.0, 0.1]).expect("states");
@@ -441,4 +442,19 @@ fn the_description_names_found_meshes_by_absolute_file_uris() {
         vec![("meshes/arm.stl".to_string(), mesh.clone()), (uri, mesh)]
     );
     std::fs::remove_dir_all(path.parent().expect("dir")).expect("clean");
+}
+
+/// Joints the joint states do not name are drawn at the body's rest configuration (a robot's
+/// held waist), or at the neutral one when none fits.
+#[test]
+fn joints_not_commanded_are_drawn_at_the_rest_configuration() {
+    let mut body = SceneBody::builtin("coman", "/coman/joint_command", [0.0; 3]).expect("coman");
+    let neutral = body.robot.neutral_configuration();
+    let rest: Vec<f64> = (0..neutral.len()).map(|i| 0.01 * i as f64).collect();
+    body.rest = Some(rest.clone());
+    let drawn = super::body::BodyChannel::new(body.clone(), vec![], vec![], 0, None);
+    assert_eq!(drawn.q, rest);
+    body.rest = Some(vec![0.5]);
+    let drawn = super::body::BodyChannel::new(body, vec![], vec![], 0, None);
+    assert_eq!(drawn.q, neutral);
 }
