@@ -20,12 +20,26 @@ use sgplvm::robots::series::seconds_from_ns;
 
 use super::args::JsonArg;
 
+mod mvn;
+
 #[derive(Args)]
 pub struct ImportArgs {
     /// BVH files (CMU/cgspeed, Xsens MVN, Mixamo, Rokoko, Motive, Blender, ... exports), one
     /// segment each, joined one after another.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "mvn")]
     files: Vec<PathBuf>,
+    /// Or record an Xsens MVN network stream (pose datagrams 01 or 02) arriving on
+    /// [ADDR:]PORT [default: 0.0.0.0:9763], each frame fitted as `teleop --input mvn` fits it,
+    /// on the stream's time code; until Ctrl-C, --max-frames or --seconds.
+    #[arg(long, value_name = "[ADDR:]PORT", num_args = 0..=1, default_missing_value = "",
+          value_parser = mvn::parse_address, conflicts_with_all = ["files", "map", "units", "from", "to"])]
+    mvn: Option<std::net::SocketAddr>,
+    /// With --mvn: stop after this many frames.
+    #[arg(long, requires = "mvn")]
+    max_frames: Option<usize>,
+    /// With --mvn: stop this many seconds after it starts listening.
+    #[arg(long, requires = "mvn")]
+    seconds: Option<f64>,
     /// Output: .mcap (sensor_msgs/JointState on /human/joint_states, one segment per file, the
     /// captures' provenance and fit as metadata: the input of `retarget`), any other name for
     /// CSV (a `time` column, then the 18 joints).
@@ -68,13 +82,24 @@ pub fn run(args: ImportArgs) -> Result<()> {
         to_s: args.to,
         ..ImportOptions::default()
     };
-    let mut captures = Vec::with_capacity(args.files.len());
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        bail!("--rate {}: expected a positive rate in Hz", args.rate);
+    }
+    let mut captures = Vec::with_capacity(args.files.len().max(1));
+    if let Some(addr) = args.mvn {
+        let stop = mvn::Stop {
+            max_frames: args.max_frames,
+            seconds: args.seconds,
+        };
+        captures.push(mvn::record(addr, args.rate, &stop)?);
+    }
     for file in &args.files {
-        let capture = import_bvh(file, &options)?;
-        if !args.json.json {
+        captures.push(import_bvh(file, &options)?);
+    }
+    if !args.json.json {
+        for capture in &captures {
             summary(&capture.source, capture.times_ns.len());
         }
-        captures.push(capture);
     }
     let (dataset, sources) = captures_to_dataset(&captures)?;
     let out = args.out.as_path();
@@ -134,6 +159,8 @@ fn summary(s: &CaptureSource, frames_out: usize) {
     }
     let units = if s.units == "unknown" {
         "units unknown".to_string()
+    } else if s.arm_length <= 0.0 {
+        format!("units {}", s.units)
     } else {
         format!("units {}, arm {:.1} cm", s.units, cm(s.arm_length))
     };

@@ -923,7 +923,7 @@ def _quaternion(m):
     return tuple(q)
 
 
-def _mvn_frames(rows):
+def _mvn_frames(rows, period_ms=None):
     """Type 02 datagrams of the human model at each row of angles, written with the
     specification's tables (mvn_spec.py): the arms' segments are the model's links at the
     sternoclavicular, shoulder, elbow and wrist joints, turned so that the T-pose (both arms
@@ -952,7 +952,8 @@ def _mvn_frames(rows):
                 pose = human.forward_kinematics(q, f"{side.lower()}_{link}")
                 r = pose[:3, :3] @ rest[(side, part)].T
                 segments[side + part] = (tuple(t8 + pose[:3, 3]), _quaternion(r))
-        datagrams.append(mvn_spec.quaternion_datagram(k + 1, segments))
+        stamp = {} if period_ms is None else {"time_code_ms": period_ms * k}
+        datagrams.append(mvn_spec.quaternion_datagram(k + 1, segments, **stamp))
     return datagrams
 
 
@@ -996,6 +997,50 @@ def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, m
         float(np.max(np.abs(np.array(c.position) - np.clip(raw[k], lo, hi)))) for k, c in enumerate(commands)
     )
     assert worst < 1e-4, worst
+
+
+def test_import_records_an_mvn_stream_as_the_angles_it_was_made_from(tmp, data):
+    """``sgplvm import --mvn`` records a stream written from the specification's tables, each
+    frame through the same fit as ``teleop --input mvn``, on the stream's time code (40 Hz here,
+    the output rate): the file holds the angles the frames were made from, to MVN's single
+    precision, and the fit's report."""
+    import socket
+
+    import mvn_spec
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    rows = data["rows"][:80]
+    out = tmp / "recorded.mcap"
+    proc = subprocess.Popen(
+        [sgplvm_binary(), "import", "--mvn", f"127.0.0.1:{port}", "--max-frames", str(len(rows)),
+         "--out", str(out), "--json"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    time.sleep(0.5)
+    for d in _mvn_frames(rows, period_ms=25):
+        mvn_spec.send([d], port=port)
+        time.sleep(0.005)
+    stdout, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 0, stderr
+    report = json.loads(stdout)[0]
+    assert report["file"] == f"mvn://127.0.0.1:{port}" and report["fit"]["frames"] == len(rows), report
+    assert report["fit"]["wrist_worst_m"] < 1e-4, report["fit"]
+    recorded = sgplvm.load_demonstrations(out)["human"]
+    assert recorded["joint_names"] == data["names"]
+    assert recorded["positions"].shape == rows.shape
+    assert np.max(np.abs(recorded["positions"] - rows)) < 1e-4
+
+
+def test_import_without_a_stream_says_so_and_writes_nothing(tmp):
+    out = tmp / "nothing.mcap"
+    done = subprocess.run(
+        [sgplvm_binary(), "import", "--mvn", "127.0.0.1:0", "--seconds", "0.2", "--out", str(out)],
+        capture_output=True, text=True, timeout=30,
+    )
+    assert done.returncode == 1 and "0 frame(s) received" in done.stderr, done.stderr
+    assert not out.exists()
 
 
 # ----- a skeleton's TF frames (tf2_msgs/TFMessage on /tf and /tf_static) -----
