@@ -600,6 +600,20 @@ impl SharedGplvm {
     }
 }
 
+/// A model file's `bytes` with its JSON payload edited by `edit` and a valid header and hash:
+/// what a tampered or buggy writer would produce (for tests of what loading makes of it).
+#[cfg(test)]
+pub(crate) fn with_payload(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let mut json: serde_json::Value = serde_json::from_slice(&bytes[HEADER..]).expect("json");
+    edit(&mut json);
+    let payload = serde_json::to_vec(&json).expect("json");
+    let mut out = bytes[..12].to_vec();
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -699,19 +713,6 @@ mod tests {
             Err(Error::Io { .. })
         ));
         std::fs::remove_dir_all(&dir).expect("cleanup");
-    }
-
-    /// `bytes` with its JSON payload edited by `edit` and a valid header and hash: what a
-    /// tampered or buggy writer would produce.
-    fn with_payload(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
-        let mut json: serde_json::Value = serde_json::from_slice(&bytes[HEADER..]).expect("json");
-        edit(&mut json);
-        let payload = serde_json::to_vec(&json).expect("json");
-        let mut out = bytes[..12].to_vec();
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
-        out.extend_from_slice(&payload);
-        out
     }
 
     #[test]

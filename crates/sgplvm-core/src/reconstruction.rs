@@ -257,43 +257,15 @@ impl SharedGplvm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_support::{fit, BackConstraint};
+    use crate::test_support::{fit, gp_solve_1d, kernel_1d, BackConstraint};
 
     /// The posterior mean at `at` of a GP with `kern` fitted to the 1-D points `xs` with
     /// values `ys` (Gaussian elimination, with the jitter the formula's factorisation adds).
     fn refit_mean(kern: &KernelParams, xs: &[f64], ys: &[f64], at: f64) -> f64 {
-        let l2 = kern.lengthscale[0] * kern.lengthscale[0];
-        let k = |a: f64, b: f64| kern.variance * (-0.5 * (a - b) * (a - b) / l2).exp();
-        let m = xs.len();
-        let mut aug: Vec<Vec<f64>> = (0..m)
-            .map(|a| {
-                (0..m)
-                    .map(|b| {
-                        k(xs[a], xs[b])
-                            + if a == b {
-                                kern.noise + 1e-8 * kern.variance
-                            } else {
-                                0.0
-                            }
-                    })
-                    .chain([ys[a]])
-                    .collect()
-            })
-            .collect();
-        for c in 0..m {
-            for r in c + 1..m {
-                let f = aug[r][c] / aug[c][c];
-                for j in c..=m {
-                    aug[r][j] -= f * aug[c][j];
-                }
-            }
-        }
-        let mut sol = vec![0.0; m];
-        for r in (0..m).rev() {
-            let s: f64 = (r + 1..m).map(|j| aug[r][j] * sol[j]).sum();
-            sol[r] = (aug[r][m] - s) / aug[r][r];
-        }
-        (0..m).map(|a| k(xs[a], at) * sol[a]).sum()
+        let weights = gp_solve_1d(kern, xs, ys);
+        (0..xs.len())
+            .map(|a| kernel_1d(kern, xs[a], at) * weights[a])
+            .sum()
     }
 
     #[test]
@@ -459,26 +431,12 @@ mod tests {
         }
     }
 
-    /// The FNV-1a hash of the file format.
-    fn fnv1a(bytes: &[u8]) -> u64 {
-        bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-            (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-        })
-    }
-
     /// `bytes` (a model file) with its payload's JSON object changed by `edit`.
     fn edited(
         bytes: &[u8],
         edit: impl FnOnce(&mut serde_json::Map<String, serde_json::Value>),
     ) -> Vec<u8> {
-        let mut json: serde_json::Value = serde_json::from_slice(&bytes[28..]).unwrap();
-        edit(json.as_object_mut().unwrap());
-        let payload = serde_json::to_vec(&json).unwrap();
-        let mut out = bytes[..12].to_vec();
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
-        out.extend_from_slice(&payload);
-        out
+        crate::io::with_payload(bytes, |json| edit(json.as_object_mut().unwrap()))
     }
 
     #[test]

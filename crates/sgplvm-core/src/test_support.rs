@@ -204,3 +204,44 @@ pub(crate) fn bench_data_from_env() -> Option<(Mat<f64>, Mat<f64>)> {
     let r = Mat::from_fn(n, dr, |i, j| v[3 + n * dh + i * dr + j]);
     Some((h, r))
 }
+
+/// The kernel `kern` between two 1-D latent points.
+pub(crate) fn kernel_1d(kern: &crate::kernel::KernelParams, a: f64, b: f64) -> f64 {
+    let l2 = kern.lengthscale[0] * kern.lengthscale[0];
+    kern.variance * (-0.5 * (a - b) * (a - b) / l2).exp()
+}
+
+/// `(K + σ² I)⁻¹ b` for a GP with `kern` on the 1-D points `xs` (with the jitter the model's
+/// factorisation adds), by plain Gaussian elimination: a reference independent of faer.
+pub(crate) fn gp_solve_1d(kern: &crate::kernel::KernelParams, xs: &[f64], b: &[f64]) -> Vec<f64> {
+    let m = xs.len();
+    let mut aug: Vec<Vec<f64>> = (0..m)
+        .map(|r| {
+            (0..m)
+                .map(|c| {
+                    let jitter = if r == c {
+                        kern.noise + 1e-8 * kern.variance
+                    } else {
+                        0.0
+                    };
+                    kernel_1d(kern, xs[r], xs[c]) + jitter
+                })
+                .chain([b[r]])
+                .collect()
+        })
+        .collect();
+    for c in 0..m {
+        for r in c + 1..m {
+            let f = aug[r][c] / aug[c][c];
+            for j in c..=m {
+                aug[r][j] -= f * aug[c][j];
+            }
+        }
+    }
+    let mut sol = vec![0.0; m];
+    for r in (0..m).rev() {
+        let s: f64 = (r + 1..m).map(|j| aug[r][j] * sol[j]).sum();
+        sol[r] = (aug[r][m] - s) / aug[r][r];
+    }
+    sol
+}

@@ -278,42 +278,14 @@ fn check_finite_latent(x: &[f64]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::{gp_solve_1d, kernel_1d};
 
     /// The variance at `at` of a GP with `kern` fitted to the 1-D points `others` (Gaussian
     /// elimination, with the jitter the formula's factorisation adds).
     fn refit_variance(kern: &KernelParams, others: &[f64], at: f64) -> f64 {
-        let l2 = kern.lengthscale[0] * kern.lengthscale[0];
-        let k = |a: f64, b: f64| kern.variance * (-0.5 * (a - b) * (a - b) / l2).exp();
-        let m = others.len();
-        let mut aug: Vec<Vec<f64>> = (0..m)
-            .map(|a| {
-                (0..m)
-                    .map(|b| {
-                        let jitter = if a == b {
-                            kern.noise + 1e-8 * kern.variance
-                        } else {
-                            0.0
-                        };
-                        k(others[a], others[b]) + jitter
-                    })
-                    .chain([k(others[a], at)])
-                    .collect()
-            })
-            .collect();
-        for c in 0..m {
-            for r in c + 1..m {
-                let f = aug[r][c] / aug[c][c];
-                for j in c..=m {
-                    aug[r][j] -= f * aug[c][j];
-                }
-            }
-        }
-        let mut sol = vec![0.0; m];
-        for r in (0..m).rev() {
-            let s: f64 = (r + 1..m).map(|j| aug[r][j] * sol[j]).sum();
-            sol[r] = (aug[r][m] - s) / aug[r][r];
-        }
-        kern.variance - (0..m).map(|a| k(others[a], at) * sol[a]).sum::<f64>()
+        let k_at: Vec<f64> = others.iter().map(|&x| kernel_1d(kern, x, at)).collect();
+        let weights = gp_solve_1d(kern, others, &k_at);
+        kern.variance - k_at.iter().zip(&weights).map(|(k, w)| k * w).sum::<f64>()
     }
 
     #[test]

@@ -84,26 +84,17 @@ pub fn replay(
     {
         std::thread::sleep(Duration::from_millis(20));
     }
-    let t0 = series.times_ns[0];
-    let span = series.times_ns[series.len() - 1] - t0;
-    let period = if series.len() > 1 {
-        span / (series.len() as i64 - 1)
-    } else {
-        25_000_000
-    };
     let start = Instant::now();
-    let mut sent = 0usize;
-    let mut lap: i64 = 0;
-    'outer: loop {
-        for (k, &t) in series.times_ns.iter().enumerate() {
-            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
-                break 'outer;
-            }
-            let offset_ns = lap * (span + period) + (t - t0);
-            sleep_until(start, offset_ns, options.rate);
+    play(
+        series,
+        options,
+        stop,
+        start,
+        period_ns(series),
+        |k, stamp_ns, _| {
             let msg = JointState {
                 header: Header {
-                    stamp: Time::from_ns(t + lap * (span + period)),
+                    stamp: Time::from_ns(stamp_ns),
                     frame_id: String::new(),
                 },
                 name: series.names.clone(),
@@ -114,15 +105,9 @@ pub fn replay(
             publisher.publish(msg).map_err(|e| LiveError::Publish {
                 topic: options.topic.clone(),
                 message: format!("{e:?}"),
-            })?;
-            sent += 1;
-        }
-        if !options.looped {
-            break;
-        }
-        lap += 1;
-    }
-    Ok(sent)
+            })
+        },
+    )
 }
 
 /// Sends `series` (the human model's angles) as an Xsens MVN stream to `to` (type 02 pose
@@ -150,40 +135,68 @@ pub fn replay_mvn(
             .send(&frame, PoseType::Quaternion)
             .map_err(|e| config(e.to_string()))
     };
-    let t0 = series.times_ns[0];
     let start = Instant::now() + Duration::from_millis(50);
-    let mut sent = 0usize;
     let mut sample: u32 = 1;
-    let mut lap_start = 0i64;
-    let span = series.times_ns[series.len() - 1] - t0 + 25_000_000;
-    'outer: loop {
-        for (k, &t) in series.times_ns.iter().enumerate() {
-            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
-                break 'outer;
-            }
-            let offset_ns = lap_start + (t - t0);
-            sleep_until(start, offset_ns, options.rate);
+    play(
+        series,
+        options,
+        stop,
+        start,
+        25_000_000,
+        |k, _, offset_ns| {
             let row = series.row(k);
             let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
             let t_ms = u32::try_from(offset_ns / 1_000_000).unwrap_or(u32::MAX);
             send(&q, sample, t_ms)?;
             sample = sample.wrapping_add(1);
+            Ok(())
+        },
+    )
+}
+
+/// Plays `series` from `start` at its own times scaled by `options.rate`: calls `each(row,
+/// stamp_ns, offset_ns)` when a frame is due — `stamp_ns` its time on the recording's clock,
+/// going on lap after lap with `--loop` (a lap is the recording and `gap_ns`), `offset_ns` its
+/// time since the first frame — until the end, `stop` or `options.max_messages`. Returns the
+/// frames sent.
+fn play(
+    series: &JointStates,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+    start: Instant,
+    gap_ns: i64,
+    mut each: impl FnMut(usize, i64, i64) -> Result<(), LiveError>,
+) -> Result<usize, LiveError> {
+    let t0 = series.times_ns[0];
+    let lap_ns = series.times_ns[series.len() - 1] - t0 + gap_ns;
+    let mut sent = 0usize;
+    for lap in 0i64.. {
+        for (k, &t) in series.times_ns.iter().enumerate() {
+            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
+                return Ok(sent);
+            }
+            let offset_ns = lap * lap_ns + (t - t0);
+            let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / options.rate);
+            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+            each(k, t + lap * lap_ns, offset_ns)?;
             sent += 1;
         }
         if !options.looped {
             break;
         }
-        lap_start += span;
     }
     Ok(sent)
 }
 
-/// Sleeps until `offset_ns` of recording time after `start`, played `rate` times as fast.
-fn sleep_until(start: Instant, offset_ns: i64, rate: f64) {
-    let due = start + Duration::from_secs_f64(offset_ns as f64 * 1e-9 / rate);
-    let now = Instant::now();
-    if due > now {
-        std::thread::sleep(due - now);
+/// The series' mean frame period (25 ms for a single frame): the gap between laps.
+fn period_ns(series: &JointStates) -> i64 {
+    let span = series.times_ns[series.len() - 1] - series.times_ns[0];
+    if series.len() > 1 {
+        span / (series.len() as i64 - 1)
+    } else {
+        25_000_000
     }
 }
 
@@ -280,37 +293,22 @@ pub fn replay_tf(
     {
         std::thread::sleep(Duration::from_millis(20));
     }
-    let t0 = series.times_ns[0];
-    let span = series.times_ns[series.len() - 1] - t0;
-    let period = if series.len() > 1 {
-        span / (series.len() as i64 - 1)
-    } else {
-        25_000_000
-    };
     let start = Instant::now();
-    let mut sent = 0usize;
-    let mut lap: i64 = 0;
-    'outer: loop {
-        for (k, &t) in series.times_ns.iter().enumerate() {
-            if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
-                break 'outer;
-            }
-            let offset_ns = lap * (span + period) + (t - t0);
-            sleep_until(start, offset_ns, options.rate);
+    play(
+        series,
+        options,
+        stop,
+        start,
+        period_ns(series),
+        |k, stamp_ns, _| {
             let row = series.row(k);
             let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
             let msg = tree
-                .message(&q, Time::from_ns(t + lap * (span + period)))
+                .message(&q, Time::from_ns(stamp_ns))
                 .map_err(|e| config(e.to_string()))?;
             dynamic
                 .publish(msg)
-                .map_err(|e| fail(TF_TOPIC, format!("{e:?}")))?;
-            sent += 1;
-        }
-        if !options.looped {
-            break;
-        }
-        lap += 1;
-    }
-    Ok(sent)
+                .map_err(|e| fail(TF_TOPIC, format!("{e:?}")))
+        },
+    )
 }

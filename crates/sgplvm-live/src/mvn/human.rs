@@ -148,3 +148,22 @@ impl Default for MvnFit {
         MvnFit::new()
     }
 }
+
+/// `n` poses spread across the human model's joint ranges (kept 10 % inside each limit), the
+/// same for every test that round-trips the model's angles (through MVN, through TF).
+#[cfg(test)]
+pub(crate) fn poses_across_ranges(n: usize) -> Vec<Vec<f64>> {
+    let limits = Robot::builtin("human").unwrap().joint_limits();
+    (1..=n)
+        .map(|k| {
+            limits
+                .iter()
+                .enumerate()
+                .map(|(j, &(lo, hi))| {
+                    let s = 0.5 + 0.4 * ((k * 7 + j * 3) as f64).sin();
+                    lo + s * (hi - lo) * 0.8 + 0.1 * (hi - lo)
+                })
+                .collect()
+        })
+        .collect()
+}

@@ -6,6 +6,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 use super::*;
 use crate::msgs::Time;
+use crate::mvn::human::poses_across_ranges as poses;
 
 fn iso(t: [f64; 3], axis: Vector3<f64>, angle: f64) -> Isometry3<f64> {
     Isometry3::from_parts(
@@ -120,25 +121,6 @@ fn a_set_is_complete_when_every_frame_has_a_transform_at_its_stamp() {
         put(&mut b, "torso", "arm", t + k * 1_000, &id, false);
     }
     assert!(b.stamps(["arm"]).len() <= buffer::HISTORY);
-}
-
-/// Poses across the human model's joint ranges (as the MVN round trip takes them).
-fn poses(n: usize) -> Vec<Vec<f64>> {
-    let limits = sgplvm_robots::Robot::builtin("human")
-        .unwrap()
-        .joint_limits();
-    (1..=n)
-        .map(|k| {
-            limits
-                .iter()
-                .enumerate()
-                .map(|(j, &(lo, hi))| {
-                    let s = 0.5 + 0.4 * ((k * 7 + j * 3) as f64).sin();
-                    lo + s * (hi - lo) * 0.8 + 0.1 * (hi - lo)
-                })
-                .collect()
-        })
-        .collect()
 }
 
 #[test]

@@ -27,6 +27,7 @@
 //! first link, arms sharing movable joints, a hold value outside the limits, a file that
 //! contradicts the URDF) is an [`AnatomyError`] naming the file and the link or joint.
 
+mod arm_points;
 mod commands;
 mod discover;
 mod file;

@@ -1,0 +1,320 @@
+//! Each arm's points from its joints' axes alone: the shoulder (where the first joints' axes
+//! meet, riding on the joints before them), the wrist centre, the elbow, and the reach of the
+//! straightened arm within its limits.
+
+use nalgebra::{Isometry3, Matrix3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::discover::RawArm;
+use super::{AnatomyArm, AnatomyResult};
+use crate::kinematics::Chain;
+use crate::urdf::Robot;
+
+/// Axes closer than this (sine of their angle) count as parallel.
+const PARALLEL: f64 = 0.05;
+/// Axes of a shoulder meet when the point nearest to them is this close to each, as a fraction
+/// of the arm's length along its links (at least 5 mm).
+const MEET_FRACTION: f64 = 0.02;
+
+/// The point nearest (least squares) to the lines through `origins` along `axes`, and its
+/// largest distance to one of them; `None` when the lines are parallel.
+fn nearest_point(origins: &[Vector3<f64>], axes: &[Vector3<f64>]) -> Option<(Vector3<f64>, f64)> {
+    let mut a = Matrix3::zeros();
+    let mut b = Vector3::zeros();
+    for (o, d) in origins.iter().zip(axes) {
+        let p = Matrix3::identity() - d * d.transpose();
+        a += p;
+        b += p * o;
+    }
+    let point = a.try_inverse()? * b;
+    let spread = origins
+        .iter()
+        .zip(axes)
+        .map(|(o, d)| {
+            let v = point - o;
+            (v - d * d.dot(&v)).norm()
+        })
+        .fold(0.0, f64::max);
+    Some((point, spread))
+}
+
+/// Which end of the arm a group of meeting axes is sought at.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum End {
+    /// The shoulder: groups ending before the elbow, the one ending nearest it first (a
+    /// person's collarbone joints come before the shoulder's).
+    Shoulder,
+    /// The wrist: groups starting after the elbow, the one ending nearest the hand first.
+    Wrist,
+}
+
+/// The chain joint most in the middle of the arm at `q` (farthest from both its first joint
+/// and the hand), the first and last joints aside: a first guess of the elbow, which tells the
+/// shoulder's joints from the wrist's.
+fn elbow_guess(chain: &Chain, q: &[f64]) -> usize {
+    let origins = chain.joint_origins(q);
+    let hand = chain.forward(q).translation.vector;
+    let n = origins.len();
+    let score = |i: usize| {
+        (origins[i] - origins[0])
+            .norm()
+            .min((origins[i] - hand).norm())
+    };
+    let best = (1..n.saturating_sub(1).max(1))
+        .map(score)
+        .fold(0.0, f64::max);
+    // Joints at one point (an elbow and a forearm roll) tie: the first of them.
+    (1..n.saturating_sub(1).max(1))
+        .find(|&i| score(i) >= best - 1e-3)
+        .unwrap_or(0)
+}
+
+/// Where a group of the chain's axes meets at `q`: among groups of two or three consecutive
+/// revolute joints on `end`'s side of the (guessed) elbow, no two of them parallel, the group
+/// whose axes meet (within [`MEET_FRACTION`] of the arm's length), nearest the elbow (shoulder)
+/// or the hand (wrist) first, then the most axes; else the group whose axes come nearest. Gives
+/// the group's first joint, its size, the point (base frame) and its distance to the farthest
+/// axis.
+fn meeting_axes(chain: &Chain, q: &[f64], end: End) -> (usize, usize, Vector3<f64>, f64) {
+    let frames = chain.joint_frames(q);
+    let axes = chain.joint_axes(q);
+    let origins: Vec<Vector3<f64>> = frames.iter().map(|f| f.translation.vector).collect();
+    let length: f64 = origins
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .sum::<f64>()
+        + (chain.forward(q).translation.vector - origins[origins.len() - 1]).norm();
+    let meet = (MEET_FRACTION * length).max(0.005);
+    let n = chain.dof();
+    let elbow = elbow_guess(chain, q);
+    let mut groups = Vec::new();
+    for len in [3usize, 2] {
+        for start in 0..n {
+            let range = start..(start + len).min(n);
+            let side = match end {
+                End::Shoulder => range.end <= elbow,
+                End::Wrist => range.start > elbow,
+            };
+            if !side || range.len() < 2 || range.clone().any(|i| chain.is_prismatic(i)) {
+                continue;
+            }
+            let parallel = range.clone().any(|i| {
+                range
+                    .clone()
+                    .filter(|&k| k > i)
+                    .any(|k| axes[i].cross(&axes[k]).norm() < PARALLEL)
+            });
+            if parallel {
+                continue;
+            }
+            if let Some((p, spread)) = nearest_point(&origins[range.clone()], &axes[range.clone()])
+            {
+                // Rank: nearer the elbow (shoulder) or the hand (wrist) first.
+                let rank = match end {
+                    End::Shoulder => elbow - range.end,
+                    End::Wrist => n - range.end,
+                };
+                groups.push((start, range.len(), p, spread, rank));
+            }
+        }
+    }
+    let meeting = groups
+        .iter()
+        .filter(|g| g.3 <= meet)
+        .min_by(|a, b| (a.4, std::cmp::Reverse(a.1)).cmp(&(b.4, std::cmp::Reverse(b.1))));
+    let chosen = meeting.or_else(|| groups.iter().min_by(|a, b| a.3.total_cmp(&b.3)));
+    match (chosen, end) {
+        (Some(&(start, len, p, spread, _)), _) => (start, len, p, spread),
+        (None, End::Shoulder) => (0, 1, origins[0], 0.0),
+        (None, End::Wrist) => (n - 1, 1, origins[n - 1], 0.0),
+    }
+}
+
+/// A point of the chain's base frame at `q` expressed in the frame of chain joint `after`
+/// (before its motion), so that it rides on the joints before `after`.
+fn riding(chain: &Chain, q: &[f64], after: usize, point: Vector3<f64>) -> Vector3<f64> {
+    if after == 0 {
+        point
+    } else {
+        (chain.joint_frames(q)[after].inverse() * nalgebra::Point3::from(point)).coords
+    }
+}
+
+/// The configuration within the limits that maximises `f`, by projected gradient ascent
+/// (central differences) from the given starts and seeded random ones.
+fn maximise(
+    f: &dyn Fn(&[f64]) -> f64,
+    limits: &[(f64, f64)],
+    starts: Vec<Vec<f64>>,
+) -> (Vec<f64>, f64) {
+    let bounded: Vec<(f64, f64)> = limits
+        .iter()
+        .map(|&(lo, hi)| (lo.max(-std::f64::consts::PI), hi.min(std::f64::consts::PI)))
+        .map(|(lo, hi)| if lo <= hi { (lo, hi) } else { (hi, lo) })
+        .collect();
+    let clamp = |q: &mut [f64]| {
+        for (v, &(lo, hi)) in q.iter_mut().zip(limits) {
+            if lo <= hi {
+                *v = v.clamp(lo, hi);
+            }
+        }
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5ee_d0e5);
+    let mut all = starts;
+    for _ in 0..6 {
+        all.push(
+            bounded
+                .iter()
+                .map(|&(lo, hi)| {
+                    if hi > lo {
+                        rng.random_range(lo..=hi)
+                    } else {
+                        lo
+                    }
+                })
+                .collect(),
+        );
+    }
+    let mut best = (Vec::new(), f64::NEG_INFINITY);
+    for mut q in all {
+        clamp(&mut q);
+        let mut value = f(&q);
+        let mut step = 0.3;
+        let mut grad = vec![0.0; q.len()];
+        for _ in 0..400 {
+            let h = 1e-6;
+            for i in 0..q.len() {
+                let mut a = q.clone();
+                let mut b = q.clone();
+                a[i] += h;
+                b[i] -= h;
+                grad[i] = (f(&a) - f(&b)) / (2.0 * h);
+                let (lo, hi) = limits[i];
+                if (q[i] >= hi && grad[i] > 0.0) || (q[i] <= lo && grad[i] < 0.0) {
+                    grad[i] = 0.0;
+                }
+            }
+            let biggest = grad.iter().fold(0.0_f64, |m, g| m.max(g.abs()));
+            if biggest < 1e-10 {
+                break;
+            }
+            let mut trial: Vec<f64> = q
+                .iter()
+                .zip(&grad)
+                .map(|(v, g)| v + step * g / biggest)
+                .collect();
+            clamp(&mut trial);
+            let t = f(&trial);
+            if t > value {
+                q = trial;
+                value = t;
+                step = (step * 2.0).min(1.0);
+            } else {
+                step *= 0.5;
+                if step < 1e-9 {
+                    break;
+                }
+            }
+        }
+        if value > best.1 {
+            best = (q, value);
+        }
+    }
+    best
+}
+
+/// One arm's geometry: its pose on the torso, shoulder, reach and elbow (the neutral posture
+/// comes once the body frame is known).
+///
+/// The reach is the largest shoulder-to-hand distance over the joints beyond the shoulder
+/// (those before it and the shoulder's own at 0 within their limits): the straightened arm,
+/// measured without swinging the hand around shoulder axes that miss the shoulder point. The
+/// elbow is the joint beyond the shoulder whose bending shortens that straightened arm most.
+pub(super) fn arm_geometry(
+    robot: &Robot,
+    raw: &RawArm,
+    chain: Chain,
+    hold: &[f64],
+    torso_in_root: &Isometry3<f64>,
+) -> AnatomyResult<AnatomyArm> {
+    let base_in_torso = torso_in_root.inverse() * robot.forward_kinematics(hold, &raw.base)?;
+    let zero: Vec<f64> = chain
+        .limits()
+        .iter()
+        .map(|&(lo, hi)| if lo <= hi { 0.0_f64.clamp(lo, hi) } else { 0.0 })
+        .collect();
+    let (group, size, axes_point, spread) = meeting_axes(&chain, &zero, End::Shoulder);
+    // The shoulder rides on the joints before its group (TALOS turns its whole shoulder
+    // first; a person lifts the collarbone); the convention's shoulder link names the point.
+    let point = match &raw.shoulder_link {
+        Some(link) => {
+            let at = base_in_torso.inverse()
+                * (torso_in_root.inverse() * robot.forward_kinematics(hold, link)?);
+            at.translation.vector
+        }
+        None => axes_point,
+    };
+    let after = group;
+    let local = riding(&chain, &zero, after, point);
+    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist);
+    let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
+    let distal = (group + size).min(chain.dof())..chain.dof();
+    let with = |tail: &[f64]| -> Vec<f64> {
+        let mut q = zero.clone();
+        q[distal.clone()].copy_from_slice(tail);
+        q
+    };
+    let span = |q: &[f64]| (chain.forward(q).translation.vector - point).norm();
+    let distal_limits = &chain.limits()[distal.clone()];
+    let mid: Vec<f64> = distal_limits
+        .iter()
+        .map(|&(lo, hi)| {
+            if lo.is_finite() && hi.is_finite() {
+                0.5 * (lo + hi)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let measure = |tail: &[f64]| span(&with(tail));
+    let (tail, reach) = maximise(
+        &measure,
+        distal_limits,
+        vec![zero[distal.clone()].to_vec(), mid],
+    );
+    let straight = with(&tail);
+    let zero_pose_reach = span(&zero);
+    let bend = |i: usize| {
+        let h = 1e-3;
+        let mut a = straight.clone();
+        let mut b = straight.clone();
+        a[i] += h;
+        b[i] -= h;
+        (span(&a) - 2.0 * reach + span(&b)) / (h * h)
+    };
+    let elbow = distal
+        .clone()
+        .min_by(|&a, &b| bend(a).total_cmp(&bend(b)))
+        .unwrap_or(0);
+    Ok(AnatomyArm {
+        side: raw.side,
+        shoulder: (base_in_torso * nalgebra::Point3::from(point)).coords,
+        shoulder_spread_m: if raw.shoulder_link.is_some() {
+            0.0
+        } else {
+            spread
+        },
+        shoulder_after: after,
+        shoulder_local: local,
+        wrist_after,
+        wrist_local,
+        base_in_torso,
+        reach,
+        straight,
+        zero_pose_reach,
+        neutral: zero,
+        elbow,
+        chain,
+    })
+}
