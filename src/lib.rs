@@ -11,6 +11,7 @@
 
 #![deny(clippy::unwrap_used)]
 
+pub use sgplvm_capture as capture;
 pub use sgplvm_core as core;
 pub use sgplvm_core::{
     BackConstraint, Mat, ModelConfig, SharedGplvm, StopReason, TrainOptions, Validation,

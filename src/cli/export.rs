@@ -142,7 +142,7 @@ fn write_bvh(
         .iter()
         .map(|&i| std::array::from_fn(|j| body.positions[(i, j)]))
         .collect();
-    sgplvm::robots::capture::write_bvh(out, frame_time, &angles)?;
+    sgplvm::capture::write_bvh(out, frame_time, &angles)?;
     let which = match frames {
         FramesArg::Test => "test frames (one motion after another)",
         FramesArg::Train => "training frames (one after another)",

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use clap::Args;
-use sgplvm::csv::format_line;
-use sgplvm::files::atomic_write_with;
-use sgplvm::robots::capture::{
+use sgplvm::capture::{
     captures_to_dataset, import_bvh, ArmMap, CaptureSource, ImportOptions, Units, CAPTURE_METADATA,
     ELBOW_ANGLE_LIMIT_DEG, MEDIAN_RESIDUAL_LIMIT_M, WORST_RESIDUAL_LIMIT_M,
 };
+use sgplvm::csv::format_line;
+use sgplvm::files::atomic_write_with;
 use sgplvm::robots::dataset::write_demonstrations_with_metadata;
 use sgplvm::robots::joint_state::Compression;
 use sgplvm::robots::series::seconds_from_ns;

@@ -334,7 +334,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
                 map: args
                     .map
                     .as_deref()
-                    .map(sgplvm::robots::capture::ArmMap::read)
+                    .map(sgplvm::capture::ArmMap::read)
                     .transpose()?,
             }),
             _ => None,
@@ -459,7 +459,7 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
     let (series, source) = match (&args.input, &args.bvh) {
         (Some(input), _) => (human_series(input, &args.topic)?, input.clone()),
         (None, Some(bvh)) => {
-            let m = sgplvm::robots::capture::import_bvh(bvh, &Default::default())?;
+            let m = sgplvm::capture::import_bvh(bvh, &Default::default())?;
             let values = (0..m.positions.nrows())
                 .flat_map(|i| (0..m.positions.ncols()).map(move |j| (i, j)))
                 .map(|(i, j)| m.positions[(i, j)])

@@ -248,7 +248,7 @@ type CaptureArrays<'py> = (
 );
 
 /// Imports a BVH motion capture as the human model's 18 joint angles (see
-/// `sgplvm_robots::capture`): `(times_ns, joint_names, positions, source_json)`.
+/// `sgplvm_capture`): `(times_ns, joint_names, positions, source_json)`.
 #[pyfunction]
 #[pyo3(signature = (path, rate=40.0, map=None, units=None, start=None, end=None))]
 pub fn read_bvh<'py>(
@@ -260,7 +260,7 @@ pub fn read_bvh<'py>(
     start: Option<f64>,
     end: Option<f64>,
 ) -> PyResult<CaptureArrays<'py>> {
-    use sgplvm_robots::capture::{import_bvh, ArmMap, CaptureError, ImportOptions, Units};
+    use sgplvm_capture::{import_bvh, ArmMap, CaptureError, ImportOptions, Units};
     guarded(|| {
         let units = units
             .map(|u| {
@@ -282,7 +282,7 @@ pub fn read_bvh<'py>(
         let capture = py
             .detach(|| import_bvh(&path, &options))
             .map_err(|e| match e {
-                CaptureError::Bvh(sgplvm_robots::capture::BvhError::Io { .. }) => {
+                CaptureError::Bvh(sgplvm_capture::BvhError::Io { .. }) => {
                     PyOSError::new_err(e.to_string())
                 }
                 other => PyValueError::new_err(other.to_string()),

@@ -19,6 +19,31 @@ pub const DATASET_METADATA: &str = "sgplvm.dataset";
 /// Version of the JSON layout stored under [`DATASET_METADATA`].
 pub const DATASET_FORMAT_VERSION: u32 = 1;
 
+/// Name of the MCAP Metadata record that says where imported frames came from (key `json`: a
+/// JSON list, one object per captured file with at least its `file`). The capture crate writes
+/// and reads its meaning; here it is carried through unchanged, and each entry's `file` names
+/// the segments made from it.
+pub const CAPTURE_METADATA: &str = "sgplvm.capture";
+
+/// The entries of `path`'s [`CAPTURE_METADATA`] record, as JSON objects (empty if it has none).
+pub fn capture_records(
+    path: impl AsRef<std::path::Path>,
+) -> Result<Vec<serde_json::Map<String, serde_json::Value>>> {
+    let path = path.as_ref();
+    let read = crate::joint_state::read_topics(path, &[])?;
+    match read
+        .metadata
+        .get(CAPTURE_METADATA)
+        .and_then(|m| m.get("json"))
+    {
+        None => Ok(Vec::new()),
+        Some(json) => serde_json::from_str(json).map_err(|e| JointStateError::BadDatasetMetadata {
+            path: path.to_path_buf(),
+            detail: format!("record `{CAPTURE_METADATA}` is not a list of JSON objects: {e}"),
+        }),
+    }
+}
+
 /// One body's joint values over the dataset's frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyData {

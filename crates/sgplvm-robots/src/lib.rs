@@ -1,10 +1,14 @@
-//! The robotic half of sgplvm: URDF bodies, kinematics, MCAP demonstrations and the
-//! demonstration generator. Knows nothing of statistics.
+//! The robotic half of sgplvm: bodies from URDF (the shipped robots, the human model, and any
+//! maker's robot with its [`anatomy`]: arms, held joints, body frame, reach), kinematics and
+//! differential IK ([`kinematics`]), retargeting a person's arm postures onto a robot
+//! ([`retarget`]), the live safety step ([`safety`]), physics replay ([`physics`]), MCAP
+//! demonstrations and scenes ([`dataset`], [`joint_state`], [`scene`]) and the demonstration
+//! generator ([`generator`]). Knows nothing of statistics, nor of motion capture (the
+//! `sgplvm-capture` crate turns captures into the human model's angles).
 
 #![deny(clippy::unwrap_used)]
 
 pub mod anatomy;
-pub mod capture;
 pub mod dataset;
 pub mod joint_state;
 

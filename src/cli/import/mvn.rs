@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
-use sgplvm::robots::capture::{ArmFitResult, CaptureSource, CapturedMotion, FitReport};
+use sgplvm::capture::{ArmFitResult, CaptureSource, CapturedMotion, FitReport};
 use sgplvm::robots::series::median;
 use sgplvm::robots::Robot;
 use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, DEFAULT_PORT};

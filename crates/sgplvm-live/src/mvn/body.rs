@@ -8,7 +8,7 @@
 //! orientation is the identity with the axes x forward, y left, z up (§2.6.2: "a perfect/ideal
 //! T-pose, where all segment orientations are set to identity"). So:
 //!
-//! - `T8`'s frame is the body axes of [`Skeleton`](sgplvm_robots::capture::Skeleton) (the
+//! - `T8`'s frame is the body axes of [`Skeleton`](sgplvm_capture::Skeleton) (the
 //!   torso the clavicles hang from, x forward, y left, z up, as the human model's `T8`);
 //! - an arm point in body axes is `R_T8ᵀ (p − p_T8)`;
 //! - a segment's turn from its rest orientation, in body axes, is `R_T8ᵀ R_segment` (its
@@ -33,7 +33,7 @@
 //! //   target = arm_target(&arm, side, true, &calibration); fit = model.fit(side, &target, prev)
 //! ```
 //!
-//! `arm_target` and `calibrate` are private to `sgplvm_robots::capture::import` today (and the
+//! `arm_target` and `calibrate` are private to `sgplvm_capture::import` today (and the
 //! mirror helpers `pub(crate)`); the node needs them public, or a public
 //! `fit_arm(&ArmPose, &ArmPose rest, side, prev)` in that crate, to call the very steps a BVH
 //! frame goes through. This module's tests run those steps on an MVN frame.
@@ -41,7 +41,7 @@
 use std::collections::BTreeMap;
 
 use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
-use sgplvm_robots::capture::ArmPose;
+use sgplvm_capture::ArmPose;
 use sgplvm_robots::Side;
 
 use super::datagram::{MvnPose, PoseType, SegmentCounts, SegmentPose};

@@ -1,5 +1,5 @@
 //! The human model's angles as MVN frames, and MVN frames back into the human model's angles
-//! through the importer's per-frame fit ([`sgplvm_robots::capture::PoseFitter`]): what `sgplvm
+//! through the importer's per-frame fit ([`sgplvm_capture::PoseFitter`]): what `sgplvm
 //! replay --as mvn` sends and what `sgplvm teleop --input mvn` takes.
 //!
 //! A frame's segments are the human model's links at the frame's angles — `T8` its root, each
@@ -9,7 +9,7 @@
 //! arms abducted 90°, nothing else bent).
 
 use nalgebra::{Isometry3, Rotation3};
-use sgplvm_robots::capture::{ArmFitResult, HumanArms, PoseFitter};
+use sgplvm_capture::{ArmFitResult, HumanArms, PoseFitter};
 use sgplvm_robots::{Robot, Side};
 
 use super::body::WorldPose;

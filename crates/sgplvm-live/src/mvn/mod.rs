@@ -6,7 +6,7 @@
 //! - [`receiver`]: the UDP side, [`MvnReceiver`] (a `mio` source keeping the newest complete
 //!   frame) and [`MvnSender`] (what `sgplvm replay --as mvn` sends with);
 //! - [`body`]: a frame as named segment world poses and as the capture importer's per-arm
-//!   [`ArmPose`](sgplvm_robots::capture::ArmPose).
+//!   [`ArmPose`](sgplvm_capture::ArmPose).
 //!
 //! # The specification followed
 //!

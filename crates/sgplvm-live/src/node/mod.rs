@@ -98,7 +98,7 @@ pub struct TeleopOptions {
 pub struct TfInputOptions {
     /// The arms' frames named explicitly (as `sgplvm import --map`); `None`: by the importer's
     /// naming schemes.
-    pub map: Option<sgplvm_robots::capture::ArmMap>,
+    pub map: Option<sgplvm_capture::ArmMap>,
 }
 
 impl Default for TeleopOptions {

@@ -9,7 +9,7 @@ use ros2_client::dds::{Node, Subscription};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::QosProfile;
 use serde::Serialize;
-use sgplvm_robots::capture::ArmMap;
+use sgplvm_capture::ArmMap;
 
 use super::dds::{dds, type_of};
 use super::topic_name;

@@ -9,7 +9,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use nalgebra::{Rotation3, Vector3};
-use sgplvm_robots::capture::{
+use sgplvm_capture::{
     ArmFitResult, ArmMap, Bvh, BvhJoint, CaptureError, Channel, HumanArms, PoseFitter, Skeleton,
 };
 use sgplvm_robots::{Robot, Side};

@@ -9,7 +9,7 @@
 //! - [`fit`]: the tree through the capture importer's own steps: the frames named as `sgplvm
 //!   import` names a file's joints (its naming schemes, namespace prefixes such as `actor1/`,
 //!   or `--map FILE`), the tree's rest pose (every rotation the identity) the calibration, and
-//!   each complete set fitted by the importer's [`PoseFitter`](sgplvm_robots::capture::PoseFitter);
+//!   each complete set fitted by the importer's [`PoseFitter`](sgplvm_capture::PoseFitter);
 //! - [`sets`]: which complete set to fit next, and what became of the others;
 //! - [`HumanTf`]: the human model's angles as a TF tree (what `replay --as tf` publishes).
 //!

@@ -186,7 +186,7 @@ fn frames_no_scheme_names_are_refused_naming_the_frames_found() {
         assert!(e.contains(frame), "{frame} not in: {e}");
     }
     // A map naming them finds them, with the importer's map keys.
-    let map: sgplvm_robots::capture::ArmMap = serde_json::from_str(
+    let map: sgplvm_capture::ArmMap = serde_json::from_str(
         r#"{"jLeftC7Shoulder": "PortShoulder", "jLeftShoulder": "PortUpperArm", "jLeftElbow": "PortForeArm", "jLeftWrist": "PortHand",
             "jRightC7Shoulder": "StarboardShoulder", "jRightShoulder": "StarboardUpperArm", "jRightElbow": "StarboardForeArm", "jRightWrist": "StarboardHand"}"#,
     )
@@ -196,7 +196,7 @@ fn frames_no_scheme_names_are_refused_naming_the_frames_found() {
     let fitted = identify(&b, Some(&map)).unwrap();
     assert_eq!(fitted.scheme(), "map file");
     // A map naming a frame not there says so, listing the frames.
-    let wrong: sgplvm_robots::capture::ArmMap = serde_json::from_str(
+    let wrong: sgplvm_capture::ArmMap = serde_json::from_str(
         r#"{"jLeftShoulder": "Nope", "jLeftElbow": "PortForeArm", "jLeftWrist": "PortHand"}"#,
     )
     .unwrap();

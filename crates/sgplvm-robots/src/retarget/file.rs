@@ -11,9 +11,9 @@ use serde::Serialize;
 use super::split::{split_into_blocks, SplitOptions, SplitRule, SplitSummary};
 use super::{retarget, ReachReport, RetargetError, RetargetOptions};
 use crate::anatomy::Anatomy;
-use crate::capture::{read_capture_sources, sources_json, CaptureSource, CAPTURE_METADATA};
 use crate::dataset::{
-    concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset,
+    capture_records, concatenate, load_demonstrations, write_demonstrations_with_metadata, Dataset,
+    CAPTURE_METADATA,
 };
 use crate::joint_state::Compression;
 
@@ -48,18 +48,22 @@ pub struct FilesRetargeted {
     pub test_files: Vec<String>,
 }
 
-/// The demonstrations of `demos`, one after another, with their capture sources and the stem
+/// One entry of a file's [`CAPTURE_METADATA`] record: where a captured file's frames came from
+/// (the capture crate's `CaptureSource`), carried through unchanged.
+pub type CaptureRecord = serde_json::Map<String, serde_json::Value>;
+
+/// The demonstrations of `demos`, one after another, with their capture records and the stem
 /// of each segment's file.
 pub fn read_human(
     demos: &[PathBuf],
-) -> Result<(Dataset, Vec<CaptureSource>, Vec<String>), RetargetError> {
+) -> Result<(Dataset, Vec<CaptureRecord>, Vec<String>), RetargetError> {
     let mut parts = Vec::with_capacity(demos.len());
-    let mut sources: Vec<CaptureSource> = Vec::new();
+    let mut sources: Vec<CaptureRecord> = Vec::new();
     let mut stems = Vec::new();
     let invalid = |e: &dyn std::fmt::Display| RetargetError::Invalid(e.to_string());
     for path in demos {
         let mut ds = load_demonstrations(path).map_err(|e| invalid(&e))?;
-        let mut file_sources = read_capture_sources(path).map_err(|e| invalid(&e))?;
+        let mut file_sources = capture_records(path).map_err(|e| invalid(&e))?;
         files_again(&mut ds, file_sources.len());
         // Each input file is one part; its capture files (if it was imported from several)
         // stay its segments.
@@ -109,9 +113,10 @@ pub fn retarget_files(
     let mut extra = Vec::new();
     if !sources.is_empty() {
         let mut m = BTreeMap::new();
-        let json =
-            sources_json(sources.iter()).map_err(|e| RetargetError::Invalid(e.to_string()))?;
-        m.insert("json".to_string(), json);
+        m.insert(
+            "json".to_string(),
+            serde_json::Value::from(sources).to_string(),
+        );
         extra.push((CAPTURE_METADATA.to_string(), m));
     }
     let mut m = BTreeMap::new();
@@ -167,7 +172,7 @@ fn files_again(ds: &mut Dataset, files: usize) {
 
 /// Names of the files behind the segments of one input: the capture files it was imported
 /// from, or the input file itself.
-fn file_stems(ds: &Dataset, sources: &[CaptureSource], path: &Path) -> Vec<String> {
+fn file_stems(ds: &Dataset, sources: &[CaptureRecord], path: &Path) -> Vec<String> {
     let stem = |p: &str| {
         Path::new(p)
             .file_stem()
@@ -175,7 +180,10 @@ fn file_stems(ds: &Dataset, sources: &[CaptureSource], path: &Path) -> Vec<Strin
             .unwrap_or_else(|| p.to_string())
     };
     if sources.len() == ds.segments.len() {
-        sources.iter().map(|s| stem(&s.file)).collect()
+        sources
+            .iter()
+            .map(|s| stem(s.get("file").and_then(|f| f.as_str()).unwrap_or_default()))
+            .collect()
     } else {
         let base = stem(&path.display().to_string());
         (0..ds.segments.len())

@@ -94,7 +94,7 @@ fn mvn_frame_gives_the_importers_arm_poses() {
 
 #[test]
 fn mvn_frame_through_the_importers_arm_fit() {
-    use sgplvm_robots::capture::{HumanArms, PoseFitter};
+    use sgplvm_capture::{HumanArms, PoseFitter};
     use sgplvm_robots::Side;
     // The importer's own per-frame fit, on an MVN frame.
     let model = HumanArms::new(&sgplvm_robots::Robot::builtin("human").unwrap()).unwrap();

@@ -105,7 +105,7 @@ fn main() {
     let rows: Vec<[f64; 18]> = (0..6)
         .map(|f| std::array::from_fn(|j| 0.1 * ((f * 18 + j) as f64 * 0.7).sin()))
         .collect();
-    sgplvm_robots::capture::write_bvh(bvh.join("mvn.bvh"), 1.0 / 40.0, &rows).expect("write bvh");
+    sgplvm_capture::write_bvh(bvh.join("mvn.bvh"), 1.0 / 40.0, &rows).expect("write bvh");
     let mut cmu = String::from("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\nJOINT Spine1\n{\nOFFSET 0 5 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\nJOINT Neck\n{\nOFFSET 0 2 0\nCHANNELS 3 Zrotation Yrotation Xrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n");
     for (side, x) in [("Left", 1.0), ("Right", -1.0)] {
         for (name, len) in [("Shoulder", 1.0), ("Arm", 3.5), ("ForeArm", 5.4), ("Hand", 3.7)] {

@@ -17,7 +17,7 @@
 use std::path::PathBuf;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
-use sgplvm_robots::capture::{import_parsed, Bvh, CapturedMotion, ImportOptions};
+use sgplvm_capture::{import_parsed, Bvh, CapturedMotion, ImportOptions};
 use sgplvm_robots::Robot;
 
 /// A rotation about body axis 0, 1, 2 (x forward, y left, z up) by `a` radians.

@@ -30,9 +30,9 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::bvh::axis_rotation;
-use crate::kinematics::Chain;
-use crate::{Robot, RobotError, Side};
+use crate::bvh::axis_rotation;
+use sgplvm_robots::kinematics::Chain;
+use sgplvm_robots::{Robot, RobotError, Side};
 
 /// Angles of one arm in the model's order: elevation, protraction, flexion, abduction,
 /// rotation, elbow flexion, pronation, wrist flexion, wrist deviation.
@@ -161,13 +161,13 @@ impl HumanArms {
 
     /// Joint limits of arm `side`.
     pub fn limits(&self, side: Side) -> &[(f64, f64); 9] {
-        &self.limits[super::skeleton::side_index(side)]
+        &self.limits[crate::skeleton::side_index(side)]
     }
 
     /// Elbow and wrist of arm `side` at `angles` by the model's forward kinematics (torso
     /// frame): the check of a fit, independent of the closed form.
     pub fn elbow_and_wrist(&self, side: Side, angles: &ArmAngles) -> (Vector3<f64>, Vector3<f64>) {
-        let i = super::skeleton::side_index(side);
+        let i = crate::skeleton::side_index(side);
         let e = self.elbow_chain[i].forward(&angles[..self.elbow_chain[i].dof()]);
         let w = self.wrist_chain[i].forward(&angles[..self.wrist_chain[i].dof()]);
         (e.translation.vector, w.translation.vector)

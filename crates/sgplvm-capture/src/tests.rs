@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 
 use super::*;
-use crate::Robot;
+use sgplvm_robots::Robot;
 
 /// Writes `rows` as a BVH in a fresh temporary folder and imports it.
 fn round_trip(rows: &[[f64; 18]], frame_time: f64, options: &ImportOptions) -> CapturedMotion {

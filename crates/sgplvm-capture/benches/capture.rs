@@ -10,7 +10,7 @@
 //! throughput in frames per second).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use sgplvm_robots::capture::{import_parsed, write_bvh, Bvh, ImportOptions};
+use sgplvm_capture::{import_parsed, write_bvh, Bvh, ImportOptions};
 use sgplvm_robots::dataset::load_demonstrations;
 use sgplvm_robots::retarget::{retarget, Match, Redundancy, RetargetOptions};
 use sgplvm_robots::Anatomy;

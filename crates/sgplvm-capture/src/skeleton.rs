@@ -10,7 +10,7 @@
 //!
 //! The upper torso is the joint the clavicles hang from. Its body axes (x forward, y left,
 //! z up, those of the human model's `T8`) come from the skeleton's geometry, whatever its zero
-//! pose looks like ([`super::axes`]): left from the right clavicle's root to the left one's,
+//! pose looks like ([`crate::axes`]): left from the right clavicle's root to the left one's,
 //! up from the pelvis to the neck along the spine. They are fixed in the torso, so walking,
 //! turning and bending of the whole body do not reach the arms.
 
@@ -19,10 +19,10 @@ use std::collections::BTreeMap;
 use nalgebra::{Rotation3, Vector3};
 use serde::Deserialize;
 
-use super::axes::body_axes;
-use super::bvh::Bvh;
-use super::CaptureError;
-use crate::Side;
+use crate::axes::body_axes;
+use crate::bvh::Bvh;
+use crate::CaptureError;
+use sgplvm_robots::Side;
 
 /// One naming scheme of the four arm segments, without the side.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

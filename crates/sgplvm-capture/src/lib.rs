@@ -1,5 +1,7 @@
-//! Motion capture in: a BVH file becomes the human model's 18 joint angles at the
-//! teleoperation rate, with a measure of how faithfully they reproduce the capture.
+//! The human side of sgplvm: motion capture in. A BVH file, or a live stream of a skeleton's
+//! segments (an Xsens MVN suit, a ROS 2 TF tree), becomes the human model's 18 joint angles,
+//! with a measure of how faithfully they reproduce the capture. Knows nothing of robots but the
+//! human model it fits (the robots crate's `human` body) and the demonstration files it writes.
 //!
 //! 1. [`bvh`] reads the file (any channel order, 6-channel joints, End Sites).
 //! 2. [`skeleton`] finds the arms by their names (or a map file) and expresses every frame in
@@ -14,6 +16,8 @@
 //! [`import_bvh`] runs the four steps on one file; [`captures_to_dataset`] joins imported files
 //! into a [`Dataset`] (one segment per file) whose MCAP carries every file's [`CaptureSource`]
 //! in its [`CAPTURE_METADATA`] record.
+
+#![deny(clippy::unwrap_used)]
 
 pub mod axes;
 pub mod bvh;
@@ -37,13 +41,14 @@ pub use skeleton::{ArmMap, ArmPose, Skeleton, SCHEMES};
 pub use stream::{ArmFitResult, PoseFitter};
 pub use write::write_bvh;
 
-use crate::dataset::{concatenate, BodyData, Dataset};
-use crate::joint_state::{JointStateError, DEFAULT_RATE_HZ};
-use crate::RobotError;
+use sgplvm_robots::dataset::{concatenate, BodyData, Dataset};
+use sgplvm_robots::joint_state::{JointStateError, DEFAULT_RATE_HZ};
+use sgplvm_robots::RobotError;
 
 /// Name of the MCAP metadata record holding the [`CaptureSource`] of every imported file
-/// (key `json`: a JSON list, one entry per segment).
-pub const CAPTURE_METADATA: &str = "sgplvm.capture";
+/// (key `json`: a JSON list, one entry per segment); the robots crate carries it through
+/// retargeting unchanged.
+pub use sgplvm_robots::dataset::CAPTURE_METADATA;
 
 /// Most frames one import writes (18 angles each).
 pub const MAX_OUTPUT_FRAMES: usize = 10_000_000;
@@ -337,22 +342,19 @@ pub fn sources_json<'a>(
 /// if it has none).
 pub fn read_capture_sources(path: impl AsRef<Path>) -> Result<Vec<CaptureSource>, CaptureError> {
     let path = path.as_ref();
-    let read = crate::joint_state::read_topics(path, &[])?;
-    match read
-        .metadata
-        .get(CAPTURE_METADATA)
-        .and_then(|m| m.get("json"))
-    {
-        None => Ok(Vec::new()),
-        Some(json) => serde_json::from_str(json).map_err(|e| {
-            CaptureError::Demonstrations(JointStateError::BadDatasetMetadata {
-                path: path.to_path_buf(),
-                detail: format!(
-                    "record `{CAPTURE_METADATA}` is not a list of capture sources: {e}"
-                ),
+    sgplvm_robots::dataset::capture_records(path)?
+        .into_iter()
+        .map(|record| {
+            serde_json::from_value(serde_json::Value::Object(record)).map_err(|e| {
+                CaptureError::Demonstrations(JointStateError::BadDatasetMetadata {
+                    path: path.to_path_buf(),
+                    detail: format!(
+                        "record `{CAPTURE_METADATA}` is not a list of capture sources: {e}"
+                    ),
+                })
             })
-        }),
-    }
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -6,15 +6,15 @@ use std::path::Path;
 
 use nalgebra::{DMatrix, Vector3};
 
-use super::fit::HumanArms;
-use super::skeleton::Skeleton;
-use super::stream::PoseFitter;
-use super::{
+use crate::fit::HumanArms;
+use crate::skeleton::Skeleton;
+use crate::stream::PoseFitter;
+use crate::{
     Bvh, CaptureError, CaptureSource, CapturedMotion, FitReport, ImportOptions, Units,
     MAX_OUTPUT_FRAMES,
 };
-use crate::series::median;
-use crate::{Robot, Side};
+use sgplvm_robots::series::median;
+use sgplvm_robots::{Robot, Side};
 
 /// Imports one BVH file (see the module documentation).
 pub fn import_bvh(

@@ -1,5 +1,5 @@
 //! The human model's motion as a BVH file, for any animation tool (Blender, MotionBuilder)
-//! and as the way back into [`super::import_bvh`].
+//! and as the way back into [`crate::import_bvh`].
 //!
 //! The skeleton follows Xsens MVN's segment names (`T8`, `Neck`, `LeftShoulder` the clavicle,
 //! `LeftUpperArm`, `LeftForeArm`, `LeftHand`), centimetres, y up, z forward, rotations as
@@ -11,7 +11,7 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::joint_state::{JointStateError, Result};
+use sgplvm_robots::joint_state::{JointStateError, Result};
 
 /// Body axes (x forward, y left, z up) to the file's (x left, y up, z forward).
 fn to_file() -> Matrix3<f64> {
@@ -105,7 +105,7 @@ pub fn write_bvh(path: impl AsRef<Path>, frame_time: f64, angles: &[[f64; 18]]) 
         text.push_str(&line.join(" "));
         text.push('\n');
     }
-    let tmp = crate::files::temporary_path(path);
+    let tmp = sgplvm_robots::files::temporary_path(path);
     let io = |action: &'static str, source: std::io::Error| JointStateError::Io {
         path: path.to_path_buf(),
         action,
@@ -119,8 +119,8 @@ pub fn write_bvh(path: impl AsRef<Path>, frame_time: f64, angles: &[[f64; 18]]) 
 
 #[cfg(test)]
 mod tests {
-    use super::super::bvh::axis_rotation;
     use super::*;
+    use crate::bvh::axis_rotation;
 
     #[test]
     fn zxy_round_trips() {

@@ -7,10 +7,10 @@
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::fit::{mirror_rotation, mirror_vector, ArmAngles, ArmTarget, HumanArms, RestFrames};
-use super::skeleton::ArmPose;
-use super::{ELBOW_ANGLE_LIMIT_DEG, WORST_RESIDUAL_LIMIT_M};
-use crate::Side;
+use crate::fit::{mirror_rotation, mirror_vector, ArmAngles, ArmTarget, HumanArms, RestFrames};
+use crate::skeleton::ArmPose;
+use crate::{ELBOW_ANGLE_LIMIT_DEG, WORST_RESIDUAL_LIMIT_M};
+use sgplvm_robots::Side;
 
 /// One arm's calibration: its rest frames in the left arm's convention.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -25,9 +25,9 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::bvh::Bvh;
-use super::skeleton::{normalise, ArmJoints};
-use super::CaptureError;
+use crate::bvh::Bvh;
+use crate::skeleton::{normalise, ArmJoints};
+use crate::CaptureError;
 
 /// Fewest arm lengths (upper arm plus forearm) apart that two joints must be for the line
 /// between them to give the left axis: closer roots of the clavicles would let a millimetre
