@@ -10,6 +10,7 @@ use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
+use sgplvm::robots::dataset::CAPTURE_METADATA;
 use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
@@ -27,6 +28,21 @@ impl DataArg {
     /// The demonstrations named by `--data`, or the shipped ones.
     pub fn load(&self) -> Result<Demonstrations> {
         Ok(pipeline::load(self.data.as_deref())?)
+    }
+
+    /// Attaches where `--data`'s frames were captured — each capture's source with the
+    /// person's calibration, under the record's name ([`CAPTURE_METADATA`]) — to `model`, so
+    /// that `teleop` fits a stream of the same person as the data was imported.
+    pub fn annotate(&self, model: &mut SharedGplvm) -> Result<()> {
+        let Some(path) = &self.data else {
+            return Ok(());
+        };
+        let records = sgplvm::robots::dataset::capture_records(path)
+            .with_context(|| path.display().to_string())?;
+        if !records.is_empty() {
+            model.annotate(CAPTURE_METADATA, serde_json::Value::from(records));
+        }
+        Ok(())
     }
 }
 

@@ -19,6 +19,7 @@ use sgplvm::robots::joint_state::Compression;
 use sgplvm::robots::series::seconds_from_ns;
 
 use super::args::JsonArg;
+use super::calibration::CalibrationArgs;
 
 mod mvn;
 
@@ -65,6 +66,8 @@ pub struct ImportArgs {
     #[arg(long, value_name = "SECONDS")]
     to: Option<f64>,
     #[command(flatten)]
+    calibration: CalibrationArgs,
+    #[command(flatten)]
     json: JsonArg,
 }
 
@@ -80,6 +83,7 @@ pub fn run(args: ImportArgs) -> Result<()> {
         units: args.units,
         from_s: args.from,
         to_s: args.to,
+        calibration: args.calibration.options(&[])?.offered,
         ..ImportOptions::default()
     };
     if !(args.rate.is_finite() && args.rate > 0.0) {
@@ -91,7 +95,12 @@ pub fn run(args: ImportArgs) -> Result<()> {
             max_frames: args.max_frames,
             seconds: args.seconds,
         };
-        captures.push(mvn::record(addr, args.rate, &stop)?);
+        captures.push(mvn::record(
+            addr,
+            args.rate,
+            &stop,
+            args.calibration.options(&[])?,
+        )?);
     }
     for file in &args.files {
         captures.push(import_bvh(file, &options)?);
@@ -121,6 +130,19 @@ pub fn run(args: ImportArgs) -> Result<()> {
             &dataset.times_ns,
             &dataset.human.positions,
         )?;
+    }
+    if let Some(out) = args.calibration.out() {
+        match captures.as_slice() {
+            [one] => match &one.source.calibration {
+                Some(c) => c.write(out)?,
+                None => bail!("--calibration-out: the capture holds no calibration"),
+            },
+            _ => bail!(
+                "--calibration-out {}: {} captures, each with its person's calibration; import one at a time (the MCAP keeps every one: --calibration takes it)",
+                out.display(),
+                captures.len()
+            ),
+        }
     }
     if args.json.json {
         let sources: Vec<&CaptureSource> = captures.iter().map(|c| &c.source).collect();

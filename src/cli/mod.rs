@@ -4,6 +4,7 @@
 
 mod args;
 mod body;
+mod calibration;
 mod demo;
 mod evaluate;
 mod experiment;

@@ -13,6 +13,7 @@ use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, ReplayOptions, T
 
 use super::args::{load_model, JsonArg};
 use super::body::BodyArgs;
+use super::calibration::CalibrationArgs;
 
 #[derive(Args)]
 pub struct TeleopArgs {
@@ -44,6 +45,8 @@ pub struct TeleopArgs {
     /// `sgplvm import --map` takes (e.g. {"jLeftShoulder": "L_UpperArm", ...}).
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
+    #[command(flatten)]
+    calibration: CalibrationArgs,
     /// The command's message: joint-state (sensor_msgs/JointState on /ROBOT/joint_command),
     /// forward (std_msgs/Float64MultiArray for ros2_control's forward position controller),
     /// trajectory (trajectory_msgs/JointTrajectory, one point one frame ahead) or xbot
@@ -339,6 +342,10 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             }),
             _ => None,
         },
+        calibration: {
+            let models: Vec<&sgplvm::SharedGplvm> = models.iter().map(|m| m.as_ref()).collect();
+            args.calibration.options(&models)?
+        },
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(
@@ -361,6 +368,13 @@ pub fn run(args: TeleopArgs) -> Result<()> {
     let stop = stop_flag()?;
     // What happens (states, warnings) on stderr whatever the output: --json is the summary.
     let summary = sgplvm_live::teleop(drives, &options, &stop, &mut |line| eprintln!("{line}"))?;
+    args.calibration.write_used(
+        summary
+            .tf
+            .as_ref()
+            .and_then(|t| t.person.as_ref())
+            .or(summary.mvn.as_ref().and_then(|m| m.person.as_ref())),
+    )?;
     if args.json.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {

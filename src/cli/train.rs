@@ -30,6 +30,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
         args.model.budget.max_iters,
         |cb| demos.train(&args.robots, &config, &options, validation.as_ref(), cb),
     )?;
+    let mut model = model;
+    args.data.annotate(&mut model)?;
     model.save(&args.output.out)?;
     report::training(&model, seconds, &args.output.out, args.output.json.json);
     Ok(())

@@ -4,8 +4,9 @@
 
 use std::path::Path;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::DMatrix;
 
+use crate::calibration::{Calibration, HingeEstimate, Twist, UntoldTwist};
 use crate::fit::HumanArms;
 use crate::skeleton::Skeleton;
 use crate::stream::PoseFitter;
@@ -50,7 +51,13 @@ pub fn import_parsed(
     }
     let skeleton = Skeleton::identify(bvh, options.map.as_ref(), file)?;
     let human = Robot::builtin("human")?;
-    let mut fitter = fitter(bvh, &skeleton, HumanArms::new(&human)?);
+    let model = HumanArms::new(&human)?;
+    let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
+    let calibration = match options.calibration.as_slice() {
+        [] => calibrate(bvh, &skeleton, &model, file, units),
+        given => given_calibration(bvh, &skeleton, given, file)?,
+    };
+    let mut fitter = PoseFitter::new(model, &calibration);
     let dt = bvh.frame_time;
     let (first, last) = import_span(bvh, options, &bad)?;
     let fits = fit_frames(bvh, &skeleton, &mut fitter, first, last);
@@ -61,7 +68,6 @@ pub fn import_parsed(
     // Resample onto the output clock.
     let span = (last - first - start_row) as f64 * dt;
     let (out, times_ns) = resample(&fits.angles, start_row, dt, span, options, &bad)?;
-    let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
     Ok(CapturedMotion {
         times_ns,
         joint_names,
@@ -80,49 +86,72 @@ pub fn import_parsed(
             arm_length: skeleton.arm_length * units.map(Units::metres).unwrap_or(1.0),
             rate_hz: options.rate_hz,
             fit,
+            calibration: Some(calibration),
         },
     })
 }
 
-/// The fit of the file's frames, calibrated on its rest pose (and, where that pose leaves the
-/// shoulder's twist untold, on the elbow's hinge in the motion).
-fn fitter(bvh: &Bvh, skeleton: &Skeleton, model: HumanArms) -> PoseFitter {
+/// The calibration of the file's skeleton: its rest pose, and where that leaves an upper arm's
+/// twist untold, the elbow's hinge over the file's motion (at most [`HINGE_FRAMES`] frames,
+/// evenly spaced).
+fn calibrate(
+    bvh: &Bvh,
+    skeleton: &Skeleton,
+    model: &HumanArms,
+    file: &str,
+    units: Option<Units>,
+) -> Calibration {
     let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
     let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
-    PoseFitter::new(model, [&rest[0], &rest[1]], has_clavicle, &|side| {
-        elbow_hinge(bvh, skeleton, side)
-    })
-}
-
-/// Most frames [`elbow_hinge`] looks at (evenly spaced over the file).
-const HINGE_FRAMES: usize = 2000;
-
-/// Where the capture's elbow of arm `side` bends the forearm, as a direction in the upper arm's
-/// rest orientation (body axes, the arm's own side): the forearm's part across the upper arm,
-/// taken back through the upper arm's turn from its rest, summed over the frames in which the
-/// elbow is bent by more than 6° (so the more bent weigh more); `None` if it never bends that
-/// far or bends no consistent way (the sum less than half the summed lengths).
-fn elbow_hinge(bvh: &Bvh, skeleton: &Skeleton, side: Side) -> Option<Vector3<f64>> {
-    let frames = bvh.frames();
-    let step = frames.div_ceil(HINGE_FRAMES).max(1);
-    let mut sum = Vector3::zeros();
-    let mut total = 0.0;
-    for f in (0..frames).step_by(step) {
-        let pose = skeleton.arm_pose(bvh, bvh.frame(f), side);
-        let (Some(u), Some(w)) = (
-            (pose.elbow - pose.shoulder).try_normalize(1e-12),
-            (pose.wrist - pose.elbow).try_normalize(1e-12),
-        ) else {
-            continue;
-        };
-        let bend = w - u * w.dot(&u);
-        if bend.norm() > 0.1 {
-            sum += pose.upper_arm_turn.inverse() * bend;
-            total += bend.norm();
+    let mut hinge = HingeEstimate::new();
+    if Calibration::untold(model, [&rest[0], &rest[1]], has_clavicle)
+        .iter()
+        .any(|u| *u)
+    {
+        let frames = bvh.frames();
+        let step = frames.div_ceil(HINGE_FRAMES).max(1);
+        for f in (0..frames).step_by(step) {
+            let poses =
+                [Side::Left, Side::Right].map(|side| skeleton.arm_pose(bvh, bvh.frame(f), side));
+            hinge.add([&poses[0], &poses[1]]);
         }
     }
-    (total > 0.0 && sum.norm() > 0.5 * total).then(|| sum.normalize())
+    Calibration::from_rest(
+        model,
+        [&rest[0], &rest[1]],
+        has_clavicle,
+        UntoldTwist {
+            hinge: Some(&hinge),
+            otherwise: Twist::Assumed,
+        },
+        &format!("import of {file}"),
+        &skeleton.scheme,
+        units.map(Units::metres),
+    )
 }
+
+/// Of the calibrations given for the file, the one whose rest pose is the file's.
+fn given_calibration(
+    bvh: &Bvh,
+    skeleton: &Skeleton,
+    given: &[Calibration],
+    file: &str,
+) -> Result<Calibration, CaptureError> {
+    let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
+    let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
+    crate::calibration::choose(given, [&rest[0], &rest[1]], has_clavicle)
+        .cloned()
+        .map_err(|why| CaptureError::Calibration {
+            file: file.to_string(),
+            message: format!(
+                "no calibration given is this capture's person: {}",
+                why.join("; ")
+            ),
+        })
+}
+
+/// Most frames the elbow's hinge is read from (evenly spaced over the file).
+const HINGE_FRAMES: usize = 2000;
 
 /// The first and last frame of the span to import (at least two frames).
 fn import_span(

@@ -21,9 +21,12 @@
 
 pub mod axes;
 pub mod bvh;
+pub mod calibration;
 pub mod fit;
+pub mod segments;
 pub mod skeleton;
 pub mod stream;
+pub mod stream_calibration;
 pub mod write;
 
 mod import;
@@ -35,10 +38,13 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 pub use bvh::{Bvh, BvhError, BvhJoint, Channel};
+pub use calibration::{Calibration, HingeEstimate, Twist};
 pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use import::{import_bvh, import_parsed};
-pub use skeleton::{ArmMap, ArmPose, Skeleton, SCHEMES};
-pub use stream::{ArmFitResult, PoseFitter};
+pub use segments::{ArmSegments, WorldPose};
+pub use skeleton::{tree_skeleton, ArmMap, ArmPose, Skeleton, TreeFrame, SCHEMES};
+pub use stream::{ArmFitResult, FrameFit, PoseFitter};
+pub use stream_calibration::{CalibrationProgress, StreamCalibration, StreamCalibrationOptions};
 pub use write::write_bvh;
 
 use sgplvm_robots::dataset::{concatenate, BodyData, Dataset};
@@ -96,6 +102,14 @@ pub enum CaptureError {
     #[error("{file}: {message}")]
     Options {
         /// The capture file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A calibration file is unreadable, or a calibration is not the capture's.
+    #[error("calibration {file}: {message}")]
+    Calibration {
+        /// The calibration's file (or the capture it was given for).
         file: String,
         /// What is wrong.
         message: String,
@@ -201,6 +215,10 @@ pub struct ImportOptions {
     pub to_s: Option<f64>,
     /// Timestamp of the first output frame, ns.
     pub start_time_ns: i64,
+    /// Calibrations to fit through: the one whose rest pose is the capture's (one made from
+    /// this skeleton, e.g. by an earlier import or a live session); a capture whose rest pose is
+    /// none of theirs is refused. Empty: calibrate on the capture itself.
+    pub calibration: Vec<Calibration>,
 }
 
 impl Default for ImportOptions {
@@ -212,6 +230,7 @@ impl Default for ImportOptions {
             from_s: None,
             to_s: None,
             start_time_ns: 1_700_000_000_000_000_000,
+            calibration: Vec::new(),
         }
     }
 }
@@ -289,6 +308,10 @@ pub struct CaptureSource {
     pub rate_hz: f64,
     /// The fit's residuals.
     pub fit: FitReport,
+    /// The person's calibration the frames were fitted through (absent in files imported
+    /// before calibrations were stored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<Calibration>,
 }
 
 /// One imported capture: the human's 18 joint angles at the asked rate.
@@ -355,6 +378,18 @@ pub fn read_capture_sources(path: impl AsRef<Path>) -> Result<Vec<CaptureSource>
             })
         })
         .collect()
+}
+
+/// The person calibrations in a list of capture sources (the JSON of a [`CAPTURE_METADATA`]
+/// record, as a model file carries its training data's); sources without one are skipped.
+pub fn calibrations_in(sources: &serde_json::Value) -> Result<Vec<Calibration>, String> {
+    let sources: Vec<CaptureSource> = serde_json::from_value(sources.clone())
+        .map_err(|e| format!("not a list of capture sources: {e}"))?;
+    let found: Vec<Calibration> = sources.into_iter().filter_map(|s| s.calibration).collect();
+    for c in &found {
+        c.validate()?;
+    }
+    Ok(found)
 }
 
 #[cfg(test)]

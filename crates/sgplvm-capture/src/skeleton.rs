@@ -14,13 +14,13 @@
 //! up from the pelvis to the neck along the spine. They are fixed in the torso, so walking,
 //! turning and bending of the whole body do not reach the arms.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 use nalgebra::{Rotation3, Vector3};
 use serde::Deserialize;
 
 use crate::axes::body_axes;
-use crate::bvh::Bvh;
+use crate::bvh::{Bvh, BvhJoint, Channel};
 use crate::CaptureError;
 use sgplvm_robots::Side;
 
@@ -408,6 +408,69 @@ impl Skeleton {
             None => rest.wrist + (rest.wrist - rest.elbow),
         };
         rest
+    }
+}
+
+/// One frame of a tree of named frames (a ROS 2 TF tree, a suit's segment hierarchy).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TreeFrame {
+    /// The frame's name.
+    pub name: String,
+    /// Its parent's name (`None` for a root).
+    pub parent: Option<String>,
+    /// Its origin in its parent's frame at rest (its newest translation).
+    pub offset: Vector3<f64>,
+}
+
+/// A tree of named frames as the skeleton a BVH file would declare, with no frames: every
+/// frame a joint (parents before children, roots first, each level in `frames`' order), its
+/// offset the translation to its parent, three rotation channels on every frame with a parent
+/// (none on a root). Frames on a loop or under a parent not in `frames` are left out. So a
+/// live tree goes through [`Skeleton::identify`] and [`Skeleton::arm_pose_with`] as a file's
+/// skeleton does.
+pub fn tree_skeleton(frames: &[TreeFrame]) -> Bvh {
+    let mut children: BTreeMap<&str, Vec<&TreeFrame>> = BTreeMap::new();
+    let mut queue: VecDeque<&TreeFrame> = VecDeque::new();
+    let known: std::collections::BTreeSet<&str> = frames.iter().map(|f| f.name.as_str()).collect();
+    for f in frames {
+        match f.parent.as_deref() {
+            Some(p) if known.contains(p) => children.entry(p).or_default().push(f),
+            _ => queue.push_back(f),
+        }
+    }
+    let mut joints: Vec<BvhJoint> = Vec::new();
+    let mut index: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut channels = 0;
+    while let Some(f) = queue.pop_front() {
+        if index.contains_key(f.name.as_str()) {
+            continue;
+        }
+        let parent = f.parent.as_deref().and_then(|p| index.get(p).copied());
+        let (offset, chans) = match parent {
+            Some(_) => (
+                f.offset,
+                vec![Channel::Zrotation, Channel::Yrotation, Channel::Xrotation],
+            ),
+            None => (Vector3::zeros(), Vec::new()),
+        };
+        index.insert(&f.name, joints.len());
+        joints.push(BvhJoint {
+            name: f.name.clone(),
+            parent,
+            offset,
+            first_channel: channels,
+            channels: chans.clone(),
+            end_site: None,
+            line: 0,
+        });
+        channels += chans.len();
+        queue.extend(children.get(f.name.as_str()).into_iter().flatten().copied());
+    }
+    Bvh {
+        joints,
+        frame_time: 0.025,
+        channels,
+        values: Vec::new(),
     }
 }
 

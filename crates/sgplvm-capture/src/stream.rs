@@ -1,63 +1,20 @@
-//! The per-frame fit of a capture, one frame at a time: each arm's calibration from its rest
-//! pose, then every frame's arm poses (shoulder, elbow, wrist, hand in the upper torso's body
+//! The per-frame fit of a capture, one frame at a time, through the person's
+//! [`Calibration`]: every frame's arm poses (shoulder, elbow, wrist, hand in the upper torso's body
 //! axes) turned into the human model's 18 angles, each arm continuing from its previous
 //! frame's angles, with how far the model lands from the capture. `sgplvm import` runs it over
 //! a file's frames; the live sources (Xsens MVN, TF skeletons) over a stream's: one fit for
 //! both.
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Rotation3;
 
-use crate::fit::{mirror_rotation, mirror_vector, ArmAngles, ArmTarget, HumanArms, RestFrames};
+use crate::calibration::{arm_target, mirrored, Calibration};
+use crate::fit::{ArmAngles, HumanArms};
 use crate::skeleton::ArmPose;
 use crate::{ELBOW_ANGLE_LIMIT_DEG, WORST_RESIDUAL_LIMIT_M};
 use sgplvm_robots::Side;
 
-/// One arm's calibration: its rest frames in the left arm's convention.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct ArmCalibration {
-    pub(super) rest: RestFrames,
-}
-
-/// A unit vector from `a` to `b`, or `fallback` where they coincide.
-pub(super) fn direction(
-    a: &Vector3<f64>,
-    b: &Vector3<f64>,
-    fallback: Vector3<f64>,
-) -> Vector3<f64> {
-    (b - a).try_normalize(1e-12).unwrap_or(fallback)
-}
-
-/// `v` in the left arm's convention.
-pub(super) fn mirrored(side: Side, v: Vector3<f64>) -> Vector3<f64> {
-    match side {
-        Side::Left => v,
-        Side::Right => mirror_vector(v),
-    }
-}
-
-/// Turns a captured arm pose into the fit's target (left arm's convention).
-pub(super) fn arm_target(
-    pose: &ArmPose,
-    side: Side,
-    has_clavicle: bool,
-    cal: &ArmCalibration,
-) -> ArmTarget {
-    let m = |v: Vector3<f64>| mirrored(side, v);
-    let mr = |r: &Rotation3<f64>| match side {
-        Side::Left => *r,
-        Side::Right => mirror_rotation(r),
-    };
-    let down = -Vector3::z();
-    let upper = m(direction(&pose.shoulder, &pose.elbow, down));
-    ArmTarget {
-        clavicle: (has_clavicle && (pose.shoulder - pose.clavicle).norm() > 1e-9)
-            .then(|| m(direction(&pose.clavicle, &pose.shoulder, Vector3::y()))),
-        upper_arm: upper,
-        forearm: m(direction(&pose.elbow, &pose.wrist, upper)),
-        upper_arm_frame: mr(&pose.upper_arm_turn) * cal.rest.upper_arm,
-        hand_frame: mr(&pose.hand_turn) * cal.rest.hand,
-    }
-}
+/// One frame's fit: the human model's 18 angles (left arm, then right) and each arm's result.
+pub type FrameFit = ([f64; 18], [ArmFitResult; 2]);
 
 /// One arm's fit of one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,50 +44,29 @@ impl ArmFitResult {
 #[derive(Debug, Clone)]
 pub struct PoseFitter {
     model: HumanArms,
-    calibration: [ArmCalibration; 2],
-    has_clavicle: [bool; 2],
+    calibration: Calibration,
+    /// Per arm, the twist reference (the human model's upper-arm and hand frames at rest).
+    rest_frames: [(Rotation3<f64>, Rotation3<f64>); 2],
     prev: [Option<ArmAngles>; 2],
 }
 
 impl PoseFitter {
-    /// A fitter calibrated on the rest poses of both arms (left, right). `has_clavicle` says
-    /// whether each arm's capture has a clavicle segment; `hinge`, for an arm whose rest pose
-    /// leaves the shoulder's twist untold ([`HumanArms::rest_twist_untold`]), the direction a
-    /// bent elbow takes the forearm in the upper arm's rest orientation (body axes, the arm's
-    /// own side) as the motion shows it, if known.
-    pub fn new(
-        model: HumanArms,
-        rest: [&ArmPose; 2],
-        has_clavicle: [bool; 2],
-        hinge: &dyn Fn(Side) -> Option<Vector3<f64>>,
-    ) -> PoseFitter {
-        let calibration = [Side::Left, Side::Right].map(|side| {
-            let s = usize::from(side == Side::Right);
-            let pose = rest[s];
-            let provisional = ArmCalibration {
-                rest: RestFrames {
-                    upper_arm: Rotation3::identity(),
-                    hand: Rotation3::identity(),
-                },
-            };
-            let t = arm_target(pose, side, has_clavicle[s], &provisional);
-            let m = |v: Vector3<f64>| mirrored(side, v);
-            let hand = m(direction(&pose.wrist, &pose.hand_tip, m(t.forearm)));
-            let hinge = if model.rest_twist_untold(t.clavicle, t.upper_arm, t.forearm) {
-                hinge(side).map(m)
-            } else {
-                None
-            };
-            ArmCalibration {
-                rest: model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand, hinge),
-            }
-        });
+    /// A fitter of the person `calibration` describes.
+    pub fn new(model: HumanArms, calibration: &Calibration) -> PoseFitter {
         PoseFitter {
             model,
-            calibration,
-            has_clavicle,
+            rest_frames: [0, 1].map(|s| {
+                let arm = &calibration.arms[s];
+                (arm.upper_arm_rotation(), arm.hand_rotation())
+            }),
+            calibration: calibration.clone(),
             prev: [None, None],
         }
+    }
+
+    /// The calibration frames are fitted through.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
     }
 
     /// The human model's fit.
@@ -148,7 +84,9 @@ impl PoseFitter {
     pub fn fit(&mut self, poses: [&ArmPose; 2]) -> [ArmFitResult; 2] {
         [Side::Left, Side::Right].map(|side| {
             let s = usize::from(side == Side::Right);
-            let t = arm_target(poses[s], side, self.has_clavicle[s], &self.calibration[s]);
+            let (upper_rest, hand_rest) = &self.rest_frames[s];
+            let has_clavicle = self.calibration.arms[s].has_clavicle;
+            let t = arm_target(poses[s], side, has_clavicle, upper_rest, hand_rest);
             let fit = self.model.fit(side, &t, self.prev[s].as_ref());
             self.prev[s] = Some(fit.angles);
             let points = self.model.target_points(&t);

@@ -17,7 +17,9 @@
 //! blocks of training frames). Since issue 44 it may also hold `reconstruction`, the human space's
 //! reconstruction threshold (`reconstruction` module), computed by the same groups; files
 //! without it load as before and get it computed when asked for. Both are optional fields of
-//! format 2 (and 3): a library from before them ignores them.
+//! format 2 (and 3): a library from before them ignores them. Since issue 48 it may hold
+//! `annotations`, what users attach to a model (the facade stores the capture sources of the
+//! training data there, with each person's calibration); optional, ignored by older libraries.
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
@@ -288,6 +290,10 @@ struct ModelFile {
     /// it existed, whose threshold is computed when asked for).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     reconstruction: Option<f64>,
+    /// What users attached to the model ([`SharedGplvm::annotations`]; absent when nothing
+    /// was).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    annotations: std::collections::BTreeMap<String, serde_json::Value>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -358,6 +364,7 @@ impl SharedGplvm {
                 .collect(),
             trust_groups: self.trust_groups.clone(),
             reconstruction: self.reconstruction_threshold().ok(),
+            annotations: self.annotations.clone(),
         };
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
@@ -556,8 +563,25 @@ impl SharedGplvm {
             }
             model.reconstruction = Some(t);
         }
+        model.annotations = f.annotations;
         model.rebuild()?;
         Ok(model)
+    }
+
+    /// What users attached to the model under each key ([`SharedGplvm::annotate`]): opaque to
+    /// the model, kept through saving and loading, transfer and new parameters.
+    pub fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value> {
+        &self.annotations
+    }
+
+    /// Attaches `value` under `key` (replacing what was there), e.g. where the training data
+    /// came from; `Value::Null` removes the key.
+    pub fn annotate(&mut self, key: &str, value: serde_json::Value) {
+        if value.is_null() {
+            self.annotations.remove(key);
+        } else {
+            self.annotations.insert(key.to_string(), value);
+        }
     }
 
     /// Writes the model to `path` atomically (hidden temporary file `.NAME.tmpPID` in the same
@@ -665,6 +689,10 @@ mod tests {
         let mut m = fit(BackConstraint::Input, 30, 10, 0);
         m.set_column_names("walkman", (0..4).map(|i| format!("j{i}")).collect())
             .expect("names");
+        m.annotate(
+            "sgplvm.capture",
+            serde_json::json!([{"file": "a.bvh", "n": 1.5}]),
+        );
         let dir = std::env::temp_dir().join(format!("sgplvm-core-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("tmp dir");
         let path = dir.join("model.sgp");
@@ -676,6 +704,8 @@ mod tests {
         assert_eq!(a, b);
         assert_eq!(l.column_names("walkman").map(|c| c.len()), Some(4));
         assert_eq!(l.history(), m.history());
+        assert_eq!(l.annotations(), m.annotations());
+        assert_eq!(l.annotations()["sgplvm.capture"][0]["file"], "a.bvh");
         assert_eq!(l.to_bytes(), m.to_bytes());
         // No temporary file left behind.
         assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 1);

@@ -110,6 +110,9 @@ pub struct SharedGplvm {
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
     pub(crate) map_stale: bool,
+    /// What users attach to the model, opaque to it (e.g. where its training data came from):
+    /// kept through saving, transfer and new parameters.
+    pub(crate) annotations: std::collections::BTreeMap<String, serde_json::Value>,
     // ----- derived -----
     pub(crate) x: Mat<f64>,
     pub(crate) x_rows: Vec<f64>,
@@ -186,6 +189,7 @@ impl SharedGplvm {
             trust_groups: None,
             reconstruction: None,
             map_stale: false,
+            annotations: std::collections::BTreeMap::new(),
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),
             prepared: OnceLock::new(),

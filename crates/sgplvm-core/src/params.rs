@@ -199,6 +199,7 @@ impl SharedGplvm {
             trust_groups: self.trust_groups.clone(),
             reconstruction: None,
             map_stale: self.map_stale,
+            annotations: self.annotations.clone(),
             x: self.x.clone(),
             x_rows: self.x_rows.clone(),
             prepared: OnceLock::new(),

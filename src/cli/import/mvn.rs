@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
-use sgplvm::capture::{ArmFitResult, CaptureSource, CapturedMotion, FitReport};
+use sgplvm::capture::{
+    ArmFitResult, Calibration, CaptureSource, CapturedMotion, FitReport, StreamCalibrationOptions,
+};
 use sgplvm::robots::series::median;
 use sgplvm::robots::Robot;
 use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, DEFAULT_PORT};
@@ -43,7 +45,12 @@ struct Fitted {
 
 /// Records the stream at `addr` until `stop` (or Ctrl-C) and returns it as an imported
 /// capture at `rate_hz`.
-pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMotion> {
+pub fn record(
+    addr: SocketAddr,
+    rate_hz: f64,
+    stop: &Stop,
+    calibration: StreamCalibrationOptions,
+) -> Result<CapturedMotion> {
     let mut receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
         .with_context(|| format!("--mvn {addr}"))?;
     let interrupted = Arc::new(AtomicBool::new(false));
@@ -51,7 +58,7 @@ pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMot
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
         .context("installing the Ctrl-C / SIGTERM handler")?;
     eprintln!("recording the MVN stream on {addr} (Ctrl-C ends it)");
-    let mut fit = MvnFit::new();
+    let mut fit = MvnFit::new(calibration);
     let mut frames: Vec<Fitted> = Vec::new();
     let started = Instant::now();
     while !interrupted.load(Ordering::SeqCst) {
@@ -66,12 +73,15 @@ pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMot
             std::thread::sleep(Duration::from_micros(500));
             continue;
         };
-        let (angles, fits) = fit.angles(&pose).with_context(|| {
+        let Some((angles, fits)) = fit.angles(&pose).with_context(|| {
             format!(
                 "MVN sample {}: cannot fit the human model",
                 pose.sample_counter
             )
-        })?;
+        })?
+        else {
+            continue;
+        };
         // A time code that does not move on (or goes back: MVN restarted) cannot be resampled.
         if frames
             .last()
@@ -100,11 +110,20 @@ pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMot
         counts.datagrams,
         counts.dropped()
     );
-    capture(&frames, addr, rate_hz)
+    let person = fit.fitter().map(|f| f.calibration().clone());
+    if let Some(p) = &person {
+        eprintln!("the person was fitted through {}", p.describe());
+    }
+    capture(&frames, addr, rate_hz, person)
 }
 
 /// The recorded frames resampled at `rate_hz` on their time codes, with the fit's report.
-fn capture(frames: &[Fitted], addr: SocketAddr, rate_hz: f64) -> Result<CapturedMotion> {
+fn capture(
+    frames: &[Fitted],
+    addr: SocketAddr,
+    rate_hz: f64,
+    calibration: Option<Calibration>,
+) -> Result<CapturedMotion> {
     let t0 = frames[0].time_ms;
     let times: Vec<f64> = frames
         .iter()
@@ -159,6 +178,7 @@ fn capture(frames: &[Fitted], addr: SocketAddr, rate_hz: f64) -> Result<Captured
             arm_length: 0.0,
             rate_hz,
             fit: report(frames, &joint_names),
+            calibration,
         },
     })
 }

@@ -1,61 +1,19 @@
 //! A frame as the capture importer sees a skeleton: named segment world poses (what a BVH
 //! importer computes for each joint), and each arm as the importer's per-frame
-//! [`ArmPose`], in the torso's body axes.
-//!
-//! MVN's segment frames make this direct. Each segment's origin is the joint it hangs from
-//! (`RightUpperArm` at the shoulder, `RightForeArm` at the elbow, `RightHand` at the wrist,
-//! `RightShoulder` at the sternoclavicular joint on `T8`), and in MVN's null pose every
-//! orientation is the identity with the axes x forward, y left, z up (§2.6.2: "a perfect/ideal
-//! T-pose, where all segment orientations are set to identity"). So:
-//!
-//! - `T8`'s frame is the body axes of [`Skeleton`](sgplvm_capture::Skeleton) (the
-//!   torso the clavicles hang from, x forward, y left, z up, as the human model's `T8`);
-//! - an arm point in body axes is `R_T8ᵀ (p − p_T8)`;
-//! - a segment's turn from its rest orientation, in body axes, is `R_T8ᵀ R_segment` (its
-//!   rest, the null pose, is the identity relative to `T8` as well);
-//! - the rest pose (T-pose) follows from any frame: each child's origin is a fixed point of its
-//!   parent segment, `R_parentᵀ (p_child − p_parent)`, so the rest chain adds those offsets up
-//!   with every rotation the identity;
-//! - MVN streams no point past the wrist (the 23 segments end at `Hand`), so the hand's end is
-//!   taken as the importer takes it for a BVH hand without an end: one forearm vector past the
-//!   wrist at rest (`wrist + (wrist − elbow)`), turning with the hand. The fit uses only its
-//!   direction.
-//!
-//! # Feeding the importer's fit (what the node calls)
-//!
-//! ```text
-//! let model = HumanArms::new(&Robot::builtin("human")?)?;          // once
-//! let rest = pose.rest_arm_pose(side)?;                             // once, or on recalibration
-//! // calibration, as capture::import's `calibrate` does with a BVH rest pose:
-//! //   t = arm_target(&rest, side, true, identity frames); hand = direction(rest.wrist → rest.hand_tip)
-//! //   rest_frames = model.rest_frames(t.clavicle, t.upper_arm, t.forearm, hand)  (right arm mirrored)
-//! let arm = pose.arm_pose(side)?;                                   // every frame
-//! //   target = arm_target(&arm, side, true, &calibration); fit = model.fit(side, &target, prev)
-//! ```
-//!
-//! `arm_target` and `calibrate` are private to `sgplvm_capture::import` today (and the
-//! mirror helpers `pub(crate)`); the node needs them public, or a public
-//! `fit_arm(&ArmPose, &ArmPose rest, side, prev)` in that crate, to call the very steps a BVH
-//! frame goes through. This module's tests run those steps on an MVN frame.
+//! [`ArmPose`], in the torso's body axes, through the capture crate's [`ArmSegments`] (its
+//! module says how MVN's segment frames map onto the importer's: `T8`'s frame is the body
+//! axes, every segment the identity in the null pose).
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
-use sgplvm_capture::ArmPose;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+pub use sgplvm_capture::WorldPose;
+use sgplvm_capture::{ArmPose, ArmSegments};
 use sgplvm_robots::Side;
 
 use super::datagram::{MvnPose, PoseType, SegmentCounts, SegmentPose};
 use super::segments::{segment_id, segment_name, BODY_SEGMENTS, FINGER_SEGMENTS, PROP_SEGMENTS};
 use super::MvnError;
-
-/// A segment's pose in the world, the form a BVH importer gives each joint.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WorldPose {
-    /// Position of the segment's origin, metres, MVN's Z-up global frame.
-    pub position: Vector3<f64>,
-    /// Orientation: segment axes into global axes.
-    pub rotation: Rotation3<f64>,
-}
 
 impl SegmentPose {
     /// The pose in f64, the quaternion normalised.
@@ -178,65 +136,35 @@ impl MvnPose {
     }
 
     /// `T8` and the four segments of arm `side`, or the first one missing.
-    fn arm_segments(&self, side: Side) -> Result<[WorldPose; 5], MvnError> {
+    pub fn arm_segments(&self, side: Side) -> Result<ArmSegments, MvnError> {
         let [c, u, f, h] = arm_names(side);
-        let mut out = [WorldPose {
-            position: Vector3::zeros(),
-            rotation: Rotation3::identity(),
-        }; 5];
-        for (slot, name) in out.iter_mut().zip(["T8", c, u, f, h]) {
-            *slot = self.named(name).ok_or_else(|| MvnError::Segment {
+        let named = |name: &str| {
+            self.named(name).ok_or_else(|| MvnError::Segment {
                 name: name.to_string(),
                 message: format!(
                     "not in this frame (sample {}); the {} arm's pose needs T8 (ID 5) and {c}, {u}, {f}, {h}",
                     self.sample_counter,
                     side.as_str()
                 ),
-            })?;
-        }
-        Ok(out)
-    }
-
-    /// Arm `side` in this frame as the importer's [`ArmPose`]: points relative to `T8` in its
-    /// body axes (x forward, y left, z up), metres; turns from the null pose in body axes.
-    pub fn arm_pose(&self, side: Side) -> Result<ArmPose, MvnError> {
-        let [t8, clavicle, upper, fore, hand] = self.arm_segments(side)?;
-        let to_body = t8.rotation.inverse();
-        let at = |p: &Vector3<f64>| to_body * (p - t8.position);
-        let turn = |r: &Rotation3<f64>| to_body * r;
-        let forearm_at_rest = fore.rotation.inverse() * (hand.position - fore.position);
-        let wrist = at(&hand.position);
-        Ok(ArmPose {
-            clavicle: at(&clavicle.position),
-            shoulder: at(&upper.position),
-            elbow: at(&fore.position),
-            wrist,
-            hand_tip: wrist + turn(&hand.rotation) * forearm_at_rest,
-            upper_arm_turn: turn(&upper.rotation),
-            hand_turn: turn(&hand.rotation),
-        })
-    }
-
-    /// Arm `side` in the null pose (T-pose, every orientation the identity) with this person's
-    /// segment lengths, read off this frame: the importer's rest [`ArmPose`], the calibration
-    /// of the twists.
-    pub fn rest_arm_pose(&self, side: Side) -> Result<ArmPose, MvnError> {
-        let [t8, clavicle, upper, fore, hand] = self.arm_segments(side)?;
-        let offset = |parent: &WorldPose, child: &WorldPose| {
-            parent.rotation.inverse() * (child.position - parent.position)
+            })
         };
-        let c = offset(&t8, &clavicle);
-        let s = c + offset(&clavicle, &upper);
-        let e = s + offset(&upper, &fore);
-        let w = e + offset(&fore, &hand);
-        Ok(ArmPose {
-            clavicle: c,
-            shoulder: s,
-            elbow: e,
-            wrist: w,
-            hand_tip: w + (w - e),
-            upper_arm_turn: Rotation3::identity(),
-            hand_turn: Rotation3::identity(),
+        Ok(ArmSegments {
+            torso: named("T8")?,
+            clavicle: named(c)?,
+            upper_arm: named(u)?,
+            forearm: named(f)?,
+            hand: named(h)?,
         })
+    }
+
+    /// Arm `side` in this frame as the importer's [`ArmPose`] ([`ArmSegments::arm_pose`]).
+    pub fn arm_pose(&self, side: Side) -> Result<ArmPose, MvnError> {
+        Ok(self.arm_segments(side)?.arm_pose())
+    }
+
+    /// Arm `side` in the null pose with this person's segment lengths, read off this frame
+    /// ([`ArmSegments::rest_arm_pose`]).
+    pub fn rest_arm_pose(&self, side: Side) -> Result<ArmPose, MvnError> {
+        Ok(self.arm_segments(side)?.rest_arm_pose())
     }
 }

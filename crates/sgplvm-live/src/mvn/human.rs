@@ -9,7 +9,10 @@
 //! arms abducted 90°, nothing else bent).
 
 use nalgebra::{Isometry3, Rotation3};
-use sgplvm_capture::{ArmFitResult, HumanArms, PoseFitter};
+use sgplvm_capture::{
+    CalibrationProgress, FrameFit, HumanArms, PoseFitter, StreamCalibration,
+    StreamCalibrationOptions, Twist,
+};
 use sgplvm_robots::{Robot, Side};
 
 use super::body::WorldPose;
@@ -99,53 +102,83 @@ impl HumanSegments {
     }
 }
 
-/// The stream's fit: calibrated on the first frame's null pose, then each frame's arms fitted
-/// as the importer fits a file's.
+/// The stream's fit: the person calibrated on the first frames ([`StreamCalibration`]: the
+/// calibration offered whose rest pose is the stream's, else MVN's null pose as the
+/// specification defines it), then each frame's arms fitted as the importer fits a file's.
 pub struct MvnFit {
+    model: Option<HumanArms>,
+    calibration: StreamCalibration,
     fitter: Option<PoseFitter>,
 }
 
+/// What the stream's person is called in reports.
+const SOURCE: &str = "the Xsens MVN stream";
+
 impl MvnFit {
-    /// A fit not calibrated yet.
-    pub fn new() -> MvnFit {
-        MvnFit { fitter: None }
+    /// A fit not calibrated yet, calibrated as `options` say.
+    pub fn new(options: StreamCalibrationOptions) -> MvnFit {
+        MvnFit {
+            model: None,
+            calibration: StreamCalibration::new(options, Twist::NullPose, SOURCE),
+            fitter: None,
+        }
     }
 
-    /// The human model's 18 angles (left arm, then right) of `pose`, with the fit's residuals.
-    pub fn angles(&mut self, pose: &MvnPose) -> Result<([f64; 18], [ArmFitResult; 2]), MvnError> {
+    /// Where the person's calibration stands.
+    pub fn progress(&self) -> CalibrationProgress {
+        self.calibration.progress()
+    }
+
+    /// The fitter, once calibrated (its calibration is the person's).
+    pub fn fitter(&self) -> Option<&PoseFitter> {
+        self.fitter.as_ref()
+    }
+
+    /// The human model's 18 angles (left arm, then right) of `pose`, with the fit's residuals;
+    /// `None` while the person is being calibrated.
+    pub fn angles(&mut self, pose: &MvnPose) -> Result<Option<FrameFit>, MvnError> {
+        let human = |message: String| MvnError::Segment {
+            name: "human".into(),
+            message,
+        };
         let arms = [pose.arm_pose(Side::Left)?, pose.arm_pose(Side::Right)?];
         if self.fitter.is_none() {
             let rest = [
                 pose.rest_arm_pose(Side::Left)?,
                 pose.rest_arm_pose(Side::Right)?,
             ];
-            let robot = Robot::builtin("human").map_err(|e| MvnError::Segment {
-                name: "human".into(),
-                message: e.to_string(),
-            })?;
-            let model = HumanArms::new(&robot).map_err(|e| MvnError::Segment {
-                name: "human".into(),
-                message: e.to_string(),
-            })?;
-            self.fitter = Some(PoseFitter::new(
-                model,
-                [&rest[0], &rest[1]],
-                [true, true],
-                &|_| None,
-            ));
+            if self.model.is_none() {
+                let robot = Robot::builtin("human").map_err(|e| human(e.to_string()))?;
+                self.model = Some(HumanArms::new(&robot).map_err(|e| human(e.to_string()))?);
+            }
+            let model = self
+                .model
+                .as_ref()
+                .ok_or_else(|| human("no model".into()))?;
+            self.fitter = self
+                .calibration
+                .offer(
+                    model,
+                    f64::from(pose.time_code_ms) * 1e-3,
+                    [&rest[0], &rest[1]],
+                    [true, true],
+                    "Xsens MVN stream",
+                    Some(1.0),
+                    [&arms[0], &arms[1]],
+                )
+                .map_err(|e| MvnError::Calibration(e.to_string()))?;
         }
-        let fitter = self.fitter.as_mut().ok_or_else(|| MvnError::Segment {
-            name: "human".into(),
-            message: "not calibrated".into(),
-        })?;
+        let Some(fitter) = self.fitter.as_mut() else {
+            return Ok(None);
+        };
         let fits = fitter.fit([&arms[0], &arms[1]]);
-        Ok((PoseFitter::angles(&fits), fits))
+        Ok(Some((PoseFitter::angles(&fits), fits)))
     }
 }
 
 impl Default for MvnFit {
     fn default() -> Self {
-        MvnFit::new()
+        MvnFit::new(StreamCalibrationOptions::default())
     }
 }
 

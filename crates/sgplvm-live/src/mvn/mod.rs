@@ -210,6 +210,9 @@ pub enum MvnError {
         /// Its name.
         name: &'static str,
     },
+    /// The person's calibration given is not the stream's.
+    #[error("{0}")]
+    Calibration(String),
     /// A value that is not a finite number.
     #[error("item {item} (segment {name}): {field} is {value}; expected a finite number")]
     NotANumber {
@@ -293,6 +296,7 @@ impl MvnError {
             MvnError::Parts { .. } => "parts do not fit",
             MvnError::TooManyItems { .. } => "too many items",
             MvnError::Segment { .. } => "segment",
+            MvnError::Calibration(_) => "calibration",
             MvnError::Socket { .. } => "socket",
         }
     }

@@ -91,6 +91,9 @@ pub struct TeleopOptions {
     /// Take the human from a skeleton's TF frames on `/tf` and `/tf_static` (each complete set
     /// fitted as `sgplvm import` fits a file's frame) instead of the JointState topic.
     pub tf: Option<TfInputOptions>,
+    /// How the person of a stream (MVN, TF) is calibrated: the calibrations offered (the
+    /// models' training data's, or the user's file) and how long to watch the motion.
+    pub calibration: sgplvm_capture::StreamCalibrationOptions,
 }
 
 /// How the TF input finds the arms.
@@ -118,6 +121,7 @@ impl Default for TeleopOptions {
             view: None,
             mvn: None,
             tf: None,
+            calibration: sgplvm_capture::StreamCalibrationOptions::default(),
         }
     }
 }
@@ -209,7 +213,7 @@ pub fn teleop(
     let mvn = options
         .mvn
         .map(|addr| {
-            let m = mvn_input::MvnInput::bind(addr, &human)?;
+            let m = mvn_input::MvnInput::bind(addr, &human, options.calibration.clone())?;
             if let Ok(a) = m.receiver.local_addr() {
                 log(&format!("input: Xsens MVN stream on udp://{a}"));
             }
@@ -226,7 +230,12 @@ pub fn teleop(
         .as_ref()
         .map(|t| {
             log("input: TF frames on /tf and /tf_static");
-            tf_input::TfInput::subscribe(&mut node, &human, t.map.clone())
+            tf_input::TfInput::subscribe(
+                &mut node,
+                &human,
+                t.map.clone(),
+                options.calibration.clone(),
+            )
         })
         .transpose()?;
     let parts = Parts {

@@ -3,7 +3,9 @@
 //! joint order.
 
 use serde::Serialize;
+use sgplvm_capture::StreamCalibrationOptions;
 
+use super::tf_input::calibration_said;
 use crate::mvn::{MvnFit, MvnReceiver, ReceiverOptions};
 use crate::LiveError;
 
@@ -23,6 +25,12 @@ pub struct MvnSummary {
     pub wrist_median_m: f64,
     /// The largest of either, metres.
     pub worst_m: f64,
+    /// What the fit goes through (the person's calibration), or how the calibration stands.
+    pub calibration: Option<String>,
+    /// Frames seen while the person was being calibrated (not commanded).
+    pub calibrating_frames: u64,
+    /// The person's calibration the frames were fitted through, once there is one.
+    pub person: Option<sgplvm_capture::Calibration>,
 }
 
 /// For each of the models' human joints `human`, its index among the human model's 18 (the
@@ -52,6 +60,8 @@ pub(super) struct MvnInput {
     order: Vec<usize>,
     elbow: Vec<f64>,
     wrist: Vec<f64>,
+    calibration: Option<String>,
+    calibrating_frames: u64,
 }
 
 impl MvnInput {
@@ -59,16 +69,19 @@ impl MvnInput {
     pub(super) fn bind(
         addr: std::net::SocketAddr,
         human: &[String],
+        calibration: StreamCalibrationOptions,
     ) -> Result<MvnInput, LiveError> {
         let order = human_order(human, "--input mvn")?;
         let receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
             .map_err(|e| LiveError::Config(format!("--input mvn: {e}")))?;
         Ok(MvnInput {
             receiver,
-            fit: MvnFit::new(),
+            fit: MvnFit::new(calibration),
             order,
             elbow: Vec::new(),
             wrist: Vec::new(),
+            calibration: None,
+            calibrating_frames: 0,
         })
     }
 
@@ -84,7 +97,25 @@ impl MvnInput {
             }
         };
         match self.fit.angles(&pose) {
-            Ok((angles, fits)) => {
+            Ok(None) => {
+                self.calibrating_frames += 1;
+                let said = calibration_said(self.fit.progress());
+                if self.calibration.is_none() {
+                    log(&format!("--input mvn: {said}"));
+                }
+                self.calibration = Some(said);
+                false
+            }
+            Ok(Some((angles, fits))) => {
+                if self
+                    .calibration
+                    .as_deref()
+                    .is_none_or(|c| c.starts_with("calibrating"))
+                {
+                    let said = calibration_said(self.fit.progress());
+                    log(&format!("--input mvn: the person is fitted through {said}"));
+                    self.calibration = Some(said);
+                }
                 for (hv, &k) in h.iter_mut().zip(&self.order) {
                     *hv = angles[k];
                 }
@@ -127,6 +158,9 @@ impl MvnInput {
                 .chain(&self.wrist)
                 .copied()
                 .fold(0.0, f64::max),
+            calibration: self.calibration.clone(),
+            calibrating_frames: self.calibrating_frames,
+            person: self.fit.fitter().map(|f| f.calibration().clone()),
         }
     }
 }

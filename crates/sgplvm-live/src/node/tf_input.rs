@@ -9,13 +9,14 @@ use ros2_client::dds::{Node, Subscription};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::QosProfile;
 use serde::Serialize;
-use sgplvm_capture::ArmMap;
+use sgplvm_capture::{ArmMap, CalibrationProgress, StreamCalibrationOptions};
 
 use super::dds::{dds, type_of};
 use super::topic_name;
 use crate::msgs::{types, TFMessage, Time};
 use crate::tf::{
-    identify, Fitted, FrameSets, SetCounts, TfBuffer, STAMP_TOLERANCE_NS, TF_STATIC_TOPIC, TF_TOPIC,
+    identify, Fitted, FrameSets, SetCounts, SetNotFitted, TfBuffer, STAMP_TOLERANCE_NS,
+    TF_STATIC_TOPIC, TF_TOPIC,
 };
 use crate::LiveError;
 
@@ -36,6 +37,12 @@ pub struct TfSummary {
     pub skeleton: Option<String>,
     /// The frame the arms hang from.
     pub torso: Option<String>,
+    /// What the fit goes through (the person's calibration), or how the calibration stands.
+    pub calibration: Option<String>,
+    /// Frame sets seen while the person was being calibrated (not commanded).
+    pub calibrating_sets: u64,
+    /// The person's calibration the sets were fitted through, once there is one.
+    pub person: Option<sgplvm_capture::Calibration>,
     /// Why the arms were not found in the frames received (while they are not).
     pub error: Option<String>,
     /// The fit's elbow distance to the scaled capture, median over the frames used, metres
@@ -47,12 +54,28 @@ pub struct TfSummary {
     pub worst_m: f64,
 }
 
+/// How a stream's calibration stands, as the node says it.
+pub(super) fn calibration_said(progress: CalibrationProgress) -> String {
+    match progress {
+        CalibrationProgress::Waiting => "waiting for the first frame to calibrate the person".into(),
+        CalibrationProgress::Watching {
+            seconds_left,
+            bent_frames,
+        } => format!(
+            "calibrating the person: {seconds_left:.1} s of motion left, bend both elbows (bent so far in {} left and {} right frames); no commands until then",
+            bent_frames[0], bent_frames[1]
+        ),
+        CalibrationProgress::Done(what) => what,
+    }
+}
+
 /// The TF input of a node.
 pub(super) struct TfInput {
     pub(super) dynamic: Subscription<TFMessage>,
     pub(super) statics: Subscription<TFMessage>,
     buffer: TfBuffer,
     map: Option<ArmMap>,
+    calibration: StreamCalibrationOptions,
     fitted: Option<Fitted>,
     /// For each of the models' human joints, its index among the human model's 18.
     order: Vec<usize>,
@@ -88,6 +111,7 @@ impl TfInput {
         node: &mut Node,
         human: &[String],
         map: Option<ArmMap>,
+        calibration: StreamCalibrationOptions,
     ) -> Result<TfInput, LiveError> {
         let order = super::mvn_input::human_order(human, "--input tf")?;
         let mut sub = |topic: &str, q: QosProfile| -> Result<Subscription<TFMessage>, LiveError> {
@@ -102,6 +126,7 @@ impl TfInput {
             statics: sub(TF_STATIC_TOPIC, static_qos())?,
             buffer: TfBuffer::new(),
             map,
+            calibration,
             fitted: None,
             order,
             tried: None,
@@ -185,7 +210,40 @@ impl TfInput {
         }
         let stamp = next.stamp?;
         // Complete by `next`'s own check, so the fit has every transform it needs.
-        let (angles, fits) = fitted.fit(&self.buffer, stamp, STAMP_TOLERANCE_NS).ok()?;
+        let (angles, fits) = match fitted.fit(&self.buffer, stamp, STAMP_TOLERANCE_NS) {
+            Ok(Some(fit)) => {
+                if self
+                    .summary
+                    .calibration
+                    .as_deref()
+                    .is_none_or(|c| c.starts_with("calibrating"))
+                {
+                    let said = calibration_said(fitted.calibration().progress());
+                    log(&format!("--input tf: the person is fitted through {said}"));
+                    self.summary.calibration = Some(said);
+                }
+                fit
+            }
+            Ok(None) => {
+                self.summary.calibrating_sets += 1;
+                let said = calibration_said(fitted.calibration().progress());
+                if self.summary.calibration.is_none() {
+                    log(&format!("--input tf: {said}"));
+                }
+                self.summary.calibration = Some(said);
+                return None;
+            }
+            Err(SetNotFitted::Calibration(e)) => {
+                self.warn(
+                    "calibration",
+                    &format!("--input tf: {e}: frames not used"),
+                    log,
+                );
+                self.summary.error = Some(e);
+                return None;
+            }
+            Err(SetNotFitted::Missing(_)) => return None,
+        };
         for (hv, &k) in h.iter_mut().zip(&self.order) {
             *hv = angles[k];
         }
@@ -200,7 +258,7 @@ impl TfInput {
     /// where they are not found, an earlier fit stays.
     fn find_arms(&mut self, log: &mut dyn FnMut(&str)) {
         self.tried = Some(self.buffer.generation());
-        match identify(&self.buffer, self.map.as_ref()) {
+        match identify(&self.buffer, self.map.as_ref(), self.calibration.clone()) {
             Ok(f) => {
                 log(&format!(
                     "--input tf: arms found by {} hanging from `{}`; the fit needs {}",
@@ -211,6 +269,7 @@ impl TfInput {
                 self.summary.skeleton = Some(f.scheme().to_string());
                 self.summary.torso = Some(f.torso().to_string());
                 self.summary.error = None;
+                self.summary.calibration = None;
                 self.fitted = Some(f);
             }
             Err(e) => {
@@ -228,6 +287,7 @@ impl TfInput {
         let mut s = self.summary.clone();
         if let Some(f) = &self.fitted {
             s.sets = self.sets.counts(&self.buffer, f.needed());
+            s.person = f.fitter().map(|p| p.calibration().clone());
         }
         let median = |v: &[f64]| -> f64 {
             let mut v = v.to_vec();

@@ -1,16 +1,20 @@
 //! A TF tree through the importer's own steps: the tree as the skeleton a BVH file would
-//! declare ([`skeleton_of`]: each frame a joint, its offset the translation to its parent),
-//! the arms found by the importer's naming schemes or map ([`Skeleton::identify`]), calibrated
-//! on the tree's rest pose ([`Skeleton::rest_pose`]: every rotation the identity, as MVN's null
-//! pose and a BVH's zero channels) and each complete set of transforms fitted by
-//! [`PoseFitter`] through [`Skeleton::arm_pose_with`], the per-frame transforms composed down
-//! from the torso exactly as a file's channels are.
+//! declare ([`skeleton_of`], the capture crate's [`tree_skeleton`]: each frame a joint, its
+//! offset the translation to its parent), the arms found by the importer's naming schemes or
+//! map ([`Skeleton::identify`]), the person calibrated on the tree's rest pose
+//! ([`Skeleton::rest_pose`]: every rotation the identity, as a BVH's zero channels) through
+//! [`StreamCalibration`] — the calibration of the models' training data where the rest pose is
+//! its, else the stream's own (watching the motion a few seconds where the rest pose leaves a
+//! twist untold) — and each complete set of transforms fitted by [`PoseFitter`] through
+//! [`Skeleton::arm_pose_with`], the per-frame transforms composed down from the torso exactly
+//! as a file's channels are.
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::BTreeSet;
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Rotation3;
 use sgplvm_capture::{
-    ArmFitResult, ArmMap, Bvh, BvhJoint, CaptureError, Channel, HumanArms, PoseFitter, Skeleton,
+    tree_skeleton, ArmMap, ArmPose, Bvh, CaptureError, FrameFit, HumanArms, PoseFitter, Skeleton,
+    StreamCalibration, StreamCalibrationOptions, TreeFrame, Twist,
 };
 use sgplvm_robots::{Robot, Side};
 
@@ -19,57 +23,42 @@ use super::buffer::TfBuffer;
 /// The name the importer's messages give the "file" of a TF skeleton.
 pub const SOURCE: &str = "/tf";
 
-/// The TF tree as a BVH skeleton with no frames: every frame a joint (parents before children,
-/// roots first), its offset its newest translation, three rotation channels on every frame
-/// with a parent (none on a root). Frames on a loop (no root above them) are left out.
+/// The TF tree as a BVH skeleton with no frames ([`tree_skeleton`]): every frame a joint, its
+/// offset its newest translation.
 pub fn skeleton_of(buffer: &TfBuffer) -> Bvh {
-    let names = buffer.frame_names();
-    let mut children: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
-    let mut queue: VecDeque<&str> = VecDeque::new();
-    for n in &names {
-        match buffer.parent(n) {
-            Some(p) => children.entry(p).or_default().push(n),
-            None => queue.push_back(n),
-        }
-    }
-    let mut joints: Vec<BvhJoint> = Vec::new();
-    let mut index: BTreeMap<&str, usize> = BTreeMap::new();
-    let mut channels = 0;
-    while let Some(n) = queue.pop_front() {
-        let parent = buffer.parent(n).and_then(|p| index.get(p).copied());
-        let (offset, chans) = match (parent, buffer.latest(n)) {
-            (Some(_), Some(t)) => (
-                t.translation.vector,
-                vec![Channel::Zrotation, Channel::Yrotation, Channel::Xrotation],
-            ),
-            _ => (Vector3::zeros(), Vec::new()),
-        };
-        index.insert(n, joints.len());
-        joints.push(BvhJoint {
-            name: n.to_string(),
-            parent,
-            offset,
-            first_channel: channels,
-            channels: chans.clone(),
-            end_site: None,
-            line: 0,
-        });
-        channels += chans.len();
-        queue.extend(children.get(n).into_iter().flatten().copied());
-    }
-    Bvh {
-        joints,
-        frame_time: 0.025,
-        channels,
-        values: Vec::new(),
-    }
+    let frames: Vec<TreeFrame> = buffer
+        .frame_names()
+        .into_iter()
+        .map(|name| TreeFrame {
+            parent: buffer.parent(&name).map(str::to_string),
+            offset: buffer
+                .latest(&name)
+                .map(|t| t.translation.vector)
+                .unwrap_or_else(nalgebra::Vector3::zeros),
+            name,
+        })
+        .collect();
+    tree_skeleton(&frames)
 }
 
-/// The arms found in a TF tree, the fit calibrated on its rest pose.
+/// Why a frame set was not fitted.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SetNotFitted {
+    /// Needed frames missing at the set's stamp.
+    Missing(Vec<String>),
+    /// The person's calibration given is not the stream's (the message says why).
+    Calibration(String),
+}
+
+/// The arms found in a TF tree, and the fit of its person.
 pub struct Fitted {
     bvh: Bvh,
     skeleton: Skeleton,
-    fitter: PoseFitter,
+    model: HumanArms,
+    rest: [ArmPose; 2],
+    has_clavicle: [bool; 2],
+    calibration: StreamCalibration,
+    fitter: Option<PoseFitter>,
     /// The frames whose transforms a set needs: every frame from the torso (exclusive) down to
     /// both hands.
     needed: Vec<String>,
@@ -91,17 +80,27 @@ impl Fitted {
         &self.needed
     }
 
+    /// Where the person's calibration stands.
+    pub fn calibration(&self) -> &StreamCalibration {
+        &self.calibration
+    }
+
+    /// The fitter, once calibrated.
+    pub fn fitter(&self) -> Option<&PoseFitter> {
+        self.fitter.as_ref()
+    }
+
     /// The human model's 18 angles (left arm, then right) of the transforms at `stamp`, with
-    /// the fit's residuals; `Err` names the needed frames missing at that stamp.
+    /// the fit's residuals; `None` while the person is being calibrated.
     pub fn fit(
         &mut self,
         buffer: &TfBuffer,
         stamp: i64,
         tolerance_ns: i64,
-    ) -> Result<([f64; 18], [ArmFitResult; 2]), Vec<String>> {
+    ) -> Result<Option<FrameFit>, SetNotFitted> {
         let missing = buffer.missing(self.needed.iter().map(String::as_str), stamp, tolerance_ns);
         if !missing.is_empty() {
-            return Err(missing);
+            return Err(SetNotFitted::Missing(missing));
         }
         let local = |k: usize| {
             let j = &self.bvh.joints[k];
@@ -113,23 +112,41 @@ impl Fitted {
         };
         let poses = [Side::Left, Side::Right]
             .map(|side| self.skeleton.arm_pose_with(&self.bvh, &local, side));
-        let fits = self.fitter.fit([&poses[0], &poses[1]]);
-        Ok((PoseFitter::angles(&fits), fits))
+        if self.fitter.is_none() {
+            self.fitter = self
+                .calibration
+                .offer(
+                    &self.model,
+                    stamp as f64 * 1e-9,
+                    [&self.rest[0], &self.rest[1]],
+                    self.has_clavicle,
+                    &self.skeleton.scheme,
+                    None,
+                    [&poses[0], &poses[1]],
+                )
+                .map_err(|e| SetNotFitted::Calibration(e.to_string()))?;
+        }
+        let Some(fitter) = self.fitter.as_mut() else {
+            return Ok(None);
+        };
+        let fits = fitter.fit([&poses[0], &poses[1]]);
+        Ok(Some((PoseFitter::angles(&fits), fits)))
     }
 }
 
-/// Finds the arms in the frames received so far (`map`: as `sgplvm import --map`) and
-/// calibrates the fit on the tree's rest pose. The error of a tree whose names no scheme
-/// knows lists every frame found.
-pub fn identify(buffer: &TfBuffer, map: Option<&ArmMap>) -> Result<Fitted, CaptureError> {
+/// Finds the arms in the frames received so far (`map`: as `sgplvm import --map`); the person
+/// is calibrated as `options` says on the first set fitted. The error of a tree whose names no
+/// scheme knows lists every frame found.
+pub fn identify(
+    buffer: &TfBuffer,
+    map: Option<&ArmMap>,
+    options: StreamCalibrationOptions,
+) -> Result<Fitted, CaptureError> {
     let bvh = skeleton_of(buffer);
     let skeleton = Skeleton::identify(&bvh, map, SOURCE).map_err(|e| flat_hint(&bvh, e))?;
     let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(&bvh, side));
     let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
     let model = HumanArms::new(&Robot::builtin("human")?)?;
-    // A live stream shows no motion ahead to tell an untold shoulder twist from (the importer
-    // looks at the file's elbow hinge): as for MVN, none.
-    let fitter = PoseFitter::new(model, [&rest[0], &rest[1]], has_clavicle, &|_| None);
     let mut needed = BTreeSet::new();
     for arm in &skeleton.arms {
         for j in bvh.path(skeleton.torso, arm.hand).unwrap_or_default() {
@@ -138,9 +155,13 @@ pub fn identify(buffer: &TfBuffer, map: Option<&ArmMap>) -> Result<Fitted, Captu
     }
     Ok(Fitted {
         needed: needed.into_iter().collect(),
+        calibration: StreamCalibration::new(options, Twist::Assumed, SOURCE),
         bvh,
         skeleton,
-        fitter,
+        model,
+        rest,
+        has_clavicle,
+        fitter: None,
     })
 }
 

@@ -34,7 +34,7 @@ use crate::msgs::{self, Header, TFMessage, Time, TransformStamped};
 use crate::mvn::{HumanSegments, MvnError};
 
 pub use buffer::{frame_id, ComposeError, TfBuffer, TransformError};
-pub use fit::{identify, skeleton_of, Fitted};
+pub use fit::{identify, skeleton_of, Fitted, SetNotFitted};
 pub use sets::{FrameSets, Next, SetCounts};
 
 /// How far apart the stamps of one frame set's transforms may be, ns.

@@ -8,6 +8,15 @@ use super::*;
 use crate::msgs::Time;
 use crate::mvn::human::poses_across_ranges as poses;
 
+/// The stream calibrated on its rest pose at once (a T-pose's untold twist palms down, the
+/// human model's own), not after watching the motion.
+fn no_watch() -> sgplvm_capture::StreamCalibrationOptions {
+    sgplvm_capture::StreamCalibrationOptions {
+        watch_seconds: 0.0,
+        ..Default::default()
+    }
+}
+
 fn iso(t: [f64; 3], axis: Vector3<f64>, angle: f64) -> Isometry3<f64> {
     Isometry3::from_parts(
         Translation3::new(t[0], t[1], t[2]),
@@ -131,7 +140,7 @@ fn the_human_model_s_angles_come_back_through_tf_and_the_importer_s_fit() {
     let qs = poses(40);
     let t0 = 1_700_000_000_000_000_000i64;
     b.insert(&tree.message(&qs[0], Time::from_ns(t0)).unwrap(), false);
-    let mut fitted = identify(&b, None).unwrap();
+    let mut fitted = identify(&b, None, no_watch()).unwrap();
     assert!(fitted.scheme().contains("Xsens MVN"), "{}", fitted.scheme());
     assert_eq!(fitted.torso(), "actor1/T8");
     // The fit needs the arms' frames from the torso down, not the spine or the world.
@@ -140,7 +149,7 @@ fn the_human_model_s_angles_come_back_through_tf_and_the_importer_s_fit() {
     for (k, q) in qs.iter().enumerate() {
         let stamp = t0 + k as i64 * 25_000_000;
         b.insert(&tree.message(q, Time::from_ns(stamp)).unwrap(), false);
-        let (angles, fits) = fitted.fit(&b, stamp, STAMP_TOLERANCE_NS).unwrap();
+        let (angles, fits) = fitted.fit(&b, stamp, STAMP_TOLERANCE_NS).unwrap().unwrap();
         for f in &fits {
             assert!(f.elbow_m < 1e-6 && f.wrist_m < 1e-6, "{k}: {f:?}");
         }
@@ -159,12 +168,15 @@ fn a_frame_missing_from_a_set_is_named() {
     b.insert(&tree.static_message(Time::default()), true);
     let q = &poses(1)[0];
     b.insert(&tree.message(q, Time::from_ns(1_000)).unwrap(), false);
-    let mut fitted = identify(&b, None).unwrap();
+    let mut fitted = identify(&b, None, no_watch()).unwrap();
     // The next set without the left hand.
     let mut msg = tree.message(q, Time::from_ns(50_000_000)).unwrap();
     msg.transforms.retain(|t| t.child_frame_id != "LeftHand");
     b.insert(&msg, false);
     let missing = fitted.fit(&b, 50_000_000, STAMP_TOLERANCE_NS).unwrap_err();
+    let SetNotFitted::Missing(missing) = missing else {
+        panic!("{missing:?}")
+    };
     assert_eq!(missing, vec!["LeftHand".to_string()]);
     assert!(fitted.fit(&b, 1_000, STAMP_TOLERANCE_NS).is_ok());
 }
@@ -180,7 +192,7 @@ fn frames_no_scheme_names_are_refused_naming_the_frames_found() {
         }
     }
     b.insert(&msg, false);
-    let e = identify(&b, None).err().unwrap().to_string();
+    let e = identify(&b, None, no_watch()).err().unwrap().to_string();
     assert!(e.contains("cannot tell which segments are the arms"), "{e}");
     for frame in ["T8", "PortUpperArm", "StarboardHand"] {
         assert!(e.contains(frame), "{frame} not in: {e}");
@@ -193,14 +205,17 @@ fn frames_no_scheme_names_are_refused_naming_the_frames_found() {
     .unwrap();
     // Without the spine (no /tf_static here) the torso's up is taken between the shoulders;
     // what matters is that the map is what finds the arms.
-    let fitted = identify(&b, Some(&map)).unwrap();
+    let fitted = identify(&b, Some(&map), no_watch()).unwrap();
     assert_eq!(fitted.scheme(), "map file");
     // A map naming a frame not there says so, listing the frames.
     let wrong: sgplvm_capture::ArmMap = serde_json::from_str(
         r#"{"jLeftShoulder": "Nope", "jLeftElbow": "PortForeArm", "jLeftWrist": "PortHand"}"#,
     )
     .unwrap();
-    let e = identify(&b, Some(&wrong)).err().unwrap().to_string();
+    let e = identify(&b, Some(&wrong), no_watch())
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("`Nope`") && e.contains("PortForeArm"), "{e}");
 }
 
@@ -212,7 +227,7 @@ fn sets_are_used_newest_first_and_the_others_counted() {
     let qs = poses(6);
     let at = |k: usize| 1_000_000_000 + k as i64 * 25_000_000;
     b.insert(&tree.message(&qs[0], Time::from_ns(at(0))).unwrap(), false);
-    let needed = identify(&b, None).unwrap().needed().to_vec();
+    let needed = identify(&b, None, no_watch()).unwrap().needed().to_vec();
     let mut sets = FrameSets::new();
     assert_eq!(sets.next(&b, &needed).stamp, Some(at(0)));
     // Nothing new: nothing to fit.
@@ -262,7 +277,7 @@ fn a_flat_tree_is_refused_saying_the_chain_is_needed() {
         flat.header.frame_id = "world".into();
         b.insert_one(&flat, false).unwrap();
     }
-    let e = identify(&b, None).err().unwrap().to_string();
+    let e = identify(&b, None, no_watch()).err().unwrap().to_string();
     assert!(
         e.contains("hangs straight from `world`") && e.contains("LeftForeArm"),
         "{e}"

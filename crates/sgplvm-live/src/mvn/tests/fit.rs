@@ -94,13 +94,27 @@ fn mvn_frame_gives_the_importers_arm_poses() {
 
 #[test]
 fn mvn_frame_through_the_importers_arm_fit() {
-    use sgplvm_capture::{HumanArms, PoseFitter};
+    use sgplvm_capture::calibration::UntoldTwist;
+    use sgplvm_capture::{Calibration, HumanArms, PoseFitter, Twist};
     use sgplvm_robots::Side;
     // The importer's own per-frame fit, on an MVN frame.
     let model = HumanArms::new(&sgplvm_robots::Robot::builtin("human").unwrap()).unwrap();
     let frame = arms_frame();
     let rest = [Side::Left, Side::Right].map(|side| frame.rest_arm_pose(side).unwrap());
-    let mut fitter = PoseFitter::new(model, [&rest[0], &rest[1]], [true, true], &|_| None);
+    let untold = UntoldTwist {
+        hinge: None,
+        otherwise: Twist::NullPose,
+    };
+    let calibration = Calibration::from_rest(
+        &model,
+        [&rest[0], &rest[1]],
+        [true, true],
+        untold,
+        "test",
+        "MVN",
+        Some(1.0),
+    );
+    let mut fitter = PoseFitter::new(model, &calibration);
     let poses = [Side::Left, Side::Right].map(|side| frame.arm_pose(side).unwrap());
     for (fit, side) in fitter
         .fit([&poses[0], &poses[1]])
@@ -122,7 +136,7 @@ fn mvn_frame_through_the_importers_arm_fit() {
 fn the_human_model_s_angles_come_back_through_mvn_and_the_importer_s_fit() {
     use super::human::{HumanSegments, MvnFit};
     let human = HumanSegments::new().unwrap();
-    let mut fit = MvnFit::new();
+    let mut fit = MvnFit::default();
     // The null pose first (the stream's calibration), then poses across the joints' ranges.
     let mut t_pose = vec![0.0; 18];
     t_pose[3] = std::f64::consts::FRAC_PI_2;
@@ -133,7 +147,10 @@ fn the_human_model_s_angles_come_back_through_mvn_and_the_importer_s_fit() {
         let frame = human.frame(&q, k as u32, 0).unwrap();
         let bytes = encode(&frame, PoseType::Quaternion).unwrap();
         let back = decode(&bytes).unwrap();
-        let (angles, fits) = fit.angles(&back).unwrap();
+        let (angles, fits) = fit
+            .angles(&back)
+            .unwrap()
+            .expect("MVN's null pose calibrates at once");
         for f in &fits {
             assert!(f.elbow_m < 1e-3 && f.wrist_m < 1e-3, "{k}: {f:?}");
         }
