@@ -47,8 +47,9 @@ pub struct RetargetArgs {
     mode: Match,
     /// With --match arms: the tasks' weights, comma-separated NAME=VALUE of upper (the upper
     /// arm's direction), forearm, hand (its position, as a fraction of the reach), orientation
-    /// (the hand's turn; 0: free) and posture (the pull towards the neutral posture).
-    #[arg(long, value_parser = parse_weights, default_value = "upper=1,forearm=1,hand=4,orientation=0,posture=0.01")]
+    /// (the hand's turn; 0: free), twist (the upper arm's turn, its twist where the elbow is
+    /// straight; 0: free) and posture (the pull towards the neutral posture).
+    #[arg(long, value_parser = parse_weights, default_value = "upper=1,forearm=1,hand=0.5,orientation=1,twist=1,posture=0.01")]
     weights: Weights,
     /// With --match arms: how far apart the robot's own collision shapes stay, metres (0
     /// turns the self-collision limit off).
@@ -62,8 +63,14 @@ pub struct RetargetArgs {
     /// than the velocity limits, and it runs about 1.4× slower).
     #[arg(long, value_enum, default_value = "continuous")]
     redundancy: RedundancyArg,
-    /// Let joints move as fast as the IK wants (the URDF velocity limits are kept by default).
-    #[arg(long)]
+    /// Keep each joint within its URDF velocity limit of the command before (then, where the
+    /// limits hold a frame back, its posture depends on the frames before it: not a function of
+    /// the pose). By default every frame's posture is the pose's own; `predict`, `simulate` and
+    /// `teleop` keep the limits on what is sent.
+    #[arg(long, conflicts_with = "no_velocity_limits")]
+    velocity_limits: bool,
+    /// The default since velocity limits became opt-in (--velocity-limits); accepted as before.
+    #[arg(long, hide = true)]
     no_velocity_limits: bool,
     /// How to choose test motions: `blocks` (every --test-every-th block of --block-seconds;
     /// a capture too short for one test block trains on every frame, with a warning), `files`
@@ -130,10 +137,11 @@ fn parse_weights(s: &str) -> Result<Weights, String> {
             "forearm" => w.forearm = v,
             "hand" => w.hand = v,
             "orientation" => w.orientation = v,
+            "twist" => w.twist = v,
             "posture" => w.posture = v,
             other => {
                 return Err(format!(
-                    "`{other}`: expected upper, forearm, hand, orientation or posture"
+                    "`{other}`: expected upper, forearm, hand, orientation, twist or posture"
                 ))
             }
         }
@@ -196,7 +204,7 @@ pub fn run(args: RetargetArgs) -> Result<()> {
             RedundancyArg::Canonical => Redundancy::Canonical,
             RedundancyArg::Continuous => Redundancy::Continuous,
         },
-        velocity_limits: !args.no_velocity_limits,
+        velocity_limits: args.velocity_limits,
         whole_arm: WholeArmOptions {
             weights: args.weights.clone(),
             margin_m: args.margin.max(0.0),

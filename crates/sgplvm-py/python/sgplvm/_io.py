@@ -127,7 +127,7 @@ def retarget(
     out: Optional[PathLike] = None,
     match: str = "arms",
     redundancy: str = "continuous",
-    velocity_limits: bool = True,
+    velocity_limits: bool = False,
     block_seconds: float = 4.0,
     test_every: int = 4,
     test_files: Optional[Sequence[str]] = None,
@@ -145,7 +145,7 @@ def retarget(
     MCAP files (e.g. from ``sgplvm import``). ``match`` (``"arms"``: the person's arm posture,
     out of self-collision; ``"hands"``, ``"hands+elbows"``, ``"poses"``), ``redundancy`` and
     ``velocity_limits`` are the CLI's ``--match``, ``--redundancy`` and
-    ``--no-velocity-limits``.
+    ``--velocity-limits``.
 
     Without ``out``: returns ``{robot: {"joint_names", "positions" (n, joints), "report"}}``.
     With ``out`` (and ``demos``): writes the demonstrations split for training, as the CLI does

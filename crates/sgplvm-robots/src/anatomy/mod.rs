@@ -292,7 +292,33 @@ impl AnatomyArm {
         }
     }
 
-    /// The arm's landmarks (shoulder, elbow, wrist centre, hand) as points fixed on the
+    /// The elbow's centre on the arm's bone line, in the elbow joint's frame (before its
+    /// motion): the point of the elbow's axis midway, along that axis, between the shoulder
+    /// centre and the wrist centre. A URDF may place the elbow joint's origin anywhere on its
+    /// axis (at the side of the arm, say); this point lies in the plane the shoulder, elbow
+    /// and wrist centres bend in, so that shoulder → elbow → wrist are the upper arm's and the
+    /// forearm's bone lines. Read at the neutral posture (the axial places do not change as the
+    /// elbow bends).
+    pub fn elbow_centre_local(&self) -> Vector3<f64> {
+        if self.chain.is_prismatic(self.elbow) {
+            return Vector3::zeros();
+        }
+        let q = &self.neutral;
+        let frames = self.chain.joint_frames(q);
+        let (Some(elbow), Some(wrist_frame)) =
+            (frames.get(self.elbow), frames.get(self.wrist_after))
+        else {
+            return Vector3::zeros();
+        };
+        let axis = self.chain.joint_axes(q)[self.elbow];
+        let at = elbow.translation.vector;
+        let shoulder = self.shoulder_at(q);
+        let wrist = (wrist_frame * nalgebra::Point3::from(self.wrist_local)).coords;
+        let along = 0.5 * ((shoulder - at).dot(&axis) + (wrist - at).dot(&axis));
+        elbow.rotation.inverse() * (axis * along)
+    }
+
+    /// The arm's landmarks (shoulder, elbow centre, wrist centre, hand) as points fixed on the
     /// robot's links, for tasks evaluated on the whole robot.
     pub fn landmarks(&self, robot: &Robot) -> ArmLandmarks {
         let on_joint = |k: usize, local: Vector3<f64>| -> LinkPoint {
@@ -326,7 +352,7 @@ impl AnatomyArm {
         };
         ArmLandmarks {
             shoulder,
-            elbow: on_joint(self.elbow, Vector3::zeros()),
+            elbow: on_joint(self.elbow, self.elbow_centre_local()),
             wrist: on_joint(self.wrist_after, self.wrist_local),
             hand: LinkPoint {
                 link: robot
@@ -353,7 +379,7 @@ impl AnatomyArm {
 pub struct ArmLandmarks {
     /// The shoulder centre.
     pub shoulder: LinkPoint,
-    /// The elbow (the elbow joint's origin).
+    /// The elbow's centre on the bone line ([`AnatomyArm::elbow_centre_local`]).
     pub elbow: LinkPoint,
     /// The wrist centre.
     pub wrist: LinkPoint,

@@ -98,8 +98,21 @@ fn landmarks_sit_on_the_links_where_the_arms_joints_are() {
                     * nalgebra::Point3::from(p))
                 .coords
             };
-            let elbow = in_root(arm.chain.joint_origins(&qa)[arm.elbow]);
-            assert!((marks.elbow.at(&frames) - elbow).norm() < 1e-12, "{name}");
+            // The elbow's centre: on the elbow's axis, midway along it between the shoulder
+            // and wrist centres.
+            let origin = in_root(arm.chain.joint_origins(&qa)[arm.elbow]);
+            let base = robot.forward_kinematics(&q, arm.chain.base()).unwrap();
+            let axis = base.rotation * arm.chain.joint_axes(&qa)[arm.elbow];
+            let elbow = marks.elbow.at(&frames);
+            let off = elbow - origin;
+            assert!(
+                (off - axis * off.dot(&axis)).norm() < 1e-12,
+                "{name}: off the axis"
+            );
+            let wrist = marks.wrist.at(&frames);
+            let shoulder_at = marks.shoulder.at(&frames);
+            let mid = 0.5 * ((shoulder_at - elbow).dot(&axis) + (wrist - elbow).dot(&axis));
+            assert!(mid.abs() < 1e-12, "{name}: {mid}");
             let shoulder = in_root(arm.shoulder_at(&qa));
             assert!(
                 (marks.shoulder.at(&frames) - shoulder).norm() < 1e-12,

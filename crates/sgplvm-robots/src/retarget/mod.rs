@@ -92,7 +92,8 @@ pub struct RetargetOptions {
     pub mode: Match,
     /// How the arms' redundancy is resolved.
     pub redundancy: Redundancy,
-    /// Keep every joint within its URDF velocity limit between frames.
+    /// Keep every joint within its URDF velocity limit between frames (off by default: then
+    /// every frame's posture is a function of its pose alone).
     pub velocity_limits: bool,
     /// A hand this close to its target (metres) has reached it.
     pub reach_tolerance_m: f64,
@@ -105,7 +106,7 @@ impl Default for RetargetOptions {
         Self {
             mode: Match::Arms,
             redundancy: Redundancy::Continuous,
-            velocity_limits: true,
+            velocity_limits: false,
             reach_tolerance_m: 0.005,
             whole_arm: whole_arm::WholeArmOptions::default(),
         }
@@ -326,28 +327,9 @@ impl<'a> RobotArms<'a> {
         &self.anatomy.arms()[s].neutral
     }
 
-    /// Arm `s`'s configuration for each of the generator's key poses, from the neutral posture
-    /// and pulled towards it.
+    /// Arm `s`'s configuration for each of the generator's key poses ([`key_postures`]).
     fn solve_key_postures(&self, s: usize) -> Vec<Vec<f64>> {
-        let arm = &self.anatomy.arms()[s];
-        let options = IkOptions {
-            tolerance: 1e-6,
-            max_iters: 200,
-            restarts: 4,
-            posture_gain: 0.5,
-            rest: Some(arm.neutral.clone()),
-            ..IkOptions::default()
-        };
-        KEY_POSES
-            .iter()
-            .map(|pose| {
-                let rel = if s == 0 { pose.left } else { pose.right };
-                let target = self.place(s, &Vector3::from(rel));
-                arm.chain
-                    .inverse_kinematics(&IkTarget::Position(target), &arm.neutral, &options)
-                    .q
-            })
-            .collect()
+        key_postures(self.anatomy, &self.frames, s)
     }
 
     /// A point of arm `s` given relative to the shoulder in units of reach (body frame), in
@@ -377,6 +359,50 @@ impl<'a> RobotArms<'a> {
             }
         }
     }
+}
+
+/// Arm `s`'s configuration (chain order) for each of the generator's key poses (its hand
+/// where the key pose puts it, relative to the shoulder in units of reach), from the neutral
+/// posture and pulled towards it: a fixed set of postures across the arm's workspace.
+fn key_postures(anatomy: &Anatomy, frames: &ArmFrames, s: usize) -> Vec<Vec<f64>> {
+    let arm = &anatomy.arms()[s];
+    let options = IkOptions {
+        tolerance: 1e-6,
+        max_iters: 200,
+        restarts: 4,
+        posture_gain: 0.5,
+        rest: Some(arm.neutral.clone()),
+        ..IkOptions::default()
+    };
+    KEY_POSES
+        .iter()
+        .map(|pose| {
+            let rel = if s == 0 { pose.left } else { pose.right };
+            let target = frames.shoulders[s]
+                + frames.reach[s] * (frames.body_in_base[s] * Vector3::from(rel));
+            arm.chain
+                .inverse_kinematics(&IkTarget::Position(target), &arm.neutral, &options)
+                .q
+        })
+        .collect()
+}
+
+/// The whole configurations of `anatomy`'s robot at each key pose ([`key_postures`] of both
+/// arms, the other joints at their hold values): the fixed starts of whole-arm retargeting.
+fn key_configurations(anatomy: &Anatomy) -> Vec<Vec<f64>> {
+    let frames = ArmFrames::of(anatomy);
+    let arms = [0, 1].map(|s| key_postures(anatomy, &frames, s));
+    (0..KEY_POSES.len())
+        .map(|k| {
+            let mut q = anatomy.hold_configuration().to_vec();
+            for (s, postures) in arms.iter().enumerate() {
+                for (c, &i) in anatomy.arms()[s].chain.robot_indices().iter().enumerate() {
+                    q[i] = postures[k][c];
+                }
+            }
+            q
+        })
+        .collect()
 }
 
 /// Retargets the human of `dataset` (the human model's 18 joints) onto each robot of `robots`
@@ -413,7 +439,9 @@ pub fn retarget(
         })
         .collect();
     if options.mode == Match::Arms {
-        let human_gauge = whole_arm::PostureGauge::of(&human.anatomy);
+        let at = whole_arm::reference_configuration(&human.anatomy);
+        let human_gauge = whole_arm::PostureGauge::at(&human.anatomy, &at);
+        let reference = human_gauge.measure(&human.anatomy, &at);
         let postures: Vec<[whole_arm::ArmPosture; 2]> = (0..n)
             .map(|f| {
                 let q: Vec<f64> = dataset.human.positions.row(f).iter().copied().collect();
@@ -423,7 +451,14 @@ pub fn retarget(
         return robots
             .iter()
             .map(|(name, anatomy)| {
-                retarget_whole_arm(name, anatomy, &postures, &dataset.times_ns, options)
+                retarget_whole_arm(
+                    name,
+                    anatomy,
+                    &postures,
+                    &reference,
+                    &dataset.times_ns,
+                    options,
+                )
             })
             .collect();
     }
@@ -441,12 +476,15 @@ fn retarget_whole_arm(
     name: &str,
     anatomy: &Anatomy,
     postures: &[[whole_arm::ArmPosture; 2]],
+    reference: &[whole_arm::ArmPosture; 2],
     times_ns: &[i64],
     options: &RetargetOptions,
 ) -> Result<Retargeted, RetargetError> {
     let (full, misses, posture) = whole_arm::run(
         anatomy,
         postures,
+        reference,
+        &key_configurations(anatomy),
         times_ns,
         &options.whole_arm,
         options.velocity_limits,

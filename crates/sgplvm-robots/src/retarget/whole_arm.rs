@@ -1,20 +1,34 @@
-//! Whole-arm retargeting ([`super::Match::Arms`]): the robot takes the person's arm posture —
-//! the upper arm's and the forearm's directions in the body frame, and the hand where the
-//! person's is relative to the shoulder in units of reach — by differential IK, each frame
-//! solved to convergence as one QP per Gauss–Newton step over both arms' joints
-//! ([`crate::kinematics::qp`]):
+//! Whole-arm retargeting ([`super::Match::Arms`]): the robot takes the person's arm posture by
+//! differential IK, each frame solved to convergence as one QP per Gauss–Newton step over both
+//! arms' joints ([`crate::kinematics::qp`]):
 //!
 //! ```text
-//! min  Σ_arms  w_u ‖u − û‖² + w_f ‖f − f̂‖² + w_h ‖(h − ĥ)/reach‖² [+ w_o ‖log(R̂ Rᵀ)‖²]
-//!      + w_p ‖q − q_neutral‖²
-//! s.t. joint position limits, every pair of the robot's own shapes that can meet ≥ margin
+//! min  Σ_arms  w_u ‖u − û‖² + w_f ‖f − f̂‖² + w_o ‖log(R̂_hand R_handᵀ)‖² + w_t ‖log(R̂_upper R_upperᵀ)‖²
+//!              + w_h ‖(h − ĥ)/reach‖²  +  w_p ‖q − q_neutral‖²
+//! s.t. joint position limits, each elbow on its bending side, every pair of the robot's own
+//!      shapes that can meet ≥ margin
 //! ```
 //!
-//! The posture regulariser pulls towards the fixed neutral posture, not the previous frame,
-//! so the solution is a function of the person's pose (each frame starts from the previous
-//! frame's solution only to converge faster). The command sent is then the nearest safe one
-//! ([`crate::safety`]): within the velocity limits of the command before, and out of
-//! self-collision.
+//! - `u`, `f`: the upper arm's and the forearm's directions on their **bone lines** — shoulder
+//!   centre → elbow centre → wrist centre ([`crate::anatomy::AnatomyArm::elbow_centre_local`]),
+//!   not the joints' origins, which a URDF may place anywhere on their axes — in the body frame.
+//! - `R_hand`, `R_upper`: the hand's and the upper arm's orientations, each the person's turn
+//!   from the person's neutral posture applied to the robot's **reference** posture: the one
+//!   whose bone directions are the person's neutral ones ([`FrameSolver::reference_hands`]), so
+//!   that directions and orientations ask one posture of the robot. The hand's orientation holds
+//!   the forearm's roll and the wrist; the upper arm's holds its twist where the elbow is
+//!   straight and the directions cannot tell it. So the twist follows from the person (what
+//!   the capture measured of it, through the person's calibration), not from history.
+//! - `h`: the hand relative to the shoulder in units of reach, a weak pull (bodies whose
+//!   proportions differ from a person's cannot have both the directions and the place).
+//! - the posture regulariser pulls towards the fixed neutral posture.
+//!
+//! Each frame is solved from the neutral posture and from the fixed starts (the key postures)
+//! that begin nearest it, never from the previous frame, and the lowest objective kept: the
+//! posture is a function of the person's pose, whatever came before it. The command sent is
+//! then the nearest safe one ([`crate::safety`]): out of self-collision, linearised at the
+//! posture itself, and — only when asked for — within the velocity limits of the command
+//! before (then, where they hold it back, the command depends on the path).
 
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -39,6 +53,10 @@ pub struct Weights {
     pub hand: f64,
     /// The hand's orientation (radians); 0: free.
     pub orientation: f64,
+    /// The upper arm's orientation (radians), which holds its twist where the elbow is
+    /// straight; 0: free.
+    #[serde(default)]
+    pub twist: f64,
     /// The pull towards the neutral posture (radians).
     pub posture: f64,
 }
@@ -48,8 +66,9 @@ impl Default for Weights {
         Weights {
             upper_arm: 1.0,
             forearm: 1.0,
-            hand: 4.0,
-            orientation: 0.0,
+            hand: 0.5,
+            orientation: 1.0,
+            twist: 1.0,
             posture: 0.01,
         }
     }
@@ -98,6 +117,8 @@ pub struct ArmPosture {
     pub hand: Vector3<f64>,
     /// The hand's rotation from its neutral orientation.
     pub turn: UnitQuaternion<f64>,
+    /// The upper arm's rotation from its neutral orientation.
+    pub upper_turn: UnitQuaternion<f64>,
 }
 
 /// A body's arms as postures are measured on them: landmarks, and the rotation from the body
@@ -110,17 +131,25 @@ pub(super) struct PostureGauge {
     reach: [f64; 2],
     neutral_hands: [UnitQuaternion<f64>; 2],
     hand_links: [usize; 2],
+    /// The upper arms' orientations at the neutral posture, and their links (the elbow's).
+    neutral_uppers: [UnitQuaternion<f64>; 2],
+    upper_links: [usize; 2],
     ancestry: Ancestry,
 }
 
 impl PostureGauge {
     /// The gauge of `anatomy`'s arms.
     pub(super) fn of(anatomy: &Anatomy) -> PostureGauge {
+        PostureGauge::at(anatomy, anatomy.hold_configuration())
+    }
+
+    /// The gauge of `anatomy`'s arms whose turns are measured from configuration `reference`.
+    pub(super) fn at(anatomy: &Anatomy, reference: &[f64]) -> PostureGauge {
         let robot = anatomy.robot();
         let ancestry = Ancestry::of(robot);
         let torso = anatomy.torso_in_root();
         let landmarks = [0, 1].map(|s| anatomy.arms()[s].landmarks(robot));
-        let neutral = RobotFrames::new(robot, &ancestry, anatomy.hold_configuration());
+        let neutral = RobotFrames::new(robot, &ancestry, reference);
         PostureGauge {
             body_to_root: torso.rotation * anatomy.body_in_torso(),
             shoulders: [0, 1]
@@ -128,6 +157,8 @@ impl PostureGauge {
             reach: [0, 1].map(|s| anatomy.arms()[s].reach),
             neutral_hands: [0, 1].map(|s| neutral.link(landmarks[s].hand.link).rotation),
             hand_links: [0, 1].map(|s| landmarks[s].hand.link),
+            neutral_uppers: [0, 1].map(|s| neutral.link(landmarks[s].elbow.link).rotation),
+            upper_links: [0, 1].map(|s| landmarks[s].elbow.link),
             landmarks,
             ancestry,
         }
@@ -146,11 +177,15 @@ impl PostureGauge {
                 m.hand.at(&frames),
             );
             let hand_rot = frames.link(self.hand_links[s]).rotation;
+            let upper_rot = frames.link(self.upper_links[s]).rotation;
             ArmPosture {
                 upper_arm: to_body * (el - sh).normalize(),
                 forearm: to_body * (wr - el).normalize(),
                 hand: to_body * (ha - self.shoulders[s]) / self.reach[s],
                 turn: to_body * (hand_rot * self.neutral_hands[s].inverse()) * self.body_to_root,
+                upper_turn: to_body
+                    * (upper_rot * self.neutral_uppers[s].inverse())
+                    * self.body_to_root,
             }
         })
     }
@@ -165,6 +200,14 @@ pub struct PostureReport {
     pub forearm_deg: [f64; 2],
     /// Hand position error as a fraction of reach: median and 90th percentile.
     pub hand_of_reach: [f64; 2],
+    /// The hand's orientation error (from the person's turn on the reference posture),
+    /// degrees: median and 90th percentile.
+    #[serde(default)]
+    pub hand_orientation_deg: [f64; 2],
+    /// The upper arm's orientation error (its twist included), degrees: median and 90th
+    /// percentile.
+    #[serde(default)]
+    pub upper_arm_orientation_deg: [f64; 2],
     /// Share of hand targets within 5 % of the reach.
     pub hands_within_5pct: f64,
     /// Frames whose command the velocity limits held back.
@@ -190,15 +233,21 @@ pub struct PostureReport {
 
 /// One robot through every frame: the commands (frames × every joint of the URDF, held joints
 /// at their hold values), each hand's miss per frame (metres, left and right) and the report.
+/// `reference` is the person's reference posture (the one their turns are measured from,
+/// [`reference_configuration`]): the robot's segment orientations are measured from the
+/// robot's posture with the person's bone directions there ([`FrameSolver::reference_hands`]),
+/// so that orientations and bone directions ask one posture of the robot.
 pub(super) fn run(
     anatomy: &Anatomy,
     targets: &[[ArmPosture; 2]],
+    reference: &[ArmPosture; 2],
+    seeds: &[Vec<f64>],
     times_ns: &[i64],
     options: &WholeArmOptions,
     velocity_limits: bool,
 ) -> Result<(DMatrix<f64>, Vec<f64>, PostureReport), String> {
     let robot = anatomy.robot();
-    let gauge = PostureGauge::of(anatomy);
+    let mut gauge = PostureGauge::of(anatomy);
     let arm_names = anatomy.arm_joint_names();
     let q_index: Vec<usize> = arm_names
         .iter()
@@ -218,6 +267,18 @@ pub(super) fn run(
     )?;
     let hold = anatomy.hold_configuration().to_vec();
     let neutral: Vec<f64> = q_index.iter().map(|&i| hold[i]).collect();
+    let elbows = elbow_sides(anatomy, &active);
+    (gauge.neutral_hands, gauge.neutral_uppers) = FrameSolver {
+        anatomy,
+        gauge: &gauge,
+        model: &model,
+        active: &active,
+        neutral: &neutral,
+        seeds,
+        elbows: &elbows,
+        options,
+    }
+    .reference_hands(reference, &hold);
     let mut ideal = hold.clone();
     let mut out = DMatrix::<f64>::from_fn(targets.len(), hold.len(), |_, i| hold[i]);
     let mut tally = Tally::default();
@@ -229,6 +290,8 @@ pub(super) fn run(
             model: &model,
             active: &active,
             neutral: &neutral,
+            seeds,
+            elbows: &elbows,
             options,
         };
         let (steps, constrained) = solver.solve_frame(&mut ideal, target, &hold);
@@ -238,7 +301,13 @@ pub(super) fn run(
         // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
         // too few digits for a 25 ms step's velocity limit.
         let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
-        let outcome = safety.step(&asked, now, &mut sent);
+        // Without velocity limits the safe command is a function of the pose alone: the
+        // self-collision limit linearised at the asked posture, not at the command before.
+        let outcome = if velocity_limits {
+            safety.step(&asked, now, &mut sent)
+        } else {
+            safety.step_from(&asked, None, now, &mut sent)
+        };
         if outcome.changed {
             if outcome.near.is_empty() {
                 tally.velocity_limited += 1;
@@ -270,10 +339,141 @@ struct FrameSolver<'a> {
     model: &'a CollisionModel,
     active: &'a [usize],
     neutral: &'a [f64],
+    /// Fixed starts besides the neutral posture (whole configurations).
+    seeds: &'a [Vec<f64>],
+    /// Per arm, the elbow's place among the active joints and the side it bends to.
+    elbows: &'a [ElbowSide],
     options: &'a WholeArmOptions,
 }
 
+/// The elbows' flexion in the reference posture, radians: bent enough that the bone
+/// directions tell the plane the elbow bends in (and so the upper arm's twist), on the person
+/// and on the robot alike.
+const REFERENCE_ELBOW: f64 = std::f64::consts::FRAC_PI_2;
+
+/// The person's reference posture: the human model's neutral with both elbows bent
+/// [`REFERENCE_ELBOW`] (the side each bends to), the posture a hand's and an upper arm's turn is
+/// measured from.
+pub(super) fn reference_configuration(human: &Anatomy) -> Vec<f64> {
+    let mut q = human.hold_configuration().to_vec();
+    let limits = human.robot().joint_limits();
+    for arm in human.arms() {
+        if let Some(&i) = arm.chain.robot_indices().get(arm.elbow) {
+            let (lo, hi) = limits[i];
+            q[i] = if hi >= -lo {
+                REFERENCE_ELBOW.min(hi)
+            } else {
+                (-REFERENCE_ELBOW).max(lo)
+            };
+        }
+    }
+    q
+}
+
+/// How many of the fixed starts (the key postures) each frame is also solved from besides the
+/// neutral posture: those whose objective is lowest at the start.
+const SEED_STARTS: usize = 2;
+
+/// How far past straight (radians) an elbow is let bend the other way while retargeting.
+const PAST_STRAIGHT: f64 = 0.02;
+
+/// An elbow's bending side: the retargeting keeps it there (a person's elbow bends one way; a
+/// robot's that can also bend a little the other way would otherwise take the same bone
+/// directions with the upper arm turned half round and the elbow bent backwards, a second
+/// posture of the same pose).
+#[derive(Debug, Clone, Copy)]
+struct ElbowSide {
+    /// The elbow's index among the active joints.
+    active: usize,
+    /// Its range on its bending side (the side of the larger range), radians.
+    range: (f64, f64),
+}
+
+/// The bending side of each arm's elbow of `anatomy` (`active`: the joints the solver moves).
+fn elbow_sides(anatomy: &Anatomy, active: &[usize]) -> Vec<ElbowSide> {
+    let robot = anatomy.robot();
+    anatomy
+        .arms()
+        .iter()
+        .filter_map(|arm| {
+            let i = *arm.chain.robot_indices().get(arm.elbow)?;
+            let j = robot.movable[i];
+            let k = active.iter().position(|&a| a == j)?;
+            let (lo, hi) = robot.joints[j].limits;
+            if !(lo < 0.0 && hi > 0.0) || arm.chain.is_prismatic(arm.elbow) {
+                return None;
+            }
+            let range = if -lo >= hi {
+                (lo, hi.min(PAST_STRAIGHT))
+            } else {
+                (lo.max(-PAST_STRAIGHT), hi)
+            };
+            Some(ElbowSide { active: k, range })
+        })
+        .collect()
+}
+
 impl FrameSolver<'_> {
+    /// The robot's hand orientations (root frame) at the posture whose bone directions are the
+    /// person's neutral ones (`reference`), the rest of the arm pulled towards the neutral
+    /// posture: where a hand's (and an upper arm's) turn from the person's neutral is measured
+    /// from on the robot.
+    fn reference_hands(
+        &self,
+        reference: &[ArmPosture; 2],
+        hold: &[f64],
+    ) -> ([UnitQuaternion<f64>; 2], [UnitQuaternion<f64>; 2]) {
+        let g = self.gauge;
+        let r = g.body_to_root;
+        let mut tasks = Vec::new();
+        for (s, t) in reference.iter().enumerate() {
+            let m = &g.landmarks[s];
+            tasks.push((
+                Task::Direction {
+                    from: m.shoulder,
+                    to: m.elbow,
+                    target: r * t.upper_arm,
+                },
+                1.0,
+            ));
+            tasks.push((
+                Task::Direction {
+                    from: m.elbow,
+                    to: m.wrist,
+                    target: r * t.forearm,
+                },
+                1.0,
+            ));
+        }
+        tasks.push((
+            Task::Posture {
+                target: self.neutral.to_vec(),
+            },
+            self.options.weights.posture,
+        ));
+        let mut q = hold.to_vec();
+        self.solve(&mut q, &tasks, false);
+        let frames = RobotFrames::new(self.anatomy.robot(), &g.ancestry, &q);
+        // Where the limits keep the robot from the person's neutral directions, each segment's
+        // orientation is turned by what its bone still misses: the reference is the robot's
+        // segments as they would sit along the person's bones.
+        let got = g.measure(self.anatomy, &q);
+        let align = |from: &Vector3<f64>, to: &Vector3<f64>| {
+            UnitQuaternion::rotation_between(&(r * from), &(r * to))
+                .unwrap_or_else(UnitQuaternion::identity)
+        };
+        (
+            [0, 1].map(|s| {
+                align(&got[s].forearm, &reference[s].forearm)
+                    * frames.link(g.hand_links[s]).rotation
+            }),
+            [0, 1].map(|s| {
+                align(&got[s].upper_arm, &reference[s].upper_arm)
+                    * frames.link(g.upper_links[s]).rotation
+            }),
+        )
+    }
+
     /// The tasks of a frame's target posture.
     fn tasks(&self, target: &[ArmPosture; 2]) -> Vec<(Task, f64)> {
         let g = self.gauge;
@@ -315,6 +515,15 @@ impl FrameSolver<'_> {
                     w.orientation,
                 ));
             }
+            if w.twist > 0.0 {
+                tasks.push((
+                    Task::Orientation {
+                        link: g.upper_links[s],
+                        target: (r * t.upper_turn * r.inverse()) * g.neutral_uppers[s],
+                    },
+                    w.twist,
+                ));
+            }
         }
         tasks.push((
             Task::Posture {
@@ -325,10 +534,10 @@ impl FrameSolver<'_> {
         tasks
     }
 
-    /// The frame's posture, a function of the target rather than of the path: converged from
-    /// the neutral posture (`hold`), and from the previous frame's posture (`q`) — kept only
-    /// where its objective is lower by more than 0.1 %, where the neutral start fell into a
-    /// worse optimum. Returns the steps taken and how many had an active limit.
+    /// The frame's posture, a function of the target and never of the path: converged from the
+    /// neutral posture and from the [`SEED_STARTS`] fixed starts whose objective is lowest at the
+    /// start, the lowest objective kept (the first start's on a tie within 0.1 %). Written to
+    /// `q`; returns the steps taken and how many had an active limit.
     fn solve_frame(
         &self,
         q: &mut Vec<f64>,
@@ -336,16 +545,33 @@ impl FrameSolver<'_> {
         hold: &[f64],
     ) -> (usize, usize) {
         let tasks = self.tasks(target);
-        let mut cold = hold.to_vec();
-        let (s1, c1) = self.converge(&mut cold, &tasks);
-        let (s2, c2) = self.converge(q, &tasks);
-        // The previous posture only where the neutral start found a worse optimum, not where
-        // the two differ by what convergence leaves undecided.
-        let (cost_cold, cost_warm) = (self.cost(&cold, &tasks), self.cost(q, &tasks));
-        if cost_cold < cost_warm * (1.0 - 1e-3) - 1e-6 {
-            *q = cold;
+        let mut starts: Vec<(f64, &Vec<f64>)> = self
+            .seeds
+            .iter()
+            .map(|s| (self.cost(s, &tasks), s))
+            .collect();
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        let (mut steps, mut constrained) = (0, 0);
+        for start in
+            std::iter::once(hold).chain(starts.iter().take(SEED_STARTS).map(|s| s.1.as_slice()))
+        {
+            let mut x = start.to_vec();
+            let (s, c) = self.converge(&mut x, &tasks);
+            steps += s;
+            constrained += c;
+            let cost = self.cost(&x, &tasks);
+            if best
+                .as_ref()
+                .is_none_or(|b| cost < b.1 * (1.0 - 1e-3) - 1e-6)
+            {
+                best = Some((x, cost));
+            }
         }
-        (s1 + s2, c1 + c2)
+        if let Some((x, _)) = best {
+            *q = x;
+        }
+        (steps, constrained)
     }
 
     /// Converges `q` onto the tasks, the self-collision limit only where the tasks alone end
@@ -410,6 +636,12 @@ impl FrameSolver<'_> {
                 step.add_task(&j, &e, *weight);
             }
             position_limits(&mut step, &ctx, Some(radius));
+            let values = ctx.active_values();
+            for e in self.elbows {
+                let v = values[e.active];
+                // From a start beyond the side (a seed), back towards it, never further out.
+                step.bound(e.active, (e.range.0 - v).min(0.0), (e.range.1 - v).max(0.0));
+            }
             // Near another shape the step keeps its distance: taken whatever it costs the
             // tasks (the objective does not see the collision limit).
             let near = collisions
@@ -460,6 +692,8 @@ struct Tally {
     upper: Vec<f64>,
     forearm: Vec<f64>,
     hand: Vec<f64>,
+    hand_turn: Vec<f64>,
+    upper_turn: Vec<f64>,
     steps: usize,
     constrained: usize,
     velocity_limited: usize,
@@ -485,6 +719,10 @@ impl Tally {
                 .push(g.upper_arm.angle(&t.upper_arm).to_degrees());
             self.forearm.push(g.forearm.angle(&t.forearm).to_degrees());
             self.hand.push((g.hand - t.hand).norm());
+            self.hand_turn
+                .push((g.turn * t.turn.inverse()).angle().to_degrees());
+            self.upper_turn
+                .push((g.upper_turn * t.upper_turn.inverse()).angle().to_degrees());
         }
         if collisions {
             let frames = RobotFrames::new(anatomy.robot(), &gauge.ancestry, q);
@@ -518,6 +756,8 @@ impl Tally {
             upper_arm_deg: quantiles(&self.upper),
             forearm_deg: quantiles(&self.forearm),
             hand_of_reach: quantiles(&self.hand),
+            hand_orientation_deg: quantiles(&self.hand_turn),
+            upper_arm_orientation_deg: quantiles(&self.upper_turn),
             hands_within_5pct: self.hand.iter().filter(|&&h| h <= 0.05).count() as f64
                 / self.hand.len().max(1) as f64,
             velocity_limited_frames: self.velocity_limited,
