@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 use sgplvm::capture::{ArmFitResult, CaptureSource, CapturedMotion, FitReport};
 use sgplvm::robots::series::median;
 use sgplvm::robots::Robot;
-use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, DEFAULT_PORT};
+use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, Senders, DEFAULT_PORT};
 
 /// When to stop recording (besides Ctrl-C).
 pub struct Stop {
@@ -41,11 +41,19 @@ struct Fitted {
     fits: [ArmFitResult; 2],
 }
 
-/// Records the stream at `addr` until `stop` (or Ctrl-C) and returns it as an imported
-/// capture at `rate_hz`.
-pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMotion> {
-    let mut receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
-        .with_context(|| format!("--mvn {addr}"))?;
+/// Records the stream at `addr` from the sender `from` until `stop` (or Ctrl-C) and returns it
+/// as an imported capture at `rate_hz`.
+pub fn record(
+    addr: SocketAddr,
+    from: Senders,
+    rate_hz: f64,
+    stop: &Stop,
+) -> Result<CapturedMotion> {
+    let options = ReceiverOptions {
+        from,
+        ..ReceiverOptions::default()
+    };
+    let mut receiver = MvnReceiver::bind(addr, options).with_context(|| format!("--mvn {addr}"))?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
@@ -100,6 +108,16 @@ pub fn record(addr: SocketAddr, rate_hz: f64, stop: &Stop) -> Result<CapturedMot
         counts.datagrams,
         counts.dropped()
     );
+    if let Some(sender) = receiver.sender() {
+        eprintln!("taken from {sender}");
+    }
+    if counts.other_sender > 0 {
+        eprintln!(
+            "warning: {} datagram(s) of other senders refused (e.g. {}; --mvn-from names the one to take)",
+            counts.other_sender,
+            receiver.refused().iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+        );
+    }
     capture(&frames, addr, rate_hz)
 }
 
