@@ -40,6 +40,11 @@ pub struct TeleopArgs {
     /// fitted as `sgplvm import` fits a file's.
     #[arg(long, default_value = "joint-state", value_parser = parse_input)]
     input: HumanInput,
+    /// With --input mvn: take pose datagrams only from this sender, IP (any of its ports) or
+    /// IP:PORT [default: the host of the first datagram of MVN pose data, locked]. Datagrams
+    /// of any other sender are counted, refused and reported on the status topic.
+    #[arg(long, value_name = "IP[:PORT]", value_parser = sgplvm_live::mvn::Senders::parse)]
+    mvn_from: Option<sgplvm_live::mvn::Senders>,
     /// With --input tf: a JSON map of the human model's joints to the skeleton's frames, as
     /// `sgplvm import --map` takes (e.g. {"jLeftShoulder": "L_UpperArm", ...}).
     #[arg(long, value_name = "FILE")]
@@ -264,6 +269,9 @@ pub fn run(args: TeleopArgs) -> Result<()> {
     if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
         bail!("--map names a skeleton's frames: it goes with --input tf");
     }
+    if args.mvn_from.is_some() && !matches!(args.input, HumanInput::Mvn(_)) {
+        bail!("--mvn-from names the sender of an MVN stream: it goes with --input mvn");
+    }
     let models: Vec<Arc<sgplvm::SharedGplvm>> = args
         .model
         .iter()
@@ -329,6 +337,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             HumanInput::Mvn(a) => Some(a),
             _ => None,
         },
+        mvn_from: args.mvn_from.unwrap_or_default(),
         tf: match args.input {
             HumanInput::Tf => Some(sgplvm_live::TfInputOptions {
                 map: args

@@ -88,6 +88,9 @@ pub struct TeleopOptions {
     /// Take the human from an Xsens MVN stream on this UDP address (each frame fitted as
     /// `sgplvm import` fits a file's) instead of the JointState topic.
     pub mvn: Option<std::net::SocketAddr>,
+    /// Whose MVN datagrams drive the robots (`--mvn-from`; default: the first sender's,
+    /// locked).
+    pub mvn_from: crate::mvn::Senders,
     /// Take the human from a skeleton's TF frames on `/tf` and `/tf_static` (each complete set
     /// fitted as `sgplvm import` fits a file's frame) instead of the JointState topic.
     pub tf: Option<TfInputOptions>,
@@ -117,6 +120,7 @@ impl Default for TeleopOptions {
             status_period_s: 1.0,
             view: None,
             mvn: None,
+            mvn_from: crate::mvn::Senders::First,
             tf: None,
         }
     }
@@ -202,16 +206,29 @@ pub fn teleop(
 ) -> Result<TeleopSummary, LiveError> {
     let human = human_joints(&drives)?;
     let mut node = new_node(options.domain_id, "sgplvm_teleop")?;
-    let input = subscribe_input(&mut node, options)?;
+    // The JointState topic is the input only when no other is named: a publisher on it must
+    // not drive the robots alongside a suit or a skeleton.
+    let input = match (options.mvn, &options.tf) {
+        (None, None) => Some(subscribe_input(&mut node, options)?),
+        _ => None,
+    };
     let status = status_publisher(&mut node, options)?;
     let (driven, slots) = drive_all(&mut node, drives, options, log)?;
     let view = start_view(options, &driven, &human, log)?;
     let mvn = options
         .mvn
         .map(|addr| {
-            let m = mvn_input::MvnInput::bind(addr, &human)?;
+            let m = mvn_input::MvnInput::bind(addr, options.mvn_from, &human)?;
             if let Ok(a) = m.receiver.local_addr() {
-                log(&format!("input: Xsens MVN stream on udp://{a}"));
+                log(&format!(
+                    "input: Xsens MVN stream on udp://{a}, pose datagrams from {}",
+                    match options.mvn_from {
+                        crate::mvn::Senders::First =>
+                            "the first sender's host only (locked; --mvn-from names one)"
+                                .to_string(),
+                        named => named.to_string(),
+                    }
+                ));
             }
             Ok::<_, LiveError>(m)
         })
