@@ -288,9 +288,10 @@ def test_tf_publisher_bursts_pauses_reorders_and_skews(tmp, data, model):
 @pytest.mark.parametrize("named", [True, False])
 def test_only_the_named_or_first_mvn_sender_drives(tmp, data, model, named):
     """The suit sends from 127.0.0.1, a stranger from 127.0.0.2 (and a DDS publisher writes the
-    JointState topic): with ``--mvn-from`` naming the suit, or without it (the first sender is
-    locked), the stranger's datagrams are counted and reported on the status topic, and none of
-    them, nor the JointState messages, reaches a command."""
+    JointState topic): with ``--mvn-from`` naming the suit (and DDS kept to the loopback
+    interface, ``--dds-interface``), or without it (the first sender's host is locked), the
+    stranger's datagrams are counted and reported on the status topic, and none of them, nor
+    the JointState messages, reaches a command."""
     domain = next_domain()
     names = data["names"]
     rows, ordered = human_rows(data)
@@ -305,7 +306,7 @@ def test_only_the_named_or_first_mvn_sender_drives(tmp, data, model, named):
     stranger_addr = "%s:%d" % stranger.getsockname()
     node, sub = run_node(tmp, domain, [
         "--model", str(model), "--robot", "coman", "--input", f"mvn:127.0.0.1:{port}",
-        "--margin", "0", *(["--mvn-from", suit_addr] if named else []),
+        "--margin", "0", *(["--mvn-from", suit_addr, "--dds-interface", "127.0.0.1"] if named else []),
     ])  # fmt: skip
 
     def datagram(d, k):

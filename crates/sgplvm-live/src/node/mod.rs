@@ -32,7 +32,7 @@ use crate::gate::GateOptions;
 use crate::msgs::{types, DiagnosticArray, JointState};
 use crate::LiveError;
 use dds::{dds, type_of};
-pub(crate) use dds::{new_node, qos, topic_name};
+pub(crate) use dds::{new_node, new_node_on, qos, topic_name};
 use drive::{drive_all, human_joints, start_view};
 use session::{Parts, Session};
 
@@ -62,6 +62,9 @@ pub enum Reliability {
 pub struct TeleopOptions {
     /// DDS domain (ROS 2's `ROS_DOMAIN_ID`).
     pub domain_id: u16,
+    /// The addresses of the network interfaces DDS uses for multicast and announces in
+    /// discovery (`--dds-interface`); every interface when empty.
+    pub dds_interfaces: Vec<std::net::IpAddr>,
     /// The human's JointState topic.
     pub input_topic: String,
     /// QoS of the input (default: the sensor-data profile).
@@ -108,6 +111,7 @@ impl Default for TeleopOptions {
     fn default() -> Self {
         TeleopOptions {
             domain_id: 0,
+            dds_interfaces: Vec::new(),
             input_topic: "/human/joint_states".into(),
             input_qos: Reliability::BestEffort,
             form: CommandForm::JointState,
@@ -205,7 +209,19 @@ pub fn teleop(
     log: &mut dyn FnMut(&str),
 ) -> Result<TeleopSummary, LiveError> {
     let human = human_joints(&drives)?;
-    let mut node = new_node(options.domain_id, "sgplvm_teleop")?;
+    let mut node = new_node_on(options.domain_id, "sgplvm_teleop", &options.dds_interfaces)?;
+    if !options.dds_interfaces.is_empty() {
+        let ips: Vec<String> = options
+            .dds_interfaces
+            .iter()
+            .map(|ip| ip.to_string())
+            .collect();
+        log(&format!(
+            "DDS: domain {}, multicast and discovery on the interface(s) of {} only",
+            options.domain_id,
+            ips.join(", ")
+        ));
+    }
     // The JointState topic is the input only when no other is named: a publisher on it must
     // not drive the robots alongside a suit or a skeleton.
     let input = match (options.mvn, &options.tf) {
