@@ -211,7 +211,7 @@ impl<'a> Session<'a> {
         Ok(())
     }
 
-    /// The newest waiting message and when it was taken; the older ones are counted as
+    /// The newest waiting message (by stamp) and when it was taken; the others are counted as
     /// superseded, one that cannot be decoded as malformed.
     fn newest(&mut self, log: &mut dyn FnMut(&str)) -> Option<(JointState, Instant)> {
         let mut newest: Option<(JointState, Instant)> = None;
@@ -219,8 +219,16 @@ impl<'a> Session<'a> {
         loop {
             match input.take() {
                 Ok(Some((msg, _info))) => {
-                    if newest.is_some() {
-                        self.summary.superseded += 1;
+                    // The newest by stamp (a later one on a tie): of a pair that arrived
+                    // swapped, the older is not the one followed.
+                    let stamp = msg.header.stamp.to_ns();
+                    match &newest {
+                        Some((n, _)) if n.header.stamp.to_ns() > stamp => {
+                            self.summary.superseded += 1;
+                            continue;
+                        }
+                        Some(_) => self.summary.superseded += 1,
+                        None => {}
                     }
                     newest = Some((msg, Instant::now()));
                 }
