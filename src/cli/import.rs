@@ -35,6 +35,10 @@ pub struct ImportArgs {
     #[arg(long, value_name = "[ADDR:]PORT", num_args = 0..=1, default_missing_value = "",
           value_parser = mvn::parse_address, conflicts_with_all = ["files", "map", "units", "from", "to"])]
     mvn: Option<std::net::SocketAddr>,
+    /// With --mvn: take pose datagrams only from this sender, IP (any of its ports) or
+    /// IP:PORT [default: the host of the first datagram of MVN pose data, locked].
+    #[arg(long, value_name = "IP[:PORT]", requires = "mvn", value_parser = sgplvm_live::mvn::Senders::parse)]
+    mvn_from: Option<sgplvm_live::mvn::Senders>,
     /// With --mvn: stop after this many frames.
     #[arg(long, requires = "mvn")]
     max_frames: Option<usize>,
@@ -97,6 +101,7 @@ pub fn run(args: ImportArgs) -> Result<()> {
         };
         captures.push(mvn::record(
             addr,
+            args.mvn_from.unwrap_or_default(),
             args.rate,
             &stop,
             args.calibration.options(&[])?,

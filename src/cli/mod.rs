@@ -88,7 +88,7 @@ pub enum Command {
     /// Live teleoperation: a ROS 2 node (no ROS install) that turns the human's JointState into
     /// each robot's commands, within its limits and its model's trust, with a status topic.
     #[cfg(feature = "live")]
-    Teleop(teleop::TeleopArgs),
+    Teleop(Box<teleop::TeleopArgs>),
     /// Publish recorded human frames on a ROS 2 topic at their own timestamps (for `teleop`).
     #[cfg(feature = "live")]
     Replay(teleop::ReplayArgs),
@@ -112,7 +112,7 @@ impl Command {
             Command::Retarget(args) => retarget::run(args),
             Command::Robot(args) => robot::run(args),
             #[cfg(feature = "live")]
-            Command::Teleop(args) => teleop::run(args),
+            Command::Teleop(args) => teleop::run(*args),
             #[cfg(feature = "live")]
             Command::Replay(args) => teleop::run_replay(args),
         }

@@ -41,6 +41,11 @@ pub struct TeleopArgs {
     /// fitted as `sgplvm import` fits a file's.
     #[arg(long, default_value = "joint-state", value_parser = parse_input)]
     input: HumanInput,
+    /// With --input mvn: take pose datagrams only from this sender, IP (any of its ports) or
+    /// IP:PORT [default: the host of the first datagram of MVN pose data, locked]. Datagrams
+    /// of any other sender are counted, refused and reported on the status topic.
+    #[arg(long, value_name = "IP[:PORT]", value_parser = sgplvm_live::mvn::Senders::parse)]
+    mvn_from: Option<sgplvm_live::mvn::Senders>,
     /// With --input tf: a JSON map of the human model's joints to the skeleton's frames, as
     /// `sgplvm import --map` takes (e.g. {"jLeftShoulder": "L_UpperArm", ...}).
     #[arg(long, value_name = "FILE")]
@@ -71,6 +76,12 @@ pub struct TeleopArgs {
     /// DDS domain [default: $ROS_DOMAIN_ID, else 0].
     #[arg(long)]
     domain_id: Option<u16>,
+    /// Use only the network interface with this address for DDS (multicast, and the addresses
+    /// announced in discovery); repeat for several [default: 127.0.0.1 when ROS 2's
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE is LOCALHOST or ROS_LOCALHOST_ONLY is 1, else every
+    /// interface].
+    #[arg(long, value_name = "IP")]
+    dds_interface: Vec<std::net::IpAddr>,
     /// Seconds without a human frame after which the robots hold and the status says the input
     /// is stale.
     #[arg(long, default_value_t = 0.1)]
@@ -254,6 +265,26 @@ fn domain_id(given: Option<u16>) -> Result<u16> {
     }
 }
 
+/// The interfaces DDS may use: those given, else loopback when ROS 2's environment keeps
+/// discovery to this machine, else all (empty).
+fn dds_interfaces(given: &[std::net::IpAddr]) -> Vec<std::net::IpAddr> {
+    let env = |k: &str| {
+        std::env::var(k)
+            .unwrap_or_default()
+            .trim()
+            .to_ascii_uppercase()
+    };
+    if !given.is_empty() {
+        given.to_vec()
+    } else if env("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST"
+        || env("ROS_LOCALHOST_ONLY") == "1"
+    {
+        vec![std::net::Ipv4Addr::LOCALHOST.into()]
+    } else {
+        Vec::new()
+    }
+}
+
 /// A flag set by Ctrl-C and SIGTERM.
 fn stop_flag() -> Result<Arc<AtomicBool>> {
     let stop = Arc::new(AtomicBool::new(false));
@@ -266,6 +297,9 @@ fn stop_flag() -> Result<Arc<AtomicBool>> {
 pub fn run(args: TeleopArgs) -> Result<()> {
     if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
         bail!("--map names a skeleton's frames: it goes with --input tf");
+    }
+    if args.mvn_from.is_some() && !matches!(args.input, HumanInput::Mvn(_)) {
+        bail!("--mvn-from names the sender of an MVN stream: it goes with --input mvn");
     }
     let models: Vec<Arc<sgplvm::SharedGplvm>> = args
         .model
@@ -317,6 +351,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
     }
     let options = TeleopOptions {
         domain_id: domain_id(args.domain_id)?,
+        dds_interfaces: dds_interfaces(&args.dds_interface),
         input_topic: args.input_topic.clone(),
         input_qos: args.input_qos.reliability(),
         form: args.command,
@@ -332,6 +367,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             HumanInput::Mvn(a) => Some(a),
             _ => None,
         },
+        mvn_from: args.mvn_from.unwrap_or_default(),
         tf: match args.input {
             HumanInput::Tf => Some(sgplvm_live::TfInputOptions {
                 map: args
@@ -434,6 +470,12 @@ pub struct ReplayArgs {
     /// DDS domain [default: $ROS_DOMAIN_ID, else 0].
     #[arg(long)]
     domain_id: Option<u16>,
+    /// Use only the network interface with this address for DDS (multicast, and the addresses
+    /// announced in discovery); repeat for several [default: 127.0.0.1 when ROS 2's
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE is LOCALHOST or ROS_LOCALHOST_ONLY is 1, else every
+    /// interface].
+    #[arg(long, value_name = "IP")]
+    dds_interface: Vec<std::net::IpAddr>,
     /// Seconds to wait for a subscriber before the first message.
     #[arg(long, default_value_t = 5.0)]
     wait: f64,

@@ -19,7 +19,8 @@ pub enum CommandForm {
     /// `joints@SEC.NANOSEC` (controllers read `data` only).
     Forward,
     /// `trajectory_msgs/msg/JointTrajectory` with one point one frame ahead
-    /// (`time_from_start` = the input's frame period), for the joint trajectory controller
+    /// (`time_from_start` = the input's frame period, or longer: as long as the velocity limits
+    /// take from the command sent before), for the joint trajectory controller
     /// (`/joint_trajectory_controller/joint_trajectory`). `header.stamp` stays 0, which that
     /// controller reads as "start on receipt" (a past stamp would make it skip the point); the
     /// human frame's stamp is in `header.frame_id` as `stamp:SEC.NANOSEC`.
@@ -87,7 +88,7 @@ pub fn stamp_text(t: Time) -> String {
 }
 
 /// One command as its message: `names` and `positions` in the order to send, `stamp` the human
-/// frame's, `period_s` the input's frame period (for the trajectory point).
+/// frame's, `period_s` the time to reach it (the trajectory point's `time_from_start`).
 pub enum Command {
     /// A JointState.
     JointState(JointState),

@@ -26,10 +26,14 @@
 //!    half-way; otherwise it stays where it holds.) Before any frame was trusted nothing is
 //!    sent ([`Reason::Waiting`]).
 //! 2. **Limits.** Whatever the target, the command sent is within each joint's velocity limit
-//!    of the previous command sent (over the seconds between the two sends, on the node's
-//!    clock: the stale hold is a command sent too, and the human frames' stamps play no part)
-//!    and within its position limits ([`sgplvm_robots::limits::CommandLimits`]); every joint
-//!    moved is counted.
+//!    of the previous command sent, whatever sent that one (a frame, the hold, the return, the
+//!    stale hold; the human frames' stamps play no part), and within its position limits
+//!    ([`sgplvm_robots::limits::CommandLimits`]); every joint moved is counted. The time the
+//!    limit allows is from the moment the previous command's send *ended* ([`Gate::sent`]: the
+//!    node's clock read after the middleware took it) to the moment this one is computed
+//!    (`now`, read before): at most the time between the two leaving the node, however long
+//!    a send or the computation took. On a robot's receipt clock the interval differs from
+//!    that by the two commands' difference in delivery time.
 //! 3. **Stale input.** No human frame for [`GateOptions::timeout_s`]: the robot holds its last
 //!    command (sent again, and timed as sent), and the status says so, until frames come again
 //!    (then it follows from where it is, within its velocity limits: no jump).
@@ -350,11 +354,11 @@ impl Gate {
         }
     }
 
-    /// One human frame, its command to be sent at `now` seconds on the node's clock (the
-    /// clock of every command this gate sends: the velocity limits hold over the time between
-    /// two sends): the model predicted `prediction`, with the signals `frame`; the command to
-    /// send is written to `command` (untouched, and nothing to send, when the decision is
-    /// [`Reason::Waiting`]).
+    /// One human frame, its command computed at `now` seconds on the node's clock (read before
+    /// the step; the clock of every command this gate sends: the velocity limits hold over the
+    /// time since the last command's send ended, [`Gate::sent`]): the model predicted
+    /// `prediction`, with the signals `frame`; the command to send is written to `command`
+    /// (untouched, and nothing to send, when the decision is [`Reason::Waiting`]).
     pub fn step(
         &mut self,
         now: f64,
@@ -400,6 +404,11 @@ impl Gate {
             previous.as_ref().map(|(q, t)| (q.as_slice(), now - t)),
         );
         self.keep_apart(command, previous.as_ref(), now);
+        if let Some((q, t)) = &previous {
+            // The self-collision step solves within the same bounds, to its solver's tolerance:
+            // the velocity bound is made exact again (a move of at most that tolerance).
+            within_velocity(command, q, self.limits.velocity(), now - t);
+        }
         self.clamped_joints.clear();
         self.clamped_joints
             .extend((0..command.len()).filter(|&k| command[k] != wanted[k]));
@@ -425,6 +434,17 @@ impl Gate {
         }
     }
 
+    /// The command of the last [`Gate::step`] or [`Gate::stale`] was sent, and its send ended
+    /// at `at` seconds on the node's clock (read after the middleware took the message): the
+    /// next command's velocity limits count from then, so that a send that took long (a
+    /// middleware busy, the node descheduled) shortens the next step rather than lengthens it.
+    /// Never moves the time back.
+    pub fn sent(&mut self, at: f64) {
+        if let Some((_, t)) = self.last_sent.as_mut() {
+            *t = t.max(at);
+        }
+    }
+
     /// No frame came for longer than the timeout: hold. The command to repeat, if any, is
     /// written to `command`, to be sent at `now` seconds on the node's clock: the next command
     /// moves within the velocity limits over the time since this one.
@@ -436,6 +456,14 @@ impl Gate {
             self.counts.stale += 1;
         }
         Some(self.decide(Reason::Stale, Frame::NONE, Clamped::default()))
+    }
+}
+
+/// Each joint of `command` within `velocity · dt` of `from` (a clamp).
+fn within_velocity(command: &mut [f64], from: &[f64], velocity: &[f64], dt: f64) {
+    for ((c, &f), &v) in command.iter_mut().zip(from).zip(velocity) {
+        let step = v * dt.max(0.0);
+        *c = c.clamp(f - step, f + step);
     }
 }
 
@@ -599,6 +627,32 @@ mod tests {
         g.stale(0.1, &mut c).unwrap();
         g.step(0.4, &[2.0, 0.0], sd(0.1), &mut c);
         assert!((c[0] - 4.0 * 0.3).abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn the_limit_counts_from_the_end_of_the_last_send_whatever_sent_it() {
+        // Issue 50: a send that ends late (the middleware busy, the node descheduled) moves
+        // the next command's allowance with it: 10 ms after the end of the send, 0.04 rad.
+        let mut g = gate();
+        let mut c = [0.0; 2];
+        g.step(0.0, &[0.0, 0.0], sd(0.1), &mut c);
+        g.sent(0.3);
+        g.step(0.31, &[1.0, 0.0], sd(0.1), &mut c);
+        assert!((c[0] - 0.04).abs() < 1e-12, "{c:?}");
+        // The stale hold, the gate's hold and its return alike.
+        g.stale(0.4, &mut c).unwrap();
+        g.sent(0.5);
+        g.step(0.51, &[1.0, 0.0], sd(0.1), &mut c);
+        assert!((c[0] - 0.08).abs() < 1e-12, "{c:?}");
+        g.step(0.52, &[1.0, 0.0], sd(0.9), &mut c); // holding
+        g.sent(0.6);
+        let d = g.step(0.61, &[1.0, 0.0], sd(0.9), &mut c); // returning at a quarter
+        assert_eq!(d.reason, Reason::Returning);
+        assert!((c[0] - 0.09).abs() < 1e-12, "{c:?}");
+        // Never back: a send said to end before the step's own time changes nothing.
+        g.sent(0.0);
+        g.step(0.62, &[1.0, 0.0], sd(0.1), &mut c);
+        assert!((c[0] - 0.13).abs() < 1e-12, "{c:?}");
     }
 
     #[test]

@@ -14,7 +14,7 @@ use sgplvm::capture::{
 };
 use sgplvm::robots::series::median;
 use sgplvm::robots::Robot;
-use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, DEFAULT_PORT};
+use sgplvm_live::mvn::{MvnFit, MvnReceiver, ReceiverOptions, Senders, DEFAULT_PORT};
 
 /// When to stop recording (besides Ctrl-C).
 pub struct Stop {
@@ -43,16 +43,20 @@ struct Fitted {
     fits: [ArmFitResult; 2],
 }
 
-/// Records the stream at `addr` until `stop` (or Ctrl-C) and returns it as an imported
-/// capture at `rate_hz`.
+/// Records the stream at `addr` from the sender `from` until `stop` (or Ctrl-C) and returns it
+/// as an imported capture at `rate_hz`, the person calibrated as `calibration` says.
 pub fn record(
     addr: SocketAddr,
+    from: Senders,
     rate_hz: f64,
     stop: &Stop,
     calibration: StreamCalibrationOptions,
 ) -> Result<CapturedMotion> {
-    let mut receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
-        .with_context(|| format!("--mvn {addr}"))?;
+    let options = ReceiverOptions {
+        from,
+        ..ReceiverOptions::default()
+    };
+    let mut receiver = MvnReceiver::bind(addr, options).with_context(|| format!("--mvn {addr}"))?;
     let interrupted = Arc::new(AtomicBool::new(false));
     let flag = interrupted.clone();
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
@@ -110,6 +114,16 @@ pub fn record(
         counts.datagrams,
         counts.dropped()
     );
+    if let Some(sender) = receiver.sender() {
+        eprintln!("taken from {sender}");
+    }
+    if counts.other_sender > 0 {
+        eprintln!(
+            "warning: {} datagram(s) of other senders refused (e.g. {}; --mvn-from names the one to take)",
+            counts.other_sender,
+            receiver.refused().iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+        );
+    }
     let person = fit.fitter().map(|f| f.calibration().clone());
     if let Some(p) = &person {
         eprintln!("the person was fitted through {}", p.describe());

@@ -95,10 +95,12 @@
 //! (every orientation the identity: a T-pose, §2.6.2) every segment's axes are x forward, y
 //! left, z up.
 //!
-//! - Type 02 positions are taken as **metres**, unchanged. §2.5.6 says centimetres for every
+//! - Type 02 positions are decoded as **metres**, unchanged. §2.5.6 says centimetres for every
 //!   type, but MVN sends metres in type 02: Xsens' sample parser divides by 100 only the
 //!   positions of types 01 and 03 and reads type 02 as is, and the ROS drivers built on it
-//!   publish type 02 positions unscaled as metres.
+//!   publish type 02 positions unscaled as metres. The receiver does not rely on either: the
+//!   person's segment lengths in the first full frame tell metres from centimetres
+//!   ([`units`]), and a stream in centimetres is scaled to metres.
 //! - Type 01 is converted: positions ÷ 100 (cm → m); Y-up axes (x, y, z) become Z-up axes
 //!   (z, x, y) — a proper rotation taking Y-up's up (y) to z, as Xsens' sample does; the Euler
 //!   angles (degrees) are `R = Rz(rz) · Ry(ry) · Rx(rx)` about the Y-up axes (Xsens'
@@ -113,6 +115,7 @@ pub mod datagram;
 pub mod human;
 pub mod receiver;
 mod segments;
+pub mod units;
 
 #[cfg(test)]
 mod tests;
@@ -123,8 +126,9 @@ pub use datagram::{
     DEFAULT_PORT, HEADER_BYTES,
 };
 pub use human::{HumanSegments, MvnFit};
-pub use receiver::{MvnReceiver, MvnSender, ReceiverCounts, ReceiverOptions};
+pub use receiver::{MvnReceiver, MvnSender, ReceiverCounts, ReceiverOptions, Senders};
 pub use segments::{segment_id, segment_name, BODY_SEGMENTS, FINGER_SEGMENTS, PROP_SEGMENTS};
+pub use units::Units;
 
 /// What is wrong with a datagram, or with using one; every variant says what was expected.
 #[derive(Debug, thiserror::Error)]

@@ -7,6 +7,19 @@
 //! wake-up, calls [`MvnReceiver::newest`], which reads every waiting datagram (mio is
 //! edge-triggered: a wake-up is only promised for datagrams arriving after a drain) and returns
 //! the newest complete frame, if one arrived since the last call.
+//!
+//! **Who may drive.** A bound UDP port takes datagrams from anyone who can reach it. The
+//! receiver takes pose datagrams from one sender ([`Senders`]): the one named (a host, or a
+//! host and port), or by default the host of the first datagram that decodes as MVN pose data,
+//! locked for the receiver's life (any of its ports: MVN restarted sends from another). Every other sender's datagrams are counted
+//! ([`ReceiverCounts::other_sender`]) and dropped before they are decoded; the first few such
+//! addresses are kept for the report ([`MvnReceiver::refused`]). This is not authentication (a
+//! sender's address can be forged on a network that lets it be): it keeps a second stream, a
+//! replay left running or a stray tool from moving the robot.
+//!
+//! **Units.** The first frame of each pose type that holds the spine, arms and legs decides
+//! whether its positions are metres or centimetres ([`units`](super::units)); later frames are
+//! scaled alike.
 
 use std::collections::BTreeMap;
 use std::io;
@@ -18,7 +31,47 @@ use mio::{Interest, Registry, Token};
 
 use super::assemble::{age, Age, Reassembler};
 use super::datagram::{decode_part, encode, Header, MvnPose, PoseType};
+use super::units::{body_span, Units};
 use super::MvnError;
+
+/// How many refused senders' addresses are kept for the report.
+const REFUSED_KEPT: usize = 8;
+
+/// Whose datagrams the receiver takes (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Senders {
+    /// The host of the first datagram that decodes as MVN pose data, locked from then on (any
+    /// of its ports).
+    #[default]
+    First,
+    /// Any port of this host.
+    Host(IpAddr),
+    /// This address and port only.
+    Address(SocketAddr),
+}
+
+impl Senders {
+    /// `IP` (any port of that host) or `IP:PORT` (IPv6 as `[::1]:9763`), as `--mvn-from` takes.
+    pub fn parse(s: &str) -> Result<Senders, String> {
+        if let Ok(a) = s.parse::<SocketAddr>() {
+            return Ok(Senders::Address(a));
+        }
+        s.parse::<IpAddr>().map(Senders::Host).map_err(|_| {
+            format!("`{s}`: expected the sender's IP address, or IP:PORT (e.g. 192.168.1.20 or 192.168.1.20:50112)")
+        })
+    }
+}
+
+impl std::fmt::Display for Senders {
+    /// `the first sender`, `192.168.1.20 (any port)`, `192.168.1.20:50112`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Senders::First => write!(f, "the first sender"),
+            Senders::Host(ip) => write!(f, "{ip} (any port)"),
+            Senders::Address(a) => write!(f, "{a}"),
+        }
+    }
+}
 
 /// Bytes a UDP datagram can hold (65,507 over IPv4), rounded up.
 const BUFFER_BYTES: usize = 65_536;
@@ -32,6 +85,8 @@ pub struct ReceiverOptions {
     /// The pose type to take, or `None` for both 01 and 02 (when MVN is set to stream both, the
     /// second of a sample is then counted as late).
     pub kind: Option<PoseType>,
+    /// Whose datagrams are taken (default: the first sender's, locked).
+    pub from: Senders,
 }
 
 /// What the receiver did with the datagrams it read.
@@ -54,6 +109,8 @@ pub struct ReceiverCounts {
     pub other_character: u64,
     /// Pose datagrams of the type not asked for.
     pub other_kind: u64,
+    /// Datagrams from a sender not taken ([`Senders`]), dropped unread.
+    pub other_sender: u64,
     /// Datagrams that could not be used, by [`MvnError::kind`].
     pub bad: BTreeMap<&'static str, u64>,
 }
@@ -66,6 +123,7 @@ impl ReceiverCounts {
             + self.incomplete
             + self.other_character
             + self.other_kind
+            + self.other_sender
             + self.bad.values().sum::<u64>()
     }
 }
@@ -81,6 +139,13 @@ pub struct MvnReceiver {
     /// The sample counter of the last frame returned.
     last: Option<u32>,
     last_bad: Option<MvnError>,
+    /// The sender taken (with [`Senders::First`], locked once seen).
+    sender: Option<SocketAddr>,
+    /// The first few senders refused.
+    refused: Vec<SocketAddr>,
+    /// Per pose type (01, 02), the units decided and the body span they were read from
+    /// (metres).
+    units: [Option<(Units, f64)>; 2],
 }
 
 impl MvnReceiver {
@@ -99,7 +164,32 @@ impl MvnReceiver {
             counts: ReceiverCounts::default(),
             last: None,
             last_bad: None,
+            sender: match options.from {
+                Senders::Address(a) => Some(a),
+                _ => None,
+            },
+            refused: Vec::new(),
+            units: [None; 2],
         })
+    }
+
+    /// The sender of the last datagram taken (with [`Senders::First`] the host locked, with
+    /// [`Senders::Address`] the one named); `None` before one was taken.
+    pub fn sender(&self) -> Option<SocketAddr> {
+        self.sender
+    }
+
+    /// The first few senders whose datagrams were refused (all are counted in
+    /// [`ReceiverCounts::other_sender`]).
+    pub fn refused(&self) -> &[SocketAddr] {
+        &self.refused
+    }
+
+    /// The units of `kind`'s positions as the stream's person says, with the body span they
+    /// were read from (metres, [`body_span`]); `None` until a frame told (the positions are
+    /// then taken as decoded: type 02 metres, 01 centimetres).
+    pub fn units(&self, kind: PoseType) -> Option<(Units, f64)> {
+        self.units[kind_index(kind)]
     }
 
     /// The address bound (the port chosen when bound to port 0).
@@ -133,8 +223,8 @@ impl MvnReceiver {
         let mut buf = std::mem::take(&mut self.buf);
         let mut newest = None;
         let result = loop {
-            match self.socket.recv(&mut buf) {
-                Ok(n) => self.take(&buf[..n], &mut newest),
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => self.take(&buf[..n], from, &mut newest),
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => break Ok(()),
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(source) => {
@@ -151,16 +241,48 @@ impl MvnReceiver {
         };
         self.buf = buf;
         result?;
-        if let Some(frame) = &newest {
+        if let Some(frame) = newest.as_mut() {
             self.last = Some(frame.sample_counter);
             self.counts.frames += 1;
+            let units = &mut self.units[kind_index(frame.kind)];
+            if units.is_none() {
+                *units = body_span(frame).and_then(|span| {
+                    Units::of_span(span).map(|u| (u, span * f64::from(u.scale())))
+                });
+            }
+            if let Some((u, _)) = units {
+                u.apply(frame);
+            }
         }
         Ok(newest)
     }
 
-    /// One datagram: decoded, assembled, and kept in `newest` if it completes a newer frame.
-    fn take(&mut self, bytes: &[u8], newest: &mut Option<MvnPose>) {
+    /// Whether datagrams from `from` are taken (counted and kept for the report when not).
+    /// With [`Senders::First`] before any is locked, every datagram is read: the first that
+    /// decodes as pose data locks its sender's host ([`MvnReceiver::take`]).
+    fn accepts(&mut self, from: SocketAddr) -> bool {
+        let taken = match (self.options.from, self.sender) {
+            (Senders::Address(a), _) => a == from,
+            (Senders::Host(ip), _) => ip == from.ip(),
+            (Senders::First, Some(s)) => s.ip() == from.ip(),
+            (Senders::First, None) => true,
+        };
+        if !taken {
+            self.counts.other_sender += 1;
+            if self.refused.len() < REFUSED_KEPT && !self.refused.contains(&from) {
+                self.refused.push(from);
+            }
+        }
+        taken
+    }
+
+    /// One datagram from `from`: decoded, assembled, and kept in `newest` if it completes a
+    /// newer frame.
+    fn take(&mut self, bytes: &[u8], from: SocketAddr, newest: &mut Option<MvnPose>) {
         self.counts.datagrams += 1;
+        if !self.accepts(from) {
+            return;
+        }
         let part = match Header::read(bytes) {
             Ok(h) if h.character_id != self.options.character => {
                 self.counts.other_character += 1;
@@ -177,6 +299,7 @@ impl MvnReceiver {
             Ok(p) => p,
             Err(e) => return self.bad(e),
         };
+        self.sender = Some(from);
         let pushed = match self.assembler.push(part) {
             Ok(p) => p,
             Err(e) => return self.bad(e),
@@ -206,6 +329,14 @@ impl MvnReceiver {
     fn bad(&mut self, e: MvnError) {
         *self.counts.bad.entry(e.kind()).or_default() += 1;
         self.last_bad = Some(e);
+    }
+}
+
+/// The index of `kind` in per-type arrays.
+fn kind_index(kind: PoseType) -> usize {
+    match kind {
+        PoseType::Euler => 0,
+        PoseType::Quaternion => 1,
     }
 }
 

@@ -1,6 +1,7 @@
 //! The node's DDS plumbing: QoS profiles, ROS 2 names, the participant, and the publisher of
 //! each command form.
 
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::{Context, ContextOptions, Node, Publisher};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
@@ -71,9 +72,36 @@ pub(crate) fn topic_name(topic: &str) -> Result<Name, LiveError> {
 
 /// A ROS 2 node with the given name.
 pub(crate) fn new_node(domain_id: u16, name: &str) -> Result<Node, LiveError> {
+    new_node_on(domain_id, name, &[])
+}
+
+/// A ROS 2 node with the given name whose participant uses only the network interfaces of
+/// `interfaces` (their addresses) for multicast and announces only them in discovery; all of
+/// them when empty. Each must be an address of this machine.
+pub(crate) fn new_node_on(
+    domain_id: u16,
+    name: &str,
+    interfaces: &[std::net::IpAddr],
+) -> Result<Node, LiveError> {
     let dds = |e: String| LiveError::Dds { message: e };
-    let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
-        .map_err(|e| dds(format!("{e:?}")))?;
+    for ip in interfaces {
+        // Binding is allowed only to an address of this machine.
+        std::net::UdpSocket::bind((*ip, 0)).map_err(|e| {
+            LiveError::Config(format!(
+                "--dds-interface {ip}: not an address of this machine's network interfaces ({e})"
+            ))
+        })?;
+    }
+    let context = if interfaces.is_empty() {
+        Context::with_options(ContextOptions::new().domain_id(domain_id))
+            .map_err(|e| dds(format!("{e:?}")))?
+    } else {
+        let participant = DomainParticipantBuilder::new(domain_id)
+            .with_only_networks(interfaces.iter().copied())
+            .build()
+            .map_err(|e| dds(format!("{e:?}")))?;
+        Context::from_domain_participant(participant).map_err(|e| dds(format!("{e:?}")))?
+    };
     let node_name = NodeName::new("/", name).map_err(|e| dds(format!("{e:?}")))?;
     context
         .new_node(node_name, NodeOptions::new().enable_rosout(false))

@@ -38,6 +38,8 @@ pub(super) struct Driven {
     pub(super) sd: Vec<f64>,
     pub(super) command: Vec<f64>,
     pub(super) sent: Vec<f64>,
+    /// Whether a command was sent (`sent` holds it).
+    pub(super) has_sent: bool,
     pub(super) last: Option<Decision>,
     /// Which of the distinct models (their latent points per frame) drives this robot.
     pub(super) model_slot: usize,
@@ -200,6 +202,7 @@ fn drive_one(
         sd: vec![0.0; d],
         command: vec![0.0; d],
         sent: vec![0.0; d],
+        has_sent: false,
         last: None,
         model_slot,
     })

@@ -32,7 +32,7 @@ use crate::gate::GateOptions;
 use crate::msgs::{types, DiagnosticArray, JointState};
 use crate::LiveError;
 use dds::{dds, type_of};
-pub(crate) use dds::{new_node, qos, topic_name};
+pub(crate) use dds::{new_node, new_node_on, qos, topic_name};
 use drive::{drive_all, human_joints, start_view};
 use session::{Parts, Session};
 
@@ -62,6 +62,9 @@ pub enum Reliability {
 pub struct TeleopOptions {
     /// DDS domain (ROS 2's `ROS_DOMAIN_ID`).
     pub domain_id: u16,
+    /// The addresses of the network interfaces DDS uses for multicast and announces in
+    /// discovery (`--dds-interface`); every interface when empty.
+    pub dds_interfaces: Vec<std::net::IpAddr>,
     /// The human's JointState topic.
     pub input_topic: String,
     /// QoS of the input (default: the sensor-data profile).
@@ -88,6 +91,9 @@ pub struct TeleopOptions {
     /// Take the human from an Xsens MVN stream on this UDP address (each frame fitted as
     /// `sgplvm import` fits a file's) instead of the JointState topic.
     pub mvn: Option<std::net::SocketAddr>,
+    /// Whose MVN datagrams drive the robots (`--mvn-from`; default: the first sender's,
+    /// locked).
+    pub mvn_from: crate::mvn::Senders,
     /// Take the human from a skeleton's TF frames on `/tf` and `/tf_static` (each complete set
     /// fitted as `sgplvm import` fits a file's frame) instead of the JointState topic.
     pub tf: Option<TfInputOptions>,
@@ -108,6 +114,7 @@ impl Default for TeleopOptions {
     fn default() -> Self {
         TeleopOptions {
             domain_id: 0,
+            dds_interfaces: Vec::new(),
             input_topic: "/human/joint_states".into(),
             input_qos: Reliability::BestEffort,
             form: CommandForm::JointState,
@@ -120,6 +127,7 @@ impl Default for TeleopOptions {
             status_period_s: 1.0,
             view: None,
             mvn: None,
+            mvn_from: crate::mvn::Senders::First,
             tf: None,
             calibration: sgplvm_capture::StreamCalibrationOptions::default(),
         }
@@ -205,17 +213,47 @@ pub fn teleop(
     log: &mut dyn FnMut(&str),
 ) -> Result<TeleopSummary, LiveError> {
     let human = human_joints(&drives)?;
-    let mut node = new_node(options.domain_id, "sgplvm_teleop")?;
-    let input = subscribe_input(&mut node, options)?;
+    let mut node = new_node_on(options.domain_id, "sgplvm_teleop", &options.dds_interfaces)?;
+    if !options.dds_interfaces.is_empty() {
+        let ips: Vec<String> = options
+            .dds_interfaces
+            .iter()
+            .map(|ip| ip.to_string())
+            .collect();
+        log(&format!(
+            "DDS: domain {}, multicast and discovery on the interface(s) of {} only",
+            options.domain_id,
+            ips.join(", ")
+        ));
+    }
+    // The JointState topic is the input only when no other is named: a publisher on it must
+    // not drive the robots alongside a suit or a skeleton.
+    let input = match (options.mvn, &options.tf) {
+        (None, None) => Some(subscribe_input(&mut node, options)?),
+        _ => None,
+    };
     let status = status_publisher(&mut node, options)?;
     let (driven, slots) = drive_all(&mut node, drives, options, log)?;
     let view = start_view(options, &driven, &human, log)?;
     let mvn = options
         .mvn
         .map(|addr| {
-            let m = mvn_input::MvnInput::bind(addr, &human, options.calibration.clone())?;
+            let m = mvn_input::MvnInput::bind(
+                addr,
+                options.mvn_from,
+                &human,
+                options.calibration.clone(),
+            )?;
             if let Ok(a) = m.receiver.local_addr() {
-                log(&format!("input: Xsens MVN stream on udp://{a}"));
+                log(&format!(
+                    "input: Xsens MVN stream on udp://{a}, pose datagrams from {}",
+                    match options.mvn_from {
+                        crate::mvn::Senders::First =>
+                            "the first sender's host only (locked; --mvn-from names one)"
+                                .to_string(),
+                        named => named.to_string(),
+                    }
+                ));
             }
             Ok::<_, LiveError>(m)
         })

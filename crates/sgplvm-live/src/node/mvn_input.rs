@@ -6,7 +6,7 @@ use serde::Serialize;
 use sgplvm_capture::StreamCalibrationOptions;
 
 use super::tf_input::calibration_said;
-use crate::mvn::{MvnFit, MvnReceiver, ReceiverOptions};
+use crate::mvn::{MvnFit, MvnReceiver, PoseType, ReceiverOptions, Senders};
 use crate::LiveError;
 
 /// What the MVN input did, for the summary.
@@ -18,6 +18,21 @@ pub struct MvnSummary {
     pub frames: u64,
     /// Datagrams that could not be used, by kind.
     pub bad: std::collections::BTreeMap<String, u64>,
+    /// Frames and datagrams dropped, by why: `superseded` (a newer frame in the same read),
+    /// `late` (a sample counter no newer than one used: repeated or reordered), `incomplete`
+    /// (a split frame whose parts did not all come), `other character`, `other kind`, `other
+    /// sender`.
+    pub dropped: std::collections::BTreeMap<String, u64>,
+    /// Times the sample counter went far back and was followed (MVN started again).
+    pub restarts: u64,
+    /// Whose datagrams are taken (`--mvn-from`, or the first sender, locked).
+    pub accepts: String,
+    /// The sender taken, once seen.
+    pub sender: Option<String>,
+    /// The first few senders refused.
+    pub refused: Vec<String>,
+    /// What the positions were read in, and from what (the person's proportions).
+    pub units: String,
     /// The fit's elbow and wrist distance to the scaled capture, median over the frames used,
     /// metres (as `sgplvm import` reports it).
     pub elbow_median_m: f64,
@@ -62,17 +77,26 @@ pub(super) struct MvnInput {
     wrist: Vec<f64>,
     calibration: Option<String>,
     calibrating_frames: u64,
+    /// What was last said of the sender, refusals and units (a change is logged and
+    /// published).
+    said: (Option<std::net::IpAddr>, usize, String),
 }
 
 impl MvnInput {
-    /// Listens on `addr` for the models whose human joints are `human`.
+    /// Listens on `addr` for the models whose human joints are `human`, taking datagrams from
+    /// `from` only.
     pub(super) fn bind(
         addr: std::net::SocketAddr,
+        from: Senders,
         human: &[String],
         calibration: StreamCalibrationOptions,
     ) -> Result<MvnInput, LiveError> {
         let order = human_order(human, "--input mvn")?;
-        let receiver = MvnReceiver::bind(addr, ReceiverOptions::default())
+        let options = ReceiverOptions {
+            from,
+            ..ReceiverOptions::default()
+        };
+        let receiver = MvnReceiver::bind(addr, options)
             .map_err(|e| LiveError::Config(format!("--input mvn: {e}")))?;
         Ok(MvnInput {
             receiver,
@@ -82,7 +106,92 @@ impl MvnInput {
             wrist: Vec::new(),
             calibration: None,
             calibrating_frames: 0,
+            said: (None, 0, String::new()),
         })
+    }
+
+    /// Whose datagrams are taken, in words.
+    fn accepts(&self) -> String {
+        match self.receiver.options().from {
+            Senders::First => "the first sender's host, locked".into(),
+            named => format!("{named} (--mvn-from)"),
+        }
+    }
+
+    /// What the positions are read in, in words.
+    fn units(&self) -> String {
+        let kinds = [PoseType::Quaternion, PoseType::Euler];
+        let told: Vec<String> = kinds
+            .iter()
+            .filter_map(|&k| {
+                self.receiver.units(k).map(|(u, span)| {
+                    let read = match u {
+                        crate::mvn::Units::AsDecoded => "read as metres",
+                        crate::mvn::Units::Centimetres => "centimetres, scaled to metres",
+                        crate::mvn::Units::Metres => "metres, scaled from centimetres",
+                    };
+                    format!("type {}: {read} (the person's span {span:.2} m)", k.code())
+                })
+            })
+            .collect();
+        match told.is_empty() {
+            true => "not told yet: type 02 taken as metres, 01 as centimetres".into(),
+            false => told.join("; "),
+        }
+    }
+
+    /// The input's values for the status's `sgplvm/input` entry.
+    pub(super) fn status_values(&self) -> Vec<(String, String)> {
+        let c = self.receiver.counts();
+        vec![
+            ("mvn_accepts".into(), self.accepts()),
+            (
+                "mvn_sender".into(),
+                self.receiver
+                    .sender()
+                    .map_or_else(|| "none yet".into(), |a| a.to_string()),
+            ),
+            ("mvn_refused".into(), c.other_sender.to_string()),
+            (
+                "mvn_refused_from".into(),
+                addresses(self.receiver.refused()),
+            ),
+            ("mvn_late".into(), c.late.to_string()),
+            ("mvn_incomplete".into(), c.incomplete.to_string()),
+            ("mvn_units".into(), self.units()),
+        ]
+    }
+
+    /// Logs what changed since it last said: the sender taken, senders refused, the units;
+    /// whether anything did (the status is then due).
+    pub(super) fn report(&mut self, log: &mut dyn FnMut(&str)) -> bool {
+        let sender = self.receiver.sender();
+        let refused = self.receiver.refused().len();
+        let units = self.units();
+        let mut changed = false;
+        if sender.map(|a| a.ip()) != self.said.0 {
+            if let Some(a) = sender {
+                log(&format!(
+                    "input: MVN pose datagrams taken from {a} ({})",
+                    self.accepts()
+                ));
+            }
+            changed = true;
+        }
+        if refused != self.said.1 {
+            log(&format!(
+                "warning: --input mvn: datagrams from {} refused: only {} drives (counted)",
+                addresses(&self.receiver.refused()[self.said.1..]),
+                self.accepts()
+            ));
+            changed = true;
+        }
+        if units != self.said.2 {
+            log(&format!("input: MVN positions: {units}"));
+            changed = true;
+        }
+        self.said = (sender.map(|a| a.ip()), refused, units);
+        changed
     }
 
     /// The newest frame since the last call, fitted, written into `h` (the models' order);
@@ -142,6 +251,14 @@ impl MvnInput {
             let mut s = v.to_vec();
             sgplvm_robots::series::median(&mut s)
         };
+        let dropped = [
+            ("superseded", counts.superseded),
+            ("late", counts.late),
+            ("incomplete", counts.incomplete),
+            ("other character", counts.other_character),
+            ("other kind", counts.other_kind),
+            ("other sender", counts.other_sender),
+        ];
         MvnSummary {
             datagrams: counts.datagrams,
             frames: counts.frames,
@@ -150,6 +267,21 @@ impl MvnInput {
                 .iter()
                 .map(|(k, v)| (k.to_string(), *v))
                 .collect(),
+            dropped: dropped
+                .into_iter()
+                .filter(|(_, v)| *v > 0)
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+            restarts: counts.restarts,
+            accepts: self.accepts(),
+            sender: self.receiver.sender().map(|a| a.to_string()),
+            refused: self
+                .receiver
+                .refused()
+                .iter()
+                .map(ToString::to_string)
+                .collect(),
+            units: self.units(),
             elbow_median_m: median(&self.elbow),
             wrist_median_m: median(&self.wrist),
             worst_m: self
@@ -162,5 +294,17 @@ impl MvnInput {
             calibrating_frames: self.calibrating_frames,
             person: self.fit.fitter().map(|f| f.calibration().clone()),
         }
+    }
+}
+
+/// Addresses, comma-separated (`none` for none).
+fn addresses(a: &[std::net::SocketAddr]) -> String {
+    match a.is_empty() {
+        true => "none".into(),
+        false => a
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join(", "),
     }
 }

@@ -32,7 +32,8 @@ pub(super) struct Session<'a> {
     reconstruction: Vec<f64>,
     driven: Vec<Driven>,
     status: Publisher<DiagnosticArray>,
-    input: Subscription<JointState>,
+    /// The JointState topic, when it is the input.
+    input: Option<Subscription<JointState>>,
     /// The MVN stream, when the human comes from a suit.
     mvn: Option<MvnInput>,
     /// The TF frames, when the human comes from a skeleton's transforms.
@@ -63,7 +64,7 @@ pub(super) struct Parts {
     pub(super) human: Vec<String>,
     pub(super) mvn: Option<MvnInput>,
     pub(super) tf: Option<TfInput>,
-    pub(super) input: Subscription<JointState>,
+    pub(super) input: Option<Subscription<JointState>>,
     pub(super) status: Publisher<DiagnosticArray>,
     pub(super) driven: Vec<Driven>,
     pub(super) slots: Vec<LatentSlot>,
@@ -84,9 +85,11 @@ impl<'a> Session<'a> {
             view,
         } = parts;
         let poll = Poll::new().map_err(|e| dds(e.to_string()))?;
-        poll.registry()
-            .register(&mut input, Token(0), Interest::READABLE)
-            .map_err(|e| dds(e.to_string()))?;
+        if let Some(i) = input.as_mut() {
+            poll.registry()
+                .register(i, Token(0), Interest::READABLE)
+                .map_err(|e| dds(e.to_string()))?;
+        }
         if let Some(m) = mvn.as_mut() {
             poll.registry()
                 .register(&mut m.receiver, Token(1), Interest::READABLE)
@@ -147,7 +150,9 @@ impl<'a> Session<'a> {
         }
         if let Some(m) = self.mvn.as_mut() {
             let received = Instant::now();
-            if m.newest(&mut self.h, log) {
+            let used = m.newest(&mut self.h, log);
+            self.status_due |= m.report(log);
+            if used {
                 // The suit's frames carry no ROS stamp: the node's clock stamps them.
                 let now = std::time::SystemTime::now()
                     .duration_since(std::time::UNIX_EPOCH)
@@ -163,11 +168,27 @@ impl<'a> Session<'a> {
         }
         self.check_stale(log)?;
         if self.status_due || Instant::now() >= self.next_status {
-            publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
+            let input = self.input_values();
+            publish_status(
+                &self.status,
+                &self.driven,
+                &self.summary,
+                self.stale,
+                &input,
+                log,
+            )?;
             self.status_due = false;
             self.next_status = Instant::now() + self.status_period;
         }
         Ok(())
+    }
+
+    /// The input's own values for the status (the MVN stream's sender, refusals, units).
+    fn input_values(&self) -> Vec<(String, String)> {
+        self.mvn
+            .as_ref()
+            .map(MvnInput::status_values)
+            .unwrap_or_default()
     }
 
     /// Waits for the input, the next stale deadline or the next status tick.
@@ -190,15 +211,24 @@ impl<'a> Session<'a> {
         Ok(())
     }
 
-    /// The newest waiting message and when it was taken; the older ones are counted as
+    /// The newest waiting message (by stamp) and when it was taken; the others are counted as
     /// superseded, one that cannot be decoded as malformed.
     fn newest(&mut self, log: &mut dyn FnMut(&str)) -> Option<(JointState, Instant)> {
         let mut newest: Option<(JointState, Instant)> = None;
+        let input = self.input.as_ref()?;
         loop {
-            match self.input.take() {
+            match input.take() {
                 Ok(Some((msg, _info))) => {
-                    if newest.is_some() {
-                        self.summary.superseded += 1;
+                    // The newest by stamp (a later one on a tie): of a pair that arrived
+                    // swapped, the older is not the one followed.
+                    let stamp = msg.header.stamp.to_ns();
+                    match &newest {
+                        Some((n, _)) if n.header.stamp.to_ns() > stamp => {
+                            self.summary.superseded += 1;
+                            continue;
+                        }
+                        Some(_) => self.summary.superseded += 1,
+                        None => {}
                     }
                     newest = Some((msg, Instant::now()));
                 }
@@ -228,6 +258,30 @@ impl<'a> Session<'a> {
         received: Instant,
         log: &mut dyn FnMut(&str),
     ) -> Result<(), LiveError> {
+        let stamp = msg.header.stamp.to_ns();
+        if let Some(last) = self.last_stamp {
+            // An older pose than the one followed, arriving after it (reordered, or a burst's
+            // straggler): following it would move the robot back. Further back than the
+            // window, the publisher's clock is taken to have started again.
+            if stamp < last && last - stamp <= REORDER_WINDOW_NS {
+                *self
+                    .summary
+                    .dropped
+                    .entry("out of order".into())
+                    .or_default() += 1;
+                warn_once(
+                    &mut self.warned,
+                    "out of order",
+                    &format!(
+                        "a message on {} stamped {:.3} s before the one followed: dropped (counted; this is said once)",
+                        self.options.input_topic,
+                        (last - stamp) as f64 * 1e-9
+                    ),
+                    log,
+                );
+                return Ok(());
+            }
+        }
         match human_frame(msg, &self.human, &mut self.layout, &mut self.h) {
             Err(kind) => {
                 *self.summary.dropped.entry(kind.0.to_string()).or_default() += 1;
@@ -318,23 +372,11 @@ impl<'a> Session<'a> {
                 ));
                 for r in &mut self.driven {
                     // The hold is a command sent now: the next one moves within the velocity
-                    // limits over the time since it.
+                    // limits over the time since its send ended.
                     let now_s = self.start.elapsed().as_secs_f64();
                     if let Some(d) = r.gate.stale(now_s, &mut r.command) {
-                        for (k, &j) in r.order.iter().enumerate() {
-                            r.sent[k] = r.command[j];
-                        }
                         let stamp = Time::from_ns(self.last_stamp.unwrap_or(0));
-                        r.publisher.publish(
-                            Command::build(
-                                self.options.form,
-                                &r.sent_names,
-                                &r.sent,
-                                stamp,
-                                self.period_s,
-                            ),
-                            &r.topic,
-                        )?;
+                        publish(r, self.options, stamp, self.period_s, self.start)?;
                         r.last = Some(d);
                     }
                 }
@@ -345,7 +387,15 @@ impl<'a> Session<'a> {
 
     /// The last status and what the run did.
     pub(super) fn finish(mut self, log: &mut dyn FnMut(&str)) -> Result<TeleopSummary, LiveError> {
-        publish_status(&self.status, &self.driven, &self.summary, self.stale, log)?;
+        let input = self.input_values();
+        publish_status(
+            &self.status,
+            &self.driven,
+            &self.summary,
+            self.stale,
+            &input,
+            log,
+        )?;
         self.summary.latency = Latency::of(std::mem::take(&mut self.latencies));
         self.summary.mvn = self.mvn.as_ref().map(MvnInput::summary);
         self.summary.tf = self.tf.as_ref().map(TfInput::summary);
@@ -367,6 +417,11 @@ impl<'a> Session<'a> {
         Ok(self.summary)
     }
 }
+
+/// How far back a JointState stamp may go behind the last one followed and be dropped as out
+/// of order, nanoseconds; further back, the publisher's clock started again (its frames are
+/// followed).
+const REORDER_WINDOW_NS: i64 = 1_000_000_000;
 
 /// What a command carries and when it is sent: the stamp of the human frame it answers, the
 /// input's period (a trajectory point's time) and the node's clock.
@@ -406,17 +461,7 @@ fn command(
     let now_s = sent.start.elapsed().as_secs_f64();
     let decision = r.gate.step(now_s, &r.mean, frame, &mut r.command);
     if decision.reason != Reason::Waiting {
-        for (k, &j) in r.order.iter().enumerate() {
-            r.sent[k] = r.command[j];
-        }
-        let c = Command::build(
-            options.form,
-            &r.sent_names,
-            &r.sent,
-            sent.stamp,
-            sent.period_s,
-        );
-        r.publisher.publish(c, &r.topic)?;
+        publish(r, options, sent.stamp, sent.period_s, sent.start)?;
     }
     if decision.changed {
         let t = r.gate.thresholds();
@@ -430,6 +475,38 @@ fn command(
     }
     r.last = Some(decision);
     Ok(decision.changed)
+}
+
+/// Publishes the robot's command (`r.command`, the gate's) in its sent order, then tells the
+/// gate when the send ended (the next command's velocity limits count from then). A trajectory
+/// point is reached no sooner than the velocity limits allow from the command sent before.
+fn publish(
+    r: &mut Driven,
+    options: &TeleopOptions,
+    stamp: Time,
+    period_s: f64,
+    start: Instant,
+) -> Result<(), LiveError> {
+    let velocity = r.gate.limits().velocity();
+    let mut reach_s: f64 = 0.0;
+    for (k, &j) in r.order.iter().enumerate() {
+        let q = r.command[j];
+        if r.has_sent && velocity[j] > 0.0 {
+            reach_s = reach_s.max((q - r.sent[k]).abs() / velocity[j]);
+        }
+        r.sent[k] = q;
+    }
+    let c = Command::build(
+        options.form,
+        &r.sent_names,
+        &r.sent,
+        stamp,
+        period_s.max(reach_s),
+    );
+    r.publisher.publish(c, &r.topic)?;
+    r.gate.sent(start.elapsed().as_secs_f64());
+    r.has_sent = true;
+    Ok(())
 }
 
 /// Sends one frame to the live view (after the commands: it is not on their path); a failure

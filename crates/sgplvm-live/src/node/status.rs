@@ -9,12 +9,14 @@ use crate::gate::{Frame, Reason, Signals};
 use crate::msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time, OK, STALE, WARN};
 use crate::LiveError;
 
-/// Publishes the status: one entry per robot and one for the input.
+/// Publishes the status: one entry per robot and one for the input (with the input's own
+/// `input` values).
 pub(super) fn publish_status(
     status: &Publisher<DiagnosticArray>,
     driven: &[Driven],
     summary: &TeleopSummary,
     stale: bool,
+    input: &[(String, String)],
     log: &mut dyn FnMut(&str),
 ) -> Result<(), LiveError> {
     let kv = |k: &str, v: String| KeyValue {
@@ -120,6 +122,7 @@ pub(super) fn publish_status(
                     .iter()
                     .map(|(k, v)| kv(&format!("dropped: {k}"), v.to_string())),
             )
+            .chain(input.iter().map(|(k, v)| kv(k, v.clone())))
             .collect(),
     });
     let msg = DiagnosticArray {

@@ -190,3 +190,149 @@ fn mvn_receiver_reports_a_port_in_use() {
     let e = MvnReceiver::bind(taken, ReceiverOptions::default()).unwrap_err();
     assert!(e.to_string().contains(&format!("binding {taken}")), "{e}");
 }
+
+/// A standing person's 23 body segments (an adult in MVN's T-pose, as `mvn_spec.t_pose`),
+/// positions in metres times `scale`.
+fn person(scale: f32) -> Vec<(u32, [f32; 3], [f32; 4])> {
+    let id = |n: &str| segment_id(n, 0).unwrap();
+    let mut items = Vec::new();
+    let z = 0.95;
+    for (n, h) in [
+        ("Pelvis", 0.0),
+        ("L5", 0.1),
+        ("L3", 0.2),
+        ("T12", 0.3),
+        ("T8", 0.42),
+        ("Neck", 0.62),
+        ("Head", 0.72),
+    ] {
+        items.push((id(n), [0.0, 0.0, z + h]));
+    }
+    for (side, y) in [("Left", 1.0f32), ("Right", -1.0)] {
+        for (part, out) in [
+            ("Shoulder", 0.02),
+            ("UpperArm", 0.18),
+            ("ForeArm", 0.47),
+            ("Hand", 0.73),
+        ] {
+            items.push((id(&format!("{side}{part}")), [0.0, y * out, z + 0.6]));
+        }
+        for (part, x, dz) in [
+            ("UpperLeg", 0.0, 0.0),
+            ("LowerLeg", 0.0, -0.45),
+            ("Foot", 0.0, -0.88),
+            ("Toe", 0.15, -0.93),
+        ] {
+            items.push((id(&format!("{side}{part}")), [x, y * 0.09, z + dz]));
+        }
+    }
+    items.sort_by_key(|(i, _)| *i);
+    items
+        .into_iter()
+        .map(|(i, p)| (i, p.map(|v| v * scale), [1.0, 0.0, 0.0, 0.0]))
+        .collect()
+}
+
+#[test]
+fn mvn_receiver_takes_one_sender_and_counts_the_others() {
+    // Default: the first sender whose datagram is pose data, locked. A stranger's garbage
+    // first does not take the lock.
+    let mut rx =
+        MvnReceiver::bind("127.0.0.1:0".parse().unwrap(), ReceiverOptions::default()).unwrap();
+    let to = rx.local_addr().unwrap();
+    let stranger = std::net::UdpSocket::bind("127.0.0.2:0").unwrap();
+    let suit = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let frame = |sample| spec_type_02(sample, &body_items(), [23, 0, 0]);
+    stranger
+        .send_to(b"this is not an MVN datagram at all", to)
+        .unwrap();
+    suit.send_to(&frame(1), to).unwrap();
+    stranger.send_to(&frame(100), to).unwrap();
+    let got = drain(&mut rx, |rx, _| rx.counts().datagrams == 3);
+    assert_eq!(
+        got.iter().map(|f| f.sample_counter).collect::<Vec<_>>(),
+        [1]
+    );
+    assert_eq!(rx.sender(), Some(suit.local_addr().unwrap()));
+    assert_eq!(rx.counts().other_sender, 1, "{:?}", rx.counts());
+    assert_eq!(rx.counts().bad.get("not MXTP"), Some(&1));
+    assert_eq!(rx.refused(), [stranger.local_addr().unwrap()]);
+    // Another port of the suit's host is the suit started again; the stranger stays out.
+    let other_port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    other_port.send_to(&frame(200), to).unwrap();
+    stranger.send_to(&frame(300), to).unwrap();
+    let got = drain(&mut rx, |rx, _| rx.counts().datagrams == 5);
+    assert_eq!(
+        got.iter().map(|f| f.sample_counter).collect::<Vec<_>>(),
+        [200]
+    );
+    assert_eq!(rx.sender(), Some(other_port.local_addr().unwrap()));
+    assert_eq!(rx.counts().other_sender, 2);
+    // Named: a host (any of its ports), or an address.
+    for from in [
+        Senders::Host("127.0.0.1".parse().unwrap()),
+        Senders::Address(suit.local_addr().unwrap()),
+    ] {
+        let options = ReceiverOptions {
+            from,
+            ..ReceiverOptions::default()
+        };
+        let mut rx = MvnReceiver::bind("127.0.0.1:0".parse().unwrap(), options).unwrap();
+        let to = rx.local_addr().unwrap();
+        stranger.send_to(&frame(300), to).unwrap();
+        suit.send_to(&frame(1), to).unwrap();
+        other_port.send_to(&frame(2), to).unwrap();
+        let got = drain(&mut rx, |rx, _| rx.counts().datagrams == 3);
+        let taken: Vec<u32> = got.iter().map(|f| f.sample_counter).collect();
+        match from {
+            Senders::Host(_) => assert_eq!((taken.last(), rx.counts().other_sender), (Some(&2), 1)),
+            _ => assert_eq!((taken, rx.counts().other_sender), (vec![1], 2)),
+        }
+    }
+    assert_eq!(
+        Senders::parse("10.0.0.7").unwrap(),
+        Senders::Host("10.0.0.7".parse().unwrap())
+    );
+    assert_eq!(
+        Senders::parse("[::1]:9763").unwrap(),
+        Senders::Address("[::1]:9763".parse().unwrap())
+    );
+    let e = Senders::parse("suit.local").unwrap_err();
+    assert!(e.contains("suit.local") && e.contains("IP:PORT"), "{e}");
+}
+
+#[test]
+fn mvn_receiver_tells_centimetres_from_metres_by_the_persons_proportions() {
+    use crate::mvn::units::body_span;
+    let metres = decode(&spec_type_02(1, &person(1.0), [23, 0, 0])).unwrap();
+    let span = body_span(&metres).unwrap();
+    assert!((span - 2.05).abs() < 1e-6, "{span}");
+    for (scale, units) in [(1.0, Units::AsDecoded), (100.0, Units::Centimetres)] {
+        let mut rx =
+            MvnReceiver::bind("127.0.0.1:0".parse().unwrap(), ReceiverOptions::default()).unwrap();
+        let to = rx.local_addr().unwrap();
+        let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        assert_eq!(rx.units(PoseType::Quaternion), None);
+        tx.send_to(&spec_type_02(1, &person(scale), [23, 0, 0]), to)
+            .unwrap();
+        let got = drain(&mut rx, |_, f| !f.is_empty());
+        let (found, span) = rx.units(PoseType::Quaternion).unwrap();
+        assert_eq!(found, units);
+        assert!((span - 2.05).abs() < 1e-4, "{span}");
+        // Positions in metres whatever was sent.
+        for (s, m) in got[0].segments.iter().zip(&metres.segments) {
+            for k in 0..3 {
+                assert!((s.position[k] - m.position[k]).abs() < 1e-5, "{s:?} {m:?}");
+            }
+        }
+    }
+    // Not a person (every segment at one point): nothing told, positions as decoded.
+    let mut rx =
+        MvnReceiver::bind("127.0.0.1:0".parse().unwrap(), ReceiverOptions::default()).unwrap();
+    let to = rx.local_addr().unwrap();
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    tx.send_to(&spec_type_02(1, &person(0.0), [23, 0, 0]), to)
+        .unwrap();
+    drain(&mut rx, |_, f| !f.is_empty());
+    assert_eq!(rx.units(PoseType::Quaternion), None);
+}
