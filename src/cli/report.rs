@@ -5,14 +5,19 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 use sgplvm::experiment::ModelKind;
-use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel, TestTrust};
+use sgplvm::pipeline::{Demonstrations, Evaluation, FrameSet, StudyModel, TestTrust};
 use sgplvm::robots::names::count;
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
 use sgplvm::{SharedGplvm, StopReason};
 
-/// After `train`: robots, seconds, iterations, objective and stop reason.
+/// After `train`: robots, frames, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
-    let what = format!("trained {}", model.output_names().join(" + "));
+    let what = format!(
+        "trained {} on {} ({})",
+        model.output_names().join(" + "),
+        count(model.num_points(), "frame"),
+        FrameSet::for_config(model.config()).describe()
+    );
     trained(&what, model, seconds, out, json);
 }
 
@@ -41,6 +46,7 @@ fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool
         let value = json!({
             "model": out.display().to_string(),
             "robots": model.output_names(),
+            "frames": model.num_points(),
             "iterations": history.last().map_or(0, |r| r.iteration),
             "seconds": seconds,
             "objective": history.last().map(|r| r.objective),

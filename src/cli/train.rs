@@ -24,11 +24,11 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let demos = args.data.load()?;
     let config = args.model.config();
     let options = args.model.options()?;
-    let validation = args.model.budget.validation(&demos);
+    let patience = args.model.budget.patience();
     let (model, seconds) = train_with_progress(
         &format!("training {}", args.robots.join(" + ")),
         args.model.budget.max_iters,
-        |cb| demos.train(&args.robots, &config, &options, validation.as_ref(), cb),
+        |cb| demos.train(&args.robots, &config, &options, patience, cb),
     )?;
     model.save(&args.output.out)?;
     report::training(&model, seconds, &args.output.out, args.output.json.json);

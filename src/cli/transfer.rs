@@ -42,12 +42,12 @@ pub fn run(args: TransferArgs) -> Result<()> {
     }
     let demos = args.data.load()?;
     let options = args.budget.options();
-    let validation = args.budget.validation(&demos);
+    let patience = args.budget.patience();
     let robot = &args.robot;
     let (model, seconds) = train_with_progress(
         &format!("transfer to {robot}"),
         args.budget.max_iters,
-        |cb| demos.transfer(&source, robot, &options, validation.as_ref(), cb),
+        |cb| demos.transfer(&source, robot, &options, patience, cb),
     )?;
     model.save(&args.output.out)?;
     report::transfer(
