@@ -5,14 +5,17 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::DMatrix;
 use sgplvm_core::{
-    Callback, GpRegression, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions, Validation,
+    Callback, GpRegression, Mat, MatRef, ModelConfig, Predictor, SharedGplvm, TrainOptions,
+    Validation,
 };
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset, ValidationSplit};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
 use crate::results::ModelKind;
 
+mod parts;
 mod training;
+pub use parts::{arm_columns, known_anatomy, Parts, ARM_PARTS};
 pub use training::FrameSet;
 
 /// Where the shipped demonstrations live, relative to the repository root.
@@ -87,6 +90,14 @@ pub enum PipelineError {
         /// The data's training frames at full rate.
         every: usize,
     },
+    /// A body's columns could not be divided into the parts asked for.
+    #[error("{body}: {detail}")]
+    Parts {
+        /// The body (human or robot).
+        body: String,
+        /// What could not be divided, and how to say it.
+        detail: String,
+    },
     /// The data has no training or no test frames.
     #[error("{source_name}: the {split} set is empty")]
     EmptySplit {
@@ -121,6 +132,10 @@ pub struct ExperimentData {
     /// The training frames at full rate, for the all-frames study
     /// ([`ExperimentConfig::inducing`](crate::results::ExperimentConfig::inducing)); `None` when it is not run.
     pub all_frames: Option<AllFrames>,
+    /// The arms' columns and the recombined frames, for the study of a latent space per arm
+    /// ([`ExperimentConfig::parts`](crate::results::ExperimentConfig::parts),
+    /// [`Demonstrations::parts_data`]); `None` when it is not run.
+    pub parts: Option<crate::experiment::PartsData>,
 }
 
 /// The training frames at full rate: every frame of the training motions (test frames are the
@@ -238,6 +253,7 @@ impl Demonstrations {
                 .collect(),
             validation: self.validation_split().rows,
             all_frames: None,
+            parts: None,
         })
     }
 
@@ -278,13 +294,13 @@ impl Demonstrations {
     }
 
     /// Checks that the data's human joints are the model's (by name, in order).
-    pub fn check_human(&self, model: &SharedGplvm) -> Result<(), PipelineError> {
+    pub fn check_human(&self, model: &dyn Predictor) -> Result<(), PipelineError> {
         self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)
     }
 
     pub(crate) fn check_joints(
         &self,
-        model: &SharedGplvm,
+        model: &dyn Predictor,
         space: &str,
         data: &[String],
     ) -> Result<(), PipelineError> {
@@ -313,8 +329,12 @@ impl Demonstrations {
         Ok(())
     }
 
-    /// Test error of `model` for `robot` on this data's test frames.
-    pub fn evaluate(&self, model: &SharedGplvm, robot: &str) -> Result<Evaluation, PipelineError> {
+    /// Test error of `model` (either kind) for `robot` on this data's test frames.
+    pub fn evaluate(
+        &self,
+        model: &dyn Predictor,
+        robot: &str,
+    ) -> Result<Evaluation, PipelineError> {
         self.check_splits()?;
         self.check_human(model)?;
         let body = self.robot(robot)?;

@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
-use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
+use sgplvm::{AnyModel, BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
 // struct for the about text of the command it is flattened into.
@@ -43,6 +43,16 @@ impl ModelFileArg {
     pub fn load(&self) -> Result<SharedGplvm> {
         load_model(&self.model)
     }
+
+    /// The model named by `--model`, of either kind (a latent space per body part too).
+    pub fn load_any(&self) -> Result<AnyModel> {
+        load_any_model(&self.model)
+    }
+}
+
+/// Reads a model file of either kind; errors name the file.
+pub fn load_any_model(path: &Path) -> Result<AnyModel> {
+    AnyModel::load(path).with_context(|| path.display().to_string())
 }
 
 /// Reads a model file; errors name the file.

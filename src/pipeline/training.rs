@@ -60,10 +60,14 @@ impl Demonstrations {
     /// training set, or every frame of the training motions (a sparse model trained since
     /// issue 49). Neither: [`PipelineError::FrameCount`].
     pub fn frames_of(&self, model: &SharedGplvm) -> Result<FrameSet, PipelineError> {
-        let n = model.num_points();
+        self.frames_for(model.num_points(), model.config())
+    }
+
+    /// [`Demonstrations::frames_of`] a model of `config` trained on `n` frames.
+    pub fn frames_for(&self, n: usize, config: &ModelConfig) -> Result<FrameSet, PipelineError> {
         let subsampled = self.dataset.train.len();
         let every = self.dataset.every_training_frame().len();
-        let preferred = FrameSet::for_config(model.config());
+        let preferred = FrameSet::for_config(config);
         let other = match preferred {
             FrameSet::Every => FrameSet::Subsampled,
             FrameSet::Subsampled => FrameSet::Every,

@@ -215,10 +215,7 @@ pub enum Error {
     },
     /// The file holds another kind of model than the one asked for: a per-part model
     /// ([`crate::PartsGplvm`]) where a single latent space was expected, or the reverse.
-    #[error(
-        "the model file holds {found}, not {expected}: read it as {found} \
-         ({read_with})"
-    )]
+    #[error("the model file holds {found}, where {expected} is expected; {read_with}")]
     WrongModelKind {
         /// What the file holds.
         found: &'static str,

@@ -52,13 +52,13 @@ mod predict;
 pub(crate) const PARTS_KIND: &str = "a model with a latent space per body part";
 /// What a single-latent-space file holds, for [`Error::WrongModelKind`].
 pub(crate) const SINGLE_KIND: &str = "a model with one shared latent space";
-/// How to read a per-part file.
-pub(crate) const READ_PARTS: &str = "PartsGplvm::load or AnyModel::load; in Python \
-     sgplvm.PartsGPLVM.load or sgplvm.load_model; on the command line, predict and transfer \
-     read both kinds";
-/// How to read a single-latent-space file.
-pub(crate) const READ_SINGLE: &str = "SharedGplvm::load or AnyModel::load; in Python \
-     sgplvm.SharedGPLVM.load or sgplvm.load_model";
+/// What reads a per-part file.
+pub(crate) const READ_PARTS: &str = "it is read by PartsGplvm::load or AnyModel::load (Rust), \
+     sgplvm.PartsGPLVM.load or sgplvm.load_model (Python), and by the commands predict, \
+     transfer, joints and experiment";
+/// What reads a single-latent-space file.
+pub(crate) const READ_SINGLE: &str = "it is read by SharedGplvm::load or AnyModel::load \
+     (Rust), sgplvm.SharedGPLVM.load or sgplvm.load_model (Python)";
 
 /// One body part: its name and, for each space, the columns of that space it holds (0-based,
 /// in the space's column order).
@@ -212,6 +212,17 @@ impl PartsGplvm {
             part.model.set_column_names(space, own.collect())?;
         }
         layout.columns = Some(names);
+        Ok(())
+    }
+
+    /// Stores the groups of training frames every part's trust thresholds hold out in turn
+    /// ([`SharedGplvm::set_trust_groups`]).
+    pub fn set_trust_groups(&mut self, groups: &[usize]) -> Result<()> {
+        for part in &mut self.parts {
+            part.model
+                .set_trust_groups(groups.to_vec())
+                .map_err(|e| e.in_part(&part.name))?;
+        }
         Ok(())
     }
 
