@@ -33,15 +33,17 @@ pub struct TrainArgs {
 pub struct PartsArgs {
     /// A latent space per body part instead of one shared latent space: `arms` trains a shared
     /// GP-LVM per arm (the human's 9 left-arm joints with each robot's left-arm joints, likewise
-    /// the right), each back-constrained on its own arm, joined by a parent latent space above
-    /// them (the paper's future work, §V-B). A new pairing of arm motions is then predicted as
+    /// the right), each back-constrained on its own arm (the paper's future work, §V-B; a parent
+    /// latent space joins them with --parent-latent-dim). A new pairing of arm motions is then predicted as
     /// each arm's own motion. Every setting (--latent-dim, --inducing, --bayesian, ...) applies
     /// to each arm's model. Robots' arms come from their anatomy (built-in robots, --urdf) or
     /// their joint names (L…/R…, left_…/right_…).
     #[arg(long, value_name = "arms", value_parser = parse_parts)]
     pub parts: Option<Parts>,
-    /// With --parts: the latent dimension of the parent above the parts' latent spaces
-    /// (0: no parent; predictions do not go through it) [default: --latent-dim].
+    /// With --parts: also train a parent latent space of dimension Q above the parts' (the
+    /// whole body's latent space, Lawrence & Moore's hierarchy), after them. No prediction goes
+    /// through it, and it trains about as long as the parts together: without this flag (or
+    /// with 0) there is none.
     #[arg(long, value_name = "Q", requires = "parts")]
     pub parent_latent_dim: Option<u64>,
     /// With --parts: a robot's URDF, ROBOT=FILE, whose anatomy (with the description file
@@ -70,13 +72,11 @@ impl PartsArgs {
             .collect()
     }
 
-    /// The parent's latent dimension: `--parent-latent-dim` (0: none), else `latent_dim`.
-    pub fn parent_latent_dim(&self, latent_dim: usize) -> Option<usize> {
-        match self.parent_latent_dim {
-            Some(0) => None,
-            Some(q) => Some(q as usize),
-            None => Some(latent_dim),
-        }
+    /// The parent's latent dimension: `--parent-latent-dim` (absent or 0: no parent).
+    pub fn parent_latent_dim(&self) -> Option<usize> {
+        self.parent_latent_dim
+            .filter(|&q| q > 0)
+            .map(|q| q as usize)
     }
 }
 
@@ -95,8 +95,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
             );
         }
         let parts = demos.arm_parts(&args.robots, &urdfs)?;
-        let config = PartsConfig::new(config.clone(), parts)
-            .with_parent_latent_dim(args.parts.parent_latent_dim(config.latent_dim));
+        let config =
+            PartsConfig::new(config, parts).with_parent_latent_dim(args.parts.parent_latent_dim());
         let model = train_parts_with_progress(&label, args.model.budget.max_iters, |cb| {
             demos.train_parts(&args.robots, &config, &options, patience, cb)
         })?;

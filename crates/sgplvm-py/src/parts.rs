@@ -20,6 +20,9 @@ use crate::model::{
     to_numpy, NativeModel,
 };
 
+/// Parts as Python gives them: (part name, [(space name, columns)]).
+type PartColumns = Vec<(String, Vec<(String, Vec<usize>)>)>;
+
 /// Posterior mean and, when asked for, variance.
 type MeanAndVariance<'py> = (Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>);
 
@@ -109,7 +112,7 @@ fn train_parts(
 }
 
 /// `parts` as the core takes them: (part name, [(space, columns)]).
-fn specs(parts: Vec<(String, Vec<(String, Vec<usize>)>)>) -> Vec<PartSpec> {
+fn specs(parts: PartColumns) -> Vec<PartSpec> {
     parts
         .into_iter()
         .map(|(name, columns)| PartSpec::new(name, columns))
@@ -126,7 +129,7 @@ impl NativePartsModel {
         py: Python<'_>,
         spaces: Vec<(String, PyReadonlyArray2<'_, f64>)>,
         input: &str,
-        parts: Vec<(String, Vec<(String, Vec<usize>)>)>,
+        parts: PartColumns,
         latent_dim: usize,
         back_constraint: Option<&str>,
         seed: u64,
@@ -335,7 +338,7 @@ impl NativePartsModel {
     /// The parts' configuration as a dict (latent_dim, back_constraint, seed, scale, inducing,
     /// bayesian) with parent_latent_dim.
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = self.part(&self.inner.part_names()[0])?.config(py)?;
+        let d = self.part(self.inner.part_names()[0])?.config(py)?;
         d.set_item(
             "parent_latent_dim",
             self.inner.parent().map(|p| p.config().latent_dim),

@@ -147,7 +147,7 @@ def test_bad_parts_are_refused_naming_what_is_wrong(demo):
     with pytest.raises(ValueError, match="column 9 of space 'human' is in part 'a' and in part 'b'"):
         sgplvm.PartsGPLVM(parts=overlap).fit(spaces, max_iters=1, validation=None)
     heard = []
-    sgplvm.PartsGPLVM(latent_dim=2, parent_latent_dim=0).fit(
+    sgplvm.PartsGPLVM(latent_dim=2).fit(
         spaces, max_iters=3, validation=None, callback=lambda part, it, f: heard.append(part)
     )
     assert heard and set(heard) == {"left_arm", "right_arm"}

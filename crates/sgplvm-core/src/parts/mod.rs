@@ -25,7 +25,10 @@
 //!   (exact, sparse or Bayesian, with early stopping, trust thresholds and transfer).
 //!
 //! The parent is the whole body's latent space: the parts' latent points of every training frame
-//! in one place, for figures, sampling coordinated motion or a policy learnt over both arms.
+//! in one place, for figures, sampling coordinated motion or a policy learnt over both arms. It
+//! is trained when asked for ([`PartsConfig::parent_latent_dim`]): it changes no prediction, and
+//! its free latent points train as long as both arms' models together (4.7 s against 0.4 s on
+//! the 263 frames of `captured.mcap`; 5 of the 12 minutes on 50,796 frames, BENCHMARKS.md).
 //!
 //! **Transfer** moves the whole structure: every part's latent points (its back-constraint
 //! weights), its human kernel and the parent stay frozen; the new robot's columns are cut into
@@ -93,17 +96,18 @@ pub struct PartsConfig {
     /// The parts, each space's columns divided among them (each column in exactly one part,
     /// every part with at least one column of every space).
     pub parts: Vec<PartSpec>,
-    /// Latent dimension of the parent above the parts (`None`: no parent; prediction does not
-    /// use it either way).
+    /// Latent dimension of the parent above the parts (`None`, the default: no parent; no
+    /// prediction uses it, and on many frames it costs as much as the parts: see the module
+    /// docs).
     pub parent_latent_dim: Option<usize>,
 }
 
 impl PartsConfig {
-    /// Parts `parts` of models configured as `model`, with a parent of `model`'s latent
-    /// dimension.
+    /// Parts `parts` of models configured as `model`, without a parent
+    /// ([`PartsConfig::with_parent_latent_dim`] adds one).
     pub fn new(model: ModelConfig, parts: Vec<PartSpec>) -> PartsConfig {
         PartsConfig {
-            parent_latent_dim: Some(model.latent_dim),
+            parent_latent_dim: None,
             model,
             parts,
         }

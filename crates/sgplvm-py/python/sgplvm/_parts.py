@@ -47,20 +47,21 @@ def _arm_columns(space: str, names: Optional[List[str]]) -> Tuple[List[int], Lis
 
 
 class PartsGPLVM:
-    """A shared GP-LVM per body part, joined by a parent latent space (the paper's future work,
-    §V-B; Lawrence & Moore's hierarchical GP-LVM, fitted in two stages).
+    """A shared GP-LVM per body part, joined on request by a parent latent space (the paper's
+    future work, §V-B; Lawrence & Moore's hierarchical GP-LVM, fitted in two stages).
 
     Each part — with ``parts="arms"``, each arm: the human's 9 joints of that arm and each
     robot's joints of it — is a shared GP-LVM of its own columns (:meth:`part`), back-constrained
     on its own human columns, so a new pairing of two known arm motions is predicted as each
-    arm's own motion. The parent (:meth:`parent`) is a GP-LVM over the parts' latent points,
-    trained after them; no prediction goes through it. :meth:`transfer` moves the whole
+    arm's own motion. The parent (:meth:`parent`, with ``parent_latent_dim``) is a GP-LVM over
+    the parts' latent points, trained after them; no prediction goes through it. :meth:`transfer` moves the whole
     structure to a new robot: every part's latent space and human mapping and the parent stay
     frozen, each part learns only the new robot's kernel.
 
     Parameters are :class:`SharedGPLVM`'s, applied to every part, plus ``parts`` (``"arms"``,
     or ``{part: {space: [column, ...]}}`` dividing every column of every space among the parts)
-    and ``parent_latent_dim`` (``None``: ``latent_dim``; ``0``: no parent).
+    and ``parent_latent_dim`` (0, the default: no parent; it changes no prediction and trains
+    about as long as the parts together).
     """
 
     def __init__(
@@ -71,7 +72,7 @@ class PartsGPLVM:
         scale: bool = False,
         bayesian: bool = False,
         parts: Parts = "arms",
-        parent_latent_dim: Optional[int] = None,
+        parent_latent_dim: int = 0,
     ) -> None:
         self._settings = SharedGPLVM(latent_dim, back_constraint, seed, scale, bayesian)
         if isinstance(parts, str):
@@ -80,8 +81,6 @@ class PartsGPLVM:
         elif not isinstance(parts, Mapping) or not parts:
             raise ValueError("parts: expected 'arms' or a non-empty dict of part -> {space: columns}")
         self.parts = parts
-        if parent_latent_dim is None:
-            parent_latent_dim = self._settings.latent_dim
         #: The parent's latent dimension; 0: no parent.
         self.parent_latent_dim = _integer(parent_latent_dim, "parent_latent_dim", 0)
         self._native: Optional[_sgplvm.NativePartsModel] = None
