@@ -29,9 +29,11 @@ pub use crate::results::{
 mod all_frames;
 mod bayesian;
 mod less_data;
+mod parts;
 mod plan;
 mod report;
 pub use less_data::subset;
+pub use parts::{pairs, recombine, PartsData, PartsRecord};
 pub use plan::{assemble, execute, plan, Task, TaskResult, TaskSpec};
 pub use report::{report, MIN_RUNS_TO_JUDGE};
 
@@ -264,6 +266,22 @@ pub fn stages(config: &ExperimentConfig, robots: usize) -> Vec<Stage> {
             }
         }
     }
+    if config.parts {
+        plan.push(stage(
+            parts::DIRECT_STAGE.into(),
+            None,
+            robots,
+            config.direct_max_iters,
+            2,
+        ));
+        plan.push(stage(
+            parts::STAGE.into(),
+            Some(ModelKind::Baseline),
+            config.runs * robots,
+            config.max_iters,
+            6 + 2 * robots.saturating_sub(1),
+        ));
+    }
     plan.extend(bayesian::stages(config, robots));
     plan
 }
@@ -297,6 +315,13 @@ pub fn run(
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Results, ExperimentError> {
     all_frames::check(config, data)?;
+    if config.parts && data.parts.is_none() {
+        return Err(ExperimentError::Task {
+            context: "the study of a latent space per arm".into(),
+            problem: "the experiment data holds no arm columns and recombined frames (parts)"
+                .into(),
+        });
+    }
     let tasks = plan(config, data);
     let total = tasks.len();
     let mut stage_done = vec![0; stages(config, data.robots.len()).len()];
@@ -436,6 +461,13 @@ mod tests {
             robots: vec![("a".into(), robot(1.0)), ("b".into(), robot(0.7))],
             validation: (0..24).filter(|i| i % 3 == 2).collect(),
             all_frames: Some(all_frames),
+            // Arms: the human's first input column and its other two; each robot's columns.
+            parts: Some(PartsData {
+                human_arms: [vec![0], vec![1, 2]],
+                robot_arms: vec![[vec![0], vec![1]], [vec![0], vec![1]]],
+                test_pairs: (0..8).map(|i| (i, (i + 4) % 8)).collect(),
+                train_pairs: (0..24).map(|i| (i, (i + 12) % 24)).collect(),
+            }),
         }
     }
 
@@ -456,6 +488,7 @@ mod tests {
             max_seconds: None,
             inducing: Some(6),
             bayesian: None,
+            parts: false,
         };
         let mut trainings = 0;
         let results = run(&toy(), &config, &mut |_| trainings += 1).unwrap();
@@ -539,6 +572,7 @@ mod tests {
             max_seconds: None,
             inducing: None,
             bayesian: None,
+            parts: false,
         };
         let plan = stages(&config, 2);
         // Direct (2), then per back constraint baselines (2), transfers (2), multi (1); output:

@@ -14,7 +14,8 @@
 pub use sgplvm_capture as capture;
 pub use sgplvm_core as core;
 pub use sgplvm_core::{
-    BackConstraint, Mat, ModelConfig, SharedGplvm, StopReason, TrainOptions, Validation,
+    AnyModel, BackConstraint, Mat, ModelConfig, PartsConfig, PartsGplvm, Predictor, SharedGplvm,
+    StopReason, TrainOptions, Validation,
 };
 pub use sgplvm_robots as robots;
 pub use sgplvm_robots::Robot;

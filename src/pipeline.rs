@@ -5,12 +5,18 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::DMatrix;
 use sgplvm_core::{
-    Callback, GpRegression, Mat, MatRef, ModelConfig, SharedGplvm, TrainOptions, Validation,
+    Callback, GpRegression, Mat, MatRef, ModelConfig, Predictor, SharedGplvm, TrainOptions,
+    Validation,
 };
 use sgplvm_robots::dataset::{load_demonstrations, BodyData, Dataset, ValidationSplit};
 use sgplvm_robots::generator::{generate, GeneratorConfig};
 
 use crate::results::ModelKind;
+
+mod parts;
+mod training;
+pub use parts::{arm_columns, known_anatomy, Parts, ARM_PARTS};
+pub use training::FrameSet;
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";
@@ -68,6 +74,30 @@ pub enum PipelineError {
         /// Joints in the data.
         data: usize,
     },
+    /// A model's training frames are neither of the data's training frame sets.
+    #[error(
+        "{source_name}: the model was trained on {model} frames; this data's training set has \
+         {subsampled} frames and {every} at full rate (every frame of its training motions): \
+         transfer on the demonstrations the model was trained on"
+    )]
+    FrameCount {
+        /// The data file.
+        source_name: String,
+        /// The model's training frames.
+        model: usize,
+        /// The data's subsampled training frames.
+        subsampled: usize,
+        /// The data's training frames at full rate.
+        every: usize,
+    },
+    /// A body's columns could not be divided into the parts asked for.
+    #[error("{body}: {detail}")]
+    Parts {
+        /// The body (human or robot).
+        body: String,
+        /// What could not be divided, and how to say it.
+        detail: String,
+    },
     /// The data has no training or no test frames.
     #[error("{source_name}: the {split} set is empty")]
     EmptySplit {
@@ -102,6 +132,10 @@ pub struct ExperimentData {
     /// The training frames at full rate, for the all-frames study
     /// ([`ExperimentConfig::inducing`](crate::results::ExperimentConfig::inducing)); `None` when it is not run.
     pub all_frames: Option<AllFrames>,
+    /// The arms' columns and the recombined frames, for the study of a latent space per arm
+    /// ([`ExperimentConfig::parts`](crate::results::ExperimentConfig::parts),
+    /// [`Demonstrations::parts_data`]); `None` when it is not run.
+    pub parts: Option<crate::experiment::PartsData>,
 }
 
 /// The training frames at full rate: every frame of the training motions (test frames are the
@@ -186,7 +220,7 @@ impl Demonstrations {
             })
     }
 
-    fn check_splits(&self) -> Result<(), PipelineError> {
+    pub(crate) fn check_splits(&self) -> Result<(), PipelineError> {
         for (split, rows) in [
             ("training", &self.dataset.train),
             ("test", &self.dataset.test),
@@ -219,40 +253,16 @@ impl Demonstrations {
                 .collect(),
             validation: self.validation_split().rows,
             all_frames: None,
+            parts: None,
         })
     }
 
-    /// Every training frame at the recording's full rate, for the experiment's all-frames study:
-    /// every frame of every segment that holds a training frame and no test frame (for the
-    /// shipped and generated demonstrations, the 40 Hz frames of the training motions, of which
-    /// the training set is every 12th). A segment holding test frames too contributes its
-    /// training frames only, so no frame near a test frame is added. Increasing frame numbers.
+    /// Every training frame at the recording's full rate
+    /// ([`Dataset::every_training_frame`]): the frames of the training motions, of which the
+    /// training set is every 12th, without the guard frames a block split leaves next to its
+    /// test blocks.
     pub fn all_training_frames(&self) -> Vec<usize> {
-        let ds = &self.dataset;
-        if ds.segments.is_empty() {
-            return ds.train.clone();
-        }
-        let mut frames = Vec::new();
-        let mut train = ds.train.iter().copied().peekable();
-        for segment in &ds.segments {
-            let mut own = Vec::new();
-            while let Some(f) = train.next_if(|&f| f < segment.end) {
-                if f >= segment.start {
-                    own.push(f);
-                }
-            }
-            if own.is_empty() {
-                continue;
-            }
-            let start = ds.test.partition_point(|&t| t < segment.start);
-            let holds_test = ds.test.get(start).is_some_and(|&t| t < segment.end);
-            if holds_test {
-                frames.extend(own);
-            } else {
-                frames.extend(segment.start..segment.end);
-            }
-        }
-        frames
+        self.dataset.every_training_frame()
     }
 
     /// The training frames at full rate ([`Demonstrations::all_training_frames`]) of the
@@ -260,11 +270,7 @@ impl Demonstrations {
     /// (the same rule, hence the same motions, as [`Demonstrations::validation_split`]).
     pub fn all_frames_data(&self) -> Result<AllFrames, PipelineError> {
         self.check_splits()?;
-        let frames = self.all_training_frames();
-        let full = Dataset {
-            train: frames,
-            ..self.dataset.clone()
-        };
+        let full = self.dataset.with_every_training_frame();
         Ok(AllFrames {
             human: to_mat(&full.human.rows(&full.train)),
             robots: full
@@ -287,80 +293,14 @@ impl Demonstrations {
         Validation::new(self.validation_split().rows).with_patience(patience)
     }
 
-    /// Trains a model on the training frames of the human and `robots` (one robot: the full
-    /// model; several: the multi-robot model). With `validation`, the iteration budget is
-    /// chosen on held-out training frames ([`SharedGplvm::fit_validated`]). Joint names and
-    /// the groups the trust thresholds hold out ([`Dataset::training_groups`]) are stored in
-    /// the model.
-    pub fn train(
-        &self,
-        robots: &[String],
-        config: &ModelConfig,
-        options: &TrainOptions,
-        validation: Option<&Validation>,
-        callback: Option<Callback<'_>>,
-    ) -> Result<SharedGplvm, PipelineError> {
-        self.check_splits()?;
-        let ds = &self.dataset;
-        let mut bodies = vec![&ds.human];
-        for name in robots {
-            bodies.push(self.robot(name)?);
-        }
-        let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
-        let spaces: Vec<(&str, MatRef<'_, f64>)> = bodies
-            .iter()
-            .zip(&mats)
-            .map(|(b, m)| (b.name.as_str(), m.as_ref()))
-            .collect();
-        let input = &ds.human.name;
-        let mut model = match validation {
-            Some(v) => SharedGplvm::fit_validated(config, &spaces, input, options, v, callback)?,
-            None => SharedGplvm::fit(config, &spaces, input, options, callback)?,
-        };
-        for body in bodies {
-            model.set_column_names(&body.name, body.joint_names.clone())?;
-        }
-        model.set_trust_groups(ds.training_groups().groups)?;
-        Ok(model)
-    }
-
-    /// Transfers `model` to `robot` on this data's training frames (which must be the frames the
-    /// model was trained on: the human joints and frame count are checked). With `validation`,
-    /// the iteration budget is chosen on held-out frames ([`SharedGplvm::transfer_validated`]).
-    pub fn transfer(
-        &self,
-        model: &SharedGplvm,
-        robot: &str,
-        options: &TrainOptions,
-        validation: Option<&Validation>,
-        callback: Option<Callback<'_>>,
-    ) -> Result<SharedGplvm, PipelineError> {
-        self.check_splits()?;
-        self.check_human(model)?;
-        let body = self.robot(robot)?;
-        let data = to_mat(&body.rows(&self.dataset.train));
-        let mut transferred = match validation {
-            Some(v) => {
-                model.transfer_validated(robot, data.as_ref(), None, options, v, callback)?
-            }
-            None => model.transfer(robot, data.as_ref(), options, callback)?,
-        };
-        transferred.set_column_names(robot, body.joint_names.clone())?;
-        // A model file written before the groups existed: they are this data's.
-        if transferred.trust_groups().is_none() {
-            transferred.set_trust_groups(self.dataset.training_groups().groups)?;
-        }
-        Ok(transferred)
-    }
-
     /// Checks that the data's human joints are the model's (by name, in order).
-    pub fn check_human(&self, model: &SharedGplvm) -> Result<(), PipelineError> {
+    pub fn check_human(&self, model: &dyn Predictor) -> Result<(), PipelineError> {
         self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)
     }
 
-    fn check_joints(
+    pub(crate) fn check_joints(
         &self,
-        model: &SharedGplvm,
+        model: &dyn Predictor,
         space: &str,
         data: &[String],
     ) -> Result<(), PipelineError> {
@@ -389,8 +329,12 @@ impl Demonstrations {
         Ok(())
     }
 
-    /// Test error of `model` for `robot` on this data's test frames.
-    pub fn evaluate(&self, model: &SharedGplvm, robot: &str) -> Result<Evaluation, PipelineError> {
+    /// Test error of `model` (either kind) for `robot` on this data's test frames.
+    pub fn evaluate(
+        &self,
+        model: &dyn Predictor,
+        robot: &str,
+    ) -> Result<Evaluation, PipelineError> {
         self.check_splits()?;
         self.check_human(model)?;
         let body = self.robot(robot)?;
@@ -518,7 +462,8 @@ pub struct StudyModel {
 impl Demonstrations {
     /// The demo's small experiment (one run of the paper's transfer comparison): `source` trained
     /// fully, then every other robot of the data transferred from it and, for comparison,
-    /// trained fully from scratch — all with `config`, `options` and `validation` — each model
+    /// trained fully from scratch — all with `config`, `options` and `patience` (budgets chosen
+    /// on held-out frames: [`Demonstrations::train`]) — each model
     /// evaluated on the test frames as soon as it is trained. `run` runs each training, in this
     /// order.
     pub fn transfer_study<E: From<PipelineError>>(
@@ -526,12 +471,12 @@ impl Demonstrations {
         source: &str,
         config: &ModelConfig,
         options: &TrainOptions,
-        validation: Option<&Validation>,
+        patience: Option<usize>,
         run: &mut StudyRunner<'_, E>,
     ) -> Result<Vec<StudyModel>, E> {
         let full = |robot: &str| {
             let robots = vec![robot.to_string()];
-            move |cb: Option<Callback<'_>>| self.train(&robots, config, options, validation, cb)
+            move |cb: Option<Callback<'_>>| self.train(&robots, config, options, patience, cb)
         };
         let training = |robot, kind| StudyTraining {
             robot,
@@ -552,7 +497,7 @@ impl Demonstrations {
         {
             let transferred =
                 self.study_model(training(target, ModelKind::Transfer), run, &mut |cb| {
-                    self.transfer(&first.model, target, options, validation, cb)
+                    self.transfer(&first.model, target, options, patience, cb)
                 })?;
             let baseline = self.study_model(
                 training(target, ModelKind::Baseline),

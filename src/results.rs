@@ -54,6 +54,12 @@ pub struct ExperimentConfig {
     /// chosen budget. `None`: not run (and in results written before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bayesian: Option<BayesianStudy>,
+    /// The study of a latent space per arm on recombined motions (issue 49;
+    /// [`crate::experiment::PartsRecord`]): per run and robot, the single latent space and a
+    /// latent space per arm, trained and transferred. `false`: not run (and in results written
+    /// before it existed).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub parts: bool,
 }
 
 /// The share of a space's largest ARD weight above which a latent dimension counts as used by
@@ -118,6 +124,7 @@ impl ExperimentConfig {
             max_seconds: None,
             inducing: None,
             bayesian: None,
+            parts: false,
         }
     }
 
@@ -136,6 +143,7 @@ impl ExperimentConfig {
             max_seconds: None,
             inducing: None,
             bayesian: None,
+            parts: false,
         }
     }
 }
@@ -250,6 +258,9 @@ pub struct Results {
     /// The all-frames study (the sparse model on every training frame; empty when not run).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub all_frames: Vec<AllFramesRecord>,
+    /// The study of a latent space per arm on recombined motions (empty when not run).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<crate::experiment::PartsRecord>,
 }
 
 impl Results {

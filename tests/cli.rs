@@ -1585,10 +1585,19 @@ fn longer_sessions_and_the_sparse_model_on_every_frame() {
         "--out",
         s(&coman),
     ]);
+    // Every frame of the training motions, not the subsampled training set (issue 49).
+    let demos = sgplvm::robots::dataset::load_demonstrations(&data).unwrap();
+    let every = demos.every_training_frame().len();
+    assert!(
+        every > 20 * demos.train.len(),
+        "{every} of {}",
+        demos.train.len()
+    );
     for path in [&model, &coman] {
         let m = sgplvm::core::SharedGplvm::load(path).unwrap();
         assert_eq!(m.config().inducing, Some(30));
         assert_eq!(m.inducing_inputs().unwrap().nrows(), 30);
+        assert_eq!(m.num_points(), every);
     }
     let out = dir.join("x.sgp");
     let e = fails(

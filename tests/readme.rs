@@ -232,7 +232,7 @@ const DOCUMENTS: [(&str, usize); 9] = [
     ("docs/ten-minutes.md", 7),
     ("docs/capture.md", 6),
     ("docs/robots.md", 8),
-    ("docs/training.md", 16),
+    ("docs/training.md", 19),
     ("docs/experiments.md", 0),
     ("docs/live.md", 7),
     ("docs/python.md", 0),

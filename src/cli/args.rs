@@ -11,7 +11,7 @@ use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
 use sgplvm::robots::dataset::CAPTURE_METADATA;
-use sgplvm::{BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
+use sgplvm::{AnyModel, BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
 // struct for the about text of the command it is flattened into.
@@ -59,6 +59,16 @@ impl ModelFileArg {
     pub fn load(&self) -> Result<SharedGplvm> {
         load_model(&self.model)
     }
+
+    /// The model named by `--model`, of either kind (a latent space per body part too).
+    pub fn load_any(&self) -> Result<AnyModel> {
+        load_any_model(&self.model)
+    }
+}
+
+/// Reads a model file of either kind; errors name the file.
+pub fn load_any_model(path: &Path) -> Result<AnyModel> {
+    AnyModel::load(path).with_context(|| path.display().to_string())
 }
 
 /// Reads a model file; errors name the file.
@@ -130,9 +140,10 @@ impl BudgetArg {
             .with_max_seconds(self.max_seconds)
     }
 
-    /// The held-out frames of `demos` for `--validation auto`; `None` for `none`.
-    pub fn validation(&self, demos: &Demonstrations) -> Option<Validation> {
-        (self.validation == ValidationArg::Auto).then(|| demos.validation(self.patience as usize))
+    /// The patience of `--validation auto` (the frames held out depend on the frames a model
+    /// trains on: [`Demonstrations::train`]); `None` for `none`.
+    pub fn patience(&self) -> Option<usize> {
+        (self.validation == ValidationArg::Auto).then_some(self.patience as usize)
     }
 }
 
@@ -153,9 +164,10 @@ pub struct ModelConfigArgs {
     /// Seed of the initialisation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Train the sparse model with M inducing inputs on every frame (O(N M²) time, O(N M)
+    /// Train the sparse model with M inducing inputs on every frame of the training motions,
+    /// not only the subsampled training set the exact model takes (O(N M²) time, O(N M)
     /// memory; back constraints none or input); without it the exact model (O(N³), O(N²)).
-    /// Models transferred from a sparse model are sparse too.
+    /// Models transferred from a sparse model are sparse too, on the same frames.
     #[arg(long, value_name = "M", value_parser = clap::value_parser!(u64).range(1..))]
     pub inducing: Option<u64>,
     /// Keep the inducing inputs where they start (with --inducing) instead of training them.
@@ -164,7 +176,7 @@ pub struct ModelConfigArgs {
     /// The Bayesian shared GP-LVM (MRD): a Gaussian posterior over each frame's latent point
     /// and a KL term to the prior instead of point positions that overfit, each space's ARD
     /// lengthscales switching off the latent dimensions it does not need (--latent-dim is then
-    /// an upper bound). Sparse: --inducing defaults to 50 for it. Meant to be trained to
+    /// an upper bound). Sparse, on every frame: --inducing defaults to 50 for it. Meant to be trained to
     /// convergence (--validation none); its transfers need --validation none.
     #[arg(long)]
     pub bayesian: bool,

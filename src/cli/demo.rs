@@ -57,9 +57,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
         .with_inducing(args.bayesian.then_some(BAYESIAN_INDUCING))
         .with_bayesian(args.bayesian);
     let options = args.budget.options();
-    let validation = match args.bayesian {
+    let patience = match args.bayesian {
         true => None,
-        false => args.budget.validation(&demos),
+        false => args.budget.patience(),
     };
     // The study trains the source fully, each other robot by transfer and fully, then fits
     // every robot's direct regression and draws the figures.
@@ -70,7 +70,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         &args.source,
         &config,
         &options,
-        validation.as_ref(),
+        patience,
         &mut |training: &StudyTraining<'_>, train: &mut TrainFn<'_>| {
             let result = train_and_save(
                 training,

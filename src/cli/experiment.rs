@@ -68,6 +68,13 @@ pub struct ExperimentArgs {
     /// earlier when it converges). `--max-iters` does not apply to it.
     #[arg(long, requires = "bayesian", value_parser = clap::value_parser!(u64).range(1..))]
     bayesian_max_iters: Option<u64>,
+    /// Also compare a latent space per arm (`train --parts arms`) with the single shared latent
+    /// space on recombined motions — one frame's left arm with another frame's right arm, from
+    /// the test frames and from the training frames — per run and robot, trained and
+    /// transferred, with the GP regressions on all joints and per arm as yardsticks (report.md's
+    /// section on it).
+    #[arg(long)]
+    parts: bool,
     /// Train nothing: draw the figures and write report.md into `--out` from a results.json an
     /// earlier `sgplvm experiment` wrote (e.g. to see a finished run with a newer report).
     #[arg(long, value_name = "RESULTS_JSON")]
@@ -99,6 +106,7 @@ impl ExperimentArgs {
         config.inducing = self
             .all_frames
             .then(|| self.inducing.map_or(DEFAULT_INDUCING, |m| m as usize));
+        config.parts = self.parts;
         config.bayesian = self.bayesian.then(|| {
             let default = BayesianStudy::DEFAULT;
             BayesianStudy {
@@ -133,6 +141,9 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     let mut data = demos.experiment_data()?;
     if config.inducing.is_some() {
         data.all_frames = Some(demos.all_frames_data()?);
+    }
+    if config.parts {
+        data.parts = Some(demos.parts_data()?);
     }
     let plan = experiment::stages(&config, data.robots.len());
     let bar = progress_bar(plan.iter().map(|s| s.trainings as u64).sum(), "experiment");

@@ -9,7 +9,7 @@ use sgplvm::csv::{read_frames, CsvFrames, STD_SUFFIX};
 use sgplvm::robots::joint_state::{list_channels, read_topics, TopicRequest};
 use sgplvm::robots::names::{count, few, SHOWN};
 use sgplvm::robots::Trajectory;
-use sgplvm::{Mat, Robot, SharedGplvm};
+use sgplvm::{Mat, Predictor, Robot};
 
 /// Human frames read for prediction: times (ns) and rows in the model's human joint order.
 pub struct HumanFrames {
@@ -20,7 +20,7 @@ pub struct HumanFrames {
 }
 
 /// The joint names of `space` in `model` (`<space>_<j>` when the model has none stored).
-pub fn model_joint_names(model: &SharedGplvm, space: &str) -> Vec<String> {
+pub fn model_joint_names(model: &dyn Predictor, space: &str) -> Vec<String> {
     match model.column_names(space) {
         Some(names) => names.to_vec(),
         None => (0..model.space_dim(space).unwrap_or(0))
@@ -64,7 +64,7 @@ pub fn column_order(wanted: &[String], found: &[String], source: &str) -> Result
 
 /// What to do about a space of `model` that stores no joint names (a model fitted in Python
 /// without `column_names`, on a space not named after a built-in body): `None` when it has them.
-pub fn unnamed_space(model: &SharedGplvm, space: &str) -> Option<String> {
+pub fn unnamed_space(model: &dyn Predictor, space: &str) -> Option<String> {
     if model.column_names(space).is_some() {
         return None;
     }
@@ -79,7 +79,7 @@ pub fn unnamed_space(model: &SharedGplvm, space: &str) -> Option<String> {
 }
 
 /// Adds [`unnamed_space`]'s advice to `result`'s error when `space` has no joint names.
-pub fn advise_unnamed<T>(result: Result<T>, model: &SharedGplvm, space: &str) -> Result<T> {
+pub fn advise_unnamed<T>(result: Result<T>, model: &dyn Predictor, space: &str) -> Result<T> {
     match (result, unnamed_space(model, space)) {
         (Err(e), Some(advice)) => Err(e.context(advice)),
         (result, _) => result,
@@ -87,7 +87,7 @@ pub fn advise_unnamed<T>(result: Result<T>, model: &SharedGplvm, space: &str) ->
 }
 
 /// Fails unless `model` (read from `path`) predicts for `robot`.
-pub fn require_robot(model: &SharedGplvm, path: &Path, robot: &str) -> Result<()> {
+pub fn require_robot(model: &dyn Predictor, path: &Path, robot: &str) -> Result<()> {
     if !model.output_names().contains(&robot) {
         bail!(
             "{}: the model does not know robot '{robot}'; it predicts for {:?}",
@@ -151,7 +151,7 @@ fn read_csv(path: &str) -> Result<CsvFrames> {
 
 /// Reads the human frames of `input` (MCAP or CSV) in the model's human joint order.
 pub fn read_human_frames(
-    model: &SharedGplvm,
+    model: &dyn Predictor,
     input: &str,
     topic: Option<&str>,
 ) -> Result<HumanFrames> {
@@ -164,7 +164,7 @@ pub fn read_human_frames(
 
 /// [`read_human_frames`] without the advice for a model that names no joints.
 fn read_human_frames_named(
-    model: &SharedGplvm,
+    model: &dyn Predictor,
     input: &str,
     topic: Option<&str>,
 ) -> Result<HumanFrames> {

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use sgplvm::Robot;
 
-use super::args::load_model;
+use super::args::load_any_model;
 use super::frames::model_joint_names;
 
 #[derive(Args)]
@@ -22,10 +22,11 @@ pub struct JointsArgs {
 
 pub fn run(args: JointsArgs) -> Result<()> {
     if let Some(path) = &args.model {
-        let model = load_model(path)?;
+        let loaded = load_any_model(path)?;
+        let model = loaded.predictor();
         let spaces = std::iter::once(model.input_name()).chain(model.output_names());
         for space in spaces {
-            println!("{space}: {}", model_joint_names(&model, space).join(","));
+            println!("{space}: {}", model_joint_names(model, space).join(","));
         }
         return Ok(());
     }

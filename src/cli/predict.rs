@@ -17,7 +17,7 @@ use sgplvm::robots::joint_state::{
 };
 use sgplvm::robots::limits::{CommandLimits, LimitCounts, LimitedStream};
 use sgplvm::robots::series::seconds_from_ns;
-use sgplvm::{Mat, SharedGplvm};
+use sgplvm::{Mat, Predictor};
 
 use sgplvm::robots::anatomy::{Anatomy, CommandColumns};
 use sgplvm::robots::safety::{SafetyOptions, SafetyStep};
@@ -90,7 +90,7 @@ pub(super) struct Target {
 impl Target {
     /// A built-in robot's commands as the model predicts them (for drawing a model's raw
     /// output).
-    pub fn builtin_raw(model: &SharedGplvm, robot: &str) -> Result<Target> {
+    pub fn builtin_raw(model: &dyn Predictor, robot: &str) -> Result<Target> {
         Ok(Target {
             robot: robot.to_string(),
             anatomy: Some(Anatomy::builtin(robot)?),
@@ -106,7 +106,7 @@ impl Target {
 
 impl PredictArgs {
     /// The robot predicted for.
-    fn target(&self, model: &SharedGplvm) -> Result<Target> {
+    fn target(&self, model: &dyn Predictor) -> Result<Target> {
         let model_columns = model_joint_names(model, &self.robot);
         let known = self.urdf.is_some() || Robot::builtin_urdf(&self.robot).is_some();
         if !known && self.raw {
@@ -189,10 +189,12 @@ struct Predicted {
 }
 
 pub fn run(args: PredictArgs) -> Result<()> {
-    let model = args.model.load()?;
+    // Either kind of model: one shared latent space, or one per body part.
+    let loaded = args.model.load_any()?;
+    let model = loaded.predictor();
     let robot = args.robot.as_str();
-    require_robot(&model, &args.model.model, robot)?;
-    let target = args.target(&model)?;
+    require_robot(model, &args.model.model, robot)?;
+    let target = args.target(model)?;
     let robot_joints = target.names().to_vec();
     let scene = args.out.ends_with(".mcap") && !args.no_tf;
     if args.input == "-" {
@@ -200,11 +202,11 @@ pub fn run(args: PredictArgs) -> Result<()> {
         // after the header; the limits are checked before reading it.
         let commands = args.commands(&target, true)?;
         if args.out.ends_with(".mcap") {
-            return scene::predict_stream_mcap(&model, &target, &args.out, !args.no_tf, commands);
+            return scene::predict_stream_mcap(model, &target, &args.out, !args.no_tf, commands);
         }
-        return predict_stream(&model, &target, &args.out, args.std, commands);
+        return predict_stream(model, &target, &args.out, args.std, commands);
     }
-    let human = read_human_frames(&model, &args.input, args.topic.as_deref())?;
+    let human = read_human_frames(model, &args.input, args.topic.as_deref())?;
     let commands = args.commands(&target, human.timed)?;
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
@@ -257,7 +259,7 @@ pub fn run(args: PredictArgs) -> Result<()> {
         let latent_rows = rows(&prediction.latent, |v| v);
         let std_topic = args.std.then(|| format!("/{robot}/joint_command_std"));
         scene::write(
-            &model,
+            model,
             &target,
             &scene::Frames {
                 times_ns: &predicted.times_ns,
@@ -415,7 +417,7 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
 
 /// Teleoperation: CSV lines in on stdin, one prediction line out per line, flushed at once.
 fn predict_stream(
-    model: &SharedGplvm,
+    model: &dyn Predictor,
     target: &Target,
     out: &str,
     with_std: bool,

@@ -9,7 +9,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use sgplvm::core::{Callback, Control, IterationRecord};
+use sgplvm::core::{Callback, Control, IterationRecord, PartStage, PartsCallback, PartsGplvm};
 use sgplvm::experiment::{ModelKind, Progress, Stage};
 use sgplvm::pipeline::PipelineError;
 use sgplvm::SharedGplvm;
@@ -157,6 +157,43 @@ pub fn train_with_progress(
         .last()
         .map_or(started.elapsed().as_secs_f64(), |r| r.seconds);
     Ok((model, seconds))
+}
+
+/// Runs a per-part training with a progress bar (on a terminal; else an [`Activity`]'s lines):
+/// the bar restarts for each model trained, each part then the parent, and names it.
+pub fn train_parts_with_progress(
+    label: &str,
+    max_iters: u64,
+    train: impl FnOnce(Option<PartsCallback<'_>>) -> Result<PartsGplvm, PipelineError>,
+) -> Result<PartsGplvm, PipelineError> {
+    if !on_terminal() {
+        let activity = Activity::start(
+            label,
+            &format!(", each part and the parent at most {max_iters} iterations"),
+        );
+        let result = train(None);
+        activity.finish();
+        return result;
+    }
+    let bar = progress_bar(max_iters, label);
+    let mut shown = None;
+    let mut on_iteration = |stage: PartStage<'_>, record: &IterationRecord, _: &SharedGplvm| {
+        let name = match stage {
+            PartStage::Part { name, .. } => name.to_string(),
+            PartStage::Parent => "parent".to_string(),
+        };
+        if shown.as_ref() != Some(&name) {
+            bar.reset();
+            bar.set_prefix(format!("{label}: {name}"));
+            shown = Some(name);
+        }
+        bar.set_position(record.iteration as u64);
+        bar.set_message(format!("objective {:.2}", record.objective));
+        Control::Continue
+    };
+    let model = train(Some(&mut on_iteration))?;
+    bar.finish_and_clear();
+    Ok(model)
 }
 
 /// One line per finished stage of an experiment, with the time elapsed and an estimate of the

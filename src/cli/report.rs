@@ -5,14 +5,19 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 use sgplvm::experiment::ModelKind;
-use sgplvm::pipeline::{Demonstrations, Evaluation, StudyModel, TestTrust};
+use sgplvm::pipeline::{Demonstrations, Evaluation, FrameSet, StudyModel, TestTrust};
 use sgplvm::robots::names::count;
 use sgplvm::robots::physics::{Collision, LimitViolation, ReplayReport};
-use sgplvm::{SharedGplvm, StopReason};
+use sgplvm::{PartsGplvm, SharedGplvm, StopReason};
 
-/// After `train`: robots, seconds, iterations, objective and stop reason.
+/// After `train`: robots, frames, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
-    let what = format!("trained {}", model.output_names().join(" + "));
+    let what = format!(
+        "trained {} on {} ({})",
+        model.output_names().join(" + "),
+        count(model.num_points(), "frame"),
+        FrameSet::for_config(model.config()).describe()
+    );
     trained(&what, model, seconds, out, json);
 }
 
@@ -33,6 +38,98 @@ pub fn transfer(
     trained(&what, model, seconds, out, json);
 }
 
+/// After `train --parts`: the parts, frames and seconds, then each part's and the parent's
+/// iterations and stop reason.
+pub fn parts_training(model: &PartsGplvm, out: &Path, json: bool) {
+    let parent = match model.parent() {
+        Some(p) => format!("; a parent of Q = {}", p.config().latent_dim),
+        None => String::new(),
+    };
+    let what = format!(
+        "trained {} with a latent space per part ({}{parent}) on {} ({})",
+        model.output_names().join(" + "),
+        model.part_names().join(", "),
+        count(model.num_points(), "frame"),
+        FrameSet::for_config(model.config()).describe()
+    );
+    parts_trained(&what, model, true, out, json);
+}
+
+/// After `transfer` of a per-part model: as [`parts_training`], saying that only `robot`'s
+/// kernel of each part was trained (the parent, unchanged, is not reported).
+pub fn parts_transfer(robot: &str, model: &PartsGplvm, out: &Path, json: bool) {
+    let what = format!(
+        "transferred to {robot} (its kernel of each part only; the latent spaces of {})",
+        model.part_names().join(", ")
+    );
+    parts_trained(&what, model, false, out, json);
+}
+
+/// What one model of a per-part training did: iterations, objective, stop reason, selection.
+fn one_training(model: &SharedGplvm) -> serde_json::Value {
+    let history = model.history();
+    json!({
+        "iterations": history.last().map_or(0, |r| r.iteration),
+        "objective": history.last().map(|r| r.objective),
+        "stop_reason": model.stop_reason().map(StopReason::name),
+        "selection": model.selection(),
+    })
+}
+
+/// The result of a per-part training: `what`, then a line per part and, with `parent` (it was
+/// trained), the parent's; seconds are those of the models trained.
+fn parts_trained(what: &str, model: &PartsGplvm, parent: bool, out: &Path, json: bool) {
+    let parent = model.parent().filter(|_| parent);
+    let seconds: f64 = model
+        .part_names()
+        .into_iter()
+        .filter_map(|name| model.part(name))
+        .chain(parent)
+        .map(SharedGplvm::training_seconds)
+        .sum();
+    let parts: serde_json::Map<String, serde_json::Value> = model
+        .part_names()
+        .into_iter()
+        .filter_map(|name| Some((name.to_string(), one_training(model.part(name)?))))
+        .collect();
+    if json {
+        let value = json!({
+            "model": out.display().to_string(),
+            "robots": model.output_names(),
+            "frames": model.num_points(),
+            "seconds": seconds,
+            "parts": parts,
+            "parent": parent.map(one_training),
+        });
+        println!("{value}");
+        return;
+    }
+    println!("{what} in {seconds:.2} s; wrote {}", out.display());
+    let models = model
+        .part_names()
+        .into_iter()
+        .filter_map(|name| Some((name, model.part(name)?)))
+        .chain(parent.map(|p| ("parent", p)));
+    for (name, m) in models {
+        let iterations = m.history().last().map_or(0, |r| r.iteration);
+        let stop = m
+            .stop_reason()
+            .map_or("not trained".to_string(), ToString::to_string);
+        let chosen = match m.selection() {
+            Some(s) => format!(
+                ", the budget chosen on {} held-out frames",
+                s.validation_frames
+            ),
+            None => String::new(),
+        };
+        println!(
+            "  {name}: {} ({stop}{chosen}), {:.2} s",
+            count(iterations, "iteration"),
+            m.training_seconds()
+        );
+    }
+}
+
 /// The result of a training: `what` was done, in `seconds`, and why it stopped, in words —
 /// for a budget chosen on held-out frames, how it was chosen.
 fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
@@ -41,6 +138,7 @@ fn trained(what: &str, model: &SharedGplvm, seconds: f64, out: &Path, json: bool
         let value = json!({
             "model": out.display().to_string(),
             "robots": model.output_names(),
+            "frames": model.num_points(),
             "iterations": history.last().map_or(0, |r| r.iteration),
             "seconds": seconds,
             "objective": history.last().map(|r| r.objective),

@@ -1,10 +1,16 @@
-//! `sgplvm train`: the full model (one robot) or the multi-robot model (several).
+//! `sgplvm train`: the full model (one robot) or the multi-robot model (several); with
+//! `--parts arms`, a latent space per arm joined by a parent latent space.
 
-use anyhow::Result;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
+use sgplvm::pipeline::Parts;
+use sgplvm::PartsConfig;
 
 use super::args::{DataArg, ModelConfigArgs, TrainOutputArgs};
-use super::progress::train_with_progress;
+use super::progress::{train_parts_with_progress, train_with_progress};
 use super::report;
 
 #[derive(Args)]
@@ -17,19 +23,90 @@ pub struct TrainArgs {
     #[command(flatten)]
     model: ModelConfigArgs,
     #[command(flatten)]
+    parts: PartsArgs,
+    #[command(flatten)]
     output: TrainOutputArgs,
+}
+
+// `--parts`, `--parent-latent-dim`, `--urdf`: a latent space per body part.
+#[derive(Args)]
+pub struct PartsArgs {
+    /// A latent space per body part instead of one shared latent space: `arms` trains a shared
+    /// GP-LVM per arm (the human's 9 left-arm joints with each robot's left-arm joints, likewise
+    /// the right), each back-constrained on its own arm (the paper's future work, §V-B; a parent
+    /// latent space joins them with --parent-latent-dim). A new pairing of arm motions is then predicted as
+    /// each arm's own motion. Every setting (--latent-dim, --inducing, --bayesian, ...) applies
+    /// to each arm's model. Robots' arms come from their anatomy (built-in robots, --urdf) or
+    /// their joint names (L…/R…, left_…/right_…).
+    #[arg(long, value_name = "arms", value_parser = parse_parts)]
+    pub parts: Option<Parts>,
+    /// With --parts: also train a parent latent space of dimension Q above the parts' (the
+    /// whole body's latent space, Lawrence & Moore's hierarchy), after them. No prediction goes
+    /// through it, and it trains about as long as the parts together: without this flag (or
+    /// with 0) there is none.
+    #[arg(long, value_name = "Q", requires = "parts")]
+    pub parent_latent_dim: Option<u64>,
+    /// With --parts: a robot's URDF, ROBOT=FILE, whose anatomy (with the description file
+    /// beside it) says which joints are its arms, where its joint names do not.
+    #[arg(long = "urdf", value_name = "ROBOT=FILE", requires = "parts")]
+    pub urdf: Vec<String>,
+}
+
+/// `--parts`: a name of [`Parts`].
+fn parse_parts(text: &str) -> Result<Parts, String> {
+    text.parse()
+}
+
+impl PartsArgs {
+    /// `--urdf ROBOT=FILE` by robot name.
+    pub fn urdfs(&self) -> Result<BTreeMap<String, PathBuf>> {
+        self.urdf
+            .iter()
+            .map(|s| {
+                let (robot, file) = s
+                    .split_once('=')
+                    .filter(|(r, f)| !r.is_empty() && !f.is_empty())
+                    .ok_or_else(|| anyhow!("--urdf {s}: expected ROBOT=FILE"))?;
+                Ok((robot.to_string(), PathBuf::from(file)))
+            })
+            .collect()
+    }
+
+    /// The parent's latent dimension: `--parent-latent-dim` (absent or 0: no parent).
+    pub fn parent_latent_dim(&self) -> Option<usize> {
+        self.parent_latent_dim
+            .filter(|&q| q > 0)
+            .map(|q| q as usize)
+    }
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
     let demos = args.data.load()?;
     let config = args.model.config();
     let options = args.model.options()?;
-    let validation = args.model.budget.validation(&demos);
-    let (model, seconds) = train_with_progress(
-        &format!("training {}", args.robots.join(" + ")),
-        args.model.budget.max_iters,
-        |cb| demos.train(&args.robots, &config, &options, validation.as_ref(), cb),
-    )?;
+    let patience = args.model.budget.patience();
+    let label = format!("training {}", args.robots.join(" + "));
+    if let Some(Parts::Arms) = args.parts.parts {
+        let urdfs = args.parts.urdfs()?;
+        if let Some(r) = urdfs.keys().find(|r| !args.robots.contains(r)) {
+            bail!(
+                "--urdf {r}=…: '{r}' is not one of the robots trained on ({:?})",
+                args.robots
+            );
+        }
+        let parts = demos.arm_parts(&args.robots, &urdfs)?;
+        let config =
+            PartsConfig::new(config, parts).with_parent_latent_dim(args.parts.parent_latent_dim());
+        let model = train_parts_with_progress(&label, args.model.budget.max_iters, |cb| {
+            demos.train_parts(&args.robots, &config, &options, patience, cb)
+        })?;
+        model.save(&args.output.out)?;
+        report::parts_training(&model, &args.output.out, args.output.json.json);
+        return Ok(());
+    }
+    let (model, seconds) = train_with_progress(&label, args.model.budget.max_iters, |cb| {
+        demos.train(&args.robots, &config, &options, patience, cb)
+    })?;
     let mut model = model;
     args.data.annotate(&mut model)?;
     model.save(&args.output.out)?;

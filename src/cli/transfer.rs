@@ -1,12 +1,14 @@
-//! `sgplvm transfer`: a trained model to another robot, training only that robot's kernel.
+//! `sgplvm transfer`: a trained model to another robot, training only that robot's kernel (of
+//! each body part, for a model with a latent space per part).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 use clap::Args;
+use sgplvm::AnyModel;
 
-use super::args::{load_model, BudgetArg, DataArg, TrainOutputArgs};
-use super::progress::train_with_progress;
+use super::args::{load_any_model, BudgetArg, DataArg, TrainOutputArgs};
+use super::progress::{train_parts_with_progress, train_with_progress};
 use super::report;
 
 #[derive(Args)]
@@ -15,7 +17,7 @@ use super::report;
 )))]
 #[command(mut_arg("out", |a| a.help("Where to write the new model")))]
 pub struct TransferArgs {
-    /// The trained model.
+    /// The trained model (one shared latent space, or one per body part: `train --parts`).
     #[arg(long)]
     model: PathBuf,
     #[command(flatten)]
@@ -23,6 +25,11 @@ pub struct TransferArgs {
     /// The new robot.
     #[arg(long)]
     robot: String,
+    /// For a model with a latent space per arm: the new robot's URDF, whose anatomy (with the
+    /// description file beside it) says which joints are its arms, where its joint names do
+    /// not [default: the built-in robot's anatomy, else its joint names].
+    #[arg(long, value_name = "FILE")]
+    urdf: Option<PathBuf>,
     #[command(flatten)]
     budget: BudgetArg,
     #[command(flatten)]
@@ -30,33 +37,50 @@ pub struct TransferArgs {
 }
 
 pub fn run(args: TransferArgs) -> Result<()> {
-    let source = load_model(&args.model)?;
-    if source.output_names().contains(&args.robot.as_str()) {
+    let source = load_any_model(&args.model)?;
+    let known = source.predictor().output_names();
+    if known.contains(&args.robot.as_str()) {
         bail!(
-            "{}: the model already predicts for '{}' (it has {:?}); transfer to another robot, \
-             or train it afresh with `sgplvm train`",
+            "{}: the model already predicts for '{}' (it has {known:?}); transfer to another \
+             robot, or train it afresh with `sgplvm train`",
             args.model.display(),
             args.robot,
-            source.output_names()
         );
     }
     let demos = args.data.load()?;
     let options = args.budget.options();
-    let validation = args.budget.validation(&demos);
+    let patience = args.budget.patience();
     let robot = &args.robot;
-    let (model, seconds) = train_with_progress(
-        &format!("transfer to {robot}"),
-        args.budget.max_iters,
-        |cb| demos.transfer(&source, robot, &options, validation.as_ref(), cb),
-    )?;
-    model.save(&args.output.out)?;
-    report::transfer(
-        &source,
-        robot,
-        &model,
-        seconds,
-        &args.output.out,
-        args.output.json.json,
-    );
+    let label = format!("transfer to {robot}");
+    match &source {
+        AnyModel::Single(source) => {
+            if args.urdf.is_some() {
+                bail!(
+                    "--urdf says which joints are a robot's arms, for a model with a latent \
+                     space per arm; {} has one shared latent space",
+                    args.model.display()
+                );
+            }
+            let (model, seconds) = train_with_progress(&label, args.budget.max_iters, |cb| {
+                demos.transfer(source, robot, &options, patience, cb)
+            })?;
+            model.save(&args.output.out)?;
+            report::transfer(
+                source,
+                robot,
+                &model,
+                seconds,
+                &args.output.out,
+                args.output.json.json,
+            );
+        }
+        AnyModel::Parts(source) => {
+            let model = train_parts_with_progress(&label, args.budget.max_iters, |cb| {
+                demos.transfer_parts(source, robot, args.urdf.as_deref(), &options, patience, cb)
+            })?;
+            model.save(&args.output.out)?;
+            report::parts_transfer(robot, &model, &args.output.out, args.output.json.json);
+        }
+    }
     Ok(())
 }

@@ -103,6 +103,7 @@ mod tests {
             max_seconds: None,
             inducing: None,
             bayesian,
+            parts: false,
         }
     }
 

@@ -16,10 +16,10 @@ use serde::{Deserialize, Serialize};
 use sgplvm_core::BackConstraint;
 
 use super::less_data::subset;
-use super::{all_frames, bayesian};
+use super::{all_frames, bayesian, parts};
 use super::{
     stages, AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData, ExperimentError,
-    LessDataRecord, Results, RunRecord,
+    LessDataRecord, PartsRecord, Results, RunRecord,
 };
 
 mod execution;
@@ -110,6 +110,20 @@ pub enum TaskSpec {
         /// The robot.
         robot: usize,
     },
+    /// A latent space per arm against the single latent space (issue 49): both trained on
+    /// `robot` with seed `config.seed + run`, transferred to every other robot, evaluated on
+    /// the test frames and the recombined ones ([`super::parts`]).
+    Parts {
+        /// Run (seed) index.
+        run: usize,
+        /// The robot trained on.
+        robot: usize,
+    },
+    /// The GP regressions of the same study: on all human joints and one per arm, for `robot`.
+    PartsDirect {
+        /// The robot.
+        robot: usize,
+    },
 }
 
 /// One training of the experiment.
@@ -146,6 +160,9 @@ pub struct TaskResult {
     /// A model of the all-frames study.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all_frames: Option<AllFramesRecord>,
+    /// The models of the study of a latent space per arm.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<PartsRecord>,
 }
 
 /// Every task of the experiment on `data`, in the order the serial run performs them.
@@ -171,6 +188,9 @@ pub fn plan(config: &ExperimentConfig, data: &ExperimentData) -> Vec<Task> {
     }
     if let Some(m) = config.inducing {
         planner.all_frames(m, data);
+    }
+    if config.parts {
+        planner.parts();
     }
     if config.bayesian.is_some() {
         planner.bayesian = true;
@@ -403,6 +423,34 @@ impl<'a> Planner<'a> {
         }
     }
 
+    /// The study of a latent space per arm: the regressions of every robot, then per run and
+    /// robot the two models trained and transferred.
+    fn parts(&mut self) {
+        let robots = self.robots.clone();
+        let direct = self.stage_of(parts::DIRECT_STAGE);
+        for (r, robot) in robots.iter().enumerate() {
+            self.push(
+                direct,
+                format!("GP regressions H → {robot}, whole and per arm"),
+                TaskSpec::PartsDirect { robot: r },
+                None,
+                false,
+            );
+        }
+        let stage = self.stage_of(parts::STAGE);
+        for run in 0..self.config.runs {
+            for (r, robot) in robots.iter().enumerate() {
+                self.push(
+                    stage,
+                    format!("one latent space and one per arm: {robot} and transfers, run {run}"),
+                    TaskSpec::Parts { run, robot: r },
+                    None,
+                    false,
+                );
+            }
+        }
+    }
+
     /// The all-frames study with `m` inducing inputs: per back constraint, on the subsample and
     /// on every frame, run and robot.
     fn all_frames(&mut self, m: usize, data: &ExperimentData) {
@@ -463,12 +511,14 @@ pub fn assemble(
         robot_joints: data.robots.iter().map(|(_, s)| s.train.ncols()).collect(),
         less_data: Vec::new(),
         all_frames: Vec::new(),
+        parts: Vec::new(),
     };
     for r in results {
         out.runs.extend(r.runs);
         out.direct_regression.extend(r.direct);
         out.less_data.extend(r.less_data);
         out.all_frames.extend(r.all_frames);
+        out.parts.extend(r.parts);
     }
     Ok(out)
 }
@@ -496,6 +546,7 @@ mod tests {
             max_seconds: None,
             inducing: Some(6),
             bayesian: None,
+            parts: true,
         }
     }
 

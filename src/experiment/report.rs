@@ -23,6 +23,7 @@ mod bayesian;
 mod claims;
 mod format;
 mod pairs;
+mod parts;
 
 use all_frames::all_frames_section;
 use bayesian::bayesian_section;
@@ -198,6 +199,10 @@ pub fn report(results: &Results) -> String {
         out.push('\n');
         out.push_str(&section);
     }
+    if let Some(section) = parts::parts_section(results, &boot) {
+        out.push('\n');
+        out.push_str(&section);
+    }
     out.push_str("\n## The paper's claims, one by one\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -286,6 +291,7 @@ mod tests {
             robot_joints: Vec::new(),
             less_data: Vec::new(),
             all_frames: Vec::new(),
+            parts: Vec::new(),
             direct_regression: robots
                 .iter()
                 .map(|r| DirectRecord {

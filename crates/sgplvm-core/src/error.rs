@@ -196,7 +196,8 @@ pub enum Error {
     BadMagic,
     /// The file was written by another format version.
     #[error(
-        "model file format version {found} is not supported; expected version 1 to {supported}"
+        "model file format version {found} is not supported; expected version 1 to {supported} \
+         (a later version is written by a newer sgplvm: update sgplvm to read it)"
     )]
     UnsupportedVersion {
         /// Version in the file.
@@ -211,6 +212,25 @@ pub enum Error {
         expected: usize,
         /// Bytes present.
         found: usize,
+    },
+    /// The file holds another kind of model than the one asked for: a per-part model
+    /// ([`crate::PartsGplvm`]) where a single latent space was expected, or the reverse.
+    #[error("the model file holds {found}, where {expected} is expected; {read_with}")]
+    WrongModelKind {
+        /// What the file holds.
+        found: &'static str,
+        /// What was asked for.
+        expected: &'static str,
+        /// How to read what it holds.
+        read_with: &'static str,
+    },
+    /// A body part of a [`crate::PartsGplvm`] failed: the error, with the part named.
+    #[error("body part '{part}': {source}")]
+    Part {
+        /// The part.
+        part: String,
+        /// What failed.
+        source: Box<Error>,
     },
     /// The payload is damaged or inconsistent.
     #[error("model file corrupt: {reason}")]

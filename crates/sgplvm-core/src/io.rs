@@ -1,12 +1,12 @@
 //! Model files.
 //!
-//! Format (version 3 for the Bayesian model, else 2; versions 1 and 2 are read too), all
-//! integers little-endian:
+//! Format (version 3 for the Bayesian model, 4 for a per-part model, else 2; version 1 is read
+//! too), all integers little-endian:
 //!
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `b"SGPLVM\0\0"` |
-//! | 8..12 | format version, u32 (2, or 3 for a Bayesian model) |
+//! | 8..12 | format version, u32 (2, 3 for a Bayesian model, 4 for a per-part model) |
 //! | 12..20 | payload length L, u64 |
 //! | 20..28 | FNV-1a 64-bit hash of the payload, u64 |
 //! | 28..28+L | payload: UTF-8 JSON (serde_json, `float_roundtrip`) |
@@ -34,7 +34,11 @@
 //! (`latent_variance`, N×Q; the latent block then holds q(X)'s means). Only Bayesian models
 //! are written as version 3, so that a library from before it refuses them by their version
 //! instead of reading them as a point-latent sparse model; every other model is still version
-//! 2, readable by older libraries. Caches
+//! 2, readable by older libraries. Version 4 (issue 49) is a per-part model
+//! ([`crate::PartsGplvm`]): its payload names the spaces and the body parts' columns and holds a
+//! version-2 or -3 payload per part and one for the parent (`parts::io`); reading one as a
+//! single latent space, or a single latent space as one, is [`Error::WrongModelKind`], and a
+//! library from before it refuses it by its version. Caches
 //! (Cholesky factors, K⁻¹Y, X = K_bc W) are not stored: they are recomputed by the same code
 //! that built them after training, so predictions after a round trip are bit-identical.
 //! Files are written to a temporary file next to the target and renamed into place (see
@@ -58,8 +62,15 @@ use crate::validation::Selection;
 
 /// Magic bytes at the start of every model file.
 pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
-/// The format version this library writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+/// The newest format version this library writes; it reads every version from 1 to this one.
+pub const FORMAT_VERSION: u32 = PARTS_FORMAT_VERSION;
+/// The version of per-part model files ([`crate::PartsGplvm`], issue 49): a latent space per
+/// body part, each a model of format 2 or 3 inside, and the parent above them (see
+/// `parts::io`). A single-latent-space model is never written with it, so libraries from
+/// before it read every such model as before and refuse per-part files by their version.
+pub const PARTS_FORMAT_VERSION: u32 = 4;
+/// The version written for Bayesian models.
+const BAYESIAN_VERSION: u32 = 3;
 /// The version written for models that are not Bayesian (unchanged since the sparse model).
 const POINT_LATENT_VERSION: u32 = 2;
 const HEADER: usize = 28;
@@ -260,8 +271,10 @@ impl MapFile {
     }
 }
 
+/// The payload of a single-latent-space model file (format 2 or 3); a per-part file holds one
+/// per part and one for the parent.
 #[derive(Serialize, Deserialize)]
-struct ModelFile {
+pub(crate) struct ModelFile {
     config: ModelConfig,
     spaces: Vec<SpaceFile>,
     latent: LatentFile,
@@ -308,7 +321,19 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 impl SharedGplvm {
     /// The model as bytes in the documented file format (see the `io` module docs).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let file = ModelFile {
+        let file = self.to_file();
+        // Serialising plain structs of finite numbers and strings cannot fail.
+        let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
+        let version = match self.config.bayesian {
+            true => BAYESIAN_VERSION,
+            false => POINT_LATENT_VERSION,
+        };
+        with_header(version, &payload)
+    }
+
+    /// The model's payload (see the `io` module docs).
+    pub(crate) fn to_file(&self) -> ModelFile {
+        ModelFile {
             config: self.config.clone(),
             spaces: self
                 .spaces
@@ -365,82 +390,40 @@ impl SharedGplvm {
             trust_groups: self.trust_groups.clone(),
             reconstruction: self.reconstruction_threshold().ok(),
             annotations: self.annotations.clone(),
-        };
-        // Serialising plain structs of finite numbers and strings cannot fail.
-        let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
-        let mut out = Vec::with_capacity(HEADER + payload.len());
-        out.extend_from_slice(MAGIC);
-        let version = match self.config.bayesian {
-            true => FORMAT_VERSION,
-            false => POINT_LATENT_VERSION,
-        };
-        out.extend_from_slice(&version.to_le_bytes());
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
-        out.extend_from_slice(&payload);
-        out
+        }
     }
 
     /// Reads a model from bytes written by [`SharedGplvm::to_bytes`]; foreign, truncated,
-    /// corrupted or other-version input is a typed error.
+    /// corrupted or other-version input is a typed error, and a per-part model's file
+    /// ([`PARTS_FORMAT_VERSION`]) is [`Error::WrongModelKind`].
     pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
-        if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-            return Err(Error::BadMagic);
-        }
-        if bytes.len() < HEADER {
-            return Err(Error::Truncated {
-                expected: HEADER,
-                found: bytes.len(),
+        let (version, payload) = split_header(bytes)?;
+        if version == PARTS_FORMAT_VERSION {
+            return Err(Error::WrongModelKind {
+                found: crate::parts::PARTS_KIND,
+                expected: crate::parts::SINGLE_KIND,
+                read_with: crate::parts::READ_PARTS,
             });
         }
-        let word = |a: usize, b: usize| -> [u8; 8] {
-            let mut w = [0u8; 8];
-            w[..b - a].copy_from_slice(&bytes[a..b]);
-            w
-        };
-        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-        if version == 0 || version > FORMAT_VERSION {
-            return Err(Error::UnsupportedVersion {
-                found: version,
-                supported: FORMAT_VERSION,
-            });
-        }
-        let len = u64::from_le_bytes(word(12, 20));
-        let hash = u64::from_le_bytes(word(20, 28));
-        let expected = usize::try_from(len)
-            .ok()
-            .and_then(|l| l.checked_add(HEADER))
-            .ok_or(Error::Corrupt {
-                reason: format!("payload length {len} is impossible"),
-            })?;
-        if bytes.len() < expected {
-            return Err(Error::Truncated {
-                expected,
-                found: bytes.len(),
-            });
-        }
-        if bytes.len() > expected {
-            return Err(Error::Corrupt {
-                reason: format!(
-                    "{} trailing bytes after the payload",
-                    bytes.len() - expected
-                ),
-            });
-        }
-        let payload = &bytes[HEADER..];
-        if fnv1a(payload) != hash {
-            return Err(Error::Corrupt {
-                reason: "payload checksum mismatch".into(),
-            });
-        }
+        Self::from_payload(version, payload)
+    }
+
+    /// The model of a format-2 or -3 `payload` (the file's `version`), every shape checked.
+    pub(crate) fn from_payload(version: u32, payload: &[u8]) -> Result<Self> {
         let file: ModelFile = serde_json::from_slice(payload).map_err(|e| Error::Corrupt {
             reason: format!("payload: {e}"),
         })?;
-        if file.config.bayesian != (version == FORMAT_VERSION) {
+        Self::from_versioned_file(version, file)
+    }
+
+    /// The model `file` describes, checked against the file `version` it came in (Bayesian
+    /// models are format 3, others 2 or older).
+    pub(crate) fn from_versioned_file(version: u32, file: ModelFile) -> Result<Self> {
+        if file.config.bayesian != (version == BAYESIAN_VERSION) {
             return Err(Error::Corrupt {
                 reason: format!(
                     "a file of format {version} with config.bayesian = {}; Bayesian models are \
-                     format {FORMAT_VERSION}, others format {POINT_LATENT_VERSION} or older",
+                     format {BAYESIAN_VERSION}, others format {POINT_LATENT_VERSION} or older",
                     file.config.bayesian
                 ),
             });
@@ -448,6 +431,82 @@ impl SharedGplvm {
         Self::from_file(file)
     }
 
+    /// The version a model of this kind is written with (2, or 3 for a Bayesian model).
+    pub(crate) fn file_version(&self) -> u32 {
+        match self.config.bayesian {
+            true => BAYESIAN_VERSION,
+            false => POINT_LATENT_VERSION,
+        }
+    }
+}
+
+/// `payload` behind a file header of format `version` (magic, version, length, hash).
+pub(crate) fn with_header(version: u32, payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(HEADER + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a(payload).to_le_bytes());
+    out.extend_from_slice(payload);
+    out
+}
+
+/// The format version and the payload of a model file's `bytes`, after checking the magic,
+/// the version (1 to [`FORMAT_VERSION`]), the length and the hash.
+pub(crate) fn split_header(bytes: &[u8]) -> Result<(u32, &[u8])> {
+    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        return Err(Error::BadMagic);
+    }
+    if bytes.len() < HEADER {
+        return Err(Error::Truncated {
+            expected: HEADER,
+            found: bytes.len(),
+        });
+    }
+    let word = |a: usize, b: usize| -> [u8; 8] {
+        let mut w = [0u8; 8];
+        w[..b - a].copy_from_slice(&bytes[a..b]);
+        w
+    };
+    let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+    if version == 0 || version > FORMAT_VERSION {
+        return Err(Error::UnsupportedVersion {
+            found: version,
+            supported: FORMAT_VERSION,
+        });
+    }
+    let len = u64::from_le_bytes(word(12, 20));
+    let hash = u64::from_le_bytes(word(20, 28));
+    let expected = usize::try_from(len)
+        .ok()
+        .and_then(|l| l.checked_add(HEADER))
+        .ok_or(Error::Corrupt {
+            reason: format!("payload length {len} is impossible"),
+        })?;
+    if bytes.len() < expected {
+        return Err(Error::Truncated {
+            expected,
+            found: bytes.len(),
+        });
+    }
+    if bytes.len() > expected {
+        return Err(Error::Corrupt {
+            reason: format!(
+                "{} trailing bytes after the payload",
+                bytes.len() - expected
+            ),
+        });
+    }
+    let payload = &bytes[HEADER..];
+    if fnv1a(payload) != hash {
+        return Err(Error::Corrupt {
+            reason: "payload checksum mismatch".into(),
+        });
+    }
+    Ok((version, payload))
+}
+
+impl SharedGplvm {
     /// The model a parsed file describes, every shape checked, caches rebuilt.
     fn from_file(f: ModelFile) -> Result<Self> {
         f.config.check()?;
@@ -589,39 +648,47 @@ impl SharedGplvm {
     /// temporaries of earlier writers of `path` that were killed are removed first. Errors
     /// name `path`, not the temporary file.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let io = |source: std::io::Error| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        if path.file_name().is_none() {
-            return Err(io(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "the path has no file name",
-            )));
-        }
-        let bytes = self.to_bytes();
-        tempfiles::remove_stale_temporaries(path);
-        let tmp = tempfiles::temporary_path(path);
-        let result = (|| {
-            let mut f = std::fs::File::create(&tmp).map_err(io)?;
-            f.write_all(&bytes).map_err(io)?;
-            f.sync_all().map_err(io)?;
-            std::fs::rename(&tmp, path).map_err(io)
-        })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result
+        write_atomically(path, &self.to_bytes())
     }
 
     /// Reads a model file written by [`SharedGplvm::save`].
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_bytes(&bytes)
+        Self::from_bytes(&read_file(path)?)
     }
+}
+
+/// Writes `bytes` to `path` through a temporary file beside it (see [`SharedGplvm::save`]).
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |source: std::io::Error| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    if path.file_name().is_none() {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "the path has no file name",
+        )));
+    }
+    tempfiles::remove_stale_temporaries(path);
+    let tmp = tempfiles::temporary_path(path);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp).map_err(io)?;
+        f.write_all(bytes).map_err(io)?;
+        f.sync_all().map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// The bytes of the model file at `path` (an error naming it when it cannot be read).
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// A model file's `bytes` with its JSON payload edited by `edit` and a valid header and hash:
@@ -728,8 +795,24 @@ mod tests {
             SharedGplvm::from_bytes(&old),
             Err(Error::UnsupportedVersion {
                 found: 0,
-                supported: 3
+                supported: 4
             })
+        ));
+        // A newer format than this library's: refused naming both versions.
+        let mut newer = bytes.clone();
+        newer[8..12].copy_from_slice(&5u32.to_le_bytes());
+        let e = SharedGplvm::from_bytes(&newer).unwrap_err().to_string();
+        assert!(
+            e.contains("version 5 is not supported; expected version 1 to 4")
+                && e.contains("newer sgplvm"),
+            "{e}"
+        );
+        // A single latent space labelled as a per-part file: refused as the wrong kind.
+        let mut parts = bytes.clone();
+        parts[8..12].copy_from_slice(&4u32.to_le_bytes());
+        assert!(matches!(
+            SharedGplvm::from_bytes(&parts),
+            Err(Error::WrongModelKind { .. })
         ));
         let mut bad = bytes.clone();
         let k = bytes.len() / 2;

@@ -51,6 +51,8 @@
 //! | `tempfiles.rs` | temporary files of atomic writes, and the removal of those a killed writer left |
 //! | `sparse/` | the sparse model ([`ModelConfig::inducing`]): Titsias' bound per space with shared inducing inputs, its objective, training and prediction caches ([`SparseEvaluator`]) |
 //! | `memory.rs` | the memory an exact model needs, checked before allocating ([`Error::TooLarge`]) |
+//! | `parts/` | a latent space per body part joined by a parent latent space ([`PartsGplvm`]): training, transfer, prediction and its file (format 4) |
+//! | `predictor.rs` | [`Predictor`], what every kind of model offers for prediction, and [`AnyModel`], a model file of either kind |
 //!
 //! ## Choices made (and where they are documented)
 //!
@@ -110,8 +112,10 @@ mod model;
 mod objective;
 mod params;
 mod partial;
+mod parts;
 mod pool;
 mod predict;
+mod predictor;
 mod preprocess;
 mod reconstruction;
 mod regression;
@@ -128,14 +132,16 @@ mod validation;
 pub use config::{BackConstraint, ModelConfig, ScaleMode};
 pub use error::{Error, Result};
 pub use faer::{Mat, MatRef};
-pub use io::{FORMAT_VERSION, MAGIC};
+pub use io::{FORMAT_VERSION, MAGIC, PARTS_FORMAT_VERSION};
 pub use kernel::KernelParams;
 pub use memory::{DEFAULT_MEMORY_LIMIT, MEMORY_LIMIT_ENV};
 pub use model::{Callback, SharedGplvm};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
 pub use partial::PartialTransfer;
+pub use parts::{PartSpec, PartStage, PartsCallback, PartsConfig, PartsGplvm};
 pub use predict::Prediction;
+pub use predictor::{AnyModel, Predictor};
 pub use preprocess::{ACCEPTED_SCALES, STANDARD_SCALES};
 pub use reconstruction::{ReconstructionCalibration, RECONSTRUCTION_PERCENTILE};
 pub use regression::GpRegression;

@@ -148,8 +148,10 @@ fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDic
 /// Loads a demonstration MCAP as numpy arrays: a dict with `times_ns`, `human`, `robots`
 /// (name → {topic, joint_names, positions}), `train` and `test` frame indices, `validation`
 /// (positions in `train` to hold out for choosing the iteration budget: the last repetition
-/// of every training motion), `segments` (start, end, from_pose, to_pose, repetition) and
-/// `pose_names`.
+/// of every training motion), `train_every_frame` (every frame of the training motions, of which
+/// `train` is a subsample: what the sparse and Bayesian models train on) and
+/// `validation_every_frame` (positions in it held out, the same motions as `validation`),
+/// `segments` (start, end, from_pose, to_pose, repetition) and `pose_names`.
 #[pyfunction]
 pub fn load_demonstrations<'py>(
     py: Python<'py>,
@@ -171,6 +173,12 @@ pub fn load_demonstrations<'py>(
         d.set_item("train", index(&ds.train))?;
         d.set_item("test", index(&ds.test))?;
         d.set_item("validation", index(&ds.validation_split().rows))?;
+        let every = ds.with_every_training_frame();
+        d.set_item("train_every_frame", index(&every.train))?;
+        d.set_item(
+            "validation_every_frame",
+            index(&every.validation_split().rows),
+        )?;
         d.set_item("pose_names", ds.pose_names.clone())?;
         let segments = PyList::empty(py);
         for s in &ds.segments {

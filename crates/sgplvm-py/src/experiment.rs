@@ -77,12 +77,15 @@ pub fn experiment_config(name: &str) -> PyResult<String> {
 /// rows) from a demonstrations file, or the shipped/generated default with `None`, as bytes.
 /// With `all_frames`, also every training frame at full rate (for a config with `inducing`:
 /// the all-frames study of `sgplvm experiment --all-frames`).
+/// With `parts`, also the arms' columns and the recombined frames (for a config with `parts`:
+/// the study of `sgplvm experiment --parts`).
 #[pyfunction]
-#[pyo3(signature = (path=None, all_frames=false))]
+#[pyo3(signature = (path=None, all_frames=false, parts=false))]
 pub fn experiment_data<'py>(
     py: Python<'py>,
     path: Option<PathBuf>,
     all_frames: bool,
+    parts: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
     guarded(|| {
         let bytes = py
@@ -91,6 +94,9 @@ pub fn experiment_data<'py>(
                 let mut data = demos.experiment_data()?;
                 if all_frames {
                     data.all_frames = Some(demos.all_frames_data()?);
+                }
+                if parts {
+                    data.parts = Some(demos.parts_data()?);
                 }
                 Ok(data.to_json())
             })

@@ -11,6 +11,7 @@ mod demos;
 mod experiment;
 mod guard;
 mod model;
+mod parts;
 mod regression;
 mod retarget;
 mod robots;
@@ -25,6 +26,9 @@ fn _sgplvm(m: &Bound<'_, PyModule>) -> PyResult<()> {
         sgplvm_core::Validation::DEFAULT_PATIENCE,
     )?;
     m.add_class::<model::NativeModel>()?;
+    m.add_class::<parts::NativePartsModel>()?;
+    m.add_function(wrap_pyfunction!(parts::arm_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(parts::load_any, m)?)?;
     m.add_class::<regression::NativeRegression>()?;
     m.add_class::<robots::PyRobot>()?;
     m.add_function(wrap_pyfunction!(model::canonical_back_constraint, m)?)?;

@@ -67,6 +67,10 @@ def test_the_guides_examples_run_verbatim(tmp_path):
                 saved = sgplvm.SharedGPLVM.load("coman-py.sgp")
                 first = namespace["H"][namespace["test"]][:1]
                 assert (saved.predict(first, robot="coman") == namespace["R_hat"][:1]).all()
+            if "R_arms" in namespace:
+                # A latent space per arm: both arms predicted, the file read back as its kind.
+                assert namespace["R_arms"].shape == (len(namespace["test"]), 14)
+                assert isinstance(sgplvm.load_model("arms-py.sgp"), sgplvm.PartsGPLVM)
             if "commands" in namespace:
                 # Your capture on your robot: every frame retargeted, the arm joints.
                 assert namespace["commands"].shape == (len(namespace["times_ns"]), 14)

@@ -472,6 +472,7 @@ pub fn concatenate(parts: &[Dataset], gap_ns: i64) -> Result<Dataset> {
     Ok(ds)
 }
 
+mod every_frame;
 mod file;
 
 pub use file::{

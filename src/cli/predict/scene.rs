@@ -9,7 +9,7 @@ use sgplvm::robots::joint_state::JointStates;
 use sgplvm::robots::scene::{
     write_scene, ArraySeries, ArrayTopic, SceneBody, SceneOptions, SceneSeries, SceneWriter,
 };
-use sgplvm::{Mat, SharedGplvm};
+use sgplvm::{Mat, Predictor};
 
 use super::super::frames::{advise_unnamed, column_order, model_joint_names};
 use super::super::limits::Commands;
@@ -37,7 +37,7 @@ pub struct Frames<'a> {
 
 /// The two bodies (human, robot) with the joint names of their columns: the robot as its
 /// anatomy has it (its own URDF), drawn with the joints it is commanded.
-fn bodies(model: &SharedGplvm, target: &Target) -> Result<Vec<(SceneBody, Vec<String>)>> {
+fn bodies(model: &dyn Predictor, target: &Target) -> Result<Vec<(SceneBody, Vec<String>)>> {
     let human = model.input_name();
     let robot = target.robot.as_str();
     let human_body = SceneBody::builtin(human, &format!("/{human}/joint_states"), HUMAN_AT)
@@ -64,7 +64,7 @@ fn bodies(model: &SharedGplvm, target: &Target) -> Result<Vec<(SceneBody, Vec<St
 
 /// The per-frame topics beside the bodies: the `_std` JointState (with `--std`), the standard
 /// deviation and the latent point as Float64MultiArray.
-fn arrays(model: &SharedGplvm, target: &Target, std_topic: Option<&str>) -> Vec<ArrayTopic> {
+fn arrays(model: &dyn Predictor, target: &Target, std_topic: Option<&str>) -> Vec<ArrayTopic> {
     let robot = target.robot.as_str();
     let joints = target.names().to_vec();
     let d = joints.len();
@@ -77,17 +77,13 @@ fn arrays(model: &SharedGplvm, target: &Target, std_topic: Option<&str>) -> Vec<
         "joint",
         d,
     ));
-    arrays.push(ArrayTopic::float64(
-        "/latent",
-        "latent",
-        model.latent_points().ncols(),
-    ));
+    arrays.push(ArrayTopic::float64("/latent", "latent", model.latent_dim()));
     arrays
 }
 
 /// Writes a whole prediction as a scene, atomically.
 pub fn write(
-    model: &SharedGplvm,
+    model: &dyn Predictor,
     target: &Target,
     f: &Frames<'_>,
     std_topic: Option<&str>,
@@ -136,7 +132,7 @@ pub fn write(
 /// the process is killed; summary and footer once the input ends. The file is written in
 /// place, not renamed into place: a recording in progress is meant to be seen.
 pub fn predict_stream_mcap(
-    model: &SharedGplvm,
+    model: &dyn Predictor,
     target: &Target,
     out: &str,
     tf: bool,

@@ -7,8 +7,8 @@ use std::time::Instant;
 use sgplvm_core::{BackConstraint, GpRegression, Mat, SharedGplvm, Validation};
 
 use super::{Task, TaskResult, TaskSpec};
-use crate::experiment::bayesian;
 use crate::experiment::less_data::{rows_of, subset};
+use crate::experiment::{bayesian, parts};
 use crate::experiment::{
     fit, mean_squared_error, model_config, shipped_iteration, shipped_seconds, stop_reason,
     validation, AllFrames, AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData,
@@ -88,6 +88,14 @@ pub fn execute(
                 name,
                 split,
             )?);
+        }
+        TaskSpec::Parts { run, robot: r } => {
+            job.robot(r)?;
+            result.parts = parts::run_task(data, config, (run, r), &task.context)?;
+        }
+        TaskSpec::PartsDirect { robot: r } => {
+            job.robot(r)?;
+            result.parts = parts::direct_task(data, config, r, &task.context)?;
         }
     }
     Ok((result, model.filter(|_| task.keep_model)))

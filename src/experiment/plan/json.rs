@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{Mat, MatRef};
 
-use crate::experiment::{AllFrames, ExperimentData, ExperimentError, SplitData};
+use crate::experiment::{AllFrames, ExperimentData, ExperimentError, PartsData, SplitData};
 
 /// A matrix as it travels in JSON (row-major values).
 #[derive(Serialize, Deserialize)]
@@ -55,6 +55,8 @@ struct DataJson {
     validation: Vec<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     all_frames: Option<AllFramesJson>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    parts: Option<PartsData>,
 }
 
 /// [`AllFrames`] as it travels in JSON.
@@ -121,6 +123,7 @@ impl ExperimentData {
                 .collect(),
             validation: self.validation.clone(),
             all_frames: self.all_frames.as_ref().map(AllFramesJson::from),
+            parts: self.parts.clone(),
         };
         // Finite matrices and plain fields: serialising cannot fail.
         serde_json::to_vec(&data).unwrap_or_default()
@@ -153,6 +156,7 @@ impl ExperimentData {
             robots,
             validation: data.validation,
             all_frames,
+            parts: data.parts,
         })
     }
 }

@@ -9,14 +9,18 @@ only their latent-to-output mapping.
 >>> m.fit({"human": H, "walkman": R1}, input="human", validation="auto")   # doctest: +SKIP
 >>> t = m.transfer("coman", R2)                                             # doctest: +SKIP
 >>> t.predict(H_new, robot="coman")                                         # doctest: +SKIP
+>>> arms = sgplvm.PartsGPLVM(parts="arms").fit({"human": H, "walkman": R1})  # doctest: +SKIP
 """
 
 from ._sgplvm import Robot, __version__
 from ._io import load_demonstrations, read_bvh, read_joint_states, retarget, simulate, write_joint_states
 from ._model import DEFAULT_PATIENCE, GPRegression, SharedGPLVM
+from ._parts import PartsGPLVM, load_model
 
 __all__ = [
     "SharedGPLVM",
+    "PartsGPLVM",
+    "load_model",
     "GPRegression",
     "Robot",
     "load_demonstrations",

@@ -9,10 +9,12 @@ import numpy.typing as npt
 __all__ = [
     "DEFAULT_PATIENCE",
     "NativeModel",
+    "NativePartsModel",
     "NativeRegression",
     "Robot",
     "__version__",
     "_panic_for_tests",
+    "arm_columns",
     "bayesian_bound",
     "canonical_back_constraint",
     "experiment_assemble",
@@ -23,6 +25,7 @@ __all__ = [
     "experiment_report",
     "experiment_run",
     "experiment_write_outputs",
+    "load_any",
     "load_demonstrations",
     "read_bvh",
     "read_joint_states",
@@ -103,6 +106,73 @@ class NativeModel:
     def save(self, path: _Path) -> None: ...
     @staticmethod
     def load(path: _Path) -> "NativeModel": ...
+
+_PartsCallback = Callable[[str, int, float], Optional[bool]]
+
+@final
+class NativePartsModel:
+    """A trained model with a latent space per body part (native part; use ``sgplvm.PartsGPLVM``)."""
+
+    @staticmethod
+    def fit(
+        spaces: Sequence[Tuple[str, _F64]],
+        input: str,
+        parts: Sequence[Tuple[str, Sequence[Tuple[str, List[int]]]]],
+        latent_dim: int,
+        back_constraint: Optional[str],
+        seed: int,
+        scale: bool,
+        max_iters: int,
+        validation: Optional[Sequence[int]],
+        patience: int,
+        max_seconds: Optional[float] = None,
+        callback: Optional[_PartsCallback] = None,
+        column_names: Optional[Sequence[Tuple[str, List[str]]]] = None,
+        inducing: Optional[int] = None,
+        bayesian: bool = False,
+        parent_latent_dim: Optional[int] = None,
+    ) -> "NativePartsModel": ...
+    def transfer(
+        self,
+        name: str,
+        data: _F64,
+        columns: Sequence[Tuple[str, List[int]]],
+        max_iters: int,
+        validation: Optional[Sequence[int]],
+        patience: int,
+        max_seconds: Optional[float] = None,
+        callback: Optional[_PartsCallback] = None,
+        column_names: Optional[List[str]] = None,
+    ) -> "NativePartsModel": ...
+    def predict(self, h: _F64, robot: str, with_variance: bool) -> Tuple[_F64, Optional[_F64]]: ...
+    def latent(self, h: _F64) -> _F64: ...
+    def latent_points(self) -> _F64: ...
+    @property
+    def input_name(self) -> str: ...
+    @property
+    def output_names(self) -> List[str]: ...
+    def column_names(self, space: str) -> Optional[List[str]]: ...
+    def space_dim(self, space: str) -> Optional[int]: ...
+    @property
+    def part_names(self) -> List[str]: ...
+    def part_columns(self, name: str) -> Optional[Dict[str, List[int]]]: ...
+    def part(self, name: str) -> NativeModel: ...
+    def parent(self) -> Optional[NativeModel]: ...
+    @property
+    def num_points(self) -> int: ...
+    def config(self) -> Dict[str, Any]: ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(bytes: bytes, source: str) -> "NativePartsModel": ...
+    def save(self, path: _Path) -> None: ...
+    @staticmethod
+    def load(path: _Path) -> "NativePartsModel": ...
+
+def arm_columns(body: str, joints: List[str]) -> Tuple[List[int], List[int]]:
+    """The left-arm and right-arm columns of a body with these joints (anatomy or names)."""
+
+def load_any(path: _Path) -> Union[NativeModel, NativePartsModel]:
+    """A model file of either kind."""
 
 @final
 class NativeRegression:
@@ -243,7 +313,7 @@ def retarget_native(
 def experiment_config(name: str) -> str:
     """The protocol ``"quick"`` or ``"paper"`` as JSON."""
 
-def experiment_data(path: Optional[_Path] = None, all_frames: bool = False) -> bytes:
+def experiment_data(path: Optional[_Path] = None, all_frames: bool = False, parts: bool = False) -> bytes:
     """The experiment's data (train/test frames, held-out rows) from demonstrations, as bytes;
     with ``all_frames``, also every training frame at full rate (for a config with ``inducing``:
     the sparse model on every frame, as ``sgplvm experiment --all-frames``)."""

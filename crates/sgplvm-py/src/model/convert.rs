@@ -23,7 +23,7 @@ pub(crate) fn model_error(e: sgplvm_core::Error) -> PyErr {
 }
 
 /// [`model_error`] for reading `source` (a path, or "bytes"/"pickle"): the message names it.
-pub(super) fn read_error(source: &str, e: sgplvm_core::Error) -> PyErr {
+pub(crate) fn read_error(source: &str, e: sgplvm_core::Error) -> PyErr {
     match e {
         sgplvm_core::Error::Io { .. } => model_error(e),
         sgplvm_core::Error::TooLarge { .. } | sgplvm_core::Error::TooLargeSparse { .. } => {
@@ -47,7 +47,7 @@ pub(crate) fn to_numpy<'py>(py: Python<'py>, m: &Mat<f64>) -> Bound<'py, PyArray
 
 /// Python's spelling of a back constraint: `None` (or "none") for free latent points, else the
 /// core's names ("input", "output"; see [`BackConstraint`]'s `FromStr`).
-pub(super) fn parse_back_constraint(value: Option<&str>) -> PyResult<BackConstraint> {
+pub(crate) fn parse_back_constraint(value: Option<&str>) -> PyResult<BackConstraint> {
     value.map_or(Ok(BackConstraint::None), |name| {
         name.parse().map_err(|_| {
             PyValueError::new_err(format!(

@@ -15,8 +15,10 @@ use pyo3::types::{PyBytes, PyDict};
 use sgplvm_core::{KernelParams, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 use crate::guard::guarded;
-use convert::{back_constraint_name, parse_back_constraint, read_error};
-pub(crate) use convert::{canonical_back_constraint, model_error, to_mat, to_numpy};
+use convert::back_constraint_name;
+pub(crate) use convert::{
+    canonical_back_constraint, model_error, parse_back_constraint, read_error, to_mat, to_numpy,
+};
 pub(crate) use params::kernel_to_dict;
 use params::{params_from_dict, params_to_dict};
 use training::{finish_training, train_detached, PyCallbacks};
@@ -260,7 +262,7 @@ impl NativeModel {
     }
 
     /// Configuration as a dict (latent_dim, back_constraint, seed, scale, inducing, bayesian).
-    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    pub(crate) fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = self.inner.config();
         let d = PyDict::new(py);
         d.set_item("latent_dim", c.latent_dim)?;

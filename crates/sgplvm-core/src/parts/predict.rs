@@ -1,0 +1,161 @@
+//! Prediction of a per-part model: each part maps its own human columns to its latent point and
+//! that point to its robot columns; the parts' outputs fill the robot's columns. The parent is
+//! not used (see the module docs).
+
+use faer::{Mat, MatRef};
+
+use super::PartsGplvm;
+use crate::error::{Error, Result};
+use crate::predict::Prediction;
+use crate::preprocess::check_finite;
+
+/// Values a frame's part is gathered into on the stack (more go to the heap).
+const STACK: usize = 64;
+
+impl PartsGplvm {
+    /// Posterior mean (and optionally variance) of robot `space` for the raw human frames in the
+    /// rows of `h`, each part predicting its columns from its own human columns
+    /// ([`SharedGplvm::predict`](crate::SharedGplvm::predict)). The prediction's `latent` holds
+    /// every part's latent points side by side (part order; [`PartsGplvm::latent_dim`]
+    /// columns).
+    pub fn predict(
+        &self,
+        h: MatRef<'_, f64>,
+        space: &str,
+        with_variance: bool,
+    ) -> Result<Prediction> {
+        self.check_input_matrix(h)?;
+        let d = self.output_dim(space)?;
+        let n = h.nrows();
+        let mut mean = Mat::zeros(n, d);
+        let mut variance = with_variance.then(|| Mat::zeros(n, d));
+        let mut latent = Mat::zeros(n, self.latent_dim());
+        let mut at = 0;
+        for part in &self.parts {
+            let hp = Self::columns_of(h, &part.columns[self.input_name()]);
+            let p = part
+                .model
+                .predict(hp.as_ref(), space, with_variance)
+                .map_err(|e| e.in_part(&part.name))?;
+            for (k, &c) in part.columns[space].iter().enumerate() {
+                mean.as_mut().col_mut(c).copy_from(p.mean.col(k));
+                if let (Some(v), Some(pv)) = (variance.as_mut(), p.variance.as_ref()) {
+                    v.as_mut().col_mut(c).copy_from(pv.col(k));
+                }
+            }
+            let q = p.latent.ncols();
+            latent.as_mut().subcols_mut(at, q).copy_from(&p.latent);
+            at += q;
+        }
+        Ok(Prediction {
+            mean,
+            variance,
+            latent,
+        })
+    }
+
+    /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (the
+    /// space's columns): each part's [`SharedGplvm::predict_frame`](crate::SharedGplvm::predict_frame)
+    /// on its own columns. Allocates nothing for parts of at most 64 columns per space.
+    pub fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()> {
+        let dh = self.spaces[0].dim;
+        if h.len() != dh {
+            return Err(Error::DimensionMismatch {
+                what: format!("input frame for '{}'", self.input_name()),
+                expected: dh,
+                found: h.len(),
+            });
+        }
+        let d = self.output_dim(space)?;
+        if out.len() != d {
+            return Err(Error::DimensionMismatch {
+                what: format!("output buffer for '{space}'"),
+                expected: d,
+                found: out.len(),
+            });
+        }
+        let (mut hin, mut hout) = ([0.0f64; STACK], [0.0f64; STACK]);
+        let (mut hin_heap, mut hout_heap) = (Vec::new(), Vec::new());
+        for part in &self.parts {
+            let (ins, outs) = (&part.columns[self.input_name()], &part.columns[space]);
+            let hp = buffer(&mut hin, &mut hin_heap, ins.len());
+            for (v, &c) in hp.iter_mut().zip(ins) {
+                *v = h[c];
+            }
+            let op = buffer(&mut hout, &mut hout_heap, outs.len());
+            part.model
+                .predict_frame(hp, space, op)
+                .map_err(|e| e.in_part(&part.name))?;
+            for (&v, &c) in op.iter().zip(outs) {
+                out[c] = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// Latent points of raw human frames: every part's (n × its Q) side by side, in part order.
+    pub fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
+        self.check_input_matrix(h)?;
+        let mut latent = Mat::zeros(h.nrows(), self.latent_dim());
+        let mut at = 0;
+        for part in &self.parts {
+            let hp = Self::columns_of(h, &part.columns[self.input_name()]);
+            let x = part
+                .model
+                .latent(hp.as_ref())
+                .map_err(|e| e.in_part(&part.name))?;
+            latent.as_mut().subcols_mut(at, x.ncols()).copy_from(&x);
+            at += x.ncols();
+        }
+        Ok(latent)
+    }
+
+    /// The training frames' latent points of every part, side by side (N × [`latent_dim`]).
+    ///
+    /// [`latent_dim`]: PartsGplvm::latent_dim
+    pub fn latent_points(&self) -> Mat<f64> {
+        let mut latent = Mat::zeros(self.num_points(), self.latent_dim());
+        let mut at = 0;
+        for part in &self.parts {
+            let x = part.model.latent_points();
+            latent.as_mut().subcols_mut(at, x.ncols()).copy_from(x);
+            at += x.ncols();
+        }
+        latent
+    }
+
+    /// Checks the columns and values of input frames (errors name the whole input's columns,
+    /// not a part's).
+    fn check_input_matrix(&self, h: MatRef<'_, f64>) -> Result<()> {
+        let dh = self.spaces[0].dim;
+        if h.ncols() != dh {
+            return Err(Error::DimensionMismatch {
+                what: format!("input columns for '{}'", self.input_name()),
+                expected: dh,
+                found: h.ncols(),
+            });
+        }
+        check_finite(self.input_name(), h)
+    }
+
+    /// Columns of output space `space`, or [`Error::NotAnOutput`].
+    fn output_dim(&self, space: &str) -> Result<usize> {
+        match self.spaces[1..].iter().find(|s| s.name == space) {
+            Some(s) => Ok(s.dim),
+            None => Err(Error::NotAnOutput {
+                name: space.into(),
+                known: self.output_names().iter().map(|s| s.to_string()).collect(),
+            }),
+        }
+    }
+}
+
+/// The first `n` values of `stack`, or of `heap` grown to `n` when `stack` is too short.
+fn buffer<'a>(stack: &'a mut [f64; STACK], heap: &'a mut Vec<f64>, n: usize) -> &'a mut [f64] {
+    if n <= STACK {
+        &mut stack[..n]
+    } else {
+        heap.resize(n, 0.0);
+        &mut heap[..n]
+    }
+}

@@ -1,0 +1,324 @@
+"""BVH read, forward kinematics, re-rigging and writing for tests, written independently of the
+Rust importer (``sgplvm_capture``): a motion capture in one convention becomes the same motion in
+another convention's skeleton, and a file becomes the live streams a suit or a tracker would send
+(ROS 2 TF transforms, Xsens MVN segment poses). A helper module, not a test.
+
+BVH semantics (Biovision): every joint's frame is its parent's frame moved by the joint's
+offset (or its position channels) and turned by its rotation channels in the order they are
+listed (``Zrotation Xrotation Yrotation`` is ``Rz @ Rx @ Ry``); with every rotation channel at
+zero every joint's frame has the world's axes, and the offsets draw the rest pose.
+
+Conventions made from a capture (the rest pose is what differs, the motion is the same):
+
+- ``cmu``: the capture as it is (names, rest pose and channels kept), cut and resampled;
+- ``xsens``: Xsens MVN BVH export names (``Hips``, ``Chest`` …, ``LeftCollar``,
+  ``LeftShoulder`` for the upper arm, ``LeftElbow``, ``LeftWrist``), a T-pose with flat clavicles
+  (the arms straight out to the sides, which leaves the upper arm's twist untold), centimetres,
+  ``Zrotation Xrotation Yrotation``, and on each hand a prop joint beside its End Site;
+- ``bandai``: the Bandai Namco Research motion datasets' layout: ``joint_Root``, ``Hips``,
+  ``Spine``, ``Chest``, ``Shoulder_L``, ``UpperArm_L``, ``LowerArm_L``, ``Hand_L``; every bone
+  along its joint's local x (the zero pose is a line of bones no person takes) and six channels
+  on every joint;
+- ``mixamo``: ``mixamorig:`` names, a T-pose, 2.5 times the scale (a rig scaled in its tool),
+  ``Zrotation Yrotation Xrotation``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Joint:
+    name: str
+    parent: int | None
+    offset: np.ndarray
+    channels: list[str]
+    end_site: np.ndarray | None = None
+
+
+@dataclass
+class Bvh:
+    joints: list[Joint]
+    frame_time: float
+    frames: np.ndarray  # frames × channels
+    first: list[int] = field(default_factory=list)  # each joint's first channel
+
+    def index(self, name: str) -> int:
+        return next(i for i, j in enumerate(self.joints) if j.name == name)
+
+    def children(self, i: int) -> list[int]:
+        return [k for k, j in enumerate(self.joints) if j.parent == i]
+
+
+def read(path) -> Bvh:
+    words = open(path).read().split()
+    joints: list[Joint] = []
+    stack: list[int] = []
+    k = 0
+    pending_end = False
+    while words[k] != "MOTION":
+        w = words[k]
+        if w in ("ROOT", "JOINT"):
+            joints.append(Joint(words[k + 1], stack[-1] if stack else None, np.zeros(3), []))
+            k += 2
+        elif w == "End":
+            pending_end = True
+            k += 2
+        elif w == "{":
+            stack.append(-1 if pending_end else len(joints) - 1)
+            k += 1
+        elif w == "}":
+            stack.pop()
+            pending_end = False
+            k += 1
+        elif w == "OFFSET":
+            v = np.array([float(x) for x in words[k + 1 : k + 4]])
+            if pending_end:
+                joints[stack[-2]].end_site = v
+            else:
+                joints[-1].offset = v
+            k += 4
+        elif w == "CHANNELS":
+            n = int(words[k + 1])
+            joints[-1].channels = words[k + 2 : k + 2 + n]
+            k += 2 + n
+        else:
+            k += 1
+    n_frames = int(words[k + 2])
+    frame_time = float(words[k + 5])
+    values = np.array([float(x) for x in words[k + 6 :]])
+    bvh = Bvh(joints, frame_time, values.reshape(n_frames, -1))
+    bvh.first = list(np.cumsum([0] + [len(j.channels) for j in joints])[:-1])
+    return bvh
+
+
+def axis_rotation(axis: str, degrees: float) -> np.ndarray:
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    return {
+        "X": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "Y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "Z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
+
+
+def local(bvh: Bvh, frame: int, j: int):
+    """Joint ``j``'s translation and rotation in its parent's frame at ``frame``."""
+    joint = bvh.joints[j]
+    t = joint.offset.copy()
+    r = np.eye(3)
+    positions = {}
+    for c, ch in enumerate(joint.channels):
+        v = bvh.frames[frame, bvh.first[j] + c]
+        if ch.endswith("position"):
+            positions[ch[0]] = v
+        else:
+            r = r @ axis_rotation(ch[0], v)
+    if positions:
+        t = np.array([positions.get(a, t[i]) for i, a in enumerate("XYZ")])
+    return t, r
+
+
+def world(bvh: Bvh, frame: int):
+    """Every joint's world position and rotation at ``frame``."""
+    p, r = [None] * len(bvh.joints), [None] * len(bvh.joints)
+    for j, joint in enumerate(bvh.joints):
+        t, q = local(bvh, frame, j)
+        if joint.parent is None:
+            p[j], r[j] = t, q
+        else:
+            p[j] = p[joint.parent] + r[joint.parent] @ t
+            r[j] = r[joint.parent] @ q
+    return p, r
+
+
+def euler(r: np.ndarray, order: str) -> list[float]:
+    """Degrees of the rotations about ``order``'s axes whose product (in that order) is ``r``."""
+    i, j, k = ("XYZ".index(a) for a in order)
+    # Rotation = R_i(a) R_j(b) R_k(c), a Tait–Bryan order (three distinct axes).
+    sign = 1.0 if (j - i) % 3 == 1 else -1.0
+    b = math.asin(max(-1.0, min(1.0, sign * r[i, k])))
+    a = math.atan2(-sign * r[j, k], r[k, k])
+    c = math.atan2(-sign * r[i, j], r[i, i])
+    return [math.degrees(a), math.degrees(b), math.degrees(c)]
+
+
+def minimal_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit ``a`` to unit ``b``."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    v, c = np.cross(a, b), float(a @ b)
+    if c < -1 + 1e-12:
+        # Half a turn about any axis across a.
+        axis = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+        axis /= np.linalg.norm(axis)
+        return 2 * np.outer(axis, axis) - np.eye(3)
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1 + c)
+
+
+# The arm and spine joints of a CMU (cgspeed) capture and their names in each convention.
+CMU_ROLES = {
+    "Hips": "pelvis", "Spine1": "torso", "Neck": "neck", "Head": "head",
+    "LeftShoulder": "lclav", "LeftArm": "lupper", "LeftForeArm": "lfore", "LeftHand": "lhand",
+    "RightShoulder": "rclav", "RightArm": "rupper", "RightForeArm": "rfore", "RightHand": "rhand",
+}  # fmt: skip
+
+NAMES = {
+    "xsens": {"pelvis": "Hips", "torso": "Chest4", "neck": "Neck", "head": "Head",
+              "lclav": "LeftCollar", "lupper": "LeftShoulder", "lfore": "LeftElbow", "lhand": "LeftWrist",
+              "rclav": "RightCollar", "rupper": "RightShoulder", "rfore": "RightElbow", "rhand": "RightWrist"},
+    "bandai": {"pelvis": "Hips", "torso": "Chest", "neck": "Neck", "head": "Head",
+               "lclav": "Shoulder_L", "lupper": "UpperArm_L", "lfore": "LowerArm_L", "lhand": "Hand_L",
+               "rclav": "Shoulder_R", "rupper": "UpperArm_R", "rfore": "LowerArm_R", "rhand": "Hand_R"},
+    "mixamo": {r: "mixamorig:" + n for r, n in {
+        "pelvis": "Hips", "torso": "Spine2", "neck": "Neck", "head": "Head",
+        "lclav": "LeftShoulder", "lupper": "LeftArm", "lfore": "LeftForeArm", "lhand": "LeftHand",
+        "rclav": "RightShoulder", "rupper": "RightArm", "rfore": "RightForeArm", "rhand": "RightHand"}.items()},
+}  # fmt: skip
+
+ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX"}
+SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5}
+
+
+def body_axes(bvh: Bvh, torso: str, left_roots: tuple[str, str], pelvis: str, neck: str) -> np.ndarray:
+    """Columns forward, left, up of the body at rest (world axes): left from the right clavicle's
+    root to the left's, up from the pelvis to the neck, forward = left × up."""
+    p, _ = world_rest(bvh)
+    li, ri = bvh.index(left_roots[0]), bvh.index(left_roots[1])
+    # Roots at one place (CMU's clavicles start at the torso joint): the next joints down.
+    while np.linalg.norm(p[li] - p[ri]) < 1e-9:
+        li, ri = bvh.children(li)[0], bvh.children(ri)[0]
+    left = p[li] - p[ri]
+    up = p[bvh.index(neck)] - p[bvh.index(pelvis)]
+    up /= np.linalg.norm(up)
+    left = left - up * (left @ up)
+    left /= np.linalg.norm(left)
+    return np.column_stack([np.cross(left, up), left, up])
+
+
+def world_rest(bvh: Bvh):
+    p = [None] * len(bvh.joints)
+    for j, joint in enumerate(bvh.joints):
+        p[j] = joint.offset.copy() if joint.parent is None else p[joint.parent] + joint.offset
+    return p, None
+
+
+def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
+    """``frames`` frames of ``src`` from ``first``, every ``step``-th, in the convention ``style``
+    (module docs): each joint's world rotation becomes ``W · Q`` with ``Q`` a constant that turns
+    the new rest pose's bone onto the old one, so every joint stays where the capture put it."""
+    roles = {src.index(n): r for n, r in CMU_ROLES.items()}
+    names = NAMES.get(style, {})
+    axes = body_axes(src, "Spine1", ("LeftShoulder", "RightShoulder"), "Hips", "Neck")
+    left, up = axes[:, 1], axes[:, 2]
+    q = [np.eye(3) for _ in src.joints]
+    def bone_of(j: int):
+        """The joint's bone: its first child's offset, down the chain past zero offsets."""
+        at, v = j, np.zeros(3)
+        while np.linalg.norm(v) == 0:
+            kids = src.children(at)
+            if not kids:
+                return src.joints[at].end_site if at == j else v + (src.joints[at].end_site if src.joints[at].end_site is not None else 0)
+            at = kids[0]
+            v = v + src.joints[at].offset
+        return v
+
+    for j, joint in enumerate(src.joints):
+        bone = bone_of(j)
+        if bone is None or np.linalg.norm(bone) == 0 or style == "cmu":
+            continue
+        role = roles.get(j, "")
+        if style == "bandai":
+            # Every bone along local x: Q takes x onto the old bone.
+            q[j] = minimal_rotation(np.array([1.0, 0, 0]), bone)
+        elif role[1:] in ("clav", "upper", "fore", "hand"):
+            # A T-pose with flat clavicles: every arm bone straight out to its side.
+            side = left if role[0] == "l" else -left
+            q[j] = minimal_rotation(side, bone)
+    out_joints: list[Joint] = []
+    scale = SCALE[style]
+    # Clavicles that start at the torso joint itself (CMU's) start half a unit to their side
+    # in the Bandai rig, as the datasets' do: a line of bones needs them apart to tell left.
+    moved = {}
+    if style == "bandai":
+        for j, role in roles.items():
+            if role[1:] == "clav" and np.linalg.norm(src.joints[j].offset) == 0:
+                moved[j] = (left if role[0] == "l" else -left) * 0.5
+    for j, joint in enumerate(src.joints):
+        parent = joint.parent
+        qp = q[parent] if parent is not None else np.eye(3)
+        name = names.get(roles.get(j, ""), ("mixamorig:" if style == "mixamo" else "") + joint.name)
+        offset = scale * (qp.T @ moved.get(j, joint.offset))
+        end = None if joint.end_site is None else scale * (q[j].T @ joint.end_site)
+        order = ORDER[style]
+        if style == "cmu":
+            channels = list(joint.channels)
+        elif style == "bandai":
+            channels = ["Xposition", "Yposition", "Zposition"] + [a + "rotation" for a in order]
+        else:
+            channels = (["Xposition", "Yposition", "Zposition"] if parent is None else []) + [a + "rotation" for a in order]
+        out_joints.append(Joint(name, parent, offset, channels, end))
+    if style == "xsens":
+        # A prop joint on each hand beside its End Site (Xsens exports carry one).
+        for r in ("lhand", "rhand"):
+            h = next(i for i, rr in roles.items() if rr == r)
+            out_joints[h].end_site = scale * (q[h].T @ (bone_of(h) * 1.5))
+            out_joints.append(Joint(out_joints[h].name + "Prop", h, np.array([0.0, -2.0, 3.0]), ["Zrotation", "Xrotation", "Yrotation"]))
+    rows = []
+    for f in range(first, first + frames * step, step):
+        p, r = world(src, f)
+        row = []
+        for j, joint in enumerate(out_joints):
+            if j >= len(src.joints):
+                row.extend([0.0, 0.0, 0.0])
+                continue
+            parent = joint.parent
+            w = r[j] @ q[j]
+            wp = (r[parent] @ q[parent]) if parent is not None else np.eye(3)
+            rot = wp.T @ w
+            if style == "cmu":
+                row.extend(src.frames[f, src.first[j] : src.first[j] + len(joint.channels)])
+                continue
+            if joint.channels[0].endswith("position"):
+                t = scale * p[j] if parent is None else joint.offset
+                row.extend(list(t))
+            row.extend(euler(rot, ORDER[style]))
+        rows.append(row)
+    out = Bvh(out_joints, src.frame_time * step, np.array(rows))
+    out.first = list(np.cumsum([0] + [len(j.channels) for j in out_joints])[:-1])
+    return out
+
+
+def write(bvh: Bvh, path) -> None:
+    """Writes ``bvh`` (its joints in depth-first order, as the file's channels are laid out)."""
+    lines = ["HIERARCHY"]
+    order: list[int] = []
+
+    def emit(j: int, depth: int) -> None:
+        pad = "\t" * depth
+        joint = bvh.joints[j]
+        order.append(j)
+        lines.append(f"{pad}{'ROOT' if joint.parent is None else 'JOINT'} {joint.name}")
+        lines.append(pad + "{")
+        lines.append(f"{pad}\tOFFSET {' '.join(repr(float(v)) for v in joint.offset)}")
+        lines.append(f"{pad}\tCHANNELS {len(joint.channels)} {' '.join(joint.channels)}")
+        for k in bvh.children(j):
+            emit(k, depth + 1)
+        if joint.end_site is not None:
+            lines.append(f"{pad}\tEnd Site")
+            lines.append(pad + "\t{")
+            lines.append(f"{pad}\t\tOFFSET {' '.join(repr(float(v)) for v in joint.end_site)}")
+            lines.append(pad + "\t}")
+        lines.append(pad + "}")
+
+    emit(0, 0)
+    lines += ["MOTION", f"Frames: {len(bvh.frames)}", f"Frame Time: {bvh.frame_time!r}"]
+    for row in bvh.frames:
+        values = [v for j in order for v in row[bvh.first[j] : bvh.first[j] + len(bvh.joints[j].channels)]]
+        lines.append(" ".join(repr(float(v)) for v in values))
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")

@@ -1,0 +1,344 @@
+//! A latent space per arm from demonstrations: which columns of each body are its left and
+//! its right arm, and the per-part model ([`PartsGplvm`]) trained and transferred on a
+//! demonstration file's frames as the single latent space is ([`super::training`]).
+//!
+//! The core takes explicit column groups; here they are derived from what the facade knows of
+//! a body: a robot's anatomy (its arms' joint chains: the built-in robots, or a URDF with the
+//! description file beside it), else its joint names — the human model's `jLeft…`/`jRight…`, and
+//! the usual conventions `L…`/`R…` before a capital letter (WALK-MAN, COMAN), `left_…`/`right_…`,
+//! `l_…`/`r_…`, and CENTAURO's `j_arm1_…` (left) / `j_arm2_…` (right).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use sgplvm_core::{Mat, MatRef, PartSpec, PartsCallback, PartsConfig, PartsGplvm, TrainOptions};
+use sgplvm_robots::anatomy::Anatomy;
+use sgplvm_robots::dataset::BodyData;
+use sgplvm_robots::Side;
+
+use super::{to_mat, Demonstrations, FrameSet, PipelineError};
+
+/// The names of the two parts of [`Parts::Arms`], left then right.
+pub const ARM_PARTS: [&str; 2] = ["left_arm", "right_arm"];
+
+/// How the bodies are divided into parts (`--parts`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Parts {
+    /// A latent space per arm: [`ARM_PARTS`].
+    Arms,
+}
+
+impl Parts {
+    /// Every choice, by the name users type.
+    pub const ALL: [Parts; 1] = [Parts::Arms];
+
+    /// The name users type: `arms`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Parts::Arms => "arms",
+        }
+    }
+}
+
+impl std::str::FromStr for Parts {
+    type Err = String;
+
+    /// `arms`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Parts::ALL
+            .into_iter()
+            .find(|p| p.name() == s)
+            .ok_or_else(|| format!("unknown body parts '{s}'; expected one of: arms"))
+    }
+}
+
+/// The side a joint's name says it is on, by the conventions in the module docs.
+fn side_by_name(joint: &str) -> Option<Side> {
+    let lower = joint.to_ascii_lowercase();
+    let starts = |p: &str| lower.starts_with(p);
+    if starts("jleft") || starts("left_") || starts("left") || starts("l_") || starts("j_arm1_") {
+        return Some(Side::Left);
+    }
+    if starts("jright") || starts("right_") || starts("right") || starts("r_") || starts("j_arm2_")
+    {
+        return Some(Side::Right);
+    }
+    let mut chars = joint.chars();
+    match (chars.next(), chars.next()) {
+        (Some('L'), Some(c)) if c.is_ascii_uppercase() => Some(Side::Left),
+        (Some('R'), Some(c)) if c.is_ascii_uppercase() => Some(Side::Right),
+        _ => None,
+    }
+}
+
+/// The columns of body `body` (joint names `joints`) in its left and its right arm: by the
+/// arms of `anatomy` when given, else by the joints' names. A column in neither arm, or an arm
+/// without columns, is [`PipelineError::Parts`] naming it.
+pub fn arm_columns(
+    body: &str,
+    joints: &[String],
+    anatomy: Option<&Anatomy>,
+) -> Result<[Vec<usize>; 2], PipelineError> {
+    let bad = |detail: String| PipelineError::Parts {
+        body: body.to_string(),
+        detail,
+    };
+    let mut arms = [Vec::new(), Vec::new()];
+    for (c, joint) in joints.iter().enumerate() {
+        let side = match anatomy {
+            Some(a) => [Side::Left, Side::Right]
+                .into_iter()
+                .find(|&s| a.arm(s).chain.joint_names().contains(joint)),
+            None => side_by_name(joint),
+        };
+        let Some(side) = side else {
+            let how = match anatomy {
+                Some(_) => "is in neither arm of its anatomy",
+                None => "does not say which arm it moves (jLeft…/jRight…, L…/R…, left_…/right_…)",
+            };
+            return Err(bad(format!(
+                "joint '{joint}' (column {c}) {how}; a latent space per arm needs every column \
+                 in one arm (give the robot's URDF, or the parts' columns in Python)"
+            )));
+        };
+        arms[usize::from(side == Side::Right)].push(c);
+    }
+    if let Some(k) = arms.iter().position(Vec::is_empty) {
+        return Err(bad(format!(
+            "no joint of its {} arm among {joints:?}",
+            ["left", "right"][k]
+        )));
+    }
+    Ok(arms)
+}
+
+impl Demonstrations {
+    /// The data of the experiment's study of a latent space per arm
+    /// ([`crate::experiment::PartsData`]): the arms' columns of the human and every robot (as
+    /// [`Demonstrations::arm_parts`] finds them, built-in anatomies or names), and the test and
+    /// training frames whose arms are recombined ([`crate::experiment::pairs`] over the
+    /// dataset's segments: the blocks of a block split, the motions of generated data).
+    pub fn parts_data(&self) -> Result<crate::experiment::PartsData, PipelineError> {
+        self.check_splits()?;
+        let ds = &self.dataset;
+        let human_arms = arm_columns(&ds.human.name, &ds.human.joint_names, None)?;
+        let robot_arms = ds
+            .robots
+            .iter()
+            .map(|body| self.robot_arms(body, None))
+            .collect::<Result<Vec<_>, _>>()?;
+        let blocks: Vec<(usize, usize)> = ds.segments.iter().map(|s| (s.start, s.end)).collect();
+        let test_pairs = crate::experiment::pairs(&ds.test, &blocks);
+        let train_pairs = crate::experiment::pairs(&ds.train, &blocks);
+        for (set, pairs) in [("test", &test_pairs), ("training", &train_pairs)] {
+            if pairs.is_empty() {
+                return Err(PipelineError::Parts {
+                    body: self.source_name.clone(),
+                    detail: format!(
+                        "a segment holds more than half of its {set} frames: no pairing of \
+                         every frame with a frame of another motion to recombine"
+                    ),
+                });
+            }
+        }
+        Ok(crate::experiment::PartsData {
+            human_arms,
+            robot_arms,
+            test_pairs,
+            train_pairs,
+        })
+    }
+}
+
+/// The anatomy the facade knows for robot `name`: its URDF's (`urdf`) when given, else the
+/// built-in robot's; `None` for the human and robots it does not know (their names decide).
+pub fn known_anatomy(name: &str, urdf: Option<&Path>) -> Result<Option<Anatomy>, PipelineError> {
+    let parts = |e: sgplvm_robots::AnatomyError| PipelineError::Parts {
+        body: name.to_string(),
+        detail: format!("its anatomy: {e}"),
+    };
+    match urdf {
+        Some(path) => Anatomy::load(path, &Default::default())
+            .map(Some)
+            .map_err(parts),
+        None => Ok(sgplvm_robots::Robot::builtin(name)
+            .ok()
+            .and_then(|robot| Anatomy::of(robot).ok())),
+    }
+}
+
+impl Demonstrations {
+    /// The arm parts ([`ARM_PARTS`]) of the human and `robots`: each body's columns by
+    /// [`arm_columns`], robots by their anatomy (`urdfs`: robot name → URDF, else built in)
+    /// when known.
+    pub fn arm_parts(
+        &self,
+        robots: &[String],
+        urdfs: &BTreeMap<String, std::path::PathBuf>,
+    ) -> Result<Vec<PartSpec>, PipelineError> {
+        let human = &self.dataset.human;
+        let mut sides: [Vec<(String, Vec<usize>)>; 2] = [Vec::new(), Vec::new()];
+        let [l, r] = arm_columns(&human.name, &human.joint_names, None)?;
+        sides[0].push((human.name.clone(), l));
+        sides[1].push((human.name.clone(), r));
+        for name in robots {
+            let body = self.robot(name)?;
+            let [l, r] = self.robot_arms(body, urdfs.get(name).map(|p| p.as_path()))?;
+            sides[0].push((name.clone(), l));
+            sides[1].push((name.clone(), r));
+        }
+        Ok(ARM_PARTS
+            .iter()
+            .zip(sides)
+            .map(|(part, columns)| PartSpec::new(*part, columns))
+            .collect())
+    }
+
+    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names.
+    fn robot_arms(
+        &self,
+        body: &BodyData,
+        urdf: Option<&Path>,
+    ) -> Result<[Vec<usize>; 2], PipelineError> {
+        let anatomy = known_anatomy(&body.name, urdf)?;
+        arm_columns(&body.name, &body.joint_names, anatomy.as_ref())
+    }
+
+    /// Trains a latent space per part of `parts` on the human and `robots` (every part with
+    /// `config`, on the frames [`FrameSet::for_config`] says; budgets chosen on held-out frames
+    /// with `patience`, as [`Demonstrations::train`]), and the parent above them
+    /// (`parent_latent_dim`; `None`: none). Joint names and trust groups are stored.
+    pub fn train_parts(
+        &self,
+        robots: &[String],
+        config: &PartsConfig,
+        options: &TrainOptions,
+        patience: Option<usize>,
+        callback: Option<PartsCallback<'_>>,
+    ) -> Result<PartsGplvm, PipelineError> {
+        self.check_splits()?;
+        let frames = FrameSet::for_config(&config.model);
+        let ds = self.training_set(frames);
+        let mut bodies = vec![&ds.human];
+        for name in robots {
+            self.robot(name)?;
+            bodies.extend(ds.robot(name));
+        }
+        let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
+        let spaces: Vec<(&str, MatRef<'_, f64>)> = bodies
+            .iter()
+            .zip(&mats)
+            .map(|(b, m)| (b.name.as_str(), m.as_ref()))
+            .collect();
+        let validation = patience.map(|p| self.validation_of(frames, p));
+        let mut model = PartsGplvm::fit(
+            config,
+            &spaces,
+            &ds.human.name,
+            options,
+            validation.as_ref(),
+            callback,
+        )?;
+        for body in bodies {
+            model.set_column_names(&body.name, body.joint_names.clone())?;
+        }
+        model.set_trust_groups(&ds.training_groups().groups)?;
+        Ok(model)
+    }
+
+    /// Transfers a per-part `model` to `robot` on the frames it was trained on: the robot's
+    /// arm columns found as [`Demonstrations::arm_parts`] does (`urdf`: its URDF, else built
+    /// in or by names), each part learning only the robot's kernel
+    /// ([`PartsGplvm::transfer`]).
+    pub fn transfer_parts(
+        &self,
+        model: &PartsGplvm,
+        robot: &str,
+        urdf: Option<&Path>,
+        options: &TrainOptions,
+        patience: Option<usize>,
+        callback: Option<PartsCallback<'_>>,
+    ) -> Result<PartsGplvm, PipelineError> {
+        self.check_splits()?;
+        self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)?;
+        let body = self.robot(robot)?;
+        let frames = self.frames_for(model.num_points(), model.config())?;
+        let ds = self.training_set(frames);
+        let columns = self.robot_arms(body, urdf)?;
+        let parts: BTreeMap<String, Vec<usize>> = model
+            .part_names()
+            .iter()
+            .map(|p| p.to_string())
+            .zip(columns)
+            .collect();
+        if model.part_names() != ARM_PARTS {
+            return Err(PipelineError::Parts {
+                body: robot.to_string(),
+                detail: format!(
+                    "the model's parts are {:?}; transfer here divides a robot into {ARM_PARTS:?}",
+                    model.part_names()
+                ),
+            });
+        }
+        let data = to_mat(&body.rows(&ds.train));
+        let validation = patience.map(|p| self.validation_of(frames, p));
+        let mut transferred = model.transfer(
+            robot,
+            data.as_ref(),
+            &parts,
+            options,
+            validation.as_ref(),
+            callback,
+        )?;
+        transferred.set_column_names(robot, body.joint_names.clone())?;
+        Ok(transferred)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(list: &[&str]) -> Vec<String> {
+        list.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn arms_by_names_and_by_anatomy() {
+        let human: Vec<String> = sgplvm_robots::Robot::builtin("human")
+            .map(|r| r.joint_names().to_vec())
+            .unwrap_or_else(|_| names(&["jLeftA", "jLeftB", "jRightA", "jRightB"]));
+        let [l, r] = arm_columns("human", &human, None).unwrap();
+        assert_eq!(l.len(), r.len());
+        assert!(l.iter().all(|&c| human[c].starts_with("jLeft")));
+        for robot in ["walkman", "coman", "centauro", "ur5e"] {
+            let anatomy = known_anatomy(robot, None).unwrap().expect("built in");
+            let joints = anatomy.arm_joint_names();
+            let by_anatomy = arm_columns(robot, &joints, Some(&anatomy)).unwrap();
+            let by_name = arm_columns(robot, &joints, None).unwrap();
+            assert_eq!(by_anatomy, by_name, "{robot}");
+            let half = joints.len() / 2;
+            assert_eq!(by_anatomy[0], (0..half).collect::<Vec<_>>(), "{robot}");
+        }
+        let e = arm_columns(
+            "g1",
+            &names(&["left_elbow", "waist_yaw", "right_elbow"]),
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("'waist_yaw' (column 1)") && e.contains("g1"),
+            "{e}"
+        );
+        let e = arm_columns("x", &names(&["LShSag", "LElbj"]), None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no joint of its right arm"), "{e}");
+        assert_eq!("arms".parse::<Parts>(), Ok(Parts::Arms));
+        assert!("legs"
+            .parse::<Parts>()
+            .unwrap_err()
+            .contains("expected one of: arms"));
+    }
+}
