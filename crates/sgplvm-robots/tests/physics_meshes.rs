@@ -145,11 +145,19 @@ fn hulls_collide_and_honour_scale_whatever_the_format_and_uri() {
     );
     write(&dir.join("robot/meshes/cube_binary.stl"), &binary_stl());
     write(&dir.join("robot/meshes/Cube.OBJ"), &obj());
+    // A binary STL whose header begins with "solid", as a published gripper's does.
+    let mut solid_header = binary_stl();
+    solid_header[..80].copy_from_slice(format!("{:<80}", "solid Gripper").as_bytes());
+    write(&dir.join("robot/meshes/solid_binary.stl"), &solid_header);
     let search = || {
         MeshSearch::for_urdf_file(&dir.join("robot/meshy.urdf")).with_package_path(dir.join("pkgs"))
     };
     let base = mesh("package://meshy_description/meshes/cube.stl", 0.1);
-    for l2 in ["meshes/cube_binary.stl", "meshes/Cube.OBJ"] {
+    for l2 in [
+        "meshes/cube_binary.stl",
+        "meshes/Cube.OBJ",
+        "meshes/solid_binary.stl",
+    ] {
         // Cubes of 0.1 m, centres 0.15 m apart: 5 cm apart (l2 turned by 0.3 rad: ~3.5 cm).
         let apart = run(&robot(&base, &mesh(l2, 0.1), 0.15), search());
         assert_eq!(apart.mesh_hulls, 2, "{l2}");

@@ -35,7 +35,7 @@ mod repair;
 mod tree;
 
 pub use check::{pose_from_xyz_rpy, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
-pub use meshes::{file_uri, MeshMiss, MeshSearch, PACKAGE_SEARCH_DEPTH};
+pub use meshes::{file_uri, MeshMiss, MeshSearch, ANCESTOR_LEVELS, PACKAGE_SEARCH_DEPTH};
 pub use parse::MAX_DEPTH;
 pub use repair::UrdfRepair;
 
