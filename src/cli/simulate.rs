@@ -25,8 +25,9 @@ pub struct SimulateArgs {
     robot: Option<String>,
     /// A URDF file instead of a built-in robot. Its collision meshes (STL, COLLADA, OBJ) are
     /// simulated as convex hulls: relative paths are found beside the file, package://PKG/…
-    /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH.
-    #[arg(long, conflicts_with = "model")]
+    /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. With --model: the URDF
+    /// of the model's robot (--robot names it in the model).
+    #[arg(long)]
     urdf: Option<PathBuf>,
     /// A folder holding ROS packages (package://PKG/… is DIR/PKG/…, or a PKG folder with a
     /// package.xml a few levels down), or a package folder itself; searched before

@@ -71,6 +71,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         command,
         notes: found.notes,
         meshes: MeshSearch::for_robot(&robot).unwrap_or_default(),
+        hulls: super::HullCache::default(),
         robot,
     };
     anatomy.notes.extend(notes(&anatomy));

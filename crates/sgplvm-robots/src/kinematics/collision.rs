@@ -10,11 +10,14 @@
 //! capsule reaching into the shoulder's, are the model's own overlap, as in MoveIt's "never in
 //! collision / adjacent" lists).
 
+use std::sync::Arc;
+
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d::parry;
-use rapier3d::parry::shape::SharedShape;
+use rapier3d::parry::shape::{SharedShape, SupportMap};
 
 use super::frames::{Ancestry, RobotFrames};
+use super::hull::ClimbingHull;
 use crate::urdf::{pose_from_xyz_rpy, Robot};
 
 /// One collision shape of a link.
@@ -29,6 +32,18 @@ pub struct LinkShape {
     /// The centre of a sphere holding it, in the link's frame, and its radius: a cheap test
     /// before parry's.
     pub bound: (Vector3<f64>, f64),
+    /// A mesh's hull in the form whose support points are climbed to, not scanned for.
+    hull: Option<Arc<ClimbingHull>>,
+}
+
+impl LinkShape {
+    /// The shape as GJK queries it: the climbing hull where there is one.
+    fn support_map(&self) -> Option<&dyn SupportMap> {
+        match &self.hull {
+            Some(h) => Some(h.as_ref()),
+            None => self.shape.as_support_map(),
+        }
+    }
 }
 
 /// Two shapes near each other at a configuration.
@@ -140,11 +155,16 @@ impl CollisionModel {
                         let sphere = shape.compute_local_bounding_sphere();
                         let centre =
                             (local * nalgebra::Point3::from(vec_from_parry(sphere.center))).coords;
+                        let hull = shape
+                            .as_convex_polyhedron()
+                            .and_then(ClimbingHull::of)
+                            .map(Arc::new);
                         shapes.push(LinkShape {
                             link: l,
                             shape,
                             local,
                             bound: (centre, f64::from(sphere.radius)),
+                            hull,
                         });
                     }
                     Err(why) => unchecked.push(format!("{}: {why}", link.name)),
@@ -230,8 +250,21 @@ impl CollisionModel {
         let (a, b) = (&self.shapes[i], &self.shapes[k]);
         let pa = pose_to_parry(&(frames.link(a.link) * a.local));
         let pb = pose_to_parry(&(frames.link(b.link) * b.local));
-        let c = parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
-            .ok()??;
+        let c = match (a.support_map(), b.support_map()) {
+            (Some(ga), Some(gb)) if a.hull.is_some() || b.hull.is_some() => {
+                let pos12 = pa.inv_mul(&pb);
+                let mut c = parry::query::contact::contact_support_map_support_map(
+                    &pos12,
+                    ga,
+                    gb,
+                    within as f32,
+                )?;
+                c.transform_by_mut(&pa, &pb);
+                c
+            }
+            _ => parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
+                .ok()??,
+        };
         let d = f64::from(c.dist);
         Some((c, d))
     }
@@ -247,8 +280,8 @@ impl CollisionModel {
             .iter()
             .enumerate()
             .filter(|&(_, &(i, k))| {
-                (centres[i] - centres[k]).norm() - self.shapes[i].bound.1 - self.shapes[k].bound.1
-                    <= within
+                let reach = self.shapes[i].bound.1 + self.shapes[k].bound.1 + within;
+                reach >= 0.0 && (centres[i] - centres[k]).norm_squared() <= reach * reach
             })
             .filter_map(|(p, &(i, k))| {
                 let (c, d) = self.distance(frames, i, k, within)?;
