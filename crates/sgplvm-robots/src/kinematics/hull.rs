@@ -3,8 +3,11 @@
 //! direction, a few times per iteration). parry's convex polyhedron scans every vertex for it;
 //! the hulls of published collision meshes have hundreds to thousands of vertices (a G1 link's
 //! median is about 900), which made the scan most of retargeting's time. On a convex polytope a
-//! vertex that no neighbour improves on is the furthest of all, so the climb from the best of a
-//! few fixed start vertices gives the same point after a few dozen dot products.
+//! vertex that no neighbour improves on is the furthest of all, so the climb from the last
+//! support vertex (GJK's directions change little from one query to the next) gives the same
+//! point after a few dot products.
+
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use rapier3d::parry::math::Vector;
 use rapier3d::parry::shape::{ConvexPolyhedron, SupportMap};
@@ -12,33 +15,17 @@ use rapier3d::parry::shape::{ConvexPolyhedron, SupportMap};
 /// Below this many vertices a scan is as fast as a climb.
 const SCAN_BELOW: usize = 48;
 
-/// Directions whose support vertices the climbs start from: the 6 axes and the 8 diagonals.
-const START_DIRECTIONS: [[f32; 3]; 14] = [
-    [1.0, 0.0, 0.0],
-    [-1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, -1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.0, 0.0, -1.0],
-    [1.0, 1.0, 1.0],
-    [1.0, 1.0, -1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, -1.0, -1.0],
-    [-1.0, 1.0, 1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [-1.0, -1.0, -1.0],
-];
-
 /// A convex polyhedron's vertices and edges, its support points found by hill climbing.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub(crate) struct ClimbingHull {
     points: Vec<Vector>,
     /// Neighbours of vertex `v`: `neighbours[offsets[v]..offsets[v + 1]]`.
     offsets: Vec<u32>,
     neighbours: Vec<u32>,
-    /// The start vertices (support vertices of [`START_DIRECTIONS`]), deduplicated.
-    starts: Vec<u32>,
+    /// The last support vertex found: GJK asks along directions that change little from one
+    /// iteration (and one IK step) to the next, so a climb from it is short. Only a start: the
+    /// climb is exact from any vertex, whichever thread wrote it last.
+    last: AtomicU32,
 }
 
 impl ClimbingHull {
@@ -73,31 +60,18 @@ impl ClimbingHull {
             neighbours.extend_from_slice(a);
             offsets.push(u32::try_from(neighbours.len()).ok()?);
         }
-        let mut starts: Vec<u32> = START_DIRECTIONS
-            .iter()
-            .map(|d| scan(&points, Vector::new(d[0], d[1], d[2])))
-            .collect();
-        starts.sort_unstable();
-        starts.dedup();
         Some(ClimbingHull {
             points,
             offsets,
             neighbours,
-            starts,
+            last: AtomicU32::new(0),
         })
     }
 
     /// The index of the vertex furthest along `dir`.
     fn support_id(&self, dir: Vector) -> usize {
-        let mut best = self.starts[0] as usize;
+        let mut best = (self.last.load(Ordering::Relaxed) as usize).min(self.points.len() - 1);
         let mut best_dot = self.points[best].dot(dir);
-        for &s in &self.starts[1..] {
-            let d = self.points[s as usize].dot(dir);
-            if d > best_dot {
-                best = s as usize;
-                best_dot = d;
-            }
-        }
         // Each move strictly increases the dot product, so the climb ends.
         loop {
             let mut next = best;
@@ -110,25 +84,13 @@ impl ClimbingHull {
                 }
             }
             if next == best {
+                self.last
+                    .store(u32::try_from(best).unwrap_or(0), Ordering::Relaxed);
                 return best;
             }
             best = next;
         }
     }
-}
-
-/// The index of the point of `points` furthest along `dir`, by a scan.
-fn scan(points: &[Vector], dir: Vector) -> u32 {
-    let mut best = 0;
-    let mut best_dot = f32::NEG_INFINITY;
-    for (i, p) in points.iter().enumerate() {
-        let d = p.dot(dir);
-        if d > best_dot {
-            best = i;
-            best_dot = d;
-        }
-    }
-    u32::try_from(best).unwrap_or(0)
 }
 
 impl SupportMap for ClimbingHull {
@@ -170,8 +132,15 @@ mod tests {
             assert!((climbed - scanned).abs() <= 1e-6, "{climbed} vs {scanned}");
         }
         // Axis directions (faces perpendicular to them are possible) too.
-        for d in START_DIRECTIONS {
-            let dir = -Vector::new(d[0], d[1], d[2]);
+        for d in [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, -1.0],
+        ] {
+            let dir = Vector::new(d[0], d[1], d[2]);
             let climbed = hull.local_support_point(dir).dot(dir);
             let scanned = poly.local_support_point(dir).dot(dir);
             assert!((climbed - scanned).abs() <= 1e-6);
