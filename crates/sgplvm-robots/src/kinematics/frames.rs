@@ -71,6 +71,8 @@ impl RobotFrames {
                 .q_index
                 .map_or(0.0, |i| q.get(i).copied().unwrap_or(0.0));
             links[joint.child] = match joint.kind {
+                // A joint at 0 (most held ones: fingers, wheels) adds nothing to its origin.
+                _ if value == 0.0 => frame,
                 JointKind::Revolute | JointKind::Continuous => {
                     frame * nalgebra::UnitQuaternion::from_axis_angle(&joint.axis, value)
                 }
