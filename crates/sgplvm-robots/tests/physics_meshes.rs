@@ -101,7 +101,9 @@ fn obj() -> Vec<u8> {
 }
 
 /// base (a mesh) ─j1→ l1 (a small sphere 1 m away) ─j2→ l2 (a mesh `x` m from the base, on
-/// the x axis). base and l2 are not neighbours: l1 has a shape.
+/// the x axis, where the trajectory slides it: at rest, j2 at 0, it is 0.5 m further, so that
+/// an overlap is the motion's, not the model's own). base and l2 are not neighbours: l1 has a
+/// shape.
 fn robot(base_mesh: &str, l2_mesh: &str, x: f64) -> String {
     let inertial = r#"<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>"#;
     format!(
@@ -111,17 +113,21 @@ fn robot(base_mesh: &str, l2_mesh: &str, x: f64) -> String {
   <link name="l2">{inertial}<collision><origin xyz="0 0 0" rpy="0 0 0.3"/><geometry>{l2_mesh}</geometry></collision></link>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
     <origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="{} 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
+  <joint name="j2" type="prismatic"><parent link="l1"/><child link="l2"/>
+    <origin xyz="{} 0 0"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
 </robot>"#,
-        x - 1.0
+        x - 1.0 + 0.5
     )
 }
 
 /// Replays 0.1 s at rest (no gravity, contacts detected only) with `search`.
 fn run(xml: &str, search: MeshSearch) -> ReplayReport {
-    let trajectory =
-        Trajectory::new(vec!["j1".into(), "j2".into()], vec![0.0, 0.1], vec![0.0; 4]).unwrap();
+    let trajectory = Trajectory::new(
+        vec!["j1".into(), "j2".into()],
+        vec![0.0, 0.1],
+        vec![0.0, -0.5, 0.0, -0.5],
+    )
+    .unwrap();
     let options = ReplayOptions {
         gravity: false,
         contact_response: false,
