@@ -329,8 +329,17 @@ fn print_hands(reports: &[ReachReport]) {
     }
 }
 
+/// The first `n` of `items` and how many more, separated by `; `.
+fn first_few(items: &[String], n: usize) -> String {
+    let shown = items[..items.len().min(n)].join("; ");
+    match items.len().saturating_sub(n) {
+        0 => shown,
+        more => format!("{shown}; and {more} more (--json lists every one)"),
+    }
+}
+
 /// Per robot, how the arm postures followed and how near the robot came to itself
-/// (`--match arms`).
+/// (`--match arms`), and which limits held the commands.
 fn print_postures(reports: &[ReachReport]) {
     println!("robot        upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)");
     for r in reports {
@@ -355,6 +364,41 @@ fn print_postures(reports: &[ReachReport]) {
             },
             1e3 * p.margin_m,
         );
+        if !p.velocity_limited_joints.is_empty() {
+            let held: Vec<String> = p
+                .velocity_limited_joints
+                .iter()
+                .map(|h| {
+                    let unit = if h.prismatic { "m/s" } else { "rad/s" };
+                    format!("{} ({:.2} {unit}) in {}", h.joint, h.limit, h.frames)
+                })
+                .collect();
+            println!(
+                "{:<12} frames held by velocity limits, per joint: {}",
+                r.robot,
+                first_few(&held, 4)
+            );
+        }
+        if !p.collision_limited_pairs.is_empty() {
+            let held: Vec<String> = p
+                .collision_limited_pairs
+                .iter()
+                .map(|h| {
+                    format!(
+                        "{} ↔ {} in {} (closest {:.1} mm)",
+                        h.link_a,
+                        h.link_b,
+                        h.frames,
+                        1e3 * h.closest_m
+                    )
+                })
+                .collect();
+            println!(
+                "{:<12} frames held by self-collision, per pair of links: {}",
+                r.robot,
+                first_few(&held, 4)
+            );
+        }
         if !p.unchecked.is_empty() {
             println!(
                 "{:<12} self-collision not checked for {} collision element(s): {}",

@@ -366,6 +366,8 @@ fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision(
     // Limits: positions within the URDF's, steps within the velocity limits.
     let limits = anatomy.robot().joint_limits();
     let speed = anatomy.robot().velocity_limits();
+    let names = anatomy.robot().joint_names();
+    let mut at_limit = vec![0usize; 14];
     for f in 0..ds.len() {
         for j in 0..14 {
             let v = out.body.positions[(f, j)];
@@ -376,8 +378,30 @@ fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision(
                     step <= speed[j] * 0.025 + 1e-9,
                     "joint {j} frame {f}: {step}"
                 );
+                at_limit[j] += usize::from(step >= speed[j] * 0.025 - 1e-9);
             }
         }
+    }
+    // The report says which velocity limits held how many frames: each joint it names moved
+    // by its limit's whole step in at least those frames, and the frames add up to at least
+    // the frames held by velocity.
+    assert!(report.velocity_limited_frames > 0, "{report:?}");
+    let mut most = 0;
+    for h in &report.velocity_limited_joints {
+        let j = names.iter().position(|n| *n == h.joint).unwrap();
+        assert!(
+            h.frames <= at_limit[j],
+            "{h:?}: {} at the limit",
+            at_limit[j]
+        );
+        assert_eq!(h.limit, speed[j]);
+        most = most.max(h.frames);
+    }
+    assert!(most > 0 && most <= report.velocity_limited_frames + report.collision_limited_frames);
+    // And which pairs the self-collision limit kept apart, each named once.
+    for h in &report.collision_limited_pairs {
+        assert!(h.frames > 0 && h.link_a < h.link_b, "{h:?}");
+        assert!(h.closest_m < report.margin_m + 1.1e-3, "{h:?}");
     }
 }
 

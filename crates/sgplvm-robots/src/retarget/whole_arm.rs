@@ -171,6 +171,15 @@ pub struct PostureReport {
     pub velocity_limited_frames: usize,
     /// Frames whose command the self-collision limit moved.
     pub collision_limited_frames: usize,
+    /// Which velocity limits held the commands: per joint that was held at its limit (the
+    /// command moved by the limit's whole step and not as far as asked), the joint, its limit
+    /// (rad/s or m/s) and the frames; most frames first.
+    #[serde(default)]
+    pub velocity_limited_joints: Vec<LimitHeld>,
+    /// Which pairs of links the self-collision limit kept apart: per pair of links (nearer than
+    /// the margin and a millimetre before the command's step), the frames; most frames first.
+    #[serde(default)]
+    pub collision_limited_pairs: Vec<PairHeld>,
     /// Frames in self-collision as sent (shapes overlapping): 0 is the goal.
     pub colliding_frames: usize,
     /// The closest two shapes that can meet came over all frames as sent, metres; `None` when
@@ -186,6 +195,32 @@ pub struct PostureReport {
     pub steps_per_frame: f64,
     /// Share of steps in which a limit was active (the QP solver ran).
     pub constrained_steps: f64,
+}
+
+/// A joint whose velocity limit held the commands, and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LimitHeld {
+    /// The joint's URDF name.
+    pub joint: String,
+    /// Its velocity limit (rad/s, or m/s for a prismatic joint).
+    pub limit: f64,
+    /// Whether the joint is prismatic (its limit in m/s).
+    pub prismatic: bool,
+    /// Frames in which it held the command.
+    pub frames: usize,
+}
+
+/// A pair of links the self-collision limit kept apart, and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairHeld {
+    /// One link's URDF name.
+    pub link_a: String,
+    /// The other's.
+    pub link_b: String,
+    /// Frames in which the pair was limited.
+    pub frames: usize,
+    /// The nearest the pair came (before the step), metres.
+    pub closest_m: f64,
 }
 
 /// One robot through every frame: the commands (frames × every joint of the URDF, held joints
@@ -238,6 +273,7 @@ pub(super) fn run(
         // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
         // too few digits for a 25 ms step's velocity limit.
         let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
+        let before = (f > 0).then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
         let outcome = safety.step(&asked, now, &mut sent);
         if outcome.changed {
             if outcome.near.is_empty() {
@@ -245,6 +281,7 @@ pub(super) fn run(
             } else {
                 tally.collision_limited += 1;
             }
+            tally.limits_held(robot, &q_index, (&asked, &sent), before, &outcome.near);
         }
         let mut q = hold.clone();
         for (k, &i) in q_index.iter().enumerate() {
@@ -259,7 +296,7 @@ pub(super) fn run(
         .enumerate()
         .map(|(k, h)| h * gauge.reach[k % 2])
         .collect();
-    let report = tally.report(options, &model, targets.len());
+    let report = tally.report(options, &model, (robot, targets.len()));
     Ok((out, misses, report))
 }
 
@@ -466,9 +503,46 @@ struct Tally {
     collision_limited: usize,
     colliding: usize,
     closest: Option<f64>,
+    /// Per joint (configuration index): frames its velocity limit held.
+    joints_held: std::collections::BTreeMap<usize, usize>,
+    /// Per pair of links: frames the self-collision limit kept them apart, and the closest.
+    pairs_held: std::collections::BTreeMap<(String, String), (usize, f64)>,
 }
 
 impl Tally {
+    /// Which limits held one frame's command: the joints that moved by their velocity limit's
+    /// whole step over `dt` from the command `before` and fell short of what was asked, and
+    /// the pairs of links the safety step found near.
+    fn limits_held(
+        &mut self,
+        robot: &crate::urdf::Robot,
+        q_index: &[usize],
+        (asked, sent): (&[f64], &[f64]),
+        before: Option<(Vec<f64>, f64)>,
+        near: &[(String, String, f64)],
+    ) {
+        if let Some((last, dt)) = before {
+            let limits = robot.velocity_limits();
+            for (k, &i) in q_index.iter().enumerate() {
+                let step = limits[i] * dt;
+                let short = (asked[k] - sent[k]).abs() > 1e-9;
+                if limits[i] > 0.0 && short && (sent[k] - last[k]).abs() >= step - 1e-9 {
+                    *self.joints_held.entry(i).or_default() += 1;
+                }
+            }
+        }
+        for (a, b, d) in near {
+            let key = if a <= b {
+                (a.clone(), b.clone())
+            } else {
+                (b.clone(), a.clone())
+            };
+            let e = self.pairs_held.entry(key).or_insert((0, f64::INFINITY));
+            e.0 += 1;
+            e.1 = e.1.min(*d);
+        }
+    }
+
     /// One frame as sent, against its target.
     fn judge(
         &mut self,
@@ -502,8 +576,32 @@ impl Tally {
         self,
         options: &WholeArmOptions,
         model: &CollisionModel,
-        frames: usize,
+        (robot, frames): (&crate::urdf::Robot, usize),
     ) -> PostureReport {
+        let names = robot.joint_names();
+        let limits = robot.velocity_limits();
+        let mut velocity_limited_joints: Vec<LimitHeld> = self
+            .joints_held
+            .iter()
+            .map(|(&i, &n)| LimitHeld {
+                joint: names[i].clone(),
+                limit: limits[i],
+                prismatic: robot.joints[robot.movable[i]].kind == crate::urdf::JointKind::Prismatic,
+                frames: n,
+            })
+            .collect();
+        velocity_limited_joints.sort_by(|a, b| b.frames.cmp(&a.frames));
+        let mut collision_limited_pairs: Vec<PairHeld> = self
+            .pairs_held
+            .iter()
+            .map(|((a, b), &(n, d))| PairHeld {
+                link_a: a.clone(),
+                link_b: b.clone(),
+                frames: n,
+                closest_m: d,
+            })
+            .collect();
+        collision_limited_pairs.sort_by(|a, b| b.frames.cmp(&a.frames));
         let quantiles = |v: &[f64]| -> [f64; 2] {
             let mut s = v.to_vec();
             s.sort_by(f64::total_cmp);
@@ -522,6 +620,8 @@ impl Tally {
                 / self.hand.len().max(1) as f64,
             velocity_limited_frames: self.velocity_limited,
             collision_limited_frames: self.collision_limited,
+            velocity_limited_joints,
+            collision_limited_pairs,
             colliding_frames: self.colliding,
             closest_m: self.closest,
             margin_m: options.margin_m,
