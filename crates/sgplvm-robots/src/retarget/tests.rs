@@ -176,13 +176,23 @@ fn a_capture_too_short_for_a_test_block_trains_on_every_frame_and_says_why() {
     assert_eq!(ds.len(), 96);
     let summary = split_into_blocks(&mut ds, &SplitOptions::default()).unwrap();
     assert_eq!((summary.blocks, summary.test_blocks), (1, 0));
-    assert_eq!((summary.train_frames, summary.test_frames), (8, 0));
-    assert!(ds.test.is_empty() && ds.train == (0..96).step_by(12).collect::<Vec<_>>());
+    // A short capture keeps every frame it has, up to the 200 it should (not 1 in 12: 8).
+    assert_eq!((summary.train_frames, summary.test_frames), (96, 0));
+    assert_eq!(summary.train_step, 1);
+    assert!(ds.test.is_empty() && ds.train == (0..96).collect::<Vec<_>>());
     let why = summary.fallback.expect("the fallback says why");
     assert!(
-        why.contains("1 block of 4 s") && why.contains("`--split none`"),
+        why.contains("1 block of 4 s") && why.contains("`train` needs no test frames"),
         "{why}"
     );
+    // The step as asked for when the lower bound is off.
+    let mut ds = human_tour(&[0, 1, 2, 3], 32);
+    let asked = SplitOptions {
+        min_train_frames: 0,
+        ..SplitOptions::default()
+    };
+    let summary = split_into_blocks(&mut ds, &asked).unwrap();
+    assert_eq!((summary.train_frames, summary.train_step), (8, 12));
     // Asked for by name: no fallback to explain, every frame with a subsample of 1.
     let mut ds = human_tour(&[0, 1, 2, 3], 32);
     let summary = split_into_blocks(
@@ -230,6 +240,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
         guard_s: 0.5,
         train_subsample: 1,
         test_subsample: 1,
+        min_train_frames: 0,
     };
     let summary = split_into_blocks(&mut ds, &opts).unwrap();
     // File 1: blocks 0–4 s, 4–10 s (the 2 s tail joins); file 2: 0–4 s, 4–6.2 s.
@@ -280,6 +291,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
         rule: SplitRule::Files { test: vec![1] },
         train_subsample: 10,
         test_subsample: 2,
+        min_train_frames: 0,
         ..SplitOptions::default()
     };
     split_into_blocks(&mut ds, &opts).unwrap();
