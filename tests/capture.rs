@@ -404,3 +404,16 @@ fn a_short_capture_retargets_with_the_defaults_and_every_split_says_what_it_did(
         "{stdout}"
     );
 }
+
+#[test]
+fn a_rig_scaled_up_keeps_its_file_s_units() {
+    use sgplvm::capture::Units;
+    // An adult's arm (upper arm and forearm, 54 cm) in each unit, and a Mixamo rig (cm) scaled
+    // 2.5×: its units are still found, its size then says it is a giant's.
+    assert_eq!(Units::guess(54.0), Some(Units::Centimetres));
+    assert_eq!(Units::guess(0.54), Some(Units::Metres));
+    assert_eq!(Units::guess(540.0), Some(Units::Millimetres));
+    assert_eq!(Units::guess(2.5 * 54.0), Some(Units::Centimetres));
+    // Nothing near a person in any unit.
+    assert_eq!(Units::guess(1e9), None);
+}
