@@ -21,7 +21,7 @@ flag=-n; unshare -n true 2>/dev/null || flag=-rn
 unshare "$flag" bash -c 'ip link set lo up && ip link set lo multicast on
 sgplvm teleop --model g1.sgp --robot g1 --urdf g1=data/urdf/published/g1_29dof.urdf --input mvn:127.0.0.1:9763 --foxglove --max-frames 300 --json > g1-live.json 2>/dev/null &
 sleep 1
-sgplvm replay --bvh data/capture/cmu-13_26.bvh --as mvn --to 127.0.0.1:9763 --rate 2 --max-messages 600 2>/dev/null
+sgplvm replay --bvh data/capture/cmu-13_26.bvh --as mvn --to 127.0.0.1:9763 --max-messages 400 2>/dev/null
 wait $!'
 end=$(date +%s.%N)
 python3 -c "import json; s=json.load(open('g1-live.json')); print('teleop: frames', s['frames'], 'latency', s['latency'])"

@@ -99,13 +99,23 @@ pub enum PipelineError {
         detail: String,
     },
     /// The data has no training or no test frames.
-    #[error("{source_name}: the {split} set is empty")]
+    #[error("{source_name}: the {split} set is empty ({})", empty_split_hint(.split))]
     EmptySplit {
         /// The data file.
         source_name: String,
         /// `training` or `test`.
         split: &'static str,
     },
+}
+
+/// What to do about an empty training or test set.
+fn empty_split_hint(split: &str) -> &'static str {
+    if split == "test" {
+        "evaluating needs test frames: `sgplvm retarget` makes them with --split blocks (a \
+         shorter --block-seconds or a smaller --test-every for a short capture) or --split files"
+    } else {
+        "expected demonstrations with training frames: `sgplvm retarget` writes them"
+    }
 }
 
 /// Training and test matrices of one observation space (rows are frames).
@@ -221,10 +231,19 @@ impl Demonstrations {
     }
 
     pub(crate) fn check_splits(&self) -> Result<(), PipelineError> {
-        for (split, rows) in [
-            ("training", &self.dataset.train),
-            ("test", &self.dataset.test),
-        ] {
+        self.check_training()?;
+        if self.dataset.test.is_empty() {
+            return Err(PipelineError::EmptySplit {
+                source_name: self.source_name.clone(),
+                split: "test",
+            });
+        }
+        Ok(())
+    }
+
+    /// Training needs training frames only (a short capture may have no test frames).
+    pub(crate) fn check_training(&self) -> Result<(), PipelineError> {
+        for (split, rows) in [("training", &self.dataset.train)] {
             if rows.is_empty() {
                 return Err(PipelineError::EmptySplit {
                     source_name: self.source_name.clone(),

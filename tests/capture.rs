@@ -350,19 +350,30 @@ fn a_short_capture_retargets_with_the_defaults_and_every_split_says_what_it_did(
         let stdout = String::from_utf8(output.stdout).unwrap();
         (stdout, stderr)
     };
-    // The defaults: every frame for training, with a warning that says how to ask for it.
+    // The defaults: every frame for training (all of them: a short capture keeps at least
+    // 200 where it has them), with a warning that says what testing would need.
     let (stdout, stderr) = retarget(&[], "r.mcap");
     assert!(
         stderr.contains("warning: the frames make 1 block of 4 s")
-            && stderr.contains("`--split none`"),
+            && stderr.contains("`train` needs no test frames"),
         "{stderr}"
     );
     assert!(
-        stdout.contains("split: none: every frame for training (1 block of 4 s, too few for one in 4 to test); 9 training frames kept (1 in 12), no test frames"),
+        stdout.contains("split: none: every frame for training (1 block of 4 s, too few for one in 4 to test); 97 training frames kept (1 in 1: a short capture keeps at least 200 where it has them), no test frames"),
         "{stdout}"
     );
     let ds = sgplvm::robots::dataset::load_demonstrations(p("r.mcap")).unwrap();
-    assert_eq!((ds.train.len(), ds.test.len()), (9, 0));
+    assert_eq!((ds.train.len(), ds.test.len()), (97, 0));
+    // And `train` takes it with its defaults (it needs no test frames).
+    ok(&[
+        "train",
+        "--data",
+        s(&p("r.mcap")),
+        "--robot",
+        "coman",
+        "--out",
+        s(&p("r.sgp")),
+    ]);
     // Asked for: no warning; every frame with --train-subsample 1.
     let (stdout, stderr) = retarget(&["--split", "none", "--train-subsample", "1"], "n.mcap");
     assert!(!stderr.contains("warning"), "{stderr}");
@@ -392,4 +403,17 @@ fn a_short_capture_retargets_with_the_defaults_and_every_split_says_what_it_did(
         ),
         "{stdout}"
     );
+}
+
+#[test]
+fn a_rig_scaled_up_keeps_its_file_s_units() {
+    use sgplvm::capture::Units;
+    // An adult's arm (upper arm and forearm, 54 cm) in each unit, and a Mixamo rig (cm) scaled
+    // 2.5×: its units are still found, its size then says it is a giant's.
+    assert_eq!(Units::guess(54.0), Some(Units::Centimetres));
+    assert_eq!(Units::guess(0.54), Some(Units::Metres));
+    assert_eq!(Units::guess(540.0), Some(Units::Millimetres));
+    assert_eq!(Units::guess(2.5 * 54.0), Some(Units::Centimetres));
+    // Nothing near a person in any unit.
+    assert_eq!(Units::guess(1e9), None);
 }

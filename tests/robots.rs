@@ -280,7 +280,8 @@ fn arm_commands_as_csv_replay_with_the_rest_held(
     ]);
     assert!(bad.contains("nonsense_joint"), "{bad}");
     // The arm joints' commands replay in physics as they are: the joints they leave out (the
-    // waist, the legs) are held at their hold values, as the other commands hold them.
+    // waist, the legs) are held still at their hold values, as the other commands hold them
+    // (welded, as their controllers would keep them).
     let replay = ok(&[
         "simulate",
         "--urdf",
@@ -293,5 +294,12 @@ fn arm_commands_as_csv_replay_with_the_rest_held(
     ]);
     let replay: serde_json::Value = serde_json::from_str(&replay).unwrap();
     let joints = replay["joints"].as_array().unwrap();
-    assert_eq!(joints.len(), 29, "{replay}");
+    assert_eq!(joints.len(), 14, "{replay}");
+    let held = replay["held"].as_array().unwrap();
+    assert_eq!(held.len(), 15, "{replay}");
+    assert!(
+        held.iter()
+            .any(|h| h[0] == "waist_pitch_joint" && (h[1].as_f64().unwrap() - 0.1).abs() < 1e-12),
+        "{replay}"
+    );
 }

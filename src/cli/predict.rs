@@ -364,11 +364,14 @@ fn write_provenance(
     commands: &Commands,
     robot: &str,
     counts: Option<&LimitCounts>,
+    t0_ns: i64,
 ) -> Result<()> {
     let (name, fields) = commands.metadata(robot, counts);
     let json = serde_json::json!({
         "csv": Path::new(out).file_name().map(|f| f.to_string_lossy().into_owned()),
         "description": commands.describe(robot),
+        "time": "seconds from the first frame",
+        "first_frame_ns": t0_ns,
         name: fields,
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
@@ -381,6 +384,9 @@ fn write_provenance(
 /// lines.
 fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool) -> Result<()> {
     let d = joints.len();
+    // Seconds from the first frame (a recording's stamps are epoch times, 1.7e9 s), as
+    // `import` and `export` write them; the sidecar keeps the first frame's stamp.
+    let t0 = p.times_ns.first().copied().unwrap_or(0);
     let write = |w: &mut dyn Write| -> std::io::Result<()> {
         writeln!(w, "{}", csv_header(Some("time"), joints, std))?;
         for i in 0..p.frames {
@@ -391,7 +397,7 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
             writeln!(
                 w,
                 "{}",
-                format_line(Some(seconds_from_ns(p.times_ns[i])), &values)
+                format_line(Some(seconds_from_ns(p.times_ns[i] - t0)), &values)
             )?;
         }
         w.flush()
@@ -404,7 +410,7 @@ fn write_csv(p: &Predicted, robot: &str, joints: &[String], out: &str, std: bool
             let mut file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
             write(&mut file)
         })?;
-        write_provenance(out, &p.commands, robot, p.counts.as_ref())?;
+        write_provenance(out, &p.commands, robot, p.counts.as_ref(), t0)?;
         eprintln!(
             "wrote {} frames of {robot} joint commands to {out} ({}: {})",
             p.frames,

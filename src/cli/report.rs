@@ -440,7 +440,28 @@ pub fn replay(
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
+    if let Some(d) = &report.diverged {
+        eprintln!("warning: {source}: {}", divergence(d));
+    }
     Ok(())
+}
+
+/// The first `n` of `items`, and how many more.
+fn shown<S: AsRef<str>>(items: &[S], n: usize) -> String {
+    let first: Vec<&str> = items.iter().take(n).map(AsRef::as_ref).collect();
+    match items.len().saturating_sub(n) {
+        0 => first.join(", "),
+        more => format!("{}, and {more} more", first.join(", ")),
+    }
+}
+
+/// The line that says a replay ran away, where and how fast.
+fn divergence(d: &sgplvm::robots::physics::Divergence) -> String {
+    let unit = if d.prismatic { "m/s" } else { "rad/s" };
+    format!(
+        "the replay DIVERGED at {:.3} s: {} moved at {:.1} {unit} (beyond {:.1} {unit}) away from its reference for 10 ms; it stopped there, and the figures cover the motion before",
+        d.time, d.joint, d.speed, d.threshold
+    )
 }
 
 /// A violation's amount and limit, each with its unit, for a revolute (`false`) or prismatic
@@ -494,13 +515,39 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     let mut line = |text: String| {
         let _ = writeln!(out, "{text}");
     };
+    let ratio = report.duration / report.wall_seconds.max(1e-9);
+    let pace = if ratio >= 1.0 {
+        format!("{ratio:.0}× faster than real time")
+    } else {
+        format!("{:.1}× slower than real time", 1.0 / ratio.max(1e-9))
+    };
     line(format!(
-        "{source}: {:.1} s of motion, {} physics steps in {:.2} s ({:.0}× real time); times from the start",
-        report.duration,
-        report.physics_steps,
-        report.wall_seconds,
-        report.duration / report.wall_seconds.max(1e-9)
+        "{source}: {:.1} s of motion, {} physics steps in {:.2} s ({pace}); times from the start",
+        report.duration, report.physics_steps, report.wall_seconds,
     ));
+    if let Some(d) = &report.diverged {
+        line(divergence(d));
+    }
+    if !report.held.is_empty() {
+        let names: Vec<&str> = report.held.iter().map(|(n, _)| n.as_str()).collect();
+        line(format!(
+            "held still, as their controllers would: {} joint(s) without a trajectory column ({})",
+            names.len(),
+            shown(&names, 6)
+        ));
+    }
+    if !report.overlapping_at_rest.is_empty() {
+        let pairs: Vec<String> = report
+            .overlapping_at_rest
+            .iter()
+            .map(|(a, b)| format!("{a} ↔ {b}"))
+            .collect();
+        line(format!(
+            "not checked: {} pair(s) of links already touching at rest, the model's own overlap ({})",
+            pairs.len(),
+            shown(&pairs, 4)
+        ));
+    }
     line(String::new());
     line(format!(
         "{:<20} {:>9} {:>9} {:>8}  {:>10} {:>11}  {:>8} {:>13}",
@@ -654,9 +701,14 @@ fn collisions(collisions: &[Collision], verbose: bool, line: &mut impl FnMut(Str
     line("deepest self-collision per pair of links:".into());
     for (a, b, n, c) in &pairs {
         line(format!(
-            "  {a} ↔ {b}: {n} time(s), deepest {:.1} mm at {:.3} s",
+            "  {a} ↔ {b}: {n} time(s), deepest {:.1} mm at {:.3} s{}",
             c.max_penetration * 1e3,
-            c.time
+            c.time,
+            if c.held_part {
+                " (a part held still, not commanded)"
+            } else {
+                ""
+            }
         ));
     }
     if verbose {
@@ -721,6 +773,9 @@ mod tests {
             mesh_seconds: 0.0,
             unchecked_meshes: Vec::new(),
             simulated: None,
+            held: Vec::new(),
+            overlapping_at_rest: Vec::new(),
+            diverged: None,
         };
         let text = replay_text("test.urdf", &report, false);
         let lines: Vec<&str> = text

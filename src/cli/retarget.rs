@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
 use sgplvm::robots::names::count;
 use sgplvm::robots::retarget::file::{retarget_files, FilesRetargeted, TestChoice};
-use sgplvm::robots::retarget::split::SplitOptions;
+use sgplvm::robots::retarget::split::{SplitOptions, MIN_TRAIN_FRAMES};
 use sgplvm::robots::retarget::whole_arm::{Weights, WholeArmOptions};
 use sgplvm::robots::retarget::{Match, ReachReport, Redundancy, RetargetOptions};
 use sgplvm::robots::Robot;
@@ -90,9 +90,10 @@ pub struct RetargetArgs {
     /// neither set.
     #[arg(long, default_value_t = 0.5)]
     guard_seconds: f64,
-    /// Keep every k-th training frame (neighbouring 40 Hz frames are nearly the same pose).
-    #[arg(long, default_value_t = 12)]
-    train_subsample: usize,
+    /// Keep every k-th training frame (neighbouring 40 Hz frames are nearly the same pose)
+    /// [default: 12, less for a short capture so that at least 200 training frames remain].
+    #[arg(long)]
+    train_subsample: Option<usize>,
     /// Keep every k-th test frame.
     #[arg(long, default_value_t = 3)]
     test_subsample: usize,
@@ -216,8 +217,14 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     let split = SplitOptions {
         block_s: args.block_seconds,
         guard_s: args.guard_seconds,
-        train_subsample: args.train_subsample,
+        train_subsample: args.train_subsample.unwrap_or(12),
         test_subsample: args.test_subsample,
+        // A step asked for is kept; the default one is lowered for a short capture.
+        min_train_frames: if args.train_subsample.is_some() {
+            0
+        } else {
+            MIN_TRAIN_FRAMES
+        },
         ..SplitOptions::default()
     };
     let test = match args.split {
@@ -291,18 +298,25 @@ fn split_line(done: &FilesRetargeted, args: &RetargetArgs) -> String {
             count(s.blocks, "block")
         ),
     };
+    let step = if args.train_subsample.is_none() && s.train_step < 12 {
+        format!(
+            "1 in {}: a short capture keeps at least {MIN_TRAIN_FRAMES} where it has them",
+            s.train_step
+        )
+    } else {
+        format!("1 in {}", s.train_step)
+    };
     if s.test_frames == 0 {
         return format!(
-            "{chosen}; {} training frames kept (1 in {}), no test frames",
-            s.train_frames, args.train_subsample
+            "{chosen}; {} training frames kept ({step}), no test frames",
+            s.train_frames
         );
     }
     format!(
-        "{chosen}; {} training and {} test frames kept (1 in {} and 1 in {}), {} left out \
+        "{chosen}; {} training and {} test frames kept ({step}; 1 in {}), {} left out \
          beside the train/test boundaries",
         s.train_frames,
         s.test_frames,
-        args.train_subsample,
         args.test_subsample,
         count(s.guard_frames, "guard frame")
     )
@@ -337,8 +351,17 @@ fn print_hands(reports: &[ReachReport]) {
     }
 }
 
+/// The first `n` of `items` and how many more, separated by `; `.
+fn first_few(items: &[String], n: usize) -> String {
+    let shown = items[..items.len().min(n)].join("; ");
+    match items.len().saturating_sub(n) {
+        0 => shown,
+        more => format!("{shown}; and {more} more (--json lists every one)"),
+    }
+}
+
 /// Per robot, how the arm postures followed and how near the robot came to itself
-/// (`--match arms`).
+/// (`--match arms`), and which limits held the commands.
 fn print_postures(reports: &[ReachReport]) {
     println!("robot        upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)");
     for r in reports {
@@ -363,6 +386,41 @@ fn print_postures(reports: &[ReachReport]) {
             },
             1e3 * p.margin_m,
         );
+        if !p.velocity_limited_joints.is_empty() {
+            let held: Vec<String> = p
+                .velocity_limited_joints
+                .iter()
+                .map(|h| {
+                    let unit = if h.prismatic { "m/s" } else { "rad/s" };
+                    format!("{} ({:.2} {unit}) in {}", h.joint, h.limit, h.frames)
+                })
+                .collect();
+            println!(
+                "{:<12} frames held by velocity limits, per joint: {}",
+                r.robot,
+                first_few(&held, 4)
+            );
+        }
+        if !p.collision_limited_pairs.is_empty() {
+            let held: Vec<String> = p
+                .collision_limited_pairs
+                .iter()
+                .map(|h| {
+                    format!(
+                        "{} ↔ {} in {} (closest {:.1} mm)",
+                        h.link_a,
+                        h.link_b,
+                        h.frames,
+                        1e3 * h.closest_m
+                    )
+                })
+                .collect();
+            println!(
+                "{:<12} frames held by self-collision, per pair of links: {}",
+                r.robot,
+                first_few(&held, 4)
+            );
+        }
         if !p.unchecked.is_empty() {
             println!(
                 "{:<12} self-collision not checked for {} collision element(s): {}",

@@ -25,8 +25,9 @@ pub struct SimulateArgs {
     robot: Option<String>,
     /// A URDF file instead of a built-in robot. Its collision meshes (STL, COLLADA, OBJ) are
     /// simulated as convex hulls: relative paths are found beside the file, package://PKG/…
-    /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH.
-    #[arg(long, conflicts_with = "model")]
+    /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. With --model: the URDF
+    /// of the model's robot (--robot names it in the model).
+    #[arg(long)]
     urdf: Option<PathBuf>,
     /// A folder holding ROS packages (package://PKG/… is DIR/PKG/…, or a PKG folder with a
     /// package.xml a few levels down), or a package folder itself; searched before
@@ -91,9 +92,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             );
         }
     }
-    if let Some(urdf) = &args.urdf {
-        trajectory = with_held_joints(trajectory, urdf, &args.hold)?;
-    }
+    let held = match &args.urdf {
+        Some(urdf) => held_joints(&trajectory, urdf, &args.hold)?,
+        None => Vec::new(),
+    };
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
     let t0 = trajectory.times.first().copied().unwrap_or(0.0);
     trajectory.times.iter_mut().for_each(|t| *t -= t0);
@@ -107,6 +109,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let options = ReplayOptions {
         record_simulated: args.out.is_some(),
         meshes: meshes.clone(),
+        held,
         ..ReplayOptions::default()
     };
     let detail = format!(
@@ -129,49 +132,49 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     Ok(report::replay(&source, &report, args.json, args.verbose)?)
 }
 
-/// The trajectory with a column for every joint of a URDF robot that it leaves out and the
-/// robot's anatomy holds (its waist, legs, head, grippers: `retarget`, `predict` and `teleop`
-/// command the arm joints only), at the hold value, said on stderr. A robot whose arms cannot
-/// be found keeps the trajectory as it is (the replay then names the joints without a column),
-/// unless `--hold` asked for the anatomy.
-fn with_held_joints(trajectory: Trajectory, urdf: &Path, hold: &[String]) -> Result<Trajectory> {
+/// Every joint of a URDF robot that the trajectory leaves out and the robot's anatomy holds
+/// (its waist, legs, head, grippers, fingers: `retarget`, `predict` and `teleop` command the arm
+/// joints only), at its hold value, said on stderr: the replay holds them still, as their
+/// controllers would. A robot whose arms cannot be found holds nothing (the replay then names
+/// the joints without a column), unless `--hold` asked for the anatomy.
+fn held_joints(
+    trajectory: &Trajectory,
+    urdf: &Path,
+    hold: &[String],
+) -> Result<Vec<(String, f64)>> {
     let body = BodyArgs {
         hold: hold.to_vec(),
         ..BodyArgs::default()
     };
     let anatomy = match body.load("robot", Some(urdf), "") {
         Ok(anatomy) => anatomy,
-        Err(_) if hold.is_empty() => return Ok(trajectory),
+        Err(_) if hold.is_empty() => return Ok(Vec::new()),
         Err(e) => return Err(e.context("--hold needs the robot's arms")),
     };
-    let added: Vec<(String, f64)> = anatomy
+    let held: Vec<(String, f64)> = anatomy
         .held_joints()
         .into_iter()
         .filter(|(name, _)| !trajectory.joint_names.contains(name))
         .collect();
-    if added.is_empty() {
-        return Ok(trajectory);
+    if !held.is_empty() {
+        eprintln!(
+            "{}: {} joint(s) without a column held still at their hold values, as their controllers would ({}; --hold JOINT=VALUE to change)",
+            urdf.display(),
+            held.len(),
+            {
+                let shown: Vec<String> = held
+                    .iter()
+                    .take(8)
+                    .map(|(n, v)| format!("{n} {v:.3}"))
+                    .collect();
+                match held.len() {
+                    n if n > 8 => format!("{}, and {} more", shown.join(", "), n - 8),
+                    _ => shown.join(", "),
+                }
+            }
+        );
     }
-    eprintln!(
-        "{}: {} joint(s) without a column held at their hold values ({}; --hold JOINT=VALUE to change)",
-        urdf.display(),
-        added.len(),
-        added
-            .iter()
-            .map(|(n, v)| format!("{n} {v:.3}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    let width = trajectory.joint_names.len();
-    let mut names = trajectory.joint_names;
-    names.extend(added.iter().map(|(n, _)| n.clone()));
-    let positions = trajectory
-        .positions
-        .chunks(width.max(1))
-        .take(trajectory.times.len())
-        .flat_map(|row| row.iter().copied().chain(added.iter().map(|(_, v)| *v)))
-        .collect();
-    Ok(Trajectory::new(names, trajectory.times, positions)?)
+    Ok(held)
 }
 
 /// Where the robot's meshes are found: beside the URDF file (none for a built-in robot), in

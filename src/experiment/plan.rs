@@ -112,7 +112,7 @@ pub enum TaskSpec {
     },
     /// A latent space per arm against the single latent space (issue 49): both trained on
     /// `robot` with seed `config.seed + run`, transferred to every other robot, evaluated on
-    /// the test frames and the recombined ones ([`super::parts`]).
+    /// the test frames and the recombined ones (the experiment's `parts` module).
     Parts {
         /// Run (seed) index.
         run: usize,

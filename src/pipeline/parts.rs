@@ -216,7 +216,7 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<PartsCallback<'_>>,
     ) -> Result<PartsGplvm, PipelineError> {
-        self.check_splits()?;
+        self.check_training()?;
         let frames = FrameSet::for_config(&config.model);
         let ds = self.training_set(frames);
         let mut bodies = vec![&ds.human];
@@ -259,7 +259,7 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<PartsCallback<'_>>,
     ) -> Result<PartsGplvm, PipelineError> {
-        self.check_splits()?;
+        self.check_training()?;
         self.check_joints(model, model.input_name(), &self.dataset.human.joint_names)?;
         let body = self.robot(robot)?;
         let frames = self.frames_for(model.num_points(), model.config())?;

@@ -101,7 +101,7 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm, PipelineError> {
-        self.check_splits()?;
+        self.check_training()?;
         let frames = FrameSet::for_config(config);
         let ds = self.training_set(frames);
         let mut bodies = vec![&ds.human];
@@ -142,7 +142,7 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm, PipelineError> {
-        self.check_splits()?;
+        self.check_training()?;
         self.check_human(model)?;
         let body = self.robot(robot)?;
         let frames = self.frames_of(model)?;

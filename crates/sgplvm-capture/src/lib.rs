@@ -188,12 +188,13 @@ impl Units {
     }
 
     /// The units in which `arm_length` (upper arm plus forearm, file units) is nearest an
-    /// adult's 0.45–0.65 m; `None` if no unit gives a human size.
+    /// adult's 0.54 m, within a factor of 3 (a rig scaled up or down, as a Mixamo character
+    /// scaled 2.5×, keeps its file's units); `None` if no unit gives a size that near.
     pub fn guess(arm_length: f64) -> Option<Units> {
         Units::ALL
             .into_iter()
             .map(|u| (u, ((arm_length * u.metres()) / 0.54).ln().abs()))
-            .filter(|(_, d)| *d < 0.35f64)
+            .filter(|(_, d)| *d < 3f64.ln())
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(u, _)| u)
     }

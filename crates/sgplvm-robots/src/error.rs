@@ -43,11 +43,26 @@ pub enum RobotError {
         /// What was found and what was expected.
         message: String,
     },
+    /// An element of a URDF file is present but wrong (a bad number, a missing attribute, an
+    /// unknown type …), at a line of the file.
+    #[error("{file}:{line}: {element}: {message}")]
+    InvalidElement {
+        /// File name used in messages.
+        file: String,
+        /// The 1-based line the element starts on.
+        line: u32,
+        /// The element, e.g. `<joint name="elbow"> <origin> @xyz`.
+        element: String,
+        /// What was found and what was expected.
+        message: String,
+    },
     /// A joint names a link that the file does not declare.
-    #[error("{file}: <joint name=\"{joint}\">: unknown {role} link \"{link}\" (expected the name of a declared <link>)")]
+    #[error("{file}:{line}: <joint name=\"{joint}\">: unknown {role} link \"{link}\" (expected the name of a declared <link>)")]
     UnknownLink {
         /// File name used in messages.
         file: String,
+        /// The 1-based line of the joint.
+        line: u32,
         /// The joint that refers to the link.
         joint: String,
         /// `"parent"` or `"child"`.
@@ -148,13 +163,14 @@ mod tests {
         );
         let e = RobotError::UnknownLink {
             file: "b.urdf".into(),
+            line: 7,
             joint: "j1".into(),
             role: "parent",
             link: "nowhere".into(),
         };
         assert!(e
             .to_string()
-            .starts_with("b.urdf: <joint name=\"j1\">: unknown parent link \"nowhere\""));
+            .starts_with("b.urdf:7: <joint name=\"j1\">: unknown parent link \"nowhere\""));
     }
 
     #[test]

@@ -37,12 +37,14 @@ fn rejected(xml: &str) -> RobotError {
 
 fn invalid_at(xml: &str, element: &str, says: &str) {
     match rejected(xml) {
-        RobotError::Invalid {
+        RobotError::InvalidElement {
             element: el,
             message,
+            line,
             ..
         } => {
             assert!(el.contains(element), "element {el:?}, expected {element:?}");
+            assert!((2..=6).contains(&line), "line {line} of {el:?}");
             assert!(message.contains(says), "{message}");
         }
         other => panic!("expected an Invalid error, got {other}"),
@@ -171,13 +173,18 @@ fn absurd_sizes_and_masses_are_refused_with_the_element() {
 }
 
 #[test]
-fn negative_and_zero_velocity_limits_are_refused() {
+fn negative_velocity_limits_are_refused_and_zero_ones_read_as_none_given() {
     let limit = |v: &str| format!(r#"<limit lower="-1" upper="1" effort="5" velocity="{v}"/>"#);
     invalid_at(&arm("", &limit("-1")), "<limit> @velocity", "negative");
-    invalid_at(
-        &arm("", &limit("0")),
-        "<limit> @velocity",
-        "forbids all motion",
+    // 0 on a joint that can move would forbid all motion: makers write it for "not given"
+    // (ROS's parser and Pinocchio read the file), so it loads as no limit, and says so.
+    let r = Robot::from_urdf_str(&arm("", &limit("0")), FILE).expect("loads");
+    assert_eq!(r.velocity_limits(), vec![0.0]);
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].contains("line 6 (<joint name=\"j\">)") && notes[0].contains("no velocity limit"),
+        "{notes:?}"
     );
     invalid_at(
         &arm(

@@ -101,7 +101,9 @@ fn obj() -> Vec<u8> {
 }
 
 /// base (a mesh) ─j1→ l1 (a small sphere 1 m away) ─j2→ l2 (a mesh `x` m from the base, on
-/// the x axis). base and l2 are not neighbours: l1 has a shape.
+/// the x axis, where the trajectory slides it: at rest, j2 at 0, it is 0.5 m further, so that
+/// an overlap is the motion's, not the model's own). base and l2 are not neighbours: l1 has a
+/// shape.
 fn robot(base_mesh: &str, l2_mesh: &str, x: f64) -> String {
     let inertial = r#"<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>"#;
     format!(
@@ -111,17 +113,21 @@ fn robot(base_mesh: &str, l2_mesh: &str, x: f64) -> String {
   <link name="l2">{inertial}<collision><origin xyz="0 0 0" rpy="0 0 0.3"/><geometry>{l2_mesh}</geometry></collision></link>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
     <origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="{} 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
+  <joint name="j2" type="prismatic"><parent link="l1"/><child link="l2"/>
+    <origin xyz="{} 0 0"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="3"/></joint>
 </robot>"#,
-        x - 1.0
+        x - 1.0 + 0.5
     )
 }
 
 /// Replays 0.1 s at rest (no gravity, contacts detected only) with `search`.
 fn run(xml: &str, search: MeshSearch) -> ReplayReport {
-    let trajectory =
-        Trajectory::new(vec!["j1".into(), "j2".into()], vec![0.0, 0.1], vec![0.0; 4]).unwrap();
+    let trajectory = Trajectory::new(
+        vec!["j1".into(), "j2".into()],
+        vec![0.0, 0.1],
+        vec![0.0, -0.5, 0.0, -0.5],
+    )
+    .unwrap();
     let options = ReplayOptions {
         gravity: false,
         contact_response: false,
@@ -145,11 +151,19 @@ fn hulls_collide_and_honour_scale_whatever_the_format_and_uri() {
     );
     write(&dir.join("robot/meshes/cube_binary.stl"), &binary_stl());
     write(&dir.join("robot/meshes/Cube.OBJ"), &obj());
+    // A binary STL whose header begins with "solid", as a published gripper's does.
+    let mut solid_header = binary_stl();
+    solid_header[..80].copy_from_slice(format!("{:<80}", "solid Gripper").as_bytes());
+    write(&dir.join("robot/meshes/solid_binary.stl"), &solid_header);
     let search = || {
         MeshSearch::for_urdf_file(&dir.join("robot/meshy.urdf")).with_package_path(dir.join("pkgs"))
     };
     let base = mesh("package://meshy_description/meshes/cube.stl", 0.1);
-    for l2 in ["meshes/cube_binary.stl", "meshes/Cube.OBJ"] {
+    for l2 in [
+        "meshes/cube_binary.stl",
+        "meshes/Cube.OBJ",
+        "meshes/solid_binary.stl",
+    ] {
         // Cubes of 0.1 m, centres 0.15 m apart: 5 cm apart (l2 turned by 0.3 rad: ~3.5 cm).
         let apart = run(&robot(&base, &mesh(l2, 0.1), 0.15), search());
         assert_eq!(apart.mesh_hulls, 2, "{l2}");

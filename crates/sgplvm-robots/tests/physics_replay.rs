@@ -406,7 +406,8 @@ fn bad_urdfs_and_options_give_clear_errors() {
     let err = replay(&inverted, "inverted.urdf", &t, &opts).unwrap_err();
     let text = err.to_string();
     assert!(
-        text.starts_with("inverted.urdf: <joint name=\"elbow\">") && text.contains("upper"),
+        text.starts_with("inverted.urdf:")
+            && text.contains(": <joint name=\"elbow\"> <limit>: lower 0.8 > upper -1.5"),
         "{text}"
     );
 

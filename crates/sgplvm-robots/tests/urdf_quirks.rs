@@ -165,6 +165,77 @@ fn limit_without_velocity_is_completed_for_urdf_rs() {
 }
 
 #[test]
+fn nameless_materials_load_as_ros_reads_them_and_each_is_named_by_line() {
+    // A published humanoid has 55 of these: the specification requires a name, urdfdom drops
+    // such a visual with an error and goes on, urdf-rs 0.9 refuses the whole file.
+    let xml = r#"<?xml version="1.0"?>
+<robot name="painted">
+  <material><color rgba="1 1 1 1"/></material>
+  <link name="base">
+    <visual><geometry><box size="1 1 1"/></geometry>
+      <material><color rgba="0 1 0 1"/></material></visual>
+  </link>
+  <link name="tip">
+    <visual><geometry><sphere radius="0.1"/></geometry>
+      <material>
+        <color rgba="0 0 1 1"/><texture/>
+      </material></visual>
+  </link>
+  <joint name="j" type="continuous"><parent link="base"/><child link="tip"/></joint>
+</robot>"#;
+    let e = urdf_rs::read_from_string(xml).unwrap_err().to_string();
+    assert!(e.contains("missing field `name`"), "{e}");
+    let r = load(xml);
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(
+        notes[0].starts_with("3 × <material> without a name")
+            && notes[0].contains("line 3 (<robot>), line 6 (<link name=\"base\"> <visual>), line 10 (<link name=\"tip\"> <visual>)"),
+        "{notes:?}"
+    );
+    assert!(
+        notes[1].contains("<texture> without a filename at line 11"),
+        "{notes:?}"
+    );
+    // The colours are kept, the lines are the file's.
+    let tip = &r.urdf().links[1].visual[0];
+    let m = tip.material.as_ref().unwrap();
+    assert_eq!(m.name, "material_line_10");
+    assert_eq!(*m.color.as_ref().unwrap().rgba, [0.0, 0.0, 1.0, 1.0]);
+    assert!(m.texture.is_none());
+    // A broken element after the repaired ones still names its own line.
+    let broken = xml.replace(r#"<sphere radius="0.1"/>"#, r#"<sphere radius="-1"/>"#);
+    let e = reject(&broken);
+    assert!(
+        e.starts_with("broken.urdf:9: <link name=\"tip\"> <visual> <geometry> <sphere> @radius: -1 is negative"),
+        "{e}"
+    );
+}
+
+#[test]
+fn what_the_specification_defaults_is_filled_and_what_it_requires_is_noted() {
+    let xml = arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis/><dynamics damping="0.5"/><limit upper="1" effort="2" velocity="3"/>
+        <safety_controller soft_upper_limit="0.9"/></joint>"#,
+    );
+    let r = load(&xml);
+    assert_eq!(r.joint_limits(), vec![(0.0, 1.0)]);
+    assert_eq!(*r.urdf().joints[0].axis.xyz, [1.0, 0.0, 0.0]);
+    assert_eq!(r.urdf().joints[0].dynamics.as_ref().unwrap().friction, 0.0);
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(
+        notes[0].starts_with("<axis> without xyz (the specification requires it) at line 6"),
+        "{notes:?}"
+    );
+    assert!(
+        notes[1].starts_with("<safety_controller> without k_velocity"),
+        "{notes:?}"
+    );
+}
+
+#[test]
 fn quat_xyzw_origins_of_urdf_1_1_are_read() {
     let h = std::f64::consts::FRAC_1_SQRT_2;
     let xml = format!(
@@ -219,7 +290,7 @@ fn unknown_parent_link_is_named() {
     ));
     assert_eq!(
         e,
-        "broken.urdf: <joint name=\"j\">: unknown parent link \"bsae\" (expected the name of a declared <link>)"
+        "broken.urdf:5: <joint name=\"j\">: unknown parent link \"bsae\" (expected the name of a declared <link>)"
     );
     // urdf-rs alone does not notice.
     assert!(urdf_rs::read_from_string(&arm(
@@ -291,7 +362,7 @@ fn a_bad_number_names_element_attribute_and_text() {
     ));
     assert_eq!(
         e,
-        "broken.urdf: <joint name=\"j\"> <origin> @xyz: bad number \"0,5\", expected a finite decimal number such as 0.25 or 1.6E-4"
+        "broken.urdf:5: <joint name=\"j\"> <origin> @xyz: bad number \"0,5\", expected a finite decimal number such as 0.25 or 1.6E-4"
     );
     // urdf-rs 0.9 silently drops the unparsable token when three others remain.
     let sloppy = arm(r#"<joint name="j" type="fixed"><origin xyz="1 x 2 3"/>
@@ -328,7 +399,7 @@ fn an_unknown_joint_type_lists_the_known_ones() {
     ));
     assert_eq!(
         e,
-        "broken.urdf: <joint name=\"j\"> @type: unknown joint type \"ball\", expected one of revolute, continuous, prismatic, fixed, floating, planar"
+        "broken.urdf:5: <joint name=\"j\"> @type: unknown joint type \"ball\", expected one of revolute, continuous, prismatic, fixed, floating, planar"
     );
 }
 

@@ -130,6 +130,30 @@ impl<'a> Tree<'a> {
         self.link_name(best.2).to_string()
     }
 
+    /// Whether the tree branches between joint `upper` and joint `lower` below it: a link from
+    /// `upper`'s child down to `lower`'s parent with more than one child branch that moves
+    /// anything (a palm's fingers). An arm is serial: what lies past such a branch is a hand.
+    fn branches_between(&self, upper: usize, lower: usize) -> bool {
+        let stop = self.robot.joints[upper].child;
+        let mut link = self.robot.joints[lower].parent;
+        loop {
+            let moving = self.children[link]
+                .iter()
+                .filter(|&&c| self.moves(c))
+                .count();
+            if moving > 1 {
+                return true;
+            }
+            if link == stop {
+                return false;
+            }
+            match self.robot.parent_joint[link] {
+                Some(j) => link = self.robot.joints[j].parent,
+                None => return false,
+            }
+        }
+    }
+
     /// Movable joints from the root down to `link`, root first.
     fn movable_path(&self, link: usize) -> Vec<usize> {
         self.robot
@@ -306,7 +330,8 @@ fn side_said(tree: &Tree, j: usize) -> Option<Side> {
 }
 
 /// Arms by the joints' names: per side, the serial run of arm-like joints of that side with
-/// the most arm words (then the most joints).
+/// the most arm words (then the most joints). A run ends where the tree branches into several
+/// moving parts (a hand's fingers: `hand_left_mrl_joint` says `hand`, yet it is a finger).
 fn by_names(tree: &Tree) -> Option<FoundArms> {
     let robot = tree.robot;
     let arm = |side: Side| -> Option<RawArm> {
@@ -316,11 +341,17 @@ fn by_names(tree: &Tree) -> Option<FoundArms> {
         let best = cands
             .iter()
             .map(|&j| {
-                let path: Vec<usize> = tree
+                let mut path: Vec<usize> = tree
                     .movable_path(robot.joints[j].child)
                     .into_iter()
                     .filter(|k| cands.contains(k))
                     .collect();
+                if let Some(cut) = path
+                    .windows(2)
+                    .position(|w| tree.branches_between(w[0], w[1]))
+                {
+                    path.truncate(cut + 1);
+                }
                 let words = path
                     .iter()
                     .filter(|&&k| part_of(tree.joint_name(k)) == Part::Arm)

@@ -71,6 +71,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         command,
         notes: found.notes,
         meshes: MeshSearch::for_robot(&robot).unwrap_or_default(),
+        hulls: super::HullCache::default(),
         robot,
     };
     anatomy.notes.extend(notes(&anatomy));
@@ -332,11 +333,18 @@ fn command_joints(
     }
 }
 
-/// What a user should know about the anatomy found: a root frame that is not x forward, y
+/// What a user should know about the anatomy found: what the URDF breaks of the specification
+/// (repaired where its meaning is clear); a root frame that is not x forward, y
 /// left, z up; an arm whose zero pose is not its straightened one; shoulders whose axes do
 /// not meet.
 fn notes(a: &Anatomy) -> Vec<String> {
-    let mut notes = Vec::new();
+    // What the file breaks of the URDF specification, and what loading made of it.
+    let mut notes: Vec<String> = a
+        .robot
+        .repairs()
+        .iter()
+        .map(|r| format!("{}: {r}", a.robot.source()))
+        .collect();
     let [fwd, left, up] = a.body_axes_in_root();
     let root = a.robot.root_link();
     let axis_name = |v: &Vector3<f64>| {

@@ -54,6 +54,7 @@ use crate::physics::mesh_hull;
 use crate::urdf::MeshSearch;
 use crate::urdf::Robot;
 use crate::RobotError;
+use rapier3d::parry::shape::SharedShape;
 
 pub use commands::CommandColumns;
 pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
@@ -407,6 +408,38 @@ pub struct Anatomy {
     notes: Vec<String>,
     /// Where the URDF's meshes are found (beside it, then the ROS paths).
     meshes: MeshSearch,
+    /// The meshes' hulls once read, shared by every collision model of this anatomy (and its
+    /// clones): retargeting and its safety step, the live node's robots.
+    hulls: HullCache,
+}
+
+/// A mesh (its URI and scale's bits) to its hull, or why there is none.
+type HullMap = std::collections::HashMap<(String, [u64; 3]), Result<SharedShape, String>>;
+
+/// The hulls read so far, shared between clones.
+#[derive(Clone, Default)]
+pub(crate) struct HullCache(std::sync::Arc<std::sync::Mutex<HullMap>>);
+
+impl std::fmt::Debug for HullCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.lock().map_or(0, |m| m.len());
+        write!(f, "HullCache({n} meshes)")
+    }
+}
+
+impl HullCache {
+    /// The hull of mesh `file` at `scale`, read through `search` the first time.
+    fn get(&self, search: &MeshSearch, file: &str, scale: [f64; 3]) -> Result<SharedShape, String> {
+        let key = (file.to_string(), scale.map(f64::to_bits));
+        if let Some(found) = self.0.lock().ok().and_then(|m| m.get(&key).cloned()) {
+            return found;
+        }
+        let hull = mesh_hull(search, file, scale);
+        if let Ok(mut m) = self.0.lock() {
+            m.insert(key, hull.clone());
+        }
+        hull
+    }
 }
 
 /// Why a robot's anatomy cannot be had.
@@ -656,6 +689,7 @@ impl Anatomy {
     /// Finds the robot's meshes through `search` (e.g. with the `--package-path` folders).
     pub fn with_meshes(mut self, search: MeshSearch) -> Anatomy {
         self.meshes = search;
+        self.hulls = HullCache::default();
         self
     }
 
@@ -667,7 +701,7 @@ impl Anatomy {
         let ancestry = Ancestry::of(&self.robot);
         let joints: Vec<usize> = moving.iter().map(|&i| self.robot.movable[i]).collect();
         let search = &self.meshes;
-        let loader = |file: &str, scale: [f64; 3]| mesh_hull(search, file, scale);
+        let loader = |file: &str, scale: [f64; 3]| self.hulls.get(search, file, scale);
         CollisionModel::new(
             &self.robot,
             &ancestry,

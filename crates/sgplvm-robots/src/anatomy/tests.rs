@@ -428,3 +428,106 @@ fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
         "{e}"
     );
 }
+
+/// A dual-arm robot as a maker of mobile manipulators writes one: a prismatic torso lift,
+/// arms `arm_{side}_1_joint` … `arm_{side}_7_joint` whose axes are all local z turned by large
+/// `rpy`, a force-torque sensor and a palm fixed on the last link, and on the palm a
+/// five-finger hand's three actuated joints (`hand_{side}_thumb_joint`, `…_index_joint`,
+/// `…_mrl_joint`: middle, ring and little; "hand" in every name, a finger word in two).
+fn dual_arm_with_five_finger_hands() -> String {
+    let rev = |name: &str, parent: &str, child: &str, xyz: &str, rpy: &str| {
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/><origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" velocity="2" effort="10"/></joint>"#
+        )
+    };
+    let fixed = |name: &str, parent: &str, child: &str, xyz: &str| {
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="fixed"><parent link="{parent}"/><child link="{child}"/><origin xyz="{xyz}"/></joint>"#
+        )
+    };
+    let mut s = String::from(
+        r#"<robot name="dual"><link name="base_link"/><link name="torso_lift_link"/><joint name="torso_lift_joint" type="prismatic"><parent link="base_link"/><child link="torso_lift_link"/><origin xyz="0 0 0.8"/><axis xyz="0 0 1"/><limit lower="0" upper="0.35" velocity="0.07" effort="2000"/></joint>"#,
+    );
+    for (side, y, sign) in [("left", 0.15, 1.0), ("right", -0.15, -1.0)] {
+        let rpys = [
+            format!("{}1.5708 0 0", if sign > 0.0 { "-" } else { "" }),
+            "0 -1.5708 0".to_string(),
+            "1.5708 0 0".into(),
+            "-1.5708 0 0".into(),
+            "1.5708 0 0".into(),
+            "-1.5708 0 0".into(),
+            "1.5708 0 1.5708".into(),
+        ];
+        let xyzs = [
+            "0 0 0",
+            "0 0 0",
+            "0.0 0 0.25",
+            "0 0 0",
+            "0 0 0.25",
+            "0 0 0",
+            "0 0 0",
+        ];
+        let mut parent = "torso_lift_link".to_string();
+        for k in 0..7 {
+            let child = format!("arm_{side}_{}_link", k + 1);
+            let xyz = if k == 0 {
+                format!("0 {y} 0.3")
+            } else {
+                xyzs[k].to_string()
+            };
+            s += &rev(
+                &format!("arm_{side}_{}_joint", k + 1),
+                &parent,
+                &child,
+                &xyz,
+                &rpys[k],
+            );
+            parent = child;
+        }
+        s += &fixed(
+            &format!("wrist_{side}_ft_joint"),
+            &parent,
+            &format!("wrist_{side}_ft_link"),
+            "0 0 0.05",
+        );
+        s += &fixed(
+            &format!("hand_{side}_palm_joint"),
+            &format!("wrist_{side}_ft_link"),
+            &format!("hand_{side}_palm_link"),
+            "0 0 0.05",
+        );
+        for finger in ["thumb", "index", "mrl"] {
+            s += &rev(
+                &format!("hand_{side}_{finger}_joint"),
+                &format!("hand_{side}_palm_link"),
+                &format!("hand_{side}_{finger}_link"),
+                "0 0 0.05",
+                "0 0 0",
+            );
+        }
+    }
+    s + "</robot>"
+}
+
+#[test]
+fn a_finger_on_the_arm_s_tip_link_is_no_arm_joint() {
+    let robot = Robot::from_urdf_str(&dual_arm_with_five_finger_hands(), "dual.urdf").unwrap();
+    let a = Anatomy::of(robot).unwrap();
+    assert_eq!(a.found(), &Found::Names);
+    for side in [Side::Left, Side::Right] {
+        let s = side.as_str();
+        let arm = a.arm(side);
+        let names = arm.chain.joint_names();
+        let expected: Vec<String> = (1..=7).map(|k| format!("arm_{s}_{k}_joint")).collect();
+        assert_eq!(names, expected.as_slice(), "{s}");
+        assert_eq!(arm.chain.tip(), format!("hand_{s}_palm_link"), "{s}");
+    }
+    // The fingers and the torso lift are held.
+    let held_joints = a.held_joints();
+    let held: Vec<&str> = held_joints.iter().map(|(n, _)| n.as_str()).collect();
+    assert!(
+        held.contains(&"hand_left_mrl_joint") && held.contains(&"torso_lift_joint"),
+        "{held:?}"
+    );
+    assert_eq!(held.len(), 7, "{held:?}");
+}

@@ -176,6 +176,7 @@ mod tests {
                 guard_s,
                 train_subsample,
                 test_subsample: 3,
+                min_train_frames: 0,
             };
             let mut sub = recordings(lengths);
             split_into_blocks(&mut sub, &options(12)).expect("split");

@@ -10,11 +10,14 @@
 //! capsule reaching into the shoulder's, are the model's own overlap, as in MoveIt's "never in
 //! collision / adjacent" lists).
 
+use std::sync::Arc;
+
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d::parry;
-use rapier3d::parry::shape::SharedShape;
+use rapier3d::parry::shape::{SharedShape, SupportMap};
 
 use super::frames::{Ancestry, RobotFrames};
+use super::hull::ClimbingHull;
 use crate::urdf::{pose_from_xyz_rpy, Robot};
 
 /// One collision shape of a link.
@@ -29,6 +32,90 @@ pub struct LinkShape {
     /// The centre of a sphere holding it, in the link's frame, and its radius: a cheap test
     /// before parry's.
     pub bound: (Vector3<f64>, f64),
+    /// A mesh's hull in the form whose support points are climbed to, not scanned for.
+    hull: Option<Arc<ClimbingHull>>,
+    /// A box holding it, in the link's frame: the second, tighter test before parry's.
+    obb: Obb,
+}
+
+/// An oriented box: centre, axes (columns) and half extents, in some frame.
+#[derive(Debug, Clone, Copy)]
+struct Obb {
+    centre: Vector3<f64>,
+    axes: nalgebra::Matrix3<f64>,
+    half: Vector3<f64>,
+}
+
+impl Obb {
+    /// The box of `shape` (its own axis-aligned box) placed at `local` in its link.
+    fn of(shape: &SharedShape, local: &Isometry3<f64>) -> Obb {
+        let aabb = shape.compute_local_aabb();
+        let centre = vec_from_parry((aabb.mins + aabb.maxs) * 0.5);
+        let half = vec_from_parry((aabb.maxs - aabb.mins) * 0.5);
+        Obb {
+            centre: (local * nalgebra::Point3::from(centre)).coords,
+            axes: *local.rotation.to_rotation_matrix().matrix(),
+            half,
+        }
+    }
+
+    /// This box moved by `pose`.
+    fn placed(&self, pose: &Isometry3<f64>) -> Obb {
+        Obb {
+            centre: (pose * nalgebra::Point3::from(self.centre)).coords,
+            axes: pose.rotation.to_rotation_matrix().matrix() * self.axes,
+            half: self.half,
+        }
+    }
+
+    /// Whether a plane separates the boxes by more than `gap` (the separating-axis test over
+    /// the 15 axes of two boxes): then no two points of them are within `gap`.
+    fn apart(&self, other: &Obb, gap: f64) -> bool {
+        let (a, b) = (self, other);
+        // b's axes in a's frame, and the centres' offset in a's frame.
+        let r = a.axes.transpose() * b.axes;
+        let t = a.axes.transpose() * (b.centre - a.centre);
+        let abs_r = r.map(|v| v.abs() + 1e-9);
+        for i in 0..3 {
+            let ra = a.half[i];
+            let rb = b.half.dot(&abs_r.row(i).transpose());
+            if t[i].abs() > ra + rb + gap {
+                return true;
+            }
+        }
+        for j in 0..3 {
+            let ra = a.half.dot(&abs_r.column(j));
+            let rb = b.half[j];
+            if t.dot(&r.column(j)).abs() > ra + rb + gap {
+                return true;
+            }
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+                let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+                let ra = a.half[i1] * abs_r[(i2, j)] + a.half[i2] * abs_r[(i1, j)];
+                let rb = b.half[j1] * abs_r[(i, j2)] + b.half[j2] * abs_r[(i, j1)];
+                let dist = (t[i2] * r[(i1, j)] - t[i1] * r[(i2, j)]).abs();
+                // The axis aᵢ × bⱼ has length sin(angle): the gap scales with it.
+                let len = (1.0 - r[(i, j)] * r[(i, j)]).max(0.0).sqrt();
+                if len > 1e-6 && dist > ra + rb + gap * len {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+impl LinkShape {
+    /// The shape as GJK queries it: the climbing hull where there is one.
+    fn support_map(&self) -> Option<&dyn SupportMap> {
+        match &self.hull {
+            Some(h) => Some(h.as_ref()),
+            None => self.shape.as_support_map(),
+        }
+    }
 }
 
 /// Two shapes near each other at a configuration.
@@ -140,11 +227,18 @@ impl CollisionModel {
                         let sphere = shape.compute_local_bounding_sphere();
                         let centre =
                             (local * nalgebra::Point3::from(vec_from_parry(sphere.center))).coords;
+                        let hull = shape
+                            .as_convex_polyhedron()
+                            .and_then(ClimbingHull::of)
+                            .map(Arc::new);
+                        let obb = Obb::of(&shape, &local);
                         shapes.push(LinkShape {
                             link: l,
                             shape,
                             local,
                             bound: (centre, f64::from(sphere.radius)),
+                            hull,
+                            obb,
                         });
                     }
                     Err(why) => unchecked.push(format!("{}: {why}", link.name)),
@@ -230,8 +324,21 @@ impl CollisionModel {
         let (a, b) = (&self.shapes[i], &self.shapes[k]);
         let pa = pose_to_parry(&(frames.link(a.link) * a.local));
         let pb = pose_to_parry(&(frames.link(b.link) * b.local));
-        let c = parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
-            .ok()??;
+        let c = match (a.support_map(), b.support_map()) {
+            (Some(ga), Some(gb)) if a.hull.is_some() || b.hull.is_some() => {
+                let pos12 = pa.inv_mul(&pb);
+                let mut c = parry::query::contact::contact_support_map_support_map(
+                    &pos12,
+                    ga,
+                    gb,
+                    within as f32,
+                )?;
+                c.transform_by_mut(&pa, &pb);
+                c
+            }
+            _ => parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
+                .ok()??,
+        };
         let d = f64::from(c.dist);
         Some((c, d))
     }
@@ -247,8 +354,13 @@ impl CollisionModel {
             .iter()
             .enumerate()
             .filter(|&(_, &(i, k))| {
-                (centres[i] - centres[k]).norm() - self.shapes[i].bound.1 - self.shapes[k].bound.1
-                    <= within
+                let reach = self.shapes[i].bound.1 + self.shapes[k].bound.1 + within;
+                reach >= 0.0 && (centres[i] - centres[k]).norm_squared() <= reach * reach
+            })
+            .filter(|&(_, &(i, k))| {
+                let (a, b) = (&self.shapes[i], &self.shapes[k]);
+                let oa = a.obb.placed(frames.link(a.link));
+                !oa.apart(&b.obb.placed(frames.link(b.link)), within)
             })
             .filter_map(|(p, &(i, k))| {
                 let (c, d) = self.distance(frames, i, k, within)?;
@@ -267,6 +379,55 @@ impl CollisionModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn boxes_said_apart_are_further_apart_than_the_gap() {
+        let mut seed = 99u64;
+        let mut rand = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let (mut apart, mut near) = (0, 0);
+        for _ in 0..3000 {
+            let shape = |r: &mut dyn FnMut() -> f64| {
+                SharedShape::cuboid(
+                    (0.02 + 0.1 * r().abs()) as f32,
+                    (0.02 + 0.1 * r().abs()) as f32,
+                    (0.02 + 0.1 * r().abs()) as f32,
+                )
+            };
+            let (sa, sb) = (shape(&mut rand), shape(&mut rand));
+            let pose = |r: &mut dyn FnMut() -> f64| {
+                Isometry3::new(
+                    Vector3::new(0.15 * r(), 0.15 * r(), 0.15 * r()),
+                    Vector3::new(3.0 * r(), 3.0 * r(), 3.0 * r()),
+                )
+            };
+            let (pa, pb) = (pose(&mut rand), pose(&mut rand));
+            let gap = 0.05 * rand().abs();
+            let ident = Isometry3::identity();
+            let said = Obb::of(&sa, &ident)
+                .placed(&pa)
+                .apart(&Obb::of(&sb, &ident).placed(&pb), gap);
+            let d = parry::query::distance(
+                &pose_to_parry(&pa),
+                sa.as_ref(),
+                &pose_to_parry(&pb),
+                sb.as_ref(),
+            )
+            .unwrap()
+            .distance;
+            if said {
+                apart += 1;
+                assert!(f64::from(d) > gap - 1e-5, "apart by {gap} said, {d} found");
+            } else {
+                near += 1;
+            }
+        }
+        assert!(apart > 300 && near > 300, "{apart} apart, {near} near");
+    }
 
     #[test]
     fn coman_arms_crossing_in_front_of_the_torso_touch_and_are_measured() {

@@ -65,10 +65,22 @@ impl RobotFrames {
             let frame = links[joint.parent] * joint.origin;
             origins[j] = frame.translation.vector;
             axes[j] = frame.rotation * joint.axis.into_inner();
+            // The joint's motion after its origin: `frame` is the parent's pose times the
+            // origin, so the child's pose is one more product (a fixed joint's is `frame`).
             let value = joint
                 .q_index
                 .map_or(0.0, |i| q.get(i).copied().unwrap_or(0.0));
-            links[joint.child] = links[joint.parent] * joint.transform(value);
+            links[joint.child] = match joint.kind {
+                // A joint at 0 (most held ones: fingers, wheels) adds nothing to its origin.
+                _ if value == 0.0 => frame,
+                JointKind::Revolute | JointKind::Continuous => {
+                    frame * nalgebra::UnitQuaternion::from_axis_angle(&joint.axis, value)
+                }
+                JointKind::Prismatic => {
+                    frame * nalgebra::Translation3::from(joint.axis.into_inner() * value)
+                }
+                _ => frame,
+            };
         }
         RobotFrames {
             links,

@@ -18,6 +18,7 @@
 
 pub mod collision;
 pub mod frames;
+mod hull;
 mod ik;
 pub mod limits;
 pub mod qp;

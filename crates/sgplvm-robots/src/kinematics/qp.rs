@@ -125,8 +125,14 @@ impl Step {
                 return Ok((x, Solved::Constrained));
             }
         }
-        // Rows bind too: a primal active set from the zero step where that is feasible (the
-        // last command kept every limit); the interior-point solver otherwise.
+        // Rows bind too: the dual active set (from the unconstrained minimiser, feasible start
+        // or not: a collision limit already inside its margin); a primal active set from the
+        // zero step where that is feasible; the interior-point solver where neither settles.
+        if let Some(x) = self.dual_active_set() {
+            if self.feasible(&x, 1e-9) {
+                return Ok((x, Solved::Constrained));
+            }
+        }
         if self.feasible(&DVector::zeros(self.dim()), 0.0) {
             if let Some(x) = self.active_set() {
                 return Ok((x, Solved::Constrained));
@@ -216,6 +222,101 @@ impl Step {
             }
         }
         None
+    }
+
+    /// Goldfarb and Idnani's dual active-set method (the algorithm of quadprog): from the
+    /// unconstrained minimiser, the most violated limit is added to the working set by raising
+    /// its multiplier, which moves the point along the working set until the limit holds or
+    /// another multiplier drops to zero (that limit leaves the set); done when no limit is
+    /// violated. Every iterate is optimal for the limits in the set, so the start need not be
+    /// feasible. `None` when the limits admit no point, a system is singular or it does not
+    /// settle (the caller falls back on the interior-point solver).
+    fn dual_active_set(&self) -> Option<DVector<f64>> {
+        let n = self.dim();
+        let rows = self.all_rows();
+        let mut x = -self.h.clone().cholesky()?.solve(&self.g);
+        let mut work: Vec<usize> = Vec::new();
+        let mut mult: Vec<f64> = Vec::new();
+        let scale = 1.0 + self.g.amax();
+        let max_iterations = 4 * rows.len() + 10;
+        let mut iterations = 0;
+        loop {
+            // The most violated limit outside the working set.
+            let worst = rows
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !work.contains(k))
+                .map(|(k, (a, b))| (k, a.dot(&x) - b))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((p, violation)) = worst else {
+                return Some(x);
+            };
+            if violation <= 1e-12 * scale {
+                return Some(x);
+            }
+            let mut raised = 0.0;
+            loop {
+                iterations += 1;
+                if iterations > max_iterations {
+                    return None;
+                }
+                // [H Aᵀ; A 0] [z; r] = [−a_p; 0]: how x and the multipliers move as p's rises.
+                let w = work.len();
+                let mut kkt = DMatrix::zeros(n + w, n + w);
+                kkt.view_mut((0, 0), (n, n)).copy_from(&self.h);
+                for (r, &k) in work.iter().enumerate() {
+                    for c in 0..n {
+                        kkt[(n + r, c)] = rows[k].0[c];
+                        kkt[(c, n + r)] = rows[k].0[c];
+                    }
+                }
+                let mut rhs = DVector::zeros(n + w);
+                rhs.rows_mut(0, n).copy_from(&(-&rows[p].0));
+                let sol = kkt.lu().solve(&rhs)?;
+                let z = sol.rows(0, n).into_owned();
+                let r = sol.rows(n, w).into_owned();
+                // The first multiplier of the set to reach zero.
+                let leaving = (0..w)
+                    .filter(|&i| r[i] < -1e-14)
+                    .map(|i| (i, mult[i] / -r[i]))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let slope = rows[p].0.dot(&z);
+                let full = if slope < -1e-14 {
+                    Some((rows[p].0.dot(&x) - rows[p].1) / -slope)
+                } else {
+                    None
+                };
+                let t = match (full, leaving) {
+                    (None, None) => return None, // p contradicts the working set
+                    (Some(f), Some((_, d))) if d < f => d,
+                    (Some(f), _) => f,
+                    (None, Some((_, d))) => d,
+                };
+                if full.is_some() {
+                    x += &z * t;
+                }
+                for (m, ri) in mult.iter_mut().zip(r.iter()) {
+                    *m = (*m + t * ri).max(0.0);
+                }
+                raised += t;
+                match (full, leaving) {
+                    (Some(f), Some((i, d))) if d < f => {
+                        work.remove(i);
+                        mult.remove(i);
+                    }
+                    (Some(_), _) => {
+                        work.push(p);
+                        mult.push(raised);
+                        break;
+                    }
+                    (None, Some((i, _))) => {
+                        work.remove(i);
+                        mult.remove(i);
+                    }
+                    (None, None) => return None,
+                }
+            }
+        }
     }
 
     /// The minimiser within the bounds alone, by an active set: variables beyond a bound are
@@ -426,6 +527,36 @@ mod tests {
             let by_qp = s.solve_qp().unwrap();
             assert!((&by_set - &by_qp).amax() < 1e-6, "{by_set} vs {by_qp}");
         }
+        // The dual active set agrees with the QP solver where the zero step breaks a row (a
+        // collision limit already inside its margin).
+        let mut solved = 0;
+        for _ in 0..100 {
+            let n = 7;
+            let a = DMatrix::from_fn(9, n, |_, _| rand());
+            let e = DVector::from_fn(9, |_, _| 2.0 * rand());
+            let mut s = Step::new(n, 1e-3);
+            s.add_task(&a, &e, 1.0);
+            for i in 0..n {
+                s.bound(i, -0.4, 0.4);
+            }
+            for _ in 0..4 {
+                s.add_row(DVector::from_fn(n, |_, _| rand()), 0.1 * rand());
+            }
+            let by_qp = s.solve_qp();
+            match (s.dual_active_set(), by_qp) {
+                (Some(x), Ok(y)) => {
+                    assert!(s.feasible(&x, 1e-9));
+                    assert!((&x - &y).amax() < 1e-6, "{x} vs {y}");
+                    solved += usize::from(!s.feasible(&DVector::zeros(n), 0.0));
+                }
+                (None, Err(_)) => {}
+                (x, y) => panic!("dual active set {x:?}, QP solver {y:?}"),
+            }
+        }
+        assert!(
+            solved > 20,
+            "{solved} problems with an infeasible zero step solved"
+        );
         let mut bad = Step::new(1, 0.0);
         bad.add_task(
             &DMatrix::identity(1, 1),

@@ -166,6 +166,10 @@ pub(super) struct Scene {
     pub(super) initial: Vec<f64>,
     /// The model's warnings and those of loading it.
     pub(super) warnings: Vec<String>,
+    /// Link pairs (URDF indices) whose shapes already touch at the rest posture (every joint
+    /// at its hold value): the model's own overlap, never checked (as retargeting's collision
+    /// model and MoveIt's "never in collision" lists leave it out).
+    pub(super) overlapping_at_rest: Vec<(usize, usize)>,
 }
 
 impl Scene {
@@ -200,8 +204,20 @@ impl Scene {
         }
         // Report order: trajectory columns first, then held joints.
         driven.sort_by_key(|d| d.column.unwrap_or(usize::MAX));
-        let initial = place_at_first_frame(&mut world, &driven, trajectory, options);
-        let hooks = collision_filter(model, options)?;
+        let mut hooks = collision_filter(model, options)?;
+        let rest: Vec<f64> = driven.iter().map(|d| d.hold).collect();
+        place(&mut world, &driven, &rest, options.armature);
+        let overlapping_at_rest = rest_overlaps(&world, &hooks, options.contact_distance);
+        for &(a, b) in &overlapping_at_rest {
+            hooks.skip[a * hooks.n_links + b] = true;
+            hooks.skip[b * hooks.n_links + a] = true;
+        }
+        let first = trajectory.row(0).unwrap_or(&[]);
+        let initial: Vec<f64> = driven
+            .iter()
+            .map(|d| d.column.map_or(d.hold, |c| first[c]))
+            .collect();
+        place(&mut world, &driven, &initial, options.armature);
         if !model.has_shape.iter().any(|&s| s) {
             warnings.push(format!(
                 "{file}: no link has a collision shape; self-collisions cannot be detected"
@@ -213,6 +229,7 @@ impl Scene {
             hooks,
             initial,
             warnings,
+            overlapping_at_rest,
         })
     }
 }
@@ -423,19 +440,45 @@ fn release_limits(world: &mut PhysicsWorld, driven: &[DrivenJoint]) {
     }
 }
 
-/// Sets the armature and puts every multibody at rest in the first frame; returns each
-/// driven joint's initial position.
-fn place_at_first_frame(
-    world: &mut PhysicsWorld,
-    driven: &[DrivenJoint],
-    trajectory: &Trajectory,
-    options: &ReplayOptions,
-) -> Vec<f64> {
-    let first = trajectory.row(0).unwrap_or(&[]);
-    let initial: Vec<f64> = driven
+/// Link pairs the filter checks whose shapes are within `distance` (touching or
+/// penetrating, for 0) as the world stands: each pair once, in URDF order.
+fn rest_overlaps(
+    world: &PhysicsWorld,
+    hooks: &SelfCollisionFilter,
+    distance: f64,
+) -> Vec<(usize, usize)> {
+    let n = hooks.n_links;
+    let placed: Vec<(usize, rapier3d::math::Pose, &dyn rapier3d::geometry::Shape)> = world
+        .colliders
         .iter()
-        .map(|d| d.column.map_or(d.hold, |c| first[c]))
+        .filter_map(|(_, c)| {
+            let link = c.user_data as usize;
+            let body = world.bodies.get(c.parent()?)?;
+            let pose = *body.position() * *c.position_wrt_parent()?;
+            (link < n).then_some((link, pose, c.shape()))
+        })
         .collect();
+    let mut found: Vec<(usize, usize)> = Vec::new();
+    for (i, (a, pa, sa)) in placed.iter().enumerate() {
+        for (b, pb, sb) in &placed[i + 1..] {
+            let key = ((*a).min(*b), (*a).max(*b));
+            if a == b || hooks.skip[a * n + b] || found.contains(&key) {
+                continue;
+            }
+            let contact =
+                rapier3d::parry::query::contact(pa, *sa, pb, *sb, distance.max(0.0) as Real);
+            if matches!(contact, Ok(Some(c)) if f64::from(c.dist) <= distance) {
+                found.push(key);
+            }
+        }
+    }
+    found.sort_unstable();
+    found
+}
+
+/// Sets the armature and puts every multibody at rest with each driven joint at `values`
+/// (report order).
+fn place(world: &mut PhysicsWorld, driven: &[DrivenJoint], values: &[f64], armature: f64) {
     // (multibody, link id) of every driven joint.
     let placement: Vec<Option<(MultibodyIndex, usize)>> = driven
         .iter()
@@ -452,15 +495,17 @@ fn place_at_first_frame(
         let Some(mb) = world.multibody_joints.get_multibody_mut(index) else {
             continue;
         };
-        mb.armature_mut().fill(options.armature as Real);
+        mb.armature_mut().fill(armature as Real);
         let mut displacement: Vec<Real> = vec![0.0; mb.ndofs()];
-        for (place, q0) in placement.iter().zip(&initial) {
+        // Displacements add to the coordinates: from where each joint is to its value.
+        for ((d, place), q) in driven.iter().zip(&placement).zip(values) {
             let Some((_, link_id)) = place.filter(|(m, _)| *m == index) else {
                 continue;
             };
             if let Some(link) = mb.link(link_id) {
+                let now = link.joint().coords()[d.dof.coord()];
                 if let Some(slot) = displacement.get_mut(link.assembly_id()) {
-                    *slot = *q0 as Real;
+                    *slot = *q as Real - now;
                 }
             }
         }
@@ -468,7 +513,6 @@ fn place_at_first_frame(
         mb.forward_kinematics(&world.bodies, false);
         mb.update_rigid_bodies(&mut world.bodies, true);
     }
-    initial
 }
 
 /// The contact filter: the model's neighbours plus [`ReplayOptions::ignored_pairs`].

@@ -9,7 +9,7 @@ use rapier3d::math::Real;
 
 use super::build::Scene;
 use super::model::PreparedModel;
-use super::report::{Recorder, StepTime};
+use super::report::{Divergence, Recorder, StepTime};
 use super::{PhysicsError, ReplayOptions, ReplayReport, Trajectory};
 
 /// The replay's clock: physics steps over the trajectory's time span.
@@ -130,11 +130,17 @@ pub(super) fn simulate(
     let mut recorder = Recorder::new(
         scene.driven.iter().map(|d| d.name.clone()).collect(),
         scene.driven.iter().map(|d| d.prismatic()).collect(),
-        model.robot.links.iter().map(|l| l.name.clone()).collect(),
+        (
+            model.robot.links.iter().map(|l| l.name.clone()).collect(),
+            model.held_part.clone(),
+        ),
         clock.t0,
         options.record_simulated,
         trajectory.frames(),
     );
+    let mut watch = Runaway::new(&scene, clock.rate);
+    let mut diverged = None;
+    let mut steps_taken = clock.steps;
     settle(&mut scene, clock.settle_steps, gains);
     recorder.first_frame(scene.driven.iter().map(|d| d.position(&scene.world)));
     let n = scene.driven.len();
@@ -153,22 +159,129 @@ pub(super) fn simulate(
         measure_contacts(&scene, at, options, &mut recorder);
         recorder.close_events(step, clock.merge_gap);
         recorder.frames_at(trajectory, at.t, clock.rate);
+        if let Some(d) = watch.check(&scene, &reference, at.t) {
+            diverged = Some(d);
+            steps_taken = step;
+            break;
+        }
     }
     let wall_seconds = started.elapsed().as_secs_f64();
-    let duration = clock.duration();
+    let duration = match &diverged {
+        Some(d) => d.time - clock.t0,
+        None => clock.duration(),
+    };
     let collision_shapes = scene.world.colliders.len();
     let mut report = recorder.finish(
         trajectory,
         duration,
-        clock.steps,
+        steps_taken,
         wall_seconds,
         scene.warnings,
     );
+    let links = &model.robot.links;
+    report.held = model.held.clone();
+    report.overlapping_at_rest = scene
+        .overlapping_at_rest
+        .iter()
+        .map(|&(a, b)| (links[a].name.clone(), links[b].name.clone()))
+        .collect();
+    report.diverged = diverged;
     report.collision_shapes = collision_shapes;
     report.mesh_hulls = model.hulls.len();
     report.mesh_seconds = model.mesh_seconds;
     report.unchecked_meshes = model.unchecked_meshes.clone();
     Ok(report)
+}
+
+/// How much faster than its velocity limit a joint may turn before the replay counts as run
+/// away (and at least twice its reference's speed).
+const RUNAWAY_FACTOR: f64 = 10.0;
+/// The least speed that counts as running away, whatever the limit (makers write placeholder
+/// limits of 0.5 rad/s): rad/s, or m/s when the joint slides.
+const RUNAWAY_SPEEDS: (f64, f64) = (20.0, 2.0);
+/// And only this far from the reference: rad, or m when the joint slides (a motor catching up
+/// with a fast reference is no runaway).
+const RUNAWAY_ERRORS: (f64, f64) = (0.35, 0.05);
+/// How long a joint must run away, seconds (a contact's impulse lasts a step or two).
+const RUNAWAY_SECONDS: f64 = 0.01;
+
+/// One joint's motion at one step, as a runaway is judged.
+struct Motion {
+    /// Its speed.
+    speed: f64,
+    /// How far it is from its reference.
+    off: f64,
+    /// Its URDF velocity limit.
+    limit: Option<f64>,
+    /// Its reference's speed.
+    slope: f64,
+    /// Whether it slides.
+    prismatic: bool,
+}
+
+impl Motion {
+    /// The speed it ran away beyond, if it does: faster than [`RUNAWAY_FACTOR`] times its limit,
+    /// [`RUNAWAY_SPEEDS`] and twice its reference, further than [`RUNAWAY_ERRORS`] from it.
+    fn running_away(&self) -> Option<f64> {
+        let (least, error) = if self.prismatic {
+            (RUNAWAY_SPEEDS.1, RUNAWAY_ERRORS.1)
+        } else {
+            (RUNAWAY_SPEEDS.0, RUNAWAY_ERRORS.0)
+        };
+        let threshold = (RUNAWAY_FACTOR * self.limit.unwrap_or(0.0))
+            .max(least)
+            .max(2.0 * self.slope.abs());
+        (self.speed > threshold && self.off > error).then_some(threshold)
+    }
+}
+
+/// Watches every driven joint for a runaway: faster than [`RUNAWAY_FACTOR`] times its limit
+/// (and [`RUNAWAY_SPEEDS`]) and further than [`RUNAWAY_ERRORS`] from its reference, for
+/// [`RUNAWAY_SECONDS`].
+struct Runaway {
+    /// Consecutive steps each joint has been too fast.
+    steps: Vec<usize>,
+    /// Steps that make a runaway.
+    needed: usize,
+}
+
+impl Runaway {
+    fn new(scene: &Scene, rate: f64) -> Runaway {
+        Runaway {
+            steps: vec![0; scene.driven.len()],
+            needed: ((RUNAWAY_SECONDS * rate).round() as usize).max(1),
+        }
+    }
+
+    /// The divergence at time `t`, if a joint has now been running away long enough.
+    fn check(&mut self, scene: &Scene, reference: &Reference, t: f64) -> Option<Divergence> {
+        for (i, d) in scene.driven.iter().enumerate() {
+            let speed = d.velocity(&scene.world).abs();
+            let off = (d.position(&scene.world) - reference.position[i]).abs();
+            let motion = Motion {
+                speed,
+                off,
+                limit: d.velocity_limit,
+                slope: reference.slope[i],
+                prismatic: d.prismatic(),
+            };
+            if let Some(threshold) = motion.running_away() {
+                self.steps[i] += 1;
+                if self.steps[i] >= self.needed {
+                    return Some(Divergence {
+                        time: t,
+                        joint: d.name.clone(),
+                        speed,
+                        threshold,
+                        prismatic: d.prismatic(),
+                    });
+                }
+            } else {
+                self.steps[i] = 0;
+            }
+        }
+        None
+    }
 }
 
 /// Holds every joint at its initial position for `steps` physics steps.
@@ -270,5 +383,58 @@ fn measure_contacts(scene: &Scene, at: StepTime, options: &ReplayOptions, record
         let mid = (p1 + p2) * 0.5;
         let point = [mid.x as f64, mid.y as f64, mid.z as f64];
         recorder.contact((a, b), depth, point, at);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_runaway_is_fast_beyond_limit_and_reference_and_far_from_the_reference() {
+        // The mobile manipulator: a forearm roll (limit 3.6 rad/s) spinning at 122.
+        let spin = Motion {
+            speed: 122.0,
+            off: 3.0,
+            limit: Some(3.6),
+            slope: 0.5,
+            prismatic: false,
+        };
+        assert_eq!(spin.running_away(), Some(36.0));
+        // Close to its reference it is a motor following: no runaway.
+        assert_eq!(Motion { off: 0.05, ..spin }.running_away(), None);
+        // A placeholder limit of 0.5 rad/s: 20 rad/s at least.
+        let placeholder = Motion {
+            speed: 6.0,
+            limit: Some(0.5),
+            ..spin
+        };
+        assert_eq!(placeholder.running_away(), None);
+        assert_eq!(
+            Motion {
+                speed: 25.0,
+                ..placeholder
+            }
+            .running_away(),
+            Some(20.0)
+        );
+        // A fast reference raises the bar: twice its speed.
+        assert_eq!(
+            Motion {
+                slope: 80.0,
+                ..spin
+            }
+            .running_away(),
+            None
+        );
+        // A torso lift drifting away at 3 m/s, 20 cm from its reference.
+        let lift = Motion {
+            speed: 3.0,
+            off: 0.2,
+            limit: Some(0.07),
+            slope: 0.0,
+            prismatic: true,
+        };
+        assert_eq!(lift.running_away(), Some(2.0));
     }
 }

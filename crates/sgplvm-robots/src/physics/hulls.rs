@@ -200,6 +200,17 @@ fn read_vertices(path: &Path) -> Result<Vertices, Failure> {
         }),
         _ => loader.load_from_slice(&bytes, path),
     });
+    // A binary STL whose 80-byte header happens to begin with "solid" (as many exporters write
+    // it) is taken for ASCII by the reader and fails; its size tells it apart (84 bytes and 50
+    // a triangle), so it is read again with the header blanked.
+    let parsed = match parsed {
+        Ok(Err(_)) if is_binary_stl(&bytes) => {
+            let mut blanked = bytes.clone();
+            blanked[..80].fill(0);
+            crate::panics::catch(|| loader.load_stl_from_slice(&blanked, path))
+        }
+        other => other,
+    };
     let scene = match parsed {
         Ok(Ok(scene)) => scene,
         Ok(Err(e)) => {
@@ -221,6 +232,16 @@ fn read_vertices(path: &Path) -> Result<Vertices, Failure> {
         .flat_map(|m| m.vertices.iter().copied())
         .collect();
     Ok(Arc::new(vertices))
+}
+
+/// Whether `bytes` have the size of a binary STL: an 80-byte header, a little-endian triangle
+/// count and 50 bytes a triangle.
+fn is_binary_stl(bytes: &[u8]) -> bool {
+    bytes.len() >= 84
+        && bytes[80..84]
+            .try_into()
+            .map(u32::from_le_bytes)
+            .is_ok_and(|n| bytes.len() as u64 == 84 + 50 * u64::from(n))
 }
 
 /// The convex hull of `vertices` scaled by `scale`, or why there is none.

@@ -64,7 +64,7 @@ use rapier3d_urdf::urdf_rs;
 pub use error::PhysicsError;
 pub use hulls::{mesh_hull, MeshProblem, UncheckedMesh, MAX_MESH_BYTES};
 pub use options::ReplayOptions;
-pub use report::{Collision, JointTracking, LimitViolation, ReplayReport};
+pub use report::{Collision, Divergence, JointTracking, LimitViolation, ReplayReport};
 pub use trajectory::Trajectory;
 
 /// Replays `trajectory` on the robot described by the URDF text `urdf_xml` (`source` is the
@@ -90,7 +90,18 @@ pub fn replay_urdf(
 ) -> Result<ReplayReport, PhysicsError> {
     options.validate()?;
     trajectory.validate()?;
-    let model = model::prepare_model(robot, source, &options.meshes)?;
+    if let Some((name, value)) = options
+        .held
+        .iter()
+        .find(|(name, _)| trajectory.joint_names.contains(name))
+    {
+        return Err(PhysicsError::InvalidOption {
+            field: "held",
+            value: format!("(\"{name}\", {value})"),
+            expected: "joints the trajectory has no column for (a held joint is not commanded)",
+        });
+    }
+    let model = model::prepare_model(robot, source, &options.meshes, &options.held)?;
     // rapier asserts a few invariants of its own; anything we did not foresee becomes an
     // error value instead of tearing down the caller.
     match crate::panics::catch(|| control::simulate(&model, source, trajectory, options)) {

@@ -32,6 +32,11 @@ pub(super) struct PreparedModel {
     pub(super) unchecked_meshes: Vec<UncheckedMesh>,
     /// Seconds spent finding, reading and hulling the meshes.
     pub(super) mesh_seconds: f64,
+    /// The joints held still by their controllers (welded where they are held), in URDF order.
+    pub(super) held: Vec<(String, f64)>,
+    /// For each link: whether the nearest movable joint above it is a held one (a finger, the
+    /// head, a torso lift): a part the trajectory does not command.
+    pub(super) held_part: Vec<bool>,
 }
 
 /// `<joint name="...">`, as error messages name a joint.
@@ -66,12 +71,14 @@ fn finite3(v: &[f64; 3]) -> bool {
 /// For each link, its parent joint and parent link (URDF indices), `None` for a root.
 type ParentOf = Vec<Option<(usize, usize)>>;
 
-/// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed, and makes
-/// the collision meshes `meshes` finds convex hulls.
+/// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed, welds the
+/// joints `held` at their values (as a controller holding them would keep them) and makes the
+/// collision meshes `meshes` finds convex hulls.
 pub(super) fn prepare_model(
     robot: &urdf_rs::Robot,
     file: &str,
     meshes: &MeshSearch,
+    held: &[(String, f64)],
 ) -> Result<PreparedModel, PhysicsError> {
     let err = ModelErr { file };
     let mut robot = robot.clone();
@@ -93,11 +100,17 @@ pub(super) fn prepare_model(
         check_joint_type(joint, element, &err, &mut warnings)?;
     }
     check_acyclic(&robot, &parent_of, &err)?;
+    let welded = weld(&mut robot, held)?;
+    let held_part = held_parts(&robot, &parent_of, &welded);
     let loaded = hulls::load(&mesh_collisions, &robot.links, meshes);
     for hull in &loaded.hulls {
         has_shape[hull.link] = true;
     }
     let neighbours = neighbour_matrix(&robot, &parent_of, &has_shape);
+    let held = welded
+        .iter()
+        .map(|&(j, v)| (robot.joints[j].name.clone(), v))
+        .collect();
     Ok(PreparedModel {
         robot,
         has_shape,
@@ -106,7 +119,74 @@ pub(super) fn prepare_model(
         hulls: loaded.hulls,
         unchecked_meshes: loaded.unchecked,
         mesh_seconds: loaded.seconds,
+        held,
+        held_part,
     })
+}
+
+/// Makes every joint of `held` fixed at its value: its origin becomes the origin moved by the
+/// joint's motion there. Returns the welded joints (URDF indices) and values; a name that is
+/// no movable joint is an error.
+fn weld(
+    robot: &mut urdf_rs::Robot,
+    held: &[(String, f64)],
+) -> Result<Vec<(usize, f64)>, PhysicsError> {
+    use nalgebra::{Translation3, Unit, UnitQuaternion, Vector3};
+    let mut welded = Vec::new();
+    for (name, value) in held {
+        let found = robot.joints.iter().position(|j| {
+            &j.name == name
+                && matches!(
+                    j.joint_type,
+                    urdf_rs::JointType::Revolute
+                        | urdf_rs::JointType::Continuous
+                        | urdf_rs::JointType::Prismatic
+                )
+        });
+        let (Some(j), true) = (found, value.is_finite()) else {
+            return Err(PhysicsError::InvalidOption {
+                field: "held",
+                value: format!("(\"{name}\", {value})"),
+                expected: "movable joints of the URDF at finite values",
+            });
+        };
+        let joint = &mut robot.joints[j];
+        let origin = crate::urdf::pose_from_xyz_rpy(joint.origin.xyz.0, joint.origin.rpy.0);
+        let axis =
+            Unit::try_new(Vector3::from(joint.axis.xyz.0), 1e-12).unwrap_or_else(Vector3::x_axis);
+        let moved = match joint.joint_type {
+            urdf_rs::JointType::Prismatic => {
+                origin * Translation3::from(axis.into_inner() * *value)
+            }
+            _ => origin * UnitQuaternion::from_axis_angle(&axis, *value),
+        };
+        let (roll, pitch, yaw) = moved.rotation.euler_angles();
+        let t = moved.translation.vector;
+        joint.origin.xyz.0 = [t.x, t.y, t.z];
+        joint.origin.rpy.0 = [roll, pitch, yaw];
+        joint.joint_type = urdf_rs::JointType::Fixed;
+        welded.push((j, *value));
+    }
+    welded.sort_by_key(|&(j, _)| j);
+    Ok(welded)
+}
+
+/// For each link, whether the nearest joint above it that moves, or was welded, was welded.
+fn held_parts(robot: &urdf_rs::Robot, parent_of: &ParentOf, welded: &[(usize, f64)]) -> Vec<bool> {
+    (0..robot.links.len())
+        .map(|mut link| {
+            while let Some((j, parent)) = parent_of[link] {
+                if welded.iter().any(|&(w, _)| w == j) {
+                    return true;
+                }
+                if robot.joints[j].joint_type != urdf_rs::JointType::Fixed {
+                    return false;
+                }
+                link = parent;
+            }
+            false
+        })
+        .collect()
 }
 
 /// Link name → URDF index; at least one link, names unique.
@@ -384,7 +464,7 @@ mod tests {
 
     fn neighbours(xml: &str) -> (Vec<String>, Vec<bool>) {
         let robot = urdf_rs::read_from_string(xml).unwrap();
-        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new()).unwrap();
+        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new(), &[]).unwrap();
         let names = model.robot.links.iter().map(|l| l.name.clone()).collect();
         (names, model.neighbours)
     }
@@ -425,7 +505,7 @@ mod tests {
                 r#"<axis xyz="0 1 0"/><limit lower="0" upper="0""#,
             );
         let robot = urdf_rs::read_from_string(&xml).unwrap();
-        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new()).unwrap();
+        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new(), &[]).unwrap();
         let kind = |name: &str| {
             model
                 .robot
@@ -450,7 +530,7 @@ mod tests {
         back.parent.link = "b".into();
         back.child.link = "base".into();
         robot.joints.push(back);
-        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new(), &[])
             .err()
             .unwrap()
             .to_string();
@@ -462,7 +542,7 @@ mod tests {
         extra.name = "j_c2".into();
         extra.parent.link = "b".into();
         robot.joints.push(extra);
-        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new(), &[])
             .err()
             .unwrap()
             .to_string();
@@ -473,7 +553,7 @@ mod tests {
 
         let mut robot = urdf_rs::read_from_string(TREE).unwrap();
         robot.links[2].collision[0].geometry = urdf_rs::Geometry::Sphere { radius: -0.1 };
-        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new(), &[])
             .err()
             .unwrap()
             .to_string();
@@ -481,7 +561,7 @@ mod tests {
 
         let mut robot = urdf_rs::read_from_string(TREE).unwrap();
         robot.joints[0].axis.xyz = urdf_rs::Vec3([0.0, 0.0, 0.0]);
-        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new())
+        let err = prepare_model(&robot, "t.urdf", &MeshSearch::new(), &[])
             .err()
             .unwrap()
             .to_string();

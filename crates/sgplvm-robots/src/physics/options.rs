@@ -48,6 +48,13 @@ pub struct ReplayOptions {
     /// Whether a movable joint without a trajectory column is allowed (held at 0, or at the
     /// nearest limit when 0 is outside them). Default false: a missing joint is an error.
     pub allow_missing_joints: bool,
+    /// Joints held still by their controllers, at these values (rad or m): welded there, as an
+    /// ideal position controller keeps them — no dynamics of their own, no tracking, no limit
+    /// checks; their links move rigidly with their parents, and links held rigid to each other
+    /// are not checked against each other. A held joint has no trajectory column. `sgplvm
+    /// simulate` holds every joint a URDF robot's anatomy holds (waist, legs, head, fingers) that
+    /// the trajectory leaves out.
+    pub held: Vec<(String, f64)>,
     /// Extra link pairs never checked for collision, in either order. Links that are
     /// neighbours in the kinematic tree are always skipped: a pair is skipped when every link
     /// on the tree path between them has no collision shape, or when every joint on that path
@@ -89,6 +96,7 @@ impl Default for ReplayOptions {
             merge_gap_seconds: 0.02,
             velocity_feedforward: true,
             allow_missing_joints: false,
+            held: Vec::new(),
             ignored_pairs: Vec::new(),
             armature: 1e-4,
             solver_iterations: 1,

@@ -62,6 +62,28 @@ pub struct Collision {
     /// (at the first contact for a touch), metres, in the root link's frame (the root is
     /// fixed at the world's origin).
     pub point: [f64; 3],
+    /// Whether one of the links is a part the trajectory does not command (the nearest movable
+    /// joint above it is held: a finger, the head, a torso lift).
+    pub held_part: bool,
+}
+
+/// The moment a replay ran away: a joint turning (or sliding) far faster than its limit and
+/// its reference for a while, which no motor following a trajectory does; the replay stops
+/// there, for what would follow is not the robot's motion.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Divergence {
+    /// When, seconds (trajectory time).
+    pub time: f64,
+    /// The joint's URDF name.
+    pub joint: String,
+    /// Its speed then, rad/s (m/s for a prismatic joint).
+    pub speed: f64,
+    /// The speed it was judged against: ten times its URDF velocity limit, at least 20 rad/s
+    /// (2 m/s) and at least twice its reference's; it was also more than 0.35 rad (5 cm) from
+    /// its reference, for 10 ms.
+    pub threshold: f64,
+    /// Whether the joint is prismatic.
+    pub prismatic: bool,
 }
 
 /// Everything a replay measured.
@@ -99,6 +121,14 @@ pub struct ReplayReport {
     /// The simulated positions at the trajectory's frame times, same columns as
     /// [`ReplayReport::joints`], when [`ReplayOptions::record_simulated`](crate::physics::ReplayOptions::record_simulated) is set.
     pub simulated: Option<Trajectory>,
+    /// The joints held still by their controllers (welded at these values: see
+    /// [`ReplayOptions::held`](crate::physics::ReplayOptions::held)), in URDF order.
+    pub held: Vec<(String, f64)>,
+    /// Link pairs whose shapes already touch at the rest posture (every joint at its hold
+    /// value): the model's own overlap, not checked.
+    pub overlapping_at_rest: Vec<(String, String)>,
+    /// Where the replay ran away and stopped, if it did.
+    pub diverged: Option<Divergence>,
 }
 
 /// `1 one` or `n many`.
@@ -190,6 +220,8 @@ struct Events {
     joints: Vec<String>,
     /// URDF link names, in URDF order.
     links: Vec<String>,
+    /// Per link, whether it is a part the trajectory does not command.
+    held_part: Vec<bool>,
     open_limits: HashMap<JointCheck, OpenEvent>,
     open_speeds: HashMap<JointCheck, OpenEvent>,
     open_contacts: HashMap<(usize, usize), OpenEvent>,
@@ -216,7 +248,7 @@ impl Events {
         close_events(&mut self.open_limits, step, gap, |key, e| {
             self.limit_violations.push(violation(key, e))
         });
-        let links = &self.links;
+        let (links, held) = (&self.links, &self.held_part);
         close_events(&mut self.open_contacts, step, gap, |(a, b), e| {
             self.collisions.push(Collision {
                 time: e.start,
@@ -225,6 +257,8 @@ impl Events {
                 link_b: links[b].clone(),
                 max_penetration: e.amount,
                 point: e.point,
+                held_part: held.get(a).copied().unwrap_or(false)
+                    || held.get(b).copied().unwrap_or(false),
             })
         });
     }
@@ -273,12 +307,13 @@ pub(super) struct Recorder {
 
 impl Recorder {
     /// A recorder for the driven joints `joints` (report order; `prismatic` says which slide)
-    /// of a robot with links `links`; errors start at time `t0`; with `record_simulated`, the
-    /// positions at the trajectory's `frames` frame times are kept.
+    /// of a robot with links `links` (`held_part`: which are parts the trajectory does not
+    /// command); errors start at time `t0`; with `record_simulated`, the positions at the
+    /// trajectory's `frames` frame times are kept.
     pub(super) fn new(
         joints: Vec<String>,
         prismatic: Vec<bool>,
-        links: Vec<String>,
+        (links, held_part): (Vec<String>, Vec<bool>),
         t0: f64,
         record_simulated: bool,
         frames: usize,
@@ -295,6 +330,7 @@ impl Recorder {
             events: Events {
                 joints,
                 links,
+                held_part,
                 open_limits: HashMap::new(),
                 open_speeds: HashMap::new(),
                 open_contacts: HashMap::new(),
@@ -454,6 +490,9 @@ impl Recorder {
             mesh_seconds: 0.0,
             unchecked_meshes: Vec::new(),
             simulated,
+            held: Vec::new(),
+            overlapping_at_rest: Vec::new(),
+            diverged: None,
         }
     }
 }
@@ -477,8 +516,24 @@ impl ReplayReport {
                 .collect();
             pairs.sort_unstable();
             pairs.dedup();
+            let mut held: Vec<(&str, &str)> = self
+                .collisions
+                .iter()
+                .filter(|c| c.held_part)
+                .map(|c| (c.link_a.as_str(), c.link_b.as_str()))
+                .collect();
+            held.sort_unstable();
+            held.dedup();
+            let held = if held.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " ({} of them with a part held still, which the trajectory does not command)",
+                    held.len()
+                )
+            };
             format!(
-                "{} between {} among the {shapes} checked",
+                "{} between {}{held} among the {shapes} checked",
                 plural(
                     self.collisions.len(),
                     "self-collision interval",

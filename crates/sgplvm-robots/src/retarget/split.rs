@@ -10,7 +10,8 @@
 //! within `guard_s` of a boundary between a training and a test block belong to neither set:
 //! neighbouring frames are nearly the same pose, and the test must not be a frame away from
 //! training. Training frames are then subsampled (`train_subsample`, as the paper subsampled
-//! its training trajectories), test frames too (`test_subsample`).
+//! its training trajectories; less for a short capture, down to every frame, so that at least
+//! `min_train_frames` remain), test frames too (`test_subsample`).
 
 use serde::{Deserialize, Serialize};
 
@@ -49,7 +50,16 @@ pub struct SplitOptions {
     pub train_subsample: usize,
     /// Keep every this-many-th test frame of a block.
     pub test_subsample: usize,
+    /// A short capture keeps at least this many training frames where it has them: the
+    /// training step is lowered from `train_subsample` (down to every frame) until it does, and
+    /// the summary says so (0: `train_subsample` as it is). A long capture is not affected.
+    #[serde(default)]
+    pub min_train_frames: usize,
 }
+
+/// The training frames a short capture keeps at least, by default ([`SplitOptions`]): a
+/// model learns little from fewer (the paper trained on about 250).
+pub const MIN_TRAIN_FRAMES: usize = 200;
 
 impl Default for SplitOptions {
     fn default() -> Self {
@@ -59,6 +69,7 @@ impl Default for SplitOptions {
             guard_s: 0.5,
             train_subsample: 12,
             test_subsample: 3,
+            min_train_frames: MIN_TRAIN_FRAMES,
         }
     }
 }
@@ -81,6 +92,10 @@ pub struct SplitSummary {
     /// the one asked for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fallback: Option<String>,
+    /// The training step used: `train_subsample`, or lower for a short capture (see
+    /// [`SplitOptions::min_train_frames`]).
+    #[serde(default)]
+    pub train_step: usize,
 }
 
 /// A block of frames: `start..end` of file `file`, a test block or not.
@@ -103,8 +118,9 @@ pub fn split_into_blocks(
     let fallback = match &options.rule {
         SplitRule::Blocks { test_every } if blocks.len() < *test_every => Some(format!(
             "the frames make {} of {} s, fewer than the {test_every} it takes for one in \
-             {test_every} to test: every frame is for training, none for testing (`--split \
-             none` says so; shorter --block-seconds or a smaller --test-every make test blocks)",
+             {test_every} to test: every frame is for training, none for testing (`train` \
+             needs no test frames; for `evaluate`, shorter --block-seconds or a smaller \
+             --test-every make test blocks)",
             crate::names::count(blocks.len(), "block"),
             options.block_s,
         )),
@@ -118,7 +134,13 @@ pub fn split_into_blocks(
             SplitRule::AllTraining => false,
         };
     }
-    let (train, test, guard_frames) = select_frames(dataset, &blocks, options);
+    // A short capture: the largest training step that still keeps `min_train_frames`.
+    let mut step = options.train_subsample;
+    let (mut train, mut test, mut guard_frames) = select_frames(dataset, &blocks, options, step);
+    while step > 1 && train.len() < options.min_train_frames {
+        step -= 1;
+        (train, test, guard_frames) = select_frames(dataset, &blocks, options, step);
+    }
     let all_training = fallback.is_some() || options.rule == SplitRule::AllTraining;
     if train.is_empty() || (test.is_empty() && !all_training) {
         return Err(RetargetError::Invalid(format!(
@@ -136,6 +158,7 @@ pub fn split_into_blocks(
         test_frames: test.len(),
         guard_frames,
         fallback,
+        train_step: step,
     };
     dataset.segments = blocks
         .iter()
@@ -243,6 +266,7 @@ fn select_frames(
     dataset: &Dataset,
     blocks: &[Block],
     options: &SplitOptions,
+    train_step: usize,
 ) -> (Vec<usize>, Vec<usize>, usize) {
     let t = |i: usize| dataset.times_ns[i] as f64 * 1e-9;
     let mut train = Vec::new();
@@ -266,7 +290,7 @@ fn select_frames(
         let (set, step) = if block.test {
             (&mut test, options.test_subsample)
         } else {
-            (&mut train, options.train_subsample)
+            (&mut train, train_step)
         };
         set.extend(usable.iter().step_by(step).copied());
     }

@@ -177,13 +177,23 @@ fn a_capture_too_short_for_a_test_block_trains_on_every_frame_and_says_why() {
     assert_eq!(ds.len(), 96);
     let summary = split_into_blocks(&mut ds, &SplitOptions::default()).unwrap();
     assert_eq!((summary.blocks, summary.test_blocks), (1, 0));
-    assert_eq!((summary.train_frames, summary.test_frames), (8, 0));
-    assert!(ds.test.is_empty() && ds.train == (0..96).step_by(12).collect::<Vec<_>>());
+    // A short capture keeps every frame it has, up to the 200 it should (not 1 in 12: 8).
+    assert_eq!((summary.train_frames, summary.test_frames), (96, 0));
+    assert_eq!(summary.train_step, 1);
+    assert!(ds.test.is_empty() && ds.train == (0..96).collect::<Vec<_>>());
     let why = summary.fallback.expect("the fallback says why");
     assert!(
-        why.contains("1 block of 4 s") && why.contains("`--split none`"),
+        why.contains("1 block of 4 s") && why.contains("`train` needs no test frames"),
         "{why}"
     );
+    // The step as asked for when the lower bound is off.
+    let mut ds = human_tour(&[0, 1, 2, 3], 32);
+    let asked = SplitOptions {
+        min_train_frames: 0,
+        ..SplitOptions::default()
+    };
+    let summary = split_into_blocks(&mut ds, &asked).unwrap();
+    assert_eq!((summary.train_frames, summary.train_step), (8, 12));
     // Asked for by name: no fallback to explain, every frame with a subsample of 1.
     let mut ds = human_tour(&[0, 1, 2, 3], 32);
     let summary = split_into_blocks(
@@ -231,6 +241,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
         guard_s: 0.5,
         train_subsample: 1,
         test_subsample: 1,
+        min_train_frames: 0,
     };
     let summary = split_into_blocks(&mut ds, &opts).unwrap();
     // File 1: blocks 0–4 s, 4–10 s (the 2 s tail joins); file 2: 0–4 s, 4–6.2 s.
@@ -281,6 +292,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
         rule: SplitRule::Files { test: vec![1] },
         train_subsample: 10,
         test_subsample: 2,
+        min_train_frames: 0,
         ..SplitOptions::default()
     };
     split_into_blocks(&mut ds, &opts).unwrap();
@@ -374,6 +386,8 @@ fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision(
     // Limits: positions within the URDF's, steps within the velocity limits.
     let limits = anatomy.robot().joint_limits();
     let speed = anatomy.robot().velocity_limits();
+    let names = anatomy.robot().joint_names();
+    let mut at_limit = [0usize; 14];
     for f in 0..ds.len() {
         for j in 0..14 {
             let v = out.body.positions[(f, j)];
@@ -384,8 +398,30 @@ fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision(
                     step <= speed[j] * 0.025 + 1e-9,
                     "joint {j} frame {f}: {step}"
                 );
+                at_limit[j] += usize::from(step >= speed[j] * 0.025 - 1e-9);
             }
         }
+    }
+    // The report says which velocity limits held how many frames: each joint it names moved
+    // by its limit's whole step in at least those frames, and the frames add up to at least
+    // the frames held by velocity.
+    assert!(report.velocity_limited_frames > 0, "{report:?}");
+    let mut most = 0;
+    for h in &report.velocity_limited_joints {
+        let j = names.iter().position(|n| *n == h.joint).unwrap();
+        assert!(
+            h.frames <= at_limit[j],
+            "{h:?}: {} at the limit",
+            at_limit[j]
+        );
+        assert_eq!(h.limit, speed[j]);
+        most = most.max(h.frames);
+    }
+    assert!(most > 0 && most <= report.velocity_limited_frames + report.collision_limited_frames);
+    // And which pairs the self-collision limit kept apart, each named once.
+    for h in &report.collision_limited_pairs {
+        assert!(h.frames > 0 && h.link_a < h.link_b, "{h:?}");
+        assert!(h.closest_m < report.margin_m + 1.1e-3, "{h:?}");
     }
 }
 

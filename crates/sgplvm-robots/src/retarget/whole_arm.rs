@@ -14,7 +14,7 @@
 //!   not the joints' origins, which a URDF may place anywhere on their axes — in the body frame.
 //! - `R_hand`, `R_upper`: the hand's and the upper arm's orientations, each the person's turn
 //!   from the person's neutral posture applied to the robot's **reference** posture: the one
-//!   whose bone directions are the person's neutral ones ([`FrameSolver::reference_hands`]), so
+//!   whose bone directions are the person's neutral ones (`FrameSolver::reference_hands`), so
 //!   that directions and orientations ask one posture of the robot. The hand's orientation holds
 //!   the forearm's roll and the wrist; the upper arm's holds its twist where the elbow is
 //!   straight and the directions cannot tell it. So the twist follows from the person (what
@@ -40,7 +40,11 @@ use crate::kinematics::limits::{collision_limit, position_limits};
 use crate::kinematics::qp::{Solved, Step};
 use crate::kinematics::tasks::{Task, TaskContext};
 use crate::safety::{SafetyOptions, SafetyStep};
-use crate::series::median;
+
+mod report;
+
+use report::Tally;
+pub use report::{LimitHeld, PairHeld, PostureReport};
 
 /// The weights of the tasks (and of the posture regulariser).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -191,51 +195,11 @@ impl PostureGauge {
     }
 }
 
-/// How one robot followed, over every frame.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct PostureReport {
-    /// Upper arm direction error, degrees: median and 90th percentile.
-    pub upper_arm_deg: [f64; 2],
-    /// Forearm direction error, degrees: median and 90th percentile.
-    pub forearm_deg: [f64; 2],
-    /// Hand position error as a fraction of reach: median and 90th percentile.
-    pub hand_of_reach: [f64; 2],
-    /// The hand's orientation error (from the person's turn on the reference posture),
-    /// degrees: median and 90th percentile.
-    #[serde(default)]
-    pub hand_orientation_deg: [f64; 2],
-    /// The upper arm's orientation error (its twist included), degrees: median and 90th
-    /// percentile.
-    #[serde(default)]
-    pub upper_arm_orientation_deg: [f64; 2],
-    /// Share of hand targets within 5 % of the reach.
-    pub hands_within_5pct: f64,
-    /// Frames whose command the velocity limits held back.
-    pub velocity_limited_frames: usize,
-    /// Frames whose command the self-collision limit moved.
-    pub collision_limited_frames: usize,
-    /// Frames in self-collision as sent (shapes overlapping): 0 is the goal.
-    pub colliding_frames: usize,
-    /// The closest two shapes that can meet came over all frames as sent, metres; `None` when
-    /// no pair ever came near enough to be measured (their bounding spheres stayed apart).
-    pub closest_m: Option<f64>,
-    /// The margin kept, metres.
-    pub margin_m: f64,
-    /// Pairs of shapes that can meet.
-    pub pairs: usize,
-    /// What could not be checked (collision meshes not found …).
-    pub unchecked: Vec<String>,
-    /// Gauss–Newton steps per frame, mean.
-    pub steps_per_frame: f64,
-    /// Share of steps in which a limit was active (the QP solver ran).
-    pub constrained_steps: f64,
-}
-
 /// One robot through every frame: the commands (frames × every joint of the URDF, held joints
 /// at their hold values), each hand's miss per frame (metres, left and right) and the report.
 /// `reference` is the person's reference posture (the one their turns are measured from,
 /// [`reference_configuration`]): the robot's segment orientations are measured from the
-/// robot's posture with the person's bone directions there ([`FrameSolver::reference_hands`]),
+/// robot's posture with the person's bone directions there (`FrameSolver::reference_hands`),
 /// so that orientations and bone directions ask one posture of the robot.
 pub(super) fn run(
     anatomy: &Anatomy,
@@ -301,6 +265,7 @@ pub(super) fn run(
         // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
         // too few digits for a 25 ms step's velocity limit.
         let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
+        let before = (f > 0).then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
         // Without velocity limits the safe command is a function of the pose alone: the
         // self-collision limit linearised at the asked posture, not at the command before.
         let outcome = if velocity_limits {
@@ -314,6 +279,7 @@ pub(super) fn run(
             } else {
                 tally.collision_limited += 1;
             }
+            tally.limits_held(robot, &q_index, (&asked, &sent), before, &outcome.near);
         }
         let mut q = hold.clone();
         for (k, &i) in q_index.iter().enumerate() {
@@ -328,7 +294,7 @@ pub(super) fn run(
         .enumerate()
         .map(|(k, h)| h * gauge.reach[k % 2])
         .collect();
-    let report = tally.report(options, &model, targets.len());
+    let report = tally.report(options, &model, (robot, targets.len()));
     Ok((out, misses, report))
 }
 
@@ -683,92 +649,5 @@ impl FrameSolver<'_> {
             }
         }
         (steps, constrained)
-    }
-}
-
-/// What the frames showed, gathered.
-#[derive(Default)]
-struct Tally {
-    upper: Vec<f64>,
-    forearm: Vec<f64>,
-    hand: Vec<f64>,
-    hand_turn: Vec<f64>,
-    upper_turn: Vec<f64>,
-    steps: usize,
-    constrained: usize,
-    velocity_limited: usize,
-    collision_limited: usize,
-    colliding: usize,
-    closest: Option<f64>,
-}
-
-impl Tally {
-    /// One frame as sent, against its target.
-    fn judge(
-        &mut self,
-        anatomy: &Anatomy,
-        gauge: &PostureGauge,
-        model: &CollisionModel,
-        q: &[f64],
-        target: &[ArmPosture; 2],
-        collisions: bool,
-    ) {
-        let got = gauge.measure(anatomy, q);
-        for (g, t) in got.iter().zip(target) {
-            self.upper
-                .push(g.upper_arm.angle(&t.upper_arm).to_degrees());
-            self.forearm.push(g.forearm.angle(&t.forearm).to_degrees());
-            self.hand.push((g.hand - t.hand).norm());
-            self.hand_turn
-                .push((g.turn * t.turn.inverse()).angle().to_degrees());
-            self.upper_turn
-                .push((g.upper_turn * t.upper_turn.inverse()).angle().to_degrees());
-        }
-        if collisions {
-            let frames = RobotFrames::new(anatomy.robot(), &gauge.ancestry, q);
-            let near = model.proximities(&frames, 0.05);
-            if near.iter().any(|p| p.distance < 0.0) {
-                self.colliding += 1;
-            }
-            if let Some(d) = near.iter().map(|p| p.distance).reduce(f64::min) {
-                self.closest = Some(self.closest.map_or(d, |c| c.min(d)));
-            }
-        }
-    }
-
-    fn report(
-        self,
-        options: &WholeArmOptions,
-        model: &CollisionModel,
-        frames: usize,
-    ) -> PostureReport {
-        let quantiles = |v: &[f64]| -> [f64; 2] {
-            let mut s = v.to_vec();
-            s.sort_by(f64::total_cmp);
-            let p90 = s
-                .get(((s.len() as f64) * 0.9).floor() as usize)
-                .or(s.last())
-                .copied()
-                .unwrap_or(0.0);
-            [median(&mut s.clone()), p90]
-        };
-        PostureReport {
-            upper_arm_deg: quantiles(&self.upper),
-            forearm_deg: quantiles(&self.forearm),
-            hand_of_reach: quantiles(&self.hand),
-            hand_orientation_deg: quantiles(&self.hand_turn),
-            upper_arm_orientation_deg: quantiles(&self.upper_turn),
-            hands_within_5pct: self.hand.iter().filter(|&&h| h <= 0.05).count() as f64
-                / self.hand.len().max(1) as f64,
-            velocity_limited_frames: self.velocity_limited,
-            collision_limited_frames: self.collision_limited,
-            colliding_frames: self.colliding,
-            closest_m: self.closest,
-            margin_m: options.margin_m,
-            pairs: model.pairs().len(),
-            unchecked: model.unchecked().to_vec(),
-            steps_per_frame: self.steps as f64 / frames.max(1) as f64,
-            constrained_steps: self.constrained as f64 / self.steps.max(1) as f64,
-        }
     }
 }

@@ -7,7 +7,6 @@
 use std::collections::HashMap;
 
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
-use xml::{Element, Xml};
 
 use super::JointKind;
 use crate::error::{RobotError, RobotResult};
@@ -18,39 +17,87 @@ pub(super) struct Ctx<'a> {
     pub(super) quat: bool,
 }
 
+/// An element of the document being checked.
+pub(super) type El<'a, 'i> = roxmltree::Node<'a, 'i>;
+
 impl Ctx<'_> {
+    /// The error of element `node` (its line), described as `element`.
     pub(super) fn invalid(
         &self,
+        node: El,
         element: impl Into<String>,
         message: impl Into<String>,
     ) -> RobotError {
-        RobotError::Invalid {
+        self.invalid_at(line_of(node), element, message)
+    }
+
+    /// The error of an element at `line`, described as `element`.
+    pub(super) fn invalid_at(
+        &self,
+        line: u32,
+        element: impl Into<String>,
+        message: impl Into<String>,
+    ) -> RobotError {
+        RobotError::InvalidElement {
             file: self.file.to_string(),
+            line,
             element: element.into(),
             message: message.into(),
         }
     }
 }
 
-fn describe(el: &Element) -> String {
-    match el.get_attribute("name", None) {
-        Some(n) => format!("<{} name=\"{}\">", el.name, n),
-        None => format!("<{}>", el.name),
+/// The 1-based line an element starts on.
+pub(super) fn line_of(node: El) -> u32 {
+    node.document().text_pos_at(node.range().start).row
+}
+
+/// `<name>` or `<name name="…">`.
+pub(super) fn describe(el: El) -> String {
+    match el.attribute("name") {
+        Some(n) => format!("<{} name=\"{}\">", el.tag_name().name(), n),
+        None => format!("<{}>", el.tag_name().name()),
     }
 }
 
-fn children<'e>(el: &'e Element, name: &'static str) -> impl Iterator<Item = &'e Element> + 'e {
-    el.children.iter().filter_map(move |c| match c {
-        Xml::ElementNode(e) if e.name == name => Some(e),
-        _ => None,
-    })
+/// The child elements of `el` called `name`.
+pub(super) fn children<'a, 'i: 'a>(
+    el: El<'a, 'i>,
+    name: &'static str,
+) -> impl Iterator<Item = El<'a, 'i>> + 'a {
+    el.children()
+        .filter(move |c| c.is_element() && c.tag_name().name() == name)
+}
+/// Where a check is: the element (for its line) and its description for messages, e.g.
+/// `<joint name="elbow"> <limit>`.
+#[derive(Clone, Copy)]
+struct At<'s, 'a, 'i> {
+    node: El<'a, 'i>,
+    desc: &'s str,
 }
 
-fn parse_number(ctx: &Ctx, at: &str, attr: &str, text: &str) -> RobotResult<f64> {
+impl<'a, 'i> At<'_, 'a, 'i> {
+    fn new<'s>(node: El<'a, 'i>, desc: &'s str) -> At<'s, 'a, 'i> {
+        At { node, desc }
+    }
+
+    /// The error of this element's attribute `attr`.
+    fn attr_error(self, ctx: &Ctx, attr: &str, message: impl Into<String>) -> RobotError {
+        ctx.invalid(self.node, format!("{} @{attr}", self.desc), message)
+    }
+
+    /// The error of this element.
+    fn error(self, ctx: &Ctx, message: impl Into<String>) -> RobotError {
+        ctx.invalid(self.node, self.desc, message)
+    }
+}
+
+fn parse_number(ctx: &Ctx, at: At, attr: &str, text: &str) -> RobotResult<f64> {
     match text.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(ctx.invalid(
-            format!("{at} @{attr}"),
+        _ => Err(at.attr_error(
+            ctx,
+            attr,
             format!(
                 "bad number \"{text}\", expected a finite decimal number such as 0.25 or 1.6E-4"
             ),
@@ -60,14 +107,15 @@ fn parse_number(ctx: &Ctx, at: &str, attr: &str, text: &str) -> RobotResult<f64>
 
 fn parse_numbers<const N: usize>(
     ctx: &Ctx,
-    at: &str,
+    at: At,
     attr: &str,
     text: &str,
 ) -> RobotResult<[f64; N]> {
     let parts: Vec<&str> = text.split_whitespace().collect();
     if parts.len() != N {
-        return Err(ctx.invalid(
-            format!("{at} @{attr}"),
+        return Err(at.attr_error(
+            ctx,
+            attr,
             format!(
                 "\"{text}\" has {} values, expected {N} numbers separated by spaces",
                 parts.len()
@@ -83,69 +131,75 @@ fn parse_numbers<const N: usize>(
 
 fn opt_attr_numbers<const N: usize>(
     ctx: &Ctx,
-    el: &Element,
-    at: &str,
+    at: At,
     attr: &str,
 ) -> RobotResult<Option<[f64; N]>> {
-    el.get_attribute(attr, None)
+    at.node
+        .attribute(attr)
         .map(|t| parse_numbers::<N>(ctx, at, attr, t))
         .transpose()
 }
 
-fn opt_attr_number(ctx: &Ctx, el: &Element, at: &str, attr: &str) -> RobotResult<Option<f64>> {
-    el.get_attribute(attr, None)
+fn opt_attr_number(ctx: &Ctx, at: At, attr: &str) -> RobotResult<Option<f64>> {
+    at.node
+        .attribute(attr)
         .map(|t| parse_number(ctx, at, attr, t))
         .transpose()
 }
 
-fn req_attr<'e>(ctx: &Ctx, el: &'e Element, at: &str, attr: &str) -> RobotResult<&'e str> {
-    match el.get_attribute(attr, None) {
+fn req_attr<'a, 'i>(ctx: &Ctx, at: At<'_, 'a, 'i>, attr: &str) -> RobotResult<&'a str> {
+    match at.node.attribute(attr) {
         Some(v) if !v.trim().is_empty() => Ok(v),
-        Some(_) => Err(ctx.invalid(at, format!("empty attribute \"{attr}\", expected a name"))),
-        None => Err(ctx.invalid(at, format!("missing attribute \"{attr}\""))),
+        Some(_) => Err(at.error(ctx, format!("empty attribute \"{attr}\", expected a name"))),
+        None => Err(at.error(ctx, format!("missing attribute \"{attr}\""))),
     }
 }
 
-fn at_most_one<'e>(
+fn at_most_one<'a, 'i>(
     ctx: &Ctx,
-    el: &'e Element,
-    at: &str,
+    at: At<'_, 'a, 'i>,
     name: &'static str,
-) -> RobotResult<Option<&'e Element>> {
-    let mut it = children(el, name);
+) -> RobotResult<Option<El<'a, 'i>>> {
+    let mut it = children(at.node, name);
     let first = it.next();
-    if it.next().is_some() {
-        return Err(ctx.invalid(at, format!("more than one <{name}>, expected at most one")));
+    if let Some(second) = it.next() {
+        return Err(ctx.invalid(
+            second,
+            at.desc,
+            format!("more than one <{name}>, expected at most one"),
+        ));
     }
     Ok(first)
 }
 
 /// Reads an `<origin>` child (absent → identity; absent `xyz`/`rpy` → zeros).
-fn origin_of(ctx: &Ctx, el: &Element, at: &str) -> RobotResult<Isometry3<f64>> {
-    let Some(o) = at_most_one(ctx, el, at, "origin")? else {
+fn origin_of(ctx: &Ctx, el: At) -> RobotResult<Isometry3<f64>> {
+    let Some(o) = at_most_one(ctx, el, "origin")? else {
         return Ok(Isometry3::identity());
     };
-    let at = format!("{at} <origin>");
-    let xyz = opt_attr_numbers::<3>(ctx, o, &at, "xyz")?.unwrap_or([0.0; 3]);
+    let desc = format!("{} <origin>", el.desc);
+    let at = At::new(o, &desc);
+    let xyz = opt_attr_numbers::<3>(ctx, at, "xyz")?.unwrap_or([0.0; 3]);
     for v in xyz {
-        check_length(ctx, &at, "xyz", v.abs(), "an offset")?;
+        check_length(ctx, at, "xyz", v.abs(), "an offset")?;
     }
-    let rpy = opt_attr_numbers::<3>(ctx, o, &at, "rpy")?;
+    let rpy = opt_attr_numbers::<3>(ctx, at, "rpy")?;
     let quat = if ctx.quat {
-        opt_attr_numbers::<4>(ctx, o, &at, "quat_xyzw")?
+        opt_attr_numbers::<4>(ctx, at, "quat_xyzw")?
     } else {
         None
     };
     match (rpy, quat) {
-        (Some(_), Some(_)) => Err(ctx.invalid(
-            at,
+        (Some(_), Some(_)) => Err(at.error(
+            ctx,
             "both rpy and quat_xyzw are given, expected one orientation",
         )),
         (_, Some([x, y, z, w])) => {
             let q = nalgebra::Quaternion::new(w, x, y, z);
             if q.norm() < 1e-12 {
-                return Err(ctx.invalid(
-                    format!("{at} @quat_xyzw"),
+                return Err(at.attr_error(
+                    ctx,
+                    "quat_xyzw",
                     "the quaternion is zero, expected a rotation",
                 ));
             }
@@ -167,10 +221,11 @@ pub fn pose_from_xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
 }
 
 /// Refuses a length `v` (≥ 0) above [`MAX_LENGTH_M`].
-fn check_length(ctx: &Ctx, at: &str, attr: &str, v: f64, what: &str) -> RobotResult<()> {
+fn check_length(ctx: &Ctx, at: At, attr: &str, v: f64, what: &str) -> RobotResult<()> {
     if v > MAX_LENGTH_M {
-        return Err(ctx.invalid(
-            format!("{at} @{attr}"),
+        return Err(at.attr_error(
+            ctx,
+            attr,
             format!("{v} m is too large, expected {what} of at most {MAX_LENGTH_M} m"),
         ));
     }
@@ -178,16 +233,14 @@ fn check_length(ctx: &Ctx, at: &str, attr: &str, v: f64, what: &str) -> RobotRes
 }
 
 /// A shape size: finite, positive and at most [`MAX_LENGTH_M`].
-fn check_size(ctx: &Ctx, at: &str, attr: &str, v: f64) -> RobotResult<f64> {
+fn check_size(ctx: &Ctx, at: At, attr: &str, v: f64) -> RobotResult<f64> {
     if v < 0.0 {
-        return Err(ctx.invalid(
-            format!("{at} @{attr}"),
-            format!("{v} is negative, expected a size > 0"),
-        ));
+        return Err(at.attr_error(ctx, attr, format!("{v} is negative, expected a size > 0")));
     }
     if v == 0.0 {
-        return Err(ctx.invalid(
-            format!("{at} @{attr}"),
+        return Err(at.attr_error(
+            ctx,
+            attr,
             "the size is zero, expected a size > 0 (leave out a shape that has no extent)",
         ));
     }
@@ -195,40 +248,35 @@ fn check_size(ctx: &Ctx, at: &str, attr: &str, v: f64) -> RobotResult<f64> {
     Ok(v)
 }
 
-fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
-    origin_of(ctx, holder, at)?;
-    let Some(g) = at_most_one(ctx, holder, at, "geometry")? else {
-        return Err(ctx.invalid(at, "missing <geometry>"));
+fn check_geometry(ctx: &Ctx, holder: At) -> RobotResult<()> {
+    origin_of(ctx, holder)?;
+    let Some(g) = at_most_one(ctx, holder, "geometry")? else {
+        return Err(holder.error(ctx, "missing <geometry>"));
     };
-    let at = format!("{at} <geometry>");
-    let shapes: Vec<&Element> = g
-        .children
-        .iter()
-        .filter_map(|c| match c {
-            Xml::ElementNode(e) => Some(e),
-            _ => None,
-        })
-        .collect();
+    let gdesc = format!("{} <geometry>", holder.desc);
+    let shapes: Vec<El> = g.children().filter(El::is_element).collect();
     let [shape] = shapes.as_slice() else {
-        return Err(ctx.invalid(
-            at,
+        return Err(At::new(g, &gdesc).error(
+            ctx,
             format!(
                 "{} shapes, expected exactly one of <box>, <cylinder>, <capsule>, <sphere>, <mesh>",
                 shapes.len()
             ),
         ));
     };
-    let sat = format!("{at} <{}>", shape.name);
+    let name = shape.tag_name().name();
+    let sdesc = format!("{gdesc} <{name}>");
+    let sat = At::new(*shape, &sdesc);
     let need = |attr: &str| -> RobotResult<f64> {
-        let t = req_attr(ctx, shape, &sat, attr)?;
-        let v = parse_number(ctx, &sat, attr, t)?;
-        check_size(ctx, &sat, attr, v)
+        let t = req_attr(ctx, sat, attr)?;
+        let v = parse_number(ctx, sat, attr, t)?;
+        check_size(ctx, sat, attr, v)
     };
-    match shape.name.as_str() {
+    match name {
         "box" => {
-            let t = req_attr(ctx, shape, &sat, "size")?;
-            for v in parse_numbers::<3>(ctx, &sat, "size", t)? {
-                check_size(ctx, &sat, "size", v)?;
+            let t = req_attr(ctx, sat, "size")?;
+            for v in parse_numbers::<3>(ctx, sat, "size", t)? {
+                check_size(ctx, sat, "size", v)?;
             }
         }
         "cylinder" | "capsule" => {
@@ -239,19 +287,20 @@ fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
             need("radius")?;
         }
         "mesh" => {
-            req_attr(ctx, shape, &sat, "filename")?;
-            for v in opt_attr_numbers::<3>(ctx, shape, &sat, "scale")?.unwrap_or([1.0; 3]) {
+            req_attr(ctx, sat, "filename")?;
+            for v in opt_attr_numbers::<3>(ctx, sat, "scale")?.unwrap_or([1.0; 3]) {
                 if v.abs() > MAX_LENGTH_M || v == 0.0 {
-                    return Err(ctx.invalid(
-                        format!("{sat} @scale"),
+                    return Err(sat.attr_error(
+                        ctx,
+                        "scale",
                         format!("{v} is not a usable scale, expected a non-zero factor of at most {MAX_LENGTH_M} in size"),
                     ));
                 }
             }
         }
         other => {
-            return Err(ctx.invalid(
-                at,
+            return Err(At::new(*shape, &gdesc).error(
+                ctx,
                 format!("unknown shape <{other}>, expected <box>, <cylinder>, <capsule>, <sphere> or <mesh>"),
             ))
         }
@@ -259,53 +308,62 @@ fn check_geometry(ctx: &Ctx, holder: &Element, at: &str) -> RobotResult<()> {
     Ok(())
 }
 
-fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
-    if let Some(inertial) = at_most_one(ctx, link, at, "inertial")? {
-        let iat = format!("{at} <inertial>");
-        origin_of(ctx, inertial, &iat)?;
-        match at_most_one(ctx, inertial, &iat, "mass")? {
-            Some(m) => {
-                let mat = format!("{iat} <mass>");
-                let t = req_attr(ctx, m, &mat, "value")?;
-                let v = parse_number(ctx, &mat, "value", t)?;
-                if v < 0.0 {
-                    return Err(ctx.invalid(
-                        format!("{mat} @value"),
-                        format!("{v} is negative, expected a mass ≥ 0"),
-                    ));
-                }
-                if v > MAX_MASS_KG {
-                    return Err(ctx.invalid(
-                        format!("{mat} @value"),
-                        format!("{v} kg is too large, expected a mass of at most {MAX_MASS_KG} kg"),
+fn check_inertial(ctx: &Ctx, inertial: El, desc: &str) -> RobotResult<()> {
+    let iat = At::new(inertial, desc);
+    origin_of(ctx, iat)?;
+    match at_most_one(ctx, iat, "mass")? {
+        Some(m) => {
+            let mdesc = format!("{desc} <mass>");
+            let mat = At::new(m, &mdesc);
+            let t = req_attr(ctx, mat, "value")?;
+            let v = parse_number(ctx, mat, "value", t)?;
+            if v < 0.0 {
+                return Err(mat.attr_error(
+                    ctx,
+                    "value",
+                    format!("{v} is negative, expected a mass ≥ 0"),
+                ));
+            }
+            if v > MAX_MASS_KG {
+                return Err(mat.attr_error(
+                    ctx,
+                    "value",
+                    format!("{v} kg is too large, expected a mass of at most {MAX_MASS_KG} kg"),
+                ));
+            }
+        }
+        None => return Err(iat.error(ctx, "missing <mass>")),
+    }
+    match at_most_one(ctx, iat, "inertia")? {
+        Some(i) => {
+            let idesc = format!("{desc} <inertia>");
+            let inat = At::new(i, &idesc);
+            for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
+                let t = req_attr(ctx, inat, attr)?;
+                let v = parse_number(ctx, inat, attr, t)?;
+                if v.abs() > MAX_INERTIA {
+                    return Err(inat.attr_error(
+                        ctx,
+                        attr,
+                        format!(
+                            "{v} kg·m² is too large, expected at most {MAX_INERTIA} kg·m² in size"
+                        ),
                     ));
                 }
             }
-            None => return Err(ctx.invalid(iat, "missing <mass>")),
         }
-        match at_most_one(ctx, inertial, &iat, "inertia")? {
-            Some(i) => {
-                let inat = format!("{iat} <inertia>");
-                for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
-                    let t = req_attr(ctx, i, &inat, attr)?;
-                    let v = parse_number(ctx, &inat, attr, t)?;
-                    if v.abs() > MAX_INERTIA {
-                        return Err(ctx.invalid(
-                            format!("{inat} @{attr}"),
-                            format!("{v} kg·m² is too large, expected at most {MAX_INERTIA} kg·m² in size"),
-                        ));
-                    }
-                }
-            }
-            None => return Err(ctx.invalid(iat, "missing <inertia>")),
-        }
+        None => return Err(iat.error(ctx, "missing <inertia>")),
+    }
+    Ok(())
+}
+
+fn check_link(ctx: &Ctx, link: At) -> RobotResult<()> {
+    if let Some(inertial) = at_most_one(ctx, link, "inertial")? {
+        check_inertial(ctx, inertial, &format!("{} <inertial>", link.desc))?;
     }
     for (kind, label) in [("visual", "<visual>"), ("collision", "<collision>")] {
-        for v in link.children.iter().filter_map(|c| match c {
-            Xml::ElementNode(e) if e.name == kind => Some(e),
-            _ => None,
-        }) {
-            check_geometry(ctx, v, &format!("{at} {label}"))?;
+        for v in children(link.node, kind) {
+            check_geometry(ctx, At::new(v, &format!("{} {label}", link.desc)))?;
         }
     }
     Ok(())
@@ -313,6 +371,8 @@ fn check_link(ctx: &Ctx, link: &Element, at: &str) -> RobotResult<()> {
 
 pub(super) struct RawJoint {
     pub(super) name: String,
+    /// The line the `<joint>` element starts on.
+    pub(super) line: u32,
     pub(super) kind: JointKind,
     pub(super) parent: String,
     pub(super) child: String,
@@ -323,84 +383,92 @@ pub(super) struct RawJoint {
     pub(super) effort: f64,
 }
 
-fn check_joint(ctx: &Ctx, joint: &Element, at: &str) -> RobotResult<RawJoint> {
-    let name = req_attr(ctx, joint, at, "name")?.to_string();
-    let ty = req_attr(ctx, joint, at, "type")?;
+/// A joint's `<limit>`: `(lower, upper)`, velocity and effort (0: none given), checked.
+fn check_limit(
+    ctx: &Ctx,
+    at: At,
+    kind: JointKind,
+    ty: &str,
+) -> RobotResult<((f64, f64), f64, f64)> {
+    let Some(l) = at_most_one(ctx, at, "limit")? else {
+        if matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+            return Err(at.error(
+                ctx,
+                format!("missing <limit lower=... upper=...>, required for a {ty} joint"),
+            ));
+        }
+        return Ok(((0.0, 0.0), 0.0, 0.0));
+    };
+    let ldesc = format!("{} <limit>", at.desc);
+    let lat = At::new(l, &ldesc);
+    let lower = opt_attr_number(ctx, lat, "lower")?.unwrap_or(0.0);
+    let upper = opt_attr_number(ctx, lat, "upper")?.unwrap_or(0.0);
+    let velocity = opt_attr_number(ctx, lat, "velocity")?.unwrap_or(0.0);
+    let effort = opt_attr_number(ctx, lat, "effort")?.unwrap_or(0.0);
+    if lower > upper && matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+        return Err(lat.error(
+            ctx,
+            format!("lower {lower} > upper {upper}, expected lower ≤ upper"),
+        ));
+    }
+    if kind == JointKind::Prismatic {
+        check_length(ctx, lat, "lower", lower.abs(), "a travel")?;
+        check_length(ctx, lat, "upper", upper.abs(), "a travel")?;
+    }
+    for (attr, v) in [("velocity", velocity), ("effort", effort)] {
+        if v < 0.0 {
+            return Err(lat.attr_error(
+                ctx,
+                attr,
+                format!("{v} is negative, expected a {attr} limit > 0 (or none)"),
+            ));
+        }
+    }
+    // A zero velocity limit on a joint that has room to move would forbid all motion: makers
+    // write it for "not given" (ROS's parser reads it, and the physics takes 0 for no limit);
+    // the repair pass notes it (see `repair.rs`).
+    Ok(((lower, upper), velocity, effort))
+}
+
+fn check_joint(ctx: &Ctx, joint: At) -> RobotResult<RawJoint> {
+    let name = req_attr(ctx, joint, "name")?.to_string();
+    let ty = req_attr(ctx, joint, "type")?;
     let kind = JointKind::parse(ty.trim()).ok_or_else(|| {
-        ctx.invalid(
-            format!("{at} @type"),
+        joint.attr_error(
+            ctx,
+            "type",
             format!("unknown joint type \"{ty}\", expected one of revolute, continuous, prismatic, fixed, floating, planar"),
         )
     })?;
     let link_of = |role: &'static str| -> RobotResult<String> {
-        let el = at_most_one(ctx, joint, at, role)?
-            .ok_or_else(|| ctx.invalid(at, format!("missing <{role} link=\"...\">")))?;
-        Ok(req_attr(ctx, el, &format!("{at} <{role}>"), "link")?
+        let el = at_most_one(ctx, joint, role)?
+            .ok_or_else(|| joint.error(ctx, format!("missing <{role} link=\"...\">")))?;
+        let desc = format!("{} <{role}>", joint.desc);
+        Ok(req_attr(ctx, At::new(el, &desc), "link")?
             .trim()
             .to_string())
     };
     let parent = link_of("parent")?;
     let child = link_of("child")?;
-    let origin = origin_of(ctx, joint, at)?;
-    let axis = match at_most_one(ctx, joint, at, "axis")? {
+    let origin = origin_of(ctx, joint)?;
+    let axis = match at_most_one(ctx, joint, "axis")? {
         None => Vector3::x_axis(),
         Some(a) => {
-            let aat = format!("{at} <axis>");
-            let xyz = opt_attr_numbers::<3>(ctx, a, &aat, "xyz")?.unwrap_or([1.0, 0.0, 0.0]);
+            let adesc = format!("{} <axis>", joint.desc);
+            let aat = At::new(a, &adesc);
+            let xyz = opt_attr_numbers::<3>(ctx, aat, "xyz")?.unwrap_or([1.0, 0.0, 0.0]);
             let v = Vector3::from(xyz);
             if kind.is_movable() && v.norm() < 1e-12 {
-                return Err(ctx.invalid(
-                    format!("{aat} @xyz"),
+                return Err(aat.attr_error(
+                    ctx,
+                    "xyz",
                     "the axis is zero, expected a non-zero direction",
                 ));
             }
             Unit::try_new(v, 1e-12).unwrap_or_else(Vector3::x_axis)
         }
     };
-    let mut limits = (0.0, 0.0);
-    let mut velocity = 0.0;
-    let mut effort = 0.0;
-    let limit = at_most_one(ctx, joint, at, "limit")?;
-    if let Some(l) = limit {
-        let lat = format!("{at} <limit>");
-        let lower = opt_attr_number(ctx, l, &lat, "lower")?.unwrap_or(0.0);
-        let upper = opt_attr_number(ctx, l, &lat, "upper")?.unwrap_or(0.0);
-        velocity = opt_attr_number(ctx, l, &lat, "velocity")?.unwrap_or(0.0);
-        effort = opt_attr_number(ctx, l, &lat, "effort")?.unwrap_or(0.0);
-        if lower > upper && matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
-            return Err(ctx.invalid(
-                lat,
-                format!("lower {lower} > upper {upper}, expected lower ≤ upper"),
-            ));
-        }
-        if kind == JointKind::Prismatic {
-            check_length(ctx, &lat, "lower", lower.abs(), "a travel")?;
-            check_length(ctx, &lat, "upper", upper.abs(), "a travel")?;
-        }
-        for (attr, v) in [("velocity", velocity), ("effort", effort)] {
-            if v < 0.0 {
-                return Err(ctx.invalid(
-                    format!("{lat} @{attr}"),
-                    format!("{v} is negative, expected a {attr} limit > 0 (or none)"),
-                ));
-            }
-        }
-        // A zero velocity limit on a joint that has room to move forbids all motion; the
-        // physics would take it for "no limit". Leave the attribute out for that.
-        let can_move = kind == JointKind::Continuous || (kind.is_movable() && lower < upper);
-        if velocity == 0.0 && can_move && l.get_attribute("velocity", None).is_some() {
-            return Err(ctx.invalid(
-                format!("{lat} @velocity"),
-                "0 forbids all motion of a joint whose limits allow it, expected a velocity limit > 0 (or no velocity attribute for no limit)",
-            ));
-        }
-        limits = (lower, upper);
-    } else if matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
-        return Err(ctx.invalid(
-            at,
-            format!("missing <limit lower=... upper=...>, required for a {ty} joint"),
-        ));
-    }
+    let (mut limits, velocity, effort) = check_limit(ctx, joint, kind, ty)?;
     match kind {
         JointKind::Continuous => limits = (f64::NEG_INFINITY, f64::INFINITY),
         JointKind::Revolute | JointKind::Prismatic => {}
@@ -421,18 +489,20 @@ fn check_joint(ctx: &Ctx, joint: &Element, at: &str) -> RobotResult<RawJoint> {
         ),
         ("mimic", &["multiplier", "offset"][..]),
     ] {
-        if let Some(el) = at_most_one(ctx, joint, at, tag)? {
-            let tat = format!("{at} <{tag}>");
+        if let Some(el) = at_most_one(ctx, joint, tag)? {
+            let tdesc = format!("{} <{tag}>", joint.desc);
+            let tat = At::new(el, &tdesc);
             for a in attrs {
-                opt_attr_number(ctx, el, &tat, a)?;
+                opt_attr_number(ctx, tat, a)?;
             }
             if tag == "mimic" {
-                req_attr(ctx, el, &tat, "joint")?;
+                req_attr(ctx, tat, "joint")?;
             }
         }
     }
     Ok(RawJoint {
         name,
+        line: line_of(joint.node),
         kind,
         parent,
         child,
@@ -456,38 +526,40 @@ pub const MAX_INERTIA: f64 = 1e9;
 /// The link names in document order and their index, each link checked.
 pub(super) fn read_links(
     ctx: &Ctx,
-    root: &Element,
+    root: El,
 ) -> RobotResult<(Vec<String>, HashMap<String, usize>)> {
     let mut links = Vec::new();
     let mut link_index = HashMap::new();
     for link in children(root, "link") {
-        let at = describe(link);
-        let name = req_attr(ctx, link, &at, "name")?.trim().to_string();
-        check_link(ctx, link, &at)?;
+        let desc = describe(link);
+        let at = At::new(link, &desc);
+        let name = req_attr(ctx, at, "name")?.trim().to_string();
+        check_link(ctx, at)?;
         if link_index.insert(name.clone(), links.len()).is_some() {
-            return Err(ctx.invalid(
-                at,
+            return Err(at.error(
+                ctx,
                 "a second link with this name, expected unique link names",
             ));
         }
         links.push(name);
     }
     if links.is_empty() {
-        return Err(ctx.invalid("<robot>", "no <link> elements, expected at least one"));
+        return Err(ctx.invalid(root, "<robot>", "no <link> elements, expected at least one"));
     }
     Ok((links, link_index))
 }
 
 /// The joints in document order, each checked, names unique.
-pub(super) fn read_joints(ctx: &Ctx, root: &Element) -> RobotResult<Vec<RawJoint>> {
+pub(super) fn read_joints(ctx: &Ctx, root: El) -> RobotResult<Vec<RawJoint>> {
     let mut raw = Vec::new();
     let mut joint_names = HashMap::new();
     for joint in children(root, "joint") {
-        let at = describe(joint);
-        let j = check_joint(ctx, joint, &at)?;
+        let desc = describe(joint);
+        let at = At::new(joint, &desc);
+        let j = check_joint(ctx, at)?;
         if joint_names.insert(j.name.clone(), raw.len()).is_some() {
-            return Err(ctx.invalid(
-                at,
+            return Err(at.error(
+                ctx,
                 "a second joint with this name, expected unique joint names",
             ));
         }

@@ -8,7 +8,7 @@
 //! |---|---|
 //! | `meshes/arm.stl` | the URDF file's directory |
 //! | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
-//! | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry |
+//! | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, an ancestor of the URDF's directory named `PKG`, or a folder `PKG` beside one (up to [`ANCESTOR_LEVELS`] levels up) |
 //!
 //! A URI that cannot be resolved gives a [`MeshMiss`] saying what was tried. Nothing here
 //! reads a mesh: that is the caller's business (the physics replay builds convex hulls, the
@@ -47,7 +47,7 @@ const MAX_FOLDERS_SEARCHED: usize = 4096;
 /// |---|---|
 /// | `meshes/arm.stl` | the URDF file's directory |
 /// | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
-/// | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry |
+/// | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, the URDF directory's ancestors (an ancestor named `PKG`, or `PKG` beside one) |
 ///
 /// The default search knows no directory: it resolves absolute paths and `file://` URIs only.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -286,6 +286,17 @@ impl MeshSearch {
                 tried.push(file);
             }
         }
+        // Last, as urdf-viz and yourdfpy do: the URDF inside its own package
+        // (`PKG/urdf/robot.urdf`), or beside it (`DIR/urdf/robot.urdf` and `DIR/PKG`), so that
+        // a description as published finds its meshes with no flag and no ROS environment.
+        for dir in self.package_ancestors(package) {
+            searched.push(dir.clone());
+            let file = dir.join(rest);
+            if file.is_file() {
+                return Ok(file);
+            }
+            tried.push(file);
+        }
         if tried.is_empty() {
             Err(MeshMiss::PackageNotFound {
                 uri: uri.into(),
@@ -300,6 +311,32 @@ impl MeshSearch {
         }
     }
 }
+
+impl MeshSearch {
+    /// Folders of `package` among the URDF directory's ancestors: an ancestor named `package`,
+    /// or a folder `package` beside one, up to [`ANCESTOR_LEVELS`] levels up.
+    fn package_ancestors(&self, package: &str) -> Vec<PathBuf> {
+        let Some(dir) = &self.urdf_dir else {
+            return Vec::new();
+        };
+        let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.clone());
+        let mut found = Vec::new();
+        for anc in dir.ancestors().take(ANCESTOR_LEVELS) {
+            if anc.file_name() == Some(OsStr::new(package)) {
+                found.push(anc.to_path_buf());
+            }
+            let beside = anc.join(package);
+            if beside.is_dir() && !found.contains(&beside) {
+                found.push(beside);
+            }
+        }
+        found
+    }
+}
+
+/// How many of the URDF directory's ancestors (itself included) are searched for a
+/// `package://` package when no package path holds it.
+pub const ANCESTOR_LEVELS: usize = 6;
 
 /// What `uri` names: a path (from a plain path or a `file://` URI) or a package file.
 fn parse_uri(uri: &str) -> Result<Target<'_>, MeshMiss> {
@@ -546,6 +583,36 @@ mod tests {
         }
         let none = MeshSearch::new().resolve(uri).unwrap_err();
         assert!(none.to_string().contains("--package-path"), "{none}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_urdf_inside_its_package_finds_its_meshes_with_no_path_given() {
+        let dir = scratch("inside");
+        // PKG/urdf/robot.urdf and PKG/meshes/arm.stl, as description packages are published.
+        touch(&dir.join("share/arm_description/meshes/arm.stl"));
+        touch(&dir.join("share/other/meshes/leg.stl"));
+        let search = MeshSearch::for_urdf_file(&dir.join("share/arm_description/urdf/robot.urdf"));
+        let found = search
+            .resolve("package://arm_description/meshes/arm.stl")
+            .unwrap();
+        assert!(
+            found.ends_with("share/arm_description/meshes/arm.stl"),
+            "{found:?}"
+        );
+        // A package beside an ancestor (share/other) is found too.
+        assert!(search.resolve("package://other/meshes/leg.stl").is_ok());
+        // A package that is nowhere near names what was searched.
+        let e = search.resolve("package://nowhere/x.stl").unwrap_err();
+        assert!(matches!(e, MeshMiss::PackageNotFound { .. }), "{e}");
+        // Package paths come first.
+        touch(&dir.join("first/arm_description/meshes/arm.stl"));
+        let first = MeshSearch::for_urdf_file(&dir.join("share/arm_description/urdf/robot.urdf"))
+            .with_package_path(dir.join("first"));
+        assert!(first
+            .resolve("package://arm_description/meshes/arm.stl")
+            .unwrap()
+            .starts_with(std::fs::canonicalize(dir.join("first")).unwrap()));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -2,12 +2,17 @@
 //! with urdf-rs and building of the kinematic tree ([`Robot`]).
 //!
 //! Loading goes in three steps:
-//! 1. the XML is read into an element tree and every element the kinematics or a physics engine
-//!    uses is checked (numbers, attribute counts, joint types, required links); a problem is
-//!    reported with the file, the element and what was expected;
-//! 2. quirks that urdf-rs 0.9 would reject although real files contain them are normalised
-//!    (a `<limit>` without `velocity` or `effort`) and the text is parsed by urdf-rs, so that the
-//!    same [`urdf_rs::Robot`] can be handed to rapier's URDF loader;
+//! 1. the XML is read into an element tree with positions (roxmltree) and every element the
+//!    kinematics or a physics engine uses is checked (numbers, attribute counts, joint types,
+//!    required links); a problem is reported with the file, the LINE, the element and what was
+//!    expected;
+//! 2. what the file breaks of the URDF specification where its meaning is clear is repaired as
+//!    ROS's parser reads it, and every repair is kept with its lines ([`UrdfRepair`],
+//!    [`Robot::repairs`]): a `<material>` without a name, a `<texture>` without a file, a
+//!    `<limit>` without `velocity` or `effort`, `velocity="0"` on a joint that can move (read as
+//!    no limit given), an `<axis>` without `xyz`; what the specification defaults but urdf-rs 0.9
+//!    insists on is filled in silently. The repaired text (every line where it was) is parsed by
+//!    urdf-rs, so that the same [`urdf_rs::Robot`] can be handed to rapier's URDF loader;
 //! 3. the joints are assembled into a tree: unknown links, a link with two parents, cycles and
 //!    several roots are errors.
 //!
@@ -15,23 +20,24 @@
 //! `0.` or `1.6E-4`, a floating root joint (held at its origin: the base is fixed),
 //! `<gazebo>`, `<sensor>`, `<transmission>` and other foreign blocks (ignored), revolute joints
 //! whose lower and upper limits are equal (kept as a movable joint with that one value allowed),
-//! mesh files that do not exist (meshes are never opened), `<texture/>` elements without a file
-//! (dropped).
+//! mesh files that do not exist (meshes are never opened).
 //!
 //! `mod.rs` holds the robot model and its queries (joint order, limits, forward kinematics);
-//! `parse.rs` loads a text: the depth guard, then the three steps — `check.rs` (1, and the
-//! pose convention and the size limits), normalisation and urdf-rs (2, in `parse.rs`),
-//! `tree.rs` (3). `meshes.rs` finds the mesh files a URDF names ([`MeshSearch`]: relative
-//! paths, `file://` and `package://` URIs) for the physics replay and the scene files.
+//! `parse.rs` loads a text: the depth guard, the XML parser, then the three steps — `check.rs`
+//! (1, and the pose convention and the size limits), `repair.rs` and urdf-rs (2), `tree.rs`
+//! (3). `meshes.rs` finds the mesh files a URDF names ([`MeshSearch`]: relative paths,
+//! `file://` and `package://` URIs) for the physics replay and the scene files.
 
 mod check;
 mod meshes;
 mod parse;
+mod repair;
 mod tree;
 
 pub use check::{pose_from_xyz_rpy, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
-pub use meshes::{file_uri, MeshMiss, MeshSearch, PACKAGE_SEARCH_DEPTH};
+pub use meshes::{file_uri, MeshMiss, MeshSearch, ANCESTOR_LEVELS, PACKAGE_SEARCH_DEPTH};
 pub use parse::MAX_DEPTH;
+pub use repair::UrdfRepair;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -137,6 +143,8 @@ pub struct Robot {
     /// Joint indices of the movable joints, in q order.
     pub(crate) movable: Vec<usize>,
     pub(crate) urdf: urdf_rs::Robot,
+    /// What the file breaks of the URDF specification and loading repaired.
+    pub(crate) repairs: Vec<UrdfRepair>,
 }
 
 impl Robot {
@@ -153,6 +161,12 @@ impl Robot {
     /// Parses URDF text; `source` is the file name used in error messages.
     pub fn from_urdf_str(xml: &str, source: &str) -> RobotResult<Robot> {
         parse(xml, source)
+    }
+
+    /// What the file breaks of the URDF specification where its meaning is clear, and what
+    /// loading made of it (as ROS's parser reads it), each with the lines it was found at.
+    pub fn repairs(&self) -> &[UrdfRepair] {
+        &self.repairs
     }
 
     /// The robot's name (`<robot name>`).

@@ -1,63 +1,32 @@
 //! Loading a URDF text (see the [module documentation](super)): the nesting depth guard, the
 //! XML parser's errors, then the three steps — checking the element tree
-//! ([`check`](super::check)), normalising the quirks urdf-rs would reject and parsing with it
-//! (here), and assembling the joints into a tree ([`tree`](super::tree)).
-
-use xml::{Element, Xml};
+//! ([`check`](super::check)), repairing what breaks the specification where its meaning is
+//! clear ([`repair`](super::repair)) and parsing the repaired text with urdf-rs (here), and
+//! assembling the joints into a tree ([`tree`](super::tree)).
 
 use super::check::{read_joints, read_links, Ctx};
+use super::repair::repair;
 use super::tree::{build_tree, find_root, Tree};
 use super::Robot;
 use crate::error::{RobotError, RobotResult};
 
-/// Fills in what urdf-rs 0.9 insists on but real files omit, and drops what it cannot read.
-fn normalise_for_urdf_rs(el: &mut Element) {
-    // A `<texture/>` without a file (iCub's materials) says nothing; urdf-rs requires the file.
-    el.children.retain(|c| {
-        !matches!(c, Xml::ElementNode(t) if t.name == "texture" && t.get_attribute("filename", None).is_none())
-    });
-    for c in &mut el.children {
-        if let Xml::ElementNode(child) = c {
-            match child.name.as_str() {
-                "limit" => {
-                    for attr in ["velocity", "effort"] {
-                        if child.get_attribute(attr, None).is_none() {
-                            child.set_attribute(attr.to_string(), None, "0".to_string());
-                        }
-                    }
-                }
-                "safety_controller" if child.get_attribute("k_velocity", None).is_none() => {
-                    child.set_attribute("k_velocity".to_string(), None, "0".to_string());
-                }
-                _ => {}
-            }
-            normalise_for_urdf_rs(child);
+/// The XML parser's error as ours: the file, the line and column, the reason (without the
+/// parser's own position suffix).
+fn xml_error(file: &str, err: &roxmltree::Error) -> RobotError {
+    let pos = err.pos();
+    let message = match err {
+        roxmltree::Error::NoRootNode => "no XML element found, expected <robot>".to_string(),
+        other => {
+            let m = other.to_string();
+            let suffix = format!(" at {}:{}", pos.row, pos.col);
+            m.replace(&suffix, "")
         }
-    }
-}
-
-fn xml_error(file: &str, err: xml::BuilderError) -> RobotError {
-    match err {
-        xml::BuilderError::Parser(p) => RobotError::Xml {
-            file: file.to_string(),
-            line: p.line,
-            column: p.col,
-            message: p.msg.to_string(),
-        },
-        xml::BuilderError::ImproperNesting => RobotError::Xml {
-            file: file.to_string(),
-            line: 0,
-            column: 0,
-            message:
-                "elements are not properly nested (a closing tag does not match its opening tag)"
-                    .into(),
-        },
-        xml::BuilderError::NoElement => RobotError::Xml {
-            file: file.to_string(),
-            line: 0,
-            column: 0,
-            message: "no XML element found, expected <robot>".into(),
-        },
+    };
+    RobotError::Xml {
+        file: file.to_string(),
+        line: pos.row,
+        column: pos.col,
+        message,
     }
 }
 
@@ -138,9 +107,15 @@ fn check_depth(text: &str, file: &str) -> RobotResult<()> {
 
 pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
     check_depth(text, file)?;
-    let mut root: Element = text.parse().map_err(|e| xml_error(file, e))?;
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..roxmltree::ParsingOptions::default()
+    };
+    let doc =
+        roxmltree::Document::parse_with_options(text, options).map_err(|e| xml_error(file, &e))?;
+    let root = doc.root_element();
     let version = root
-        .get_attribute("version", None)
+        .attribute("version")
         .and_then(|v| {
             let (major, minor) = v.trim().split_once('.')?;
             Some((major.parse::<u32>().ok()?, minor.parse::<u32>().ok()?))
@@ -150,18 +125,16 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         file,
         quat: version >= (1, 1),
     };
-    if root.name != "robot" {
+    if root.tag_name().name() != "robot" {
         return Err(ctx.invalid(
-            format!("<{}>", root.name),
+            root,
+            format!("<{}>", root.tag_name().name()),
             "the document element must be <robot>",
         ));
     }
-    let robot_name = root
-        .get_attribute("name", None)
-        .unwrap_or_default()
-        .to_string();
-    let (links, link_index) = read_links(&ctx, &root)?;
-    let raw = read_joints(&ctx, &root)?;
+    let robot_name = root.attribute("name").unwrap_or_default().to_string();
+    let (links, link_index) = read_links(&ctx, root)?;
+    let raw = read_joints(&ctx, root)?;
     let Tree {
         joints,
         parent_joint,
@@ -169,14 +142,25 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
     } = build_tree(&ctx, &links, &link_index, raw)?;
     let root_link = find_root(file, &links, &joints, &parent_joint)?;
 
-    normalise_for_urdf_rs(&mut root);
-    let urdf = urdf_rs::read_from_string(&root.to_string()).map_err(|e| RobotError::UrdfRs {
-        file: file.to_string(),
-        message: e.to_string(),
+    let stem = std::path::Path::new(file)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("robot");
+    let (repaired, repairs) = repair(text, root, stem, ctx.quat);
+    let urdf = urdf_rs::read_from_string(repaired.as_deref().unwrap_or(text)).map_err(|e| {
+        RobotError::UrdfRs {
+            file: file.to_string(),
+            message: e.to_string(),
+        }
     })?;
+    let name = if robot_name.is_empty() {
+        urdf.name.clone()
+    } else {
+        robot_name
+    };
 
     Ok(Robot {
-        name: robot_name,
+        name,
         source: file.to_string(),
         links,
         link_index,
@@ -185,5 +169,6 @@ pub(super) fn parse(text: &str, file: &str) -> RobotResult<Robot> {
         root: root_link,
         movable,
         urdf,
+        repairs,
     })
 }

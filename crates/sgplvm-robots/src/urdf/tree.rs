@@ -35,6 +35,7 @@ pub(super) fn build_tree(
                 .copied()
                 .ok_or_else(|| RobotError::UnknownLink {
                     file: file.to_string(),
+                    line: j.line,
                     joint: j.name.clone(),
                     role,
                     link: l.to_string(),
@@ -50,7 +51,8 @@ pub(super) fn build_tree(
         }
         if let Some(other) = parent_joint[child] {
             let other: &JointInfo = &joints[other];
-            return Err(ctx.invalid(
+            return Err(ctx.invalid_at(
+                j.line,
                 format!("<joint name=\"{}\">", j.name),
                 format!(
                     "link \"{}\" is already the child of joint \"{}\", expected each link to have at most one parent joint",

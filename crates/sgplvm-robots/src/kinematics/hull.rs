@@ -1,0 +1,149 @@
+//! Convex hulls whose support points are found by climbing the hull's edges, for the distance
+//! queries of self-collision (GJK asks a shape for its support point, the point furthest along a
+//! direction, a few times per iteration). parry's convex polyhedron scans every vertex for it;
+//! the hulls of published collision meshes have hundreds to thousands of vertices (a G1 link's
+//! median is about 900), which made the scan most of retargeting's time. On a convex polytope a
+//! vertex that no neighbour improves on is the furthest of all, so the climb from the last
+//! support vertex (GJK's directions change little from one query to the next) gives the same
+//! point after a few dot products.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use rapier3d::parry::math::Vector;
+use rapier3d::parry::shape::{ConvexPolyhedron, SupportMap};
+
+/// Below this many vertices a scan is as fast as a climb.
+const SCAN_BELOW: usize = 48;
+
+/// A convex polyhedron's vertices and edges, its support points found by hill climbing.
+#[derive(Debug)]
+pub(crate) struct ClimbingHull {
+    points: Vec<Vector>,
+    /// Neighbours of vertex `v`: `neighbours[offsets[v]..offsets[v + 1]]`.
+    offsets: Vec<u32>,
+    neighbours: Vec<u32>,
+    /// The last support vertex found: GJK asks along directions that change little from one
+    /// iteration (and one IK step) to the next, so a climb from it is short. Only a start: the
+    /// climb is exact from any vertex, whichever thread wrote it last.
+    last: AtomicU32,
+}
+
+impl ClimbingHull {
+    /// The climbing form of `hull`; `None` when it is small enough to scan.
+    pub(crate) fn of(hull: &ConvexPolyhedron) -> Option<ClimbingHull> {
+        let points = hull.points().to_vec();
+        if points.len() < SCAN_BELOW {
+            return None;
+        }
+        let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); points.len()];
+        for e in hull.edges() {
+            let [a, b] = e.vertices;
+            let (ai, bi) = (a as usize, b as usize);
+            if ai >= points.len() || bi >= points.len() || a == b {
+                continue;
+            }
+            if !adjacent[ai].contains(&b) {
+                adjacent[ai].push(b);
+            }
+            if !adjacent[bi].contains(&a) {
+                adjacent[bi].push(a);
+            }
+        }
+        // A vertex without an edge could never be reached: scan instead.
+        if adjacent.iter().any(Vec::is_empty) {
+            return None;
+        }
+        let mut offsets = Vec::with_capacity(points.len() + 1);
+        let mut neighbours = Vec::new();
+        offsets.push(0);
+        for a in &adjacent {
+            neighbours.extend_from_slice(a);
+            offsets.push(u32::try_from(neighbours.len()).ok()?);
+        }
+        Some(ClimbingHull {
+            points,
+            offsets,
+            neighbours,
+            last: AtomicU32::new(0),
+        })
+    }
+
+    /// The index of the vertex furthest along `dir`.
+    fn support_id(&self, dir: Vector) -> usize {
+        let mut best = (self.last.load(Ordering::Relaxed) as usize).min(self.points.len() - 1);
+        let mut best_dot = self.points[best].dot(dir);
+        // Each move strictly increases the dot product, so the climb ends.
+        loop {
+            let mut next = best;
+            let range = self.offsets[best] as usize..self.offsets[best + 1] as usize;
+            for &n in &self.neighbours[range] {
+                let d = self.points[n as usize].dot(dir);
+                if d > best_dot {
+                    next = n as usize;
+                    best_dot = d;
+                }
+            }
+            if next == best {
+                self.last
+                    .store(u32::try_from(best).unwrap_or(0), Ordering::Relaxed);
+                return best;
+            }
+            best = next;
+        }
+    }
+}
+
+impl SupportMap for ClimbingHull {
+    fn local_support_point(&self, dir: Vector) -> Vector {
+        self.points[self.support_id(dir)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rapier3d::parry::shape::SharedShape;
+
+    #[test]
+    fn the_climb_finds_the_scan_s_support_point_on_a_many_sided_hull() {
+        // Points on an ellipsoid and a few inside: a hull of a few hundred vertices.
+        let mut points = Vec::new();
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) as f32) / (u32::MAX >> 1) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..600 {
+            let v = Vector::new(next(), next(), next());
+            let inside = next() > 0.8;
+            let v = if inside { v * 0.5 } else { v.normalize() };
+            points.push(Vector::new(0.3 * v.x, 0.1 * v.y, 0.05 * v.z));
+        }
+        let shape = SharedShape::convex_hull(&points).unwrap();
+        let poly = shape.as_convex_polyhedron().unwrap();
+        let hull = ClimbingHull::of(poly).expect("large enough to climb");
+        assert!(hull.points.len() > 100);
+        for _ in 0..2000 {
+            let dir = Vector::new(next(), next(), next());
+            let climbed = hull.local_support_point(dir).dot(dir);
+            let scanned = poly.local_support_point(dir).dot(dir);
+            assert!((climbed - scanned).abs() <= 1e-6, "{climbed} vs {scanned}");
+        }
+        // Axis directions (faces perpendicular to them are possible) too.
+        for d in [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, -1.0],
+        ] {
+            let dir = Vector::new(d[0], d[1], d[2]);
+            let climbed = hull.local_support_point(dir).dot(dir);
+            let scanned = poly.local_support_point(dir).dot(dir);
+            assert!((climbed - scanned).abs() <= 1e-6);
+        }
+    }
+}

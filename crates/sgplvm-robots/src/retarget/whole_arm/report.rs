@@ -1,0 +1,235 @@
+//! What whole-arm retargeting tells of a robot's run: the report (directions, orientations,
+//! hands, the limits that held and for how many frames) and the tally it is gathered in.
+
+use serde::{Deserialize, Serialize};
+
+use super::{ArmPosture, PostureGauge, WholeArmOptions};
+use crate::anatomy::Anatomy;
+use crate::kinematics::collision::CollisionModel;
+use crate::kinematics::frames::RobotFrames;
+use crate::series::median;
+
+/// How one robot followed, over every frame.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PostureReport {
+    /// Upper arm direction error, degrees: median and 90th percentile.
+    pub upper_arm_deg: [f64; 2],
+    /// Forearm direction error, degrees: median and 90th percentile.
+    pub forearm_deg: [f64; 2],
+    /// Hand position error as a fraction of reach: median and 90th percentile.
+    pub hand_of_reach: [f64; 2],
+    /// The hand's orientation error (from the person's turn on the reference posture),
+    /// degrees: median and 90th percentile.
+    #[serde(default)]
+    pub hand_orientation_deg: [f64; 2],
+    /// The upper arm's orientation error (its twist included), degrees: median and 90th
+    /// percentile.
+    #[serde(default)]
+    pub upper_arm_orientation_deg: [f64; 2],
+    /// Share of hand targets within 5 % of the reach.
+    pub hands_within_5pct: f64,
+    /// Frames whose command the velocity limits held back.
+    pub velocity_limited_frames: usize,
+    /// Frames whose command the self-collision limit moved.
+    pub collision_limited_frames: usize,
+    /// Which velocity limits held the commands: per joint that was held at its limit (the
+    /// command moved by the limit's whole step and not as far as asked), the joint, its limit
+    /// (rad/s or m/s) and the frames; most frames first.
+    #[serde(default)]
+    pub velocity_limited_joints: Vec<LimitHeld>,
+    /// Which pairs of links the self-collision limit kept apart: per pair of links (nearer than
+    /// the margin and a millimetre before the command's step), the frames; most frames first.
+    #[serde(default)]
+    pub collision_limited_pairs: Vec<PairHeld>,
+    /// Frames in self-collision as sent (shapes overlapping): 0 is the goal.
+    pub colliding_frames: usize,
+    /// The closest two shapes that can meet came over all frames as sent, metres; `None` when
+    /// no pair ever came near enough to be measured (their bounding spheres stayed apart).
+    pub closest_m: Option<f64>,
+    /// The margin kept, metres.
+    pub margin_m: f64,
+    /// Pairs of shapes that can meet.
+    pub pairs: usize,
+    /// What could not be checked (collision meshes not found …).
+    pub unchecked: Vec<String>,
+    /// Gauss–Newton steps per frame, mean.
+    pub steps_per_frame: f64,
+    /// Share of steps in which a limit was active (the QP solver ran).
+    pub constrained_steps: f64,
+}
+
+/// A joint whose velocity limit held the commands, and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LimitHeld {
+    /// The joint's URDF name.
+    pub joint: String,
+    /// Its velocity limit (rad/s, or m/s for a prismatic joint).
+    pub limit: f64,
+    /// Whether the joint is prismatic (its limit in m/s).
+    pub prismatic: bool,
+    /// Frames in which it held the command.
+    pub frames: usize,
+}
+
+/// A pair of links the self-collision limit kept apart, and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairHeld {
+    /// One link's URDF name.
+    pub link_a: String,
+    /// The other's.
+    pub link_b: String,
+    /// Frames in which the pair was limited.
+    pub frames: usize,
+    /// The nearest the pair came (before the step), metres.
+    pub closest_m: f64,
+}
+
+/// What the frames showed, gathered.
+#[derive(Default)]
+pub(super) struct Tally {
+    pub(super) upper: Vec<f64>,
+    pub(super) forearm: Vec<f64>,
+    pub(super) hand: Vec<f64>,
+    pub(super) hand_turn: Vec<f64>,
+    pub(super) upper_turn: Vec<f64>,
+    pub(super) steps: usize,
+    pub(super) constrained: usize,
+    pub(super) velocity_limited: usize,
+    pub(super) collision_limited: usize,
+    pub(super) colliding: usize,
+    pub(super) closest: Option<f64>,
+    /// Per joint (configuration index): frames its velocity limit held.
+    pub(super) joints_held: std::collections::BTreeMap<usize, usize>,
+    /// Per pair of links: frames the self-collision limit kept them apart, and the closest.
+    pub(super) pairs_held: std::collections::BTreeMap<(String, String), (usize, f64)>,
+}
+
+impl Tally {
+    /// Which limits held one frame's command: the joints that moved by their velocity limit's
+    /// whole step over `dt` from the command `before` and fell short of what was asked, and
+    /// the pairs of links the safety step found near.
+    pub(super) fn limits_held(
+        &mut self,
+        robot: &crate::urdf::Robot,
+        q_index: &[usize],
+        (asked, sent): (&[f64], &[f64]),
+        before: Option<(Vec<f64>, f64)>,
+        near: &[(String, String, f64)],
+    ) {
+        if let Some((last, dt)) = before {
+            let limits = robot.velocity_limits();
+            for (k, &i) in q_index.iter().enumerate() {
+                let step = limits[i] * dt;
+                let short = (asked[k] - sent[k]).abs() > 1e-9;
+                if limits[i] > 0.0 && short && (sent[k] - last[k]).abs() >= step - 1e-9 {
+                    *self.joints_held.entry(i).or_default() += 1;
+                }
+            }
+        }
+        for (a, b, d) in near {
+            let key = if a <= b {
+                (a.clone(), b.clone())
+            } else {
+                (b.clone(), a.clone())
+            };
+            let e = self.pairs_held.entry(key).or_insert((0, f64::INFINITY));
+            e.0 += 1;
+            e.1 = e.1.min(*d);
+        }
+    }
+
+    /// One frame as sent, against its target.
+    pub(super) fn judge(
+        &mut self,
+        anatomy: &Anatomy,
+        gauge: &PostureGauge,
+        model: &CollisionModel,
+        q: &[f64],
+        target: &[ArmPosture; 2],
+        collisions: bool,
+    ) {
+        let got = gauge.measure(anatomy, q);
+        for (g, t) in got.iter().zip(target) {
+            self.upper
+                .push(g.upper_arm.angle(&t.upper_arm).to_degrees());
+            self.forearm.push(g.forearm.angle(&t.forearm).to_degrees());
+            self.hand.push((g.hand - t.hand).norm());
+            self.hand_turn
+                .push((g.turn * t.turn.inverse()).angle().to_degrees());
+            self.upper_turn
+                .push((g.upper_turn * t.upper_turn.inverse()).angle().to_degrees());
+        }
+        if collisions {
+            let frames = RobotFrames::new(anatomy.robot(), &gauge.ancestry, q);
+            let near = model.proximities(&frames, 0.05);
+            if near.iter().any(|p| p.distance < 0.0) {
+                self.colliding += 1;
+            }
+            if let Some(d) = near.iter().map(|p| p.distance).reduce(f64::min) {
+                self.closest = Some(self.closest.map_or(d, |c| c.min(d)));
+            }
+        }
+    }
+
+    pub(super) fn report(
+        self,
+        options: &WholeArmOptions,
+        model: &CollisionModel,
+        (robot, frames): (&crate::urdf::Robot, usize),
+    ) -> PostureReport {
+        let names = robot.joint_names();
+        let limits = robot.velocity_limits();
+        let mut velocity_limited_joints: Vec<LimitHeld> = self
+            .joints_held
+            .iter()
+            .map(|(&i, &n)| LimitHeld {
+                joint: names[i].clone(),
+                limit: limits[i],
+                prismatic: robot.joints[robot.movable[i]].kind == crate::urdf::JointKind::Prismatic,
+                frames: n,
+            })
+            .collect();
+        velocity_limited_joints.sort_by_key(|j| std::cmp::Reverse(j.frames));
+        let mut collision_limited_pairs: Vec<PairHeld> = self
+            .pairs_held
+            .iter()
+            .map(|((a, b), &(n, d))| PairHeld {
+                link_a: a.clone(),
+                link_b: b.clone(),
+                frames: n,
+                closest_m: d,
+            })
+            .collect();
+        collision_limited_pairs.sort_by_key(|p| std::cmp::Reverse(p.frames));
+        let quantiles = |v: &[f64]| -> [f64; 2] {
+            let mut s = v.to_vec();
+            s.sort_by(f64::total_cmp);
+            let p90 = s
+                .get(((s.len() as f64) * 0.9).floor() as usize)
+                .or(s.last())
+                .copied()
+                .unwrap_or(0.0);
+            [median(&mut s.clone()), p90]
+        };
+        PostureReport {
+            upper_arm_deg: quantiles(&self.upper),
+            forearm_deg: quantiles(&self.forearm),
+            hand_of_reach: quantiles(&self.hand),
+            hand_orientation_deg: quantiles(&self.hand_turn),
+            upper_arm_orientation_deg: quantiles(&self.upper_turn),
+            hands_within_5pct: self.hand.iter().filter(|&&h| h <= 0.05).count() as f64
+                / self.hand.len().max(1) as f64,
+            velocity_limited_frames: self.velocity_limited,
+            collision_limited_frames: self.collision_limited,
+            velocity_limited_joints,
+            collision_limited_pairs,
+            colliding_frames: self.colliding,
+            closest_m: self.closest,
+            margin_m: options.margin_m,
+            pairs: model.pairs().len(),
+            unchecked: model.unchecked().to_vec(),
+            steps_per_frame: self.steps as f64 / frames.max(1) as f64,
+            constrained_steps: self.constrained as f64 / self.steps.max(1) as f64,
+        }
+    }
+}
