@@ -228,16 +228,17 @@ pub fn run(args: PredictArgs) -> Result<()> {
             timed,
             safety,
         } => {
+            // Seconds from the first frame, subtracted in nanoseconds: an absolute clock
+            // (1.7e9 s) leaves a double too few digits for a velocity limit's step.
+            let t0 = human.times_ns.first().copied().unwrap_or(0);
             let times: Vec<f64> = if *timed {
-                human.times_ns.iter().map(|&t| seconds_from_ns(t)).collect()
+                human.times_ns.iter().map(|&t| seconds_from_ns(t - t0)).collect()
             } else {
                 Vec::new()
             };
             let counts = limits.apply_all(&mut mean, &times);
             if let Some(s) = safety.as_mut() {
-                // From the first frame: an absolute clock leaves too few digits for a step.
-                let since: Vec<f64> = times.iter().map(|t| t - times[0]).collect();
-                kept = Some(keep_apart(s, &mut mean, target.names().len(), &since));
+                kept = Some(keep_apart(s, &mut mean, target.names().len(), &times));
             }
             Some(counts)
         }
