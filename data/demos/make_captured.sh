@@ -2,7 +2,7 @@
 # Rebuilds data/demos/captured.mcap from the CMU motion-capture trials it was made from:
 # downloads each BVH file (pinned to a commit, checked by MD5) into a cache folder unless it is
 # there already, imports the arm-rich span of each with `sgplvm import`, then retargets the
-# human's hands onto WALK-MAN, COMAN and CENTAURO with `sgplvm retarget` (blocks of 4 s, every
+# human's arms onto WALK-MAN, COMAN and CENTAURO with `sgplvm retarget` (blocks of 4 s, every
 # fourth block for testing). Run from the repository root:
 #
 #     bash data/demos/make_captured.sh [BVH_CACHE_DIR]      (default: target/cmu-bvh)

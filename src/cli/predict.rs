@@ -232,7 +232,11 @@ pub fn run(args: PredictArgs) -> Result<()> {
             // (1.7e9 s) leaves a double too few digits for a velocity limit's step.
             let t0 = human.times_ns.first().copied().unwrap_or(0);
             let times: Vec<f64> = if *timed {
-                human.times_ns.iter().map(|&t| seconds_from_ns(t - t0)).collect()
+                human
+                    .times_ns
+                    .iter()
+                    .map(|&t| seconds_from_ns(t - t0))
+                    .collect()
             } else {
                 Vec::new()
             };

@@ -388,7 +388,12 @@ impl Calibration {
     /// is this calibration's: every rest point within [`REST_MATCH_FRACTION`] of the arm's
     /// length, both compared in arm lengths (units apart), and the clavicle segments alike.
     /// `Err` says what differs, for the message that the calibration is not used.
-    pub fn check_rest(&self, rest: [&ArmPose; 2], has_clavicle: [bool; 2]) -> Result<(), String> {
+    pub fn check_rest(
+        &self,
+        rest: [&ArmPose; 2],
+        has_clavicle: [bool; 2],
+        hand_end: HandEnd,
+    ) -> Result<(), String> {
         let names = [
             "sternoclavicular joint",
             "shoulder",
@@ -413,6 +418,9 @@ impl Calibration {
                 return Err(format!("the {} arm has no length at rest", side.as_str()));
             }
             for ((c, h), name) in arm.rest.points().iter().zip(here.points()).zip(names) {
+                if name == "hand's end" && hand_end == HandEnd::Unmeasured {
+                    continue;
+                }
                 let off = (c / lc - h / lh).norm();
                 if off > REST_MATCH_FRACTION {
                     return Err(format!(
@@ -532,16 +540,28 @@ impl Calibration {
     }
 }
 
+/// Whether a source's rest pose measures where each hand ends (a file's End Site or a hand's
+/// child joint does; an MVN stream's segments end at the wrist, and its hand's end is only
+/// put a forearm's length beyond it): an unmeasured end is not compared with a calibration's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HandEnd {
+    /// The rest pose says where the hand ends.
+    Measured,
+    /// It does not.
+    Unmeasured,
+}
+
 /// Of `candidates`, the one whose rest pose is that of a source resting as `rest`, nearest
 /// first; `Err` lists why each was not.
 pub fn choose<'a>(
     candidates: &'a [Calibration],
     rest: [&ArmPose; 2],
     has_clavicle: [bool; 2],
+    hand_end: HandEnd,
 ) -> Result<&'a Calibration, Vec<String>> {
     let mut why = Vec::new();
     for c in candidates {
-        match c.check_rest(rest, has_clavicle) {
+        match c.check_rest(rest, has_clavicle, hand_end) {
             Ok(()) => return Ok(c),
             Err(e) => why.push(format!("{}: {e}", c.made_from)),
         }
@@ -668,14 +688,20 @@ mod tests {
         };
         // The same person in centimetres.
         let (l, r) = (scale(&left, 100.0), scale(&right, 100.0));
-        assert!(c.check_rest([&l, &r], [true, true]).is_ok());
+        assert!(c
+            .check_rest([&l, &r], [true, true], HandEnd::Measured)
+            .is_ok());
         // A forearm 15 % longer: another person.
         let mut other = left;
         other.wrist = other.elbow + 0.29 * Vector3::x();
         other.hand_tip = other.wrist + 0.1 * Vector3::x();
-        let e = c.check_rest([&other, &right], [true, true]).unwrap_err();
+        let e = c
+            .check_rest([&other, &right], [true, true], HandEnd::Measured)
+            .unwrap_err();
         assert!(e.contains("left arm's"), "{e}");
-        let e = c.check_rest([&left, &right], [false, true]).unwrap_err();
+        let e = c
+            .check_rest([&left, &right], [false, true], HandEnd::Measured)
+            .unwrap_err();
         assert!(e.contains("clavicle"), "{e}");
     }
 

@@ -139,15 +139,20 @@ fn given_calibration(
 ) -> Result<Calibration, CaptureError> {
     let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
     let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
-    crate::calibration::choose(given, [&rest[0], &rest[1]], has_clavicle)
-        .cloned()
-        .map_err(|why| CaptureError::Calibration {
-            file: file.to_string(),
-            message: format!(
-                "no calibration given is this capture's person: {}",
-                why.join("; ")
-            ),
-        })
+    crate::calibration::choose(
+        given,
+        [&rest[0], &rest[1]],
+        has_clavicle,
+        crate::calibration::HandEnd::Measured,
+    )
+    .cloned()
+    .map_err(|why| CaptureError::Calibration {
+        file: file.to_string(),
+        message: format!(
+            "no calibration given is this capture's person: {}",
+            why.join("; ")
+        ),
+    })
 }
 
 /// Most frames the elbow's hinge is read from (evenly spaced over the file).

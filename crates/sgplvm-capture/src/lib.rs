@@ -38,7 +38,7 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 pub use bvh::{Bvh, BvhError, BvhJoint, Channel};
-pub use calibration::{Calibration, HingeEstimate, Twist};
+pub use calibration::{Calibration, HandEnd, HingeEstimate, Twist};
 pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use import::{import_bvh, import_parsed};
 pub use segments::{ArmSegments, WorldPose};

@@ -15,7 +15,7 @@
 //!    the elbows' hinge as `import` reads a file's ([`HingeEstimate`]), and then calibrates —
 //!    the node says it is calibrating and how long is left ([`StreamCalibration::progress`]).
 
-use crate::calibration::{choose, Calibration, HingeEstimate, Twist, UntoldTwist};
+use crate::calibration::{choose, Calibration, HandEnd, HingeEstimate, Twist, UntoldTwist};
 use crate::fit::HumanArms;
 use crate::skeleton::ArmPose;
 use crate::stream::PoseFitter;
@@ -72,6 +72,8 @@ pub struct StreamCalibration {
     /// specifies its null pose, [`Twist::Assumed`] otherwise.
     untold: Twist,
     source: String,
+    /// Whether the stream's rest pose says where the hands end.
+    hand_end: HandEnd,
     started_s: Option<f64>,
     seconds_left: f64,
     hinge: HingeEstimate,
@@ -84,12 +86,20 @@ impl StreamCalibration {
         StreamCalibration {
             untold,
             source: source.to_string(),
+            hand_end: HandEnd::Measured,
             started_s: None,
             seconds_left: options.watch_seconds,
             hinge: HingeEstimate::new(),
             done: None,
             options,
         }
+    }
+
+    /// The same, for a stream whose rest pose does not say where the hands end (MVN's segments
+    /// end at the wrist): a calibration offered is matched without them.
+    pub fn hand_end_unmeasured(mut self) -> Self {
+        self.hand_end = HandEnd::Unmeasured;
+        self
     }
 
     /// Where the calibration stands.
@@ -125,7 +135,7 @@ impl StreamCalibration {
     ) -> Result<Option<PoseFitter>, CaptureError> {
         let first = *self.started_s.get_or_insert(time_s);
         if !self.options.offered.is_empty() {
-            match choose(&self.options.offered, rest, has_clavicle) {
+            match choose(&self.options.offered, rest, has_clavicle, self.hand_end) {
                 Ok(c) => {
                     self.done = Some(format!("the calibration of {}", c.describe()));
                     return Ok(Some(PoseFitter::new(model.clone(), c)));

@@ -281,6 +281,11 @@ def test_the_shipped_captured_demonstrations_meet_the_fit_figures():
         assert fit["elbow_median_m"] <= 0.01 and fit["wrist_median_m"] <= 0.01, s["file"]
         assert fit["elbow_worst_m"] <= 0.03 and fit["wrist_worst_m"] <= 0.03, s["file"]
         assert fit["elbow_angle_worst_deg"] <= 2.0, s["file"]
+        # The person's calibration (issue 48): what a model trained on the file carries live.
+        arms = s["calibration"]["arms"]
+        assert len(arms) == 2 and all(a["twist"]["kind"] for a in arms), s["file"]
+    retarget = json.loads(meta["sgplvm.retarget"]["json"])
+    assert retarget["match"] == "Arms", retarget["match"]
     demos = sgplvm.load_demonstrations(ROOT / "data" / "demos" / "captured.mcap")
     assert set(demos["robots"]) == {"walkman", "coman", "centauro"}
     assert len(demos["train"]) > 200 and len(demos["test"]) > 200

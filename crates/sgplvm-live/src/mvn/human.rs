@@ -119,7 +119,8 @@ impl MvnFit {
     pub fn new(options: StreamCalibrationOptions) -> MvnFit {
         MvnFit {
             model: None,
-            calibration: StreamCalibration::new(options, Twist::NullPose, SOURCE),
+            calibration: StreamCalibration::new(options, Twist::NullPose, SOURCE)
+                .hand_end_unmeasured(),
             fitter: None,
         }
     }

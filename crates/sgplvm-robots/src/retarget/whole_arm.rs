@@ -265,7 +265,8 @@ pub(super) fn run(
         // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
         // too few digits for a 25 ms step's velocity limit.
         let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
-        let before = (f > 0).then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
+        let before = (velocity_limits && f > 0)
+            .then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
         // Without velocity limits the safe command is a function of the pose alone: the
         // self-collision limit linearised at the asked posture, not at the command before.
         let outcome = if velocity_limits {
