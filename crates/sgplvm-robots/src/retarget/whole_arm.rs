@@ -268,11 +268,21 @@ pub(super) fn run(
         let before = (velocity_limits && f > 0)
             .then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
         // Without velocity limits the safe command is a function of the pose alone: the
-        // self-collision limit linearised at the asked posture, not at the command before.
+        // self-collision limit linearised at the asked posture, not at the command before,
+        // and again at each result while it moves (a posture deep in a shape needs more than
+        // one linearised step out).
         let outcome = if velocity_limits {
             safety.step(&asked, now, &mut sent)
         } else {
-            safety.step_from(&asked, None, now, &mut sent)
+            let mut outcome = safety.step_from(&asked, None, now, &mut sent);
+            for _ in 0..SAFE_PASSES {
+                let at = sent.clone();
+                if !safety.step_from(&at, None, now, &mut sent).changed {
+                    break;
+                }
+            }
+            outcome.changed = sent.iter().zip(&asked).any(|(o, a)| (o - a).abs() > 1e-9);
+            outcome
         };
         if outcome.changed {
             if outcome.near.is_empty() {
@@ -340,6 +350,10 @@ pub(super) fn reference_configuration(human: &Anatomy) -> Vec<f64> {
 /// How many of the fixed starts (the key postures) each frame is also solved from besides the
 /// neutral posture: those whose objective is lowest at the start.
 const SEED_STARTS: usize = 2;
+
+/// Further linearised safety steps from the last one's result, at most, when velocity limits
+/// are off (each only while the one before moved the command).
+const SAFE_PASSES: usize = 4;
 
 /// How far past straight (radians) an elbow is let bend the other way while retargeting.
 const PAST_STRAIGHT: f64 = 0.02;
