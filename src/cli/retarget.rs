@@ -421,6 +421,12 @@ fn print_postures(reports: &[ReachReport]) {
                 first_few(&held, 4)
             );
         }
+        if p.stepped_from_before_frames > 0 {
+            println!(
+                "{:<12} {} frame(s) asked a posture too deep in the robot's own shapes to step out of alone: stepped from the command before (those frames depend on the path)",
+                r.robot, p.stepped_from_before_frames
+            );
+        }
         if !p.unchecked.is_empty() {
             println!(
                 "{:<12} self-collision not checked for {} collision element(s): {}",

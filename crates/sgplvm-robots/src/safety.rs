@@ -154,6 +154,19 @@ impl SafetyStep {
         )
     }
 
+    /// Whether commanded values `x` put two of the robot's shapes into each other (always
+    /// false without the self-collision limit).
+    pub fn overlaps(&self, x: &[f64]) -> bool {
+        if !self.options.self_collision {
+            return false;
+        }
+        let frames = RobotFrames::new(&self.robot, &self.ancestry, &self.full(x));
+        self.collision
+            .proximities(&frames, 0.0)
+            .iter()
+            .any(|p| p.distance < 0.0)
+    }
+
     /// [`SafetyStep::step`] from the command `last` sent at its time (`None`: none sent yet).
     pub fn step_from(
         &mut self,
@@ -225,11 +238,7 @@ impl SafetyStep {
         if self.options.self_collision && self.last.is_some() && !short {
             let overlaps = |d: &DVector<f64>| {
                 let x: Vec<f64> = from.iter().zip(d.iter()).map(|(f, d)| f + d).collect();
-                let frames = RobotFrames::new(&self.robot, &self.ancestry, &self.full(&x));
-                self.collision
-                    .proximities(&frames, 0.0)
-                    .iter()
-                    .any(|p| p.distance < 0.0)
+                self.overlaps(&x)
             };
             let mut cut = 0;
             while cut < 12 && overlaps(&delta) {

@@ -32,6 +32,11 @@ pub struct PostureReport {
     pub velocity_limited_frames: usize,
     /// Frames whose command the self-collision limit moved.
     pub collision_limited_frames: usize,
+    /// Frames whose safe command could not be found from the pose alone (the asked posture too
+    /// deep in a shape) and was stepped from the command before: the only frames whose command
+    /// depends on the path when velocity limits are off.
+    #[serde(default)]
+    pub stepped_from_before_frames: usize,
     /// Which velocity limits held the commands: per joint that was held at its limit (the
     /// command moved by the limit's whole step and not as far as asked), the joint, its limit
     /// (rad/s or m/s) and the frames; most frames first.
@@ -96,6 +101,7 @@ pub(super) struct Tally {
     pub(super) constrained: usize,
     pub(super) velocity_limited: usize,
     pub(super) collision_limited: usize,
+    pub(super) from_before: usize,
     pub(super) colliding: usize,
     pub(super) closest: Option<f64>,
     /// Per joint (configuration index): frames its velocity limit held.
@@ -221,6 +227,7 @@ impl Tally {
                 / self.hand.len().max(1) as f64,
             velocity_limited_frames: self.velocity_limited,
             collision_limited_frames: self.collision_limited,
+            stepped_from_before_frames: self.from_before,
             velocity_limited_joints,
             collision_limited_pairs,
             colliding_frames: self.colliding,
