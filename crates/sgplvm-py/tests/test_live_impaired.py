@@ -258,7 +258,7 @@ def test_tf_publisher_bursts_pauses_reorders_and_skews(tmp, data, model):
     ros = Ros2(domain)
     static_writer = DataWriter(ros.dp, Topic(ros.dp, "rt/tf_static", TFMessage, qos=LATCHED), qos=LATCHED)
     static_writer.write(_tf_static_message())
-    node, sub = run_node(tmp, domain, ["--model", str(model), "--robot", "coman", "--input", "tf"])
+    node, sub = run_node(tmp, domain, ["--model", str(model), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0"])
 
     def write(e):
         k = 2 * (e.row % (len(cycle) // 2))

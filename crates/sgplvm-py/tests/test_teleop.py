@@ -1171,7 +1171,7 @@ def test_tf_frames_published_by_cyclone_drive_teleop(tmp, data, models):
     static_writer.write(_tf_static_message())
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
-        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf",
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0",
         "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     # The human model's joint order (the demonstrations' may differ).
@@ -1200,11 +1200,42 @@ def test_tf_frames_published_by_cyclone_drive_teleop(tmp, data, models):
     assert answered >= 0.95 * len(rows), (answered, err)
 
 
+def test_a_t_pose_stream_is_watched_before_it_is_commanded(tmp, data, models):
+    """A T-pose tree leaves the upper arm's twist untold (issue 48): with no calibration given,
+    the node watches the elbows for --calibration-seconds of the stream's own time, says so, and
+    commands nothing until then; then it commands every frame."""
+    domain = next_domain()
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "1",
+        "--reconstruction-threshold", "1e9",
+    ])
+    order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
+    rows, times_ns = data["rows"][:80][:, order], data["times_ns"][:80]
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/tf", TFMessage)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        messages = _tf_arm_messages(rows, times_ns)
+        for k in range(0, len(messages), 2):
+            w.write(messages[k])
+            w.write(messages[k + 1])
+            time.sleep(0.025)
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    assert "bend both elbows" in err and "no commands until then" in err, err
+    first = min(stamp_ns(c.header.stamp) for c in commands)
+    # 1 s of the stream's time watched (40 frames at 40 Hz), then every frame commanded.
+    assert first - int(times_ns[0]) >= 0.95e9, (first - int(times_ns[0])) / 1e9
+    assert len(commands) >= 35, (len(commands), err)
+
+
 def test_tf_frame_missing_is_counted_and_bad_names_are_reported(tmp, data, models):
     """Sets without the right hand are skipped and counted (the frame named); a skeleton whose
     names no scheme knows is reported with the frames found."""
     domain = next_domain()
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0"])
     order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
     rows, times_ns = data["rows"][:10][:, order], data["times_ns"][:10]
     try:
@@ -1227,7 +1258,7 @@ def test_tf_frame_missing_is_counted_and_bad_names_are_reported(tmp, data, model
     assert "mocap/RightHand" in err, err
     # Names of no scheme.
     domain = next_domain()
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0"])
     try:
         ros = Ros2(domain)
         w = ros.writer("/tf", TFMessage)
@@ -1251,7 +1282,7 @@ def test_replay_as_tf_drives_teleop(tmp, data, models):
     sgplvm.write_joint_states(human, "/human/joint_states", times.astype(np.int64), data["names"], rows)
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
-        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf",
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0",
         "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     try:
