@@ -1215,6 +1215,7 @@ def test_a_t_pose_stream_is_watched_before_it_is_commanded(tmp, data, models):
         ros = Ros2(domain)
         w = ros.writer("/tf", TFMessage)
         ros.reader("/coman/joint_command", JointState)
+        ros.reader("/sgplvm/status", DiagnosticArray)
         ros.wait_matched()
         messages = _tf_arm_messages(rows, times_ns)
         for k in range(0, len(messages), 2):
@@ -1222,9 +1223,14 @@ def test_a_t_pose_stream_is_watched_before_it_is_commanded(tmp, data, models):
             w.write(messages[k + 1])
             time.sleep(0.025)
         commands = ros.take("/coman/joint_command", settle=0.5)
+        inputs = [values(s) for a in ros.take("/sgplvm/status") for s in a.status if s.name == "sgplvm/input"]
     finally:
         summary, err = node.stop()
     assert "bend both elbows" in err and "no commands until then" in err, err
+    # The status topic says it too, then what the person is fitted through.
+    said = [v.get("calibration", "") for v in inputs]
+    assert any(c.startswith("calibrating") for c in said), said
+    assert "calibrated on" in said[-1], said
     first = min(stamp_ns(c.header.stamp) for c in commands)
     # 1 s of the stream's time watched (40 frames at 40 Hz), then every frame commanded.
     assert first - int(times_ns[0]) >= 0.95e9, (first - int(times_ns[0])) / 1e9

@@ -159,6 +159,12 @@ impl MvnInput {
             ("mvn_late".into(), c.late.to_string()),
             ("mvn_incomplete".into(), c.incomplete.to_string()),
             ("mvn_units".into(), self.units()),
+            (
+                "calibration".into(),
+                self.calibration
+                    .clone()
+                    .unwrap_or_else(|| "waiting for the first frame".into()),
+            ),
         ]
     }
 

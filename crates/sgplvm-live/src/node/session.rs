@@ -183,12 +183,18 @@ impl<'a> Session<'a> {
         Ok(())
     }
 
-    /// The input's own values for the status (the MVN stream's sender, refusals, units).
+    /// The input's own values for the status (the MVN stream's sender, refusals, units; the
+    /// person's calibration of an MVN or TF stream).
     fn input_values(&self) -> Vec<(String, String)> {
-        self.mvn
+        let mut values = self
+            .mvn
             .as_ref()
             .map(MvnInput::status_values)
-            .unwrap_or_default()
+            .unwrap_or_default();
+        if let Some(t) = &self.tf {
+            values.push(("calibration".into(), t.calibration_status()));
+        }
+        values
     }
 
     /// Waits for the input, the next stale deadline or the next status tick.

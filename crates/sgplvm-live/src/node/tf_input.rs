@@ -106,6 +106,14 @@ fn static_qos() -> QosProfile {
 }
 
 impl TfInput {
+    /// How the stream's person is calibrated, for the status.
+    pub(super) fn calibration_status(&self) -> String {
+        self.summary
+            .calibration
+            .clone()
+            .unwrap_or_else(|| "waiting for the first frame set".into())
+    }
+
     /// Subscribes to `/tf` and `/tf_static` for the models whose human joints are `human`.
     pub(super) fn subscribe(
         node: &mut Node,
