@@ -19,9 +19,15 @@ use super::calibration::CalibrationArgs;
 pub struct TeleopArgs {
     /// A trained model (repeat for a family of transferred models, one per --robot, in order;
     /// one multi-robot model drives all of its robots).
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "retarget")]
     model: Vec<PathBuf>,
-    /// A robot to drive: a robot of its model (repeat for several).
+    /// Drive the robots by whole-arm retargeting of each frame instead of a model: no training,
+    /// the posture `retarget` gives the same pose in a file (about 1 ms a frame per robot),
+    /// within the same velocity and self-collision limits; nothing is held for trust.
+    #[arg(long, conflicts_with = "model")]
+    retarget: bool,
+    /// A robot to drive: a robot of its model, or with --retarget a built-in robot or one given
+    /// by --urdf (repeat for several).
     #[arg(long, required = true)]
     robot: Vec<String>,
     /// A robot's URDF as its maker publishes it, ROBOT=FILE (its limits bound the commands,
@@ -306,10 +312,11 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         .iter()
         .map(|p| load_model(p).map(Arc::new))
         .collect::<Result<_>>()?;
-    let model_for = |k: usize| -> Result<Arc<sgplvm::SharedGplvm>> {
+    let model_for = |k: usize| -> Result<Option<Arc<sgplvm::SharedGplvm>>> {
         match models.len() {
-            1 => Ok(models[0].clone()),
-            n if n == args.robot.len() => Ok(models[k].clone()),
+            0 => Ok(None),
+            1 => Ok(Some(models[0].clone())),
+            n if n == args.robot.len() => Ok(Some(models[k].clone())),
             n => bail!("{n} --model files for {} --robot names: give one model per robot, or one model for all", args.robot.len()),
         }
     };

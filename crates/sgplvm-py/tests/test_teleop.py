@@ -1237,6 +1237,51 @@ def test_a_t_pose_stream_is_watched_before_it_is_commanded(tmp, data, models):
     assert len(commands) >= 35, (len(commands), err)
 
 
+def test_retargeting_drives_a_robot_without_a_model(tmp, data):
+    """``teleop --retarget`` (issue 49): no model, each frame retargeted as ``sgplvm retarget``
+    retargets a file's frames — the commands equal the file's to 1e-9 (self-collision off on
+    both sides: the file's step and the node's gate differ only in where they start the step
+    out of a collision) — and every frame followed."""
+    names, rows, times_ns = data["names"], data["rows"][:60], data["times_ns"][:60]
+    human = tmp / "retarget_human.mcap"
+    sgplvm.write_joint_states(human, "/human/joint_states", times_ns.astype(np.int64), names, rows)
+    file = tmp / "retarget_file.mcap"
+    done = subprocess.run(
+        [str(sgplvm_binary()), "retarget", "--demos", str(human), "--robots", "coman", "--margin", "0", "--out", str(file)],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    expected = sgplvm.load_demonstrations(file)["robots"]["coman"]
+    domain = next_domain()
+    urdf = relaxed_urdf(tmp, "coman")
+    node = Teleop(tmp, domain, ["--retarget", "--robot", "coman", "--margin", "0", "--urdf", f"coman={urdf[0]}"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        send(w, names, rows, times_ns)
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    assert "whole-arm retargeting of each frame" in err, err
+    assert summary["robots"]["coman"]["untrusted"] == 0, summary
+    index = {int(t): k for k, t in enumerate(times_ns)}
+    column = [expected["joint_names"].index(n) for n in commands[0].name]
+    worst = max(
+        float(np.max(np.abs(np.array(c.position) - np.asarray(expected["positions"])[index[stamp_ns(c.header.stamp)], column])))
+        for c in commands
+    )
+    assert len(commands) >= 0.95 * len(rows), (len(commands), err)
+    assert worst < 1e-9, worst
+    # A model and --retarget together are refused, naming both.
+    bad = subprocess.run(
+        [str(sgplvm_binary()), "teleop", "--retarget", "--model", "x.sgp", "--robot", "coman"],
+        capture_output=True, text=True, timeout=30,
+    )
+    assert bad.returncode == 2 and "--retarget" in bad.stderr and "--model" in bad.stderr, bad.stderr
+
+
 def test_tf_frame_missing_is_counted_and_bad_names_are_reported(tmp, data, models):
     """Sets without the right hand are skipped and counted (the frame named); a skeleton whose
     names no scheme knows is reported with the frames found."""

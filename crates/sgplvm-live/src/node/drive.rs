@@ -8,6 +8,7 @@ use ros2_client::dds::Node;
 use sgplvm_core::SharedGplvm;
 use sgplvm_robots::anatomy::CommandColumns;
 use sgplvm_robots::limits::CommandLimits;
+use sgplvm_robots::retarget::{FrameRetargeter, RetargetOptions};
 use sgplvm_robots::safety::{SafetyOptions, SafetyStep};
 
 use super::dds::{command_publisher, CommandPublisher};
@@ -41,8 +42,11 @@ pub(super) struct Driven {
     /// Whether a command was sent (`sent` holds it).
     pub(super) has_sent: bool,
     pub(super) last: Option<Decision>,
-    /// Which of the distinct models (their latent points per frame) drives this robot.
-    pub(super) model_slot: usize,
+    /// Which of the distinct models (their latent points per frame) drives this robot; `None`
+    /// for a robot driven by retargeting.
+    pub(super) model_slot: Option<usize>,
+    /// The robot's retargeting, for a robot driven without a model.
+    pub(super) retargeter: Option<FrameRetargeter>,
 }
 
 /// A distinct model among the robots' and its latent point of the current frame (computed once
@@ -53,7 +57,8 @@ pub(super) struct LatentSlot {
     pub(super) ok: bool,
 }
 
-/// The human's joint names of the models (all must agree).
+/// The human's joint names of the models (all must agree; a robot driven by retargeting takes
+/// the human model's).
 pub(super) fn human_joints(drives: &[Drive]) -> Result<Vec<String>, LiveError> {
     let names = |m: &SharedGplvm| -> Vec<String> {
         let input = m.input_name().to_string();
@@ -65,14 +70,23 @@ pub(super) fn human_joints(drives: &[Drive]) -> Result<Vec<String>, LiveError> {
                     .collect()
             })
     };
+    let human_model = || -> Result<Vec<String>, LiveError> {
+        sgplvm_robots::Robot::builtin("human")
+            .map(|h| h.joint_names())
+            .map_err(|e| LiveError::Config(format!("the human model: {e}")))
+    };
     let first = drives
         .first()
         .ok_or_else(|| LiveError::Config("no robot to drive".into()))?;
-    let h = names(&first.model);
+    let joints_of = |d: &Drive| match &d.model {
+        Some(m) => Ok(names(m)),
+        None => human_model(),
+    };
+    let h = joints_of(first)?;
     for d in &drives[1..] {
-        if names(&d.model) != h {
+        if joints_of(d)? != h {
             return Err(LiveError::Config(format!(
-                "the models for {} and {} take different human joints",
+                "{} and {} take different human joints (a robot driven by retargeting takes the human model's 18)",
                 first.robot, d.robot
             )));
         }
@@ -91,7 +105,7 @@ pub(super) fn drive_all(
     let mut driven = Vec::with_capacity(drives.len());
     let mut slots: Vec<LatentSlot> = Vec::new();
     for drive in drives {
-        let model_slot = slot_of(&mut slots, &drive.model);
+        let model_slot = drive.model.as_ref().map(|m| slot_of(&mut slots, m));
         driven.push(drive_one(node, drive, model_slot, options, shared, log)?);
     }
     Ok((driven, slots))
@@ -115,29 +129,44 @@ fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<SharedGplvm>) -> usize {
     }
 }
 
-/// One robot checked against its model, with its safety rule and command publisher.
+/// One robot checked against its model (or set up for retargeting), with its safety rule and
+/// command publisher.
 fn drive_one(
     node: &mut Node,
     drive: Drive,
-    model_slot: usize,
+    model_slot: Option<usize>,
     options: &TeleopOptions,
     shared: bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<Driven, LiveError> {
-    let model = &drive.model;
-    if !model.output_names().contains(&drive.robot.as_str()) {
-        return Err(LiveError::Config(format!(
-            "the model does not know robot `{}`; it predicts for {:?}",
-            drive.robot,
-            model.output_names()
-        )));
-    }
-    let model_columns: Vec<String> = model
-        .column_names(&drive.robot)
-        .map(<[String]>::to_vec)
-        .ok_or_else(|| {
-            LiveError::Config(format!("the model names no joints for `{}` (fit it with column names: Python fit(..., column_names=...), or train with the CLI)", drive.robot))
-        })?;
+    let (model_columns, thresholds, retargeter) = match &drive.model {
+        Some(model) => {
+            let columns = model_columns(model, &drive.robot)?;
+            let thresholds = Thresholds::of(model, &drive.robot, &options.gate)?;
+            (columns, thresholds, None)
+        }
+        None => {
+            // The solve keeps the robot's shapes apart as the gate does (`--margin`).
+            let mut retarget = RetargetOptions::default();
+            match options.gate.collision_margin_m {
+                Some(margin) => retarget.whole_arm.margin_m = margin,
+                None => retarget.whole_arm.self_collision = false,
+            }
+            let retargeter = FrameRetargeter::new(&drive.anatomy, &retarget)
+                .map_err(|e| LiveError::Config(format!("{}: {e}", drive.robot)))?;
+            // Nothing to trust or distrust: every frame is followed (the signals are 0).
+            let thresholds = Thresholds {
+                signals: options.gate.signals,
+                sd: f64::INFINITY,
+                reconstruction: f64::INFINITY,
+            };
+            (
+                retargeter.joint_names().to_vec(),
+                thresholds,
+                Some(retargeter),
+            )
+        }
+    };
     let columns = drive
         .anatomy
         .command_columns(&model_columns)
@@ -146,7 +175,6 @@ fn drive_one(
     let (sent_names, order) = sent_order(&drive, &joints, options)?;
     let limits = CommandLimits::for_joints(drive.anatomy.robot(), &joints)
         .map_err(|e| LiveError::Config(e.to_string()))?;
-    let thresholds = Thresholds::of(model, &drive.robot, &options.gate)?;
     let topic = match &options.command_topic {
         Some(t) => t.replace("{robot}", &drive.robot),
         None => options.form.default_topic(&drive.robot, shared),
@@ -154,8 +182,12 @@ fn drive_one(
     let publisher = command_publisher(node, &topic, options.form, options.command_qos)?;
     let d = joints.len();
     let m = model_columns.len();
+    let mapping = match &retargeter {
+        Some(_) => "whole-arm retargeting of each frame (no model: nothing held for trust)".into(),
+        None => thresholds.to_string(),
+    };
     log(&format!(
-        "{}: {} joints as {} on {topic}; {thresholds}",
+        "{}: {} joints as {} on {topic}; {mapping}",
         drive.robot,
         d,
         options.form.name()
@@ -205,7 +237,24 @@ fn drive_one(
         has_sent: false,
         last: None,
         model_slot,
+        retargeter,
     })
+}
+
+/// The joints `model` predicts for `robot`, by name.
+fn model_columns(model: &SharedGplvm, robot: &str) -> Result<Vec<String>, LiveError> {
+    if !model.output_names().contains(&robot) {
+        return Err(LiveError::Config(format!(
+            "the model does not know robot `{robot}`; it predicts for {:?}",
+            model.output_names()
+        )));
+    }
+    model
+        .column_names(robot)
+        .map(<[String]>::to_vec)
+        .ok_or_else(|| {
+            LiveError::Config(format!("the model names no joints for `{robot}` (fit it with column names: Python fit(..., column_names=...), or train with the CLI)"))
+        })
 }
 
 /// The joint names a robot's commands carry, in their order, and where each is among the
@@ -266,7 +315,10 @@ pub(super) fn start_view(
                     rest: r.drive.anatomy.hold_configuration().to_vec(),
                 })
                 .collect();
-            let q = driven[0].drive.model.latent_points().ncols();
+            let q = driven
+                .iter()
+                .find_map(|r| r.drive.model.as_ref())
+                .map_or(0, |m| m.latent_points().ncols());
             let v = crate::view::LiveView::start(addr, human.to_vec(), robots, q)?;
             log(&format!(
                 "live view: Foxglove WebSocket on ws://{}:{}",

@@ -41,8 +41,10 @@ use session::{Parts, Session};
 pub struct Drive {
     /// The robot's name: a robot space of `model`.
     pub robot: String,
-    /// The model.
-    pub model: Arc<SharedGplvm>,
+    /// The model; `None`: the robot is driven by whole-arm retargeting of each frame (the
+    /// human model's joints in, no model, nothing gated by trust; the velocity limits and the
+    /// self-collision limit as for a model's robot).
+    pub model: Option<Arc<SharedGplvm>>,
     /// The robot's anatomy: its URDF (joint limits, the live view), the joints its commands
     /// name and the hold values of those the model does not predict.
     pub anatomy: Anatomy,

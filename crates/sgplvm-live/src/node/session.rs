@@ -330,24 +330,26 @@ impl<'a> Session<'a> {
             };
         }
         for r in &mut self.driven {
-            let slot = &self.slots[r.model_slot];
-            let e = self.reconstruction[r.model_slot];
+            let by = match r.model_slot {
+                Some(k) => By::Model(&self.slots[k], self.reconstruction[k]),
+                None => By::Retargeting(&self.h),
+            };
             let sent = Sent {
                 stamp,
                 period_s: self.period_s,
                 start: self.start,
             };
-            let changed = command(r, slot, e, self.options, sent, log)?;
+            let changed = command(r, by, self.options, sent, log)?;
             self.status_due |= changed;
         }
         self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
         if let Some(v) = self.view.as_mut() {
-            let latent = &self.slots[self.driven[0].model_slot];
+            let latent = self.driven[0].model_slot.map(|k| &self.slots[k]);
             show(
                 v,
                 &self.driven,
                 &self.h,
-                latent.ok.then_some(&latent.x[..]),
+                latent.and_then(|l| l.ok.then_some(&l.x[..])),
                 stamp.to_ns(),
                 log,
             );
@@ -437,24 +439,43 @@ struct Sent {
     start: Instant,
 }
 
-/// One robot's step for the current frame (its pose's reconstruction error `e` under the
-/// robot's model): its model's prediction through its safety rule, the command published
-/// unless the rule is still waiting; whether its state changed (then it is logged).
+/// What a robot's target comes from in the current frame: its model (the frame's latent point
+/// and the pose's reconstruction error under it), or retargeting of the human frame.
+enum By<'a> {
+    Model(&'a LatentSlot, f64),
+    Retargeting(&'a [f64]),
+}
+
+/// One robot's step for the current frame: its model's prediction (or its retargeting of the
+/// frame) through its safety rule, the command published unless the rule is still waiting;
+/// whether its state changed (then it is logged).
 fn command(
     r: &mut Driven,
-    slot: &LatentSlot,
-    e: f64,
+    by: By<'_>,
     options: &TeleopOptions,
     sent: Sent,
     log: &mut dyn FnMut(&str),
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
-    let sd = match slot.ok {
-        true => slot
-            .model
-            .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.model_mean, &mut r.model_sd)
-            .unwrap_or(f64::NAN),
-        false => f64::NAN,
+    let (sd, e) = match (by, r.retargeter.as_mut()) {
+        (By::Model(slot, e), _) => {
+            let sd = match slot.ok {
+                true => slot
+                    .model
+                    .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.model_mean, &mut r.model_sd)
+                    .unwrap_or(f64::NAN),
+                false => f64::NAN,
+            };
+            (sd, e)
+        }
+        (By::Retargeting(h), Some(retargeter)) => {
+            r.model_sd.fill(0.0);
+            match retargeter.retarget(h, &mut r.model_mean) {
+                Ok(()) => (0.0, 0.0),
+                Err(_) => (f64::NAN, f64::NAN),
+            }
+        }
+        (By::Retargeting(_), None) => (f64::NAN, f64::NAN),
     };
     r.columns.fill(&r.model_mean, &mut r.mean);
     r.columns.fill_std(&r.model_sd, &mut r.sd);

@@ -31,6 +31,7 @@
 
 mod arm;
 pub mod file;
+pub mod live;
 pub mod split;
 pub mod whole_arm;
 
@@ -44,6 +45,7 @@ use crate::series::median;
 use crate::{IkOptions, IkTarget, Robot, RobotError};
 pub use arm::Redundancy;
 use arm::{ArmRun, Outcome};
+pub use live::FrameRetargeter;
 
 /// What the robot's arm matches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

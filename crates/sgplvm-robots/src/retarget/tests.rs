@@ -464,3 +464,38 @@ fn whole_arm_posture_is_a_function_of_the_pose_not_of_the_path() {
     }
     assert!(worst < 1e-9, "{}°", worst.to_degrees());
 }
+
+#[test]
+fn a_frame_retargeted_alone_is_the_file_s_frame() {
+    // Live retargeting (one frame at a time) gives each frame the posture the file's retargeting
+    // gives it (without the self-collision step, which the live node's gate keeps itself).
+    let tour = human_tour(&[0, 2, 5, 9, 0], 20);
+    let mut options = RetargetOptions {
+        velocity_limits: false,
+        ..RetargetOptions::default()
+    };
+    options.whole_arm.self_collision = false;
+    let robots = coman();
+    let file = retarget(&tour, &robots, &options).unwrap().remove(0);
+    let mut live = FrameRetargeter::new(&robots[0].1, &options).unwrap();
+    let names = live.joint_names().to_vec();
+    let column: Vec<usize> = names
+        .iter()
+        .map(|n| file.body.joint_names.iter().position(|m| m == n).unwrap())
+        .collect();
+    let mut out = vec![0.0; names.len()];
+    let mut worst = 0.0_f64;
+    for f in (0..tour.len()).rev() {
+        let h: Vec<f64> = tour.human.positions.row(f).iter().copied().collect();
+        live.retarget(&h, &mut out).unwrap();
+        for (k, &c) in column.iter().enumerate() {
+            worst = worst.max((out[k] - file.body.positions[(f, c)]).abs());
+        }
+    }
+    assert!(worst < 1e-9, "{}°", worst.to_degrees());
+    // A bad frame is an error, not a posture.
+    let e = live.retarget(&[f64::NAN; 18], &mut out).unwrap_err();
+    assert!(e.to_string().contains("finite"), "{e}");
+    let e = live.retarget(&[0.0; 17], &mut out).unwrap_err();
+    assert!(e.to_string().contains("expected 18"), "{e}");
+}

@@ -211,17 +211,12 @@ pub(super) fn run(
     velocity_limits: bool,
 ) -> Result<(DMatrix<f64>, Vec<f64>, PostureReport), String> {
     let robot = anatomy.robot();
-    let mut gauge = PostureGauge::of(anatomy);
-    let arm_names = anatomy.arm_joint_names();
-    let q_index: Vec<usize> = arm_names
-        .iter()
-        .filter_map(|n| robot.joint_index(n))
-        .collect();
-    let active: Vec<usize> = q_index.iter().map(|&i| robot.movable[i]).collect();
-    let model = anatomy.collision_model(&q_index, options.margin_m);
+    let solver = ArmSolver::new(anatomy, reference, seeds.to_vec(), options);
+    let (gauge, model, q_index, hold) =
+        (&solver.gauge, &solver.model, &solver.q_index, &solver.hold);
     let mut safety = SafetyStep::new(
         anatomy,
-        &arm_names,
+        &anatomy.arm_joint_names(),
         SafetyOptions {
             margin_m: options.margin_m,
             velocity_limits,
@@ -229,36 +224,12 @@ pub(super) fn run(
             ..SafetyOptions::default()
         },
     )?;
-    let hold = anatomy.hold_configuration().to_vec();
-    let neutral: Vec<f64> = q_index.iter().map(|&i| hold[i]).collect();
-    let elbows = elbow_sides(anatomy, &active);
-    (gauge.neutral_hands, gauge.neutral_uppers) = FrameSolver {
-        anatomy,
-        gauge: &gauge,
-        model: &model,
-        active: &active,
-        neutral: &neutral,
-        seeds,
-        elbows: &elbows,
-        options,
-    }
-    .reference_hands(reference, &hold);
     let mut ideal = hold.clone();
     let mut out = DMatrix::<f64>::from_fn(targets.len(), hold.len(), |_, i| hold[i]);
     let mut tally = Tally::default();
     let mut sent = vec![0.0; q_index.len()];
     for (f, target) in targets.iter().enumerate() {
-        let solver = FrameSolver {
-            anatomy,
-            gauge: &gauge,
-            model: &model,
-            active: &active,
-            neutral: &neutral,
-            seeds,
-            elbows: &elbows,
-            options,
-        };
-        let (steps, constrained) = solver.solve_frame(&mut ideal, target, &hold);
+        let (steps, constrained) = solver.solve(target, &mut ideal);
         tally.steps += steps;
         tally.constrained += constrained;
         let asked: Vec<f64> = q_index.iter().map(|&i| ideal[i]).collect();
@@ -297,14 +268,14 @@ pub(super) fn run(
             } else {
                 tally.collision_limited += 1;
             }
-            tally.limits_held(robot, &q_index, (&asked, &sent), before, &outcome.near);
+            tally.limits_held(robot, q_index, (&asked, &sent), before, &outcome.near);
         }
         let mut q = hold.clone();
         for (k, &i) in q_index.iter().enumerate() {
             q[i] = sent[k];
             out[(f, i)] = sent[k];
         }
-        tally.judge(anatomy, &gauge, &model, &q, target, options.self_collision);
+        tally.judge(anatomy, gauge, model, &q, target, options.self_collision);
     }
     let misses: Vec<f64> = tally
         .hand
@@ -312,8 +283,91 @@ pub(super) fn run(
         .enumerate()
         .map(|(k, h)| h * gauge.reach[k % 2])
         .collect();
-    let report = tally.report(options, &model, (robot, targets.len()));
+    let report = tally.report(options, model, (robot, targets.len()));
     Ok((out, misses, report))
+}
+
+/// One robot's whole-arm solver, set up once: the posture gauge (its orientations measured
+/// from the robot's reference posture), the collision model, the joints it moves and the fixed
+/// starts. [`ArmSolver::solve`] gives a frame's posture from its target alone.
+pub(super) struct ArmSolver {
+    anatomy: Anatomy,
+    gauge: PostureGauge,
+    model: CollisionModel,
+    /// The arm joints' configuration indices and their movable-joint indices.
+    q_index: Vec<usize>,
+    active: Vec<usize>,
+    /// The whole configuration at hold, and the arm joints' values there.
+    hold: Vec<f64>,
+    neutral: Vec<f64>,
+    seeds: Vec<Vec<f64>>,
+    elbows: Vec<ElbowSide>,
+    options: WholeArmOptions,
+}
+
+impl ArmSolver {
+    /// The solver of `anatomy`'s arms for a person whose turns are measured from `reference`
+    /// ([`reference_configuration`]), with the fixed starts `seeds` (whole configurations).
+    pub(super) fn new(
+        anatomy: &Anatomy,
+        reference: &[ArmPosture; 2],
+        seeds: Vec<Vec<f64>>,
+        options: &WholeArmOptions,
+    ) -> ArmSolver {
+        let robot = anatomy.robot();
+        let q_index: Vec<usize> = anatomy
+            .arm_joint_names()
+            .iter()
+            .filter_map(|n| robot.joint_index(n))
+            .collect();
+        let active: Vec<usize> = q_index.iter().map(|&i| robot.movable[i]).collect();
+        let hold = anatomy.hold_configuration().to_vec();
+        let mut solver = ArmSolver {
+            anatomy: anatomy.clone(),
+            gauge: PostureGauge::of(anatomy),
+            model: anatomy.collision_model(&q_index, options.margin_m),
+            neutral: q_index.iter().map(|&i| hold[i]).collect(),
+            elbows: elbow_sides(anatomy, &active),
+            q_index,
+            active,
+            hold,
+            seeds,
+            options: options.clone(),
+        };
+        let turns = solver.frame().reference_hands(reference, &solver.hold);
+        (solver.gauge.neutral_hands, solver.gauge.neutral_uppers) = turns;
+        solver
+    }
+
+    /// The frame solver over this robot.
+    fn frame(&self) -> FrameSolver<'_> {
+        FrameSolver {
+            anatomy: &self.anatomy,
+            gauge: &self.gauge,
+            model: &self.model,
+            active: &self.active,
+            neutral: &self.neutral,
+            seeds: &self.seeds,
+            elbows: &self.elbows,
+            options: &self.options,
+        }
+    }
+
+    /// The posture (whole configuration, into `q`) for `target`, solved from the fixed starts
+    /// alone; the Gauss–Newton steps taken and how many had an active limit.
+    pub(super) fn solve(&self, target: &[ArmPosture; 2], q: &mut Vec<f64>) -> (usize, usize) {
+        self.frame().solve_frame(q, target, &self.hold)
+    }
+
+    /// The arm joints' configuration indices, in the order of the anatomy's arm joint names.
+    pub(super) fn arm_indices(&self) -> &[usize] {
+        &self.q_index
+    }
+
+    /// The whole configuration at hold.
+    pub(super) fn hold(&self) -> &[f64] {
+        &self.hold
+    }
 }
 
 /// One frame's solve.
