@@ -43,8 +43,12 @@ fn the_latent_dimension_is_chosen_on_held_out_training_motions() {
     let model = sgplvm::SharedGplvm::load(&out).unwrap();
     assert_eq!(model.config().latent_dim, best);
     // It chooses on held-out motions: refused without them, and beside --latent-dim.
-    let e = fails(
-        &[
+    let never = dir.join("never.sgp");
+    for (extra, code, says) in [
+        (["--validation", "none"], 1, "needs --validation auto"),
+        (["--latent-dim", "3"], 2, "--latent-dim"),
+    ] {
+        let mut args = vec![
             "train",
             "--data",
             s(&demos),
@@ -52,30 +56,12 @@ fn the_latent_dimension_is_chosen_on_held_out_training_motions() {
             "coman",
             "--choose-latent-dim",
             "2,4",
-            "--validation",
-            "none",
             "--out",
-            s(&dir.join("never.sgp")),
-        ],
-        1,
-    );
-    assert!(e.contains("needs --validation auto"), "{e}");
-    let e = fails(
-        &[
-            "train",
-            "--data",
-            s(&demos),
-            "--robot",
-            "coman",
-            "--choose-latent-dim",
-            "2,4",
-            "--latent-dim",
-            "3",
-            "--out",
-            s(&dir.join("never.sgp")),
-        ],
-        2,
-    );
-    assert!(e.contains("--latent-dim"), "{e}");
+            s(&never),
+        ];
+        args.extend(extra);
+        let e = fails(&args, code);
+        assert!(e.contains(says), "{e}");
+    }
     assert!(!dir.join("never.sgp").exists());
 }
