@@ -3,6 +3,7 @@ and errors for every kind of bad input."""
 
 import multiprocessing
 import os
+import pathlib
 import pickle
 import threading
 
@@ -379,3 +380,36 @@ def test_bad_inputs_raise_value_errors(data, trained):
         trained.predict(np.zeros((2, 3, 6)), robot="walkman")
     with pytest.raises(RuntimeError, match=r"not fitted yet"):
         sgplvm.SharedGPLVM(latent_dim=Q).predict(human, robot="walkman")
+
+
+def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
+    """``reconstruction_error``, ``reconstruction_threshold`` and ``trusted`` (issue 49): on the
+    captured test frames and on the same frames 1 rad off, the frames the gate holds are the
+    ones ``sgplvm evaluate`` counts for teleop's default gate, at the same threshold."""
+    import json
+    import subprocess
+
+    from _cli import sgplvm_binary
+
+    captured = pathlib.Path(__file__).resolve().parents[3] / "data" / "demos" / "captured.mcap"
+    model_path = tmp_path / "w.sgp"
+    def run(*args):
+        return subprocess.run([str(sgplvm_binary()), *map(str, args)], capture_output=True, text=True, check=True)
+
+    run("train", "--data", captured, "--robot", "walkman", "--out", model_path)
+    report = json.loads(run("evaluate", "--model", model_path, "--robot", "walkman", "--data", captured, "--json").stdout)
+    gate = next(r for r in report["gate"]["rates"] if r["gate"] == "reconstruction")
+    model = sgplvm.SharedGPLVM.load(model_path)
+    assert model.reconstruction_threshold() == pytest.approx(report["gate"]["reconstruction_threshold"], rel=1e-12)
+    assert model.trust_threshold("walkman") == pytest.approx(report["gate"]["sd_threshold"], rel=1e-12)
+    d = sgplvm.load_demonstrations(captured)
+    test = np.asarray(d["human"]["positions"])[np.asarray(d["test"])]
+    for frames, held in ((test, gate["test"]["held"]), (test + 1.0, gate["far"]["held"])):
+        trusted = model.trusted(frames)
+        assert trusted.dtype == bool and int((~trusted).sum()) == held
+        errors = model.reconstruction_error(frames)
+        assert errors.shape == (len(frames),) and np.array_equal(trusted, errors <= model.reconstruction_threshold())
+    # One frame in, one number out.
+    assert isinstance(model.reconstruction_error(test[0]), float) and isinstance(model.trusted(test[0]), bool)
+    with pytest.raises(ValueError):
+        model.reconstruction_error(np.zeros((2, 5)))

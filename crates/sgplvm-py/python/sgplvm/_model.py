@@ -402,6 +402,33 @@ class SharedGPLVM:
         x = self._require().latent(frames)
         return x[0] if single else x
 
+    def reconstruction_error(self, H: ArrayLike):
+        """How far each human frame (n × D_H, or one frame) is from the model's own
+        reconstruction of it, in the human space's standardised units: the signal
+        ``sgplvm teleop``'s default gate holds the robot on (above
+        :meth:`reconstruction_threshold`)."""
+        frames, single = _as_frames(H, "H")
+        errors = np.asarray(self._require().reconstruction_errors(frames))
+        return float(errors[0]) if single else errors
+
+    def reconstruction_threshold(self) -> float:
+        """The reconstruction threshold stored in the model (calibrated on its held-out
+        training groups): frames above it are held live."""
+        return self._require().reconstruction_threshold()
+
+    def trust_threshold(self, robot: str) -> float:
+        """The trust threshold of ``robot`` (standardised predictive standard deviation; the
+        gate's other signal, ``teleop --gate sd``)."""
+        return self._require().trust_threshold(robot)
+
+    def trusted(self, H: ArrayLike):
+        """Whether ``teleop``'s default gate follows each human frame (its reconstruction
+        error within the threshold); False where the robot would hold."""
+        frames, single = _as_frames(H, "H")
+        errors = np.asarray(self._require().reconstruction_errors(frames))
+        ok = errors <= self.reconstruction_threshold()
+        return bool(ok[0]) if single else ok
+
     @property
     def latent_points(self) -> np.ndarray:
         """Latent points of the training frames (N × Q)."""

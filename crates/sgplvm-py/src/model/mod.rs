@@ -196,6 +196,30 @@ impl NativeModel {
         })
     }
 
+    /// Each human frame's reconstruction error (n): how far the pose is from the model's own
+    /// reconstruction of it, in the human space's standardised units (teleop's default gate).
+    fn reconstruction_errors(
+        &self,
+        py: Python<'_>,
+        h: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Vec<f64>> {
+        guarded(|| {
+            let h = to_mat(&h);
+            py.detach(|| self.inner.reconstruction_errors(h.as_ref()))
+                .map_err(model_error)
+        })
+    }
+
+    /// The reconstruction threshold: frames above it are held live.
+    fn reconstruction_threshold(&self) -> PyResult<f64> {
+        guarded(|| self.inner.reconstruction_threshold().map_err(model_error))
+    }
+
+    /// The trust threshold of `robot` (standardised predictive standard deviation).
+    fn trust_threshold(&self, robot: &str) -> PyResult<f64> {
+        guarded(|| self.inner.trust_threshold(robot).map_err(model_error))
+    }
+
     /// Latent points of human frames (n × Q).
     fn latent<'py>(
         &self,
