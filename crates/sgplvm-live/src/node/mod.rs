@@ -16,6 +16,7 @@ mod drive;
 mod mvn_input;
 mod session;
 mod status;
+mod step;
 mod tf_input;
 
 use std::collections::BTreeMap;

@@ -31,6 +31,7 @@
 
 mod arm;
 pub mod file;
+mod hands;
 pub mod live;
 pub mod split;
 pub mod whole_arm;
@@ -45,6 +46,7 @@ use crate::series::median;
 use crate::{IkOptions, IkTarget, Robot, RobotError};
 pub use arm::Redundancy;
 use arm::{ArmRun, Outcome};
+use hands::{retarget_robot, RobotArms, Tally};
 pub use live::FrameRetargeter;
 
 /// What the robot's arm matches.
@@ -270,99 +272,6 @@ impl HumanArms {
     }
 }
 
-/// A robot prepared for retargeting.
-struct RobotArms<'a> {
-    name: String,
-    anatomy: &'a Anatomy,
-    frames: ArmFrames,
-    /// The middle of every joint's range per arm: where the warm IK's null space pulls, away
-    /// from the limits a continuing motion would otherwise get stuck at.
-    rest: [Vec<f64>; 2],
-    /// Every key posture per arm (the generator's key poses at this robot's reach): starts
-    /// when the arm must change configuration.
-    key_postures: [Vec<Vec<f64>>; 2],
-    /// Velocity limit per arm joint, rad/s (0: none).
-    velocity: [Vec<f64>; 2],
-}
-
-impl<'a> RobotArms<'a> {
-    fn new(name: &str, anatomy: &'a Anatomy) -> Self {
-        let frames = ArmFrames::of(anatomy);
-        let all_velocity = anatomy.robot().velocity_limits();
-        let arms = anatomy.arms();
-        let velocity = [0, 1].map(|s| {
-            arms[s]
-                .chain
-                .robot_indices()
-                .iter()
-                .map(|&i| all_velocity[i])
-                .collect()
-        });
-        let rest = [0, 1].map(|s| {
-            arms[s]
-                .chain
-                .limits()
-                .iter()
-                .map(|&(lo, hi)| {
-                    if lo.is_finite() && hi.is_finite() {
-                        0.5 * (lo + hi)
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        });
-        let mut robot = Self {
-            name: name.to_string(),
-            anatomy,
-            frames,
-            rest,
-            key_postures: [Vec::new(), Vec::new()],
-            velocity,
-        };
-        robot.key_postures = [0, 1].map(|s| robot.solve_key_postures(s));
-        robot
-    }
-
-    /// The neutral posture of arm `s`.
-    fn neutral(&self, s: usize) -> &[f64] {
-        &self.anatomy.arms()[s].neutral
-    }
-
-    /// Arm `s`'s configuration for each of the generator's key poses ([`key_postures`]).
-    fn solve_key_postures(&self, s: usize) -> Vec<Vec<f64>> {
-        key_postures(self.anatomy, &self.frames, s)
-    }
-
-    /// A point of arm `s` given relative to the shoulder in units of reach (body frame), in
-    /// the chain's base frame.
-    fn place(&self, s: usize, rel: &Vector3<f64>) -> Vector3<f64> {
-        let f = &self.frames;
-        f.shoulders[s] + f.reach[s] * (f.body_in_base[s] * rel)
-    }
-
-    /// The IK target of arm `s` for the human's relative target `r`.
-    fn target(&self, s: usize, r: &Relative, mode: Match) -> IkTarget {
-        let hand = self.place(s, &r.hand);
-        match mode {
-            Match::Hands | Match::Arms => IkTarget::Position(hand),
-            Match::HandsAndElbows => IkTarget::PositionAndJoint {
-                tip: hand,
-                joint: self.frames.elbows[s],
-                point: self.place(s, &r.elbow),
-            },
-            Match::Poses => {
-                let f = &self.frames;
-                let turn = f.body_in_base[s] * r.turn * f.body_in_base[s].inverse();
-                IkTarget::Pose(Isometry3::from_parts(
-                    hand.into(),
-                    turn * f.neutral_hands[s],
-                ))
-            }
-        }
-    }
-}
-
 /// Arm `s`'s configuration (chain order) for each of the generator's key poses (its hand
 /// where the key pose puts it, relative to the shoulder in units of reach), from the neutral
 /// posture and pulled towards it: a fixed set of postures across the arm's workspace.
@@ -517,136 +426,6 @@ fn retarget_whole_arm(
         },
         report,
     })
-}
-
-/// One robot, every frame.
-fn retarget_robot(
-    r: &RobotArms,
-    targets: &[[Relative; 2]],
-    times_ns: &[i64],
-    options: &RetargetOptions,
-) -> Retargeted {
-    let n = targets.len();
-    let anatomy = r.anatomy;
-    // Every joint of every frame: the arms' as solved, the rest at their hold values.
-    let hold = anatomy.hold_configuration();
-    let mut full = DMatrix::<f64>::from_fn(n, hold.len(), |_, i| hold[i]);
-    let mut runs = Vec::with_capacity(2);
-    for s in 0..2 {
-        let arm = &anatomy.arms()[s];
-        let run = ArmRun {
-            chain: &arm.chain,
-            velocity: &r.velocity[s],
-            rest: &r.rest[s],
-            key_postures: &r.key_postures[s],
-            neutral: r.neutral(s),
-            targets: targets
-                .iter()
-                .map(|t| r.target(s, &t[s], options.mode))
-                .collect(),
-            times_ns,
-            velocity_limits: options.velocity_limits,
-            tolerance: options.reach_tolerance_m,
-        };
-        let frames = run.run(options.redundancy);
-        for f in 0..n {
-            for (k, &i) in arm.chain.robot_indices().iter().enumerate() {
-                full[(f, i)] = frames.q[f][k];
-            }
-        }
-        runs.push((run, frames));
-    }
-    let mut tally = Tally::default();
-    for (s, (run, frames)) in runs.iter().enumerate() {
-        let chain = &anatomy.arms()[s].chain;
-        for f in 0..n {
-            // Judged on the command as written, not on the arm's own solution.
-            let row: Vec<f64> = full.row(f).iter().copied().collect();
-            let q = chain.extract(&row).unwrap_or_default();
-            let miss = run.miss(f, &q);
-            tally.add(frames.outcome[f], miss, options.reach_tolerance_m);
-            match run.targets[f] {
-                IkTarget::PositionAndJoint { joint, point, .. } => {
-                    tally
-                        .elbow_misses
-                        .push((chain.joint_origins(&q)[joint] - point).norm());
-                }
-                IkTarget::Pose(t) => {
-                    let tip = chain.forward(&q);
-                    tally
-                        .orientation_misses
-                        .push((t.rotation * tip.rotation.inverse()).angle());
-                }
-                IkTarget::Position(_) => {}
-            }
-        }
-    }
-    let command: Vec<usize> = anatomy
-        .command_joint_names()
-        .iter()
-        .filter_map(|name| anatomy.robot().joint_index(name))
-        .collect();
-    let positions = DMatrix::from_fn(n, command.len(), |f, c| full[(f, command[c])]);
-    Retargeted {
-        body: BodyData {
-            name: r.name.clone(),
-            topic: format!("/{}/joint_command", r.name),
-            joint_names: anatomy.command_joint_names(),
-            positions,
-        },
-        report: tally.report(&r.name, options.mode, 2 * n),
-    }
-}
-
-/// The counts of a reach report as targets are judged.
-#[derive(Default)]
-struct Tally {
-    reached: Vec<f64>,
-    counts: [usize; 3],
-    worst: [f64; 3],
-    elbow_misses: Vec<f64>,
-    orientation_misses: Vec<f64>,
-}
-
-impl Tally {
-    /// One hand target: reached only when the hand is within `tolerance`, whatever the
-    /// arm's run said; a miss the run called reached counts as out of reach.
-    fn add(&mut self, outcome: Outcome, miss: f64, tolerance: f64) {
-        let kind = match outcome {
-            _ if miss <= tolerance => {
-                self.reached.push(miss);
-                return;
-            }
-            Outcome::SpeedLimited => 0,
-            Outcome::OtherConfiguration => 1,
-            Outcome::Unreachable | Outcome::Reached => 2,
-        };
-        self.counts[kind] += 1;
-        self.worst[kind] = self.worst[kind].max(miss);
-    }
-
-    fn report(mut self, robot: &str, mode: Match, targets: usize) -> ReachReport {
-        ReachReport {
-            robot: robot.to_string(),
-            mode,
-            targets,
-            reached: self.reached.len(),
-            worst_m: (!self.reached.is_empty())
-                .then(|| self.reached.iter().copied().fold(0.0, f64::max)),
-            median_m: (!self.reached.is_empty()).then(|| median(&mut self.reached)),
-            velocity_limited: self.counts[0],
-            velocity_limited_worst_m: self.worst[0],
-            other_configuration: self.counts[1],
-            other_configuration_worst_m: self.worst[1],
-            unreachable: self.counts[2],
-            unreachable_worst_m: self.worst[2],
-            elbow_median_m: (mode == Match::HandsAndElbows).then(|| median(&mut self.elbow_misses)),
-            orientation_median_rad: (mode == Match::Poses)
-                .then(|| median(&mut self.orientation_misses)),
-            compromised: 0,
-            posture: None,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,432 @@
+//! The whole-arm solver of one robot ([`ArmSolver`]): set up once (the posture gauge measured
+//! from the robot's reference posture, the collision model, the joints it moves, the fixed
+//! starts), then each frame solved to convergence from the neutral posture and the nearest
+//! fixed starts ([`FrameSolver`]), within the joint limits, each elbow on its bending side, and
+//! out of self-collision.
+
+use nalgebra::{UnitQuaternion, Vector3};
+
+use super::{ArmPosture, PostureGauge, WholeArmOptions};
+use crate::anatomy::Anatomy;
+use crate::kinematics::collision::CollisionModel;
+use crate::kinematics::frames::RobotFrames;
+use crate::kinematics::limits::{collision_limit, position_limits};
+use crate::kinematics::qp::{Solved, Step};
+use crate::kinematics::tasks::{Task, TaskContext};
+
+/// One robot's whole-arm solver, set up once: the posture gauge (its orientations measured
+/// from the robot's reference posture), the collision model, the joints it moves and the fixed
+/// starts. [`ArmSolver::solve`] gives a frame's posture from its target alone.
+pub(in crate::retarget) struct ArmSolver {
+    anatomy: Anatomy,
+    pub(super) gauge: PostureGauge,
+    pub(super) model: CollisionModel,
+    /// The arm joints' configuration indices and their movable-joint indices.
+    pub(super) q_index: Vec<usize>,
+    active: Vec<usize>,
+    /// The whole configuration at hold, and the arm joints' values there.
+    pub(super) hold: Vec<f64>,
+    neutral: Vec<f64>,
+    seeds: Vec<Vec<f64>>,
+    elbows: Vec<ElbowSide>,
+    options: WholeArmOptions,
+}
+
+impl ArmSolver {
+    /// The solver of `anatomy`'s arms for a person whose turns are measured from `reference`
+    /// ([`reference_configuration`]), with the fixed starts `seeds` (whole configurations).
+    pub(in crate::retarget) fn new(
+        anatomy: &Anatomy,
+        reference: &[ArmPosture; 2],
+        seeds: Vec<Vec<f64>>,
+        options: &WholeArmOptions,
+    ) -> ArmSolver {
+        let robot = anatomy.robot();
+        let q_index: Vec<usize> = anatomy
+            .arm_joint_names()
+            .iter()
+            .filter_map(|n| robot.joint_index(n))
+            .collect();
+        let active: Vec<usize> = q_index.iter().map(|&i| robot.movable[i]).collect();
+        let hold = anatomy.hold_configuration().to_vec();
+        let mut solver = ArmSolver {
+            anatomy: anatomy.clone(),
+            gauge: PostureGauge::of(anatomy),
+            model: anatomy.collision_model(&q_index, options.margin_m),
+            neutral: q_index.iter().map(|&i| hold[i]).collect(),
+            elbows: elbow_sides(anatomy, &active),
+            q_index,
+            active,
+            hold,
+            seeds,
+            options: options.clone(),
+        };
+        let turns = solver.frame().reference_hands(reference, &solver.hold);
+        (solver.gauge.neutral_hands, solver.gauge.neutral_uppers) = turns;
+        solver
+    }
+
+    /// The frame solver over this robot.
+    fn frame(&self) -> FrameSolver<'_> {
+        FrameSolver {
+            anatomy: &self.anatomy,
+            gauge: &self.gauge,
+            model: &self.model,
+            active: &self.active,
+            neutral: &self.neutral,
+            seeds: &self.seeds,
+            elbows: &self.elbows,
+            options: &self.options,
+        }
+    }
+
+    /// The posture (whole configuration, into `q`) for `target`, solved from the fixed starts
+    /// alone; the Gauss–Newton steps taken and how many had an active limit.
+    pub(in crate::retarget) fn solve(
+        &self,
+        target: &[ArmPosture; 2],
+        q: &mut Vec<f64>,
+    ) -> (usize, usize) {
+        self.frame().solve_frame(q, target, &self.hold)
+    }
+
+    /// The arm joints' configuration indices, in the order of the anatomy's arm joint names.
+    pub(in crate::retarget) fn arm_indices(&self) -> &[usize] {
+        &self.q_index
+    }
+
+    /// The whole configuration at hold.
+    pub(in crate::retarget) fn hold(&self) -> &[f64] {
+        &self.hold
+    }
+}
+
+/// One frame's solve.
+struct FrameSolver<'a> {
+    anatomy: &'a Anatomy,
+    gauge: &'a PostureGauge,
+    model: &'a CollisionModel,
+    active: &'a [usize],
+    neutral: &'a [f64],
+    /// Fixed starts besides the neutral posture (whole configurations).
+    seeds: &'a [Vec<f64>],
+    /// Per arm, the elbow's place among the active joints and the side it bends to.
+    elbows: &'a [ElbowSide],
+    options: &'a WholeArmOptions,
+}
+
+/// How many of the fixed starts (the key postures) each frame is also solved from besides the
+/// neutral posture: those whose objective is lowest at the start.
+const SEED_STARTS: usize = 2;
+
+/// How far past straight (radians) an elbow is let bend the other way while retargeting.
+const PAST_STRAIGHT: f64 = 0.02;
+
+/// An elbow's bending side: the retargeting keeps it there (a person's elbow bends one way; a
+/// robot's that can also bend a little the other way would otherwise take the same bone
+/// directions with the upper arm turned half round and the elbow bent backwards, a second
+/// posture of the same pose).
+#[derive(Debug, Clone, Copy)]
+struct ElbowSide {
+    /// The elbow's index among the active joints.
+    active: usize,
+    /// Its range on its bending side (the side of the larger range), radians.
+    range: (f64, f64),
+}
+
+/// The bending side of each arm's elbow of `anatomy` (`active`: the joints the solver moves).
+fn elbow_sides(anatomy: &Anatomy, active: &[usize]) -> Vec<ElbowSide> {
+    let robot = anatomy.robot();
+    anatomy
+        .arms()
+        .iter()
+        .filter_map(|arm| {
+            let i = *arm.chain.robot_indices().get(arm.elbow)?;
+            let j = robot.movable[i];
+            let k = active.iter().position(|&a| a == j)?;
+            let (lo, hi) = robot.joints[j].limits;
+            if !(lo < 0.0 && hi > 0.0) || arm.chain.is_prismatic(arm.elbow) {
+                return None;
+            }
+            let range = if -lo >= hi {
+                (lo, hi.min(PAST_STRAIGHT))
+            } else {
+                (lo.max(-PAST_STRAIGHT), hi)
+            };
+            Some(ElbowSide { active: k, range })
+        })
+        .collect()
+}
+
+impl FrameSolver<'_> {
+    /// The robot's hand orientations (root frame) at the posture whose bone directions are the
+    /// person's neutral ones (`reference`), the rest of the arm pulled towards the neutral
+    /// posture: where a hand's (and an upper arm's) turn from the person's neutral is measured
+    /// from on the robot.
+    fn reference_hands(
+        &self,
+        reference: &[ArmPosture; 2],
+        hold: &[f64],
+    ) -> ([UnitQuaternion<f64>; 2], [UnitQuaternion<f64>; 2]) {
+        let g = self.gauge;
+        let r = g.body_to_root;
+        let mut tasks = Vec::new();
+        for (s, t) in reference.iter().enumerate() {
+            let m = &g.landmarks[s];
+            tasks.push((
+                Task::Direction {
+                    from: m.shoulder,
+                    to: m.elbow,
+                    target: r * t.upper_arm,
+                },
+                1.0,
+            ));
+            tasks.push((
+                Task::Direction {
+                    from: m.elbow,
+                    to: m.wrist,
+                    target: r * t.forearm,
+                },
+                1.0,
+            ));
+        }
+        tasks.push((
+            Task::Posture {
+                target: self.neutral.to_vec(),
+            },
+            self.options.weights.posture,
+        ));
+        let mut q = hold.to_vec();
+        self.solve(&mut q, &tasks, false);
+        let frames = RobotFrames::new(self.anatomy.robot(), &g.ancestry, &q);
+        // Where the limits keep the robot from the person's neutral directions, each segment's
+        // orientation is turned by what its bone still misses: the reference is the robot's
+        // segments as they would sit along the person's bones.
+        let got = g.measure(self.anatomy, &q);
+        let align = |from: &Vector3<f64>, to: &Vector3<f64>| {
+            UnitQuaternion::rotation_between(&(r * from), &(r * to))
+                .unwrap_or_else(UnitQuaternion::identity)
+        };
+        (
+            [0, 1].map(|s| {
+                align(&got[s].forearm, &reference[s].forearm)
+                    * frames.link(g.hand_links[s]).rotation
+            }),
+            [0, 1].map(|s| {
+                align(&got[s].upper_arm, &reference[s].upper_arm)
+                    * frames.link(g.upper_links[s]).rotation
+            }),
+        )
+    }
+
+    /// The tasks of a frame's target posture.
+    fn tasks(&self, target: &[ArmPosture; 2]) -> Vec<(Task, f64)> {
+        let g = self.gauge;
+        let w = &self.options.weights;
+        let mut tasks = Vec::new();
+        for (s, t) in target.iter().enumerate() {
+            let m = &g.landmarks[s];
+            let r = g.body_to_root;
+            tasks.push((
+                Task::Direction {
+                    from: m.shoulder,
+                    to: m.elbow,
+                    target: r * t.upper_arm,
+                },
+                w.upper_arm,
+            ));
+            tasks.push((
+                Task::Direction {
+                    from: m.elbow,
+                    to: m.wrist,
+                    target: r * t.forearm,
+                },
+                w.forearm,
+            ));
+            tasks.push((
+                Task::Position {
+                    point: m.hand,
+                    target: g.shoulders[s] + g.reach[s] * (r * t.hand),
+                    scale: g.reach[s],
+                },
+                w.hand,
+            ));
+            if w.orientation > 0.0 {
+                tasks.push((
+                    Task::Orientation {
+                        link: g.hand_links[s],
+                        target: (r * t.turn * r.inverse()) * g.neutral_hands[s],
+                    },
+                    w.orientation,
+                ));
+            }
+            if w.twist > 0.0 {
+                tasks.push((
+                    Task::Orientation {
+                        link: g.upper_links[s],
+                        target: (r * t.upper_turn * r.inverse()) * g.neutral_uppers[s],
+                    },
+                    w.twist,
+                ));
+            }
+        }
+        tasks.push((
+            Task::Posture {
+                target: self.neutral.to_vec(),
+            },
+            w.posture,
+        ));
+        tasks
+    }
+
+    /// The frame's posture, a function of the target and never of the path: converged from the
+    /// neutral posture and from the [`SEED_STARTS`] fixed starts whose objective is lowest at the
+    /// start, the lowest objective kept (the first start's on a tie within 0.1 %). Written to
+    /// `q`; returns the steps taken and how many had an active limit.
+    fn solve_frame(
+        &self,
+        q: &mut Vec<f64>,
+        target: &[ArmPosture; 2],
+        hold: &[f64],
+    ) -> (usize, usize) {
+        let tasks = self.tasks(target);
+        let mut starts: Vec<(f64, &Vec<f64>)> = self
+            .seeds
+            .iter()
+            .map(|s| (self.cost(s, &tasks), s))
+            .collect();
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        let (mut steps, mut constrained) = (0, 0);
+        for start in
+            std::iter::once(hold).chain(starts.iter().take(SEED_STARTS).map(|s| s.1.as_slice()))
+        {
+            let mut x = start.to_vec();
+            let (s, c) = self.converge(&mut x, &tasks);
+            steps += s;
+            constrained += c;
+            let cost = self.cost(&x, &tasks);
+            if best
+                .as_ref()
+                .is_none_or(|b| cost < b.1 * (1.0 - 1e-3) - 1e-6)
+            {
+                best = Some((x, cost));
+            }
+        }
+        if let Some((x, _)) = best {
+            *q = x;
+        }
+        (steps, constrained)
+    }
+
+    /// Converges `q` onto the tasks, the self-collision limit only where the tasks alone end
+    /// with two shapes nearer than the margin (shapes are the costly part: meshes' hulls).
+    fn converge(&self, q: &mut [f64], tasks: &[(Task, f64)]) -> (usize, usize) {
+        let (mut steps, mut constrained) = self.solve(q, tasks, false);
+        if self.options.self_collision {
+            let frames = RobotFrames::new(self.anatomy.robot(), &self.gauge.ancestry, q);
+            if !self
+                .model
+                .proximities(&frames, self.options.margin_m)
+                .is_empty()
+            {
+                let (s, c) = self.solve(q, tasks, true);
+                steps += s;
+                constrained += c;
+            }
+        }
+        (steps, constrained)
+    }
+
+    /// The objective at `q`: the tasks' weighted squared errors.
+    fn cost(&self, q: &[f64], tasks: &[(Task, f64)]) -> f64 {
+        let robot = self.anatomy.robot();
+        let frames = RobotFrames::new(robot, &self.gauge.ancestry, q);
+        let ctx = TaskContext {
+            robot,
+            ancestry: &self.gauge.ancestry,
+            frames: &frames,
+            q,
+            active: self.active,
+        };
+        tasks
+            .iter()
+            .map(|(t, w)| w * t.error(&ctx).norm_squared())
+            .sum()
+    }
+
+    /// Converges `q` (the whole configuration) onto the tasks, with the self-collision limit
+    /// when `collisions`; returns the steps taken and how many had an active limit.
+    fn solve(&self, q: &mut [f64], tasks: &[(Task, f64)], collisions: bool) -> (usize, usize) {
+        let robot = self.anatomy.robot();
+        let (mut steps, mut constrained) = (0, 0);
+        // A trust region: a step is taken only if it lowers the objective (or keeps a collision
+        // limit), else the region shrinks (plain Gauss–Newton oscillates where the tasks
+        // conflict).
+        let mut radius = self.options.step_bound;
+        let mut cost = self.cost(q, tasks);
+        let mut trial = q.to_vec();
+        for _ in 0..self.options.max_iterations {
+            let frames = RobotFrames::new(robot, &self.gauge.ancestry, q);
+            let ctx = TaskContext {
+                robot,
+                ancestry: &self.gauge.ancestry,
+                frames: &frames,
+                q,
+                active: self.active,
+            };
+            let mut step = Step::new(self.active.len(), 1e-8);
+            for (task, weight) in tasks {
+                let (e, j) = task.linearize(&ctx);
+                step.add_task(&j, &e, *weight);
+            }
+            position_limits(&mut step, &ctx, Some(radius));
+            let values = ctx.active_values();
+            for e in self.elbows {
+                let v = values[e.active];
+                // From a start beyond the side (a seed), back towards it, never further out.
+                step.bound(e.active, (e.range.0 - v).min(0.0), (e.range.1 - v).max(0.0));
+            }
+            // Near another shape the step keeps its distance: taken whatever it costs the
+            // tasks (the objective does not see the collision limit).
+            let near = collisions
+                && !collision_limit(
+                    &mut step,
+                    &ctx,
+                    self.model,
+                    self.options.margin_m,
+                    0.05,
+                    0.5,
+                )
+                .is_empty();
+            let Ok((delta, how)) = step.solve() else {
+                // Limits that admit no step (shapes that cannot all be kept apart): the tasks
+                // decide, and the command sent is kept safe.
+                break;
+            };
+            steps += 1;
+            constrained += usize::from(how == Solved::Constrained);
+            trial.copy_from_slice(q);
+            for (k, &j) in self.active.iter().enumerate() {
+                if let Some(i) = robot.joints[j].q_index {
+                    trial[i] += delta[k];
+                }
+            }
+            let c = self.cost(&trial, tasks);
+            if c <= cost || near {
+                q.copy_from_slice(&trial);
+                cost = c;
+                radius = (radius * 2.0).min(self.options.step_bound);
+                if delta.amax() < self.options.tolerance {
+                    break;
+                }
+            } else {
+                radius = 0.25 * delta.amax();
+                if radius < self.options.tolerance {
+                    break;
+                }
+            }
+        }
+        (steps, constrained)
+    }
+}
