@@ -640,6 +640,23 @@ mod tests {
     }
 
     #[test]
+    fn a_crooked_line_of_bones_leaves_the_twist_untold_and_a_t_pose_tells_it() {
+        // Character Creator's CMU conversions rest in a line of bones with the upper arm 5.3°
+        // off the clavicle's line (the twist taken from it pinned the forearms' pronation to
+        // its limit in every frame); the CMU T-poses lie 9° and further.
+        let h = model();
+        let off = |deg: f64| {
+            let a = deg.to_radians();
+            let upper = Vector3::new(0.0, a.cos(), a.sin());
+            let left = pose(upper, upper);
+            let right = mirror(&left);
+            Calibration::untold(&h, [&left, &right], [true, true])
+        };
+        assert_eq!(off(5.3), [true, true]);
+        assert_eq!(off(9.0), [false, false]);
+    }
+
+    #[test]
     fn a_bent_rest_elbow_tells_the_twist() {
         let h = model();
         let left = pose(-Vector3::z(), Vector3::x());

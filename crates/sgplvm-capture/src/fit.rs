@@ -280,8 +280,11 @@ const BRANCH_SWITCH_MARGIN: f64 = 0.5;
 /// arm must lie for its twist to be untold ([`HumanArms::rest_twist_untold`]): there the
 /// flexion, and with it the twist taken as none, swings by up to half a turn for a hundredth
 /// of a degree. Rigs whose bones lie along local x have their arms within 1e-5 of it at rest;
-/// the T-poses of the CMU, Mixamo and DAZ files shipped or tested lie 0.15 (9°) and further.
-pub const REST_GIMBAL: f64 = 0.05;
+/// the CMU files converted for Reallusion's Character Creator (every bone along local y, the
+/// rest a line of bones up to 5.3° crooked) 0.093; the T-poses of the CMU, Mixamo and DAZ
+/// files shipped or tested lie 0.15 (9°) and further. Within 0.12 (7°), a degree's error in
+/// the rest directions turns the twist taken from them by ten or more.
+pub const REST_GIMBAL: f64 = 0.12;
 
 /// Gauss–Newton iterations of the refinement at a limit (it starts from the clamped closed
 /// form, a few steps from its optimum).
