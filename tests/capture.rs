@@ -417,3 +417,100 @@ fn a_rig_scaled_up_keeps_its_file_s_units() {
     // Nothing near a person in any unit.
     assert_eq!(Units::guess(1e9), None);
 }
+
+#[test]
+fn people_named_at_import_are_split_whole_trained_a_person_at_a_time_and_judged_per_person() {
+    use sgplvm::robots::dataset::{load_demonstrations, ValidationRule};
+    let dir = scratch("people");
+    let p = |n: &str| dir.join(n);
+    ok(&[
+        "export",
+        "--data",
+        "data/demos/bimanual.mcap",
+        "--body",
+        "human",
+        "--frames",
+        "all",
+        "--out",
+        s(&p("c.bvh")),
+    ]);
+    // Four "people", 12 s of motion each (three blocks of 4 s).
+    let mut demos = Vec::new();
+    for (k, person) in ["ann", "bo", "cy", "di"].iter().enumerate() {
+        let (from, to) = (format!("{}", 12 * k), format!("{}", 12 * (k + 1)));
+        let out = p(&format!("{person}.mcap"));
+        ok(&[
+            "import",
+            s(&p("c.bvh")),
+            "--from",
+            &from,
+            "--to",
+            &to,
+            "--person",
+            person,
+            "--out",
+            s(&out),
+        ]);
+        demos.push(out);
+    }
+    let out = p("r.mcap");
+    let mut args = vec!["retarget", "--robots", "coman", "--out", s(&out)];
+    for d in &demos {
+        args.extend(["--demos", s(d)]);
+    }
+    // Nobody of that name: refused, naming who there is.
+    let mut wrong = args.clone();
+    wrong.extend(["--split", "people", "--test-people", "eve"]);
+    let err = fails_on_one_line(&wrong);
+    assert!(
+        err.contains("nobody called `eve`") && err.contains("ann, bo, cy, di"),
+        "{err}"
+    );
+    args.extend(["--split", "people", "--test-people", "di"]);
+    let stdout = ok(&args);
+    assert!(
+        stdout.contains(
+            "people kept whole for testing: di (1 files of 4 files); training people: ann, bo, cy"
+        ),
+        "{stdout}"
+    );
+    let ds = load_demonstrations(p("r.mcap")).unwrap();
+    assert_eq!(ds.people_of(&ds.test), vec!["di".to_string()]);
+    assert_eq!(ds.people_of(&ds.train), vec!["ann", "bo", "cy"]);
+    // Three training people: validated and calibrated a person at a time, cy held out.
+    let groups = ds.training_groups();
+    assert_eq!(groups.rule, ValidationRule::EveryThirdPerson);
+    assert_eq!(groups.validation, vec![2]);
+    ok(&[
+        "train",
+        "--data",
+        s(&p("r.mcap")),
+        "--robot",
+        "coman",
+        "--max-iters",
+        "20",
+        "--out",
+        s(&p("m.sgp")),
+    ]);
+    let json = ok(&[
+        "evaluate",
+        "--model",
+        s(&p("m.sgp")),
+        "--data",
+        s(&p("r.mcap")),
+        "--robot",
+        "coman",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let arms = &v["arms"];
+    let (followed, held) = (
+        arms["followed"]["frames"].as_u64().unwrap(),
+        arms["held"]["frames"].as_u64().unwrap(),
+    );
+    assert_eq!(followed + held, ds.test.len() as u64, "{arms}");
+    assert_eq!(arms["people"][0]["person"], "di", "{arms}");
+    assert_eq!(arms["people"][0]["followed"].as_u64(), Some(followed));
+    let median = arms["followed"]["upper_arm_median_deg"].as_f64();
+    assert!(median.is_none_or(|m| (0.0..180.0).contains(&m)), "{arms}");
+}

@@ -69,6 +69,11 @@ pub struct ImportArgs {
     /// Import up to this second of each file.
     #[arg(long, value_name = "SECONDS")]
     to: Option<f64>,
+    /// Who was captured (e.g. a CMU subject number): stored with each file's frames, so that
+    /// `retarget --split people` can test on people never in training and a model's gate is
+    /// calibrated on people it held out.
+    #[arg(long, value_name = "NAME")]
+    person: Option<String>,
     #[command(flatten)]
     calibration: CalibrationArgs,
     #[command(flatten)]
@@ -109,6 +114,14 @@ pub fn run(args: ImportArgs) -> Result<()> {
     }
     for file in &args.files {
         captures.push(import_bvh(file, &options)?);
+    }
+    if let Some(person) = &args.person {
+        if person.trim().is_empty() {
+            bail!("--person: expected a name, got an empty one");
+        }
+        captures
+            .iter_mut()
+            .for_each(|c| c.source.person = Some(person.clone()));
     }
     if !args.json.json {
         for capture in &captures {

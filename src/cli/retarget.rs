@@ -74,12 +74,16 @@ pub struct RetargetArgs {
     no_velocity_limits: bool,
     /// How to choose test motions: `blocks` (every --test-every-th block of --block-seconds;
     /// a capture too short for one test block trains on every frame, with a warning), `files`
-    /// (the --test-files, whole) or `none` (every frame for training, no test frames).
+    /// (the --test-files, whole), `people` (every file of the --test-people, whole: strangers
+    /// to the model) or `none` (every frame for training, no test frames).
     #[arg(long, value_enum, default_value = "blocks")]
     split: SplitArg,
     /// With --split files: the test files, by name (file stem) or 0-based index.
     #[arg(long, value_delimiter = ',')]
     test_files: Vec<String>,
+    /// With --split people: the test people, by the names `sgplvm import --person` gave them.
+    #[arg(long, value_delimiter = ',')]
+    test_people: Vec<String>,
     /// Length of a block, seconds (blocks are the segments of the output).
     #[arg(long, default_value_t = 4.0)]
     block_seconds: f64,
@@ -117,6 +121,9 @@ enum SplitArg {
     Blocks,
     /// The files named by --test-files are test files.
     Files,
+    /// Every file of the --test-people (as `sgplvm import --person` named them) is a test
+    /// file: test people are never in training.
+    People,
     /// No test frames: every frame is for training (a short capture).
     None,
 }
@@ -199,6 +206,9 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     if args.split != SplitArg::Files && !args.test_files.is_empty() {
         bail!("--test-files goes with --split files");
     }
+    if args.split != SplitArg::People && !args.test_people.is_empty() {
+        bail!("--test-people goes with --split people");
+    }
     let options = RetargetOptions {
         mode: args.mode,
         redundancy: match args.redundancy {
@@ -230,6 +240,7 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     let test = match args.split {
         SplitArg::Blocks => TestChoice::EveryNthBlock(args.test_every),
         SplitArg::Files => TestChoice::Files(args.test_files.clone()),
+        SplitArg::People => TestChoice::People(args.test_people.clone()),
         SplitArg::None => TestChoice::AllTraining,
     };
     let done = retarget_files(&args.demos, &robots, &options, &split, &test, &args.out)?;
@@ -242,6 +253,8 @@ pub fn run(args: RetargetArgs) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({
                 "split": done.split,
                 "test_files": done.test_files,
+                "train_people": done.train_people,
+                "test_people": done.test_people,
                 "reach": done.reach,
                 "seconds": done.seconds
             }))?
@@ -289,6 +302,13 @@ fn split_line(done: &FilesRetargeted, args: &RetargetArgs) -> String {
             s.test_blocks,
             count(s.blocks, "block"),
             args.block_seconds
+        ),
+        SplitArg::People => format!(
+            "people kept whole for testing: {} ({} files of {}); training people: {}",
+            done.test_people.join(", "),
+            done.test_files.len(),
+            count(done.files.len(), "file"),
+            done.train_people.join(", ")
         ),
         SplitArg::Blocks => format!(
             "one block of {} s in {} for testing: {} of {}",

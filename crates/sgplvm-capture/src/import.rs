@@ -87,6 +87,7 @@ pub fn import_parsed(
             rate_hz: options.rate_hz,
             fit,
             calibration: Some(calibration),
+            person: None,
         },
     })
 }

@@ -313,6 +313,10 @@ pub struct CaptureSource {
     /// before calibrations were stored).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibration: Option<Calibration>,
+    /// Who was captured, as the user named them (`sgplvm import --person`): the unit a
+    /// leave-people-out split holds out and a model's trust threshold is calibrated over.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub person: Option<String>,
 }
 
 /// One imported capture: the human's 18 joint angles at the asked rate.

@@ -77,6 +77,11 @@ pub struct Segment {
     pub to_pose: Option<usize>,
     /// Repetition (0-based) of this pose-to-pose motion; `None` if unlabelled.
     pub repetition: Option<usize>,
+    /// Who performed it (a captured person's name, `sgplvm import --person`); `None` if
+    /// unknown. Training frames of three or more people are validated and calibrated a person
+    /// at a time ([`ValidationRule::EveryThirdPerson`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub person: Option<String>,
 }
 
 impl Segment {
@@ -100,6 +105,9 @@ pub enum ValidationRule {
     EveryThirdTrajectory,
     /// Every third of nine equal blocks of training frames.
     EveryThirdBlock,
+    /// Every third person of the training frames (in order of first appearance): held-out
+    /// frames are then of people the model never saw, as a stranger's are.
+    EveryThirdPerson,
 }
 
 impl std::fmt::Display for ValidationRule {
@@ -108,6 +116,7 @@ impl std::fmt::Display for ValidationRule {
             Self::LastRepetition => "the last repetition of every training motion",
             Self::EveryThirdTrajectory => "every third training trajectory",
             Self::EveryThirdBlock => "every third of nine blocks of training frames",
+            Self::EveryThirdPerson => "every third person in training",
         })
     }
 }
@@ -167,6 +176,7 @@ impl Dataset {
                 from_pose: None,
                 to_pose: None,
                 repetition: None,
+                person: None,
             }],
             train: (0..n).collect(),
             test: Vec::new(),
@@ -214,7 +224,10 @@ impl Dataset {
     ///
     /// The training frames are grouped into trajectories (runs of training frames in one
     /// segment; without segments, runs of consecutive frames). When the trajectories are
-    /// labelled with two or more repetitions, the last repetition of every motion is held out
+    /// When every training frame names who performed it and they are three or more people, every
+    /// third person is held out ([`ValidationRule::EveryThirdPerson`]). Otherwise, when
+    /// the trajectories are labelled with two or more repetitions, the last repetition of every
+    /// motion is held out
     /// ([`ValidationRule::LastRepetition`]): held-out frames are then as far from the others
     /// as test motions are from the training motions. Otherwise every third trajectory is held
     /// out ([`ValidationRule::EveryThirdTrajectory`]), or, with fewer than three trajectories,
@@ -231,9 +244,12 @@ impl Dataset {
     }
 
     /// The training frames in the groups [`Dataset::validation_split`] holds out (by its
-    /// rule): the repetition of each frame's motion, its trajectory, or its block of nine. A
-    /// model's trust threshold holds each group out in turn.
+    /// rule): the person who performed each frame, the repetition of its motion, its
+    /// trajectory, or its block of nine. A model's trust threshold holds each group out in turn.
     pub fn training_groups(&self) -> TrainingGroups {
+        if let Some(groups) = self.people_groups() {
+            return groups;
+        }
         let mut runs: Vec<(Option<usize>, Vec<usize>)> = Vec::new();
         for (pos, &frame) in self.train.iter().enumerate() {
             let segment = self.segment_of(frame);
@@ -292,6 +308,43 @@ impl Dataset {
                 }
             }
         }
+    }
+
+    /// The training frames grouped by person, when every one names its person and there are
+    /// at least three (in order of first appearance; every third held out).
+    fn people_groups(&self) -> Option<TrainingGroups> {
+        let mut people: Vec<&str> = Vec::new();
+        let mut groups = Vec::with_capacity(self.train.len());
+        for &frame in &self.train {
+            let person = self.segment_of(frame)?.person.as_deref()?;
+            let g = match people.iter().position(|p| *p == person) {
+                Some(g) => g,
+                None => {
+                    people.push(person);
+                    people.len() - 1
+                }
+            };
+            groups.push(g);
+        }
+        (people.len() >= 3).then(|| TrainingGroups {
+            groups,
+            validation: (2..people.len()).step_by(3).collect(),
+            rule: ValidationRule::EveryThirdPerson,
+        })
+    }
+
+    /// The people who performed the frames `frames` (each named once, in order of first
+    /// appearance; frames of no named person are left out).
+    pub fn people_of(&self, frames: &[usize]) -> Vec<String> {
+        let mut people: Vec<String> = Vec::new();
+        for &f in frames {
+            if let Some(p) = self.segment_of(f).and_then(|s| s.person.as_ref()) {
+                if !people.contains(p) {
+                    people.push(p.clone());
+                }
+            }
+        }
+        people
     }
 
     /// Training rows of robot `name`, if there is such a robot.
@@ -524,6 +577,7 @@ mod tests {
                     from_pose: Some(0),
                     to_pose: Some(1),
                     repetition: Some(0),
+                    person: None,
                 },
                 Segment {
                     start: 5,
@@ -531,6 +585,7 @@ mod tests {
                     from_pose: Some(1),
                     to_pose: Some(0),
                     repetition: Some(0),
+                    person: None,
                 },
                 Segment {
                     start: 8,
@@ -538,6 +593,7 @@ mod tests {
                     from_pose: Some(1),
                     to_pose: Some(2),
                     repetition: Some(0),
+                    person: None,
                 },
             ],
             train: vec![0, 2, 4],
@@ -553,6 +609,7 @@ mod tests {
             from_pose: Some(0),
             to_pose: Some(to_pose),
             repetition,
+            person: None,
         };
         let mut ds = small();
         // Three motions, two repetitions each: frames 0..12 in six segments of two.
@@ -584,6 +641,34 @@ mod tests {
         let split = ds.validation_split();
         assert_eq!(split.rule, ValidationRule::EveryThirdBlock);
         assert_eq!(split.rows, vec![2, 5, 8]);
+    }
+
+    #[test]
+    fn training_frames_of_three_or_more_people_are_grouped_and_held_out_by_person() {
+        let mut ds = small();
+        // Segments 0..5, 5..8, 8..12 of people a, b, a: two people, trajectories as before.
+        for (s, p) in ds.segments.iter_mut().zip(["a", "b", "a"]) {
+            s.person = Some(p.into());
+        }
+        ds.train = vec![0, 2, 4, 5, 6, 7, 8];
+        ds.test = vec![10, 11];
+        assert_ne!(ds.validation_split().rule, ValidationRule::EveryThirdPerson);
+        assert_eq!(ds.people_of(&ds.test), vec!["a".to_string()]);
+        // Three people: c's frames (the third named) are held out, whichever segment they are in.
+        ds.segments[2].person = Some("c".into());
+        let groups = ds.training_groups();
+        assert_eq!(groups.rule, ValidationRule::EveryThirdPerson);
+        assert_eq!(groups.groups, vec![0, 0, 0, 1, 1, 1, 2]);
+        assert_eq!(groups.validation, vec![2]);
+        assert_eq!(ds.validation_split().rows, vec![6]);
+        // A training frame of nobody named: the people rule does not apply.
+        ds.segments[1].person = None;
+        assert_ne!(ds.validation_split().rule, ValidationRule::EveryThirdPerson);
+        // Persons survive the file.
+        ds.segments[1].person = Some("b".into());
+        let p = tmp("people").join("d.mcap");
+        write_demonstrations(&p, &ds).expect("write");
+        assert_eq!(load_demonstrations(&p).expect("load").segments, ds.segments);
     }
 
     #[test]

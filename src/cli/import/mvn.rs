@@ -193,6 +193,7 @@ fn capture(
             rate_hz,
             fit: report(frames, &joint_names),
             calibration,
+            person: None,
         },
     })
 }

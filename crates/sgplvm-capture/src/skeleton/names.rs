@@ -65,6 +65,16 @@ pub const SCHEMES: &[Scheme] = &[
         forearm: &["lowerarm", "forearm"],
         hand: &["hand"],
     },
+    Scheme {
+        // The bones of CMU's own ASF skeleton, as BVH files converted straight from the AMC
+        // files name them: lclavicle, lhumerus, lradius, lwrist (a short bone on the forearm's
+        // line that turns it), lhand (the hand, where the wrist flexes), lfingers, lthumb.
+        name: "CMU ASF (clavicle, humerus, radius, hand)",
+        clavicle: &["clavicle"],
+        upper_arm: &["humerus"],
+        forearm: &["radius"],
+        hand: &["hand"],
+    },
 ];
 
 /// A joint name without its namespace: what follows the last `:` (`mixamorig:`) or `/` (a ROS

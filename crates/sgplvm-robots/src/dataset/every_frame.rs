@@ -146,6 +146,7 @@ mod tests {
                 from_pose: None,
                 to_pose: None,
                 repetition: None,
+                person: None,
             });
         }
         let n = times.len();

@@ -204,6 +204,7 @@ pub fn synthesize_paced(
             from_pose: Some(mv.from),
             to_pose: Some(mv.to),
             repetition: mv.repetition,
+            person: None,
         });
         frames += n;
     }

@@ -27,6 +27,8 @@ pub enum TestChoice {
     EveryNthBlock(usize),
     /// These files (by file stem or 0-based index), whole.
     Files(Vec<String>),
+    /// Every file of these people (as `sgplvm import --person` named them), whole.
+    People(Vec<String>),
     /// None: every frame for training.
     AllTraining,
 }
@@ -44,8 +46,14 @@ pub struct FilesRetargeted {
     pub seconds: f64,
     /// The file stems of the inputs' segments (what `TestChoice::Files` names).
     pub files: Vec<String>,
-    /// The stems of the files kept whole for testing (`TestChoice::Files`), in input order.
+    /// The stems of the files kept whole for testing (`TestChoice::Files`, `TestChoice::People`),
+    /// in input order.
     pub test_files: Vec<String>,
+    /// The people of the training frames and of the test frames (each once, in order; empty
+    /// where the captures name nobody).
+    pub train_people: Vec<String>,
+    /// See `train_people`.
+    pub test_people: Vec<String>,
 }
 
 /// One entry of a file's [`CAPTURE_METADATA`] record: where a captured file's frames came from
@@ -66,8 +74,16 @@ pub fn read_human(
         let mut file_sources = capture_records(path).map_err(|e| invalid(&e))?;
         files_again(&mut ds, file_sources.len());
         // Each input file is one part; its capture files (if it was imported from several)
-        // stay its segments.
+        // stay its segments, each with its person.
         stems.extend(file_stems(&ds, &file_sources, path));
+        if file_sources.len() == ds.segments.len() {
+            for (segment, source) in ds.segments.iter_mut().zip(&file_sources) {
+                segment.person = source
+                    .get("person")
+                    .and_then(|p| p.as_str())
+                    .map(str::to_string);
+            }
+        }
         sources.append(&mut file_sources);
         parts.push(Dataset {
             robots: Vec::new(),
@@ -94,6 +110,9 @@ pub fn retarget_files(
         TestChoice::EveryNthBlock(n) => SplitRule::Blocks { test_every: *n },
         TestChoice::Files(names) => SplitRule::Files {
             test: test_file_indices(names, &stems)?,
+        },
+        TestChoice::People(names) => SplitRule::Files {
+            test: test_people_files(names, &dataset)?,
         },
         TestChoice::AllTraining => SplitRule::AllTraining,
     };
@@ -138,6 +157,8 @@ pub fn retarget_files(
         seconds,
         files: stems,
         test_files,
+        train_people: dataset.people_of(&dataset.train),
+        test_people: dataset.people_of(&dataset.test),
     })
 }
 
@@ -166,6 +187,7 @@ fn files_again(ds: &mut Dataset, files: usize) {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         })
         .collect();
 }
@@ -196,6 +218,38 @@ fn file_stems(ds: &Dataset, sources: &[CaptureRecord], path: &Path) -> Vec<Strin
             })
             .collect()
     }
+}
+
+/// The indices of the files (segments of `dataset`) of the people `names`.
+fn test_people_files(names: &[String], dataset: &Dataset) -> Result<Vec<usize>, RetargetError> {
+    let all = dataset.people_of(&(0..dataset.len()).collect::<Vec<_>>());
+    if all.is_empty() {
+        return Err(RetargetError::Invalid(
+            "--split people: the captures name nobody; import each person's files with \
+             `sgplvm import --person NAME`"
+                .into(),
+        ));
+    }
+    if names.is_empty() {
+        return Err(RetargetError::Invalid(format!(
+            "--split people needs --test-people NAME[,NAME...] (of: {})",
+            all.join(", ")
+        )));
+    }
+    if let Some(unknown) = names.iter().find(|n| !all.contains(n)) {
+        return Err(RetargetError::Invalid(format!(
+            "--test-people: nobody called `{unknown}` in the captures; they are: {}",
+            all.join(", ")
+        )));
+    }
+    Ok((0..dataset.segments.len())
+        .filter(|&k| {
+            dataset.segments[k]
+                .person
+                .as_ref()
+                .is_some_and(|p| names.contains(p))
+        })
+        .collect())
 }
 
 /// The indices of the test files named among the input files `stems`.

@@ -3,7 +3,8 @@
 //! go to the test set, so that test motions are never in training.
 //!
 //! The rule is fixed before any model sees the data: every `test_every`-th block, counting
-//! across files ([`SplitRule::Blocks`]), the files named ([`SplitRule::Files`]), or none
+//! across files ([`SplitRule::Blocks`]), the files named ([`SplitRule::Files`]; the files of
+//! the people named are such files, so that test people are never in training), or none
 //! ([`SplitRule::AllTraining`]: every frame for training, no test frames — what a capture too
 //! short for a test block gets, with a warning, when every `test_every`-th block was asked
 //! for; [`SplitSummary::fallback`] says so). Frames
@@ -107,8 +108,8 @@ struct Block {
     test: bool,
 }
 
-/// Cuts every segment of `dataset` into blocks, makes them its segments and sets its train and
-/// test frames by `options`.
+/// Cuts every segment of `dataset` into blocks, makes them its segments (each with its
+/// segment's person) and sets its train and test frames by `options`.
 pub fn split_into_blocks(
     dataset: &mut Dataset,
     options: &SplitOptions,
@@ -160,6 +161,7 @@ pub fn split_into_blocks(
         fallback,
         train_step: step,
     };
+    // Each block is its file's person's.
     dataset.segments = blocks
         .iter()
         .map(|b| Segment {
@@ -168,6 +170,7 @@ pub fn split_into_blocks(
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: dataset.segments[b.file].person.clone(),
         })
         .collect();
     dataset.train = train;

@@ -226,6 +226,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
         Segment {
             start: 400,
@@ -233,6 +234,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
     ];
     let opts = SplitOptions {
@@ -253,7 +255,8 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             end: 400,
             from_pose: None,
             to_pose: None,
-            repetition: None
+            repetition: None,
+            person: None,
         }
     );
     assert_eq!(summary.test_blocks, 2);
@@ -279,6 +282,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
         Segment {
             start: 400,
@@ -286,6 +290,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
     ];
     let opts = SplitOptions {
@@ -306,6 +311,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
         Segment {
             start: 400,
@@ -313,6 +319,7 @@ fn blocks_split_with_guards_and_no_test_frame_in_training() {
             from_pose: None,
             to_pose: None,
             repetition: None,
+            person: None,
         },
     ];
     let e = split_into_blocks(
@@ -498,4 +505,34 @@ fn a_frame_retargeted_alone_is_the_file_s_frame() {
     assert!(e.to_string().contains("finite"), "{e}");
     let e = live.retarget(&[0.0; 17], &mut out).unwrap_err();
     assert!(e.to_string().contains("expected 18"), "{e}");
+}
+
+#[test]
+fn posture_distance_is_zero_for_one_posture_and_an_elbow_s_turn_for_the_forearm_alone() {
+    let anatomy = Anatomy::builtin("walkman").unwrap();
+    let names = anatomy.robot().joint_names();
+    let elbow = names.iter().position(|n| n == "LElbj").unwrap();
+    let mut a = anatomy.hold_configuration().to_vec();
+    a[elbow] = -0.6;
+    let distance = whole_arm::PostureDistance::new(&anatomy);
+    for arm in distance.between(&a, &a) {
+        assert!(
+            arm.upper_arm_deg < 1e-6 && arm.forearm_deg < 1e-6,
+            "{arm:?}"
+        );
+    }
+    let mut b = a.clone();
+    b[elbow] = -0.6 - 0.3;
+    let [left, right] = distance.between(&a, &b);
+    assert!(left.upper_arm_deg < 1e-6, "{left:?}");
+    // The elbow's axis is (within a few thousandths of a degree) square to the forearm's bone
+    // line: it turns by the joint's turn.
+    assert!(
+        (left.forearm_deg - 0.3f64.to_degrees()).abs() < 0.01,
+        "{left:?}"
+    );
+    assert!(
+        right.upper_arm_deg < 1e-9 && right.forearm_deg < 1e-9,
+        "{right:?}"
+    );
 }

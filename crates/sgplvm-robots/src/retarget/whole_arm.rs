@@ -193,6 +193,45 @@ impl PostureGauge {
     }
 }
 
+/// How far apart two postures of one robot's arms are, on bone lines: what a learned
+/// mapping's commands are judged by against the retargeted ones (`sgplvm evaluate`).
+pub struct PostureDistance<'a> {
+    anatomy: &'a Anatomy,
+    gauge: PostureGauge,
+}
+
+/// The angles between two postures of one arm, degrees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmAngles {
+    /// Between the upper arms' directions (shoulder centre → elbow centre).
+    pub upper_arm_deg: f64,
+    /// Between the forearms' directions (elbow centre → wrist centre).
+    pub forearm_deg: f64,
+}
+
+impl<'a> PostureDistance<'a> {
+    /// The distance on `anatomy`'s arms.
+    pub fn new(anatomy: &'a Anatomy) -> PostureDistance<'a> {
+        PostureDistance {
+            anatomy,
+            gauge: PostureGauge::of(anatomy),
+        }
+    }
+
+    /// Per arm (left, right), the angles between configurations `a` and `b` (every movable
+    /// joint of the URDF, in its order).
+    pub fn between(&self, a: &[f64], b: &[f64]) -> [ArmAngles; 2] {
+        let (pa, pb) = (
+            self.gauge.measure(self.anatomy, a),
+            self.gauge.measure(self.anatomy, b),
+        );
+        [0, 1].map(|s| ArmAngles {
+            upper_arm_deg: pa[s].upper_arm.angle(&pb[s].upper_arm).to_degrees(),
+            forearm_deg: pa[s].forearm.angle(&pb[s].forearm).to_degrees(),
+        })
+    }
+}
+
 /// One robot through every frame: the commands (frames × every joint of the URDF, held joints
 /// at their hold values), each hand's miss per frame (metres, left and right) and the report.
 /// `reference` is the person's reference posture (the one their turns are measured from,

@@ -12,8 +12,11 @@ use sgplvm::pipeline::{mean_squared_error, to_mat, Demonstrations, Evaluation, T
 use sgplvm::{Mat, Robot, SharedGplvm};
 
 use super::args::{DataArg, JsonArg, ModelFileArg};
+use super::body::BodyArgs;
 use super::frames::require_robot;
 use super::report;
+
+mod arms;
 
 #[derive(Args)]
 pub struct EvaluateArgs {
@@ -34,6 +37,12 @@ pub struct EvaluateArgs {
     /// Seed of the random poses.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// The robot's URDF, for a robot not built in: the arms' angles to the demonstrated
+    /// posture are measured on it (without it, and not built in, they are left out).
+    #[arg(long)]
+    urdf: Option<std::path::PathBuf>,
+    #[command(flatten)]
+    body: BodyArgs,
     #[command(flatten)]
     json: JsonArg,
 }
@@ -134,7 +143,22 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     let demos = args.data.load()?;
     let evaluation = demos.evaluate(&model, &args.robot)?;
     let trust = demos.test_trust(&model, &args.robot)?;
-    let gate = gate_report(&model, &demos, &args)?;
+    let (gate, held) = gate_report(&model, &demos, &args)?;
+    let arms = match (&args.urdf, Robot::builtin_urdf(&args.robot)) {
+        (None, None) => None,
+        (urdf, _) => {
+            let anatomy = args.body.load(&args.robot, urdf.as_deref(), "")?;
+            let test = to_mat(&demos.dataset.human.rows(&demos.dataset.test));
+            let predicted = model.predict(test.as_ref(), &args.robot, false)?.mean;
+            Some(arms::report(
+                &anatomy,
+                &demos,
+                &args.robot,
+                &predicted,
+                &held,
+            )?)
+        }
+    };
     if args.json.json {
         #[derive(Serialize)]
         struct All<'a> {
@@ -142,26 +166,32 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             evaluation: &'a Evaluation,
             trust: &'a TestTrust,
             gate: &'a GateReport,
+            arms: Option<&'a arms::ArmsReport>,
         }
         let all = All {
             evaluation: &evaluation,
             trust: &trust,
             gate: &gate,
+            arms: arms.as_ref(),
         };
         println!("{}", serde_json::to_string_pretty(&all)?);
         return Ok(());
     }
     report::evaluation(&evaluation, &trust, false)?;
     print_gate(&gate);
+    if let Some(arms) = &arms {
+        arms::print(arms, &args.robot);
+    }
     Ok(())
 }
 
-/// The test frames' human poses, the far poses and the random ones, and each gate's rates.
+/// The test frames' human poses, the far poses and the random ones, and each gate's rates; and
+/// which test frames teleop's default gate holds.
 fn gate_report(
     model: &SharedGplvm,
     demos: &Demonstrations,
     args: &EvaluateArgs,
-) -> Result<GateReport> {
+) -> Result<(GateReport, Vec<bool>)> {
     if !(args.far_offset.is_finite()) {
         return Err(anyhow!(
             "--far-offset {}: expected a number of radians",
@@ -205,7 +235,10 @@ fn gate_report(
             }
         })
         .collect();
-    Ok(GateReport {
+    let held = (0..test.nrows())
+        .map(|i| signals[0].held(i, Gate::Reconstruction, sd, reconstruction))
+        .collect();
+    let report = GateReport {
         sd_threshold: sd,
         reconstruction_threshold: reconstruction,
         reconstruction_percentile: calibration.percentile,
@@ -213,7 +246,8 @@ fn gate_report(
         far_offset: args.far_offset,
         random_seed: args.seed,
         rates,
-    })
+    };
+    Ok((report, held))
 }
 
 /// Each test frame's mean squared error over the robot's joints (rad²).
