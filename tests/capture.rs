@@ -49,6 +49,21 @@ fn cmu_bvh(frames: usize) -> String {
     t
 }
 
+/// The shipped human's every frame, written by `sgplvm export` to `out` (BVH or CSV by its name).
+fn export_human(out: &Path) {
+    ok(&[
+        "export",
+        "--data",
+        "data/demos/bimanual.mcap",
+        "--body",
+        "human",
+        "--frames",
+        "all",
+        "--out",
+        s(out),
+    ]);
+}
+
 /// `sgplvm import FILE --out OUT` must fail with one line naming the file (and `needle`) and
 /// leave no output file.
 fn refused(dir: &Path, name: &str, text: &str, needle: &str) {
@@ -173,28 +188,8 @@ fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() 
     let dir = scratch("capture-pipeline");
     let p = |n: &str| dir.join(n);
     // The shipped human, written as BVH: the importer must give back its angles.
-    ok(&[
-        "export",
-        "--data",
-        "data/demos/bimanual.mcap",
-        "--body",
-        "human",
-        "--frames",
-        "all",
-        "--out",
-        s(&p("capture.bvh")),
-    ]);
-    ok(&[
-        "export",
-        "--data",
-        "data/demos/bimanual.mcap",
-        "--body",
-        "human",
-        "--frames",
-        "all",
-        "--out",
-        s(&p("human.csv")),
-    ]);
+    export_human(&p("capture.bvh"));
+    export_human(&p("human.csv"));
     let summary = ok(&[
         "import",
         s(&p("capture.bvh")),
@@ -311,17 +306,7 @@ fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() 
 fn a_short_capture_retargets_with_the_defaults_and_every_split_says_what_it_did() {
     let dir = scratch("short-capture");
     let p = |n: &str| dir.join(n);
-    ok(&[
-        "export",
-        "--data",
-        "data/demos/bimanual.mcap",
-        "--body",
-        "human",
-        "--frames",
-        "all",
-        "--out",
-        s(&p("c.bvh")),
-    ]);
+    export_human(&p("c.bvh"));
     // 2.4 s: one block of 4 s, too few for one block in 4 to test.
     ok(&[
         "import",
@@ -423,17 +408,7 @@ fn people_named_at_import_are_split_whole_trained_a_person_at_a_time_and_judged_
     use sgplvm::robots::dataset::{load_demonstrations, ValidationRule};
     let dir = scratch("people");
     let p = |n: &str| dir.join(n);
-    ok(&[
-        "export",
-        "--data",
-        "data/demos/bimanual.mcap",
-        "--body",
-        "human",
-        "--frames",
-        "all",
-        "--out",
-        s(&p("c.bvh")),
-    ]);
+    export_human(&p("c.bvh"));
     // Four "people", 12 s of motion each (three blocks of 4 s).
     let mut demos = Vec::new();
     for (k, person) in ["ann", "bo", "cy", "di"].iter().enumerate() {

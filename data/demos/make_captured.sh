@@ -20,6 +20,8 @@ out=${OUT:-data/demos/captured.mcap}
 mkdir -p "$cache"
 cargo build --release --quiet --bin sgplvm
 sgplvm=target/release/sgplvm
+# shellcheck source=data/demos/fetch_bvh.sh
+source data/demos/fetch_bvh.sh
 
 # trial | URL (a public copy, pinned to a commit) | MD5 | span imported (sgplvm import flags)
 trials=(
@@ -39,15 +41,7 @@ for entry in "${trials[@]}"; do
   if [ ! -f "$bvh" ] && [ -f "data/capture/cmu-$trial.bvh" ]; then
     cp "data/capture/cmu-$trial.bvh" "$bvh"   # shipped with the repository (data/capture)
   fi
-  if [ ! -f "$bvh" ]; then
-    echo "downloading $trial from $url"
-    curl -fsSL "$url" -o "$bvh.part" && mv "$bvh.part" "$bvh"
-  fi
-  got=$(md5sum "$bvh" | cut -d' ' -f1)
-  if [ "$got" != "$md5" ]; then
-    echo "error: $bvh has MD5 $got, expected $md5 (a different file: delete it to download again)" >&2
-    exit 1
-  fi
+  fetch_bvh "$bvh" "$url" "$md5"
   # shellcheck disable=SC2086
   "$sgplvm" import "$bvh" --out "$work/$trial.mcap" $span
   demos+=(--demos "$work/$trial.mcap")

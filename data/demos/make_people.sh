@@ -28,6 +28,8 @@ rate=${RATE:-20}   # Hz: half the paper's 40, so that the shipped file stays sma
 mkdir -p "$cache"
 cargo build --release --quiet --bin sgplvm
 sgplvm=target/release/sgplvm
+# shellcheck source=data/demos/fetch_bvh.sh
+source data/demos/fetch_bvh.sh
 
 # person | file stem | URL (a public copy, pinned to a commit) | MD5
 trials=(
@@ -141,15 +143,7 @@ people=()
 for entry in "${trials[@]}"; do
   IFS='|' read -r person stem url md5 <<<"$entry"
   bvh="$cache/$stem.bvh"
-  if [ ! -f "$bvh" ]; then
-    echo "downloading $stem from $url"
-    curl -fsSL "$url" -o "$bvh.part" && mv "$bvh.part" "$bvh"
-  fi
-  got=$(md5sum "$bvh" | cut -d' ' -f1)
-  if [ "$got" != "$md5" ]; then
-    echo "error: $bvh has MD5 $got, expected $md5 (a different file: delete it to download again)" >&2
-    exit 1
-  fi
+  fetch_bvh "$bvh" "$url" "$md5"
   "$sgplvm" import "$bvh" --person "$person" --rate "$rate" --out "$work/$stem.mcap" >/dev/null 2>"$work/$stem.log" \
     || { cat "$work/$stem.log" >&2; exit 1; }
   demos+=(--demos "$work/$stem.mcap")

@@ -1,7 +1,9 @@
 //! `sgplvm evaluate`: a model's test error on a demonstration file, overall and per joint, and
 //! how often the live safety rule (`sgplvm teleop`'s gate) would hold a robot: on the test
 //! frames, on poses far from them and on random poses within the human's joint limits, with the
-//! test error of the frames it would hold and of those it would follow.
+//! test error of the frames it would hold and of those it would follow; and, for a robot whose
+//! URDF is known, how far the model's commands put its arms from the demonstrated posture
+//! (`arms`), per person where the data names them.
 
 use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
