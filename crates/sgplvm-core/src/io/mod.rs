@@ -44,7 +44,6 @@
 //! Files are written to a temporary file next to the target and renamed into place (see
 //! `tempfiles`).
 
-use std::io::Write;
 use std::path::Path;
 
 use faer::Mat;
@@ -56,9 +55,16 @@ use crate::input_map::InputMap;
 use crate::kernel::KernelParams;
 use crate::memory;
 use crate::model::{Latent, SharedGplvm, Space};
-use crate::tempfiles;
 use crate::train::{IterationRecord, StopReason};
 use crate::validation::Selection;
+
+mod envelope;
+
+#[cfg(test)]
+pub(crate) use envelope::with_payload;
+#[cfg(test)]
+use envelope::HEADER;
+pub(crate) use envelope::{read_file, split_header, with_header, write_atomically};
 
 /// Magic bytes at the start of every model file.
 pub const MAGIC: &[u8; 8] = b"SGPLVM\0\0";
@@ -73,7 +79,6 @@ pub const PARTS_FORMAT_VERSION: u32 = 4;
 const BAYESIAN_VERSION: u32 = 3;
 /// The version written for models that are not Bayesian (unchanged since the sparse model).
 const POINT_LATENT_VERSION: u32 = 2;
-const HEADER: usize = 28;
 
 #[derive(Serialize, Deserialize)]
 struct MatData {
@@ -309,26 +314,13 @@ pub(crate) struct ModelFile {
     annotations: std::collections::BTreeMap<String, serde_json::Value>,
 }
 
-fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
-
 impl SharedGplvm {
     /// The model as bytes in the documented file format (see the `io` module docs).
     pub fn to_bytes(&self) -> Vec<u8> {
         let file = self.to_file();
         // Serialising plain structs of finite numbers and strings cannot fail.
         let payload = serde_json::to_vec(&file).expect("model payload serialises to JSON");
-        let version = match self.config.bayesian {
-            true => BAYESIAN_VERSION,
-            false => POINT_LATENT_VERSION,
-        };
-        with_header(version, &payload)
+        with_header(self.file_version(), &payload)
     }
 
     /// The model's payload (see the `io` module docs).
@@ -438,72 +430,6 @@ impl SharedGplvm {
             false => POINT_LATENT_VERSION,
         }
     }
-}
-
-/// `payload` behind a file header of format `version` (magic, version, length, hash).
-pub(crate) fn with_header(version: u32, payload: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(HEADER + payload.len());
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&version.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&fnv1a(payload).to_le_bytes());
-    out.extend_from_slice(payload);
-    out
-}
-
-/// The format version and the payload of a model file's `bytes`, after checking the magic,
-/// the version (1 to [`FORMAT_VERSION`]), the length and the hash.
-pub(crate) fn split_header(bytes: &[u8]) -> Result<(u32, &[u8])> {
-    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-        return Err(Error::BadMagic);
-    }
-    if bytes.len() < HEADER {
-        return Err(Error::Truncated {
-            expected: HEADER,
-            found: bytes.len(),
-        });
-    }
-    let word = |a: usize, b: usize| -> [u8; 8] {
-        let mut w = [0u8; 8];
-        w[..b - a].copy_from_slice(&bytes[a..b]);
-        w
-    };
-    let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-    if version == 0 || version > FORMAT_VERSION {
-        return Err(Error::UnsupportedVersion {
-            found: version,
-            supported: FORMAT_VERSION,
-        });
-    }
-    let len = u64::from_le_bytes(word(12, 20));
-    let hash = u64::from_le_bytes(word(20, 28));
-    let expected = usize::try_from(len)
-        .ok()
-        .and_then(|l| l.checked_add(HEADER))
-        .ok_or(Error::Corrupt {
-            reason: format!("payload length {len} is impossible"),
-        })?;
-    if bytes.len() < expected {
-        return Err(Error::Truncated {
-            expected,
-            found: bytes.len(),
-        });
-    }
-    if bytes.len() > expected {
-        return Err(Error::Corrupt {
-            reason: format!(
-                "{} trailing bytes after the payload",
-                bytes.len() - expected
-            ),
-        });
-    }
-    let payload = &bytes[HEADER..];
-    if fnv1a(payload) != hash {
-        return Err(Error::Corrupt {
-            reason: "payload checksum mismatch".into(),
-        });
-    }
-    Ok((version, payload))
 }
 
 impl SharedGplvm {
@@ -657,54 +583,6 @@ impl SharedGplvm {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file beside it (see [`SharedGplvm::save`]).
-pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source: std::io::Error| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    if path.file_name().is_none() {
-        return Err(io(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "the path has no file name",
-        )));
-    }
-    tempfiles::remove_stale_temporaries(path);
-    let tmp = tempfiles::temporary_path(path);
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp).map_err(io)?;
-        f.write_all(bytes).map_err(io)?;
-        f.sync_all().map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// The bytes of the model file at `path` (an error naming it when it cannot be read).
-pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-/// A model file's `bytes` with its JSON payload edited by `edit` and a valid header and hash:
-/// what a tampered or buggy writer would produce (for tests of what loading makes of it).
-#[cfg(test)]
-pub(crate) fn with_payload(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
-    let mut json: serde_json::Value = serde_json::from_slice(&bytes[HEADER..]).expect("json");
-    edit(&mut json);
-    let payload = serde_json::to_vec(&json).expect("json");
-    let mut out = bytes[..12].to_vec();
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
-    out.extend_from_slice(&payload);
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -716,12 +594,7 @@ mod tests {
         let bytes = model.to_bytes();
         let payload = std::str::from_utf8(&bytes[HEADER..]).expect("JSON payload");
         assert!(payload.contains(from), "{from} not in the payload");
-        let payload = payload.replace(from, to);
-        let mut out = bytes[..12].to_vec();
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&fnv1a(payload.as_bytes()).to_le_bytes());
-        out.extend_from_slice(payload.as_bytes());
-        out
+        with_header(model.file_version(), payload.replace(from, to).as_bytes())
     }
 
     #[test]
