@@ -11,7 +11,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use sgplvm_core::{Mat, MatRef, PartSpec, PartsCallback, PartsConfig, PartsGplvm, TrainOptions};
+use sgplvm_core::{PartSpec, PartsCallback, PartsConfig, PartsGplvm, TrainOptions};
 use sgplvm_robots::anatomy::Anatomy;
 use sgplvm_robots::dataset::BodyData;
 use sgplvm_robots::Side;
@@ -216,33 +216,21 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<PartsCallback<'_>>,
     ) -> Result<PartsGplvm, PipelineError> {
-        self.check_training()?;
         let frames = FrameSet::for_config(&config.model);
-        let ds = self.training_set(frames);
-        let mut bodies = vec![&ds.human];
-        for name in robots {
-            self.robot(name)?;
-            bodies.extend(ds.robot(name));
-        }
-        let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
-        let spaces: Vec<(&str, MatRef<'_, f64>)> = bodies
-            .iter()
-            .zip(&mats)
-            .map(|(b, m)| (b.name.as_str(), m.as_ref()))
-            .collect();
+        let training = self.training_spaces(robots, frames)?;
         let validation = patience.map(|p| self.validation_of(frames, p));
         let mut model = PartsGplvm::fit(
             config,
-            &spaces,
-            &ds.human.name,
+            &training.views(),
+            training.input(),
             options,
             validation.as_ref(),
             callback,
         )?;
-        for body in bodies {
-            model.set_column_names(&body.name, body.joint_names.clone())?;
+        for (name, joints, _) in &training.bodies {
+            model.set_column_names(name, joints.clone())?;
         }
-        model.set_trust_groups(&ds.training_groups().groups)?;
+        model.set_trust_groups(&training.groups)?;
         Ok(model)
     }
 

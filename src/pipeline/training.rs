@@ -41,7 +41,56 @@ impl FrameSet {
     }
 }
 
+/// What training the human and some robots takes from the data: each body's name, joint names
+/// and training rows (the human first), and the groups the trust thresholds hold out.
+pub(crate) struct TrainingSpaces {
+    /// Name, joint names and training rows of each body.
+    pub bodies: Vec<(String, Vec<String>, Mat<f64>)>,
+    /// [`Dataset::training_groups`] of the training frames.
+    pub groups: Vec<usize>,
+}
+
+impl TrainingSpaces {
+    /// The spaces as the core's `fit` takes them.
+    pub fn views(&self) -> Vec<(&str, MatRef<'_, f64>)> {
+        self.bodies
+            .iter()
+            .map(|(name, _, m)| (name.as_str(), m.as_ref()))
+            .collect()
+    }
+
+    /// The human's (input) space name.
+    pub fn input(&self) -> &str {
+        &self.bodies[0].0
+    }
+}
+
 impl Demonstrations {
+    /// The training rows of the human and `robots` on the frames `frames` says.
+    pub(crate) fn training_spaces(
+        &self,
+        robots: &[String],
+        frames: FrameSet,
+    ) -> Result<TrainingSpaces, PipelineError> {
+        self.check_training()?;
+        let ds = self.training_set(frames);
+        let mut bodies = vec![&ds.human];
+        for name in robots {
+            self.robot(name)?;
+            bodies.extend(ds.robot(name));
+        }
+        Ok(TrainingSpaces {
+            bodies: bodies
+                .iter()
+                .map(|b| {
+                    let rows = to_mat(&b.rows(&ds.train));
+                    (b.name.clone(), b.joint_names.clone(), rows)
+                })
+                .collect(),
+            groups: ds.training_groups().groups,
+        })
+    }
+
     /// The dataset with `frames` as its training set (the test set unchanged).
     pub fn training_set(&self, frames: FrameSet) -> Cow<'_, Dataset> {
         match frames {
@@ -101,21 +150,9 @@ impl Demonstrations {
         patience: Option<usize>,
         callback: Option<Callback<'_>>,
     ) -> Result<SharedGplvm, PipelineError> {
-        self.check_training()?;
         let frames = FrameSet::for_config(config);
-        let ds = self.training_set(frames);
-        let mut bodies = vec![&ds.human];
-        for name in robots {
-            self.robot(name)?;
-            bodies.extend(ds.robot(name));
-        }
-        let mats: Vec<Mat<f64>> = bodies.iter().map(|b| to_mat(&b.rows(&ds.train))).collect();
-        let spaces: Vec<(&str, MatRef<'_, f64>)> = bodies
-            .iter()
-            .zip(&mats)
-            .map(|(b, m)| (b.name.as_str(), m.as_ref()))
-            .collect();
-        let input = &ds.human.name;
+        let training = self.training_spaces(robots, frames)?;
+        let (spaces, input) = (training.views(), training.input());
         let mut model = match patience {
             Some(p) => {
                 let v = self.validation_of(frames, p);
@@ -123,10 +160,10 @@ impl Demonstrations {
             }
             None => SharedGplvm::fit(config, &spaces, input, options, callback)?,
         };
-        for body in bodies {
-            model.set_column_names(&body.name, body.joint_names.clone())?;
+        for (name, joints, _) in &training.bodies {
+            model.set_column_names(name, joints.clone())?;
         }
-        model.set_trust_groups(ds.training_groups().groups)?;
+        model.set_trust_groups(training.groups)?;
         Ok(model)
     }
 
