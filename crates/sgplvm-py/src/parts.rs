@@ -16,8 +16,8 @@ use sgplvm_core::{
 
 use crate::guard::guarded;
 use crate::model::{
-    late_signal, model_error, parse_back_constraint, read_error, signal_interrupt, to_mat,
-    to_numpy, NativeModel,
+    finish_training, model_error, parse_back_constraint, read_error, settle, signal_interrupt,
+    to_mat, to_numpy, NativeModel,
 };
 
 /// Parts as Python gives them: (part name, [(space name, columns)]).
@@ -85,30 +85,8 @@ fn train_parts(
             hear.as_mut().map(|f| f as sgplvm_core::PartsCallback<'_>),
         )
     });
-    if let Some(e) = heard
-        .raised
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .take()
-    {
-        return Err(e);
-    }
-    let signal = heard
-        .signal
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .take()
-        .or_else(|| late_signal(py));
-    match (result, signal) {
-        (Ok(model), None) => Ok(NativePartsModel { inner: model }),
-        (Ok(model), Some(e)) => {
-            let native = Py::new(py, NativePartsModel { inner: model })?;
-            let _ = e.value(py).setattr("_sgplvm_native", native);
-            Err(e)
-        }
-        (Err(_), Some(e)) => Err(e),
-        (Err(e), None) => Err(model_error(e)),
-    }
+    let (model, signal) = settle(py, Some(&heard.raised), &heard.signal, result)?;
+    finish_training(py, NativePartsModel { inner: model }, signal)
 }
 
 /// `parts` as the core takes them: (part name, [(space, columns)]).

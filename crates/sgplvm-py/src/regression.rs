@@ -1,7 +1,7 @@
 //! The native class behind `sgplvm.GPRegression`: the direct GP regression human → robot that
 //! the shared model is measured against (see `sgplvm_core::GpRegression`).
 
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex};
 
 use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -9,7 +9,9 @@ use pyo3::types::PyDict;
 use sgplvm_core::{GpRegression, TrainOptions};
 
 use crate::guard::guarded;
-use crate::model::{kernel_to_dict, late_signal, model_error, signal_interrupt, to_mat, to_numpy};
+use crate::model::{
+    finish_training, kernel_to_dict, model_error, settle, signal_interrupt, to_mat, to_numpy,
+};
 
 /// A trained GP regression (native part; use `sgplvm.GPRegression`).
 #[pyclass(module = "sgplvm._sgplvm", name = "NativeRegression", frozen)]
@@ -40,22 +42,8 @@ impl NativeRegression {
                 .with_max_seconds(max_seconds)
                 .with_interrupt(signal_interrupt(Arc::clone(&signal)));
             let result = py.detach(|| GpRegression::fit(x.as_ref(), y.as_ref(), &options));
-            let signal = signal
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .take()
-                .or_else(|| late_signal(py));
-            match (result, signal) {
-                (Ok(inner), None) => Ok(NativeRegression { inner }),
-                (Ok(inner), Some(e)) => {
-                    let native = Py::new(py, NativeRegression { inner })?;
-                    let _ = e.value(py).setattr("_sgplvm_native", native);
-                    Err(e)
-                }
-                // A signal's exception wins over a training error: the user pressed Ctrl-C.
-                (Err(_), Some(e)) => Err(e),
-                (Err(e), None) => Err(model_error(e)),
-            }
+            let (inner, signal) = settle(py, None, &signal, result)?;
+            finish_training(py, NativeRegression { inner }, signal)
         })
     }
 

@@ -21,8 +21,8 @@ pub(crate) use convert::{
 };
 pub(crate) use params::kernel_to_dict;
 use params::{params_from_dict, params_to_dict};
-use training::{finish_training, train_detached, PyCallbacks};
-pub(crate) use training::{late_signal, signal_interrupt};
+pub(crate) use training::{finish_training, settle, signal_interrupt};
+use training::{train_detached, PyCallbacks};
 
 /// Posterior mean and, when asked for, variance.
 type MeanAndVariance<'py> = (Bound<'py, PyArray2<f64>>, Option<Bound<'py, PyArray2<f64>>>);

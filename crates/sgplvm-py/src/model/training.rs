@@ -14,7 +14,7 @@ use sgplvm_core::{
     ValidationRecord,
 };
 
-use super::{model_error, NativeModel};
+use super::model_error;
 
 /// How often, at most, a training looks at Python's signal handlers.
 const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(50);
@@ -155,36 +155,38 @@ pub(super) fn train_detached(
             selection.as_mut().map(|f| f as SelectionCallback<'_>),
         )
     });
-    if let Some(e) = outcome
-        .raised
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .take()
-    {
+    settle(py, Some(&outcome.raised), &outcome.signal, result)
+}
+
+/// What a training run with the GIL released comes to: the exception a callback raised (in
+/// `raised`), if one did; else the trained value with the exception a signal handler raised
+/// during it (in `signal`) or just after it ([`late_signal`]), if one did. A signal's exception
+/// wins over a training error: the user pressed Ctrl-C.
+pub(crate) fn settle<T>(
+    py: Python<'_>,
+    raised: Option<&Mutex<Option<PyErr>>>,
+    signal: &Mutex<Option<PyErr>>,
+    result: sgplvm_core::Result<T>,
+) -> PyResult<(T, Option<PyErr>)> {
+    let take = |m: &Mutex<Option<PyErr>>| m.lock().unwrap_or_else(PoisonError::into_inner).take();
+    if let Some(e) = raised.and_then(take) {
         return Err(e);
     }
-    let signal = outcome
-        .signal
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .take()
-        .or_else(|| late_signal(py));
-    match (result, signal) {
-        (Ok(model), signal) => Ok((model, signal)),
-        // A signal's exception wins over a training error: the user pressed Ctrl-C.
+    match (result, take(signal).or_else(|| late_signal(py))) {
+        (Ok(value), signal) => Ok((value, signal)),
         (Err(_), Some(e)) => Err(e),
         (Err(e), None) => Err(model_error(e)),
     }
 }
 
-/// `model` as a Python result: the model, or — when a signal handler raised during its
-/// training — that exception, carrying the model as its `_sgplvm_native` attribute (the
-/// Python wrapper keeps it: the best parameters reached before the interrupt).
-pub(super) fn finish_training(
-    py: Python<'_>,
-    model: NativeModel,
-    signal: Option<PyErr>,
-) -> PyResult<NativeModel> {
+/// A trained `model` (a model or regression) as a Python result: the model, or — when a signal
+/// handler raised during its training — that exception, carrying the model as its
+/// `_sgplvm_native` attribute (the Python wrapper keeps it: the best parameters reached before
+/// the interrupt).
+pub(crate) fn finish_training<T>(py: Python<'_>, model: T, signal: Option<PyErr>) -> PyResult<T>
+where
+    T: pyo3::PyClass + Into<pyo3::PyClassInitializer<T>>,
+{
     match signal {
         None => Ok(model),
         Some(e) => {
