@@ -342,37 +342,19 @@ pub fn retarget(
         )));
     }
     let human = HumanArms::new(human_model)?;
-    let n = dataset.len();
-    let targets: Vec<[Relative; 2]> = (0..n)
+    if options.mode == Match::Arms {
+        let person = whole_arm::PersonGauge::new(human.anatomy);
+        return robots
+            .iter()
+            .map(|(name, anatomy)| retarget_whole_arm(name, anatomy, &person, dataset, options))
+            .collect();
+    }
+    let targets: Vec<[Relative; 2]> = (0..dataset.len())
         .map(|f| {
             let q: Vec<f64> = dataset.human.positions.row(f).iter().copied().collect();
             human.relative(&q)
         })
         .collect();
-    if options.mode == Match::Arms {
-        let at = whole_arm::reference_configuration(&human.anatomy);
-        let human_gauge = whole_arm::PostureGauge::at(&human.anatomy, &at);
-        let reference = human_gauge.measure(&human.anatomy, &at);
-        let postures: Vec<[whole_arm::ArmPosture; 2]> = (0..n)
-            .map(|f| {
-                let q: Vec<f64> = dataset.human.positions.row(f).iter().copied().collect();
-                human_gauge.measure(&human.anatomy, &q)
-            })
-            .collect();
-        return robots
-            .iter()
-            .map(|(name, anatomy)| {
-                retarget_whole_arm(
-                    name,
-                    anatomy,
-                    &postures,
-                    &reference,
-                    &dataset.times_ns,
-                    options,
-                )
-            })
-            .collect();
-    }
     Ok(robots
         .iter()
         .map(|(name, anatomy)| {
@@ -386,17 +368,16 @@ pub fn retarget(
 fn retarget_whole_arm(
     name: &str,
     anatomy: &Anatomy,
-    postures: &[[whole_arm::ArmPosture; 2]],
-    reference: &[whole_arm::ArmPosture; 2],
-    times_ns: &[i64],
+    person: &whole_arm::PersonGauge,
+    dataset: &Dataset,
     options: &RetargetOptions,
 ) -> Result<Retargeted, RetargetError> {
     let (full, misses, posture) = whole_arm::run(
         anatomy,
-        postures,
-        reference,
+        person,
+        &dataset.human.positions,
         &key_configurations(anatomy),
-        times_ns,
+        &dataset.times_ns,
         &options.whole_arm,
         options.velocity_limits,
     )
@@ -416,7 +397,7 @@ fn retarget_whole_arm(
         .iter()
         .filter_map(|n| anatomy.robot().joint_index(n))
         .collect();
-    let n = postures.len();
+    let n = dataset.len();
     Ok(Retargeted {
         body: BodyData {
             name: name.to_string(),

@@ -536,3 +536,33 @@ fn posture_distance_is_zero_for_one_posture_and_an_elbow_s_turn_for_the_forearm_
         "{right:?}"
     );
 }
+
+#[test]
+fn a_person_moving_a_little_moves_the_robot_a_little() {
+    // The shipped captured motion onto COMAN, whose shoulder fits a raised arm two ways (turned
+    // half round, one of them at its limits). Choosing per frame whichever fits a hair better
+    // swung the shoulder by up to 3 rad between frames where the person moved < 0.2 rad, 46
+    // times in this file; following each frame's path from the person's neutral leaves the
+    // few places where the path itself meets a fold of the limits (3 here).
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/demos/captured.mcap"
+    );
+    let mut data = crate::dataset::load_demonstrations(path).unwrap();
+    data.robots.clear();
+    let options = RetargetOptions {
+        velocity_limits: false,
+        ..RetargetOptions::default()
+    };
+    let out = retarget(&data, &coman(), &options).unwrap().remove(0);
+    let (h, y) = (&data.human.positions, &out.body.positions);
+    let jumps = (1..data.len())
+        .filter(|&f| data.segment_of(f).map(|s| s.start) == data.segment_of(f - 1).map(|s| s.start))
+        .filter(|&f| (h.row(f) - h.row(f - 1)).norm() < 0.2)
+        .filter(|&f| (y.row(f) - y.row(f - 1)).amax() > 1.0)
+        .count();
+    assert!(
+        jumps <= 6,
+        "{jumps} jumps of > 1 rad where the person moved < 0.2 rad"
+    );
+}

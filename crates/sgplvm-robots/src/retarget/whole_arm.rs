@@ -23,9 +23,12 @@
 //!   proportions differ from a person's cannot have both the directions and the place).
 //! - the posture regulariser pulls towards the fixed neutral posture.
 //!
-//! Each frame is solved from the neutral posture and from the fixed starts (the key postures)
-//! that begin nearest it, never from the previous frame, and the lowest objective kept: the
-//! posture is a function of the person's pose, whatever came before it. The command sent is
+//! Each frame is followed along its own path from the person's neutral to its pose (the
+//! person's joint angles moved straight from their neutral values, [`PersonGauge::path`]),
+//! starting from the robot's posture for the person's neutral, never from the previous frame:
+//! the posture is a function of the person's pose, whatever came before it, and continuous in
+//! it — where the pose fits the robot in two ways (a shoulder turned half round through its
+//! limits), the one the person's own motion out of their neutral leads to. The command sent is
 //! then the nearest safe one ([`crate::safety`]): out of self-collision, linearised at the
 //! posture itself, and — only when asked for — within the velocity limits of the command
 //! before (then, where they hold it back, the command depends on the path).
@@ -232,23 +235,92 @@ impl<'a> PostureDistance<'a> {
     }
 }
 
+/// The person's side of whole-arm retargeting: the human model, its arm postures measured with
+/// turns from the person's reference posture ([`reference_configuration`]), and each frame's
+/// path from the person's neutral to its pose.
+pub(super) struct PersonGauge {
+    human: Anatomy,
+    gauge: PostureGauge,
+    /// The arm postures of the person's reference posture and of their neutral.
+    reference: [ArmPosture; 2],
+    neutral: [ArmPosture; 2],
+}
+
+/// The largest change of any of the person's joints (radians) between two points of a frame's
+/// path: small enough that the robot's posture follows from one point to the next.
+const PATH_STEP: f64 = 0.25;
+
+impl PersonGauge {
+    /// The gauge of `human` (the human model's anatomy).
+    pub(super) fn new(human: Anatomy) -> PersonGauge {
+        let at = reference_configuration(&human);
+        let gauge = PostureGauge::at(&human, &at);
+        let reference = gauge.measure(&human, &at);
+        let neutral = gauge.measure(&human, human.hold_configuration());
+        PersonGauge {
+            human,
+            gauge,
+            reference,
+            neutral,
+        }
+    }
+
+    /// The human model's joint count.
+    pub(super) fn joints(&self) -> usize {
+        self.human.hold_configuration().len()
+    }
+
+    /// The arm postures of the person's reference posture and of their neutral, what a robot's
+    /// solver is set up with ([`ArmSolver::new`]).
+    pub(super) fn person(&self) -> (&[ArmPosture; 2], &[ArmPosture; 2]) {
+        (&self.reference, &self.neutral)
+    }
+
+    /// The arm postures of the human model's configuration `q`.
+    pub(super) fn measure(&self, q: &[f64]) -> [ArmPosture; 2] {
+        self.gauge.measure(&self.human, q)
+    }
+
+    /// The path of configuration `q` from the person's neutral, into `out`: the arm postures
+    /// with every joint moved a share k/K of the way from its neutral value, k = 1 … K, K the
+    /// fewest steps of at most [`PATH_STEP`]; the last is `q`'s.
+    pub(super) fn path(&self, q: &[f64], out: &mut Vec<[ArmPosture; 2]>) {
+        let hold = self.human.hold_configuration();
+        let far = q
+            .iter()
+            .zip(hold)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let steps = (far / PATH_STEP).ceil().max(1.0) as usize;
+        out.clear();
+        let mut at = hold.to_vec();
+        for k in 1..=steps {
+            let t = k as f64 / steps as f64;
+            for ((a, &h), &v) in at.iter_mut().zip(hold).zip(q) {
+                *a = h + t * (v - h);
+            }
+            out.push(self.measure(if k == steps { q } else { &at }));
+        }
+    }
+}
+
 /// One robot through every frame: the commands (frames × every joint of the URDF, held joints
 /// at their hold values), each hand's miss per frame (metres, left and right) and the report.
-/// `reference` is the person's reference posture (the one their turns are measured from,
-/// [`reference_configuration`]): the robot's segment orientations are measured from the
-/// robot's posture with the person's bone directions there (`FrameSolver::reference_hands`),
-/// so that orientations and bone directions ask one posture of the robot.
+/// `person` gives each frame's path ([`PersonGauge::path`] of `human`'s rows); the robot's
+/// segment orientations are measured from the robot's posture with the person's reference
+/// bone directions (`FrameSolver::reference_hands`), so that orientations and bone directions
+/// ask one posture of the robot.
 pub(super) fn run(
     anatomy: &Anatomy,
-    targets: &[[ArmPosture; 2]],
-    reference: &[ArmPosture; 2],
+    person: &PersonGauge,
+    human: &DMatrix<f64>,
     seeds: &[Vec<f64>],
     times_ns: &[i64],
     options: &WholeArmOptions,
     velocity_limits: bool,
 ) -> Result<(DMatrix<f64>, Vec<f64>, PostureReport), String> {
     let robot = anatomy.robot();
-    let solver = ArmSolver::new(anatomy, reference, seeds.to_vec(), options);
+    let solver = ArmSolver::new(anatomy, person.person(), seeds, options);
     let (gauge, model, q_index, hold) =
         (&solver.gauge, &solver.model, &solver.q_index, &solver.hold);
     let mut safety = SafetyStep::new(
@@ -262,11 +334,16 @@ pub(super) fn run(
         },
     )?;
     let mut ideal = hold.clone();
-    let mut out = DMatrix::<f64>::from_fn(targets.len(), hold.len(), |_, i| hold[i]);
+    let frames = human.nrows();
+    let mut out = DMatrix::<f64>::from_fn(frames, hold.len(), |_, i| hold[i]);
     let mut tally = Tally::default();
     let mut sent = vec![0.0; q_index.len()];
-    for (f, target) in targets.iter().enumerate() {
-        let (steps, constrained) = solver.solve(target, &mut ideal);
+    let mut path = Vec::new();
+    for f in 0..frames {
+        let q_human: Vec<f64> = human.row(f).iter().copied().collect();
+        person.path(&q_human, &mut path);
+        let target = path.last().expect("a path ends at its frame");
+        let (steps, constrained) = solver.solve(&path, &mut ideal);
         tally.steps += steps;
         tally.constrained += constrained;
         let asked: Vec<f64> = q_index.iter().map(|&i| ideal[i]).collect();
@@ -320,7 +397,7 @@ pub(super) fn run(
         .enumerate()
         .map(|(k, h)| h * gauge.reach[k % 2])
         .collect();
-    let report = tally.report(options, model, (robot, targets.len()));
+    let report = tally.report(options, model, (robot, frames));
     Ok((out, misses, report))
 }
 

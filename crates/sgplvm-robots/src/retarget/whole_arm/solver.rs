@@ -1,8 +1,8 @@
 //! The whole-arm solver of one robot ([`ArmSolver`]): set up once (the posture gauge measured
-//! from the robot's reference posture, the collision model, the joints it moves, the fixed
-//! starts), then each frame solved to convergence from the neutral posture and the nearest
-//! fixed starts ([`FrameSolver`]), within the joint limits, each elbow on its bending side, and
-//! out of self-collision.
+//! from the robot's reference posture, the collision model, the joints it moves, the robot's
+//! posture for the person's neutral), then each frame followed from that posture along the
+//! frame's path from the person's neutral to its pose ([`FrameSolver`]), within the joint
+//! limits, each elbow on its bending side, and out of self-collision.
 
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -16,7 +16,8 @@ use crate::kinematics::tasks::{Task, TaskContext};
 
 /// One robot's whole-arm solver, set up once: the posture gauge (its orientations measured
 /// from the robot's reference posture), the collision model, the joints it moves and the fixed
-/// starts. [`ArmSolver::solve`] gives a frame's posture from its target alone.
+/// posture for the person's neutral. [`ArmSolver::solve`] gives a frame's posture from its path
+/// alone.
 pub(in crate::retarget) struct ArmSolver {
     anatomy: Anatomy,
     pub(super) gauge: PostureGauge,
@@ -27,20 +28,25 @@ pub(in crate::retarget) struct ArmSolver {
     /// The whole configuration at hold, and the arm joints' values there.
     pub(super) hold: Vec<f64>,
     neutral: Vec<f64>,
-    seeds: Vec<Vec<f64>>,
+    /// The posture every frame's path starts from: the person's neutral, solved from the
+    /// neutral posture and the fixed starts (whole configuration).
+    start: Vec<f64>,
     elbows: Vec<ElbowSide>,
     options: WholeArmOptions,
 }
 
 impl ArmSolver {
     /// The solver of `anatomy`'s arms for a person whose turns are measured from `reference`
-    /// ([`reference_configuration`]), with the fixed starts `seeds` (whole configurations).
+    /// ([`super::reference_configuration`]); every frame's path starts at the person's
+    /// `neutral` postures, which are solved once from the robot's neutral posture and the
+    /// fixed starts `seeds` (whole configurations).
     pub(in crate::retarget) fn new(
         anatomy: &Anatomy,
-        reference: &[ArmPosture; 2],
-        seeds: Vec<Vec<f64>>,
+        person: (&[ArmPosture; 2], &[ArmPosture; 2]),
+        seeds: &[Vec<f64>],
         options: &WholeArmOptions,
     ) -> ArmSolver {
+        let (reference, neutral_target) = person;
         let robot = anatomy.robot();
         let q_index: Vec<usize> = anatomy
             .arm_joint_names()
@@ -55,14 +61,19 @@ impl ArmSolver {
             model: anatomy.collision_model(&q_index, options.margin_m),
             neutral: q_index.iter().map(|&i| hold[i]).collect(),
             elbows: elbow_sides(anatomy, &active),
+            start: hold.clone(),
             q_index,
             active,
             hold,
-            seeds,
             options: options.clone(),
         };
         let turns = solver.frame().reference_hands(reference, &solver.hold);
         (solver.gauge.neutral_hands, solver.gauge.neutral_uppers) = turns;
+        let mut start = solver.hold.clone();
+        solver
+            .frame()
+            .solve_from_starts(&mut start, neutral_target, seeds);
+        solver.start = start;
         solver
     }
 
@@ -74,20 +85,22 @@ impl ArmSolver {
             model: &self.model,
             active: &self.active,
             neutral: &self.neutral,
-            seeds: &self.seeds,
             elbows: &self.elbows,
             options: &self.options,
         }
     }
 
-    /// The posture (whole configuration, into `q`) for `target`, solved from the fixed starts
-    /// alone; the Gauss–Newton steps taken and how many had an active limit.
+    /// The posture (whole configuration, into `q`) at the end of `path` (the frame's path from
+    /// the person's neutral to its pose, [`super::PersonGauge::path`]), followed from the
+    /// posture of the person's neutral; the Gauss–Newton steps taken and how many had an
+    /// active limit.
     pub(in crate::retarget) fn solve(
         &self,
-        target: &[ArmPosture; 2],
+        path: &[[ArmPosture; 2]],
         q: &mut Vec<f64>,
     ) -> (usize, usize) {
-        self.frame().solve_frame(q, target, &self.hold)
+        q.clone_from(&self.start);
+        self.frame().follow(q, path)
     }
 
     /// The arm joints' configuration indices, in the order of the anatomy's arm joint names.
@@ -108,16 +121,18 @@ struct FrameSolver<'a> {
     model: &'a CollisionModel,
     active: &'a [usize],
     neutral: &'a [f64],
-    /// Fixed starts besides the neutral posture (whole configurations).
-    seeds: &'a [Vec<f64>],
     /// Per arm, the elbow's place among the active joints and the side it bends to.
     elbows: &'a [ElbowSide],
     options: &'a WholeArmOptions,
 }
 
-/// How many of the fixed starts (the key postures) each frame is also solved from besides the
-/// neutral posture: those whose objective is lowest at the start.
+/// How many of the fixed starts (the key postures) the person's neutral is also solved from
+/// besides the robot's neutral posture: those whose objective is lowest at the start.
 const SEED_STARTS: usize = 2;
+
+/// Gauss–Newton steps at most per point of a frame's path before its last (the path only
+/// chooses which of the postures that fit the pose the last point converges to).
+const PATH_ITERATIONS: usize = 6;
 
 /// How far past straight (radians) an elbow is let bend the other way while retargeting.
 const PAST_STRAIGHT: f64 = 0.02;
@@ -197,7 +212,7 @@ impl FrameSolver<'_> {
             self.options.weights.posture,
         ));
         let mut q = hold.to_vec();
-        self.solve(&mut q, &tasks, false);
+        self.solve(&mut q, &tasks, false, self.options.max_iterations);
         let frames = RobotFrames::new(self.anatomy.robot(), &g.ancestry, &q);
         // Where the limits keep the robot from the person's neutral directions, each segment's
         // orientation is turned by what its bone still misses: the reference is the robot's
@@ -279,32 +294,39 @@ impl FrameSolver<'_> {
         tasks
     }
 
-    /// The frame's posture, a function of the target and never of the path: converged from the
-    /// neutral posture and from the [`SEED_STARTS`] fixed starts whose objective is lowest at the
-    /// start, the lowest objective kept (the first start's on a tie within 0.1 %). Written to
-    /// `q`; returns the steps taken and how many had an active limit.
-    fn solve_frame(
-        &self,
-        q: &mut Vec<f64>,
-        target: &[ArmPosture; 2],
-        hold: &[f64],
-    ) -> (usize, usize) {
-        let tasks = self.tasks(target);
-        let mut starts: Vec<(f64, &Vec<f64>)> = self
-            .seeds
-            .iter()
-            .map(|s| (self.cost(s, &tasks), s))
-            .collect();
-        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut best: Option<(Vec<f64>, f64)> = None;
+    /// The posture at the end of `path`, followed from `q` (the posture of the path's start):
+    /// each point but the last a few steps, the last to convergence. A function of the frame's
+    /// pose alone (its path is), and continuous in it where the path meets no fold of the
+    /// robot's limits: a posture that fits the pose in two ways (a shoulder turned half round)
+    /// is the one the person's motion out of their neutral leads to, not whichever fits a hair
+    /// better. Written to `q`; returns the steps taken and how many had an active limit.
+    fn follow(&self, q: &mut [f64], path: &[[ArmPosture; 2]]) -> (usize, usize) {
+        let Some((last, before)) = path.split_last() else {
+            return (0, 0);
+        };
         let (mut steps, mut constrained) = (0, 0);
-        for start in
-            std::iter::once(hold).chain(starts.iter().take(SEED_STARTS).map(|s| s.1.as_slice()))
-        {
-            let mut x = start.to_vec();
-            let (s, c) = self.converge(&mut x, &tasks);
+        for target in before {
+            let (s, c) = self.solve(q, &self.tasks(target), false, PATH_ITERATIONS);
             steps += s;
             constrained += c;
+        }
+        let (s, c) = self.converge(q, &self.tasks(last));
+        (steps + s, constrained + c)
+    }
+
+    /// The posture for `target` converged from the robot's neutral (`q` on entry) and from the
+    /// [`SEED_STARTS`] fixed starts whose objective is lowest at the start, the lowest objective
+    /// kept (the first start's on a tie within 0.1 %), into `q`.
+    fn solve_from_starts(&self, q: &mut Vec<f64>, target: &[ArmPosture; 2], seeds: &[Vec<f64>]) {
+        let tasks = self.tasks(target);
+        let mut starts: Vec<(f64, &Vec<f64>)> =
+            seeds.iter().map(|s| (self.cost(s, &tasks), s)).collect();
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        let first = q.clone();
+        for start in std::iter::once(&first).chain(starts.iter().take(SEED_STARTS).map(|s| s.1)) {
+            let mut x = start.clone();
+            self.converge(&mut x, &tasks);
             let cost = self.cost(&x, &tasks);
             if best
                 .as_ref()
@@ -316,13 +338,13 @@ impl FrameSolver<'_> {
         if let Some((x, _)) = best {
             *q = x;
         }
-        (steps, constrained)
     }
 
     /// Converges `q` onto the tasks, the self-collision limit only where the tasks alone end
     /// with two shapes nearer than the margin (shapes are the costly part: meshes' hulls).
     fn converge(&self, q: &mut [f64], tasks: &[(Task, f64)]) -> (usize, usize) {
-        let (mut steps, mut constrained) = self.solve(q, tasks, false);
+        let iterations = self.options.max_iterations;
+        let (mut steps, mut constrained) = self.solve(q, tasks, false, iterations);
         if self.options.self_collision {
             let frames = RobotFrames::new(self.anatomy.robot(), &self.gauge.ancestry, q);
             if !self
@@ -330,7 +352,7 @@ impl FrameSolver<'_> {
                 .proximities(&frames, self.options.margin_m)
                 .is_empty()
             {
-                let (s, c) = self.solve(q, tasks, true);
+                let (s, c) = self.solve(q, tasks, true, iterations);
                 steps += s;
                 constrained += c;
             }
@@ -355,9 +377,16 @@ impl FrameSolver<'_> {
             .sum()
     }
 
-    /// Converges `q` (the whole configuration) onto the tasks, with the self-collision limit
-    /// when `collisions`; returns the steps taken and how many had an active limit.
-    fn solve(&self, q: &mut [f64], tasks: &[(Task, f64)], collisions: bool) -> (usize, usize) {
+    /// Converges `q` (the whole configuration) onto the tasks in at most `iterations` steps,
+    /// with the self-collision limit when `collisions`; returns the steps taken and how many
+    /// had an active limit.
+    fn solve(
+        &self,
+        q: &mut [f64],
+        tasks: &[(Task, f64)],
+        collisions: bool,
+        iterations: usize,
+    ) -> (usize, usize) {
         let robot = self.anatomy.robot();
         let (mut steps, mut constrained) = (0, 0);
         // A trust region: a step is taken only if it lowers the objective (or keeps a collision
@@ -366,7 +395,7 @@ impl FrameSolver<'_> {
         let mut radius = self.options.step_bound;
         let mut cost = self.cost(q, tasks);
         let mut trial = q.to_vec();
-        for _ in 0..self.options.max_iterations {
+        for _ in 0..iterations {
             let frames = RobotFrames::new(robot, &self.gauge.ancestry, q);
             let ctx = TaskContext {
                 robot,
