@@ -188,6 +188,7 @@ pub fn load_demonstrations<'py>(
             sd.set_item("from_pose", s.from_pose)?;
             sd.set_item("to_pose", s.to_pose)?;
             sd.set_item("repetition", s.repetition)?;
+            sd.set_item("person", s.person.as_deref())?;
             segments.append(sd)?;
         }
         d.set_item("segments", segments)?;

@@ -63,7 +63,7 @@ def load_demonstrations(path: PathLike) -> Dict[str, Any]:
 
     Returns a dict with ``times_ns``, ``human`` and ``robots`` (name → ``{"topic",
     "joint_names", "positions"}``), ``train`` and ``test`` frame indices, ``segments`` (start,
-    end, from_pose, to_pose, repetition) and ``pose_names``. Files written by ROS 2 without
+    end, from_pose, to_pose, repetition, person: who was captured, or None) and ``pose_names``. Files written by ROS 2 without
     sgplvm's labels load with every topic aligned onto a 40 Hz clock and all frames in ``train``.
     """
     return _sgplvm.load_demonstrations(os.fspath(path))
