@@ -16,7 +16,7 @@ use crate::results::ModelKind;
 mod parts;
 mod training;
 pub use parts::{arm_columns, known_anatomy, Parts, ARM_PARTS};
-pub use training::FrameSet;
+pub use training::{human_pose_bounds, FrameSet};
 
 /// Where the shipped demonstrations live, relative to the repository root.
 pub const DEFAULT_DEMOS: &str = "data/demos/bimanual.mcap";

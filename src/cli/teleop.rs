@@ -92,11 +92,14 @@ pub struct TeleopArgs {
     /// is stale.
     #[arg(long, default_value_t = 0.1)]
     timeout: f64,
-    /// Which signals hold a robot when beyond their thresholds: reconstruction (how far the
+    /// Which signals hold a robot when beyond their thresholds: known (the reconstruction
+    /// error or the novelty: a pose the model does not know), reconstruction (how far the
     /// human pose is from the model's reconstruction of it: it sees input far from every
-    /// training pose), sd (the robot prediction's standard deviation: larger on any motion
-    /// the training did not repeat) or both (either holds).
-    #[arg(long, value_enum, default_value = "reconstruction")]
+    /// training pose), novelty (how far the pose is from the nearest training pose, each joint
+    /// in units of its spread: it sees a pose no one in the training data made), sd (the robot
+    /// prediction's standard deviation: larger on any motion the training did not repeat) or
+    /// both (sd or reconstruction).
+    #[arg(long, value_enum, default_value = "known")]
     gate: GateArg,
     /// The reconstruction threshold (the human space's units, radians) instead of the model's
     /// (the larger of the 99th percentile of its training frames' errors, each reconstructed
@@ -106,6 +109,14 @@ pub struct TeleopArgs {
     /// The model's reconstruction threshold multiplied by this [default: 1].
     #[arg(long)]
     reconstruction_scale: Option<f64>,
+    /// The novelty threshold (RMS over the human's joints, each in units of its spread over the
+    /// training poses) instead of the model's (the distance within which 1 % of poses drawn at
+    /// random within the human's joint limits fall).
+    #[arg(long)]
+    novelty_threshold: Option<f64>,
+    /// The model's novelty threshold multiplied by this [default: 1].
+    #[arg(long)]
+    novelty_scale: Option<f64>,
     /// The trust threshold (standardised predictive standard deviation) instead of the model's
     /// (the 99th percentile over its training frames, each predicted with its group of
     /// training frames held out); with --gate sd or both.
@@ -149,11 +160,15 @@ enum QosArg {
 /// `--gate`.
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum GateArg {
+    /// The reconstruction error or the novelty of the human frame.
+    Known,
     /// The reconstruction error of the human frame.
     Reconstruction,
+    /// The human frame's distance to the nearest training pose.
+    Novelty,
     /// The robot prediction's standard deviation.
     Sd,
-    /// Either beyond its threshold holds.
+    /// The standard deviation or the reconstruction error.
     Both,
 }
 
@@ -162,14 +177,21 @@ impl TeleopArgs {
     /// error (it would change nothing).
     fn gate(&self) -> Result<GateOptions> {
         let signals = match self.gate {
+            GateArg::Known => Signals::Known,
             GateArg::Reconstruction => Signals::Reconstruction,
+            GateArg::Novelty => Signals::Novelty,
             GateArg::Sd => Signals::Sd,
             GateArg::Both => Signals::Both,
         };
         let given = |flags: [(&str, Option<f64>); 2], gates: bool, gate: &str| -> Result<()> {
             for (flag, value) in flags {
                 if let (Some(v), false) = (value, gates) {
-                    bail!("{flag} {v}: that signal does not hold the robots with --gate {gate}; add --gate both (or --gate {})", if flag.starts_with("--trust") { "sd" } else { "reconstruction" });
+                    let with = match flag.split('-').nth(2) {
+                        Some("trust") => "sd or both",
+                        Some("novelty") => "known or novelty",
+                        _ => "known, reconstruction or both",
+                    };
+                    bail!("{flag} {v}: that signal does not hold the robots with --gate {gate}; it does with --gate {with}");
                 }
                 if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
                     bail!("{flag} {v}: expected a number ≥ 0");
@@ -198,12 +220,22 @@ impl TeleopArgs {
             signals.reconstruction(),
             &name,
         )?;
+        given(
+            [
+                ("--novelty-threshold", self.novelty_threshold),
+                ("--novelty-scale", self.novelty_scale),
+            ],
+            signals.novelty(),
+            &name,
+        )?;
         Ok(GateOptions {
             signals,
             threshold: self.trust_threshold,
             threshold_scale: self.trust_scale.unwrap_or(1.0),
             reconstruction_threshold: self.reconstruction_threshold,
             reconstruction_scale: self.reconstruction_scale.unwrap_or(1.0),
+            novelty_threshold: self.novelty_threshold,
+            novelty_scale: self.novelty_scale.unwrap_or(1.0),
             return_speed: self.return_speed,
             timeout_s: self.timeout,
             collision_margin_m: (self.margin > 0.0).then_some(self.margin),

@@ -231,6 +231,9 @@ impl Demonstrations {
             model.set_column_names(name, joints.clone())?;
         }
         model.set_trust_groups(&training.groups)?;
+        if let Some(bounds) = &training.pose_bounds {
+            model.set_pose_bounds(bounds)?;
+        }
         Ok(model)
     }
 

@@ -42,12 +42,32 @@ impl FrameSet {
 }
 
 /// What training the human and some robots takes from the data: each body's name, joint names
-/// and training rows (the human first), and the groups the trust thresholds hold out.
+/// and training rows (the human first), the groups the trust thresholds hold out and the
+/// human's joint limits the novelty threshold is calibrated within.
 pub(crate) struct TrainingSpaces {
     /// Name, joint names and training rows of each body.
     pub bodies: Vec<(String, Vec<String>, Mat<f64>)>,
     /// [`Dataset::training_groups`] of the training frames.
     pub groups: Vec<usize>,
+    /// [`human_pose_bounds`] of the human's joints, where every one is the built-in human's.
+    pub pose_bounds: Option<Vec<(f64, f64)>>,
+}
+
+/// The built-in human's joint limits (data/urdf/human.urdf) of the human joints `names`, in
+/// their order; a joint it does not have is named in the error.
+pub fn human_pose_bounds(names: &[String]) -> Result<Vec<(f64, f64)>, String> {
+    let human = sgplvm_robots::Robot::builtin("human").map_err(|e| e.to_string())?;
+    let (known, limits) = (human.joint_names(), human.joint_limits());
+    names
+        .iter()
+        .map(|name| match known.iter().position(|k| k == name) {
+            Some(k) => Ok(limits[k]),
+            None => Err(format!(
+                "the data's human joint `{name}` is not a joint of the built-in human \
+                 (data/urdf/human.urdf), whose limits bound the random poses"
+            )),
+        })
+        .collect()
 }
 
 impl TrainingSpaces {
@@ -88,6 +108,7 @@ impl Demonstrations {
                 })
                 .collect(),
             groups: ds.training_groups().groups,
+            pose_bounds: human_pose_bounds(&ds.human.joint_names).ok(),
         })
     }
 
@@ -164,6 +185,9 @@ impl Demonstrations {
             model.set_column_names(name, joints.clone())?;
         }
         model.set_trust_groups(training.groups)?;
+        if let Some(bounds) = training.pose_bounds {
+            model.set_pose_bounds(bounds)?;
+        }
         Ok(model)
     }
 
@@ -196,6 +220,11 @@ impl Demonstrations {
         // A model file written before the groups existed: they are this data's.
         if transferred.trust_groups().is_none() {
             transferred.set_trust_groups(ds.training_groups().groups)?;
+        }
+        if transferred.pose_bounds().is_none() {
+            if let Ok(bounds) = human_pose_bounds(&ds.human.joint_names) {
+                transferred.set_pose_bounds(bounds)?;
+            }
         }
         Ok(transferred)
     }

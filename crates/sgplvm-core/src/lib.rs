@@ -109,6 +109,7 @@ mod kernel;
 mod likelihood;
 mod memory;
 mod model;
+mod novelty;
 mod objective;
 mod params;
 mod partial;
@@ -136,6 +137,10 @@ pub use io::{FORMAT_VERSION, MAGIC, PARTS_FORMAT_VERSION};
 pub use kernel::KernelParams;
 pub use memory::{DEFAULT_MEMORY_LIMIT, MEMORY_LIMIT_ENV};
 pub use model::{Callback, SharedGplvm};
+pub use novelty::{
+    NoveltyCalibration, NOVELTY_FLOOR_RAD, NOVELTY_PERCENTILE, NOVELTY_POINTS, RANDOM_PERCENTILE,
+    RANDOM_POSES,
+};
 pub use objective::Evaluator;
 pub use params::{LatentParams, Params};
 pub use partial::PartialTransfer;

@@ -107,6 +107,10 @@ pub struct SharedGplvm {
     /// The reconstruction threshold as read from a model file (`reconstruction`); computed
     /// when asked for otherwise.
     pub(crate) reconstruction: Option<f64>,
+    /// The human's joint limits the novelty threshold's random poses are drawn within
+    /// (`novelty` module), and the novelty threshold as read from a model file.
+    pub(crate) pose_bounds: Option<Vec<(f64, f64)>>,
+    pub(crate) novelty: Option<f64>,
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
     pub(crate) map_stale: bool,
@@ -120,6 +124,8 @@ pub struct SharedGplvm {
     /// prediction after `set_params` (an optimiser driving the model through `set_params`
     /// and `gradient` never pays for them).
     pub(crate) prepared: OnceLock<Prepared>,
+    /// The standardised training poses novelty is measured against, built on first use.
+    pub(crate) novelty_reference: OnceLock<std::sync::Arc<crate::novelty::Reference>>,
     /// The back-constraint matrices (empty for free latent points; reset when the bandwidth
     /// changes).
     pub(crate) bc: BcCache,
@@ -188,11 +194,14 @@ impl SharedGplvm {
             trust: std::collections::BTreeMap::new(),
             trust_groups: None,
             reconstruction: None,
+            pose_bounds: None,
+            novelty: None,
             map_stale: false,
             annotations: std::collections::BTreeMap::new(),
             x: Mat::zeros(0, 0),
             x_rows: Vec::new(),
             prepared: OnceLock::new(),
+            novelty_reference: OnceLock::new(),
             bc: BcCache::default(),
             workspace: Workspace::default(),
         }

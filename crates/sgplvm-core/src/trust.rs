@@ -164,6 +164,7 @@ impl SharedGplvm {
         self.trust_groups = Some(groups);
         self.trust.clear();
         self.reconstruction = None;
+        self.novelty = None;
         Ok(())
     }
 

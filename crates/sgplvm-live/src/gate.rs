@@ -3,14 +3,19 @@
 //!
 //! For each robot, each human frame:
 //!
-//! 1. **Trust.** Two signals say whether the model knows the frame (`sgplvm_core`'s
-//!    `reconstruction` and `trust` modules), each with a threshold computed from the training
-//!    frames with their group held out:
+//! 1. **Trust.** Three signals say whether the model knows the frame (`sgplvm_core`'s
+//!    `reconstruction`, `novelty` and `trust` modules), each with a threshold computed from
+//!    the training frames:
 //!    - the *reconstruction error* e: how far the human pose is from the model's own
 //!      reconstruction of it (h → x → ĥ), against its threshold τₑ (the larger of the 99th
 //!      percentile of the held-out frames' errors and the mean pose's held-out error). It sees
 //!      an input far from every training pose, which a far input's latent point (near the
-//!      origin, inside the data) hides from σ. It gates by default ([`Signals::Reconstruction`]).
+//!      origin, inside the data) hides from σ.
+//!    - the *novelty* n: the distance to the nearest training pose, each joint in units of its
+//!      spread, against τₙ (within which 1 % of poses drawn at random within the human's
+//!      joint limits fall). It sees a pose no one in the training data made where a model that
+//!      keeps little of the human reconstructs every pose about equally badly. With e it gates
+//!      by default ([`Signals::Known`]: either beyond its threshold holds the robot).
 //!    - the robot prediction's *standard deviation* σ (standardised), against the trust
 //!      threshold τ (the 99th percentile over the held-out frames). It is larger on any motion
 //!      the training did not repeat, and holding on it stops a robot on a third of the shipped
@@ -47,24 +52,48 @@ use sgplvm_robots::safety::SafetyStep;
 /// Which signals gate (hold the robot when beyond their thresholds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Signals {
-    /// The reconstruction error of the human frame (the default).
+    /// The reconstruction error of the human frame or its novelty: a pose the model does not
+    /// know (the default).
     #[default]
+    Known,
+    /// The reconstruction error of the human frame.
     Reconstruction,
+    /// The human frame's distance to the nearest training pose.
+    Novelty,
     /// The robot prediction's standard deviation.
     Sd,
-    /// Either beyond its threshold holds the robot.
+    /// The standard deviation or the reconstruction error.
     Both,
 }
 
 impl Signals {
     /// Whether the reconstruction error gates.
     pub fn reconstruction(self) -> bool {
-        matches!(self, Signals::Reconstruction | Signals::Both)
+        matches!(
+            self,
+            Signals::Reconstruction | Signals::Both | Signals::Known
+        )
     }
 
     /// Whether the standard deviation gates.
     pub fn sd(self) -> bool {
         matches!(self, Signals::Sd | Signals::Both)
+    }
+
+    /// Whether the novelty gates.
+    pub fn novelty(self) -> bool {
+        matches!(self, Signals::Novelty | Signals::Known)
+    }
+
+    /// The gating signals' names, for a status.
+    pub fn names(self) -> &'static str {
+        match self {
+            Signals::Known => "reconstruction, novelty",
+            Signals::Reconstruction => "reconstruction",
+            Signals::Novelty => "novelty",
+            Signals::Sd => "sd",
+            Signals::Both => "reconstruction, sd",
+        }
     }
 }
 
@@ -83,6 +112,11 @@ pub struct GateOptions {
     pub reconstruction_threshold: Option<f64>,
     /// The reconstruction threshold is multiplied by this.
     pub reconstruction_scale: f64,
+    /// Human frames farther than this from every training pose are not trusted; `None`: the
+    /// model's novelty threshold.
+    pub novelty_threshold: Option<f64>,
+    /// The novelty threshold is multiplied by this.
+    pub novelty_scale: f64,
     /// Fraction of each joint's velocity limit at which an untrusted robot moves towards its
     /// last trusted target.
     pub return_speed: f64,
@@ -101,6 +135,8 @@ impl Default for GateOptions {
             threshold_scale: 1.0,
             reconstruction_threshold: None,
             reconstruction_scale: 1.0,
+            novelty_threshold: None,
+            novelty_scale: 1.0,
             return_speed: 0.25,
             timeout_s: 0.1,
             collision_margin_m: Some(0.01),
@@ -117,6 +153,8 @@ pub struct Thresholds {
     pub sd: f64,
     /// The reconstruction threshold (the human space's standardised units).
     pub reconstruction: f64,
+    /// The novelty threshold (RMS over the human's joints of each joint's spreads).
+    pub novelty: f64,
 }
 
 impl Thresholds {
@@ -136,43 +174,68 @@ impl Thresholds {
             Some(t) => t,
             None => model.reconstruction_threshold().map_err(config)?,
         };
+        let novelty = match options.novelty_threshold {
+            Some(t) => t,
+            None => model.novelty_threshold().map_err(config)?,
+        };
         Ok(Thresholds {
             signals: options.signals,
             sd: sd * options.threshold_scale,
             reconstruction: reconstruction * options.reconstruction_scale,
+            novelty: novelty * options.novelty_scale,
         })
     }
 
     /// Whether a frame with these signals is trusted: every gating signal within its
-    /// threshold, and neither signal not a number (a failed prediction or reconstruction).
+    /// threshold, and no signal not a number (a failed prediction or reconstruction).
     pub fn trusts(&self, frame: Frame) -> bool {
-        let finite = frame.sd.is_finite() && frame.reconstruction.is_finite();
-        finite
-            && (!self.signals.sd() || frame.sd <= self.sd)
-            && (!self.signals.reconstruction() || frame.reconstruction <= self.reconstruction)
+        let Beyond {
+            sd,
+            reconstruction,
+            novelty,
+        } = self.beyond(frame);
+        !(sd || reconstruction || novelty)
     }
 
     /// Which signals of `frame` hold the robot: those that gate and are beyond their
-    /// thresholds, and those that are not a number (the standard deviation, the reconstruction
-    /// error).
-    pub fn beyond(&self, frame: Frame) -> (bool, bool) {
-        (
-            frame.sd.is_nan() || (self.signals.sd() && frame.sd > self.sd),
-            frame.reconstruction.is_nan()
-                || (self.signals.reconstruction() && frame.reconstruction > self.reconstruction),
-        )
+    /// thresholds, and those that are not a number.
+    pub fn beyond(&self, frame: Frame) -> Beyond {
+        let past = |v: f64, gates: bool, t: f64| !v.is_finite() || (gates && v > t);
+        Beyond {
+            sd: past(frame.sd, self.signals.sd(), self.sd),
+            reconstruction: past(
+                frame.reconstruction,
+                self.signals.reconstruction(),
+                self.reconstruction,
+            ),
+            novelty: past(frame.novelty, self.signals.novelty(), self.novelty),
+        }
     }
 }
 
+/// Which of a frame's signals hold the robot ([`Thresholds::beyond`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Beyond {
+    /// The standard deviation.
+    pub sd: bool,
+    /// The reconstruction error.
+    pub reconstruction: bool,
+    /// The novelty.
+    pub novelty: bool,
+}
+
 impl std::fmt::Display for Thresholds {
-    /// `reconstruction threshold 0.2259 (holds), trust threshold 0.0964 (reported)`.
+    /// `reconstruction threshold 0.2259 (holds), novelty threshold 0.9653 (holds), trust
+    /// threshold 0.0964 (reported)`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let role = |gates: bool| if gates { "holds" } else { "reported" };
         write!(
             f,
-            "reconstruction threshold {:.4} ({}), trust threshold {:.4} ({})",
+            "reconstruction threshold {:.4} ({}), novelty threshold {:.4} ({}), trust threshold {:.4} ({})",
             self.reconstruction,
             role(self.signals.reconstruction()),
+            self.novelty,
+            role(self.signals.novelty()),
             self.sd,
             role(self.signals.sd())
         )
@@ -186,13 +249,16 @@ pub struct Frame {
     pub sd: f64,
     /// The human frame's reconstruction error (the human space's standardised units).
     pub reconstruction: f64,
+    /// The human frame's distance to the nearest training pose.
+    pub novelty: f64,
 }
 
 impl Frame {
-    /// No frame (a stale step): both not a number.
+    /// No frame (a stale step): every signal not a number.
     pub const NONE: Frame = Frame {
         sd: f64::NAN,
         reconstruction: f64::NAN,
+        novelty: f64::NAN,
     };
 }
 
@@ -472,8 +538,8 @@ mod tests {
     use super::*;
     use sgplvm_robots::Robot;
 
-    /// A gate on COMAN's LShSag and LShLat (4 rad/s each) gated by `signals`: σ ≤ 0.5 and
-    /// e ≤ 0.2 are trusted.
+    /// A gate on COMAN's LShSag and LShLat (4 rad/s each) gated by `signals`: σ ≤ 0.5,
+    /// e ≤ 0.2 and n ≤ 1 are trusted.
     fn gate_on(signals: Signals) -> Gate {
         let robot = Robot::builtin("coman").unwrap();
         let joints: Vec<String> = robot.joint_names()[..2].to_vec(); // LShSag, LShLat (4 rad/s)
@@ -481,6 +547,7 @@ mod tests {
             signals,
             sd: 0.5,
             reconstruction: 0.2,
+            novelty: 1.0,
         };
         Gate::new(
             CommandLimits::for_joints(&robot, &joints).unwrap(),
@@ -494,11 +561,12 @@ mod tests {
         gate_on(Signals::Sd)
     }
 
-    /// A frame of standard deviation `sd` whose pose the model reconstructs well.
+    /// A frame of standard deviation `sd` whose pose the model reconstructs well and knows.
     fn sd(sd: f64) -> Frame {
         Frame {
             sd,
             reconstruction: 0.01,
+            novelty: 0.1,
         }
     }
 
@@ -666,41 +734,72 @@ mod tests {
     }
 
     #[test]
-    fn the_reconstruction_error_gates_by_default_and_either_signal_with_both() {
-        assert_eq!(GateOptions::default().signals, Signals::Reconstruction);
-        let frame = |sd, reconstruction| Frame { sd, reconstruction };
+    fn a_pose_the_model_does_not_know_holds_by_default_and_each_signal_as_asked() {
+        assert_eq!(GateOptions::default().signals, Signals::Known);
+        let frame = |sd, reconstruction, novelty| Frame {
+            sd,
+            reconstruction,
+            novelty,
+        };
+        let beyond = |sd, reconstruction, novelty| Beyond {
+            sd,
+            reconstruction,
+            novelty,
+        };
         let mut c = [0.0; 2];
-        // The reconstruction alone: a large σ is followed, a large e held.
-        let mut g = gate_on(Signals::Reconstruction);
-        assert_eq!(
-            g.step(0.0, &[0.1, 0.0], frame(0.9, 0.1), &mut c).reason,
-            Reason::Following
-        );
-        let d = g.step(0.025, &[0.2, 0.0], frame(0.1, 0.3), &mut c);
-        assert_eq!((d.reason, c[0]), (Reason::Holding, 0.1));
-        assert_eq!(g.thresholds().beyond(d.frame), (false, true));
-        // Both: either beyond its threshold holds.
-        let mut g = gate_on(Signals::Both);
-        g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
-        assert_eq!(
-            g.step(0.025, &[0.2, 0.0], frame(0.9, 0.1), &mut c).reason,
-            Reason::Holding
-        );
-        let mut g = gate_on(Signals::Both);
-        g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
-        let d = g.step(0.025, &[0.2, 0.0], frame(0.9, 0.3), &mut c);
-        assert_eq!(g.thresholds().beyond(d.frame), (true, true));
-        // A signal that is not a number holds, whether it gates or not.
-        for signals in [Signals::Sd, Signals::Reconstruction] {
-            let mut g = gate_on(signals);
-            g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1), &mut c);
-            let d = g.step(0.025, &[0.2, 0.0], frame(0.1, f64::NAN), &mut c);
-            assert_eq!(d.reason, Reason::Holding, "{signals:?}");
-            assert_eq!(g.thresholds().beyond(d.frame), (false, true));
+        // The default: a large σ is followed; a large e holds, and so does a large n.
+        for (f, why) in [
+            (frame(0.1, 0.3, 0.5), beyond(false, true, false)),
+            (frame(0.1, 0.1, 1.5), beyond(false, false, true)),
+        ] {
+            let mut g = gate_on(Signals::Known);
+            assert_eq!(
+                g.step(0.0, &[0.1, 0.0], frame(0.9, 0.1, 0.5), &mut c)
+                    .reason,
+                Reason::Following
+            );
+            let d = g.step(0.025, &[0.2, 0.0], f, &mut c);
+            assert_eq!((d.reason, c[0]), (Reason::Holding, 0.1));
+            assert_eq!(g.thresholds().beyond(d.frame), why);
         }
-        // At the threshold: trusted.
-        let t = gate_on(Signals::Both).thresholds;
-        assert!(t.trusts(frame(0.5, 0.2)) && !t.trusts(frame(0.5, 0.2 + 1e-12)));
+        // Each alone: only its own signal holds.
+        let cases = [
+            (
+                Signals::Reconstruction,
+                frame(0.9, 0.1, 1.5),
+                frame(0.1, 0.3, 0.5),
+            ),
+            (Signals::Novelty, frame(0.9, 0.3, 0.5), frame(0.1, 0.1, 1.5)),
+            (Signals::Sd, frame(0.1, 0.3, 1.5), frame(0.9, 0.1, 0.5)),
+        ];
+        for (signals, followed, held) in cases {
+            let mut g = gate_on(signals);
+            assert_eq!(
+                g.step(0.0, &[0.1, 0.0], followed, &mut c).reason,
+                Reason::Following,
+                "{signals:?}"
+            );
+            let d = g.step(0.025, &[0.2, 0.0], held, &mut c);
+            assert_eq!(d.reason, Reason::Holding, "{signals:?}");
+        }
+        // Both: σ or e.
+        let mut g = gate_on(Signals::Both);
+        g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1, 1.5), &mut c);
+        let d = g.step(0.025, &[0.2, 0.0], frame(0.9, 0.3, 0.5), &mut c);
+        assert_eq!(g.thresholds().beyond(d.frame), beyond(true, true, false));
+        // A signal that is not a number holds, whether it gates or not.
+        for signals in [Signals::Sd, Signals::Reconstruction, Signals::Known] {
+            for nan in [frame(0.1, f64::NAN, 0.5), frame(0.1, 0.1, f64::NAN)] {
+                let mut g = gate_on(signals);
+                g.step(0.0, &[0.1, 0.0], frame(0.1, 0.1, 0.5), &mut c);
+                let d = g.step(0.025, &[0.2, 0.0], nan, &mut c);
+                assert_eq!(d.reason, Reason::Holding, "{signals:?} {nan:?}");
+            }
+        }
+        // At the thresholds: trusted.
+        let t = gate_on(Signals::Known).thresholds;
+        assert!(t.trusts(frame(9.0, 0.2, 1.0)));
+        assert!(!t.trusts(frame(0.1, 0.2 + 1e-12, 1.0)) && !t.trusts(frame(0.1, 0.2, 1.0 + 1e-12)));
     }
 
     #[test]
@@ -713,31 +812,37 @@ mod tests {
         let options = TrainOptions::default().with_max_iters(5);
         let spaces = [("human", h.as_ref()), ("robot", r.as_ref())];
         let m = SharedGplvm::fit(&config, &spaces, "human", &options, None).unwrap();
-        let (sd, e) = (
+        let (sd, e, n) = (
             m.trust_threshold("robot").unwrap(),
             m.reconstruction_threshold().unwrap(),
+            m.novelty_threshold().unwrap(),
         );
         let t = Thresholds::of(&m, "robot", &GateOptions::default()).unwrap();
         assert_eq!(
-            (t.signals, t.sd, t.reconstruction),
-            (Signals::Reconstruction, sd, e)
+            (t.signals, t.sd, t.reconstruction, t.novelty),
+            (Signals::Known, sd, e, n)
         );
         let options = GateOptions {
             signals: Signals::Both,
             threshold_scale: 2.0,
             reconstruction_scale: 3.0,
+            novelty_scale: 4.0,
             ..GateOptions::default()
         };
         let t = Thresholds::of(&m, "robot", &options).unwrap();
-        assert_eq!((t.sd, t.reconstruction), (2.0 * sd, 3.0 * e));
+        assert_eq!(
+            (t.sd, t.reconstruction, t.novelty),
+            (2.0 * sd, 3.0 * e, 4.0 * n)
+        );
         let options = GateOptions {
             threshold: Some(0.7),
             reconstruction_threshold: Some(0.05),
             reconstruction_scale: 2.0,
+            novelty_threshold: Some(0.3),
             ..GateOptions::default()
         };
         let t = Thresholds::of(&m, "robot", &options).unwrap();
-        assert_eq!((t.sd, t.reconstruction), (0.7, 0.1));
+        assert_eq!((t.sd, t.reconstruction, t.novelty), (0.7, 0.1, 0.3));
         let err = Thresholds::of(&m, "nao", &GateOptions::default())
             .unwrap_err()
             .to_string();

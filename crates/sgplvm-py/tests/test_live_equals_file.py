@@ -140,7 +140,7 @@ def _drive_by_tf(tmp, rig, model, extra):
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
         "--model", str(model), "--robot", "coman", "--input", "tf", *extra,
-        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     try:
         ros = Ros2(domain)

@@ -45,7 +45,7 @@ def test_a_maker_s_robot_is_driven_live_as_published(name, capture, tmp):
     times = np.asarray(human["times_ns"])[:FRAMES]
     for how in (["--model", str(folder / "m.sgp")], ["--retarget"]):
         domain = next_domain()
-        node = Teleop(folder, domain, [*how, "--robot", name, "--urdf", f"{name}={path}", "--reconstruction-threshold", "1e9"])
+        node = Teleop(folder, domain, [*how, "--robot", name, "--urdf", f"{name}={path}", "--gate", "reconstruction", "--reconstruction-threshold", "1e9"])
         try:
             ros = Ros2(domain)
             w = ros.writer("/human/joint_states", JointState)

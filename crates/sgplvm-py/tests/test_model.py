@@ -383,9 +383,9 @@ def test_bad_inputs_raise_value_errors(data, trained):
 
 
 def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
-    """``reconstruction_error``, ``reconstruction_threshold`` and ``trusted`` (issue 49): on the
-    captured test frames and on the same frames 1 rad off, the frames the gate holds are the
-    ones ``sgplvm evaluate`` counts for teleop's default gate, at the same threshold."""
+    """``reconstruction_error``, ``novelty``, their thresholds and ``trusted`` (issue 49): on the
+    captured test frames, the same frames 1 rad off and random poses, the frames the gate holds
+    are the ones ``sgplvm evaluate`` counts for teleop's default gate, at the same thresholds."""
     import json
     import subprocess
 
@@ -398,18 +398,40 @@ def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
 
     run("train", "--data", captured, "--robot", "walkman", "--out", model_path)
     report = json.loads(run("evaluate", "--model", model_path, "--robot", "walkman", "--data", captured, "--json").stdout)
-    gate = next(r for r in report["gate"]["rates"] if r["gate"] == "reconstruction")
+    gate = next(r for r in report["gate"]["rates"] if r["gate"] == "known")
     model = sgplvm.SharedGPLVM.load(model_path)
     assert model.reconstruction_threshold() == pytest.approx(report["gate"]["reconstruction_threshold"], rel=1e-12)
+    assert model.novelty_threshold() == pytest.approx(report["gate"]["novelty_threshold"], rel=1e-12)
     assert model.trust_threshold("walkman") == pytest.approx(report["gate"]["sd_threshold"], rel=1e-12)
     d = sgplvm.load_demonstrations(captured)
     test = np.asarray(d["human"]["positions"])[np.asarray(d["test"])]
     for frames, held in ((test, gate["test"]["held"]), (test + 1.0, gate["far"]["held"])):
         trusted = model.trusted(frames)
         assert trusted.dtype == bool and int((~trusted).sum()) == held
-        errors = model.reconstruction_error(frames)
-        assert errors.shape == (len(frames),) and np.array_equal(trusted, errors <= model.reconstruction_threshold())
+        errors, distances = model.reconstruction_error(frames), model.novelty(frames)
+        assert errors.shape == distances.shape == (len(frames),)
+        known = (errors <= model.reconstruction_threshold()) & (distances <= model.novelty_threshold())
+        assert np.array_equal(trusted, known)
+    # A training frame is at distance 0; the test frames 1 rad off are all held, by both signals.
+    train = np.asarray(d["human"]["positions"])[np.asarray(d["train"])]
+    assert model.novelty(train[5]) < 1e-12
+    assert (model.novelty(test + 1.0) > model.novelty_threshold()).all()
     # One frame in, one number out.
     assert isinstance(model.reconstruction_error(test[0]), float) and isinstance(model.trusted(test[0]), bool)
     with pytest.raises(ValueError):
         model.reconstruction_error(np.zeros((2, 5)))
+
+
+def test_segments_name_their_people():
+    """``load_demonstrations`` gives each segment's person (``import --person``; issue 49): the
+    shipped corpus of thirteen people names them all, its test frames are the four strangers'
+    (03, 07, 10, 14) and no training frame is theirs; a file without people says None."""
+    root = pathlib.Path(__file__).resolve().parents[3] / "data" / "demos"
+    d = sgplvm.load_demonstrations(root / "people.mcap")
+    person = np.empty(len(d["times_ns"]), dtype=object)
+    for s in d["segments"]:
+        person[s["start"]:s["end"]] = s["person"]
+    assert len(set(person)) == 13 and None not in set(person)
+    assert set(person[np.asarray(d["test"])]) == {"03", "07", "10", "14"}
+    assert not set(person[np.asarray(d["train"])]) & {"03", "07", "10", "14"}
+    assert all(s["person"] is None for s in sgplvm.load_demonstrations(root / "bimanual.mcap")["segments"])

@@ -450,7 +450,7 @@ def test_commands_equal_predict_for_two_robots_at_once(tmp, data, models):
     urdfs = {r: relaxed_urdf(tmp, r) for r in ["coman", "walkman"]}
     node = Teleop(tmp, domain, [
         "--model", str(models["multi"]), "--robot", "coman", "--robot", "walkman",
-        "--reconstruction-threshold", "1e9", "--margin", "0",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0",
         "--urdf", f"coman={urdfs['coman'][0]}", "--urdf", f"walkman={urdfs['walkman'][0]}",
     ])
     try:
@@ -500,7 +500,7 @@ def test_every_command_form_decodes_with_ros2_definitions(tmp, data, models, for
     extra = ["--joints", ",".join(reversed(joints))] if form == "forward" else []
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--command", form,
-        "--reconstruction-threshold", "1e9", "--urdf", f"coman={urdf}", *extra,
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--urdf", f"coman={urdf}", *extra,
     ])
     try:
         ros = Ros2(domain)
@@ -558,7 +558,7 @@ def test_replay_drives_teleop(tmp, data, models):
     human = tmp / "human.mcap"
     rows, times = data["rows"][:40], data["times_ns"][:40]
     sgplvm.write_joint_states(human, "/human/joint_states", times.astype(np.int64), data["names"], rows)
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--reconstruction-threshold", "1e9"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--gate", "reconstruction", "--reconstruction-threshold", "1e9"])
     try:
         ros = Ros2(domain)
         ros.reader("/coman/joint_command", JointState)
@@ -621,7 +621,8 @@ def test_safety_cases_hold_the_robot_and_say_why(tmp, data, models):
         holding = [s for s in st if values(s)["reason"] == "holding"]
         assert holding and holding[0].level == 1 and "reconstruction error" in holding[0].message, [s.message for s in st]
         v = values(holding[0])
-        assert float(v["reconstruction"]) > float(v["reconstruction_threshold"]) and v["gate"] == "reconstruction", v
+        assert float(v["reconstruction"]) > float(v["reconstruction_threshold"]) and v["gate"] == "reconstruction, novelty", v
+        assert float(v["novelty"]) > float(v["novelty_threshold"]), v
         # Still untrusted: it moves to the last trusted target at a quarter of its velocity
         # limits, no faster.
         before = np.array(held.position)
@@ -781,13 +782,13 @@ def test_after_silence_commands_move_within_the_velocity_limits_as_received(tmp,
 
 
 def test_a_threshold_for_a_signal_that_does_not_gate_is_refused(models):
-    """``--trust-threshold`` with the default gate (the reconstruction error) would change
-    nothing: refused, saying how to make the standard deviation gate."""
+    """``--trust-threshold`` with the default gate (the reconstruction error and the novelty)
+    would change nothing: refused, saying how to make the standard deviation gate."""
     out = subprocess.run(
         [str(sgplvm_binary()), "teleop", "--model", str(models["coman"]), "--robot", "coman", "--trust-threshold", "0.1"],
         capture_output=True, text=True, timeout=60,
     )
-    assert out.returncode != 0 and "--gate both" in out.stderr and "--trust-threshold 0.1" in out.stderr, out.stderr
+    assert out.returncode != 0 and "--gate sd or both" in out.stderr and "--trust-threshold 0.1" in out.stderr, out.stderr
 
 
 def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
@@ -805,7 +806,7 @@ def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
     k = int(beyond[0])
     domain = next_domain()
     urdf, _ = relaxed_urdf(tmp, "coman")  # position limits only
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5"])
     try:
         ros = Ros2(domain)
         w = ros.writer("/human/joint_states", JointState)
@@ -973,7 +974,7 @@ def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, m
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--input", f"mvn:127.0.0.1:{port}",
-        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     rows = data["rows"][:60]
     try:
@@ -1172,7 +1173,7 @@ def test_tf_frames_published_by_cyclone_drive_teleop(tmp, data, models):
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0",
-        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     # The human model's joint order (the demonstrations' may differ).
     order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
@@ -1207,7 +1208,7 @@ def test_a_t_pose_stream_is_watched_before_it_is_commanded(tmp, data, models):
     domain = next_domain()
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "1",
-        "--reconstruction-threshold", "1e9",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9",
     ])
     order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
     rows, times_ns = data["rows"][:80][:, order], data["times_ns"][:80]
@@ -1334,7 +1335,7 @@ def test_replay_as_tf_drives_teleop(tmp, data, models):
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration-seconds", "0",
-        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
     ])
     try:
         ros = Ros2(domain)

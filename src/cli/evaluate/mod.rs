@@ -10,7 +10,9 @@ use clap::{Args, ValueEnum};
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use serde::Serialize;
 use sgplvm::core::ReconstructionCalibration;
-use sgplvm::pipeline::{mean_squared_error, to_mat, Demonstrations, Evaluation, TestTrust};
+use sgplvm::pipeline::{
+    human_pose_bounds, mean_squared_error, to_mat, Demonstrations, Evaluation, TestTrust,
+};
 use sgplvm::{Mat, Robot, SharedGplvm};
 
 use super::args::{DataArg, JsonArg, ModelFileArg};
@@ -55,11 +57,39 @@ pub struct EvaluateArgs {
 enum Gate {
     /// The robot prediction's standard deviation against the trust threshold.
     Sd,
-    /// The human frame's reconstruction error against the reconstruction threshold (teleop's
-    /// default).
+    /// The human frame's reconstruction error against the reconstruction threshold.
     Reconstruction,
-    /// Either.
+    /// The standard deviation or the reconstruction error.
     Both,
+    /// The human frame's distance to the nearest training pose against the novelty threshold.
+    Novelty,
+    /// The reconstruction error or the novelty: a pose the model does not know (teleop's
+    /// default).
+    Known,
+}
+
+impl Gate {
+    /// Every gate, in the order printed.
+    const ALL: [Gate; 5] = [
+        Gate::Sd,
+        Gate::Reconstruction,
+        Gate::Both,
+        Gate::Novelty,
+        Gate::Known,
+    ];
+    /// teleop's default.
+    const DEFAULT: Gate = Gate::Known;
+
+    /// Which of the standard deviation, the reconstruction error and the novelty gate.
+    fn gates(self) -> [bool; 3] {
+        match self {
+            Gate::Sd => [true, false, false],
+            Gate::Reconstruction => [false, true, false],
+            Gate::Both => [true, true, false],
+            Gate::Novelty => [false, false, true],
+            Gate::Known => [false, true, true],
+        }
+    }
 }
 
 /// How many frames of a set a gate holds.
@@ -89,35 +119,40 @@ struct GateRates {
 }
 
 /// The signals of a set of human frames: the prediction's standard deviation, the
-/// reconstruction error.
+/// reconstruction error and the distance to the nearest training pose.
 struct Signals {
-    sd: Vec<f64>,
-    reconstruction: Vec<f64>,
+    values: [Vec<f64>; 3],
 }
 
 impl Signals {
     fn of(model: &SharedGplvm, robot: &str, h: &Mat<f64>) -> Result<Signals> {
         Ok(Signals {
-            sd: model.prediction_sd(h.as_ref(), robot)?,
-            reconstruction: model.reconstruction_errors(h.as_ref())?,
+            values: [
+                model.prediction_sd(h.as_ref(), robot)?,
+                model.reconstruction_errors(h.as_ref())?,
+                model.novelties(h.as_ref())?,
+            ],
         })
     }
 
-    /// Whether `gate` holds frame `i` (the live rule, `sgplvm_live::gate::Thresholds::trusts`:
-    /// a gating signal beyond its threshold, or either signal not a number).
-    fn held(&self, i: usize, gate: Gate, sd: f64, reconstruction: f64) -> bool {
-        let (s, e) = (self.sd[i], self.reconstruction[i]);
-        let beyond_sd = matches!(gate, Gate::Sd | Gate::Both) && s > sd;
-        let beyond_e = matches!(gate, Gate::Reconstruction | Gate::Both) && e > reconstruction;
-        !(s.is_finite() && e.is_finite()) || beyond_sd || beyond_e
+    /// Whether `gate` holds frame `i` against `thresholds` (the live rule,
+    /// `sgplvm_live::gate::Thresholds::trusts`: a gating signal beyond its threshold, or any
+    /// signal not a number).
+    fn held(&self, i: usize, gate: Gate, thresholds: &[f64; 3]) -> bool {
+        let gates = gate.gates();
+        (0..3).any(|k| {
+            let v = self.values[k][i];
+            !v.is_finite() || (gates[k] && v > thresholds[k])
+        })
     }
 
-    fn count(&self, gate: Gate, sd: f64, reconstruction: f64) -> Held {
+    fn count(&self, gate: Gate, thresholds: &[f64; 3]) -> Held {
+        let frames = self.values[0].len();
         Held {
-            held: (0..self.sd.len())
-                .filter(|&i| self.held(i, gate, sd, reconstruction))
+            held: (0..frames)
+                .filter(|&i| self.held(i, gate, thresholds))
                 .count(),
-            frames: self.sd.len(),
+            frames,
         }
     }
 }
@@ -132,6 +167,10 @@ struct GateReport {
     reconstruction_threshold: f64,
     reconstruction_percentile: f64,
     reconstruction_mean_pose: f64,
+    /// The novelty threshold and the distances it comes from.
+    novelty_threshold: f64,
+    novelty_percentile: f64,
+    novelty_random: Option<f64>,
     far_offset: f64,
     random_seed: u64,
     rates: Vec<GateRates>,
@@ -207,44 +246,49 @@ fn gate_report(
     });
     let random = random_poses(&ds.human.joint_names, args.random_poses, args.seed)?;
     let calibration: ReconstructionCalibration = model.reconstruction_calibration()?;
+    let novelty = model.novelty_calibration()?;
     // The model's thresholds as teleop uses them (a file's stored ones).
-    let (sd, reconstruction) = (
+    let thresholds = [
         model.trust_threshold(&args.robot)?,
         model.reconstruction_threshold()?,
-    );
+        model.novelty_threshold()?,
+    ];
     let signals = [&test, &far, &random]
         .map(|h| Signals::of(model, &args.robot, h))
         .into_iter()
         .collect::<Result<Vec<_>>>()?;
     let errors = test_frame_errors(model, demos, &args.robot, &test)?;
-    let rates = [Gate::Sd, Gate::Reconstruction, Gate::Both]
+    let rates = Gate::ALL
         .into_iter()
         .map(|gate| {
             let (mut sums, mut counts) = ([0.0; 2], [0usize; 2]);
             for (i, &e) in errors.iter().enumerate() {
-                let side = usize::from(signals[0].held(i, gate, sd, reconstruction));
+                let side = usize::from(signals[0].held(i, gate, &thresholds));
                 sums[side] += e;
                 counts[side] += 1;
             }
             let mean = |k: usize| (counts[k] > 0).then(|| sums[k] / counts[k] as f64);
             GateRates {
                 gate,
-                test: signals[0].count(gate, sd, reconstruction),
-                far: signals[1].count(gate, sd, reconstruction),
-                random: signals[2].count(gate, sd, reconstruction),
+                test: signals[0].count(gate, &thresholds),
+                far: signals[1].count(gate, &thresholds),
+                random: signals[2].count(gate, &thresholds),
                 mse_followed: mean(0),
                 mse_held: mean(1),
             }
         })
         .collect();
     let held = (0..test.nrows())
-        .map(|i| signals[0].held(i, Gate::Reconstruction, sd, reconstruction))
+        .map(|i| signals[0].held(i, Gate::DEFAULT, &thresholds))
         .collect();
     let report = GateReport {
-        sd_threshold: sd,
-        reconstruction_threshold: reconstruction,
+        sd_threshold: thresholds[0],
+        reconstruction_threshold: thresholds[1],
         reconstruction_percentile: calibration.percentile,
         reconstruction_mean_pose: calibration.mean_pose,
+        novelty_threshold: thresholds[2],
+        novelty_percentile: novelty.percentile,
+        novelty_random: novelty.random,
         far_offset: args.far_offset,
         random_seed: args.seed,
         rates,
@@ -275,18 +319,7 @@ fn test_frame_errors(
 /// `n` poses of the human joints `names`, each joint uniform within the built-in human's
 /// limits (ChaCha8 from `seed`).
 fn random_poses(names: &[String], n: usize, seed: u64) -> Result<Mat<f64>> {
-    let human = Robot::builtin("human")?;
-    let (known, limits) = (human.joint_names(), human.joint_limits());
-    let bounds = names
-        .iter()
-        .map(|name| match known.iter().position(|k| k == name) {
-            Some(k) => Ok(limits[k]),
-            None => Err(anyhow!(
-                "the data's human joint `{name}` is not a joint of the built-in human \
-                 (data/urdf/human.urdf), whose limits bound the random poses"
-            )),
-        })
-        .collect::<Result<Vec<(f64, f64)>>>()?;
+    let bounds = human_pose_bounds(names).map_err(|e| anyhow!(e))?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     // Uniform on [0, 1) from the top 53 bits.
     let mut uniform = move || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
@@ -307,6 +340,14 @@ fn print_gate(g: &GateReport) {
         g.reconstruction_percentile,
         g.reconstruction_mean_pose
     );
+    let source = match g.novelty_random {
+        Some(_) => "random poses' 1st percentile",
+        None => "the human's joint limits unknown: the held-out distances' 99th percentile",
+    };
+    println!(
+        "      novelty {:.4} ({source}; the training people's (groups') distances to the others: 99th percentile {:.4})",
+        g.novelty_threshold, g.novelty_percentile
+    );
     println!(
         "  {:<16} {:>19} {:>19} {:>19}   test RMSE followed / held",
         "--gate",
@@ -322,8 +363,10 @@ fn print_gate(g: &GateReport) {
     for r in &g.rates {
         let name = match r.gate {
             Gate::Sd => "sd",
-            Gate::Reconstruction => "reconstruction *",
+            Gate::Reconstruction => "reconstruction",
             Gate::Both => "both",
+            Gate::Novelty => "novelty",
+            Gate::Known => "known *",
         };
         let cell = |h: Held| format!("{}/{} ({:.1} %)", h.held, h.frames, h.percent());
         println!(

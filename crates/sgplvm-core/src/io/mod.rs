@@ -20,6 +20,9 @@
 //! format 2 (and 3): a library from before them ignores them. Since issue 48 it may hold
 //! `annotations`, what users attach to a model (the facade stores the capture sources of the
 //! training data there, with each person's calibration); optional, ignored by older libraries.
+//! Since issue 49 it may hold `novelty`, the novelty threshold (`novelty` module), and
+//! `pose_bounds`, the human's joint limits it was calibrated within; optional, computed when
+//! asked for where absent, ignored by older libraries.
 //! The payload holds the configuration, every space (name, centred/scaled data, offsets,
 //! scales, kernel, column names), the latent parameters (X, or W + bandwidth + the
 //! back-constraint data), the input-map hyperparameters, the training history and, for models
@@ -308,6 +311,13 @@ pub(crate) struct ModelFile {
     /// it existed, whose threshold is computed when asked for).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     reconstruction: Option<f64>,
+    /// The human's joint limits the novelty threshold's random poses were drawn within, and
+    /// the novelty threshold (`novelty` module; absent in files written before them: the
+    /// threshold is then computed when asked for, from the held-out frames alone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pose_bounds: Option<Vec<(f64, f64)>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    novelty: Option<f64>,
     /// What users attached to the model ([`SharedGplvm::annotations`]; absent when nothing
     /// was).
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
@@ -381,6 +391,8 @@ impl SharedGplvm {
                 .collect(),
             trust_groups: self.trust_groups.clone(),
             reconstruction: self.reconstruction_threshold().ok(),
+            pose_bounds: self.pose_bounds.clone(),
+            novelty: self.novelty_threshold().ok(),
             annotations: self.annotations.clone(),
         }
     }
@@ -547,6 +559,17 @@ impl SharedGplvm {
                 return Err(corrupt(format!("reconstruction threshold {t}")));
             }
             model.reconstruction = Some(t);
+        }
+        if let Some(bounds) = f.pose_bounds {
+            model
+                .set_pose_bounds(bounds)
+                .map_err(|e| corrupt(format!("pose_bounds: {e}")))?;
+        }
+        if let Some(t) = f.novelty {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(corrupt(format!("novelty threshold {t}")));
+            }
+            model.novelty = Some(t);
         }
         model.annotations = f.annotations;
         model.rebuild()?;

@@ -230,6 +230,30 @@ impl PartsGplvm {
         Ok(())
     }
 
+    /// The human's joint limits (one `(lower, upper)` per human column of the whole model):
+    /// each part's novelty threshold is calibrated within its own columns' limits
+    /// ([`SharedGplvm::set_pose_bounds`]).
+    pub fn set_pose_bounds(&mut self, bounds: &[(f64, f64)]) -> Result<()> {
+        let input = self.input_name().to_string();
+        let d = self.space_dim(&input).unwrap_or(0);
+        if bounds.len() != d {
+            return Err(Error::DimensionMismatch {
+                what: "pose bounds (one per human joint)".into(),
+                expected: d,
+                found: bounds.len(),
+            });
+        }
+        for k in 0..self.parts.len() {
+            let name = self.parts[k].name.clone();
+            let columns = self.part_columns(&name, &input).unwrap_or(&[]).to_vec();
+            self.parts[k]
+                .model
+                .set_pose_bounds(columns.iter().map(|&c| bounds[c]).collect())
+                .map_err(|e| e.in_part(&name))?;
+        }
+        Ok(())
+    }
+
     /// The parts' names, in order.
     pub fn part_names(&self) -> Vec<&str> {
         self.parts.iter().map(|p| p.name.as_str()).collect()

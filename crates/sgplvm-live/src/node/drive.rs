@@ -159,6 +159,7 @@ fn drive_one(
                 signals: options.gate.signals,
                 sd: f64::INFINITY,
                 reconstruction: f64::INFINITY,
+                novelty: f64::INFINITY,
             };
             (
                 retargeter.joint_names().to_vec(),

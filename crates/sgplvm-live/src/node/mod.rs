@@ -205,6 +205,8 @@ pub struct RobotSummary {
     pub threshold: f64,
     /// The reconstruction threshold used (radians, RMS over the human's joints).
     pub reconstruction_threshold: f64,
+    /// The novelty threshold used (RMS over the human's joints of each joint's spreads).
+    pub novelty_threshold: f64,
 }
 
 /// Runs the node until `stop` is set (or `max_frames` input frames were used); `log` receives

@@ -27,8 +27,9 @@ pub(super) struct Session<'a> {
     poll: Poll,
     view: Option<crate::view::LiveView>,
     slots: Vec<LatentSlot>,
-    /// The current frame's reconstruction error under each distinct model (`slots`' order).
-    reconstruction: Vec<f64>,
+    /// The current frame's reconstruction error and novelty under each distinct model
+    /// (`slots`' order).
+    known: Vec<[f64; 2]>,
     driven: Vec<Driven>,
     status: Publisher<DiagnosticArray>,
     /// The JointState topic, when it is the input.
@@ -110,7 +111,7 @@ impl<'a> Session<'a> {
             events,
             poll,
             view,
-            reconstruction: vec![f64::NAN; slots.len()],
+            known: vec![[f64::NAN; 2]; slots.len()],
             slots,
             driven,
             status,
@@ -317,20 +318,22 @@ impl<'a> Session<'a> {
             }
         }
         self.last_stamp = Some(stamp.to_ns());
-        for (slot, e) in self.slots.iter_mut().zip(&mut self.reconstruction) {
+        for (slot, known) in self.slots.iter_mut().zip(&mut self.known) {
             slot.ok = slot.model.latent_frame(&self.h, &mut slot.x).is_ok();
             // Not a number (the robots hold) when the pose cannot be reconstructed.
-            *e = match slot.ok {
-                true => slot
-                    .model
-                    .reconstruction_error(&self.h, &slot.x)
-                    .unwrap_or(f64::NAN),
-                false => f64::NAN,
+            *known = match slot.ok {
+                true => [
+                    slot.model
+                        .reconstruction_error(&self.h, &slot.x)
+                        .unwrap_or(f64::NAN),
+                    slot.model.novelty(&self.h).unwrap_or(f64::NAN),
+                ],
+                false => [f64::NAN; 2],
             };
         }
         for r in &mut self.driven {
             let by = match r.model_slot {
-                Some(k) => By::Model(&self.slots[k], self.reconstruction[k]),
+                Some(k) => By::Model(&self.slots[k], self.known[k]),
                 None => By::Retargeting(&self.h),
             };
             let sent = Sent {
@@ -418,6 +421,7 @@ impl<'a> Session<'a> {
                     collision_limited: c.collision_limited,
                     threshold: r.gate.threshold(),
                     reconstruction_threshold: r.gate.thresholds().reconstruction,
+                    novelty_threshold: r.gate.thresholds().novelty,
                 },
             );
         }

@@ -5,7 +5,7 @@ use ros2_client::dds::Publisher;
 
 use super::drive::Driven;
 use super::TeleopSummary;
-use crate::gate::{Frame, Reason, Signals};
+use crate::gate::{Frame, Reason};
 use crate::msgs::{DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time, OK, STALE, WARN};
 use crate::LiveError;
 
@@ -80,7 +80,17 @@ pub(super) fn publish_status(
                     "reconstruction_threshold",
                     format!("{:.6}", r.gate.thresholds().reconstruction),
                 ),
-                kv("gate", gating(r.gate.thresholds().signals).into()),
+                kv(
+                    "novelty",
+                    r.last
+                        .map(|d| format!("{:.6}", d.frame.novelty))
+                        .unwrap_or_default(),
+                ),
+                kv(
+                    "novelty_threshold",
+                    format!("{:.6}", r.gate.thresholds().novelty),
+                ),
+                kv("gate", r.gate.thresholds().signals.names().into()),
                 kv("frames", c.frames.to_string()),
                 kv("untrusted", c.untrusted.to_string()),
                 kv("position_clamped", c.position_clamped.to_string()),
@@ -145,29 +155,26 @@ pub(super) fn publish_status(
     Ok(())
 }
 
-/// The signals that gate, for the status's `gate` value.
-fn gating(signals: Signals) -> &'static str {
-    match signals {
-        Signals::Reconstruction => "reconstruction",
-        Signals::Sd => "sd",
-        Signals::Both => "reconstruction, sd",
-    }
-}
-
 /// Why the last frame of `r` was not trusted: each signal beyond its threshold (or not a
 /// number), the standard deviation's with the joints the model is least sure of.
 fn why_untrusted(r: &Driven) -> String {
     let frame = r.last.map(|d| d.frame).unwrap_or(Frame::NONE);
     let t = r.gate.thresholds();
-    let (sd, reconstruction) = t.beyond(frame);
-    let mut why = Vec::with_capacity(2);
-    if reconstruction {
+    let beyond = t.beyond(frame);
+    let mut why = Vec::with_capacity(3);
+    if beyond.reconstruction {
         why.push(format!(
             "pose reconstruction error {:.4} above its threshold {:.4} (not a pose the model learned)",
             frame.reconstruction, t.reconstruction
         ));
     }
-    if sd {
+    if beyond.novelty {
+        why.push(format!(
+            "pose {:.4} from the nearest training pose, beyond the novelty threshold {:.4} (no one in the training data stood like this)",
+            frame.novelty, t.novelty
+        ));
+    }
+    if beyond.sd {
         // The joints the model is least sure of.
         let mut by_sd: Vec<usize> = (0..r.sd.len()).collect();
         by_sd.sort_by(|&a, &b| r.sd[b].total_cmp(&r.sd[a]));

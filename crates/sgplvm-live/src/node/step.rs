@@ -19,10 +19,12 @@ pub(super) struct Sent {
 }
 
 /// What a robot's target comes from in the current frame: its model (the frame's latent point
-/// and the pose's reconstruction error under it), or retargeting of the human frame.
+/// and the pose's reconstruction error and novelty under it), or retargeting of the human
+/// frame.
 pub(super) enum By<'a> {
-    /// The robot's model: the frame's latent point and the pose's reconstruction error.
-    Model(&'a LatentSlot, f64),
+    /// The robot's model: the frame's latent point, the pose's reconstruction error and its
+    /// novelty.
+    Model(&'a LatentSlot, [f64; 2]),
     /// Retargeting of the human frame.
     Retargeting(&'a [f64]),
 }
@@ -38,8 +40,8 @@ pub(super) fn command(
     log: &mut dyn FnMut(&str),
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
-    let (sd, e) = match (by, r.retargeter.as_mut()) {
-        (By::Model(slot, e), _) => {
+    let (sd, [e, novelty]) = match (by, r.retargeter.as_mut()) {
+        (By::Model(slot, known), _) => {
             let sd = match slot.ok {
                 true => slot
                     .model
@@ -47,22 +49,23 @@ pub(super) fn command(
                     .unwrap_or(f64::NAN),
                 false => f64::NAN,
             };
-            (sd, e)
+            (sd, known)
         }
         (By::Retargeting(h), Some(retargeter)) => {
             r.model_sd.fill(0.0);
             match retargeter.retarget(h, &mut r.model_mean) {
-                Ok(()) => (0.0, 0.0),
-                Err(_) => (f64::NAN, f64::NAN),
+                Ok(()) => (0.0, [0.0; 2]),
+                Err(_) => (f64::NAN, [f64::NAN; 2]),
             }
         }
-        (By::Retargeting(_), None) => (f64::NAN, f64::NAN),
+        (By::Retargeting(_), None) => (f64::NAN, [f64::NAN; 2]),
     };
     r.columns.fill(&r.model_mean, &mut r.mean);
     r.columns.fill_std(&r.model_sd, &mut r.sd);
     let frame = Frame {
         sd,
         reconstruction: e,
+        novelty,
     };
     // The gate's clock is the send clock: the command goes out right after this step, and the
     // velocity limits hold over the time between two sends, whatever the frames' stamps say.
@@ -74,10 +77,11 @@ pub(super) fn command(
     if decision.changed {
         let t = r.gate.thresholds();
         log(&format!(
-            "{}: {} (reconstruction error {e:.4}, threshold {:.4}; sd {sd:.4}, threshold {:.4})",
+            "{}: {} (reconstruction error {e:.4}, threshold {:.4}; novelty {novelty:.4}, threshold {:.4}; sd {sd:.4}, threshold {:.4})",
             r.drive.robot,
             decision.reason.as_str(),
             t.reconstruction,
+            t.novelty,
             t.sd,
         ));
     }

@@ -404,7 +404,7 @@ class SharedGPLVM:
 
     def reconstruction_error(self, H: ArrayLike):
         """How far each human frame (n × D_H, or one frame) is from the model's own
-        reconstruction of it, in the human space's standardised units: the signal
+        reconstruction of it, in the human space's standardised units: one of the two signals
         ``sgplvm teleop``'s default gate holds the robot on (above
         :meth:`reconstruction_threshold`)."""
         frames, single = _as_frames(H, "H")
@@ -416,6 +416,20 @@ class SharedGPLVM:
         training groups): frames above it are held live."""
         return self._require().reconstruction_threshold()
 
+    def novelty(self, H: ArrayLike):
+        """How far each human frame (n × D_H, or one frame) is from the nearest training pose,
+        each joint in units of its spread over the training poses: the other signal
+        ``sgplvm teleop``'s default gate holds the robot on (above :meth:`novelty_threshold`)."""
+        frames, single = _as_frames(H, "H")
+        distances = np.asarray(self._require().novelties(frames))
+        return float(distances[0]) if single else distances
+
+    def novelty_threshold(self) -> float:
+        """The novelty threshold stored in the model (the distance within which 1 % of poses
+        drawn at random within the human's joint limits fall, or, for a model trained without
+        them, the 99th percentile of its training groups' distances to the others)."""
+        return self._require().novelty_threshold()
+
     def trust_threshold(self, robot: str) -> float:
         """The trust threshold of ``robot`` (standardised predictive standard deviation; the
         gate's other signal, ``teleop --gate sd``)."""
@@ -423,10 +437,12 @@ class SharedGPLVM:
 
     def trusted(self, H: ArrayLike):
         """Whether ``teleop``'s default gate follows each human frame (its reconstruction
-        error within the threshold); False where the robot would hold."""
+        error and its novelty each within its threshold); False where the robot would hold."""
         frames, single = _as_frames(H, "H")
-        errors = np.asarray(self._require().reconstruction_errors(frames))
-        ok = errors <= self.reconstruction_threshold()
+        native = self._require()
+        errors = np.asarray(native.reconstruction_errors(frames))
+        distances = np.asarray(native.novelties(frames))
+        ok = (errors <= self.reconstruction_threshold()) & (distances <= self.novelty_threshold())
         return bool(ok[0]) if single else ok
 
     @property

@@ -215,6 +215,21 @@ impl NativeModel {
         guarded(|| self.inner.reconstruction_threshold().map_err(model_error))
     }
 
+    /// Each human frame's distance to the nearest training pose (n), each joint in units of its
+    /// spread over the training poses (teleop's default gate, with the reconstruction error).
+    fn novelties(&self, py: Python<'_>, h: PyReadonlyArray2<'_, f64>) -> PyResult<Vec<f64>> {
+        guarded(|| {
+            let h = to_mat(&h);
+            py.detach(|| self.inner.novelties(h.as_ref()))
+                .map_err(model_error)
+        })
+    }
+
+    /// The novelty threshold: frames farther than it from every training pose are held live.
+    fn novelty_threshold(&self) -> PyResult<f64> {
+        guarded(|| self.inner.novelty_threshold().map_err(model_error))
+    }
+
     /// The trust threshold of `robot` (standardised predictive standard deviation).
     fn trust_threshold(&self, robot: &str) -> PyResult<f64> {
         guarded(|| self.inner.trust_threshold(robot).map_err(model_error))

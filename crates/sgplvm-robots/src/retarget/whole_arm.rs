@@ -24,7 +24,7 @@
 //! - the posture regulariser pulls towards the fixed neutral posture.
 //!
 //! Each frame is followed along its own path from the person's neutral to its pose (the
-//! person's joint angles moved straight from their neutral values, [`PersonGauge::path`]),
+//! person's joint angles moved straight from their neutral values: `PersonGauge::path`),
 //! starting from the robot's posture for the person's neutral, never from the previous frame:
 //! the posture is a function of the person's pose, whatever came before it, and continuous in
 //! it — where the pose fits the robot in two ways (a shoulder turned half round through its
