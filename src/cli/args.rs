@@ -55,11 +55,6 @@ pub struct ModelFileArg {
 }
 
 impl ModelFileArg {
-    /// The model named by `--model`.
-    pub fn load(&self) -> Result<SharedGplvm> {
-        load_model(&self.model)
-    }
-
     /// The model named by `--model`, of either kind (a latent space per body part too).
     pub fn load_any(&self) -> Result<AnyModel> {
         load_any_model(&self.model)

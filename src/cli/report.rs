@@ -259,22 +259,9 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
     )
 }
 
-/// `evaluate`: the test error overall and per joint.
-pub fn evaluation(e: &Evaluation, trust: &TestTrust, json: bool) -> serde_json::Result<()> {
-    if json {
-        #[derive(serde::Serialize)]
-        struct WithTrust<'a> {
-            #[serde(flatten)]
-            evaluation: &'a Evaluation,
-            trust: &'a TestTrust,
-        }
-        let both = WithTrust {
-            evaluation: e,
-            trust,
-        };
-        println!("{}", serde_json::to_string_pretty(&both)?);
-        return Ok(());
-    }
+/// `evaluate`: the test error overall and per joint, and the trust threshold's rates (a single
+/// latent space's).
+pub fn evaluation(e: &Evaluation, trust: Option<&TestTrust>) {
     println!(
         "{}: test MSE {:.6} rad² (RMSE {:.2}°) over {} frames",
         e.robot,
@@ -285,6 +272,9 @@ pub fn evaluation(e: &Evaluation, trust: &TestTrust, json: bool) -> serde_json::
     for (joint, mse) in &e.per_joint {
         println!("  {joint:<24} {mse:.6}  ({:.2}°)", mse.sqrt().to_degrees());
     }
+    let Some(trust) = trust else {
+        return;
+    };
     println!(
         "trust: {} of {} test frames ({:.1} %) above the model's trust threshold {:.4} (live, the robot would hold on them)",
         trust.untrusted,
@@ -302,7 +292,6 @@ pub fn evaluation(e: &Evaluation, trust: &TestTrust, json: bool) -> serde_json::
         rmse(trust.mse_trusted),
         rmse(trust.mse_untrusted)
     );
-    Ok(())
 }
 
 /// The demo's line about the data, before training.

@@ -8,10 +8,11 @@ use std::sync::Arc;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::joint_state::{read_joint_states, JointStates};
+use sgplvm::AnyModel;
 use sgplvm_live::gate::Signals;
 use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, ReplayOptions, TeleopOptions};
 
-use super::args::{load_model, JsonArg};
+use super::args::{load_any_model, JsonArg};
 use super::body::BodyArgs;
 use super::calibration::CalibrationArgs;
 
@@ -170,6 +171,18 @@ enum GateArg {
     Sd,
     /// The standard deviation or the reconstruction error.
     Both,
+}
+
+/// The models of one shared latent space among `models`: they carry the calibrations of the
+/// people they were trained on (a per-part model carries none).
+fn single_latent_spaces(models: &[Arc<AnyModel>]) -> Vec<&sgplvm::SharedGplvm> {
+    models
+        .iter()
+        .filter_map(|m| match m.as_ref() {
+            AnyModel::Single(m) => Some(m),
+            AnyModel::Parts(_) => None,
+        })
+        .collect()
 }
 
 impl TeleopArgs {
@@ -339,12 +352,12 @@ pub fn run(args: TeleopArgs) -> Result<()> {
     if args.mvn_from.is_some() && !matches!(args.input, HumanInput::Mvn(_)) {
         bail!("--mvn-from names the sender of an MVN stream: it goes with --input mvn");
     }
-    let models: Vec<Arc<sgplvm::SharedGplvm>> = args
+    let models: Vec<Arc<AnyModel>> = args
         .model
         .iter()
-        .map(|p| load_model(p).map(Arc::new))
+        .map(|p| load_any_model(p).map(Arc::new))
         .collect::<Result<_>>()?;
-    let model_for = |k: usize| -> Result<Option<Arc<sgplvm::SharedGplvm>>> {
+    let model_for = |k: usize| -> Result<Option<Arc<AnyModel>>> {
         match models.len() {
             0 => Ok(None),
             1 => Ok(Some(models[0].clone())),
@@ -417,10 +430,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             }),
             _ => None,
         },
-        calibration: {
-            let models: Vec<&sgplvm::SharedGplvm> = models.iter().map(|m| m.as_ref()).collect();
-            args.calibration.options(&models)?
-        },
+        calibration: args.calibration.options(&single_latent_spaces(&models))?,
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(

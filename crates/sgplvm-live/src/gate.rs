@@ -45,7 +45,7 @@
 //!
 //! [`Decision`] says what happened and why, for the status the node publishes.
 
-use sgplvm_core::SharedGplvm;
+use sgplvm_core::AnyModel;
 use sgplvm_robots::limits::{Clamped, CommandLimits};
 use sgplvm_robots::safety::SafetyStep;
 
@@ -159,25 +159,25 @@ pub struct Thresholds {
 
 impl Thresholds {
     /// The thresholds for `robot` of `model` under `options`: the given ones, else the
-    /// model's, each times its scale.
+    /// model's, each times its scale. A per-part model's signals are ratios to its parts' own
+    /// thresholds: its thresholds are 1 (times the scales; a given one is a ratio too).
     pub fn of(
-        model: &SharedGplvm,
+        model: &AnyModel,
         robot: &str,
         options: &GateOptions,
     ) -> Result<Thresholds, crate::LiveError> {
         let config = |e: sgplvm_core::Error| crate::LiveError::Config(format!("{robot}: {e}"));
-        let sd = match options.threshold {
-            Some(t) => t,
-            None => model.trust_threshold(robot).map_err(config)?,
+        let own = match model {
+            AnyModel::Single(m) => [
+                m.trust_threshold(robot).map_err(config)?,
+                m.reconstruction_threshold().map_err(config)?,
+                m.novelty_threshold().map_err(config)?,
+            ],
+            AnyModel::Parts(_) => [1.0; 3],
         };
-        let reconstruction = match options.reconstruction_threshold {
-            Some(t) => t,
-            None => model.reconstruction_threshold().map_err(config)?,
-        };
-        let novelty = match options.novelty_threshold {
-            Some(t) => t,
-            None => model.novelty_threshold().map_err(config)?,
-        };
+        let sd = options.threshold.unwrap_or(own[0]);
+        let reconstruction = options.reconstruction_threshold.unwrap_or(own[1]);
+        let novelty = options.novelty_threshold.unwrap_or(own[2]);
         Ok(Thresholds {
             signals: options.signals,
             sd: sd * options.threshold_scale,
@@ -804,19 +804,21 @@ mod tests {
 
     #[test]
     fn thresholds_are_the_models_or_the_given_ones_times_their_scales() {
-        use sgplvm_core::{Mat, ModelConfig, TrainOptions};
+        use sgplvm_core::{Mat, ModelConfig, SharedGplvm, TrainOptions};
         let n = 30;
         let h = Mat::from_fn(n, 4, |i, j| ((i as f64) * 0.2 + j as f64).sin());
         let r = Mat::from_fn(n, 3, |i, j| ((i as f64) * 0.2 + 0.5 * j as f64).cos());
         let config = ModelConfig::default().with_latent_dim(2);
-        let options = TrainOptions::default().with_max_iters(5);
+        let train = TrainOptions::default().with_max_iters(5);
         let spaces = [("human", h.as_ref()), ("robot", r.as_ref())];
-        let m = SharedGplvm::fit(&config, &spaces, "human", &options, None).unwrap();
+        let single = SharedGplvm::fit(&config, &spaces, "human", &train, None).unwrap();
+        let m = &single;
         let (sd, e, n) = (
             m.trust_threshold("robot").unwrap(),
             m.reconstruction_threshold().unwrap(),
             m.novelty_threshold().unwrap(),
         );
+        let m = AnyModel::Single(single.clone());
         let t = Thresholds::of(&m, "robot", &GateOptions::default()).unwrap();
         assert_eq!(
             (t.signals, t.sd, t.reconstruction, t.novelty),
@@ -847,5 +849,49 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("nao"), "{err}");
+        // A latent space per part: its signals are ratios to each part's own thresholds, so
+        // its thresholds are 1 (times the scales); a part beyond its own is beyond 1.
+        use sgplvm_core::{PartSpec, PartsConfig, PartsGplvm};
+        let parts = vec![
+            PartSpec::new("a", [("human", vec![0, 1]), ("robot", vec![0])]),
+            PartSpec::new("b", [("human", vec![2, 3]), ("robot", vec![1, 2])]),
+        ];
+        let p = PartsGplvm::fit(
+            &PartsConfig::new(config, parts),
+            &spaces,
+            "human",
+            &train,
+            None,
+            None,
+        )
+        .unwrap();
+        let b = p.part("b").unwrap();
+        let model = AnyModel::Parts(p.clone());
+        let options = GateOptions {
+            novelty_scale: 2.0,
+            ..GateOptions::default()
+        };
+        let t = Thresholds::of(&model, "robot", &options).unwrap();
+        assert_eq!((t.sd, t.reconstruction, t.novelty), (1.0, 1.0, 2.0));
+        // Part b's human columns 3 rad off: its novelty is beyond its threshold, a's is not.
+        let far: Vec<f64> = (0..4)
+            .map(|j| h[(7, j)] + if j >= 2 { 3.0 } else { 0.0 })
+            .collect();
+        let [e, n] = p.known_frame(&far).unwrap();
+        let own = b.novelty(&far[2..]).unwrap() / b.novelty_threshold().unwrap();
+        assert!(n > 1.0 && (n - own).abs() < 1e-12, "{n} {own}");
+        assert!(e.is_finite());
+        let (mut mean, mut sd) = ([0.0; 3], [0.0; 3]);
+        let ratio = p
+            .predict_frame_sd(&far, "robot", &mut mean, &mut sd)
+            .unwrap();
+        let mut want = [0.0; 3];
+        p.predict_frame(&far, "robot", &mut want).unwrap();
+        assert!(
+            mean.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12),
+            "{mean:?} {want:?}"
+        );
+        assert!(ratio.is_finite() && sd.iter().all(|s| s.is_finite() && *s > 0.0));
+        assert!(p.known_frame(&far[..3]).is_err());
     }
 }

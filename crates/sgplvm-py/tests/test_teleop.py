@@ -481,6 +481,65 @@ def test_commands_equal_predict_for_two_robots_at_once(tmp, data, models):
     assert summary["frames"] >= 0.95 * len(data["rows"])
 
 
+def test_a_latent_space_per_arm_drives_the_robot_and_its_parts_gate_it(tmp, data):
+    """``train --parts arms`` (issue 49: a latent space per arm serves strangers best) drives a
+    robot live: with nothing gated every command equals ``predict --raw`` of the per-part model
+    on the same frame; with the default gate a pose no one made (every joint +2.5 rad) holds
+    the robot, the status saying which signal, each a part's over its own threshold."""
+    path = tmp / "parts.sgp"
+    subprocess.run(
+        [str(sgplvm_binary()), "train", "--parts", "arms", "--data", str(DEMOS), "--robot", "coman",
+         "--max-iters", "20", "--validation", "none", "--out", str(path)],
+        check=True, capture_output=True,
+    )
+    urdf, urdf_text = relaxed_urdf(tmp, "coman")
+    domain = next_domain()
+    node = Teleop(tmp, domain, [
+        "--model", str(path), "--robot", "coman", "--gate", "reconstruction",
+        "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}",
+    ])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        send(w, data["names"], data["rows"][:60], data["times_ns"][:60])
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    joints, raw = predict_raw(tmp, path, "coman", data["names"], data["rows"][:60], data["times_ns"][:60])
+    lo, hi, _ = limits(urdf_text, joints)
+    index = {int(t): k for k, t in enumerate(data["times_ns"][:60])}
+    assert len(commands) >= 55, (len(commands), err)
+    for c in commands:
+        k = index[stamp_ns(c.header.stamp)]
+        assert c.name == joints
+        assert np.max(np.abs(np.array(c.position) - np.clip(raw[k], lo, hi))) <= 1e-10, k
+    assert summary["robots"]["coman"]["untrusted"] == 0
+    # The default gate: known poses followed, a far one held, and said why.
+    domain = next_domain()
+    node = Teleop(tmp, domain, ["--model", str(path), "--robot", "coman", "--timeout", "0.5"])
+    try:
+        ros = Ros2(domain)
+        w = ros.writer("/human/joint_states", JointState)
+        ros.reader("/coman/joint_command", JointState)
+        ros.reader("/sgplvm/status", DiagnosticArray)
+        ros.wait_matched()
+        rows, t0 = data["trained_rows"], int(data["times_ns"][0])
+        send(w, data["names"], rows[:20], t0 + 25_000_000 * np.arange(20))
+        ros.take("/sgplvm/status", settle=0.3)
+        send(w, data["names"], rows[19:20] + 2.5, [t0 + 25_000_000 * 21])
+        status = status_of(ros.take("/sgplvm/status", settle=0.3), "coman")
+    finally:
+        summary, err = node.stop()
+    holding = [s for s in status if values(s)["reason"] == "holding"]
+    assert holding and "novelty" in holding[0].message, ([s.message for s in status], err)
+    v = values(holding[0])
+    assert v["gate"] == "reconstruction, novelty" and float(v["novelty_threshold"]) == 1.0, v
+    assert float(v["novelty"]) > 1.0, v
+    assert summary["robots"]["coman"]["untrusted"] >= 1
+
+
 @pytest.mark.parametrize("form", ["joint-state", "forward", "trajectory", "xbot"])
 def test_every_command_form_decodes_with_ros2_definitions(tmp, data, models, form):
     """Each command form arrives on its controller's topic, decodes with ROS 2's definition of

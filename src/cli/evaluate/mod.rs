@@ -9,11 +9,10 @@ use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use serde::Serialize;
-use sgplvm::core::ReconstructionCalibration;
 use sgplvm::pipeline::{
     human_pose_bounds, mean_squared_error, to_mat, Demonstrations, Evaluation, TestTrust,
 };
-use sgplvm::{Mat, Robot, SharedGplvm};
+use sgplvm::{AnyModel, Mat, Predictor, Robot};
 
 use super::args::{DataArg, JsonArg, ModelFileArg};
 use super::body::BodyArgs;
@@ -125,14 +124,19 @@ struct Signals {
 }
 
 impl Signals {
-    fn of(model: &SharedGplvm, robot: &str, h: &Mat<f64>) -> Result<Signals> {
-        Ok(Signals {
-            values: [
-                model.prediction_sd(h.as_ref(), robot)?,
-                model.reconstruction_errors(h.as_ref())?,
-                model.novelties(h.as_ref())?,
+    /// The signals of the frames `h` for `robot`: a single latent space's own values, a
+    /// per-part model's as the largest part's ratio to its threshold
+    /// ([`sgplvm::PartsGplvm::gate_ratios`]).
+    fn of(model: &AnyModel, robot: &str, h: &Mat<f64>) -> Result<Signals> {
+        let values = match model {
+            AnyModel::Single(m) => [
+                m.prediction_sd(h.as_ref(), robot)?,
+                m.reconstruction_errors(h.as_ref())?,
+                m.novelties(h.as_ref())?,
             ],
-        })
+            AnyModel::Parts(m) => m.gate_ratios(h.as_ref(), robot)?,
+        };
+        Ok(Signals { values })
     }
 
     /// Whether `gate` holds frame `i` against `thresholds` (the live rule,
@@ -160,16 +164,19 @@ impl Signals {
 /// Everything `evaluate` prints about the gate.
 #[derive(Serialize)]
 struct GateReport {
+    /// Whether the signals are a per-part model's ratios to the parts' thresholds (then every
+    /// threshold is 1 and the calibrations are left out).
+    per_part: bool,
     /// The trust threshold (standardised standard deviation).
     sd_threshold: f64,
     /// The reconstruction threshold and the held-out errors it comes from (the per-frame
     /// errors are left out).
     reconstruction_threshold: f64,
-    reconstruction_percentile: f64,
-    reconstruction_mean_pose: f64,
+    reconstruction_percentile: Option<f64>,
+    reconstruction_mean_pose: Option<f64>,
     /// The novelty threshold and the distances it comes from.
     novelty_threshold: f64,
-    novelty_percentile: f64,
+    novelty_percentile: Option<f64>,
     novelty_random: Option<f64>,
     far_offset: f64,
     random_seed: u64,
@@ -177,13 +184,16 @@ struct GateReport {
 }
 
 pub fn run(args: EvaluateArgs) -> Result<()> {
-    let model = args.model.load()?;
+    let model = args.model.load_any()?;
     // Before the data: "the model does not know coman; it predicts for [...]" says more than a
     // mismatch of joint lists would.
     require_robot(&model, &args.model.model, &args.robot)?;
     let demos = args.data.load()?;
     let evaluation = demos.evaluate(&model, &args.robot)?;
-    let trust = demos.test_trust(&model, &args.robot)?;
+    let trust = match &model {
+        AnyModel::Single(m) => Some(demos.test_trust(m, &args.robot)?),
+        AnyModel::Parts(_) => None,
+    };
     let (gate, held) = gate_report(&model, &demos, &args)?;
     let arms = match (&args.urdf, Robot::builtin_urdf(&args.robot)) {
         (None, None) => None,
@@ -205,20 +215,21 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         struct All<'a> {
             #[serde(flatten)]
             evaluation: &'a Evaluation,
-            trust: &'a TestTrust,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            trust: Option<&'a TestTrust>,
             gate: &'a GateReport,
             arms: Option<&'a arms::ArmsReport>,
         }
         let all = All {
             evaluation: &evaluation,
-            trust: &trust,
+            trust: trust.as_ref(),
             gate: &gate,
             arms: arms.as_ref(),
         };
         println!("{}", serde_json::to_string_pretty(&all)?);
         return Ok(());
     }
-    report::evaluation(&evaluation, &trust, false)?;
+    report::evaluation(&evaluation, trust.as_ref());
     print_gate(&gate);
     if let Some(arms) = &arms {
         arms::print(arms, &args.robot);
@@ -229,7 +240,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
 /// The test frames' human poses, the far poses and the random ones, and each gate's rates; and
 /// which test frames teleop's default gate holds.
 fn gate_report(
-    model: &SharedGplvm,
+    model: &AnyModel,
     demos: &Demonstrations,
     args: &EvaluateArgs,
 ) -> Result<(GateReport, Vec<bool>)> {
@@ -245,14 +256,19 @@ fn gate_report(
         test[(i, j)] + args.far_offset
     });
     let random = random_poses(&ds.human.joint_names, args.random_poses, args.seed)?;
-    let calibration: ReconstructionCalibration = model.reconstruction_calibration()?;
-    let novelty = model.novelty_calibration()?;
-    // The model's thresholds as teleop uses them (a file's stored ones).
-    let thresholds = [
-        model.trust_threshold(&args.robot)?,
-        model.reconstruction_threshold()?,
-        model.novelty_threshold()?,
-    ];
+    // The model's thresholds as teleop uses them (a file's stored ones); a per-part model's
+    // signals are ratios to its parts' thresholds.
+    let (thresholds, calibrations) = match model {
+        AnyModel::Single(m) => (
+            [
+                m.trust_threshold(&args.robot)?,
+                m.reconstruction_threshold()?,
+                m.novelty_threshold()?,
+            ],
+            Some((m.reconstruction_calibration()?, m.novelty_calibration()?)),
+        ),
+        AnyModel::Parts(_) => ([1.0; 3], None),
+    };
     let signals = [&test, &far, &random]
         .map(|h| Signals::of(model, &args.robot, h))
         .into_iter()
@@ -282,13 +298,14 @@ fn gate_report(
         .map(|i| signals[0].held(i, Gate::DEFAULT, &thresholds))
         .collect();
     let report = GateReport {
+        per_part: calibrations.is_none(),
         sd_threshold: thresholds[0],
         reconstruction_threshold: thresholds[1],
-        reconstruction_percentile: calibration.percentile,
-        reconstruction_mean_pose: calibration.mean_pose,
+        reconstruction_percentile: calibrations.as_ref().map(|c| c.0.percentile),
+        reconstruction_mean_pose: calibrations.as_ref().map(|c| c.0.mean_pose),
         novelty_threshold: thresholds[2],
-        novelty_percentile: novelty.percentile,
-        novelty_random: novelty.random,
+        novelty_percentile: calibrations.as_ref().map(|c| c.1.percentile),
+        novelty_random: calibrations.as_ref().and_then(|c| c.1.random),
         far_offset: args.far_offset,
         random_seed: args.seed,
         rates,
@@ -298,7 +315,7 @@ fn gate_report(
 
 /// Each test frame's mean squared error over the robot's joints (rad²).
 fn test_frame_errors(
-    model: &SharedGplvm,
+    model: &AnyModel,
     demos: &Demonstrations,
     robot: &str,
     test: &Mat<f64>,
@@ -333,21 +350,29 @@ fn random_poses(names: &[String], n: usize, seed: u64) -> Result<Mat<f64>> {
 }
 
 fn print_gate(g: &GateReport) {
-    println!(
-        "gate: thresholds — sd {:.4}; reconstruction {:.4} (the larger of the held-out errors' 99th percentile {:.4} and the mean pose's held-out error {:.4})",
-        g.sd_threshold,
-        g.reconstruction_threshold,
+    match (
         g.reconstruction_percentile,
-        g.reconstruction_mean_pose
-    );
-    let source = match g.novelty_random {
-        Some(_) => "random poses' 1st percentile",
-        None => "the human's joint limits unknown: the held-out distances' 99th percentile",
-    };
-    println!(
-        "      novelty {:.4} ({source}; the training people's (groups') distances to the others: 99th percentile {:.4})",
-        g.novelty_threshold, g.novelty_percentile
-    );
+        g.reconstruction_mean_pose,
+        g.novelty_percentile,
+    ) {
+        (Some(percentile), Some(mean_pose), Some(novelty)) => {
+            println!(
+                "gate: thresholds — sd {:.4}; reconstruction {:.4} (the larger of the held-out errors' 99th percentile {percentile:.4} and the mean pose's held-out error {mean_pose:.4})",
+                g.sd_threshold, g.reconstruction_threshold,
+            );
+            let source = match g.novelty_random {
+                Some(_) => "random poses' 1st percentile",
+                None => "the human's joint limits unknown: the held-out distances' 99th percentile",
+            };
+            println!(
+                "      novelty {:.4} ({source}; the training people's (groups') distances to the others: 99th percentile {novelty:.4})",
+                g.novelty_threshold
+            );
+        }
+        _ => println!(
+            "gate (a latent space per part): each signal is the largest of the parts' signals over their own thresholds; a frame is held where one is beyond 1"
+        ),
+    }
     println!(
         "  {:<16} {:>19} {:>19} {:>19}   test RMSE followed / held",
         "--gate",

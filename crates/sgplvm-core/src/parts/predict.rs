@@ -54,10 +54,50 @@ impl PartsGplvm {
         })
     }
 
-    /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (the
-    /// space's columns): each part's [`SharedGplvm::predict_frame`](crate::SharedGplvm::predict_frame)
-    /// on its own columns. Allocates nothing for parts of at most 64 columns per space.
-    pub fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()> {
+    /// The gate's three signals for robot `space` of each raw human frame (row of `h`), each as
+    /// the largest over the parts of the part's signal over its own threshold (so each is
+    /// beyond 1 where some part does not know its share of the pose): the standardised
+    /// predictive standard deviation over the trust threshold, the reconstruction error over
+    /// the reconstruction threshold and the novelty over the novelty threshold, each part on
+    /// its own human columns.
+    pub fn gate_ratios(&self, h: MatRef<'_, f64>, space: &str) -> Result<[Vec<f64>; 3]> {
+        self.check_input_matrix(h)?;
+        self.output_dim(space)?;
+        let mut out = [(); 3].map(|_| vec![0.0f64; h.nrows()]);
+        for part in &self.parts {
+            let m = &part.model;
+            let hp = Self::columns_of(h, &part.columns[self.input_name()]);
+            let signals = (|| {
+                Ok::<_, Error>([
+                    (
+                        m.prediction_sd(hp.as_ref(), space)?,
+                        m.trust_threshold(space)?,
+                    ),
+                    (
+                        m.reconstruction_errors(hp.as_ref())?,
+                        m.reconstruction_threshold()?,
+                    ),
+                    (m.novelties(hp.as_ref())?, m.novelty_threshold()?),
+                ])
+            })()
+            .map_err(|e| e.in_part(&part.name))?;
+            for (k, (values, threshold)) in signals.into_iter().enumerate() {
+                for (o, v) in out[k].iter_mut().zip(values) {
+                    // A signal not a number stays one (the gate holds on it).
+                    let r = v / threshold;
+                    *o = if r.is_nan() || o.is_nan() {
+                        f64::NAN
+                    } else {
+                        o.max(r)
+                    };
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Checks a raw human frame `h` and an output buffer of `out` values for `space`.
+    fn check_frame(&self, h: &[f64], space: &str, out: usize) -> Result<()> {
         let dh = self.spaces[0].dim;
         if h.len() != dh {
             return Err(Error::DimensionMismatch {
@@ -67,13 +107,21 @@ impl PartsGplvm {
             });
         }
         let d = self.output_dim(space)?;
-        if out.len() != d {
+        if out != d {
             return Err(Error::DimensionMismatch {
                 what: format!("output buffer for '{space}'"),
                 expected: d,
-                found: out.len(),
+                found: out,
             });
         }
+        Ok(())
+    }
+
+    /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (the
+    /// space's columns): each part's [`SharedGplvm::predict_frame`](crate::SharedGplvm::predict_frame)
+    /// on its own columns. Allocates nothing for parts of at most 64 columns per space.
+    pub fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()> {
+        self.check_frame(h, space, out.len())?;
         let (mut hin, mut hout) = ([0.0f64; STACK], [0.0f64; STACK]);
         let (mut hin_heap, mut hout_heap) = (Vec::new(), Vec::new());
         for part in &self.parts {
@@ -91,6 +139,73 @@ impl PartsGplvm {
             }
         }
         Ok(())
+    }
+
+    /// One raw human frame's prediction for `space`, the mean into `mean` and each joint's
+    /// predictive standard deviation into `sd`, each part on its own columns
+    /// ([`SharedGplvm::predict_frame_sd`](crate::SharedGplvm::predict_frame_sd)); returns the
+    /// largest of the parts' standardised standard deviations over their trust thresholds
+    /// (the live gate's σ signal of a per-part model: beyond 1 where a part is unsure).
+    pub fn predict_frame_sd(
+        &self,
+        h: &[f64],
+        space: &str,
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> Result<f64> {
+        self.check_frame(h, space, mean.len())?;
+        self.check_frame(h, space, sd.len())?;
+        let mut ratio = 0.0f64;
+        for part in &self.parts {
+            let (ins, outs) = (&part.columns[self.input_name()], &part.columns[space]);
+            let hp: Vec<f64> = ins.iter().map(|&c| h[c]).collect();
+            let (mut mp, mut sp) = (vec![0.0; outs.len()], vec![0.0; outs.len()]);
+            let in_part = |e: Error| e.in_part(&part.name);
+            let s = part
+                .model
+                .predict_frame_sd(&hp, space, &mut mp, &mut sp)
+                .map_err(in_part)?;
+            ratio = ratio.max(s / part.model.trust_threshold(space).map_err(in_part)?);
+            for (k, &c) in outs.iter().enumerate() {
+                mean[c] = mp[k];
+                sd[c] = sp[k];
+            }
+        }
+        Ok(ratio)
+    }
+
+    /// One raw human frame's reconstruction error and novelty, each the largest of the parts'
+    /// (on their own human columns) over the part's threshold: the live gate's signals of a
+    /// per-part model, beyond 1 where a part does not know its share of the pose.
+    pub fn known_frame(&self, h: &[f64]) -> Result<[f64; 2]> {
+        let dh = self.spaces[0].dim;
+        if h.len() != dh {
+            return Err(Error::DimensionMismatch {
+                what: format!("input frame for '{}'", self.input_name()),
+                expected: dh,
+                found: h.len(),
+            });
+        }
+        let mut out = [0.0f64; 2];
+        for part in &self.parts {
+            let m = &part.model;
+            let hp: Vec<f64> = part.columns[self.input_name()]
+                .iter()
+                .map(|&c| h[c])
+                .collect();
+            let mut x = vec![0.0; m.config().latent_dim];
+            let ratios = (|| {
+                m.latent_frame(&hp, &mut x)?;
+                Ok::<_, Error>([
+                    m.reconstruction_error(&hp, &x)? / m.reconstruction_threshold()?,
+                    m.novelty(&hp)? / m.novelty_threshold()?,
+                ])
+            })()
+            .map_err(|e| e.in_part(&part.name))?;
+            out[0] = out[0].max(ratios[0]);
+            out[1] = out[1].max(ratios[1]);
+        }
+        Ok(out)
     }
 
     /// Latent points of raw human frames: every part's (n × its Q) side by side, in part order.

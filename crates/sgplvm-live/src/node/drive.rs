@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use ros2_client::dds::Node;
-use sgplvm_core::SharedGplvm;
+use sgplvm_core::{AnyModel, Predictor};
 use sgplvm_robots::anatomy::CommandColumns;
 use sgplvm_robots::limits::CommandLimits;
 use sgplvm_robots::retarget::{FrameRetargeter, RetargetOptions};
@@ -50,9 +50,9 @@ pub(super) struct Driven {
 }
 
 /// A distinct model among the robots' and its latent point of the current frame (computed once
-/// per frame for all the robots it drives).
+/// per frame for all the robots it drives; a per-part model's parts find their own).
 pub(super) struct LatentSlot {
-    pub(super) model: std::sync::Arc<SharedGplvm>,
+    pub(super) model: std::sync::Arc<AnyModel>,
     pub(super) x: Vec<f64>,
     pub(super) ok: bool,
 }
@@ -60,7 +60,7 @@ pub(super) struct LatentSlot {
 /// The human's joint names of the models (all must agree; a robot driven by retargeting takes
 /// the human model's).
 pub(super) fn human_joints(drives: &[Drive]) -> Result<Vec<String>, LiveError> {
-    let names = |m: &SharedGplvm| -> Vec<String> {
+    let names = |m: &AnyModel| -> Vec<String> {
         let input = m.input_name().to_string();
         m.column_names(&input)
             .map(<[String]>::to_vec)
@@ -112,7 +112,7 @@ pub(super) fn drive_all(
 }
 
 /// The index of `model` among `slots`, added if it is not there yet.
-fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<SharedGplvm>) -> usize {
+fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<AnyModel>) -> usize {
     match slots
         .iter()
         .position(|s| std::sync::Arc::ptr_eq(&s.model, model))
@@ -121,7 +121,7 @@ fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<SharedGplvm>) -> usize {
         None => {
             slots.push(LatentSlot {
                 model: model.clone(),
-                x: vec![0.0; model.latent_points().ncols()],
+                x: vec![0.0; model.latent_dim()],
                 ok: false,
             });
             slots.len() - 1
@@ -243,7 +243,7 @@ fn drive_one(
 }
 
 /// The joints `model` predicts for `robot`, by name.
-fn model_columns(model: &SharedGplvm, robot: &str) -> Result<Vec<String>, LiveError> {
+fn model_columns(model: &AnyModel, robot: &str) -> Result<Vec<String>, LiveError> {
     if !model.output_names().contains(&robot) {
         return Err(LiveError::Config(format!(
             "the model does not know robot `{robot}`; it predicts for {:?}",
@@ -316,10 +316,11 @@ pub(super) fn start_view(
                     rest: r.drive.anatomy.hold_configuration().to_vec(),
                 })
                 .collect();
-            let q = driven
-                .iter()
-                .find_map(|r| r.drive.model.as_ref())
-                .map_or(0, |m| m.latent_points().ncols());
+            // The first robot's latent point is shown, where it has a single latent space.
+            let q = match driven.first().and_then(|r| r.drive.model.as_deref()) {
+                Some(AnyModel::Single(m)) => m.config().latent_dim,
+                _ => 0,
+            };
             let v = crate::view::LiveView::start(addr, human.to_vec(), robots, q)?;
             log(&format!(
                 "live view: Foxglove WebSocket on ws://{}:{}",

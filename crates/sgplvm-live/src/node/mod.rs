@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use ros2_client::dds::{Node, Publisher, Subscription};
 use serde::Serialize;
-use sgplvm_core::SharedGplvm;
+use sgplvm_core::AnyModel;
 use sgplvm_robots::Anatomy;
 
 use crate::commands::CommandForm;
@@ -44,8 +44,9 @@ pub struct Drive {
     pub robot: String,
     /// The model; `None`: the robot is driven by whole-arm retargeting of each frame (the
     /// human model's joints in, no model, nothing gated by trust; the velocity limits and the
-    /// self-collision limit as for a model's robot).
-    pub model: Option<Arc<SharedGplvm>>,
+    /// self-collision limit as for a model's robot). A latent space per body part drives it
+    /// too: its gate's signals are then each part's over that part's thresholds.
+    pub model: Option<Arc<AnyModel>>,
     /// The robot's anatomy: its URDF (joint limits, the live view), the joints its commands
     /// name and the hold values of those the model does not predict.
     pub anatomy: Anatomy,

@@ -16,6 +16,7 @@ use super::tf_input::TfInput;
 use super::{Latency, RobotSummary, TeleopOptions, TeleopSummary};
 use crate::msgs::{DiagnosticArray, JointState, Time};
 use crate::LiveError;
+use sgplvm_core::AnyModel;
 
 /// Everything the loop keeps from one wake-up to the next.
 ///
@@ -319,21 +320,28 @@ impl<'a> Session<'a> {
         }
         self.last_stamp = Some(stamp.to_ns());
         for (slot, known) in self.slots.iter_mut().zip(&mut self.known) {
-            slot.ok = slot.model.latent_frame(&self.h, &mut slot.x).is_ok();
             // Not a number (the robots hold) when the pose cannot be reconstructed.
-            *known = match slot.ok {
-                true => [
-                    slot.model
-                        .reconstruction_error(&self.h, &slot.x)
-                        .unwrap_or(f64::NAN),
-                    slot.model.novelty(&self.h).unwrap_or(f64::NAN),
-                ],
-                false => [f64::NAN; 2],
+            *known = match slot.model.as_ref() {
+                AnyModel::Single(m) => {
+                    slot.ok = m.latent_frame(&self.h, &mut slot.x).is_ok();
+                    match slot.ok {
+                        true => [
+                            m.reconstruction_error(&self.h, &slot.x).unwrap_or(f64::NAN),
+                            m.novelty(&self.h).unwrap_or(f64::NAN),
+                        ],
+                        false => [f64::NAN; 2],
+                    }
+                }
+                AnyModel::Parts(m) => {
+                    let known = m.known_frame(&self.h);
+                    slot.ok = known.is_ok();
+                    known.unwrap_or([f64::NAN; 2])
+                }
             };
         }
         for r in &mut self.driven {
             let by = match r.model_slot {
-                Some(k) => By::Model(&self.slots[k], self.known[k]),
+                Some(k) => By::Model(&self.slots[k], &self.h, self.known[k]),
                 None => By::Retargeting(&self.h),
             };
             let sent = Sent {
@@ -346,7 +354,11 @@ impl<'a> Session<'a> {
         }
         self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
         if let Some(v) = self.view.as_mut() {
-            let latent = self.driven[0].model_slot.map(|k| &self.slots[k]);
+            // The latent point of a single latent space (a per-part model has one per part).
+            let latent = self.driven[0]
+                .model_slot
+                .map(|k| &self.slots[k])
+                .filter(|l| matches!(l.model.as_ref(), AnyModel::Single(_)));
             show(
                 v,
                 &self.driven,

@@ -9,6 +9,7 @@ use crate::commands::Command;
 use crate::gate::{Decision, Frame, Reason};
 use crate::msgs::Time;
 use crate::LiveError;
+use sgplvm_core::AnyModel;
 
 /// What a command carries and when it is sent: the stamp of the human frame it answers, the
 /// input's period (a trajectory point's time) and the node's clock.
@@ -18,13 +19,13 @@ pub(super) struct Sent {
     pub(super) start: Instant,
 }
 
-/// What a robot's target comes from in the current frame: its model (the frame's latent point
-/// and the pose's reconstruction error and novelty under it), or retargeting of the human
-/// frame.
+/// What a robot's target comes from in the current frame: its model (the frame's latent point,
+/// the human frame, and the pose's reconstruction error and novelty under it), or retargeting
+/// of the human frame.
 pub(super) enum By<'a> {
-    /// The robot's model: the frame's latent point, the pose's reconstruction error and its
-    /// novelty.
-    Model(&'a LatentSlot, [f64; 2]),
+    /// The robot's model: the frame's latent point, the human frame, the pose's reconstruction
+    /// error and its novelty.
+    Model(&'a LatentSlot, &'a [f64], [f64; 2]),
     /// Retargeting of the human frame.
     Retargeting(&'a [f64]),
 }
@@ -41,14 +42,14 @@ pub(super) fn command(
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
     let (sd, [e, novelty]) = match (by, r.retargeter.as_mut()) {
-        (By::Model(slot, known), _) => {
-            let sd = match slot.ok {
-                true => slot
-                    .model
-                    .predict_latent_sd(&slot.x, &r.drive.robot, &mut r.model_mean, &mut r.model_sd)
-                    .unwrap_or(f64::NAN),
-                false => f64::NAN,
-            };
+        (By::Model(slot, h, known), _) => {
+            let (robot, mean, sd) = (&r.drive.robot, &mut r.model_mean, &mut r.model_sd);
+            let sd = match (slot.ok, slot.model.as_ref()) {
+                (true, AnyModel::Single(m)) => m.predict_latent_sd(&slot.x, robot, mean, sd),
+                (true, AnyModel::Parts(m)) => m.predict_frame_sd(h, robot, mean, sd),
+                (false, _) => Ok(f64::NAN),
+            }
+            .unwrap_or(f64::NAN);
             (sd, known)
         }
         (By::Retargeting(h), Some(retargeter)) => {
