@@ -140,8 +140,9 @@ fn refuses_what_a_per_arm_model_cannot_do(
     human: &std::path::Path,
 ) {
     let out = dir.join("refused.csv");
-    // One shared latent space only: said by name, nothing written.
-    let e = fails_on_one_line(&[
+    // evaluate takes it (each arm gating its own share of the pose); simulate takes one shared
+    // latent space only: said by name, nothing written.
+    let report = ok(&[
         "evaluate",
         "--model",
         s(coman),
@@ -150,7 +151,26 @@ fn refuses_what_a_per_arm_model_cannot_do(
         "--data",
         s(data),
     ]);
+    assert!(
+        report.contains("coman: test MSE")
+            && report.contains("gate (a latent space per part)")
+            && report.contains("known *"),
+        "{report}"
+    );
+    let replay = dir.join("refused.mcap");
+    let e = fails_on_one_line(&[
+        "simulate",
+        "--model",
+        s(coman),
+        "--input",
+        s(data),
+        "--robot",
+        "coman",
+        "--out",
+        s(&replay),
+    ]);
     assert!(e.contains("a model with a latent space per body part, where a model with one shared latent space is expected"), "{e}");
+    assert!(!replay.exists());
     let e = fails_on_one_line(&[
         "transfer",
         "--model",

@@ -96,8 +96,8 @@ impl PartsGplvm {
         Ok(out)
     }
 
-    /// Checks a raw human frame `h` and an output buffer of `out` values for `space`.
-    fn check_frame(&self, h: &[f64], space: &str, out: usize) -> Result<()> {
+    /// Checks the length of a raw human frame `h`.
+    fn check_input_frame(&self, h: &[f64]) -> Result<()> {
         let dh = self.spaces[0].dim;
         if h.len() != dh {
             return Err(Error::DimensionMismatch {
@@ -106,6 +106,12 @@ impl PartsGplvm {
                 found: h.len(),
             });
         }
+        Ok(())
+    }
+
+    /// Checks a raw human frame `h` and an output buffer of `out` values for `space`.
+    fn check_frame(&self, h: &[f64], space: &str, out: usize) -> Result<()> {
+        self.check_input_frame(h)?;
         let d = self.output_dim(space)?;
         if out != d {
             return Err(Error::DimensionMismatch {
@@ -178,14 +184,7 @@ impl PartsGplvm {
     /// (on their own human columns) over the part's threshold: the live gate's signals of a
     /// per-part model, beyond 1 where a part does not know its share of the pose.
     pub fn known_frame(&self, h: &[f64]) -> Result<[f64; 2]> {
-        let dh = self.spaces[0].dim;
-        if h.len() != dh {
-            return Err(Error::DimensionMismatch {
-                what: format!("input frame for '{}'", self.input_name()),
-                expected: dh,
-                found: h.len(),
-            });
-        }
+        self.check_input_frame(h)?;
         let mut out = [0.0f64; 2];
         for part in &self.parts {
             let m = &part.model;
