@@ -186,7 +186,7 @@ impl Demonstrations {
         }
         model.set_trust_groups(training.groups)?;
         if let Some(bounds) = training.pose_bounds {
-            model.set_pose_bounds(bounds)?;
+            model.set_pose_bounds(bounds, sgplvm_core::RANDOM_PERCENTILE)?;
         }
         Ok(model)
     }
@@ -223,7 +223,7 @@ impl Demonstrations {
         }
         if transferred.pose_bounds().is_none() {
             if let Ok(bounds) = human_pose_bounds(&ds.human.joint_names) {
-                transferred.set_pose_bounds(bounds)?;
+                transferred.set_pose_bounds(bounds, sgplvm_core::RANDOM_PERCENTILE)?;
             }
         }
         Ok(transferred)

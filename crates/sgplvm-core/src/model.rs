@@ -110,6 +110,7 @@ pub struct SharedGplvm {
     /// The human's joint limits the novelty threshold's random poses are drawn within
     /// (`novelty` module), and the novelty threshold as read from a model file.
     pub(crate) pose_bounds: Option<Vec<(f64, f64)>>,
+    pub(crate) random_followed: f64,
     pub(crate) novelty: Option<f64>,
     /// True after `set_params` until the input map is refitted to the new latent points: the
     /// refitted map then lives in `prepared` (the stored one is only its warm start).
@@ -195,6 +196,7 @@ impl SharedGplvm {
             trust_groups: None,
             reconstruction: None,
             pose_bounds: None,
+            random_followed: crate::novelty::RANDOM_PERCENTILE,
             novelty: None,
             map_stale: false,
             annotations: std::collections::BTreeMap::new(),

@@ -15,9 +15,13 @@
 //! pose is near someone's.
 //!
 //! **The threshold**, where the human's joint limits are known
-//! ([`SharedGplvm::set_pose_bounds`]), is the [`RANDOM_PERCENTILE`] of the distances of
-//! [`RANDOM_POSES`] poses drawn uniformly within them (ChaCha8, a fixed seed): at most 1 % of
-//! such poses are followed, however near or far the people in the data stand from each other.
+//! ([`SharedGplvm::set_pose_bounds`]), is the percentile of the distances of [`RANDOM_POSES`]
+//! poses drawn uniformly within them (ChaCha8, a fixed seed) below which the share of them to
+//! follow lies ([`RANDOM_PERCENTILE`], 1 %, for a whole frame), however near or far the people
+//! in the data stand from each other. A body part's model follows a larger share of its part's
+//! random poses: a random frame is followed only where every part is, so `P` parts each
+//! following 1 %^(1/P) of theirs follow 1 % of random frames (two arms: 10 % each,
+//! [`crate::PartsGplvm::set_pose_bounds`]).
 //! Without the limits it is the [`NOVELTY_PERCENTILE`] of the training frames' distances to
 //! the nearest training pose of *another* group (the groups of the trust threshold,
 //! [`SharedGplvm::set_trust_groups`]: per person where the data names people), which is
@@ -61,7 +65,8 @@ pub struct NoveltyCalibration {
     pub held_out: Vec<f64>,
     /// Their [`NOVELTY_PERCENTILE`].
     pub percentile: f64,
-    /// The [`RANDOM_PERCENTILE`] of random poses' distances, when the bounds are known.
+    /// The percentile of random poses' distances below which the share to follow lies
+    /// ([`RANDOM_PERCENTILE`] unless set), when the bounds are known.
     pub random: Option<f64>,
     /// The threshold: `random` where the bounds are known, else `percentile`.
     pub threshold: f64,
@@ -135,8 +140,16 @@ impl Reference {
 
 impl SharedGplvm {
     /// The human's joint limits (raw units, one `(lower, upper)` per human column) that the
-    /// novelty threshold's random poses are drawn within; a stored threshold is dropped.
-    pub fn set_pose_bounds(&mut self, bounds: Vec<(f64, f64)>) -> Result<()> {
+    /// novelty threshold's random poses are drawn within, and the share of them to follow
+    /// (in (0, 1); [`RANDOM_PERCENTILE`] for a model of the whole frame); a stored threshold
+    /// is dropped.
+    pub fn set_pose_bounds(&mut self, bounds: Vec<(f64, f64)>, followed: f64) -> Result<()> {
+        if !(followed > 0.0 && followed < 1.0) {
+            return Err(Error::InvalidValue {
+                what: "share of random poses to follow".into(),
+                reason: format!("{followed}: expected a number between 0 and 1"),
+            });
+        }
         let d = self.spaces[0].data.ncols();
         if bounds.len() != d {
             return Err(Error::DimensionMismatch {
@@ -156,6 +169,7 @@ impl SharedGplvm {
             });
         }
         self.pose_bounds = Some(bounds);
+        self.random_followed = followed;
         self.novelty = None;
         Ok(())
     }
@@ -163,6 +177,11 @@ impl SharedGplvm {
     /// The bounds set by [`SharedGplvm::set_pose_bounds`].
     pub fn pose_bounds(&self) -> Option<&[(f64, f64)]> {
         self.pose_bounds.as_deref()
+    }
+
+    /// The share of random poses within the bounds the novelty threshold follows.
+    pub fn random_followed(&self) -> f64 {
+        self.random_followed
     }
 
     /// The novelty threshold: the distance to the nearest training pose (see the `novelty`
@@ -222,7 +241,7 @@ impl SharedGplvm {
                     reference.nearest(&u, |_| true)
                 })
                 .collect();
-            percentile(distances, RANDOM_PERCENTILE)
+            percentile(distances, self.random_followed)
         });
         Ok(NoveltyCalibration {
             threshold: random.unwrap_or(p),
@@ -333,7 +352,8 @@ mod tests {
         assert!(c.held_out.iter().all(|&d| d > 0.0));
         // Bounds wide around the data: the random poses' 1st percentile is the threshold, and
         // at most 1 % of other such poses fall within it.
-        m.set_pose_bounds(vec![(-3.0, 6.0); 6]).unwrap();
+        m.set_pose_bounds(vec![(-3.0, 6.0); 6], RANDOM_PERCENTILE)
+            .unwrap();
         let c = m.novelty_calibration().unwrap();
         assert_eq!(Some(c.threshold), c.random);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(99);
@@ -351,13 +371,16 @@ mod tests {
         );
         // Bad bounds are refused, naming the joint.
         let e = m
-            .set_pose_bounds(vec![(0.0, 1.0); 5])
+            .set_pose_bounds(vec![(0.0, 1.0); 5], RANDOM_PERCENTILE)
             .unwrap_err()
             .to_string();
         assert!(e.contains('6') && e.contains('5'), "{e}");
         let mut bad = vec![(0.0, 1.0); 6];
         bad[2] = (1.0, 0.0);
-        let e = m.set_pose_bounds(bad).unwrap_err().to_string();
+        let e = m
+            .set_pose_bounds(bad, RANDOM_PERCENTILE)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("joint 2"), "{e}");
     }
 
@@ -366,17 +389,26 @@ mod tests {
         let mut m = fit(BackConstraint::Input, 40, 5, 1);
         m.set_trust_groups((0..40).map(|i| i / 10).collect())
             .unwrap();
-        m.set_pose_bounds(vec![(-3.0, 6.0); 6]).unwrap();
+        // A part's share (two parts: 10 % of their random poses each).
+        m.set_pose_bounds(vec![(-3.0, 6.0); 6], 0.1).unwrap();
         let t = m.novelty_threshold().unwrap();
         let bytes = m.to_bytes();
         let back = SharedGplvm::from_bytes(&bytes).unwrap();
         assert_eq!(
-            (back.novelty, back.pose_bounds()),
-            (Some(t), m.pose_bounds())
+            (back.novelty, back.pose_bounds(), back.random_followed()),
+            (Some(t), m.pose_bounds(), 0.1)
         );
+        // Recomputed from what the file says, the same threshold; a share out of (0, 1) refused.
+        let recomputed = crate::io::with_payload(&bytes, |json| {
+            assert!(json.as_object_mut().unwrap().remove("novelty").is_some());
+        });
+        let back = SharedGplvm::from_bytes(&recomputed).unwrap();
+        assert_eq!(back.novelty_threshold().unwrap(), t);
+        assert!(m.set_pose_bounds(vec![(-3.0, 6.0); 6], 1.0).is_err());
         let old = crate::io::with_payload(&bytes, |json| {
             let o = json.as_object_mut().unwrap();
             assert!(o.remove("novelty").is_some() && o.remove("pose_bounds").is_some());
+            assert!(o.remove("random_followed").is_some());
         });
         let back = SharedGplvm::from_bytes(&old).unwrap();
         assert_eq!(back.novelty, None);

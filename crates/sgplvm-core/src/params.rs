@@ -199,6 +199,7 @@ impl SharedGplvm {
             trust_groups: self.trust_groups.clone(),
             reconstruction: None,
             pose_bounds: self.pose_bounds.clone(),
+            random_followed: self.random_followed,
             novelty: self.novelty,
             map_stale: self.map_stale,
             annotations: self.annotations.clone(),

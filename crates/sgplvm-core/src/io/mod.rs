@@ -316,6 +316,9 @@ pub(crate) struct ModelFile {
     /// threshold is then computed when asked for, from the held-out frames alone).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pose_bounds: Option<Vec<(f64, f64)>>,
+    /// The share of random poses within them the threshold follows (absent: 1 %).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    random_followed: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     novelty: Option<f64>,
     /// What users attached to the model ([`SharedGplvm::annotations`]; absent when nothing
@@ -392,6 +395,7 @@ impl SharedGplvm {
             trust_groups: self.trust_groups.clone(),
             reconstruction: self.reconstruction_threshold().ok(),
             pose_bounds: self.pose_bounds.clone(),
+            random_followed: self.pose_bounds.as_ref().map(|_| self.random_followed),
             novelty: self.novelty_threshold().ok(),
             annotations: self.annotations.clone(),
         }
@@ -561,8 +565,11 @@ impl SharedGplvm {
             model.reconstruction = Some(t);
         }
         if let Some(bounds) = f.pose_bounds {
+            let followed = f
+                .random_followed
+                .unwrap_or(crate::novelty::RANDOM_PERCENTILE);
             model
-                .set_pose_bounds(bounds)
+                .set_pose_bounds(bounds, followed)
                 .map_err(|e| corrupt(format!("pose_bounds: {e}")))?;
         }
         if let Some(t) = f.novelty {

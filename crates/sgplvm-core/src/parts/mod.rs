@@ -232,7 +232,8 @@ impl PartsGplvm {
 
     /// The human's joint limits (one `(lower, upper)` per human column of the whole model):
     /// each part's novelty threshold is calibrated within its own columns' limits
-    /// ([`SharedGplvm::set_pose_bounds`]).
+    /// ([`SharedGplvm::set_pose_bounds`]), following 1 %^(1/P) of its random poses for P
+    /// parts, so that 1 % of random whole frames (every part followed) are.
     pub fn set_pose_bounds(&mut self, bounds: &[(f64, f64)]) -> Result<()> {
         let input = self.input_name().to_string();
         let d = self.space_dim(&input).unwrap_or(0);
@@ -243,12 +244,13 @@ impl PartsGplvm {
                 found: bounds.len(),
             });
         }
+        let followed = crate::RANDOM_PERCENTILE.powf(1.0 / self.parts.len().max(1) as f64);
         for k in 0..self.parts.len() {
             let name = self.parts[k].name.clone();
             let columns = self.part_columns(&name, &input).unwrap_or(&[]).to_vec();
             self.parts[k]
                 .model
-                .set_pose_bounds(columns.iter().map(|&c| bounds[c]).collect())
+                .set_pose_bounds(columns.iter().map(|&c| bounds[c]).collect(), followed)
                 .map_err(|e| e.in_part(&name))?;
         }
         Ok(())

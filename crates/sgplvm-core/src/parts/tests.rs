@@ -359,3 +359,29 @@ fn the_file_round_trips_and_each_kind_is_refused_as_the_other() {
     let e = edit(&|j| j["parts"][1]["model"]["config"]["latent_dim"] = serde_json::json!(0));
     assert!(e.contains("part 'right'"), "{e}");
 }
+
+#[test]
+fn each_arm_follows_a_tenth_of_its_random_poses_so_the_frame_follows_a_hundredth() {
+    // Two parts: each arm's novelty threshold follows 1 %^(1/2) = 10 % of that arm's random
+    // poses, so a random frame (both arms followed, the arms drawn independently) is followed
+    // 1 % of the time; the ratios the gate reads are each part's own over its threshold.
+    let (mut model, h, ..) = fitted(60, None);
+    let bounds = vec![(-2.0, 4.0); 6];
+    assert!(model.set_pose_bounds(&bounds[..5]).is_err());
+    model.set_pose_bounds(&bounds).unwrap();
+    for name in model.part_names() {
+        let part = model.part(name).unwrap();
+        assert!((part.random_followed() - 0.1).abs() < 1e-12, "{name}");
+        assert_eq!(part.pose_bounds(), Some(&bounds[..3]));
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let frames = Mat::from_fn(3000, 6, |_, _| rng.random_range(-2.0..4.0));
+    let [_, _, novelty] = model.gate_ratios(frames.as_ref(), "walkman").unwrap();
+    let followed = novelty.iter().filter(|&&r| r <= 1.0).count();
+    assert!(followed <= 60, "{followed} of 3000 random frames followed");
+    // A training frame is followed by every part, and its per-frame ratios are the batch's.
+    let row: Vec<f64> = (0..6).map(|j| h[(4, j)]).collect();
+    let [e, n] = model.known_frame(&row).unwrap();
+    let batch = model.gate_ratios(h.subrows(4, 1), "walkman").unwrap();
+    assert!(n < 1e-9 && (e - batch[1][0]).abs() < 1e-12 && n == batch[2][0]);
+}
