@@ -441,6 +441,12 @@ fn print_postures(reports: &[ReachReport]) {
                 first_few(&held, 4)
             );
         }
+        if p.from_fixed_starts {
+            println!(
+                "{:<12} solved each frame from fixed starts (following each frame's path from the person's neutral fit the person's key postures worse: this robot's limits stop it short); the posture is a function of the pose but may change branch between near poses",
+                r.robot
+            );
+        }
         if p.stepped_from_before_frames > 0 {
             println!(
                 "{:<12} {} frame(s) asked a posture too deep in the robot's own shapes to step out of alone: stepped from the command before (those frames depend on the path)",

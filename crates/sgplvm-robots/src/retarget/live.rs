@@ -33,7 +33,7 @@ impl FrameRetargeter {
         let person = PersonGauge::new(human);
         let solver = ArmSolver::new(
             anatomy,
-            person.person(),
+            &person,
             &key_configurations(anatomy),
             &options.whole_arm,
         );

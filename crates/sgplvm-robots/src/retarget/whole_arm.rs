@@ -244,6 +244,9 @@ pub(super) struct PersonGauge {
     /// The arm postures of the person's reference posture and of their neutral.
     reference: [ArmPosture; 2],
     neutral: [ArmPosture; 2],
+    /// The paths of the person's key postures: the fixed probes a robot's solver decides by
+    /// whether it follows paths ([`ArmSolver::new`]).
+    probes: Vec<Vec<[ArmPosture; 2]>>,
 }
 
 /// The largest change of any of the person's joints (radians) between two points of a frame's
@@ -257,12 +260,31 @@ impl PersonGauge {
         let gauge = PostureGauge::at(&human, &at);
         let reference = gauge.measure(&human, &at);
         let neutral = gauge.measure(&human, human.hold_configuration());
-        PersonGauge {
+        let mut person = PersonGauge {
             human,
             gauge,
             reference,
             neutral,
-        }
+            probes: Vec::new(),
+        };
+        // The human's key postures (the generator's); none if they cannot be solved.
+        let keys = crate::generator::solve_key_poses("human")
+            .map(|k| k.postures)
+            .unwrap_or_default();
+        person.probes = keys
+            .iter()
+            .map(|q| {
+                let mut path = Vec::new();
+                person.path(q, &mut path);
+                path
+            })
+            .collect();
+        person
+    }
+
+    /// The paths of the person's key postures.
+    pub(super) fn probes(&self) -> &[Vec<[ArmPosture; 2]>] {
+        &self.probes
     }
 
     /// The human model's joint count.
@@ -320,7 +342,7 @@ pub(super) fn run(
     velocity_limits: bool,
 ) -> Result<(DMatrix<f64>, Vec<f64>, PostureReport), String> {
     let robot = anatomy.robot();
-    let solver = ArmSolver::new(anatomy, person.person(), seeds, options);
+    let solver = ArmSolver::new(anatomy, person, seeds, options);
     let (gauge, model, q_index, hold) =
         (&solver.gauge, &solver.model, &solver.q_index, &solver.hold);
     let mut safety = SafetyStep::new(
@@ -336,7 +358,10 @@ pub(super) fn run(
     let mut ideal = hold.clone();
     let frames = human.nrows();
     let mut out = DMatrix::<f64>::from_fn(frames, hold.len(), |_, i| hold[i]);
-    let mut tally = Tally::default();
+    let mut tally = Tally {
+        from_fixed_starts: !solver.follows(),
+        ..Tally::default()
+    };
     let mut sent = vec![0.0; q_index.len()];
     let mut path = Vec::new();
     for f in 0..frames {

@@ -37,6 +37,12 @@ pub struct PostureReport {
     /// depends on the path when velocity limits are off.
     #[serde(default)]
     pub stepped_from_before_frames: usize,
+    /// Whether each frame was solved from the fixed starts (the best fit kept) rather than
+    /// followed along its path from the person's neutral: for a robot whose limits stop the
+    /// followed posture short of the person's key postures (the posture is then a function of
+    /// the pose, but may change branch between near poses).
+    #[serde(default)]
+    pub from_fixed_starts: bool,
     /// Which velocity limits held the commands: per joint that was held at its limit (the
     /// command moved by the limit's whole step and not as far as asked), the joint, its limit
     /// (rad/s or m/s) and the frames; most frames first.
@@ -92,6 +98,8 @@ pub struct PairHeld {
 /// What the frames showed, gathered.
 #[derive(Default)]
 pub(super) struct Tally {
+    /// Whether frames were solved from the fixed starts ([`PostureReport::from_fixed_starts`]).
+    pub(super) from_fixed_starts: bool,
     pub(super) upper: Vec<f64>,
     pub(super) forearm: Vec<f64>,
     pub(super) hand: Vec<f64>,
@@ -228,6 +236,7 @@ impl Tally {
             velocity_limited_frames: self.velocity_limited,
             collision_limited_frames: self.collision_limited,
             stepped_from_before_frames: self.from_before,
+            from_fixed_starts: self.from_fixed_starts,
             velocity_limited_joints,
             collision_limited_pairs,
             colliding_frames: self.colliding,

@@ -6,7 +6,7 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::{ArmPosture, PostureGauge, WholeArmOptions};
+use super::{ArmPosture, PersonGauge, PostureGauge, WholeArmOptions};
 use crate::anatomy::Anatomy;
 use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::RobotFrames;
@@ -31,22 +31,27 @@ pub(in crate::retarget) struct ArmSolver {
     /// The posture every frame's path starts from: the person's neutral, solved from the
     /// neutral posture and the fixed starts (whole configuration).
     start: Vec<f64>,
+    /// The fixed starts (whole configurations), and whether frames are followed along their
+    /// paths rather than solved from them ([`ArmSolver::choose`]).
+    seeds: Vec<Vec<f64>>,
+    follows: bool,
     elbows: Vec<ElbowSide>,
     options: WholeArmOptions,
 }
 
 impl ArmSolver {
-    /// The solver of `anatomy`'s arms for a person whose turns are measured from `reference`
-    /// ([`super::reference_configuration`]); every frame's path starts at the person's
-    /// `neutral` postures, which are solved once from the robot's neutral posture and the
-    /// fixed starts `seeds` (whole configurations).
+    /// The solver of `anatomy`'s arms for `person` (turns measured from their reference
+    /// posture, [`super::reference_configuration`]); every frame's path starts at the posture
+    /// for the person's neutral, solved once from the robot's neutral posture and the fixed
+    /// starts `seeds` (whole configurations); and whether this robot follows paths at all is
+    /// decided on the person's key postures ([`ArmSolver::choose`]).
     pub(in crate::retarget) fn new(
         anatomy: &Anatomy,
-        person: (&[ArmPosture; 2], &[ArmPosture; 2]),
+        person: &PersonGauge,
         seeds: &[Vec<f64>],
         options: &WholeArmOptions,
     ) -> ArmSolver {
-        let (reference, neutral_target) = person;
+        let (reference, neutral_target) = person.person();
         let robot = anatomy.robot();
         let q_index: Vec<usize> = anatomy
             .arm_joint_names()
@@ -62,6 +67,8 @@ impl ArmSolver {
             neutral: q_index.iter().map(|&i| hold[i]).collect(),
             elbows: elbow_sides(anatomy, &active),
             start: hold.clone(),
+            seeds: seeds.to_vec(),
+            follows: true,
             q_index,
             active,
             hold,
@@ -74,6 +81,7 @@ impl ArmSolver {
             .frame()
             .solve_from_starts(&mut start, neutral_target, seeds);
         solver.start = start;
+        solver.choose(person.probes());
         solver
     }
 
@@ -99,8 +107,43 @@ impl ArmSolver {
         path: &[[ArmPosture; 2]],
         q: &mut Vec<f64>,
     ) -> (usize, usize) {
-        q.clone_from(&self.start);
-        self.frame().follow(q, path)
+        let Some(target) = path.last() else {
+            return (0, 0);
+        };
+        if self.follows {
+            q.clone_from(&self.start);
+            self.frame().follow(q, path)
+        } else {
+            q.clone_from(&self.hold);
+            self.frame().solve_from_starts(q, target, &self.seeds)
+        }
+    }
+
+    /// Whether frames are followed along their paths (else solved from the fixed starts).
+    pub(in crate::retarget) fn follows(&self) -> bool {
+        self.follows
+    }
+
+    /// Decides, from the paths of fixed probe poses (the person's key postures), whether
+    /// this robot follows each frame's path or solves it from the fixed starts: it follows
+    /// unless following fits the probes worse by more than [`FOLLOW_TOLERANCE`] in total (a
+    /// robot whose limits stop the posture carried from the neutral short of the pose, where
+    /// another start reaches it). A property of the robot and the probes, never of the data:
+    /// the posture stays a function of the pose.
+    fn choose(&mut self, probes: &[Vec<[ArmPosture; 2]>]) {
+        let frame = self.frame();
+        let (mut followed, mut started) = (0.0, 0.0);
+        for path in probes {
+            let Some(target) = path.last() else { continue };
+            let tasks = frame.tasks(target);
+            let mut q = self.start.clone();
+            frame.follow(&mut q, path);
+            followed += frame.cost(&q, &tasks);
+            let mut q = self.hold.clone();
+            frame.solve_from_starts(&mut q, target, &self.seeds);
+            started += frame.cost(&q, &tasks);
+        }
+        self.follows = followed <= FOLLOW_TOLERANCE * started + 1e-9;
     }
 
     /// The arm joints' configuration indices, in the order of the anatomy's arm joint names.
@@ -133,6 +176,10 @@ const SEED_STARTS: usize = 2;
 /// Gauss–Newton steps at most per point of a frame's path before its last (the path only
 /// chooses which of the postures that fit the pose the last point converges to).
 const PATH_ITERATIONS: usize = 6;
+
+/// How much worse (total objective over the probe poses) following may fit than the fixed
+/// starts before a robot solves from the starts instead ([`ArmSolver::choose`]).
+const FOLLOW_TOLERANCE: f64 = 1.5;
 
 /// How far past straight (radians) an elbow is let bend the other way while retargeting.
 const PAST_STRAIGHT: f64 = 0.02;
@@ -316,9 +363,16 @@ impl FrameSolver<'_> {
 
     /// The posture for `target` converged from the robot's neutral (`q` on entry) and from the
     /// [`SEED_STARTS`] fixed starts whose objective is lowest at the start, the lowest objective
-    /// kept (the first start's on a tie within 0.1 %), into `q`.
-    fn solve_from_starts(&self, q: &mut Vec<f64>, target: &[ArmPosture; 2], seeds: &[Vec<f64>]) {
+    /// kept (the first start's on a tie within 0.1 %), into `q`; the steps taken and how many
+    /// had an active limit.
+    fn solve_from_starts(
+        &self,
+        q: &mut Vec<f64>,
+        target: &[ArmPosture; 2],
+        seeds: &[Vec<f64>],
+    ) -> (usize, usize) {
         let tasks = self.tasks(target);
+        let (mut steps, mut constrained) = (0, 0);
         let mut starts: Vec<(f64, &Vec<f64>)> =
             seeds.iter().map(|s| (self.cost(s, &tasks), s)).collect();
         starts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -326,7 +380,9 @@ impl FrameSolver<'_> {
         let first = q.clone();
         for start in std::iter::once(&first).chain(starts.iter().take(SEED_STARTS).map(|s| s.1)) {
             let mut x = start.clone();
-            self.converge(&mut x, &tasks);
+            let (s, c) = self.converge(&mut x, &tasks);
+            steps += s;
+            constrained += c;
             let cost = self.cost(&x, &tasks);
             if best
                 .as_ref()
@@ -338,6 +394,7 @@ impl FrameSolver<'_> {
         if let Some((x, _)) = best {
             *q = x;
         }
+        (steps, constrained)
     }
 
     /// Converges `q` onto the tasks, the self-collision limit only where the tasks alone end
