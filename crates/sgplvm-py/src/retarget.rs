@@ -75,7 +75,7 @@ fn anatomies(robots: &Bound<'_, PyDict>) -> PyResult<Vec<(String, Anatomy)>> {
 /// demonstrations split for training (as `sgplvm retarget` does) and returns its report;
 /// without, returns per robot its joint names, commands (n, joints) and reach report.
 #[pyfunction]
-#[pyo3(signature = (robots, mode, redundancy, velocity_limits, human=None, times_ns=None, demos=None, out=None, block_seconds=4.0, test_every=4, test_files=None, guard_seconds=0.5, train_subsample=12, test_subsample=3))]
+#[pyo3(signature = (robots, mode, redundancy, velocity_limits, human=None, times_ns=None, demos=None, out=None, block_seconds=4.0, test_every=4, test_files=None, guard_seconds=0.5, train_subsample=12, test_subsample=3, test_people=None))]
 #[allow(clippy::too_many_arguments)] // the Python signature, keyword arguments included
 pub fn retarget_native<'py>(
     py: Python<'py>,
@@ -93,6 +93,7 @@ pub fn retarget_native<'py>(
     guard_seconds: f64,
     train_subsample: usize,
     test_subsample: usize,
+    test_people: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     guarded(|| {
         let options = options(mode, redundancy, velocity_limits)?;
@@ -110,9 +111,15 @@ pub fn retarget_native<'py>(
                 test_subsample,
                 ..SplitOptions::default()
             };
-            let test = match test_files {
-                Some(files) => TestChoice::Files(files),
-                None => TestChoice::EveryNthBlock(test_every),
+            let test = match (test_files, test_people) {
+                (Some(_), Some(_)) => {
+                    return Err(PyValueError::new_err(
+                        "test_files= and test_people= both choose the test motions: give one",
+                    ))
+                }
+                (Some(files), None) => TestChoice::Files(files),
+                (None, Some(people)) => TestChoice::People(people),
+                (None, None) => TestChoice::EveryNthBlock(test_every),
             };
             let done = py
                 .detach(|| retarget_files(&demos, &robots, &options, &split, &test, &out))

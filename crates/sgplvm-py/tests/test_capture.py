@@ -290,3 +290,32 @@ def test_the_shipped_captured_demonstrations_meet_the_fit_figures():
     assert set(demos["robots"]) == {"walkman", "coman", "centauro"}
     assert len(demos["train"]) > 200 and len(demos["test"]) > 200
     assert not set(demos["train"]) & set(demos["test"])
+
+
+def test_retarget_keeps_named_people_whole_for_testing(tmp_path):
+    """``retarget(..., test_people=[...])`` (issue 49): every file of the named people is kept
+    whole for testing, as ``sgplvm retarget --split people`` does; an unknown name is refused
+    naming who there is, and test_files with test_people is refused."""
+    from _cli import sgplvm_binary
+
+    bvh = Path(__file__).resolve().parents[3] / "data" / "capture" / "cmu-13_26.bvh"
+    files = []
+    for person, span in (("anna", ["--to", "20"]), ("ben", ["--from", "20"]), ("cleo", ["--from", "10", "--to", "30"])):
+        out = tmp_path / f"{person}.mcap"
+        subprocess.run([str(sgplvm_binary()), "import", str(bvh), "--person", person, "--out", str(out), *span],
+                       check=True, capture_output=True)
+        files.append(out)
+    out = tmp_path / "split.mcap"
+    report = sgplvm.retarget(["coman"], demos=files, out=out, test_people=["ben"])
+    assert report["test_people"] == ["ben"] and sorted(report["train_people"]) == ["anna", "cleo"], report
+    d = sgplvm.load_demonstrations(out)
+    person = np.empty(len(d["times_ns"]), dtype=object)
+    for s in d["segments"]:
+        person[s["start"]:s["end"]] = s["person"]
+    assert set(person[np.asarray(d["test"])]) == {"ben"}
+    assert set(person[np.asarray(d["train"])]) == {"anna", "cleo"}
+    with pytest.raises(ValueError, match="dora") as e:
+        sgplvm.retarget(["coman"], demos=files, out=tmp_path / "x.mcap", test_people=["dora"])
+    assert "anna" in str(e.value)
+    with pytest.raises(ValueError, match="give one"):
+        sgplvm.retarget(["coman"], demos=files, out=tmp_path / "y.mcap", test_people=["ben"], test_files=["0"])

@@ -134,6 +134,7 @@ def retarget(
     guard_seconds: float = 0.5,
     train_subsample: int = 12,
     test_subsample: int = 3,
+    test_people: Optional[Sequence[str]] = None,
 ) -> Dict[str, Any]:
     """Robot commands for a human's motion, like ``sgplvm retarget``: each robot's hands placed
     where the person's are relative to the shoulders (in units of reach, in each body's own
@@ -149,9 +150,11 @@ def retarget(
 
     Without ``out``: returns ``{robot: {"joint_names", "positions" (n, joints), "report"}}``.
     With ``out`` (and ``demos``): writes the demonstrations split for training, as the CLI does
-    (``block_seconds``, ``test_every`` or ``test_files``, ``guard_seconds``,
-    ``train_subsample``, ``test_subsample``), and returns the report (``frames``, ``split``,
-    ``reach``, ``seconds``, ``files``, ``test_files``); :func:`load_demonstrations` reads the
+    (``block_seconds``, ``test_every``, or ``test_files``, or ``test_people`` — every file of
+    those people, as imported with ``--person``, kept whole for testing: strangers to the
+    model — ``guard_seconds``, ``train_subsample``, ``test_subsample``), and returns the report
+    (``frames``, ``split``, ``reach``, ``seconds``, ``files``, ``test_files``,
+    ``train_people``, ``test_people``); :func:`load_demonstrations` reads the
     file. Demonstrations too short for one test block (fewer than ``test_every`` blocks) go to
     training whole, with a ``UserWarning`` (``split["fallback"]`` says why)."""
     named = dict(robots) if isinstance(robots, dict) else {name: name for name in robots}
@@ -177,6 +180,7 @@ def retarget(
         float(guard_seconds),
         int(train_subsample),
         int(test_subsample),
+        None if test_people is None else [str(p) for p in test_people],
     )
     fallback = result.get("split", {}).get("fallback") if out is not None else None
     if fallback:

@@ -311,6 +311,7 @@ def retarget_native(
     guard_seconds: float = 0.5,
     train_subsample: int = 12,
     test_subsample: int = 3,
+    test_people: Optional[List[str]] = None,
 ) -> Any:
     """Robot commands for a human's motion (see ``sgplvm.retarget``)."""
 
