@@ -200,7 +200,7 @@ impl SharedGplvm {
             Some(g) => g.clone(),
             None => default_groups(self.n()),
         };
-        let reference = Reference::of(self);
+        let reference = self.novelty_reference();
         let n = self.n();
         let picked = n.min(crate::TRUST_POINTS);
         let mut members: BTreeMap<usize, usize> = BTreeMap::new();

@@ -877,13 +877,14 @@ mod tests {
         let far: Vec<f64> = (0..4)
             .map(|j| h[(7, j)] + if j >= 2 { 3.0 } else { 0.0 })
             .collect();
-        let [e, n] = p.known_frame(&far).unwrap();
+        let mut x = vec![0.0; p.latent_dim()];
+        let [e, n] = p.known_frame(&far, &mut x).unwrap();
         let own = b.novelty(&far[2..]).unwrap() / b.novelty_threshold().unwrap();
         assert!(n > 1.0 && (n - own).abs() < 1e-12, "{n} {own}");
         assert!(e.is_finite());
         let (mut mean, mut sd) = ([0.0; 3], [0.0; 3]);
         let ratio = p
-            .predict_frame_sd(&far, "robot", &mut mean, &mut sd)
+            .predict_latent_sd(&x, "robot", &mut mean, &mut sd)
             .unwrap();
         let mut want = [0.0; 3];
         p.predict_frame(&far, "robot", &mut want).unwrap();
@@ -892,6 +893,6 @@ mod tests {
             "{mean:?} {want:?}"
         );
         assert!(ratio.is_finite() && sd.iter().all(|s| s.is_finite() && *s > 0.0));
-        assert!(p.known_frame(&far[..3]).is_err());
+        assert!(p.known_frame(&far[..3], &mut x).is_err());
     }
 }

@@ -147,57 +147,36 @@ impl PartsGplvm {
         Ok(())
     }
 
-    /// One raw human frame's prediction for `space`, the mean into `mean` and each joint's
-    /// predictive standard deviation into `sd`, each part on its own columns
-    /// ([`SharedGplvm::predict_frame_sd`](crate::SharedGplvm::predict_frame_sd)); returns the
-    /// largest of the parts' standardised standard deviations over their trust thresholds
-    /// (the live gate's σ signal of a per-part model: beyond 1 where a part is unsure).
-    pub fn predict_frame_sd(
-        &self,
-        h: &[f64],
-        space: &str,
-        mean: &mut [f64],
-        sd: &mut [f64],
-    ) -> Result<f64> {
-        self.check_frame(h, space, mean.len())?;
-        self.check_frame(h, space, sd.len())?;
-        let mut ratio = 0.0f64;
-        for part in &self.parts {
-            let (ins, outs) = (&part.columns[self.input_name()], &part.columns[space]);
-            let hp: Vec<f64> = ins.iter().map(|&c| h[c]).collect();
-            let (mut mp, mut sp) = (vec![0.0; outs.len()], vec![0.0; outs.len()]);
-            let in_part = |e: Error| e.in_part(&part.name);
-            let s = part
-                .model
-                .predict_frame_sd(&hp, space, &mut mp, &mut sp)
-                .map_err(in_part)?;
-            ratio = ratio.max(s / part.model.trust_threshold(space).map_err(in_part)?);
-            for (k, &c) in outs.iter().enumerate() {
-                mean[c] = mp[k];
-                sd[c] = sp[k];
-            }
-        }
-        Ok(ratio)
-    }
-
-    /// One raw human frame's reconstruction error and novelty, each the largest of the parts'
-    /// (on their own human columns) over the part's threshold: the live gate's signals of a
-    /// per-part model, beyond 1 where a part does not know its share of the pose.
-    pub fn known_frame(&self, h: &[f64]) -> Result<[f64; 2]> {
+    /// One raw human frame's latent point, every part's side by side ([`Self::latent_dim`]
+    /// values, part order) into `x`, and its reconstruction error and novelty, each the largest
+    /// of the parts' (on their own human columns) over the part's threshold: the live gate's
+    /// signals of a per-part model, beyond 1 where a part does not know its share of the pose.
+    /// `x` is the input of [`PartsGplvm::predict_latent_sd`], computed once for every robot.
+    pub fn known_frame(&self, h: &[f64], x: &mut [f64]) -> Result<[f64; 2]> {
         self.check_input_frame(h)?;
-        let mut out = [0.0f64; 2];
+        if x.len() != self.latent_dim() {
+            return Err(Error::DimensionMismatch {
+                what: "latent point (every part's)".into(),
+                expected: self.latent_dim(),
+                found: x.len(),
+            });
+        }
+        let (mut stack, mut heap) = ([0.0f64; STACK], Vec::new());
+        let (mut out, mut at) = ([0.0f64; 2], 0);
         for part in &self.parts {
             let m = &part.model;
-            let hp: Vec<f64> = part.columns[self.input_name()]
-                .iter()
-                .map(|&c| h[c])
-                .collect();
-            let mut x = vec![0.0; m.config().latent_dim];
+            let ins = &part.columns[self.input_name()];
+            let hp = buffer(&mut stack, &mut heap, ins.len());
+            for (v, &c) in hp.iter_mut().zip(ins) {
+                *v = h[c];
+            }
+            let xp = &mut x[at..at + m.config().latent_dim];
+            at += xp.len();
             let ratios = (|| {
-                m.latent_frame(&hp, &mut x)?;
+                m.latent_frame(hp, xp)?;
                 Ok::<_, Error>([
-                    m.reconstruction_error(&hp, &x)? / m.reconstruction_threshold()?,
-                    m.novelty(&hp)? / m.novelty_threshold()?,
+                    m.reconstruction_error(hp, xp)? / m.reconstruction_threshold()?,
+                    m.novelty(hp)? / m.novelty_threshold()?,
                 ])
             })()
             .map_err(|e| e.in_part(&part.name))?;
@@ -205,6 +184,57 @@ impl PartsGplvm {
             out[1] = out[1].max(ratios[1]);
         }
         Ok(out)
+    }
+
+    /// The prediction for `space` at the latent point `x` of [`PartsGplvm::known_frame`]: the
+    /// mean into `mean` and each joint's predictive standard deviation into `sd`, each part
+    /// ([`SharedGplvm::predict_latent_sd`](crate::SharedGplvm::predict_latent_sd)) on its own
+    /// columns; returns the largest of the parts' standardised standard deviations over their
+    /// trust thresholds (the live gate's σ signal of a per-part model: beyond 1 where a part is
+    /// unsure). Allocates nothing for parts of at most 64 columns per space.
+    pub fn predict_latent_sd(
+        &self,
+        x: &[f64],
+        space: &str,
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> Result<f64> {
+        let d = self.output_dim(space)?;
+        for (what, len) in [("mean", mean.len()), ("standard deviation", sd.len())] {
+            if len != d {
+                return Err(Error::DimensionMismatch {
+                    what: format!("{what} buffer for '{space}'"),
+                    expected: d,
+                    found: len,
+                });
+            }
+        }
+        if x.len() != self.latent_dim() {
+            return Err(Error::DimensionMismatch {
+                what: "latent point (every part's)".into(),
+                expected: self.latent_dim(),
+                found: x.len(),
+            });
+        }
+        let (mut mean_stack, mut sd_stack) = ([0.0f64; STACK], [0.0f64; STACK]);
+        let (mut mean_heap, mut sd_heap) = (Vec::new(), Vec::new());
+        let (mut ratio, mut at) = (0.0f64, 0);
+        for part in &self.parts {
+            let m = &part.model;
+            let xp = &x[at..at + m.config().latent_dim];
+            at += xp.len();
+            let outs = &part.columns[space];
+            let mp = buffer(&mut mean_stack, &mut mean_heap, outs.len());
+            let sp = buffer(&mut sd_stack, &mut sd_heap, outs.len());
+            let in_part = |e: Error| e.in_part(&part.name);
+            let s = m.predict_latent_sd(xp, space, mp, sp).map_err(in_part)?;
+            ratio = ratio.max(s / m.trust_threshold(space).map_err(in_part)?);
+            for (k, &c) in outs.iter().enumerate() {
+                mean[c] = mp[k];
+                sd[c] = sp[k];
+            }
+        }
+        Ok(ratio)
     }
 
     /// Latent points of raw human frames: every part's (n × its Q) side by side, in part order.

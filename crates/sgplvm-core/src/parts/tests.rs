@@ -381,7 +381,8 @@ fn each_arm_follows_a_tenth_of_its_random_poses_so_the_frame_follows_a_hundredth
     assert!(followed <= 60, "{followed} of 3000 random frames followed");
     // A training frame is followed by every part, and its per-frame ratios are the batch's.
     let row: Vec<f64> = (0..6).map(|j| h[(4, j)]).collect();
-    let [e, n] = model.known_frame(&row).unwrap();
+    let mut x = vec![0.0; model.latent_dim()];
+    let [e, n] = model.known_frame(&row, &mut x).unwrap();
     let batch = model.gate_ratios(h.subrows(4, 1), "walkman").unwrap();
     assert!(n < 1e-9 && (e - batch[1][0]).abs() < 1e-12 && n == batch[2][0]);
 }

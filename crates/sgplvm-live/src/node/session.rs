@@ -333,7 +333,7 @@ impl<'a> Session<'a> {
                     }
                 }
                 AnyModel::Parts(m) => {
-                    let known = m.known_frame(&self.h);
+                    let known = m.known_frame(&self.h, &mut slot.x);
                     slot.ok = known.is_ok();
                     known.unwrap_or([f64::NAN; 2])
                 }
@@ -341,7 +341,7 @@ impl<'a> Session<'a> {
         }
         for r in &mut self.driven {
             let by = match r.model_slot {
-                Some(k) => By::Model(&self.slots[k], &self.h, self.known[k]),
+                Some(k) => By::Model(&self.slots[k], self.known[k]),
                 None => By::Retargeting(&self.h),
             };
             let sent = Sent {

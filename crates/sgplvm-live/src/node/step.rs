@@ -19,13 +19,13 @@ pub(super) struct Sent {
     pub(super) start: Instant,
 }
 
-/// What a robot's target comes from in the current frame: its model (the frame's latent point,
-/// the human frame, and the pose's reconstruction error and novelty under it), or retargeting
-/// of the human frame.
+/// What a robot's target comes from in the current frame: its model (the frame's latent point
+/// and the pose's reconstruction error and novelty under it), or retargeting of the human
+/// frame.
 pub(super) enum By<'a> {
-    /// The robot's model: the frame's latent point, the human frame, the pose's reconstruction
-    /// error and its novelty.
-    Model(&'a LatentSlot, &'a [f64], [f64; 2]),
+    /// The robot's model: the frame's latent point, the pose's reconstruction error and its
+    /// novelty.
+    Model(&'a LatentSlot, [f64; 2]),
     /// Retargeting of the human frame.
     Retargeting(&'a [f64]),
 }
@@ -42,11 +42,11 @@ pub(super) fn command(
 ) -> Result<bool, LiveError> {
     // A prediction that fails (not a number) is not trusted: the robot holds.
     let (sd, [e, novelty]) = match (by, r.retargeter.as_mut()) {
-        (By::Model(slot, h, known), _) => {
+        (By::Model(slot, known), _) => {
             let (robot, mean, sd) = (&r.drive.robot, &mut r.model_mean, &mut r.model_sd);
             let sd = match (slot.ok, slot.model.as_ref()) {
                 (true, AnyModel::Single(m)) => m.predict_latent_sd(&slot.x, robot, mean, sd),
-                (true, AnyModel::Parts(m)) => m.predict_frame_sd(h, robot, mean, sd),
+                (true, AnyModel::Parts(m)) => m.predict_latent_sd(&slot.x, robot, mean, sd),
                 (false, _) => Ok(f64::NAN),
             }
             .unwrap_or(f64::NAN);
