@@ -32,10 +32,12 @@ mod less_data;
 mod parts;
 mod plan;
 mod report;
+mod retargeting;
 pub use less_data::subset;
 pub use parts::{pairs, recombine, PartsData, PartsRecord};
 pub use plan::{assemble, execute, plan, Task, TaskResult, TaskSpec};
 pub use report::{report, MIN_RUNS_TO_JUDGE};
+pub use retargeting::{RetargetingData, RetargetingStudy};
 
 /// Errors of an experiment.
 #[derive(Debug, thiserror::Error)]
@@ -166,6 +168,7 @@ impl<'a> Recorder<'a> {
                     stop_reason: stop_reason.clone(),
                     bayesian: false,
                     ard_weights: Vec::new(),
+                    arms_from_person: None,
                 }
             })
             .collect())
@@ -467,6 +470,12 @@ mod tests {
                 robot_arms: vec![[vec![0], vec![1]], [vec![0], vec![1]]],
                 test_pairs: (0..8).map(|i| (i, (i + 4) % 8)).collect(),
                 train_pairs: (0..24).map(|i| (i, (i + 12) % 24)).collect(),
+            }),
+            // Robots without a built-in body: the study names them and leaves them out.
+            retargeting: Some(RetargetingData {
+                robot_joints: vec![vec!["a0".into(), "a1".into()]; 2],
+                test_people: vec!["s".into()],
+                training_people: vec!["t".into()],
             }),
         }
     }

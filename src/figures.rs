@@ -551,6 +551,7 @@ mod tests {
             stop_reason: None,
             bayesian: false,
             ard_weights: Vec::new(),
+            arms_from_person: None,
         }
     }
 

@@ -20,6 +20,7 @@ pub use sgplvm_core::{
 pub use sgplvm_robots as robots;
 pub use sgplvm_robots::Robot;
 
+pub mod arms;
 pub mod csv;
 pub mod experiment;
 pub mod figures;

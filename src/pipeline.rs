@@ -146,6 +146,10 @@ pub struct ExperimentData {
     /// ([`ExperimentConfig::parts`](crate::results::ExperimentConfig::parts),
     /// [`Demonstrations::parts_data`]); `None` when it is not run.
     pub parts: Option<crate::experiment::PartsData>,
+    /// Each robot's joint names and who the frames are of, for the study of the learned mapping
+    /// against retargeting each frame directly ([`crate::experiment::RetargetingData`]);
+    /// `None`: not run.
+    pub retargeting: Option<crate::experiment::RetargetingData>,
 }
 
 /// The training frames at full rate: every frame of the training motions (test frames are the
@@ -273,6 +277,11 @@ impl Demonstrations {
             validation: self.validation_split().rows,
             all_frames: None,
             parts: None,
+            retargeting: Some(crate::experiment::RetargetingData {
+                robot_joints: ds.robots.iter().map(|r| r.joint_names.clone()).collect(),
+                test_people: ds.people_of(&ds.test),
+                training_people: ds.people_of(&ds.train),
+            }),
         })
     }
 

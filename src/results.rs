@@ -199,6 +199,11 @@ pub struct RunRecord {
     /// model (the human first); empty for the paper's model.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ard_weights: Vec<(String, Vec<f64>)>,
+    /// The shipped model's commands on the test frames against the person, on bone lines (the
+    /// paper's model on a robot with a built-in body; absent otherwise and in results written
+    /// before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arms_from_person: Option<crate::arms::ArmSummary>,
 }
 
 /// The model a training hands back, which the report judges: when training reached its
@@ -261,6 +266,11 @@ pub struct Results {
     /// The study of a latent space per arm on recombined motions (empty when not run).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parts: Vec<crate::experiment::PartsRecord>,
+    /// The retargeted test frames against the person, and who the frames are of: the yardstick
+    /// of the learned mapping ([`RunRecord::arms_from_person`]; absent in results written before
+    /// it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retargeting: Option<crate::experiment::RetargetingStudy>,
 }
 
 impl Results {

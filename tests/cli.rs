@@ -756,6 +756,29 @@ fn simulate_a_prediction() {
     assert!(err.contains("/nonexistent.csv"), "{err}");
 }
 
+/// `experiment`'s yardstick of retargeting each frame directly: every robot's retargeted test
+/// frames against the person, and every run of the paper's model beside them, in results.json
+/// and report.md.
+fn retargeting_beside_every_run(results: &serde_json::Value, report: &Path) {
+    let retargeted = results["retargeting"]["retargeted"].as_array().unwrap();
+    assert_eq!(retargeted.len(), 3, "{retargeted:?}");
+    for run in results["runs"].as_array().unwrap() {
+        if run.get("bayesian").is_some() {
+            continue;
+        }
+        let median = run["arms_from_person"]["upper_arm_median_deg"]
+            .as_f64()
+            .unwrap();
+        assert!(median.is_finite() && median >= 0.0, "{run}");
+    }
+    let report = std::fs::read_to_string(report).unwrap();
+    assert!(
+        report.contains("## The learned mapping against retargeting each frame directly")
+            && report.contains("| coman, retargeted |"),
+        "{report}"
+    );
+}
+
 #[test]
 fn experiment_writes_results_in_the_documented_schema() {
     let f = fixture();
@@ -835,6 +858,7 @@ fn experiment_writes_results_in_the_documented_schema() {
     for d in direct {
         assert!(d["test_mse"].as_f64().unwrap() > 0.0, "{d}");
     }
+    retargeting_beside_every_run(&results, &out.join("report.md"));
     for file in [
         "fig4.svg",
         "fig4.png",

@@ -512,6 +512,7 @@ pub fn assemble(
         less_data: Vec::new(),
         all_frames: Vec::new(),
         parts: Vec::new(),
+        retargeting: super::retargeting::study(data)?,
     };
     for r in results {
         out.runs.extend(r.runs);

@@ -24,6 +24,7 @@ mod claims;
 mod format;
 mod pairs;
 mod parts;
+mod retargeting;
 
 use all_frames::all_frames_section;
 use bayesian::bayesian_section;
@@ -203,6 +204,10 @@ pub fn report(results: &Results) -> String {
         out.push('\n');
         out.push_str(&section);
     }
+    if let Some(section) = retargeting::retargeting_section(results) {
+        out.push('\n');
+        out.push_str(&section);
+    }
     out.push_str("\n## The paper's claims, one by one\n");
     for (number, claim) in &claims {
         let (verdict, why) = verdict(results, claim);
@@ -276,6 +281,7 @@ mod tests {
             stop_reason: Some("max_iterations".into()),
             bayesian: false,
             ard_weights: Vec::new(),
+            arms_from_person: None,
         }
     }
 
@@ -292,6 +298,7 @@ mod tests {
             less_data: Vec::new(),
             all_frames: Vec::new(),
             parts: Vec::new(),
+            retargeting: None,
             direct_regression: robots
                 .iter()
                 .map(|r| DirectRecord {

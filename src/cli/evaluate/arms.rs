@@ -4,52 +4,11 @@
 
 use anyhow::{anyhow, Result};
 use serde::Serialize;
+use sgplvm::arms::{configurations, from_person, ArmSummary, FAR_DEG};
 use sgplvm::pipeline::{to_mat, Demonstrations};
 use sgplvm::robots::anatomy::Anatomy;
 use sgplvm::robots::retarget::whole_arm::{ArmAngles, PostureDistance};
-use sgplvm::stats::quantile;
 use sgplvm::Mat;
-
-/// An upper arm this far from the demonstrated one is a frame badly served (issue 49's bar).
-pub const FAR_DEG: f64 = 30.0;
-
-/// The angles of a set of frames (both arms of each pooled), degrees.
-#[derive(Serialize, Clone)]
-pub struct ArmSummary {
-    pub frames: usize,
-    pub upper_arm_median_deg: Option<f64>,
-    pub upper_arm_p90_deg: Option<f64>,
-    pub forearm_median_deg: Option<f64>,
-    pub forearm_p90_deg: Option<f64>,
-    /// Share of the frames with an upper arm more than [`FAR_DEG`] off (either arm).
-    pub upper_arm_far_share: Option<f64>,
-}
-
-impl ArmSummary {
-    fn of(angles: &[[ArmAngles; 2]]) -> ArmSummary {
-        let pooled = |f: fn(&ArmAngles) -> f64| -> Vec<f64> {
-            let mut v: Vec<f64> = angles.iter().flat_map(|a| a.iter().map(f)).collect();
-            v.sort_by(f64::total_cmp);
-            v
-        };
-        let (upper, fore) = (pooled(|a| a.upper_arm_deg), pooled(|a| a.forearm_deg));
-        let q = |v: &[f64], p: f64| (!v.is_empty()).then(|| quantile(v, p));
-        ArmSummary {
-            frames: angles.len(),
-            upper_arm_median_deg: q(&upper, 0.5),
-            upper_arm_p90_deg: q(&upper, 0.9),
-            forearm_median_deg: q(&fore, 0.5),
-            forearm_p90_deg: q(&fore, 0.9),
-            upper_arm_far_share: (!angles.is_empty()).then(|| {
-                angles
-                    .iter()
-                    .filter(|a| a.iter().any(|s| s.upper_arm_deg > FAR_DEG))
-                    .count() as f64
-                    / angles.len() as f64
-            }),
-        }
-    }
-}
 
 /// One person's test frames.
 #[derive(Serialize)]
@@ -62,12 +21,26 @@ pub struct PersonArms {
     pub arms_followed: ArmSummary,
 }
 
+/// The learned mapping against direct retargeting, each against the person (on bone lines, as
+/// `retarget` reports): whether the model is worth it over retargeting each frame.
+#[derive(Serialize)]
+pub struct FromPerson {
+    /// The model's commands on the test frames the gate follows.
+    pub learned_followed: ArmSummary,
+    /// The demonstrated (retargeted) postures on the same frames.
+    pub retargeted_followed: ArmSummary,
+    /// The demonstrated postures on every test frame (retargeting holds none).
+    pub retargeted_all: ArmSummary,
+}
+
 /// The arms' report of `evaluate`.
 #[derive(Serialize)]
 pub struct ArmsReport {
     /// The teleop default gate's followed test frames, and its held ones.
     pub followed: ArmSummary,
     pub held: ArmSummary,
+    /// The model and retargeting, each against the person.
+    pub from_person: FromPerson,
     /// Per person of the test frames (empty when the data names nobody).
     pub people: Vec<PersonArms>,
 }
@@ -84,28 +57,35 @@ pub fn report(
     let ds = &demos.dataset;
     let body = demos.robot(robot)?;
     let desired = to_mat(&body.rows(&ds.test));
-    // Each model column's place in the URDF's configuration; the rest at their hold values.
-    let urdf_names = anatomy.robot().joint_names();
-    let places =
-        body.joint_names
-            .iter()
-            .map(|n| {
-                urdf_names.iter().position(|u| u == n).ok_or_else(|| {
-                    anyhow!("the data's {robot} joint `{n}` is not a joint of its URDF")
-                })
-            })
-            .collect::<Result<Vec<usize>>>()?;
-    let configuration = |m: &Mat<f64>, i: usize| {
-        let mut q = anatomy.hold_configuration().to_vec();
-        for (c, &p) in places.iter().enumerate() {
-            q[p] = m[(i, c)];
-        }
-        q
-    };
+    let human = to_mat(&ds.human.rows(&ds.test));
+    let in_urdf = |e: String| anyhow!("the data's {robot} joints: {e}");
+    let (got, want) = (
+        configurations(anatomy, &body.joint_names, predicted.as_ref()).map_err(in_urdf)?,
+        configurations(anatomy, &body.joint_names, desired.as_ref()).map_err(in_urdf)?,
+    );
     let distance = PostureDistance::new(anatomy);
-    let angles: Vec<[ArmAngles; 2]> = (0..ds.test.len())
-        .map(|i| distance.between(&configuration(predicted, i), &configuration(&desired, i)))
+    let angles: Vec<[ArmAngles; 2]> = got
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| distance.between(a, b))
         .collect();
+    let learned = from_person(
+        anatomy,
+        &body.joint_names,
+        predicted.as_ref(),
+        human.as_ref(),
+    )
+    .map_err(in_urdf)?;
+    let retargeted = from_person(anatomy, &body.joint_names, desired.as_ref(), human.as_ref())
+        .map_err(in_urdf)?;
+    let followed_only = |a: &[[ArmAngles; 2]]| -> Vec<[ArmAngles; 2]> {
+        (0..a.len()).filter(|&i| !held[i]).map(|i| a[i]).collect()
+    };
+    let from_person = FromPerson {
+        learned_followed: ArmSummary::of(&followed_only(&learned)),
+        retargeted_followed: ArmSummary::of(&followed_only(&retargeted)),
+        retargeted_all: ArmSummary::of(&retargeted),
+    };
     let pick = |want_held: bool, person: Option<&str>| -> Vec<[ArmAngles; 2]> {
         (0..angles.len())
             .filter(|&i| held[i] == want_held)
@@ -133,6 +113,7 @@ pub fn report(
     Ok(ArmsReport {
         followed: ArmSummary::of(&pick(false, None)),
         held: ArmSummary::of(&pick(true, None)),
+        from_person,
         people,
     })
 }
@@ -171,4 +152,8 @@ pub fn print(r: &ArmsReport, robot: &str) {
             &p.arms_followed,
         );
     }
+    println!("arms: against the person on bone lines — the model, and retargeting each frame directly (the yardstick; `teleop --retarget` drives it)");
+    row("model, followed", &r.from_person.learned_followed);
+    row("retargeted, followed", &r.from_person.retargeted_followed);
+    row("retargeted, every frame", &r.from_person.retargeted_all);
 }

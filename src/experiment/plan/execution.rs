@@ -8,7 +8,7 @@ use sgplvm_core::{BackConstraint, GpRegression, Mat, SharedGplvm, Validation};
 
 use super::{Task, TaskResult, TaskSpec};
 use crate::experiment::less_data::{rows_of, subset};
-use crate::experiment::{bayesian, parts};
+use crate::experiment::{bayesian, parts, retargeting};
 use crate::experiment::{
     fit, mean_squared_error, model_config, shipped_iteration, shipped_seconds, stop_reason,
     validation, AllFrames, AllFramesRecord, DirectRecord, ExperimentConfig, ExperimentData,
@@ -152,6 +152,10 @@ impl<'a> Job<'a> {
             .map_err(|e| self.fail(e))?;
         if bayesian {
             bayesian::mark(&mut runs, model).map_err(|e| self.fail(e))?;
+        } else {
+            for run in &mut runs {
+                run.arms_from_person = retargeting::learned(self.data, &run.robot, model)?;
+            }
         }
         Ok(runs)
     }

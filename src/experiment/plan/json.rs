@@ -4,7 +4,9 @@
 use serde::{Deserialize, Serialize};
 use sgplvm_core::{Mat, MatRef};
 
-use crate::experiment::{AllFrames, ExperimentData, ExperimentError, PartsData, SplitData};
+use crate::experiment::{
+    AllFrames, ExperimentData, ExperimentError, PartsData, RetargetingData, SplitData,
+};
 
 /// A matrix as it travels in JSON (row-major values).
 #[derive(Serialize, Deserialize)]
@@ -57,6 +59,8 @@ struct DataJson {
     all_frames: Option<AllFramesJson>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     parts: Option<PartsData>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    retargeting: Option<RetargetingData>,
 }
 
 /// [`AllFrames`] as it travels in JSON.
@@ -124,6 +128,7 @@ impl ExperimentData {
             validation: self.validation.clone(),
             all_frames: self.all_frames.as_ref().map(AllFramesJson::from),
             parts: self.parts.clone(),
+            retargeting: self.retargeting.clone(),
         };
         // Finite matrices and plain fields: serialising cannot fail.
         serde_json::to_vec(&data).unwrap_or_default()
@@ -157,6 +162,7 @@ impl ExperimentData {
             validation: data.validation,
             all_frames,
             parts: data.parts,
+            retargeting: data.retargeting,
         })
     }
 }

@@ -251,6 +251,7 @@ mod tests {
                     ]
                 })
                 .collect(),
+            retargeting: None,
         };
         let boot = Bootstrap::default();
         let yes = parts_section(&results(0.03), &boot).expect("section");

@@ -3,6 +3,7 @@ use super::*;
 use crate::dataset::Segment;
 use crate::generator::solve_key_poses;
 use crate::retarget::whole_arm;
+use crate::series::median;
 
 /// A human moving through its key postures (smoothstep between them), `per_motion` frames each
 /// at 40 Hz, as one unlabelled segment.
@@ -535,6 +536,45 @@ fn posture_distance_is_zero_for_one_posture_and_an_elbow_s_turn_for_the_forearm_
         right.upper_arm_deg < 1e-9 && right.forearm_deg < 1e-9,
         "{right:?}"
     );
+}
+
+#[test]
+fn person_distance_measures_what_retargeting_reports_and_the_person_s_own_arms_at_zero() {
+    // The key-pose tour onto COMAN: the distance of each retargeted frame from the person, on
+    // bone lines, has the medians retargeting's own report gives (the same measure, computed
+    // apart from the solve).
+    let tour = human_tour(&[0, 1, 4, 9, 13, 0], 20);
+    let options = RetargetOptions {
+        velocity_limits: false,
+        ..RetargetOptions::default()
+    };
+    let robots = coman();
+    let anatomy = &robots[0].1;
+    let out = retarget(&tour, &robots, &options).unwrap().remove(0);
+    let report = out.report.posture.as_ref().unwrap();
+    let distance = whole_arm::PersonDistance::new(anatomy).unwrap();
+    let (mut upper, mut fore) = (Vec::new(), Vec::new());
+    for f in 0..tour.len() {
+        let row: Vec<f64> = out.body.positions.row(f).iter().copied().collect();
+        let q = anatomy.configuration(&out.body.joint_names, &row).unwrap();
+        let h: Vec<f64> = tour.human.positions.row(f).iter().copied().collect();
+        for arm in distance.between(&q, &h) {
+            upper.push(arm.upper_arm_deg);
+            fore.push(arm.forearm_deg);
+        }
+    }
+    assert!((median(&mut upper) - report.upper_arm_deg[0]).abs() < 1e-9);
+    assert!((median(&mut fore) - report.forearm_deg[0]).abs() < 1e-9);
+    // The human model against itself: no distance.
+    let human = Anatomy::builtin("human").unwrap();
+    let own = whole_arm::PersonDistance::new(&human).unwrap();
+    let q = solve_key_poses("human").unwrap().postures[9].clone();
+    for arm in own.between(&q, &q) {
+        assert!(
+            arm.upper_arm_deg < 1e-6 && arm.forearm_deg < 1e-6,
+            "{arm:?}"
+        );
+    }
 }
 
 #[test]

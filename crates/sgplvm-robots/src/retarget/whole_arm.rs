@@ -235,6 +235,46 @@ impl<'a> PostureDistance<'a> {
     }
 }
 
+/// How far a robot's arms are from a person's, on bone lines: each segment's direction in the
+/// robot's body frame against the person's in theirs, as retargeting's report measures its
+/// result (`sgplvm evaluate` judges a learned mapping's commands and the retargeted ones by it,
+/// side by side).
+pub struct PersonDistance<'a> {
+    robot: PostureDistance<'a>,
+    human: Anatomy,
+    human_gauge: PostureGauge,
+}
+
+impl<'a> PersonDistance<'a> {
+    /// The distance between `anatomy`'s arms and the built-in human model's (the 18 joints
+    /// demonstrations store the person in).
+    pub fn new(anatomy: &'a Anatomy) -> Result<PersonDistance<'a>, super::RetargetError> {
+        let model =
+            crate::urdf::Robot::builtin("human").map_err(|source| super::RetargetError::Robot {
+                body: "human".into(),
+                source,
+            })?;
+        let human =
+            Anatomy::of(model).map_err(|e| super::RetargetError::Invalid(format!("human: {e}")))?;
+        Ok(PersonDistance {
+            robot: PostureDistance::new(anatomy),
+            human_gauge: PostureGauge::of(&human),
+            human,
+        })
+    }
+
+    /// Per arm (left, right), the angles between the robot at configuration `q` (every movable
+    /// joint of the URDF, in its order) and the person at `person` (the human model's joints).
+    pub fn between(&self, q: &[f64], person: &[f64]) -> [ArmAngles; 2] {
+        let got = self.robot.gauge.measure(self.robot.anatomy, q);
+        let want = self.human_gauge.measure(&self.human, person);
+        [0, 1].map(|s| ArmAngles {
+            upper_arm_deg: got[s].upper_arm.angle(&want[s].upper_arm).to_degrees(),
+            forearm_deg: got[s].forearm.angle(&want[s].forearm).to_degrees(),
+        })
+    }
+}
+
 /// The person's side of whole-arm retargeting: the human model, its arm postures measured with
 /// turns from the person's reference posture ([`reference_configuration`]), and each frame's
 /// path from the person's neutral to its pose.
