@@ -10,7 +10,7 @@ use sgplvm::robots::anatomy::Anatomy;
 use sgplvm::robots::names::count;
 use sgplvm::robots::retarget::file::{retarget_files, FilesRetargeted, TestChoice};
 use sgplvm::robots::retarget::split::{SplitOptions, MIN_TRAIN_FRAMES};
-use sgplvm::robots::retarget::whole_arm::{Weights, WholeArmOptions};
+use sgplvm::robots::retarget::whole_arm::{Weights, WholeArmOptions, JUMP_RAD, STILL_RAD};
 use sgplvm::robots::retarget::{Match, ReachReport, Redundancy, RetargetOptions};
 use sgplvm::robots::Robot;
 
@@ -439,6 +439,21 @@ fn print_postures(reports: &[ReachReport]) {
                 "{:<12} frames held by self-collision, per pair of links: {}",
                 r.robot,
                 first_few(&held, 4)
+            );
+        }
+        if p.jump_frames > 0 {
+            let jumped: Vec<String> = p
+                .jumping_joints
+                .iter()
+                .map(|j| format!("{} in {}", j.joint, j.frames))
+                .collect();
+            println!(
+                "{:<12} posture jumps (a joint turned > {:.0} rad between frames where the person moved < {:.1} rad: the posture changed branch, docs/robots.md) in {} frame(s): {}",
+                r.robot,
+                JUMP_RAD,
+                STILL_RAD,
+                p.jump_frames,
+                first_few(&jumped, 4)
             );
         }
         if p.from_fixed_starts {

@@ -605,4 +605,24 @@ fn a_person_moving_a_little_moves_the_robot_a_little() {
         jumps <= 6,
         "{jumps} jumps of > 1 rad where the person moved < 0.2 rad"
     );
+    // The report counts them too (each joint of the person within 0.3 rad, the command's
+    // whole jump over 1 rad), and names the joints: counted here apart from it, on the commands
+    // (those of the captured file are consecutive within each segment).
+    let report = out.report.posture.as_ref().unwrap();
+    let counted = (1..data.len())
+        .filter(|&f| data.segment_of(f).map(|s| s.start) == data.segment_of(f - 1).map(|s| s.start))
+        .filter(|&f| (h.row(f) - h.row(f - 1)).amax() < whole_arm::STILL_RAD)
+        .filter(|&f| (y.row(f) - y.row(f - 1)).amax() > whole_arm::JUMP_RAD)
+        .count();
+    assert_eq!(report.jump_frames, counted);
+    assert_eq!(
+        report
+            .jumping_joints
+            .iter()
+            .map(|j| j.frames)
+            .max()
+            .unwrap_or(0)
+            > 0,
+        counted > 0
+    );
 }

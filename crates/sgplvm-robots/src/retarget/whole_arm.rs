@@ -44,7 +44,7 @@ mod report;
 mod solver;
 
 use report::Tally;
-pub use report::{LimitHeld, PairHeld, PostureReport};
+pub use report::{JointJumps, LimitHeld, PairHeld, PostureReport, JUMP_RAD, STILL_RAD};
 pub(in crate::retarget) use solver::ArmSolver;
 
 /// The weights of the tasks (and of the posture regulariser).
@@ -404,6 +404,7 @@ pub(super) fn run(
     };
     let mut sent = vec![0.0; q_index.len()];
     let mut path = Vec::new();
+    let mut last: Option<(Vec<f64>, Vec<f64>, f64)> = None;
     for f in 0..frames {
         let q_human: Vec<f64> = human.row(f).iter().copied().collect();
         person.path(&q_human, &mut path);
@@ -415,6 +416,9 @@ pub(super) fn run(
         // Seconds since the first frame: a capture's absolute clock (1.7e9 s) leaves a double
         // too few digits for a 25 ms step's velocity limit.
         let now = (times_ns[f] - times_ns[0]) as f64 * 1e-9;
+        if let Some((h, a, t)) = &last {
+            tally.jumps(q_index, (h, a, *t), (&q_human, &asked, now));
+        }
         let before = (velocity_limits && f > 0)
             .then(|| (sent.clone(), (times_ns[f] - times_ns[f - 1]) as f64 * 1e-9));
         // Without velocity limits the safe command is a function of the pose alone: the
@@ -455,6 +459,7 @@ pub(super) fn run(
             out[(f, i)] = sent[k];
         }
         tally.judge(anatomy, gauge, model, &q, target, options.self_collision);
+        last = Some((q_human, asked, now));
     }
     let misses: Vec<f64> = tally
         .hand

@@ -52,6 +52,16 @@ pub struct PostureReport {
     /// the margin and a millimetre before the command's step), the frames; most frames first.
     #[serde(default)]
     pub collision_limited_pairs: Vec<PairHeld>,
+    /// Frames whose asked posture jumped: a joint turned more than [`JUMP_RAD`] from the frame
+    /// before (under half a second earlier) while no joint of the person moved
+    /// [`STILL_RAD`] — the posture changing branch where two of the robot's joint axes line up
+    /// (docs/robots.md). A live robot takes such a jump within its velocity limits; a learned
+    /// model sees it as noise.
+    #[serde(default)]
+    pub jump_frames: usize,
+    /// Per joint that jumped, the frames; most frames first.
+    #[serde(default)]
+    pub jumping_joints: Vec<JointJumps>,
     /// Frames in self-collision as sent (shapes overlapping): 0 is the goal.
     pub colliding_frames: usize,
     /// The closest two shapes that can meet came over all frames as sent, metres; `None` when
@@ -81,6 +91,24 @@ pub struct LimitHeld {
     /// Frames in which it held the command.
     pub frames: usize,
 }
+
+/// A joint whose asked posture jumped ([`PostureReport::jump_frames`]), and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointJumps {
+    /// The joint's URDF name.
+    pub joint: String,
+    /// Frames in which it jumped.
+    pub frames: usize,
+}
+
+/// A jump of a robot joint between consecutive frames, radians ([`PostureReport::jump_frames`]).
+pub const JUMP_RAD: f64 = 1.0;
+
+/// The most any joint of the person may move between the two frames of a jump, radians.
+pub const STILL_RAD: f64 = 0.3;
+
+/// Frames further apart than this (seconds) are no consecutive frames of one motion.
+const CONSECUTIVE_S: f64 = 0.5;
 
 /// A pair of links the self-collision limit kept apart, and in how many frames.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -116,6 +144,9 @@ pub(super) struct Tally {
     pub(super) joints_held: std::collections::BTreeMap<usize, usize>,
     /// Per pair of links: frames the self-collision limit kept them apart, and the closest.
     pub(super) pairs_held: std::collections::BTreeMap<(String, String), (usize, f64)>,
+    /// Frames whose asked posture jumped, and per joint (configuration index) the frames.
+    pub(super) jumps: usize,
+    pub(super) joints_jumped: std::collections::BTreeMap<usize, usize>,
 }
 
 impl Tally {
@@ -150,6 +181,34 @@ impl Tally {
             e.0 += 1;
             e.1 = e.1.min(*d);
         }
+    }
+
+    /// Whether the asked posture jumped between two consecutive frames ([`JUMP_RAD`]): `before`
+    /// and `now` the person's joints, the arm joints asked (configuration indices `q_index`)
+    /// and the frame's time, seconds.
+    pub(super) fn jumps(
+        &mut self,
+        q_index: &[usize],
+        before: (&[f64], &[f64], f64),
+        now: (&[f64], &[f64], f64),
+    ) {
+        let moved = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+        };
+        if now.2 - before.2 > CONSECUTIVE_S || moved(before.0, now.0) >= STILL_RAD {
+            return;
+        }
+        let mut jumped = false;
+        for (k, (a, b)) in before.1.iter().zip(now.1).enumerate() {
+            if (a - b).abs() > JUMP_RAD {
+                jumped = true;
+                *self.joints_jumped.entry(q_index[k]).or_default() += 1;
+            }
+        }
+        self.jumps += usize::from(jumped);
     }
 
     /// One frame as sent, against its target.
@@ -215,6 +274,15 @@ impl Tally {
             })
             .collect();
         collision_limited_pairs.sort_by_key(|p| std::cmp::Reverse(p.frames));
+        let mut jumping_joints: Vec<JointJumps> = self
+            .joints_jumped
+            .iter()
+            .map(|(&i, &n)| JointJumps {
+                joint: names[i].clone(),
+                frames: n,
+            })
+            .collect();
+        jumping_joints.sort_by_key(|j| std::cmp::Reverse(j.frames));
         let quantiles = |v: &[f64]| -> [f64; 2] {
             let mut s = v.to_vec();
             s.sort_by(f64::total_cmp);
@@ -239,6 +307,8 @@ impl Tally {
             from_fixed_starts: self.from_fixed_starts,
             velocity_limited_joints,
             collision_limited_pairs,
+            jump_frames: self.jumps,
+            jumping_joints,
             colliding_frames: self.colliding,
             closest_m: self.closest,
             margin_m: options.margin_m,
