@@ -34,7 +34,10 @@ ROBOTS = {
 
 # Whose physics replay of the short capture's prediction runs away in rapier (measured
 # 2026-12-04: PR2's l_upper_arm_roll_joint at 72 rad/s, Romeo's RElbowRoll at 75 rad/s, 2.4-2.6 s
-# in): `simulate` says so and stops; the cause is open (issue 51).
+# in): `simulate` says so and stops. The cause (2026-12-05): the trajectory itself jumps a
+# fraction of a second before — the retargeted demonstrations change a shoulder's branch where
+# the person barely moves (1.35-2.7 rad in one 25 ms frame), the model learns the jump, and the
+# replay names it (`after_jump`) — the reference flung the arm, not the physics.
 REPLAY_DIVERGES = {"pr2", "romeo"}
 
 
@@ -105,7 +108,13 @@ def test_published_as_they_are_through_every_command(name, capture, tmp_path):
     if name in REPLAY_DIVERGES:
         # Said, with where and how fast: the replay stops instead of running on.
         assert diverged and diverged["speed"] > diverged["threshold"], diverged
-        pytest.xfail(f"{name}'s physics replay runs away at {diverged['time']} s ({diverged['joint']}): said, not fixed yet")
+        jump = diverged["after_jump"]
+        assert jump and abs(jump["change"]) / jump["seconds"] > 10.0, diverged
+        assert 0.0 <= diverged["time"] - jump["time"] + jump["seconds"] <= 0.5 + 1e-9, diverged
+        pytest.xfail(
+            f"{name}'s physics replay runs away at {diverged['time']} s ({diverged['joint']}), flung by "
+            f"the trajectory's own jump of {jump['joint']} at {jump['time']} s: said, not fixed yet"
+        )
     assert diverged is None, diverged
     assert len(replay["joints"]) == 2 * count
     assert replay["held"] and replay["unchecked_meshes"] == []

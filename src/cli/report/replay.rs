@@ -38,10 +38,24 @@ fn shown<S: AsRef<str>>(items: &[S], n: usize) -> String {
 /// The line that says a replay ran away, where and how fast.
 fn divergence(d: &sgplvm::robots::physics::Divergence) -> String {
     let unit = if d.prismatic { "m/s" } else { "rad/s" };
-    format!(
-        "the replay DIVERGED at {:.3} s: {} moved at {:.1} {unit} (beyond {:.1} {unit}) away from its reference for 10 ms; it stopped there, and the figures cover the motion before",
-        d.time, d.joint, d.speed, d.threshold
-    )
+    let stopped = format!(
+        "{} moved at {:.1} {unit} (beyond {:.1} {unit}) away from its reference for 10 ms; it stopped there, and the figures cover the motion before",
+        d.joint, d.speed, d.threshold
+    );
+    match &d.after_jump {
+        Some(j) => format!(
+            "the replay ran away at {:.3} s, flung by the trajectory itself: at {:.3} s it asks {} to move {:.2} {} in {:.0} ms ({:.0} {}/s, faster than any motor follows: a posture jump in the demonstrations, see `retarget`'s report; `predict` and `teleop` keep their commands within the velocity limits); {stopped}",
+            d.time,
+            j.time,
+            j.joint,
+            j.change,
+            if j.prismatic { "m" } else { "rad" },
+            1e3 * j.seconds,
+            j.change.abs() / j.seconds,
+            if j.prismatic { "m" } else { "rad" },
+        ),
+        None => format!("the replay DIVERGED at {:.3} s: {stopped}", d.time),
+    }
 }
 
 /// A violation's amount and limit, each with its unit, for a revolute (`false`) or prismatic

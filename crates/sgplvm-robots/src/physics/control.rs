@@ -9,7 +9,7 @@ use rapier3d::math::Real;
 
 use super::build::Scene;
 use super::model::PreparedModel;
-use super::report::{Divergence, Recorder, StepTime};
+use super::report::{Divergence, Recorder, ReferenceJump, StepTime, JUMP_WINDOW_SECONDS};
 use super::{PhysicsError, ReplayOptions, ReplayReport, Trajectory};
 
 /// The replay's clock: physics steps over the trajectory's time span.
@@ -159,7 +159,8 @@ pub(super) fn simulate(
         measure_contacts(&scene, at, options, &mut recorder);
         recorder.close_events(step, clock.merge_gap);
         recorder.frames_at(trajectory, at.t, clock.rate);
-        if let Some(d) = watch.check(&scene, &reference, at.t) {
+        if let Some(mut d) = watch.check(&scene, &reference, at.t) {
+            d.after_jump = jump_before(&scene, trajectory, d.time);
             diverged = Some(d);
             steps_taken = step;
             break;
@@ -223,15 +224,24 @@ impl Motion {
     /// The speed it ran away beyond, if it does: faster than [`RUNAWAY_FACTOR`] times its limit,
     /// [`RUNAWAY_SPEEDS`] and twice its reference, further than [`RUNAWAY_ERRORS`] from it.
     fn running_away(&self) -> Option<f64> {
-        let (least, error) = if self.prismatic {
-            (RUNAWAY_SPEEDS.1, RUNAWAY_ERRORS.1)
+        let error = if self.prismatic {
+            RUNAWAY_ERRORS.1
         } else {
-            (RUNAWAY_SPEEDS.0, RUNAWAY_ERRORS.0)
+            RUNAWAY_ERRORS.0
         };
-        let threshold = (RUNAWAY_FACTOR * self.limit.unwrap_or(0.0))
-            .max(least)
-            .max(2.0 * self.slope.abs());
+        let threshold = self.runaway_speed().max(2.0 * self.slope.abs());
         (self.speed > threshold && self.off > error).then_some(threshold)
+    }
+
+    /// The speed beyond which the joint runs away whatever its reference does:
+    /// [`RUNAWAY_FACTOR`] times its limit, at least [`RUNAWAY_SPEEDS`].
+    fn runaway_speed(&self) -> f64 {
+        let least = if self.prismatic {
+            RUNAWAY_SPEEDS.1
+        } else {
+            RUNAWAY_SPEEDS.0
+        };
+        (RUNAWAY_FACTOR * self.limit.unwrap_or(0.0)).max(least)
     }
 }
 
@@ -274,6 +284,7 @@ impl Runaway {
                         speed,
                         threshold,
                         prismatic: d.prismatic(),
+                        after_jump: None,
                     });
                 }
             } else {
@@ -282,6 +293,45 @@ impl Runaway {
         }
         None
     }
+}
+
+/// The trajectory's fastest step, relative to its joint's runaway speed, of the
+/// [`JUMP_WINDOW_SECONDS`] before `t`, among those faster than half of it (a joint runs away
+/// only beyond twice its reference's speed: a reference that fast can fling it there): the
+/// reference's own jump.
+fn jump_before(scene: &Scene, trajectory: &Trajectory, t: f64) -> Option<ReferenceJump> {
+    let n = trajectory.joint_names.len();
+    let mut worst: Option<(f64, ReferenceJump)> = None;
+    for f in 1..trajectory.frames() {
+        let (ta, tb) = (trajectory.times[f - 1], trajectory.times[f]);
+        if tb < t - JUMP_WINDOW_SECONDS || ta > t {
+            continue;
+        }
+        for d in &scene.driven {
+            let Some(c) = d.column else { continue };
+            let change = trajectory.positions[f * n + c] - trajectory.positions[(f - 1) * n + c];
+            let runaway = Motion {
+                speed: 0.0,
+                off: 0.0,
+                limit: d.velocity_limit,
+                slope: 0.0,
+                prismatic: d.prismatic(),
+            }
+            .runaway_speed();
+            let ratio = 2.0 * change.abs() / (tb - ta) / runaway;
+            if ratio > 1.0 && worst.as_ref().is_none_or(|w| ratio > w.0) {
+                let jump = ReferenceJump {
+                    joint: d.name.clone(),
+                    time: tb,
+                    change,
+                    seconds: tb - ta,
+                    prismatic: d.prismatic(),
+                };
+                worst = Some((ratio, jump));
+            }
+        }
+    }
+    worst.map(|w| w.1)
 }
 
 /// Holds every joint at its initial position for `steps` physics steps.

@@ -64,7 +64,10 @@ use rapier3d_urdf::urdf_rs;
 pub use error::PhysicsError;
 pub use hulls::{mesh_hull, MeshProblem, UncheckedMesh, MAX_MESH_BYTES};
 pub use options::ReplayOptions;
-pub use report::{Collision, Divergence, JointTracking, LimitViolation, ReplayReport};
+pub use report::{
+    Collision, Divergence, JointTracking, LimitViolation, ReferenceJump, ReplayReport,
+    JUMP_WINDOW_SECONDS,
+};
 pub use trajectory::Trajectory;
 
 /// Replays `trajectory` on the robot described by the URDF text `urdf_xml` (`source` is the

@@ -84,6 +84,31 @@ pub struct Divergence {
     pub threshold: f64,
     /// Whether the joint is prismatic.
     pub prismatic: bool,
+    /// The trajectory's own jump shortly before ([`JUMP_WINDOW_SECONDS`]), if it has one: a
+    /// frame-to-frame step of a commanded joint faster than half that joint's runaway speed. Then
+    /// the reference flung the arm, not the physics: such a trajectory asks more than any motor
+    /// gives (`predict` and `teleop` hold their commands within the velocity limits; `retarget`
+    /// counts the frames where a posture jumps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub after_jump: Option<ReferenceJump>,
+}
+
+/// How long before a runaway the trajectory's own jump is taken as its cause, seconds.
+pub const JUMP_WINDOW_SECONDS: f64 = 0.5;
+
+/// One frame-to-frame step of a trajectory's column faster than its joint could follow.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReferenceJump {
+    /// The joint's URDF name.
+    pub joint: String,
+    /// When the step ends, seconds (trajectory time).
+    pub time: f64,
+    /// How far it steps, rad (m for a prismatic joint).
+    pub change: f64,
+    /// Over how long, seconds.
+    pub seconds: f64,
+    /// Whether the joint is prismatic.
+    pub prismatic: bool,
 }
 
 /// Everything a replay measured.
