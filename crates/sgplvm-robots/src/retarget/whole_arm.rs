@@ -224,15 +224,19 @@ impl<'a> PostureDistance<'a> {
     /// Per arm (left, right), the angles between configurations `a` and `b` (every movable
     /// joint of the URDF, in its order).
     pub fn between(&self, a: &[f64], b: &[f64]) -> [ArmAngles; 2] {
-        let (pa, pb) = (
-            self.gauge.measure(self.anatomy, a),
-            self.gauge.measure(self.anatomy, b),
-        );
-        [0, 1].map(|s| ArmAngles {
-            upper_arm_deg: pa[s].upper_arm.angle(&pb[s].upper_arm).to_degrees(),
-            forearm_deg: pa[s].forearm.angle(&pb[s].forearm).to_degrees(),
-        })
+        arm_angles(
+            &self.gauge.measure(self.anatomy, a),
+            &self.gauge.measure(self.anatomy, b),
+        )
     }
+}
+
+/// Per arm, the angles between the segments of two arm postures.
+fn arm_angles(a: &[ArmPosture; 2], b: &[ArmPosture; 2]) -> [ArmAngles; 2] {
+    [0, 1].map(|s| ArmAngles {
+        upper_arm_deg: a[s].upper_arm.angle(&b[s].upper_arm).to_degrees(),
+        forearm_deg: a[s].forearm.angle(&b[s].forearm).to_degrees(),
+    })
 }
 
 /// How far a robot's arms are from a person's, on bone lines: each segment's direction in the
@@ -266,12 +270,10 @@ impl<'a> PersonDistance<'a> {
     /// Per arm (left, right), the angles between the robot at configuration `q` (every movable
     /// joint of the URDF, in its order) and the person at `person` (the human model's joints).
     pub fn between(&self, q: &[f64], person: &[f64]) -> [ArmAngles; 2] {
-        let got = self.robot.gauge.measure(self.robot.anatomy, q);
-        let want = self.human_gauge.measure(&self.human, person);
-        [0, 1].map(|s| ArmAngles {
-            upper_arm_deg: got[s].upper_arm.angle(&want[s].upper_arm).to_degrees(),
-            forearm_deg: got[s].forearm.angle(&want[s].forearm).to_degrees(),
-        })
+        arm_angles(
+            &self.robot.gauge.measure(self.robot.anatomy, q),
+            &self.human_gauge.measure(&self.human, person),
+        )
     }
 }
 

@@ -54,8 +54,8 @@ pub struct PostureReport {
     pub collision_limited_pairs: Vec<PairHeld>,
     /// Frames whose asked posture jumped: a joint turned more than [`JUMP_RAD`] from the frame
     /// before (under half a second earlier) while no joint of the person moved
-    /// [`STILL_RAD`] — the posture changing branch where two of the robot's joint axes line up
-    /// (docs/robots.md). A live robot takes such a jump within its velocity limits; a learned
+    /// [`STILL_RAD`] — the posture changing branch (where two of the robot's joint axes line
+    /// up, or at a fold of its limits; docs/robots.md). A live robot takes such a jump within its velocity limits; a learned
     /// model sees it as noise.
     #[serde(default)]
     pub jump_frames: usize,
