@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use sgplvm::robots::limits::CommandLimits;
 use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
@@ -45,7 +46,9 @@ pub struct SimulateArgs {
     /// Topic of the trajectory (or of the human, with --model) in an MCAP file.
     #[arg(long)]
     topic: Option<String>,
-    /// Predict the trajectory with this model from --input human frames, then replay it.
+    /// Predict the trajectory with this model from --input human frames, held within the
+    /// joints' position and velocity limits as `predict` and `teleop` send commands (as the
+    /// robot's controller would take them), then replay it.
     #[arg(long, requires = "input")]
     model: Option<PathBuf>,
     /// Human frames (MCAP or CSV) for --model.
@@ -74,16 +77,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         (None, Some(name)) => (builtin_urdf(name)?.to_string(), format!("builtin:{name}")),
         (None, None) => bail!("name the robot with --robot or --urdf"),
     };
-    let robot = args.robot.as_deref().unwrap_or("robot");
-    let topic = args.topic.as_deref();
-    let mut trajectory = match (
-        args.model.as_deref().zip(args.input.as_deref()),
-        &args.trajectory,
-    ) {
-        (Some((model, input)), _) => predicted_trajectory(model, input, topic, robot)?,
-        (None, Some(path)) => read_trajectory(path, topic, robot)?,
-        (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
-    };
+    // Before any work: the replay's file must be writable where it is named.
     if let Some(out) = &args.out {
         if out.extension().and_then(|e| e.to_str()) != Some("mcap") {
             bail!(
@@ -91,7 +85,35 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                 out.display()
             );
         }
+        if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            if !folder.is_dir() {
+                bail!(
+                    "{}: cannot write the replay: no folder {}",
+                    out.display(),
+                    folder.display()
+                );
+            }
+        }
     }
+    let robot = args.robot.as_deref().unwrap_or("robot");
+    let topic = args.topic.as_deref();
+    let mut trajectory = match (
+        args.model.as_deref().zip(args.input.as_deref()),
+        &args.trajectory,
+    ) {
+        (Some((model, input)), _) => {
+            let mut predicted = predicted_trajectory(model, input, topic, robot)?;
+            let body = sgplvm::robots::Robot::from_urdf_str(&xml, &source)?;
+            let limits = CommandLimits::for_joints(&body, &predicted.joint_names)?;
+            let t0 = predicted.times.first().copied().unwrap_or(0.0);
+            let times: Vec<f64> = predicted.times.iter().map(|t| t - t0).collect();
+            let counts = limits.apply_all(&mut predicted.positions, &times);
+            eprintln!("{}", counts.summary(robot, &predicted.joint_names));
+            predicted
+        }
+        (None, Some(path)) => read_trajectory(path, topic, robot)?,
+        (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
+    };
     let held = match &args.urdf {
         Some(urdf) => held_joints(&trajectory, urdf, &args.hold)?,
         None => Vec::new(),
