@@ -9,7 +9,7 @@ use sgplvm::robots::limits::CommandLimits;
 use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
-use super::args::load_model;
+use super::args::load_any_model;
 use super::body::BodyArgs;
 use super::frames::{
     builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
@@ -225,16 +225,18 @@ fn in_trajectory(e: PhysicsError, file: Option<&str>) -> anyhow::Error {
     }
 }
 
-/// The trajectory `model` predicts for `robot` from the human frames of `input`.
+/// The trajectory `model` (one shared latent space, or one per body part) predicts for `robot`
+/// from the human frames of `input`.
 fn predicted_trajectory(
     model_path: &Path,
     input: &str,
     topic: Option<&str>,
     robot: &str,
 ) -> Result<Trajectory> {
-    let model = load_model(model_path)?;
-    require_robot(&model, model_path, robot)?;
-    let human = read_human_frames(&model, input, topic)?;
+    let loaded = load_any_model(model_path)?;
+    let model = loaded.predictor();
+    require_robot(model, model_path, robot)?;
+    let human = read_human_frames(model, input, topic)?;
     let mean = model.predict(human.frames.as_ref(), robot, false)?.mean;
     let d = mean.ncols();
     let positions = (0..mean.nrows())
@@ -242,7 +244,7 @@ fn predicted_trajectory(
         .map(|(i, j)| mean[(i, j)])
         .collect();
     Ok(Trajectory::from_ns(
-        model_joint_names(&model, robot),
+        model_joint_names(model, robot),
         &human.times_ns,
         positions,
     )?)
