@@ -94,7 +94,6 @@ impl BodyPoses {
 }
 
 /// Gain of the IK posture task that keeps key postures close to the neutral one.
-/// Gain of the IK posture task that keeps key postures close to the neutral one.
 const POSTURE_GAIN: f64 = 0.5;
 
 /// Solves every key pose for the built-in body `name` by position IK of each arm.
