@@ -239,3 +239,16 @@ pub enum Error {
         reason: String,
     },
 }
+
+/// Checks that a caller's buffer for space `space` holds `expected` values: `what` names the
+/// buffer ("output", "mean", "standard deviation").
+pub(crate) fn check_buffer(what: &str, space: &str, expected: usize, found: usize) -> Result<()> {
+    if found == expected {
+        return Ok(());
+    }
+    Err(Error::DimensionMismatch {
+        what: format!("{what} buffer for '{space}'"),
+        expected,
+        found,
+    })
+}

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use crate::config::BackConstraint;
-use crate::error::{Error, Result};
+use crate::error::{check_buffer, Error, Result};
 use crate::input_map::InputMap;
 use crate::kernel::{row_major, KernelParams};
 use crate::likelihood::{eval_space, SpaceWork, Wanted};
@@ -371,13 +371,7 @@ impl SharedGplvm {
         self.check_input_row(h)?;
         let si = self.output_index(space)?;
         let d = self.spaces[si].data.ncols();
-        if out.len() != d {
-            return Err(Error::DimensionMismatch {
-                what: format!("output buffer for '{space}'"),
-                expected: d,
-                found: out.len(),
-            });
-        }
+        check_buffer("output", space, d, out.len())?;
         let q = self.q();
         let mut stack = [0.0f64; 32];
         let mut heap;

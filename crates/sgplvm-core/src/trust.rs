@@ -22,7 +22,7 @@
 
 use faer::Mat;
 
-use crate::error::{Error, Result};
+use crate::error::{check_buffer, Error, Result};
 use crate::factor::cholesky;
 use crate::kernel::KernelParams;
 use crate::model::SharedGplvm;
@@ -224,15 +224,8 @@ impl SharedGplvm {
     ) -> Result<f64> {
         let si = self.output_index(space)?;
         let d = self.spaces[si].data.ncols();
-        for (what, len) in [("mean", mean.len()), ("standard deviation", sd.len())] {
-            if len != d {
-                return Err(Error::DimensionMismatch {
-                    what: format!("{what} buffer for '{space}'"),
-                    expected: d,
-                    found: len,
-                });
-            }
-        }
+        check_buffer("mean", space, d, mean.len())?;
+        check_buffer("standard deviation", space, d, sd.len())?;
         self.check_latent_len(x)?;
         let xs = Mat::from_fn(1, x.len(), |_, t| x[t]);
         let p = self.predict_latent_rows(xs, si, true)?;

@@ -5,7 +5,7 @@
 use faer::{Mat, MatRef};
 
 use super::PartsGplvm;
-use crate::error::{Error, Result};
+use crate::error::{check_buffer, Error, Result};
 use crate::predict::Prediction;
 use crate::preprocess::check_finite;
 
@@ -112,15 +112,7 @@ impl PartsGplvm {
     /// Checks a raw human frame `h` and an output buffer of `out` values for `space`.
     fn check_frame(&self, h: &[f64], space: &str, out: usize) -> Result<()> {
         self.check_input_frame(h)?;
-        let d = self.output_dim(space)?;
-        if out != d {
-            return Err(Error::DimensionMismatch {
-                what: format!("output buffer for '{space}'"),
-                expected: d,
-                found: out,
-            });
-        }
-        Ok(())
+        check_buffer("output", space, self.output_dim(space)?, out)
     }
 
     /// Posterior mean of robot `space` for one raw human frame `h`, written to `out` (the
@@ -200,15 +192,8 @@ impl PartsGplvm {
         sd: &mut [f64],
     ) -> Result<f64> {
         let d = self.output_dim(space)?;
-        for (what, len) in [("mean", mean.len()), ("standard deviation", sd.len())] {
-            if len != d {
-                return Err(Error::DimensionMismatch {
-                    what: format!("{what} buffer for '{space}'"),
-                    expected: d,
-                    found: len,
-                });
-            }
-        }
+        check_buffer("mean", space, d, mean.len())?;
+        check_buffer("standard deviation", space, d, sd.len())?;
         if x.len() != self.latent_dim() {
             return Err(Error::DimensionMismatch {
                 what: "latent point (every part's)".into(),
