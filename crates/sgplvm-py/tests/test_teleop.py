@@ -335,6 +335,17 @@ def joint_state(names, position, t_ns):
     return JointState(Header(Time(t_ns // 10**9, t_ns % 10**9), ""), list(names), [float(v) for v in position], [], [])
 
 
+def coman_session(domain):
+    """A participant on `domain` writing the human's JointState and reading COMAN's commands and
+    the node's status, matched with the node: the participant and its writer."""
+    ros = Ros2(domain)
+    writer = ros.writer("/human/joint_states", JointState)
+    ros.reader("/coman/joint_command", JointState)
+    ros.reader("/sgplvm/status", DiagnosticArray)
+    ros.wait_matched()
+    return ros, writer
+
+
 def send(writer, names, rows, times_ns, period=0.025):
     """Publishes `rows` at `period` seconds apart on a fixed schedule (not drifting with the
     time each write takes)."""
@@ -520,11 +531,7 @@ def test_a_latent_space_per_arm_drives_the_robot_and_its_parts_gate_it(tmp, data
     domain = next_domain()
     node = Teleop(tmp, domain, ["--model", str(path), "--robot", "coman", "--timeout", "0.5"])
     try:
-        ros = Ros2(domain)
-        w = ros.writer("/human/joint_states", JointState)
-        ros.reader("/coman/joint_command", JointState)
-        ros.reader("/sgplvm/status", DiagnosticArray)
-        ros.wait_matched()
+        ros, w = coman_session(domain)
         rows, t0 = data["trained_rows"], int(data["times_ns"][0])
         send(w, data["names"], rows[:20], t0 + 25_000_000 * np.arange(20))
         ros.take("/sgplvm/status", settle=0.3)
@@ -646,11 +653,7 @@ def test_safety_cases_hold_the_robot_and_say_why(tmp, data, models):
     # A timeout of 0.5 s: the pauses to read what came back (0.2 s) must not make the input stale.
     node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--timeout", "0.5"])
     try:
-        ros = Ros2(domain)
-        w = ros.writer("/human/joint_states", JointState)
-        ros.reader("/coman/joint_command", JointState)
-        ros.reader("/sgplvm/status", DiagnosticArray)
-        ros.wait_matched()
+        ros, w = coman_session(domain)
         t_ns = int(times[0])
 
         def step(position, names=names, wait=0.025):
@@ -867,11 +870,7 @@ def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
     urdf, _ = relaxed_urdf(tmp, "coman")  # position limits only
     node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5"])
     try:
-        ros = Ros2(domain)
-        w = ros.writer("/human/joint_states", JointState)
-        ros.reader("/coman/joint_command", JointState)
-        ros.reader("/sgplvm/status", DiagnosticArray)
-        ros.wait_matched()
+        ros, w = coman_session(domain)
         w.write(joint_state(names, human[k], int(times[k])))
         got = ros.take("/coman/joint_command", settle=0.5)
         st = status_of(ros.take("/sgplvm/status"), "coman")
