@@ -73,23 +73,21 @@ pub fn configurations(
         .collect()
 }
 
-/// Per frame, the angles between `anatomy`'s arms at each row of `commands` (columns `joints`)
-/// and the person at the same row of `human` (the human model's 18 joints).
+/// Per frame, the angles between the robot's arms at each of `configurations` (whole
+/// configurations, [`configurations`]) and the person at the same row of `human` (the human
+/// model's 18 joints), measured by `person`.
 pub fn from_person(
-    anatomy: &Anatomy,
-    joints: &[String],
-    commands: MatRef<'_, f64>,
+    person: &PersonDistance<'_>,
+    configurations: &[Vec<f64>],
     human: MatRef<'_, f64>,
 ) -> Result<Vec<[ArmAngles; 2]>, String> {
-    if commands.nrows() != human.nrows() {
+    if configurations.len() != human.nrows() {
         return Err(format!(
             "{} frames of commands for {} frames of the person",
-            commands.nrows(),
+            configurations.len(),
             human.nrows()
         ));
     }
-    let person = PersonDistance::new(anatomy).map_err(|e| e.to_string())?;
-    let configurations = configurations(anatomy, joints, commands)?;
     Ok(configurations
         .iter()
         .enumerate()

@@ -8,11 +8,12 @@
 //! Robots without a built-in body (no URDF to measure on) are named and left out.
 
 use serde::{Deserialize, Serialize};
-use sgplvm_core::SharedGplvm;
+use sgplvm_core::{MatRef, SharedGplvm};
 use sgplvm_robots::anatomy::Anatomy;
+use sgplvm_robots::retarget::whole_arm::PersonDistance;
 
 use super::{ExperimentData, ExperimentError};
-use crate::arms::{from_person, ArmSummary};
+use crate::arms::{configurations, from_person, ArmSummary};
 
 /// What the study needs beside the experiment's matrices: each robot's joint names (its
 /// columns) and who the training and test frames are of.
@@ -86,9 +87,26 @@ pub(crate) fn learned(
         .predict(human, name, false)
         .map_err(|e| failed(name, e.to_string()))?
         .mean;
-    let angles =
-        from_person(&anatomy, joints, predicted.as_ref(), human).map_err(|e| failed(name, e))?;
-    Ok(Some(ArmSummary::of(&angles)))
+    against_person(&anatomy, joints, predicted.as_ref(), human)
+        .map(Some)
+        .map_err(|e| failed(name, e))
+}
+
+/// The summary of `anatomy`'s arms at each row of `commands` (columns `joints`) against the
+/// person at the same row of `human`.
+fn against_person(
+    anatomy: &Anatomy,
+    joints: &[String],
+    commands: MatRef<'_, f64>,
+    human: MatRef<'_, f64>,
+) -> Result<ArmSummary, String> {
+    let person = PersonDistance::new(anatomy).map_err(|e| e.to_string())?;
+    let configurations = configurations(anatomy, joints, commands)?;
+    Ok(ArmSummary::of(&from_person(
+        &person,
+        &configurations,
+        human,
+    )?))
 }
 
 /// The retargeted test frames against the person, per robot with a built-in body; `None` when
@@ -101,14 +119,14 @@ pub(crate) fn study(data: &ExperimentData) -> Result<Option<RetargetingStudy>, E
     for (r, (name, split)) in data.robots.iter().enumerate() {
         match (body(name), study.robot_joints.get(r)) {
             (Some(anatomy), Some(joints)) => {
-                let angles = from_person(
+                let summary = against_person(
                     &anatomy,
                     joints,
                     split.test.as_ref(),
                     data.human.test.as_ref(),
                 )
                 .map_err(|e| failed(name, e))?;
-                retargeted.push((name.clone(), ArmSummary::of(&angles)));
+                retargeted.push((name.clone(), summary));
             }
             _ => left_out.push(name.clone()),
         }

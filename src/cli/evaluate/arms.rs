@@ -7,7 +7,7 @@ use serde::Serialize;
 use sgplvm::arms::{configurations, from_person, ArmSummary, FAR_DEG};
 use sgplvm::pipeline::{to_mat, Demonstrations};
 use sgplvm::robots::anatomy::Anatomy;
-use sgplvm::robots::retarget::whole_arm::{ArmAngles, PostureDistance};
+use sgplvm::robots::retarget::whole_arm::{ArmAngles, PersonDistance, PostureDistance};
 use sgplvm::Mat;
 
 /// One person's test frames.
@@ -69,15 +69,9 @@ pub fn report(
         .zip(&want)
         .map(|(a, b)| distance.between(a, b))
         .collect();
-    let learned = from_person(
-        anatomy,
-        &body.joint_names,
-        predicted.as_ref(),
-        human.as_ref(),
-    )
-    .map_err(in_urdf)?;
-    let retargeted = from_person(anatomy, &body.joint_names, desired.as_ref(), human.as_ref())
-        .map_err(in_urdf)?;
+    let person = PersonDistance::new(anatomy).map_err(|e| anyhow!("{e}"))?;
+    let learned = from_person(&person, &got, human.as_ref()).map_err(in_urdf)?;
+    let retargeted = from_person(&person, &want, human.as_ref()).map_err(in_urdf)?;
     let followed_only = |a: &[[ArmAngles; 2]]| -> Vec<[ArmAngles; 2]> {
         (0..a.len()).filter(|&i| !held[i]).map(|i| a[i]).collect()
     };
