@@ -13,7 +13,8 @@ use crate::stats::quantile;
 /// An upper arm this far from the wanted one is a frame badly served (issue 49's bar), degrees.
 pub const FAR_DEG: f64 = 30.0;
 
-/// The angles of a set of frames (both arms of each pooled), degrees.
+/// The angles of a set of frames (the arms of each pooled: both, or a single-arm robot's one),
+/// degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ArmSummary {
     /// Frames summarised.
@@ -32,7 +33,7 @@ pub struct ArmSummary {
 
 impl ArmSummary {
     /// The summary of per-frame angles.
-    pub fn of(angles: &[[ArmAngles; 2]]) -> ArmSummary {
+    pub fn of(angles: &[Vec<ArmAngles>]) -> ArmSummary {
         let pooled = |f: fn(&ArmAngles) -> f64| -> Vec<f64> {
             let mut v: Vec<f64> = angles.iter().flat_map(|a| a.iter().map(f)).collect();
             v.sort_by(f64::total_cmp);
@@ -80,7 +81,7 @@ pub fn from_person(
     person: &PersonDistance<'_>,
     configurations: &[Vec<f64>],
     human: MatRef<'_, f64>,
-) -> Result<Vec<[ArmAngles; 2]>, String> {
+) -> Result<Vec<Vec<ArmAngles>>, String> {
     if configurations.len() != human.nrows() {
         return Err(format!(
             "{} frames of commands for {} frames of the person",

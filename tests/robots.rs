@@ -90,12 +90,16 @@ fn unusable_descriptions_fail_naming_the_file_and_link_and_write_nothing() {
     let hold = fails_on_one_line(&["robot", s(&urdf), "--hold", "left_elbow_joint=0.3"]);
     assert!(hold.contains("is an arm joint"), "{hold}");
     assert!(!kept.exists());
-    // A URDF with no two arms to find.
-    let kuka = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("crates/sgplvm-robots/tests/fixtures/kuka_iiwa.urdf");
-    let none = fails_on_one_line(&["robot", s(&kuka)]);
+    // A URDF with no arm to find (one joint: no chain of four).
+    let stick = dir.join("stick.urdf");
+    std::fs::write(
+        &stick,
+        r#"<robot name="stick"><link name="a"/><link name="b"/><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>"#,
+    )
+    .unwrap();
+    let none = fails_on_one_line(&["robot", s(&stick)]);
     assert!(
-        none.contains("kuka_iiwa.urdf: cannot tell the robot's two arms"),
+        none.contains("stick.urdf: cannot tell the robot's arms"),
         "{none}"
     );
     let out = dir.join("never.mcap");
@@ -105,7 +109,7 @@ fn unusable_descriptions_fail_naming_the_file_and_link_and_write_nothing() {
         "--demos",
         s(&data),
         "--urdf",
-        s(&kuka),
+        s(&stick),
         "--out",
         s(&out),
     ]);
@@ -302,4 +306,99 @@ fn arm_commands_as_csv_replay_with_the_rest_held(
             .any(|h| h[0] == "waist_pitch_joint" && (h[1].as_f64().unwrap() - 0.1).abs() < 1e-12),
         "{replay}"
     );
+}
+
+#[test]
+fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_names() {
+    // KUKA's iiwa as published: one serial chain, no side in its names. Found as one arm
+    // driven by the person's right arm; `--arm left=…` alone gives it the person's left.
+    let dir = scratch("robot-single-arm");
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("crates/sgplvm-robots/tests/fixtures/kuka_iiwa.urdf");
+    let report: serde_json::Value =
+        serde_json::from_str(&ok(&["robot", s(&kuka), "--json"])).unwrap();
+    let arms = report["arms"].as_array().unwrap();
+    assert_eq!(arms.len(), 1, "{report}");
+    assert_eq!(arms[0]["side"], "right");
+    assert!(report["shoulder_width_m"].is_null());
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/demos/captured.mcap");
+    let mut medians = Vec::new();
+    for (side, demos) in [
+        ("right", dir.join("kuka-right.mcap")),
+        ("left", dir.join("kuka-left.mcap")),
+    ] {
+        let arm = format!("{side}=lbr_iiwa_link_0:lbr_iiwa_link_7");
+        let out = ok(&[
+            "retarget",
+            "--demos",
+            s(&data),
+            "--urdf",
+            s(&kuka),
+            "--robot",
+            "kuka",
+            "--arm",
+            &arm,
+            "--json",
+            "--out",
+            s(&demos),
+        ]);
+        let out: serde_json::Value = serde_json::from_str(&out).unwrap();
+        let posture = &out["reach"][0]["posture"];
+        medians.push(posture["upper_arm_deg"][0].as_f64().unwrap());
+        let ds = load_demonstrations(&demos).unwrap();
+        assert_eq!(ds.robot("kuka").unwrap().joint_names.len(), 7);
+    }
+    // Each side follows its own arm of the person: the commands differ, both are faithful at
+    // the median (the arm stands on its base: where the person's arm hangs it cannot follow).
+    assert!(medians.iter().all(|&m| m < 10.0), "{medians:?}");
+    let (r, l) = (
+        load_demonstrations(dir.join("kuka-right.mcap")).unwrap(),
+        load_demonstrations(dir.join("kuka-left.mcap")).unwrap(),
+    );
+    assert!(r.robot("kuka").unwrap().positions != l.robot("kuka").unwrap().positions);
+    let demos = dir.join("kuka-right.mcap");
+    let model = dir.join("kuka.sgp");
+    ok(&[
+        "train",
+        "--data",
+        s(&demos),
+        "--robot",
+        "kuka",
+        "--max-iters",
+        "30",
+        "--out",
+        s(&model),
+    ]);
+    let csv = dir.join("kuka.csv");
+    ok(&[
+        "predict",
+        "--model",
+        s(&model),
+        "--input",
+        s(&demos),
+        "--robot",
+        "kuka",
+        "--urdf",
+        s(&kuka),
+        "--out",
+        s(&csv),
+    ]);
+    let header = std::fs::read_to_string(&csv).unwrap();
+    let header = header.lines().next().unwrap();
+    assert_eq!(header.split(',').count(), 1 + 7, "{header}");
+    let evaluated: serde_json::Value = serde_json::from_str(&ok(&[
+        "evaluate",
+        "--model",
+        s(&model),
+        "--data",
+        s(&demos),
+        "--robot",
+        "kuka",
+        "--urdf",
+        s(&kuka),
+        "--json",
+    ]))
+    .unwrap();
+    let text = evaluated.to_string();
+    assert!(text.contains("upper_arm_median_deg"), "{text}");
 }

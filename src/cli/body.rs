@@ -15,8 +15,8 @@ use sgplvm::robots::Robot;
 // qualified `ROBOT/…` to apply to that robot alone; unqualified it applies to every robot.
 #[derive(Args, Clone, Default)]
 pub struct BodyArgs {
-    /// An arm of a URDF robot, SIDE=FROM_LINK:TO_LINK (left and right both), where its names
-    /// do not tell (`sgplvm robot FILE.urdf` shows what was found); `ROBOT/SIDE=…` for one of
+    /// An arm of a URDF robot, SIDE=FROM_LINK:TO_LINK (left and right both; one alone for a
+    /// single-arm robot, driven by the person's arm of that side), where its names do not tell (`sgplvm robot FILE.urdf` shows what was found); `ROBOT/SIDE=…` for one of
     /// several robots. Written once in FILE.anatomy.json beside the URDF, every command reads it.
     #[arg(long = "arm", value_name = "[ROBOT/]SIDE=FROM:TO")]
     pub arm: Vec<String>,

@@ -86,9 +86,10 @@ pub fn arm_columns(
     let mut arms = [Vec::new(), Vec::new()];
     for (c, joint) in joints.iter().enumerate() {
         let side = match anatomy {
-            Some(a) => [Side::Left, Side::Right]
-                .into_iter()
-                .find(|&s| a.arm(s).chain.joint_names().contains(joint)),
+            Some(a) => [Side::Left, Side::Right].into_iter().find(|&s| {
+                a.arm(s)
+                    .is_some_and(|arm| arm.chain.joint_names().contains(joint))
+            }),
             None => side_by_name(joint),
         };
         let Some(side) = side else {

@@ -124,7 +124,8 @@ impl PyRobot {
     /// Loads a URDF file as its maker publishes it; with `base` and `tip`, the body is
     /// restricted to the chain between them. The robot's anatomy (its arms, held joints, body
     /// frame, reach and neutral posture) is found from the URDF and the description file beside
-    /// it (`ROBOT.anatomy.json`), or as `arms` ({"left": (FROM_LINK, TO_LINK), "right": …}),
+    /// it (`ROBOT.anatomy.json`), or as `arms` ({"left": (FROM_LINK, TO_LINK), "right": …}; one
+    /// side alone for a single-arm robot),
     /// `hold` ({joint: value}), `up`, `forward` (directions in the torso link's frame) and
     /// `command_joints` ("arms", "all" or joint names) say.
     #[staticmethod]

@@ -4,7 +4,9 @@ lift, continuous forearm and wrist rolls, shoulder axes that do not meet), PAL's
 dual-arm mobile robot with five-finger hands: arm joints ``arm_left_1_joint`` … whose axes are
 all local z under large ``rpy``, a finger joint on the arm's tip link), Aldebaran's Romeo (a
 humanoid with a trunk joint and hands, ``velocity="0"`` on 24 hand joints) and Boardwalk
-Robotics' Alex (a humanoid upper body with a 3-joint spine and dexterous hands). Each goes
+Robotics' Alex (a humanoid upper body with a 3-joint spine and dexterous hands); and single-arm
+robots: PAL's TIAGo (a mobile manipulator), Franka's Panda (an arm on a table) and
+TheRobotStudio's SO-100 (five joints and a revolute jaw that continues the chain). Each goes
 through ``robot``, ``retarget``, ``train``, ``predict`` and ``simulate`` as published: no edit,
 no flag (the meshes are found from the URDF's own package), on a short capture. Forward
 kinematics are checked against Pinocchio. Nothing of these robots is committed: the wheel is
@@ -29,7 +31,12 @@ ROBOTS = {
     "tiago_dual": ("tiago_description/robots/tiago_dual.urdf", "arm_left_1_joint", 7),
     "romeo": ("romeo_description/urdf/romeo.urdf", "LShoulderPitch", 7),
     "alex": ("alex_description/urdf/alex_psyonic_hands.urdf", "LeftShoulderPitch", 6),
+    # Single-arm robots: the arm found by structure, driven by the person's right arm.
+    "tiago": ("tiago_description/robots/tiago.urdf", "arm_1_joint", 7),
+    "panda": ("panda_description/urdf/panda.urdf", "panda_joint1", 7),
+    "so100": ("so_arm_description/urdf/so100.urdf", "shoulder_pan", 5),
 }
+SINGLE_ARM = {"tiago", "panda", "so100"}
 
 
 # Whose retargeted demonstrations (velocity limits off, as training data is made) jump where the
@@ -82,6 +89,7 @@ def test_published_as_they_are_through_every_command(name, capture, tmp_path):
     arms = summary["arms"]
     left = arms[0]["joints"]
     assert left[0] == first and len(left) == count, left
+    assert [a["side"] for a in arms] == (["right"] if name in SINGLE_ARM else ["left", "right"]), arms
     # No finger or gripper joint in an arm.
     for arm in arms:
         assert not any(w in j.lower() for j in arm["joints"] for w in ("finger", "thumb", "index", "mrl", "gripper")), arm
@@ -91,6 +99,11 @@ def test_published_as_they_are_through_every_command(name, capture, tmp_path):
     posture = json.loads(out.stdout)["reach"][0]["posture"]
     assert posture["unchecked"] == [] and posture["pairs"] > 0, posture
     assert posture["colliding_frames"] == 0, posture
+    if name == "tiago":
+        # Its orientations measured from a reference posture fitted from the fixed starts too:
+        # from the neutral alone its elbow stopped at a limit, and the upper arm followed the
+        # person 13 deg off at the median (forearm 19 deg) on the captured motion.
+        assert posture["upper_arm_deg"][0] < 5.0 and posture["forearm_deg"][0] < 5.0, posture
     # The report says which limits held the commands.
     assert sum(h["frames"] for h in posture["velocity_limited_joints"]) >= 0
     for pair in posture["collision_limited_pairs"]:
@@ -105,7 +118,7 @@ def test_published_as_they_are_through_every_command(name, capture, tmp_path):
     replay = json.loads(cli("simulate", "--model", tmp_path / "m.sgp", "--input", capture, "--robot", name,
                             "--urdf", path, "--json", cwd=tmp_path).stdout)
     assert replay["diverged"] is None, replay["diverged"]
-    assert len(replay["joints"]) == 2 * count
+    assert len(replay["joints"]) == len(arms) * count
     assert replay["held"] and replay["unchecked_meshes"] == []
     assert all(j["max_error"] < 1.0 for j in replay["joints"]), replay["joints"]
     if name in JUMPS_IN_DEMONSTRATIONS:

@@ -86,11 +86,22 @@ def test_arms_and_holds_given_in_python_and_kept_in_a_description_file(tmp_path)
         sgplvm.Robot.from_urdf(urdf, arms={"left": ("torso_link", "nowhere"), "right": ("torso_link", "right_rubber_hand")})
     with pytest.raises(ValueError, match="outside the joint's limits"):
         sgplvm.Robot.from_urdf(urdf, hold={"waist_roll_joint": 3.0})
-    # A single arm has no anatomy but still its kinematics.
+    # A single arm (KUKA's iiwa): one arm, driven by the person's right arm, in the root's frame.
     kuka = sgplvm.Robot.from_urdf(ROOT / "crates" / "sgplvm-robots" / "tests" / "fixtures" / "kuka_iiwa.urdf")
     assert len(kuka.joint_names) == 7
-    with pytest.raises(ValueError, match="two arms"):
-        kuka.anatomy
+    arms = kuka.anatomy["arms"]
+    assert [a["side"] for a in arms] == ["right"] and len(arms[0]["joints"]) == 7, arms
+    assert kuka.anatomy["shoulder_width_m"] is None
+    # A body with no arm at all has no anatomy, but still its kinematics.
+    stick = tmp_path / "stick.urdf"
+    stick.write_text(
+        '<robot name="stick"><link name="a"/><link name="b"/><joint name="j" type="revolute">'
+        '<parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>'
+    )
+    assert sgplvm.Robot.from_urdf(stick).joint_names == ["j"]
+    with pytest.raises(ValueError, match="cannot tell the robot's arms"):
+        sgplvm.Robot.from_urdf(stick).anatomy
 
 
 def test_g1_forward_kinematics_equal_pinocchio():

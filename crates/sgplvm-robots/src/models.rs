@@ -39,6 +39,20 @@ impl Side {
             Side::Right => "right",
         }
     }
+
+    /// The other side.
+    pub fn other(self) -> Side {
+        match self {
+            Side::Left => Side::Right,
+            Side::Right => Side::Left,
+        }
+    }
+
+    /// 0 for the left, 1 for the right: the index of a side in per-side arrays (the person's
+    /// two arms).
+    pub fn index(self) -> usize {
+        usize::from(self == Side::Right)
+    }
 }
 
 /// One arm of a robot that follows the shoulder/hand link convention.

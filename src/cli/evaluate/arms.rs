@@ -64,7 +64,7 @@ pub fn report(
         configurations(anatomy, &body.joint_names, desired.as_ref()).map_err(in_urdf)?,
     );
     let distance = PostureDistance::new(anatomy);
-    let angles: Vec<[ArmAngles; 2]> = got
+    let angles: Vec<Vec<ArmAngles>> = got
         .iter()
         .zip(&want)
         .map(|(a, b)| distance.between(a, b))
@@ -72,15 +72,18 @@ pub fn report(
     let person = PersonDistance::new(anatomy).map_err(|e| anyhow!("{e}"))?;
     let learned = from_person(&person, &got, human.as_ref()).map_err(in_urdf)?;
     let retargeted = from_person(&person, &want, human.as_ref()).map_err(in_urdf)?;
-    let followed_only = |a: &[[ArmAngles; 2]]| -> Vec<[ArmAngles; 2]> {
-        (0..a.len()).filter(|&i| !held[i]).map(|i| a[i]).collect()
+    let followed_only = |a: &[Vec<ArmAngles>]| -> Vec<Vec<ArmAngles>> {
+        (0..a.len())
+            .filter(|&i| !held[i])
+            .map(|i| a[i].clone())
+            .collect()
     };
     let from_person = FromPerson {
         learned_followed: ArmSummary::of(&followed_only(&learned)),
         retargeted_followed: ArmSummary::of(&followed_only(&retargeted)),
         retargeted_all: ArmSummary::of(&retargeted),
     };
-    let pick = |want_held: bool, person: Option<&str>| -> Vec<[ArmAngles; 2]> {
+    let pick = |want_held: bool, person: Option<&str>| -> Vec<Vec<ArmAngles>> {
         (0..angles.len())
             .filter(|&i| held[i] == want_held)
             .filter(|&i| {
@@ -88,7 +91,7 @@ pub fn report(
                     ds.segment_of(ds.test[i]).and_then(|s| s.person.as_deref()) == Some(p)
                 })
             })
-            .map(|i| angles[i])
+            .map(|i| angles[i].clone())
             .collect()
     };
     let people = ds
@@ -128,7 +131,7 @@ pub fn print(r: &ArmsReport, robot: &str) {
         )
     };
     println!(
-        "arms: the model's {robot} against the demonstrated posture on bone lines (both arms pooled)"
+        "arms: the model's {robot} against the demonstrated posture on bone lines (its arms pooled)"
     );
     println!(
         "  {:<22} {:>6}   {:>15}   {:>15}   {:>8}",

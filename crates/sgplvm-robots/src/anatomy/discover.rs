@@ -1,5 +1,6 @@
-//! Finding a robot's two arms in its URDF tree: as the user named them, by sgplvm's link
-//! convention, by the joints' names, else by the tree's structure; and each arm's hand link.
+//! Finding a robot's arms in its URDF tree — two, or one on a single-arm robot (a mobile
+//! manipulator, an arm on a table): as the user named them, by sgplvm's link convention, by
+//! the joints' names, else by the tree's structure; and each arm's hand link.
 
 use super::words::{hand_score, part_of, side_of, Part};
 use super::{AnatomyError, AnatomyResult, AnatomySpec, Found};
@@ -17,11 +18,12 @@ pub(super) struct RawArm {
     pub shoulder_link: Option<String>,
 }
 
-/// Both arms, how they were found and what was noticed.
+/// The arms (left then right; one on a single-arm robot), how they were found and what was
+/// noticed.
 #[derive(Debug, Clone)]
 pub(super) struct FoundArms {
     pub found: Found,
-    pub arms: [RawArm; 2],
+    pub arms: Vec<RawArm>,
     pub notes: Vec<String>,
 }
 
@@ -164,42 +166,39 @@ impl<'a> Tree<'a> {
     }
 }
 
-/// Both arms of `robot`: as `spec` names them, else by the convention, the names or the
-/// structure.
+/// The arms of `robot`: as `spec` names them (both, or one: a single arm, the other side's
+/// joints held), else by the convention, the names or the structure.
 pub(super) fn arms(robot: &Robot, spec: &AnatomySpec) -> AnatomyResult<FoundArms> {
     let tree = Tree::new(robot);
-    match (&spec.left, &spec.right) {
-        (Some(l), Some(r)) => {
-            let found = match &spec.source {
-                Some(p) => Found::File(p.display().to_string()),
-                None => Found::Named,
-            };
-            let what = |side: &str| match &spec.source {
-                Some(p) => format!("{}: arms.{side}", p.display()),
-                None => format!("--arm {side}"),
-            };
-            let arms = [
-                named(&tree, Side::Left, &l.from, &l.to, &what("left"))?,
-                named(&tree, Side::Right, &r.from, &r.to, &what("right"))?,
-            ];
-            check_shared(&tree, &arms)?;
-            Ok(FoundArms {
-                found,
-                arms,
-                notes: Vec::new(),
-            })
-        }
-        (Some(_), None) | (None, Some(_)) => Err(AnatomyError::NoArms {
-            file: file_of(robot),
-            why: "only one arm is named".into(),
-            description: super::description_path(std::path::Path::new(robot.source()))
-                .display()
-                .to_string(),
-        }),
-        (None, None) => convention(&tree)
+    if spec.left.is_none() && spec.right.is_none() {
+        return convention(&tree)
             .or_else(|| by_names(&tree))
-            .map_or_else(|| by_structure(&tree), Ok),
+            .map_or_else(|| by_structure(&tree), Ok);
     }
+    let found = match &spec.source {
+        Some(p) => Found::File(p.display().to_string()),
+        None => Found::Named,
+    };
+    let what = |side: &str| match &spec.source {
+        Some(p) => format!("{}: arms.{side}", p.display()),
+        None => format!("--arm {side}"),
+    };
+    let mut arms = Vec::with_capacity(2);
+    for side in [Side::Left, Side::Right] {
+        if let Some(a) = spec.arm(side) {
+            arms.push(named(&tree, side, &a.from, &a.to, &what(side.as_str()))?);
+        }
+    }
+    check_shared(&tree, &arms)?;
+    let notes = match arms.as_slice() {
+        [one] => vec![format!(
+            "one arm named ({}): a single-arm robot, driven by the person's {} arm; every other joint is held",
+            one.side.as_str(),
+            one.side.as_str()
+        )],
+        _ => Vec::new(),
+    };
+    Ok(FoundArms { found, arms, notes })
 }
 
 /// An arm named FROM:TO, checked.
@@ -259,12 +258,15 @@ fn close_names(name: &str, links: &[String]) -> String {
 }
 
 /// The movable joints two named arms share, an error when there are any.
-fn check_shared(tree: &Tree, arms: &[RawArm; 2]) -> AnatomyResult<()> {
+fn check_shared(tree: &Tree, arms: &[RawArm]) -> AnatomyResult<()> {
     let robot = tree.robot;
+    let [left, right] = arms else {
+        return Ok(());
+    };
     let joints = |a: &RawArm| -> AnatomyResult<Vec<String>> {
         Ok(robot.chain(&a.base, &a.hand)?.joint_names().to_vec())
     };
-    let (l, r) = (joints(&arms[0])?, joints(&arms[1])?);
+    let (l, r) = (joints(left)?, joints(right)?);
     let shared: Vec<&String> = l.iter().filter(|j| r.contains(j)).collect();
     if shared.is_empty() {
         return Ok(());
@@ -276,10 +278,10 @@ fn check_shared(tree: &Tree, arms: &[RawArm; 2]) -> AnatomyResult<()> {
     Err(AnatomyError::SharedJoints {
         file: file_of(robot),
         arms: Box::new(super::SharedArms {
-            lfrom: arms[0].base.clone(),
-            lto: arms[0].hand.clone(),
-            rfrom: arms[1].base.clone(),
-            rto: arms[1].hand.clone(),
+            lfrom: left.base.clone(),
+            lto: left.hand.clone(),
+            rfrom: right.base.clone(),
+            rto: right.hand.clone(),
             joints: few(&shared, 4),
             below,
         }),
@@ -307,7 +309,7 @@ fn convention(tree: &Tree) -> Option<FoundArms> {
     };
     Some(FoundArms {
         found: Found::Convention,
-        arms: [
+        arms: vec![
             arm(Side::Left, &lp, "left_hand")?,
             arm(Side::Right, &rp, "right_hand")?,
         ],
@@ -315,13 +317,14 @@ fn convention(tree: &Tree) -> Option<FoundArms> {
     })
 }
 
-/// Whether joint `j` can be an arm joint by its words (and its child link's).
+/// Whether joint `j` can be an arm joint by its words (and its child link's, unless its own
+/// name says arm: a `wrist_roll` joint may carry the link a maker calls `gripper`).
 fn armlike(tree: &Tree, j: usize) -> bool {
     let own = part_of(tree.joint_name(j));
     let link = part_of(tree.link_name(tree.robot.joints[j].child));
     tree.revolute(j)
         && !matches!(own, Part::Gripper | Part::Leg | Part::Head | Part::Torso)
-        && !matches!(link, Part::Gripper | Part::Leg | Part::Head)
+        && (own == Part::Arm || !matches!(link, Part::Gripper | Part::Leg | Part::Head))
 }
 
 /// The side joint `j`'s name (else its child link's) says.
@@ -374,25 +377,35 @@ fn by_names(tree: &Tree) -> Option<FoundArms> {
     };
     Some(FoundArms {
         found: Found::Names,
-        arms: [arm(Side::Left)?, arm(Side::Right)?],
+        arms: vec![arm(Side::Left)?, arm(Side::Right)?],
         notes: Vec::new(),
     })
 }
 
 /// Arms by structure alone: serial chains of at least four revolute joints (not named as legs,
 /// heads or grippers) that no other chain continues; exactly two of them, or the two of equal
-/// length nearest each other in the tree. Left is the one further along the root's +y.
+/// length nearest each other in the tree (left is the one further along the root's +y); or
+/// exactly one: a single-arm robot, on the side its names say, else the right.
 fn by_structure(tree: &Tree) -> AnatomyResult<FoundArms> {
     let robot = tree.robot;
     let cands: Vec<usize> = (0..robot.joints.len())
         .filter(|&j| armlike(tree, j))
         .collect();
-    let chains: Vec<Vec<usize>> = cands.iter().map(|&j| tree.serial_from(j)).collect();
+    // Each chain up to its first joint that cannot be an arm's (a single jaw's revolute joint
+    // continuing the chain past the wrist).
+    let chains: Vec<Vec<usize>> = cands
+        .iter()
+        .map(|&j| {
+            tree.serial_from(j)
+                .into_iter()
+                .take_while(|k| cands.contains(k))
+                .collect()
+        })
+        .collect();
     let starts: Vec<&Vec<usize>> = chains
         .iter()
         .filter(|c| {
             c.len() >= 4
-                && c.iter().all(|&k| cands.contains(&k))
                 && !chains
                     .iter()
                     .any(|o| o[0] != c[0] && o.contains(&c[0]) && o.len() >= c.len())
@@ -413,8 +426,33 @@ fn by_structure(tree: &Tree) -> AnatomyResult<FoundArms> {
             c.len()
         )
     };
+    let raw = |side: Side, c: &Vec<usize>| RawArm {
+        side,
+        base: robot.links[robot.joints[c[0]].parent].clone(),
+        hand: tree.hand_link(*c.last().unwrap_or(&c[0])),
+        shoulder_link: None,
+    };
     let pair = match starts.as_slice() {
         [a, b] => (*a, *b),
+        [one] => {
+            // A single-arm robot: the person's arm of the side its names say, else the right.
+            let said = one.iter().find_map(|&j| side_said(tree, j));
+            let side = said.unwrap_or(Side::Right);
+            let why = match said {
+                Some(_) => "its joint names say so",
+                None => "no joint name says a side",
+            };
+            return Ok(FoundArms {
+                found: Found::Structure,
+                arms: vec![raw(side, one)],
+                notes: vec![format!(
+                    "one arm ({}): a single-arm robot, driven by the person's {} arm ({why}; --arm {}=FROM_LINK:TO_LINK names it and its side); every other joint is held",
+                    describe(one),
+                    side.as_str(),
+                    side.other().as_str()
+                )],
+            });
+        }
         [] => {
             return Err(no_arms(
                 "no joint name says left or right, and the tree has no serial chain of four or more revolute joints".into(),
@@ -452,15 +490,9 @@ fn by_structure(tree: &Tree) -> AnatomyResult<FoundArms> {
         )));
     }
     let (left, right) = if ya > yb { pair } else { (pair.1, pair.0) };
-    let raw = |side: Side, c: &Vec<usize>| RawArm {
-        side,
-        base: robot.links[robot.joints[c[0]].parent].clone(),
-        hand: tree.hand_link(*c.last().unwrap_or(&c[0])),
-        shoulder_link: None,
-    };
     Ok(FoundArms {
         found: Found::Structure,
-        arms: [raw(Side::Left, left), raw(Side::Right, right)],
+        arms: vec![raw(Side::Left, left), raw(Side::Right, right)],
         notes: vec![format!(
             "no joint name says left or right: the arm starting at {} is taken as the left one, for it lies further along the root link's +y; name the arms with --arm if that is wrong",
             tree.joint_name(left[0])

@@ -42,7 +42,7 @@ pub fn description_path(urdf: &Path) -> PathBuf {
 pub struct AnatomyFile {
     /// The format's version ([`ANATOMY_FILE_VERSION`]).
     pub sgplvm_anatomy: u32,
-    /// `{"left": "FROM:TO", "right": "FROM:TO"}`.
+    /// `{"left": "FROM:TO", "right": "FROM:TO"}` (one key on a single-arm robot).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub arms: BTreeMap<String, String>,
     /// Hold values of joints outside the arms.
@@ -66,9 +66,12 @@ impl AnatomyFile {
     /// The file that describes `a` completely: its arms, hold values, body axes, neutral
     /// posture and command joints.
     pub fn of(a: &Anatomy) -> AnatomyFile {
-        let arm = |k: usize| {
-            let c = &a.arms[k].chain;
-            format!("{}:{}", c.base(), c.tip())
+        let arm = |arm: &super::AnatomyArm| {
+            let c = &arm.chain;
+            (
+                arm.side.as_str().to_string(),
+                format!("{}:{}", c.base(), c.tip()),
+            )
         };
         let axis = |k: usize| {
             let v = a.body_in_torso * Vector3::ith(k, 1.0);
@@ -85,9 +88,7 @@ impl AnatomyFile {
         };
         AnatomyFile {
             sgplvm_anatomy: ANATOMY_FILE_VERSION,
-            arms: [("left".to_string(), arm(0)), ("right".to_string(), arm(1))]
-                .into_iter()
-                .collect(),
+            arms: a.arms.iter().map(arm).collect(),
             hold: a.held_joints().into_iter().collect(),
             up: Some(axis(2)),
             forward: Some(axis(0)),

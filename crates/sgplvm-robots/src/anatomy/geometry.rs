@@ -18,10 +18,11 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         .source
         .as_ref()
         .map_or_else(|| file_of(&robot), |p| p.display().to_string());
-    let chains = [
-        chain_of(&robot, &found.arms[0])?,
-        chain_of(&robot, &found.arms[1])?,
-    ];
+    let chains = found
+        .arms
+        .iter()
+        .map(|raw| chain_of(&robot, raw))
+        .collect::<AnatomyResult<Vec<Chain>>>()?;
     for (raw, chain) in found.arms.iter().zip(&chains) {
         if chain.dof() < 3 {
             return Err(AnatomyError::TooFewJoints {
@@ -38,19 +39,24 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         .flat_map(|c| c.robot_indices().iter().copied())
         .collect();
     let mut hold = hold_configuration(&robot, &arm_joints, spec, &file)?;
-    let torso = lowest_common_ancestor(&robot, &found.arms[0].base, &found.arms[1].base)?;
+    let torso = match found.arms.as_slice() {
+        [left, right] => lowest_common_ancestor(&robot, &left.base, &right.base)?,
+        // One arm: the link it hangs from is the torso.
+        [one] => one.base.clone(),
+        _ => {
+            return Err(AnatomyError::Frame {
+                file: file.clone(),
+                message: format!("expected one or two arms, found {}", found.arms.len()),
+            })
+        }
+    };
     let torso_in_root = robot.forward_kinematics(&hold, &torso)?;
-    let mut arms = Vec::with_capacity(2);
+    let mut arms = Vec::with_capacity(found.arms.len());
     for (raw, chain) in found.arms.iter().zip(chains) {
         arms.push(arm_geometry(&robot, raw, chain, &hold, &torso_in_root)?);
     }
-    let [mut left, mut right]: [AnatomyArm; 2] =
-        arms.try_into().map_err(|_| AnatomyError::Frame {
-            file: file.clone(),
-            message: "expected two arms".into(),
-        })?;
-    let body_in_torso = body_frame(&left, &right, &torso_in_root, spec, &file)?;
-    for arm in [&mut left, &mut right] {
+    let body_in_torso = body_frame(&arms, &torso_in_root, spec, &file)?;
+    for arm in &mut arms {
         arm.neutral = neutral_posture(&robot, arm, &body_in_torso, spec, &file)?;
         for (k, &i) in arm.chain.robot_indices().iter().enumerate() {
             hold[i] = arm.neutral[k];
@@ -62,7 +68,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
     let command = command_joints(&robot, &arm_joints, &spec.command_joints, &file)?;
     let mut anatomy = Anatomy {
         found: found.found,
-        arms: [left, right],
+        arms,
         torso_link: torso,
         body_in_torso,
         torso_in_root,
@@ -174,61 +180,72 @@ fn unit(v: &Vector3<f64>, what: &str, file: &str) -> AnatomyResult<Vector3<f64>>
 }
 
 /// The body frame's rotation into the torso frame: left from the right shoulder to the left,
-/// up (the root's z, or as given) made square to it, forward = left × up (or as given).
+/// up (the root's z, or as given) made square to it, forward = left × up (or as given). With
+/// one arm there is no across: up as with two, forward (the root's x, or as given) made
+/// square to it, left = up × forward.
 fn body_frame(
-    left: &AnatomyArm,
-    right: &AnatomyArm,
+    arms: &[AnatomyArm],
     torso_in_root: &Isometry3<f64>,
     spec: &AnatomySpec,
     file: &str,
 ) -> AnatomyResult<UnitQuaternion<f64>> {
+    let frame_error = |message: String| AnatomyError::Frame {
+        file: file.to_string(),
+        message,
+    };
+    let up_given = match &spec.up {
+        Some(u) => Some(unit(u, "up", file)?),
+        None => None,
+    };
+    let up_root = torso_in_root.rotation.inverse() * Vector3::z();
+    let [left, right] = arms else {
+        // A single arm: up, then forward made square to it.
+        let u = up_given.unwrap_or(up_root);
+        let f = match &spec.forward {
+            Some(f) => unit(f, "forward", file)?,
+            None => torso_in_root.rotation.inverse() * Vector3::x(),
+        };
+        let square = f - u * u.dot(&f);
+        if square.norm() < 0.3 {
+            return Err(frame_error(format!(
+                "forward {f:?} runs nearly along up {u:?} (in the torso link's frame): give --forward square to up"
+            )));
+        }
+        let forward = square.normalize();
+        let r = Rotation3::from_basis_unchecked(&[forward, u.cross(&forward), u]);
+        return Ok(UnitQuaternion::from_rotation_matrix(&r));
+    };
     let across = left.shoulder - right.shoulder;
     if across.norm() < 1e-3 {
-        return Err(AnatomyError::Frame {
-            file: file.to_string(),
-            message: format!(
-                "the two shoulders are {:.1} mm apart: left cannot be told from right",
-                across.norm() * 1e3
-            ),
-        });
+        return Err(frame_error(format!(
+            "the two shoulders are {:.1} mm apart: left cannot be told from right",
+            across.norm() * 1e3
+        )));
     }
     let l = across.normalize();
     let square = |v: Vector3<f64>, what: &str| -> AnatomyResult<Vector3<f64>> {
         let s = v - l * l.dot(&v);
         if s.norm() < 0.3 {
-            return Err(AnatomyError::Frame {
-                file: file.to_string(),
-                message: format!(
-                    "the {what} direction {v:?} runs nearly along the shoulders (left is {l:?} in the torso link's frame): expected a direction square to them"
-                ),
-            });
+            return Err(frame_error(format!(
+                "the {what} direction {v:?} runs nearly along the shoulders (left is {l:?} in the torso link's frame): expected a direction square to them"
+            )));
         }
         Ok(s.normalize())
     };
-    let (forward, up) = match (&spec.forward, &spec.up) {
+    let (forward, up) = match (&spec.forward, up_given) {
         (Some(f), None) => {
             let f = square(unit(f, "forward", file)?, "forward")?;
             (f, f.cross(&l))
         }
         (f, u) => {
-            let up_root = torso_in_root.rotation.inverse() * Vector3::z();
-            let u = square(
-                match u {
-                    Some(u) => unit(u, "up", file)?,
-                    None => up_root,
-                },
-                "up",
-            )?;
+            let u = square(u.unwrap_or(up_root), "up")?;
             let fwd = l.cross(&u);
             if let Some(f) = f {
                 let given = unit(f, "forward", file)?;
                 if given.dot(&fwd) < 0.7 {
-                    return Err(AnatomyError::Frame {
-                        file: file.to_string(),
-                        message: format!(
-                            "forward {given:?} and up {u:?} do not fit the shoulders (left {l:?}): with them forward is {fwd:?}"
-                        ),
-                    });
+                    return Err(frame_error(format!(
+                        "forward {given:?} and up {u:?} do not fit the shoulders (left {l:?}): with them forward is {fwd:?}"
+                    )));
                 }
             }
             (fwd, u)

@@ -3,6 +3,10 @@
 //! [`Anatomy`] holds all of that for one robot, so that no other module knows a maker's link
 //! names. Every command that takes a URDF builds one.
 //!
+//! Most robots have two arms; a single-arm robot (a mobile manipulator, an arm on a table) has
+//! one, driven by the person's arm of its side (the right unless its names or the user say
+//! otherwise).
+//!
 //! Where it comes from, in order ([`Found`]):
 //! 1. the user: [`AnatomySpec::left`] and [`AnatomySpec::right`] (`--arm left=FROM:TO`), or a description file beside the
 //!    URDF (`ROBOT.anatomy.json`, [`AnatomySpec::read`]), which a lab writes once;
@@ -221,7 +225,8 @@ pub enum Found {
     Convention,
     /// The joints' names (left/right and arm words).
     Names,
-    /// The tree's structure (two serial chains from one link; sides from the root's y axis).
+    /// The tree's structure (two serial chains from one link, sides from the root's y axis; or
+    /// one chain: a single arm).
     Structure,
 }
 
@@ -237,7 +242,7 @@ impl fmt::Display for Found {
             Found::Names => write!(f, "found by their joint names"),
             Found::Structure => write!(
                 f,
-                "found by the tree's structure (two serial chains from one link; left is +y of the root link)"
+                "found by the tree's structure (serial chains of revolute joints: two from one link, left the one along +y of the root link; or a single arm)"
             ),
         }
     }
@@ -393,7 +398,8 @@ pub struct ArmLandmarks {
 pub struct Anatomy {
     robot: Robot,
     found: Found,
-    arms: [AnatomyArm; 2],
+    /// Left then right; one on a single-arm robot.
+    arms: Vec<AnatomyArm>,
     torso_link: String,
     /// Rotation from the body frame (x forward, y left, z up) to the torso link's frame.
     body_in_torso: UnitQuaternion<f64>,
@@ -449,8 +455,8 @@ pub enum AnatomyError {
     /// The URDF itself is unusable.
     #[error(transparent)]
     Robot(#[from] RobotError),
-    /// No two arms could be told from the URDF.
-    #[error("{file}: cannot tell the robot's two arms: {why}; name them with --arm left=FROM_LINK:TO_LINK --arm right=FROM_LINK:TO_LINK (Python: arms={{\"left\": (FROM, TO), ...}}) or in {description}")]
+    /// No arms could be told from the URDF.
+    #[error("{file}: cannot tell the robot's arms: {why}; name them with --arm left=FROM_LINK:TO_LINK --arm right=FROM_LINK:TO_LINK (one of them alone for a single-arm robot; Python: arms={{\"left\": (FROM, TO), ...}}) or in {description}")]
     NoArms {
         /// The URDF.
         file: String,
@@ -596,20 +602,24 @@ impl Anatomy {
         &self.found
     }
 
-    /// Left and right arm.
-    pub fn arms(&self) -> &[AnatomyArm; 2] {
+    /// The arms: left then right, or the one arm of a single-arm robot (its side is the
+    /// person's arm that drives it).
+    pub fn arms(&self) -> &[AnatomyArm] {
         &self.arms
     }
 
-    /// The arm of `side`.
-    pub fn arm(&self, side: Side) -> &AnatomyArm {
-        match side {
-            Side::Left => &self.arms[0],
-            Side::Right => &self.arms[1],
-        }
+    /// The arm of `side`, `None` on a single-arm robot's other side.
+    pub fn arm(&self, side: Side) -> Option<&AnatomyArm> {
+        self.arms.iter().find(|a| a.side == side)
     }
 
-    /// The link both arms branch from, whose frame the shoulders and the body frame are given in.
+    /// The sides of the arms, in [`Anatomy::arms`]' order.
+    pub fn sides(&self) -> Vec<Side> {
+        self.arms.iter().map(|a| a.side).collect()
+    }
+
+    /// The link both arms branch from (a single arm's own base link), whose frame the
+    /// shoulders and the body frame are given in.
     pub fn torso_link(&self) -> &str {
         &self.torso_link
     }
@@ -639,7 +649,7 @@ impl Anatomy {
             .collect()
     }
 
-    /// The arm joints: left arm then right, shoulder to hand.
+    /// The arm joints: left arm then right (or the one arm), shoulder to hand.
     pub fn arm_joint_names(&self) -> Vec<String> {
         self.arms
             .iter()

@@ -51,8 +51,8 @@ pub struct AnatomyReport {
     pub held: Vec<(String, f64)>,
     /// The joints commands name.
     pub command_joints: Vec<String>,
-    /// Distance between the shoulder points, metres.
-    pub shoulder_width_m: f64,
+    /// Distance between the shoulder points, metres (`None` on a single-arm robot).
+    pub shoulder_width_m: Option<f64>,
     /// What was noticed.
     pub notes: Vec<String>,
 }
@@ -82,7 +82,10 @@ impl Anatomy {
             body_axes_in_root: self.body_axes_in_root().map(|v| [v.x, v.y, v.z]),
             held: self.held_joints(),
             command_joints: self.command_joint_names(),
-            shoulder_width_m: (self.arms[0].shoulder - self.arms[1].shoulder).norm(),
+            shoulder_width_m: match self.arms.as_slice() {
+                [left, right] => Some((left.shoulder - right.shoulder).norm()),
+                _ => None,
+            },
             notes: self.notes.clone(),
         }
     }
@@ -115,13 +118,16 @@ impl Anatomy {
         }
         let axis = |v: [f64; 3]| format!("({:.2}, {:.2}, {:.2})", v[0], v[1], v[2]);
         out += &format!(
-            "body frame: on {}; forward {}, left {}, up {} in {}'s frame; shoulders {:.3} m apart (axes meet within {:.1} mm)\n",
+            "body frame: on {}; forward {}, left {}, up {} in {}'s frame; {} (axes meet within {:.1} mm)\n",
             r.torso_link,
             axis(r.body_axes_in_root[0]),
             axis(r.body_axes_in_root[1]),
             axis(r.body_axes_in_root[2]),
             r.root_link,
-            r.shoulder_width_m,
+            match r.shoulder_width_m {
+                Some(w) => format!("shoulders {w:.3} m apart"),
+                None => "one arm (forward the root's x, --forward to turn it)".into(),
+            },
             1e3 * r.arms.iter().map(|a| a.shoulder_spread_m).fold(0.0, f64::max),
         );
         if r.held.is_empty() {

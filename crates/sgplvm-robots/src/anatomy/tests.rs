@@ -26,7 +26,7 @@ fn error(name: &str, spec: &AnatomySpec) -> String {
 /// The hand of `arm` at its neutral posture, relative to its shoulder in reach units, in the
 /// body frame.
 fn neutral_hand(a: &Anatomy, side: Side) -> Vector3<f64> {
-    let arm = a.arm(side);
+    let arm = a.arm(side).unwrap();
     let q = a.hold_configuration();
     let robot = a.robot();
     let torso = robot.forward_kinematics(q, a.torso_link()).unwrap();
@@ -53,7 +53,7 @@ fn builtins_follow_the_convention_with_nothing_held() {
             let at = robot
                 .forward_kinematics(a.hold_configuration(), &link)
                 .unwrap();
-            assert!((a.arm(side).shoulder - at.translation.vector).norm() < 1e-12);
+            assert!((a.arm(side).unwrap().shoulder - at.translation.vector).norm() < 1e-12);
             // Where the first axes meet the shoulder is fixed on the torso; the person's rides
             // on the collarbone's two joints, WALK-MAN's (whose first axis misses the others)
             // on its first.
@@ -62,13 +62,13 @@ fn builtins_follow_the_convention_with_nothing_held() {
                 "walkman" => 1,
                 _ => 0,
             };
-            assert_eq!(a.arm(side).shoulder_after, after, "{name}");
+            assert_eq!(a.arm(side).unwrap().shoulder_after, after, "{name}");
         }
     }
     // Arms straight at zero: the reach is the zero pose's (to within the elbows' offsets).
     for name in ["coman", "centauro"] {
         let a = Anatomy::builtin(name).unwrap();
-        let arm = a.arm(Side::Left);
+        let arm = a.arm(Side::Left).unwrap();
         assert!(
             arm.reach >= arm.zero_pose_reach - 1e-9 && arm.reach < arm.zero_pose_reach * 1.005,
             "{name}: {} vs {}",
@@ -78,7 +78,7 @@ fn builtins_follow_the_convention_with_nothing_held() {
     }
     // The human's reach is its arm's length, 0.414 of its height of 1.75 m.
     let human = Anatomy::builtin("human").unwrap();
-    assert!((human.arm(Side::Left).reach - 0.414 * 1.75).abs() < 1e-6);
+    assert!((human.arm(Side::Left).unwrap().reach - 0.414 * 1.75).abs() < 1e-6);
 }
 
 #[test]
@@ -133,7 +133,7 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
     let a = load("g1_29dof.urdf", &AnatomySpec::default());
     assert_eq!(a.found(), &Found::Names);
     assert_eq!(a.torso_link(), "torso_link");
-    let left = a.arm(Side::Left);
+    let left = a.arm(Side::Left).unwrap();
     assert_eq!(left.chain.base(), "torso_link");
     assert_eq!(left.chain.tip(), "left_rubber_hand");
     assert_eq!(
@@ -163,7 +163,7 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
     assert!((0.40..0.45).contains(&left.reach), "{}", left.reach);
     assert!(a.notes().iter().any(|n| n.contains("zero pose")));
     // Hand by hand, shoulder point by shoulder point, the arms mirror each other.
-    let right = a.arm(Side::Right);
+    let right = a.arm(Side::Right).unwrap();
     assert!((left.reach - right.reach).abs() < 1e-3);
     assert!((left.shoulder.y + right.shoulder.y).abs() < 2e-3);
     assert!(left.shoulder.y > 0.05);
@@ -175,7 +175,7 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
             Side::Right => Vector3::new(0.15, -0.05, -0.85),
         };
         assert!(
-            (rel - want).norm() * a.arm(side).reach < 0.005,
+            (rel - want).norm() * a.arm(side).unwrap().reach < 0.005,
             "{side:?}: {rel}"
         );
     }
@@ -184,7 +184,7 @@ fn unitree_g1_arms_by_name_waist_and_legs_held_reach_from_the_straightened_arm()
 #[test]
 fn baxter_arms_on_45_degree_mounts_in_the_torso_s_frame() {
     let a = load("baxter.urdf", &AnatomySpec::default());
-    let left = a.arm(Side::Left);
+    let left = a.arm(Side::Left).unwrap();
     assert_eq!(left.chain.base(), "left_arm_mount");
     assert_eq!(left.chain.tip(), "left_hand_link");
     assert_eq!(left.chain.dof(), 7);
@@ -204,14 +204,17 @@ fn baxter_arms_on_45_degree_mounts_in_the_torso_s_frame() {
 fn icub_root_with_x_backward_and_y_right_gives_a_forward_facing_body_frame() {
     let a = load("icub.urdf", &AnatomySpec::default());
     assert_eq!(a.torso_link(), "chest");
-    assert_eq!(a.arm(Side::Left).chain.joint_names()[0], "l_shoulder_pitch");
+    assert_eq!(
+        a.arm(Side::Left).unwrap().chain.joint_names()[0],
+        "l_shoulder_pitch"
+    );
     let [f, l, u] = a.body_axes_in_root();
     assert!((f + Vector3::x()).norm() < 1e-3, "forward {f}");
     assert!((l + Vector3::y()).norm() < 1e-3, "left {l}");
     assert!((u - Vector3::z()).norm() < 1e-3, "up {u}");
     assert!(a.notes().iter().any(|n| n.contains("forward is -x")));
     // The left shoulder is on the robot's left: −y of its root.
-    let root_left = a.torso_in_root() * nalgebra::Point3::from(a.arm(Side::Left).shoulder);
+    let root_left = a.torso_in_root() * nalgebra::Point3::from(a.arm(Side::Left).unwrap().shoulder);
     assert!(root_left.y < -0.05);
     // The torso's three joints are held.
     let held: Vec<String> = a.held_joints().into_iter().map(|(n, _)| n).collect();
@@ -229,7 +232,10 @@ fn named_arms_holds_and_the_errors_of_unusable_descriptions() {
     spec.set_hold("waist_pitch_joint=0.2").unwrap();
     let a = load("g1_29dof.urdf", &spec);
     assert_eq!(a.found(), &Found::Named);
-    assert_eq!(a.arm(Side::Left).chain.tip(), "left_wrist_yaw_link");
+    assert_eq!(
+        a.arm(Side::Left).unwrap().chain.tip(),
+        "left_wrist_yaw_link"
+    );
     let waist = a.robot().joint_index("waist_pitch_joint").unwrap();
     assert_eq!(a.hold_configuration()[waist], 0.2);
 
@@ -257,9 +263,31 @@ fn named_arms_holds_and_the_errors_of_unusable_descriptions() {
     let e = error("g1_29dof.urdf", &upside);
     assert!(e.contains("is not below"), "{e}");
 
+    // One arm named alone: a single arm, the other side's joints held with the rest.
     let mut one = AnatomySpec::default();
     one.set_arm("left=torso_link:left_rubber_hand").unwrap();
-    assert!(error("g1_29dof.urdf", &one).contains("only one arm is named"));
+    let a = load("g1_29dof.urdf", &one);
+    assert_eq!(a.sides(), vec![Side::Left]);
+    assert!(a.arm(Side::Right).is_none());
+    assert_eq!(a.torso_link(), "torso_link");
+    assert_eq!(a.arm_joint_names().len(), 7);
+    assert!(a
+        .held_joints()
+        .iter()
+        .any(|(n, _)| n == "right_elbow_joint"));
+    assert!(
+        a.notes().iter().any(|n| n.contains("single-arm")),
+        "{:?}",
+        a.notes()
+    );
+    // The body frame of one arm is the root's (x forward, z up): the G1's, as with two arms.
+    let two = load("g1_29dof.urdf", &AnatomySpec::default());
+    let (one_axes, two_axes) = (a.body_axes_in_root(), two.body_axes_in_root());
+    for k in 0..3 {
+        assert!((one_axes[k] - two_axes[k]).norm() < 1e-6, "{k}");
+    }
+    assert!(a.report().shoulder_width_m.is_none());
+    assert!(a.summary().contains("one arm"), "{}", a.summary());
 
     for (hold, says) in [
         ("waist_pitch_joint=2", "outside the joint's limits"),
@@ -404,7 +432,7 @@ fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
         let robot = Robot::from_urdf_str(&unnamed_arms(y), "twin.urdf").unwrap();
         let a = Anatomy::of(robot).unwrap();
         assert_eq!(a.found(), &Found::Structure);
-        let left_first = &a.arm(Side::Left).chain.joint_names()[0];
+        let left_first = &a.arm(Side::Left).unwrap().chain.joint_names()[0];
         assert_eq!(left_first, if y > 0.0 { "j_arm_a_0" } else { "j_arm_b_0" });
         assert_eq!(a.held_joints().len(), 1);
         assert!(a.notes().iter().any(|n| n.contains("--arm")));
@@ -420,7 +448,7 @@ fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
     .unwrap_err()
     .to_string();
     assert!(
-        e.starts_with("stick.urdf: cannot tell the robot's two arms"),
+        e.starts_with("stick.urdf: cannot tell the robot's arms"),
         "{e}"
     );
     assert!(
@@ -516,7 +544,7 @@ fn a_finger_on_the_arm_s_tip_link_is_no_arm_joint() {
     assert_eq!(a.found(), &Found::Names);
     for side in [Side::Left, Side::Right] {
         let s = side.as_str();
-        let arm = a.arm(side);
+        let arm = a.arm(side).unwrap();
         let names = arm.chain.joint_names();
         let expected: Vec<String> = (1..=7).map(|k| format!("arm_{s}_{k}_joint")).collect();
         assert_eq!(names, expected.as_slice(), "{s}");
@@ -530,4 +558,45 @@ fn a_finger_on_the_arm_s_tip_link_is_no_arm_joint() {
         "{held:?}"
     );
     assert_eq!(held.len(), 7, "{held:?}");
+}
+
+#[test]
+fn a_single_arm_is_found_by_structure_driven_by_the_side_its_names_say_else_the_right() {
+    // KUKA's iiwa as published (7 joints, no side in any name): one arm from its base.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let a = Anatomy::load(&kuka, &AnatomySpec::default()).unwrap();
+    assert_eq!(a.found(), &Found::Structure);
+    assert_eq!(a.sides(), vec![Side::Right]);
+    let arm = a.arm(Side::Right).unwrap();
+    assert_eq!(arm.chain.dof(), 7);
+    assert_eq!(a.torso_link(), arm.chain.base());
+    // The body frame is the root link's own axes.
+    let [fwd, left, up] = a.body_axes_in_root();
+    assert!((fwd - Vector3::x()).norm() < 1e-9 && (left - Vector3::y()).norm() < 1e-9);
+    assert!((up - Vector3::z()).norm() < 1e-9);
+    // Its neutral posture is within the limits and the hand is found.
+    for (q, (lo, hi)) in arm.neutral.iter().zip(arm.chain.limits()) {
+        assert!(*q >= lo - 1e-9 && *q <= hi + 1e-9);
+    }
+    assert!(
+        a.notes().iter().any(|n| n.contains("person's right arm")),
+        "{:?}",
+        a.notes()
+    );
+    // The description file round trips a single arm.
+    let file = a.to_file();
+    assert_eq!(file.arms.len(), 1);
+    assert!(file.arms.contains_key("right"));
+
+    // One chain whose names say left: the person's left arm drives it.
+    let twin = unnamed_arms(0.2).replace("arm_b", "left_arm");
+    let one = twin
+        .split("<link name=\"arm_a_0\"/>")
+        .next()
+        .unwrap()
+        .to_string()
+        + &twin[twin.find("<link name=\"left_arm_0\"/>").unwrap()..];
+    let a = Anatomy::of(Robot::from_urdf_str(&one, "one.urdf").unwrap()).unwrap();
+    assert_eq!(a.sides(), vec![Side::Left]);
+    assert_eq!(a.arm_joint_names()[0], "j_left_arm_0");
 }

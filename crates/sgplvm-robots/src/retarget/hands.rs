@@ -11,12 +11,12 @@ pub(super) struct RobotArms<'a> {
     frames: ArmFrames,
     /// The middle of every joint's range per arm: where the warm IK's null space pulls, away
     /// from the limits a continuing motion would otherwise get stuck at.
-    rest: [Vec<f64>; 2],
+    rest: Vec<Vec<f64>>,
     /// Every key posture per arm (the generator's key poses at this robot's reach): starts
     /// when the arm must change configuration.
-    key_postures: [Vec<Vec<f64>>; 2],
+    key_postures: Vec<Vec<Vec<f64>>>,
     /// Velocity limit per arm joint, rad/s (0: none).
-    velocity: [Vec<f64>; 2],
+    velocity: Vec<Vec<f64>>,
 }
 
 impl<'a> RobotArms<'a> {
@@ -24,37 +24,43 @@ impl<'a> RobotArms<'a> {
         let frames = ArmFrames::of(anatomy);
         let all_velocity = anatomy.robot().velocity_limits();
         let arms = anatomy.arms();
-        let velocity = [0, 1].map(|s| {
-            arms[s]
-                .chain
-                .robot_indices()
-                .iter()
-                .map(|&i| all_velocity[i])
-                .collect()
-        });
-        let rest = [0, 1].map(|s| {
-            arms[s]
-                .chain
-                .limits()
-                .iter()
-                .map(|&(lo, hi)| {
-                    if lo.is_finite() && hi.is_finite() {
-                        0.5 * (lo + hi)
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        });
+        let velocity = arms
+            .iter()
+            .map(|a| {
+                a.chain
+                    .robot_indices()
+                    .iter()
+                    .map(|&i| all_velocity[i])
+                    .collect()
+            })
+            .collect();
+        let rest = arms
+            .iter()
+            .map(|a| {
+                a.chain
+                    .limits()
+                    .iter()
+                    .map(|&(lo, hi)| {
+                        if lo.is_finite() && hi.is_finite() {
+                            0.5 * (lo + hi)
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
         let mut robot = Self {
             name: name.to_string(),
             anatomy,
             frames,
             rest,
-            key_postures: [Vec::new(), Vec::new()],
+            key_postures: Vec::new(),
             velocity,
         };
-        robot.key_postures = [0, 1].map(|s| robot.solve_key_postures(s));
+        robot.key_postures = (0..arms.len())
+            .map(|s| robot.solve_key_postures(s))
+            .collect();
         robot
     }
 
@@ -97,7 +103,8 @@ impl<'a> RobotArms<'a> {
     }
 }
 
-/// One robot, every frame.
+/// One robot, every frame; `targets` are the person's arms (left, right) per frame, each of
+/// the robot's arms following the person's arm of its side.
 pub(super) fn retarget_robot(
     r: &RobotArms,
     targets: &[[Relative; 2]],
@@ -110,8 +117,7 @@ pub(super) fn retarget_robot(
     let hold = anatomy.hold_configuration();
     let mut full = DMatrix::<f64>::from_fn(n, hold.len(), |_, i| hold[i]);
     let mut runs = Vec::with_capacity(2);
-    for s in 0..2 {
-        let arm = &anatomy.arms()[s];
+    for (s, arm) in anatomy.arms().iter().enumerate() {
         let run = ArmRun {
             chain: &arm.chain,
             velocity: &r.velocity[s],
@@ -120,7 +126,7 @@ pub(super) fn retarget_robot(
             neutral: r.neutral(s),
             targets: targets
                 .iter()
-                .map(|t| r.target(s, &t[s], options.mode))
+                .map(|t| r.target(s, &t[arm.side.index()], options.mode))
                 .collect(),
             times_ns,
             velocity_limits: options.velocity_limits,
@@ -172,7 +178,7 @@ pub(super) fn retarget_robot(
             joint_names: anatomy.command_joint_names(),
             positions,
         },
-        report: tally.report(&r.name, options.mode, 2 * n),
+        report: tally.report(&r.name, options.mode, anatomy.arms().len() * n),
     }
 }
 

@@ -199,32 +199,38 @@ pub struct Retargeted {
     pub report: ReachReport,
 }
 
-/// One body's arms as retargeting measures them: per arm, the rotation from the body frame
-/// (x forward, y left, z up) into the chain's base frame, the shoulder point there, the reach,
-/// the elbow joint and the hand's orientation at the neutral posture.
+/// One body's arms as retargeting measures them: per arm ([`Anatomy::arms`]' order), the
+/// rotation from the body frame (x forward, y left, z up) into the chain's base frame, the
+/// shoulder point there, the reach, the elbow joint and the hand's orientation at the neutral
+/// posture.
 struct ArmFrames {
-    body_in_base: [UnitQuaternion<f64>; 2],
-    shoulders: [Vector3<f64>; 2],
-    reach: [f64; 2],
-    elbows: [usize; 2],
-    neutral_hands: [UnitQuaternion<f64>; 2],
+    body_in_base: Vec<UnitQuaternion<f64>>,
+    shoulders: Vec<Vector3<f64>>,
+    reach: Vec<f64>,
+    elbows: Vec<usize>,
+    neutral_hands: Vec<UnitQuaternion<f64>>,
 }
 
 impl ArmFrames {
     fn of(anatomy: &Anatomy) -> Self {
         let arms = anatomy.arms();
-        let body_in_base =
-            [0, 1].map(|s| arms[s].base_in_torso.rotation.inverse() * anatomy.body_in_torso());
         Self {
-            body_in_base,
+            body_in_base: arms
+                .iter()
+                .map(|a| a.base_in_torso.rotation.inverse() * anatomy.body_in_torso())
+                .collect(),
             // The shoulder where it is with the arm's joints at zero: a point fixed on the
             // torso, which the hands are placed from.
-            shoulders: [0, 1].map(|s| {
-                (arms[s].base_in_torso.inverse() * nalgebra::Point3::from(arms[s].shoulder)).coords
-            }),
-            reach: [0, 1].map(|s| arms[s].reach),
-            elbows: [0, 1].map(|s| arms[s].elbow),
-            neutral_hands: [0, 1].map(|s| arms[s].chain.forward(&arms[s].neutral).rotation),
+            shoulders: arms
+                .iter()
+                .map(|a| (a.base_in_torso.inverse() * nalgebra::Point3::from(a.shoulder)).coords)
+                .collect(),
+            reach: arms.iter().map(|a| a.reach).collect(),
+            elbows: arms.iter().map(|a| a.elbow).collect(),
+            neutral_hands: arms
+                .iter()
+                .map(|a| a.chain.forward(&a.neutral).rotation)
+                .collect(),
         }
     }
 }
@@ -254,7 +260,7 @@ impl HumanArms {
         Ok(Self { anatomy, frames })
     }
 
-    /// Both arms' relative targets for one frame of the model's joint angles.
+    /// Both arms' relative targets (left, right) for one frame of the model's joint angles.
     fn relative(&self, q: &[f64]) -> [Relative; 2] {
         let f = &self.frames;
         [0, 1].map(|s| {
@@ -272,7 +278,7 @@ impl HumanArms {
     }
 }
 
-/// Arm `s`'s configuration (chain order) for each of the generator's key poses (its hand
+/// Arm `s`'s ([`Anatomy::arms`]' order) configuration (chain order) for each of the generator's key poses (its hand
 /// where the key pose puts it, relative to the shoulder in units of reach), from the neutral
 /// posture and pulled towards it: a fixed set of postures across the arm's workspace.
 fn key_postures(anatomy: &Anatomy, frames: &ArmFrames, s: usize) -> Vec<Vec<f64>> {
@@ -288,7 +294,10 @@ fn key_postures(anatomy: &Anatomy, frames: &ArmFrames, s: usize) -> Vec<Vec<f64>
     KEY_POSES
         .iter()
         .map(|pose| {
-            let rel = if s == 0 { pose.left } else { pose.right };
+            let rel = match arm.side {
+                crate::models::Side::Left => pose.left,
+                crate::models::Side::Right => pose.right,
+            };
             let target = frames.shoulders[s]
                 + frames.reach[s] * (frames.body_in_base[s] * Vector3::from(rel));
             arm.chain
@@ -298,11 +307,13 @@ fn key_postures(anatomy: &Anatomy, frames: &ArmFrames, s: usize) -> Vec<Vec<f64>
         .collect()
 }
 
-/// The whole configurations of `anatomy`'s robot at each key pose ([`key_postures`] of both
+/// The whole configurations of `anatomy`'s robot at each key pose ([`key_postures`] of its
 /// arms, the other joints at their hold values): the fixed starts of whole-arm retargeting.
 fn key_configurations(anatomy: &Anatomy) -> Vec<Vec<f64>> {
     let frames = ArmFrames::of(anatomy);
-    let arms = [0, 1].map(|s| key_postures(anatomy, &frames, s));
+    let arms: Vec<Vec<Vec<f64>>> = (0..anatomy.arms().len())
+        .map(|s| key_postures(anatomy, &frames, s))
+        .collect();
     (0..KEY_POSES.len())
         .map(|k| {
             let mut q = anatomy.hold_configuration().to_vec();

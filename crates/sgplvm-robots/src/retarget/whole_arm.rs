@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::anatomy::{Anatomy, ArmLandmarks};
 use crate::kinematics::frames::{Ancestry, RobotFrames};
+use crate::models::Side;
 use crate::safety::{SafetyOptions, SafetyStep};
 
 mod report;
@@ -127,18 +128,20 @@ pub struct ArmPosture {
 }
 
 /// A body's arms as postures are measured on them: landmarks, and the rotation from the body
-/// frame to the root frame.
+/// frame to the root frame. Per arm in [`Anatomy::arms`]' order (two, or one on a single-arm
+/// robot; `sides` says whose).
 pub(super) struct PostureGauge {
-    landmarks: [ArmLandmarks; 2],
+    sides: Vec<Side>,
+    landmarks: Vec<ArmLandmarks>,
     body_to_root: UnitQuaternion<f64>,
     /// The fixed shoulder points hands are placed from, root frame.
-    shoulders: [Vector3<f64>; 2],
-    reach: [f64; 2],
-    neutral_hands: [UnitQuaternion<f64>; 2],
-    hand_links: [usize; 2],
+    shoulders: Vec<Vector3<f64>>,
+    reach: Vec<f64>,
+    neutral_hands: Vec<UnitQuaternion<f64>>,
+    hand_links: Vec<usize>,
     /// The upper arms' orientations at the neutral posture, and their links (the elbow's).
-    neutral_uppers: [UnitQuaternion<f64>; 2],
-    upper_links: [usize; 2],
+    neutral_uppers: Vec<UnitQuaternion<f64>>,
+    upper_links: Vec<usize>,
     ancestry: Ancestry,
 }
 
@@ -153,46 +156,69 @@ impl PostureGauge {
         let robot = anatomy.robot();
         let ancestry = Ancestry::of(robot);
         let torso = anatomy.torso_in_root();
-        let landmarks = [0, 1].map(|s| anatomy.arms()[s].landmarks(robot));
+        let arms = anatomy.arms();
+        let landmarks: Vec<ArmLandmarks> = arms.iter().map(|a| a.landmarks(robot)).collect();
         let neutral = RobotFrames::new(robot, &ancestry, reference);
         PostureGauge {
+            sides: anatomy.sides(),
             body_to_root: torso.rotation * anatomy.body_in_torso(),
-            shoulders: [0, 1]
-                .map(|s| (torso * nalgebra::Point3::from(anatomy.arms()[s].shoulder)).coords),
-            reach: [0, 1].map(|s| anatomy.arms()[s].reach),
-            neutral_hands: [0, 1].map(|s| neutral.link(landmarks[s].hand.link).rotation),
-            hand_links: [0, 1].map(|s| landmarks[s].hand.link),
-            neutral_uppers: [0, 1].map(|s| neutral.link(landmarks[s].elbow.link).rotation),
-            upper_links: [0, 1].map(|s| landmarks[s].elbow.link),
+            shoulders: arms
+                .iter()
+                .map(|a| (torso * nalgebra::Point3::from(a.shoulder)).coords)
+                .collect(),
+            reach: arms.iter().map(|a| a.reach).collect(),
+            neutral_hands: landmarks
+                .iter()
+                .map(|m| neutral.link(m.hand.link).rotation)
+                .collect(),
+            hand_links: landmarks.iter().map(|m| m.hand.link).collect(),
+            neutral_uppers: landmarks
+                .iter()
+                .map(|m| neutral.link(m.elbow.link).rotation)
+                .collect(),
+            upper_links: landmarks.iter().map(|m| m.elbow.link).collect(),
             landmarks,
             ancestry,
         }
     }
 
-    /// The arm postures of configuration `q` of `anatomy`'s robot.
-    pub(super) fn measure(&self, anatomy: &Anatomy, q: &[f64]) -> [ArmPosture; 2] {
+    /// The arm postures of configuration `q` of `anatomy`'s robot, per arm.
+    pub(super) fn measure(&self, anatomy: &Anatomy, q: &[f64]) -> Vec<ArmPosture> {
         let frames = RobotFrames::new(anatomy.robot(), &self.ancestry, q);
         let to_body = self.body_to_root.inverse();
-        [0, 1].map(|s| {
-            let m = &self.landmarks[s];
-            let (sh, el, wr, ha) = (
-                m.shoulder.at(&frames),
-                m.elbow.at(&frames),
-                m.wrist.at(&frames),
-                m.hand.at(&frames),
-            );
-            let hand_rot = frames.link(self.hand_links[s]).rotation;
-            let upper_rot = frames.link(self.upper_links[s]).rotation;
-            ArmPosture {
-                upper_arm: to_body * (el - sh).normalize(),
-                forearm: to_body * (wr - el).normalize(),
-                hand: to_body * (ha - self.shoulders[s]) / self.reach[s],
-                turn: to_body * (hand_rot * self.neutral_hands[s].inverse()) * self.body_to_root,
-                upper_turn: to_body
-                    * (upper_rot * self.neutral_uppers[s].inverse())
-                    * self.body_to_root,
-            }
-        })
+        (0..self.landmarks.len())
+            .map(|s| {
+                let m = &self.landmarks[s];
+                let (sh, el, wr, ha) = (
+                    m.shoulder.at(&frames),
+                    m.elbow.at(&frames),
+                    m.wrist.at(&frames),
+                    m.hand.at(&frames),
+                );
+                let hand_rot = frames.link(self.hand_links[s]).rotation;
+                let upper_rot = frames.link(self.upper_links[s]).rotation;
+                ArmPosture {
+                    upper_arm: to_body * (el - sh).normalize(),
+                    forearm: to_body * (wr - el).normalize(),
+                    hand: to_body * (ha - self.shoulders[s]) / self.reach[s],
+                    turn: to_body
+                        * (hand_rot * self.neutral_hands[s].inverse())
+                        * self.body_to_root,
+                    upper_turn: to_body
+                        * (upper_rot * self.neutral_uppers[s].inverse())
+                        * self.body_to_root,
+                }
+            })
+            .collect()
+    }
+
+    /// The person's arm postures (left, right) that this gauge's arms follow, in its arms'
+    /// order: both on a two-armed robot, the one of its side on a single-arm robot.
+    pub(super) fn followed<'a>(
+        &'a self,
+        person: &'a [ArmPosture; 2],
+    ) -> impl Iterator<Item = &'a ArmPosture> + 'a {
+        self.sides.iter().map(move |side| &person[side.index()])
     }
 }
 
@@ -221,22 +247,24 @@ impl<'a> PostureDistance<'a> {
         }
     }
 
-    /// Per arm (left, right), the angles between configurations `a` and `b` (every movable
-    /// joint of the URDF, in its order).
-    pub fn between(&self, a: &[f64], b: &[f64]) -> [ArmAngles; 2] {
-        arm_angles(
-            &self.gauge.measure(self.anatomy, a),
-            &self.gauge.measure(self.anatomy, b),
-        )
+    /// Per arm ([`Anatomy::arms`]' order: left, right; one on a single-arm robot), the angles
+    /// between configurations `a` and `b` (every movable joint of the URDF, in its order).
+    pub fn between(&self, a: &[f64], b: &[f64]) -> Vec<ArmAngles> {
+        let b = self.gauge.measure(self.anatomy, b);
+        arm_angles(&self.gauge.measure(self.anatomy, a), b.iter())
     }
 }
 
-/// Per arm, the angles between the segments of two arm postures.
-fn arm_angles(a: &[ArmPosture; 2], b: &[ArmPosture; 2]) -> [ArmAngles; 2] {
-    [0, 1].map(|s| ArmAngles {
-        upper_arm_deg: a[s].upper_arm.angle(&b[s].upper_arm).to_degrees(),
-        forearm_deg: a[s].forearm.angle(&b[s].forearm).to_degrees(),
-    })
+/// Per arm, the angles between the segments of arm postures `a` and the postures `b` they are
+/// measured against.
+fn arm_angles<'b>(a: &[ArmPosture], b: impl Iterator<Item = &'b ArmPosture>) -> Vec<ArmAngles> {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| ArmAngles {
+            upper_arm_deg: a.upper_arm.angle(&b.upper_arm).to_degrees(),
+            forearm_deg: a.forearm.angle(&b.forearm).to_degrees(),
+        })
+        .collect()
 }
 
 /// How far a robot's arms are from a person's, on bone lines: each segment's direction in the
@@ -267,12 +295,15 @@ impl<'a> PersonDistance<'a> {
         })
     }
 
-    /// Per arm (left, right), the angles between the robot at configuration `q` (every movable
-    /// joint of the URDF, in its order) and the person at `person` (the human model's joints).
-    pub fn between(&self, q: &[f64], person: &[f64]) -> [ArmAngles; 2] {
+    /// Per arm of the robot ([`Anatomy::arms`]' order), the angles between the robot at
+    /// configuration `q` (every movable joint of the URDF, in its order) and the person's arm
+    /// of its side at `person` (the human model's joints).
+    pub fn between(&self, q: &[f64], person: &[f64]) -> Vec<ArmAngles> {
+        let person = two(self.human_gauge.measure(&self.human, person));
+        let gauge = &self.robot.gauge;
         arm_angles(
-            &self.robot.gauge.measure(self.robot.anatomy, q),
-            &self.human_gauge.measure(&self.human, person),
+            &gauge.measure(self.robot.anatomy, q),
+            gauge.followed(&person),
         )
     }
 }
@@ -291,6 +322,13 @@ pub(super) struct PersonGauge {
     probes: Vec<Vec<[ArmPosture; 2]>>,
 }
 
+/// The person's two arm postures (left, right) of a measure of the human model, which has both.
+fn two(postures: Vec<ArmPosture>) -> [ArmPosture; 2] {
+    let mut arms = postures.into_iter();
+    let mut next = || arms.next().expect("the human model has two arms");
+    [next(), next()]
+}
+
 /// The largest change of any of the person's joints (radians) between two points of a frame's
 /// path: small enough that the robot's posture follows from one point to the next.
 const PATH_STEP: f64 = 0.25;
@@ -300,8 +338,8 @@ impl PersonGauge {
     pub(super) fn new(human: Anatomy) -> PersonGauge {
         let at = reference_configuration(&human);
         let gauge = PostureGauge::at(&human, &at);
-        let reference = gauge.measure(&human, &at);
-        let neutral = gauge.measure(&human, human.hold_configuration());
+        let reference = two(gauge.measure(&human, &at));
+        let neutral = two(gauge.measure(&human, human.hold_configuration()));
         let mut person = PersonGauge {
             human,
             gauge,
@@ -340,9 +378,9 @@ impl PersonGauge {
         (&self.reference, &self.neutral)
     }
 
-    /// The arm postures of the human model's configuration `q`.
+    /// The arm postures (left, right) of the human model's configuration `q`.
     pub(super) fn measure(&self, q: &[f64]) -> [ArmPosture; 2] {
-        self.gauge.measure(&self.human, q)
+        two(self.gauge.measure(&self.human, q))
     }
 
     /// The path of configuration `q` from the person's neutral, into `out`: the arm postures
@@ -463,11 +501,12 @@ pub(super) fn run(
         tally.judge(anatomy, gauge, model, &q, target, options.self_collision);
         last = Some((q_human, asked, now));
     }
+    let arms = gauge.reach.len();
     let misses: Vec<f64> = tally
         .hand
         .iter()
         .enumerate()
-        .map(|(k, h)| h * gauge.reach[k % 2])
+        .map(|(k, h)| h * gauge.reach[k % arms])
         .collect();
     let report = tally.report(options, model, (robot, frames));
     Ok((out, misses, report))

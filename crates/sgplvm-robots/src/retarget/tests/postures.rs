@@ -7,7 +7,7 @@ use crate::series::median;
 
 /// The arm postures of a retargeted robot (left, right) at every frame, measured apart from
 /// the code under test's targets: directions between its landmarks in its body frame.
-fn robot_postures(anatomy: &Anatomy, out: &Retargeted) -> Vec<[whole_arm::ArmPosture; 2]> {
+fn robot_postures(anatomy: &Anatomy, out: &Retargeted) -> Vec<Vec<whole_arm::ArmPosture>> {
     let gauge = whole_arm::PostureGauge::of(anatomy);
     (0..out.body.positions.nrows())
         .map(|f| {
@@ -194,7 +194,9 @@ fn posture_distance_is_zero_for_one_posture_and_an_elbow_s_turn_for_the_forearm_
     }
     let mut b = a.clone();
     b[elbow] = -0.6 - 0.3;
-    let [left, right] = distance.between(&a, &b);
+    let [left, right] = distance.between(&a, &b)[..] else {
+        panic!("two arms")
+    };
     assert!(left.upper_arm_deg < 1e-6, "{left:?}");
     // The elbow's axis is (within a few thousandths of a degree) square to the forearm's bone
     // line: it turns by the joint's turn.
@@ -295,4 +297,59 @@ fn a_person_moving_a_little_moves_the_robot_a_little() {
             > 0,
         counted > 0
     );
+}
+
+#[test]
+fn a_single_arm_follows_the_person_s_arm_of_its_side_as_one_of_two_would() {
+    // COMAN with its right arm alone named: a single-arm robot driven by the person's right
+    // arm, its left arm held. Its postures are the two-armed COMAN's right arm's, to what the
+    // solver's shared trust region leaves between them.
+    let both = Anatomy::builtin("coman").unwrap();
+    let right = both.arm(crate::models::Side::Right).unwrap();
+    let mut spec = crate::anatomy::AnatomySpec::default();
+    spec.set_arm(&format!(
+        "right={}:{}",
+        right.chain.base(),
+        right.chain.tip()
+    ))
+    .unwrap();
+    let one = Anatomy::new(both.robot().clone(), &spec).unwrap();
+    assert_eq!(one.arms().len(), 1);
+    let tour = human_tour(&[0, 1, 4, 9, 13, 0], 20);
+    let options = RetargetOptions {
+        velocity_limits: false,
+        ..RetargetOptions::default()
+    };
+    let robots = vec![
+        ("coman".to_string(), both.clone()),
+        ("coman_right".to_string(), one.clone()),
+    ];
+    let out = retarget(&tour, &robots, &options).unwrap();
+    // The commands name the right arm alone: the left is held, never commanded.
+    assert_eq!(out[1].body.joint_names, right.chain.joint_names().to_vec());
+    let (d2, d1) = (
+        whole_arm::PersonDistance::new(&both).unwrap(),
+        whole_arm::PersonDistance::new(&one).unwrap(),
+    );
+    let (mut two_right, mut single) = (Vec::new(), Vec::new());
+    for f in 0..tour.len() {
+        let h: Vec<f64> = tour.human.positions.row(f).iter().copied().collect();
+        let at = |k: usize, a: &Anatomy| {
+            let row: Vec<f64> = out[k].body.positions.row(f).iter().copied().collect();
+            a.configuration(&out[k].body.joint_names, &row).unwrap()
+        };
+        let q1 = at(1, &one);
+        let angles = d1.between(&q1, &h);
+        assert_eq!(angles.len(), 1);
+        single.push(angles[0].upper_arm_deg);
+        two_right.push(d2.between(&at(0, &both), &h)[1].upper_arm_deg);
+    }
+    let report = out[1].report.posture.as_ref().unwrap();
+    assert!((median(&mut single.clone()) - report.upper_arm_deg[0]).abs() < 1e-9);
+    let (m1, m2) = (median(&mut single), median(&mut two_right));
+    assert!(
+        m1 < 5.0 && (m1 - m2).abs() < 1.0,
+        "single {m1}°, of two {m2}°"
+    );
+    assert_eq!(out[1].report.targets, tour.len());
 }

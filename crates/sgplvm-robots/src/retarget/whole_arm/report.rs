@@ -222,7 +222,7 @@ impl Tally {
         collisions: bool,
     ) {
         let got = gauge.measure(anatomy, q);
-        for (g, t) in got.iter().zip(target) {
+        for (g, t) in got.iter().zip(gauge.followed(target)) {
             self.upper
                 .push(g.upper_arm.angle(&t.upper_arm).to_degrees());
             self.forearm.push(g.forearm.angle(&t.forearm).to_degrees());

@@ -74,7 +74,9 @@ impl ArmSolver {
             hold,
             options: options.clone(),
         };
-        let turns = solver.frame().reference_hands(reference, &solver.hold);
+        let turns = solver
+            .frame()
+            .reference_hands(reference, &solver.hold, seeds);
         (solver.gauge.neutral_hands, solver.gauge.neutral_uppers) = turns;
         let mut start = solver.hold.clone();
         solver
@@ -229,11 +231,12 @@ impl FrameSolver<'_> {
         &self,
         reference: &[ArmPosture; 2],
         hold: &[f64],
-    ) -> ([UnitQuaternion<f64>; 2], [UnitQuaternion<f64>; 2]) {
+        seeds: &[Vec<f64>],
+    ) -> (Vec<UnitQuaternion<f64>>, Vec<UnitQuaternion<f64>>) {
         let g = self.gauge;
         let r = g.body_to_root;
         let mut tasks = Vec::new();
-        for (s, t) in reference.iter().enumerate() {
+        for (s, t) in g.followed(reference).enumerate() {
             let m = &g.landmarks[s];
             tasks.push((
                 Task::Direction {
@@ -258,8 +261,20 @@ impl FrameSolver<'_> {
             },
             self.options.weights.posture,
         ));
+        // From the neutral posture and from every fixed start, the best fit kept (the first on
+        // a tie within 0.1 %): from the neutral alone an elbow can stop at its limit, the
+        // directions 30° off, and every orientation measured from there would pull against
+        // the directions (PAL's single-arm TIAGo).
         let mut q = hold.to_vec();
-        self.solve(&mut q, &tasks, false, self.options.max_iterations);
+        let mut best = f64::INFINITY;
+        for start in std::iter::once(hold).chain(seeds.iter().map(Vec::as_slice)) {
+            let mut x = start.to_vec();
+            self.solve(&mut x, &tasks, false, self.options.max_iterations);
+            let cost = self.cost(&x, &tasks);
+            if cost < best * (1.0 - 1e-3) - 1e-9 {
+                (q, best) = (x, cost);
+            }
+        }
         let frames = RobotFrames::new(self.anatomy.robot(), &g.ancestry, &q);
         // Where the limits keep the robot from the person's neutral directions, each segment's
         // orientation is turned by what its bone still misses: the reference is the robot's
@@ -269,16 +284,16 @@ impl FrameSolver<'_> {
             UnitQuaternion::rotation_between(&(r * from), &(r * to))
                 .unwrap_or_else(UnitQuaternion::identity)
         };
-        (
-            [0, 1].map(|s| {
-                align(&got[s].forearm, &reference[s].forearm)
-                    * frames.link(g.hand_links[s]).rotation
-            }),
-            [0, 1].map(|s| {
-                align(&got[s].upper_arm, &reference[s].upper_arm)
-                    * frames.link(g.upper_links[s]).rotation
-            }),
-        )
+        g.followed(reference)
+            .zip(&got)
+            .enumerate()
+            .map(|(s, (want, got))| {
+                (
+                    align(&got.forearm, &want.forearm) * frames.link(g.hand_links[s]).rotation,
+                    align(&got.upper_arm, &want.upper_arm) * frames.link(g.upper_links[s]).rotation,
+                )
+            })
+            .unzip()
     }
 
     /// The tasks of a frame's target posture.
@@ -286,7 +301,7 @@ impl FrameSolver<'_> {
         let g = self.gauge;
         let w = &self.options.weights;
         let mut tasks = Vec::new();
-        for (s, t) in target.iter().enumerate() {
+        for (s, t) in g.followed(target).enumerate() {
             let m = &g.landmarks[s];
             let r = g.body_to_root;
             tasks.push((
