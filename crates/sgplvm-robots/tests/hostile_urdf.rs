@@ -173,27 +173,38 @@ fn absurd_sizes_and_masses_are_refused_with_the_element() {
 }
 
 #[test]
-fn negative_velocity_limits_are_refused_and_zero_ones_read_as_none_given() {
+fn negative_and_zero_velocity_limits_read_as_none_given_and_say_so() {
     let limit = |v: &str| format!(r#"<limit lower="-1" upper="1" effort="5" velocity="{v}"/>"#);
-    invalid_at(&arm("", &limit("-1")), "<limit> @velocity", "negative");
-    // 0 on a joint that can move would forbid all motion: makers write it for "not given"
-    // (ROS's parser and Pinocchio read the file), so it loads as no limit, and says so.
-    let r = Robot::from_urdf_str(&arm("", &limit("0")), FILE).expect("loads");
-    assert_eq!(r.velocity_limits(), vec![0.0]);
-    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
-    assert_eq!(notes.len(), 1, "{notes:?}");
-    assert!(
-        notes[0].contains("line 6 (<joint name=\"j\">)") && notes[0].contains("no velocity limit"),
-        "{notes:?}"
-    );
-    invalid_at(
+    // 0 on a joint that can move would forbid all motion, and a limit is > 0: makers write
+    // either for "not given" (ROS's parser and Pinocchio read the file), so it loads as no
+    // limit, and says so on its line.
+    for v in ["0", "-1", "-1.0"] {
+        let r = Robot::from_urdf_str(&arm("", &limit(v)), FILE).expect("loads");
+        assert_eq!(r.velocity_limits(), vec![0.0]);
+        let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("line 6 (<joint name=\"j\">)")
+                && notes[0].contains("no velocity limit"),
+            "{notes:?}"
+        );
+    }
+    let r = Robot::from_urdf_str(
         &arm(
             "",
             r#"<limit lower="-1" upper="1" effort="-5" velocity="1"/>"#,
         ),
-        "<limit> @effort",
-        "negative",
+        FILE,
+    )
+    .expect("loads");
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert!(
+        notes.len() == 1
+            && notes[0].contains("effort=\"-5\"")
+            && notes[0].contains("no effort limit"),
+        "{notes:?}"
     );
+    assert_eq!(r.velocity_limits(), vec![1.0]);
     // No velocity attribute: no limit. A locked joint (lower = upper) may say 0.
     Robot::from_urdf_str(&arm("", r#"<limit lower="-1" upper="1"/>"#), FILE).expect("no velocity");
     Robot::from_urdf_str(

@@ -49,10 +49,32 @@ enum End {
     Wrist,
 }
 
-/// The chain joint most in the middle of the arm at `q` (farthest from both its first joint
-/// and the hand), the first and last joints aside: a first guess of the elbow, which tells the
-/// shoulder's joints from the wrist's.
-fn elbow_guess(chain: &Chain, q: &[f64]) -> usize {
+/// The chain joint most in the middle of the arm (farthest from both its first joint and the
+/// hand), the first and last joints aside: a first guess of the elbow, which tells the
+/// shoulder's joints from the wrist's. Judged at the zero configuration `zero`, unless the arm
+/// is folded there and stretches out at the middle of its joints' ranges (Kinova's Jaco 2: its
+/// zero pose folds the arm down onto itself, the hand 27 % of the reach from the shoulder, and
+/// its ranges are centred on the arm standing straight up).
+fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
+    let mid: Vec<f64> = chain
+        .limits()
+        .iter()
+        .zip(zero)
+        .map(|(&(lo, hi), &z)| {
+            if lo.is_finite() && hi.is_finite() {
+                0.5 * (lo + hi)
+            } else {
+                z
+            }
+        })
+        .collect();
+    let stretch =
+        |q: &[f64]| (chain.forward(q).translation.vector - chain.joint_origins(q)[0]).norm();
+    let q = if stretch(&mid) > 1.5 * stretch(zero) {
+        &mid
+    } else {
+        zero
+    };
     let origins = chain.joint_origins(q);
     let hand = chain.forward(q).translation.vector;
     let n = origins.len();
@@ -76,7 +98,12 @@ fn elbow_guess(chain: &Chain, q: &[f64]) -> usize {
 /// or the hand (wrist) first, then the most axes; else the group whose axes come nearest. Gives
 /// the group's first joint, its size, the point (base frame) and its distance to the farthest
 /// axis.
-fn meeting_axes(chain: &Chain, q: &[f64], end: End) -> (usize, usize, Vector3<f64>, f64) {
+fn meeting_axes(
+    chain: &Chain,
+    q: &[f64],
+    end: End,
+    elbow: usize,
+) -> (usize, usize, Vector3<f64>, f64) {
     let frames = chain.joint_frames(q);
     let axes = chain.joint_axes(q);
     let origins: Vec<Vector3<f64>> = frames.iter().map(|f| f.translation.vector).collect();
@@ -87,7 +114,6 @@ fn meeting_axes(chain: &Chain, q: &[f64], end: End) -> (usize, usize, Vector3<f6
         + (chain.forward(q).translation.vector - origins[origins.len() - 1]).norm();
     let meet = (MEET_FRACTION * length).max(0.005);
     let n = chain.dof();
-    let elbow = elbow_guess(chain, q);
     let mut groups = Vec::new();
     for len in [3usize, 2] {
         for start in 0..n {
@@ -244,7 +270,8 @@ pub(super) fn arm_geometry(
         .iter()
         .map(|&(lo, hi)| if lo <= hi { 0.0_f64.clamp(lo, hi) } else { 0.0 })
         .collect();
-    let (group, size, axes_point, spread) = meeting_axes(&chain, &zero, End::Shoulder);
+    let elbow_first = elbow_guess(&chain, &zero);
+    let (group, size, axes_point, spread) = meeting_axes(&chain, &zero, End::Shoulder, elbow_first);
     // The shoulder rides on the joints before its group (TALOS turns its whole shoulder
     // first; a person lifts the collarbone); the convention's shoulder link names the point.
     let point = match &raw.shoulder_link {
@@ -257,7 +284,7 @@ pub(super) fn arm_geometry(
     };
     let after = group;
     let local = riding(&chain, &zero, after, point);
-    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist);
+    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow_first);
     let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
     let distal = (group + size).min(chain.dof())..chain.dof();
     let with = |tail: &[f64]| -> Vec<f64> {

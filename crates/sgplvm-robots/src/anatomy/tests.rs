@@ -600,3 +600,40 @@ fn a_single_arm_is_found_by_structure_driven_by_the_side_its_names_say_else_the_
     assert_eq!(a.sides(), vec![Side::Left]);
     assert_eq!(a.arm_joint_names()[0], "j_left_arm_0");
 }
+
+#[test]
+fn an_arm_folded_at_zero_finds_its_elbow_and_shoulder_from_the_middle_of_its_ranges() {
+    // As Kinova's Jaco 2: at zero the upper arm points down and the forearm folds back up
+    // onto it (the hand beside the shoulder); the ranges are centred on the arm standing
+    // straight up. Until 2026-12-05 the folded zero pose put the elbow at a wrist joint and the
+    // shoulder 0.3 m off.
+    let rev = |name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)| {
+        format!(
+            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
+            range.0, range.1
+        )
+    };
+    let wide = (-6.0, 6.0);
+    let urdf = format!(
+        r#"<robot name="folded"><link name="base"/>{}{}{}{}{}{}<link name="hand"/><joint name="tool" type="fixed"><parent link="wrist_3_link"/><child link="hand"/><origin xyz="0 0 0.1"/></joint></robot>"#,
+        rev("base_yaw", "base", "0 0 0.3", "0 0 1", wide),
+        rev("shoulder", "base_yaw_link", "0 0 0", "0 1 0", (0.82, 5.46)),
+        rev("elbow", "shoulder_link", "0 0 -0.4", "0 1 0", (0.33, 5.95)),
+        rev("wrist_1", "elbow_link", "0 0 0.4", "0 0 1", wide),
+        rev("wrist_2", "wrist_1_link", "0 0 0", "0 1 0", (0.52, 5.76)),
+        rev("wrist_3", "wrist_2_link", "0 0 0", "0 0 1", wide),
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "folded.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "elbow");
+    assert!(
+        (a.torso_in_root() * nalgebra::Point3::from(arm.shoulder))
+            .coords
+            .metric_distance(&Vector3::new(0.0, 0.0, 0.3))
+            < 1e-6,
+        "{:?}",
+        arm.shoulder
+    );
+    // Straightened: 0.8 m of arm, the hand 0.1 m on a wrist that bends at least 30°.
+    assert!(arm.reach > 0.88 && arm.reach < 0.9, "{}", arm.reach);
+}

@@ -415,19 +415,11 @@ fn check_limit(
         check_length(ctx, lat, "lower", lower.abs(), "a travel")?;
         check_length(ctx, lat, "upper", upper.abs(), "a travel")?;
     }
-    for (attr, v) in [("velocity", velocity), ("effort", effort)] {
-        if v < 0.0 {
-            return Err(lat.attr_error(
-                ctx,
-                attr,
-                format!("{v} is negative, expected a {attr} limit > 0 (or none)"),
-            ));
-        }
-    }
-    // A zero velocity limit on a joint that has room to move would forbid all motion: makers
-    // write it for "not given" (ROS's parser reads it, and the physics takes 0 for no limit);
-    // the repair pass notes it (see `repair.rs`).
-    Ok(((lower, upper), velocity, effort))
+    // A zero velocity limit on a joint that has room to move would forbid all motion, and a
+    // negative one is no limit at all: makers write either for "not given" (ROS's parser
+    // reads them, and the physics takes 0 for no limit); the repair pass notes them (see
+    // `repair.rs`).
+    Ok(((lower, upper), velocity.max(0.0), effort.max(0.0)))
 }
 
 fn check_joint(ctx: &Ctx, joint: At) -> RobotResult<RawJoint> {

@@ -98,6 +98,18 @@ impl Repairs {
         });
     }
 
+    /// Replaces the value of `node`'s attribute `attr` (which it has) with `value`.
+    fn replace(&mut self, node: El, attr: &str, value: &str) {
+        if let Some(a) = node.attributes().find(|a| a.name() == attr) {
+            let r = a.range_value();
+            self.edits.push(Edit {
+                at: r.start,
+                remove: r.len(),
+                insert: value.to_string(),
+            });
+        }
+    }
+
     /// Fills every attribute of `attrs` that `node` lacks with `value` (the specification's
     /// default), silently.
     fn default_attrs(&mut self, text: &str, node: El, attrs: &[&str], value: &str) {
@@ -229,6 +241,22 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
             }
         }
         let number = |a: &str| l.attribute(a).and_then(|v| v.trim().parse::<f64>().ok());
+        for attr in ["effort", "velocity"] {
+            // A limit is > 0; makers write -1 for "none" (Halodi's EVE on 23 joints), which
+            // ROS's parser and Pinocchio read without a word.
+            if number(attr).is_some_and(|v| v < 0.0) {
+                r.note(
+                    &format!(
+                        "<limit {attr}=\"{}\"> is negative (a limit is > 0)",
+                        l.attribute(attr).unwrap_or("").trim()
+                    ),
+                    &format!("read as no {attr} limit given"),
+                    l,
+                    owner.clone(),
+                );
+                r.replace(l, attr, "0");
+            }
+        }
         let (lower, upper) = (
             number("lower").unwrap_or(0.0),
             number("upper").unwrap_or(0.0),
