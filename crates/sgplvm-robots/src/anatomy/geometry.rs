@@ -180,7 +180,8 @@ fn unit(v: &Vector3<f64>, what: &str, file: &str) -> AnatomyResult<Vector3<f64>>
 }
 
 /// The body frame's rotation into the torso frame: left from the right shoulder to the left,
-/// up (the root's z, or as given) made square to it, forward = left × up (or as given). With
+/// up (the root's z, or as given; where the root's z runs along the shoulders, from the root
+/// towards them) made square to it, forward = left × up (or as given). With
 /// one arm there is no across: up as with two, forward (the root's x, or as given) made
 /// square to it, left = up × forward.
 fn body_frame(
@@ -238,7 +239,21 @@ fn body_frame(
             (f, f.cross(&l))
         }
         (f, u) => {
-            let u = square(u.unwrap_or(up_root), "up")?;
+            let u = match u {
+                Some(u) => square(u, "up")?,
+                // The root's z along the shoulders (a model drawn y up, as biomechanics and
+                // animation draw people): up is from the root towards the shoulders.
+                None => square(up_root, "up").or_else(|e| {
+                    let root = torso_in_root.inverse() * nalgebra::Point3::origin();
+                    let rise = 0.5 * (left.shoulder + right.shoulder) - root.coords;
+                    let rise = rise - l * l.dot(&rise);
+                    if rise.norm() > 0.05 {
+                        Ok(rise.normalize())
+                    } else {
+                        Err(e)
+                    }
+                })?,
+            };
             let fwd = l.cross(&u);
             if let Some(f) = f {
                 let given = unit(f, "forward", file)?;

@@ -637,3 +637,27 @@ fn an_arm_folded_at_zero_finds_its_elbow_and_shoulder_from_the_middle_of_its_ran
     // Straightened: 0.8 m of arm, the hand 0.1 m on a wrist that bends at least 30°.
     assert!(arm.reach > 0.88 && arm.reach < 0.9, "{}", arm.reach);
 }
+
+#[test]
+fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
+    // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
+    // to the right. The root's z runs along the shoulders, so up is from the root (the
+    // pelvis, 0.3 m below the torso) towards the shoulders.
+    let twin = unnamed_arms(0.2)
+        .replace("arm_a", "left_arm")
+        .replace("arm_b", "right_arm")
+        .replace(
+            r#"<robot name="twin"><link name="torso"/>"#,
+            r#"<robot name="twin"><link name="pelvis"/><link name="torso"/><joint name="spine" type="fixed"><parent link="pelvis"/><child link="torso"/><origin xyz="0 0.3 0" rpy="-1.5707963267948966 0 0"/></joint>"#,
+        );
+    let a = Anatomy::of(Robot::from_urdf_str(&twin, "yup.urdf").unwrap()).unwrap();
+    let [fwd, left, up] = a.body_axes_in_root();
+    assert!((up - Vector3::y()).norm() < 1e-9, "{up:?}");
+    assert!((left + Vector3::z()).norm() < 1e-9, "{left:?}");
+    assert!((fwd - Vector3::x()).norm() < 1e-9, "{fwd:?}");
+    assert!(
+        a.notes().iter().any(|n| n.contains("up +y")),
+        "{:?}",
+        a.notes()
+    );
+}
