@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Result};
 use clap::Args;
 use sgplvm::capture::{
-    captures_to_dataset, import_bvh, ArmMap, CaptureSource, ImportOptions, Units, CAPTURE_METADATA,
-    ELBOW_ANGLE_LIMIT_DEG, MEDIAN_RESIDUAL_LIMIT_M, WORST_RESIDUAL_LIMIT_M,
+    captures_to_dataset, import_files, ArmMap, CaptureSource, ImportOptions, Units,
+    CAPTURE_METADATA, ELBOW_ANGLE_LIMIT_DEG, MEDIAN_RESIDUAL_LIMIT_M, WORST_RESIDUAL_LIMIT_M,
 };
 use sgplvm::csv::format_line;
 use sgplvm::files::atomic_write_with;
@@ -25,8 +25,9 @@ mod mvn;
 
 #[derive(Args)]
 pub struct ImportArgs {
-    /// BVH files (CMU/cgspeed, Xsens MVN, Mixamo, Rokoko, Motive, Blender, ... exports), one
-    /// segment each, joined one after another.
+    /// BVH files (CMU/cgspeed, Xsens MVN, Mixamo, Rokoko, Motive, Blender, ... exports), or
+    /// CMU's ASF/AMC (`13.asf 13_26.amc`, or the .amc alone with its subject's .asf beside
+    /// it; 120 frames a second), one segment each, joined one after another.
     #[arg(required_unless_present = "mvn")]
     files: Vec<PathBuf>,
     /// Or record an Xsens MVN network stream (pose datagrams 01 or 02) arriving on
@@ -112,9 +113,7 @@ pub fn run(args: ImportArgs) -> Result<()> {
             args.calibration.options(&[])?,
         )?);
     }
-    for file in &args.files {
-        captures.push(import_bvh(file, &options)?);
-    }
+    captures.extend(import_files(&args.files, &options)?);
     if let Some(person) = &args.person {
         if person.trim().is_empty() {
             bail!("--person: expected a name, got an empty one");

@@ -27,6 +27,41 @@ pub fn import_bvh(
     import_parsed(&bvh, &path.display().to_string(), options)
 }
 
+/// Imports capture files one after another: BVH files, and CMU's ASF/AMC (an `.amc` motion
+/// with the `.asf` skeleton given before it among `paths`, else the one beside it,
+/// [`crate::asf::skeleton_beside`]). An `.asf` is no motion of its own.
+pub fn import_files(
+    paths: &[std::path::PathBuf],
+    options: &ImportOptions,
+) -> Result<Vec<CapturedMotion>, CaptureError> {
+    let has = |p: &Path, ext: &str| p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext));
+    let mut skeleton: Option<&Path> = None;
+    let mut captures = Vec::with_capacity(paths.len());
+    for path in paths {
+        if has(path, "asf") {
+            skeleton = Some(path);
+        } else if has(path, "amc") {
+            let asf = match skeleton {
+                Some(s) => s.to_path_buf(),
+                None => crate::asf::skeleton_beside(path)?,
+            };
+            let bvh = crate::asf::read_asf_amc(&asf, path)?;
+            captures.push(import_parsed(&bvh, &path.display().to_string(), options)?);
+        } else {
+            captures.push(import_bvh(path, options)?);
+        }
+    }
+    if captures.is_empty() && skeleton.is_some() {
+        return Err(CaptureError::Options {
+            file: skeleton
+                .map(|s| s.display().to_string())
+                .unwrap_or_default(),
+            message: "an ASF file is a skeleton, no motion: give its AMC files after it".into(),
+        });
+    }
+    Ok(captures)
+}
+
 /// [`import_bvh`] of an already parsed file; `file` names it in reports and errors.
 pub fn import_parsed(
     bvh: &Bvh,

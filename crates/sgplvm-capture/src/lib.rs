@@ -19,6 +19,7 @@
 
 #![deny(clippy::unwrap_used)]
 
+pub mod asf;
 pub mod axes;
 pub mod bvh;
 pub mod calibration;
@@ -40,7 +41,7 @@ use serde::{Deserialize, Serialize};
 pub use bvh::{Bvh, BvhError, BvhJoint, Channel};
 pub use calibration::{Calibration, HandEnd, HingeEstimate, Twist};
 pub use fit::{ArmAngles, ArmTarget, HumanArms};
-pub use import::{import_bvh, import_parsed};
+pub use import::{import_bvh, import_files, import_parsed};
 pub use segments::{ArmSegments, WorldPose};
 pub use skeleton::{tree_skeleton, ArmMap, ArmPose, Skeleton, TreeFrame, SCHEMES};
 pub use stream::{ArmFitResult, FrameFit, PoseFitter};
