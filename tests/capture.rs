@@ -489,3 +489,28 @@ fn people_named_at_import_are_split_whole_trained_a_person_at_a_time_and_judged_
     let median = arms["followed"]["upper_arm_median_deg"].as_f64();
     assert!(median.is_none_or(|m| (0.0..180.0).contains(&m)), "{arms}");
 }
+
+#[test]
+fn cmu_asf_amc_import_through_the_command_line_and_an_amc_without_its_skeleton_is_refused() {
+    let dir = scratch("capture-asf");
+    let fixtures =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/sgplvm-capture/tests/fixtures");
+    let (asf, amc) = (
+        fixtures.join("cmu-12.asf"),
+        fixtures.join("cmu-02_01-60frames.amc"),
+    );
+    let out = dir.join("walk.mcap");
+    let report = ok(&["import", s(&asf), s(&amc), "--out", s(&out), "--json"]);
+    assert!(report.contains("CMU ASF"), "{report}");
+    let ds = sgplvm::robots::dataset::load_demonstrations(&out).unwrap();
+    assert_eq!(ds.human.joint_names.len(), 18);
+    assert_eq!(ds.len(), 20); // 60 frames at 120 Hz, at 40 Hz
+                              // Alone in a folder without its subject's skeleton: one line naming what was expected,
+                              // and nothing written.
+    let lone = dir.join("02_01.amc");
+    std::fs::copy(&amc, &lone).unwrap();
+    let never = dir.join("never.mcap");
+    let e = fails_on_one_line(&["import", s(&lone), "--out", s(&never)]);
+    assert!(e.contains("02.asf") && e.contains("ASF skeleton"), "{e}");
+    assert!(!never.exists());
+}
