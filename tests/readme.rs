@@ -105,7 +105,8 @@ fn root() -> PathBuf {
 }
 
 /// A scratch folder laid out like a fresh clone for one document's commands: `data/demos` with
-/// the shipped demonstration files, the published robots, the capture and the Foxglove layout.
+/// the shipped demonstration files, the published robots, the captures (the BVH, and the
+/// capture crate's ASF/AMC fixtures) and the Foxglove layout.
 fn fresh_clone_folder(name: &str) -> PathBuf {
     let dir = scratch(&format!("readme-{name}"));
     let demos = dir.join("data").join("demos");
@@ -113,7 +114,12 @@ fn fresh_clone_folder(name: &str) -> PathBuf {
     for file in ["bimanual.mcap", "fleet.mcap", "captured.mcap"] {
         std::fs::copy(root().join("data/demos").join(file), demos.join(file)).unwrap();
     }
-    for folder in ["data/urdf/published", "data/capture", "data/foxglove"] {
+    for folder in [
+        "data/urdf/published",
+        "data/capture",
+        "data/foxglove",
+        "crates/sgplvm-capture/tests/fixtures",
+    ] {
         let copy = dir.join(folder);
         std::fs::create_dir_all(&copy).unwrap();
         for entry in std::fs::read_dir(root().join(folder)).unwrap() {
@@ -205,14 +211,14 @@ fn run_on_loopback(commands: &[&String], dir: &Path, at: &str) -> bool {
     true
 }
 
-/// Every file under `dir` (relative paths), leaving out `skip`.
-fn files_under(dir: &Path, skip: &Path) -> Vec<PathBuf> {
+/// Every file under `dir` (relative paths), leaving out the folders `skip`.
+fn files_under(dir: &Path, skip: &[PathBuf]) -> Vec<PathBuf> {
     let mut found = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
         for entry in std::fs::read_dir(&d).unwrap() {
             let path = entry.unwrap().path();
-            if path.starts_with(skip) {
+            if skip.iter().any(|s| path.starts_with(s)) {
                 continue;
             }
             if path.is_dir() {
@@ -290,7 +296,8 @@ fn run_document(document: &str) {
         }
     }
     // What the commands wrote stays out of `git status` in a clone.
-    let written = files_under(&dir, &dir.join("data"));
+    // The copied inputs aside.
+    let written = files_under(&dir, &[dir.join("data"), dir.join("crates")]);
     if written.is_empty() {
         return;
     }

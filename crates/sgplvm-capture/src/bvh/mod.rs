@@ -49,13 +49,13 @@ pub const MAX_FRAME_TIME_S: f64 = 10.0;
 /// Most joints accepted in one hierarchy.
 pub const MAX_JOINTS: usize = 10_000;
 
-/// A problem with a BVH file: the file, the line (1-based; 0 when it concerns the file as a
-/// whole) and what was expected.
+/// A problem with a capture file (BVH, or CMU's ASF/AMC read into one): the file, the line
+/// (1-based; 0 when it concerns the file as a whole) and what was expected.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum BvhError {
     /// The file could not be read.
-    #[error("{file}: cannot read the BVH file: {source}")]
+    #[error("{file}: cannot read the file: {source}")]
     Io {
         /// The file.
         file: String,
