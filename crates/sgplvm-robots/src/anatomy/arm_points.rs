@@ -56,18 +56,7 @@ enum End {
 /// zero pose folds the arm down onto itself, the hand 27 % of the reach from the shoulder, and
 /// its ranges are centred on the arm standing straight up).
 fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
-    let mid: Vec<f64> = chain
-        .limits()
-        .iter()
-        .zip(zero)
-        .map(|(&(lo, hi), &z)| {
-            if lo.is_finite() && hi.is_finite() {
-                0.5 * (lo + hi)
-            } else {
-                z
-            }
-        })
-        .collect();
+    let mid = chain.mid_range(zero);
     let stretch =
         |q: &[f64]| (chain.forward(q).translation.vector - chain.joint_origins(q)[0]).norm();
     let q = if stretch(&mid) > 1.5 * stretch(zero) {
@@ -294,16 +283,7 @@ pub(super) fn arm_geometry(
     };
     let span = |q: &[f64]| (chain.forward(q).translation.vector - point).norm();
     let distal_limits = &chain.limits()[distal.clone()];
-    let mid: Vec<f64> = distal_limits
-        .iter()
-        .map(|&(lo, hi)| {
-            if lo.is_finite() && hi.is_finite() {
-                0.5 * (lo + hi)
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let mid = chain.mid_range(&zero)[distal.clone()].to_vec();
     let measure = |tail: &[f64]| span(&with(tail));
     let (tail, reach) = maximise(
         &measure,

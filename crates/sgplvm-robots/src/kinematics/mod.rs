@@ -138,6 +138,22 @@ impl Chain {
         &self.limits
     }
 
+    /// The middle of each joint's range, base to tip; `otherwise[k]` for a joint whose range is
+    /// unbounded on either side.
+    pub fn mid_range(&self, otherwise: &[f64]) -> Vec<f64> {
+        self.limits
+            .iter()
+            .zip(otherwise)
+            .map(|(&(lo, hi), &other)| {
+                if lo.is_finite() && hi.is_finite() {
+                    0.5 * (lo + hi)
+                } else {
+                    other
+                }
+            })
+            .collect()
+    }
+
     /// Number of movable joints.
     pub fn dof(&self) -> usize {
         self.segments.len()

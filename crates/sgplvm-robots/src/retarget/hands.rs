@@ -36,19 +36,7 @@ impl<'a> RobotArms<'a> {
             .collect();
         let rest = arms
             .iter()
-            .map(|a| {
-                a.chain
-                    .limits()
-                    .iter()
-                    .map(|&(lo, hi)| {
-                        if lo.is_finite() && hi.is_finite() {
-                            0.5 * (lo + hi)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()
-            })
+            .map(|a| a.chain.mid_range(&vec![0.0; a.chain.dof()]))
             .collect();
         let mut robot = Self {
             name: name.to_string(),
