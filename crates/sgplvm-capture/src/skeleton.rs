@@ -3,10 +3,12 @@
 //!
 //! The arms are found by name ([`SCHEMES`]: CMU/cgspeed and Mixamo `LeftShoulder/LeftArm/
 //! LeftForeArm/LeftHand`, Xsens MVN `LeftShoulder/LeftUpperArm/...`, Xsens BVH exports and
-//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, Poser/DAZ `lCollar/lShldr/...`, Unreal
-//! and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/hand_l`, Rigify `shoulder.L/upper_arm.L/...`),
-//! namespace prefixes (`mixamorig:`, a TF frame's `actor1/`) and case, `_`, `.`, `-` and
-//! spaces aside; or by an explicit [`ArmMap`] (`--map FILE`).
+//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, Poser/DAZ `lCollar/lShldr/...` (Genesis
+//! 3 and 8 `lShldrBend/lForearmBend`), Unreal and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/
+//! hand_l`, Rigify `shoulder.L/upper_arm.L/...` (and `DEF-upper_arm.L`)), namespace prefixes
+//! (`mixamorig:`, a TF frame's `actor1/`) and case, `_`, `.`, `-` and spaces aside; or by an
+//! explicit [`ArmMap`] (`--map FILE`). Twist bones between an arm's joints (Genesis'
+//! `lShldrTwist`) belong to the segment above them.
 //!
 //! The upper torso is the joint the clavicles hang from. Its body axes (x forward, y left,
 //! z up, those of the human model's `T8`) come from the skeleton's geometry, whatever its zero
@@ -136,8 +138,14 @@ impl Skeleton {
                 bvh.joints[top(&arms[1])].name
             ),
         })?;
-        let arm_length =
-            bvh.joints[arms[0].forearm].offset.norm() + bvh.joints[arms[0].hand].offset.norm();
+        // From joint to joint at rest, over any twist bones between them (DAZ's Genesis 3 and 8
+        // put `lShldrTwist` between `lShldrBend` and `lForearmBend`, Rigify `upper_arm.L.001`).
+        let rest_length = |from: usize, to: usize| {
+            bvh.rest_position(from, to)
+                .map_or(0.0, |v: Vector3<f64>| v.norm())
+        };
+        let arm_length = rest_length(arms[0].upper_arm, arms[0].forearm)
+            + rest_length(arms[0].forearm, arms[0].hand);
         if arm_length.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(CaptureError::Skeleton {
                 file: file.to_string(),
@@ -191,8 +199,13 @@ impl Skeleton {
         let clavicle = pos;
         at(arm.upper_arm, &mut pos, &mut rot, top);
         let shoulder = pos;
+        // The upper arm's orientation is that of the bone the elbow hangs from: the upper arm
+        // itself, or the last of the twist bones that carry part of its twist (DAZ's
+        // `lShldrTwist`, Rigify's `upper_arm.L.001`).
+        let upper_end = bvh.joints[arm.forearm].parent.unwrap_or(arm.upper_arm);
+        at(upper_end, &mut pos, &mut rot, arm.upper_arm);
         let upper_rot = rot;
-        at(arm.forearm, &mut pos, &mut rot, arm.upper_arm);
+        at(arm.forearm, &mut pos, &mut rot, upper_end);
         let elbow = pos;
         at(arm.hand, &mut pos, &mut rot, arm.forearm);
         let wrist = pos;
@@ -461,19 +474,29 @@ fn arm_from_map(
     })
 }
 
-/// Where the hand ends, in its own frame: a middle-finger or finger-base child if there is
-/// one, else the End Site, else the mean of the children that are not the thumb.
+/// Where the hand ends, in its own frame: a middle-finger or finger-base child (or grandchild,
+/// past a carpal bone: DAZ's `lCarpal2` → `lMid1`) if there is one, else the End Site, else the
+/// mean of the children that are not the thumb.
 fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
     let children: Vec<usize> = bvh.children(hand).collect();
-    let named = |keys: &[&str]| {
-        children.iter().find(|&&c| {
-            let n = normalise(&bvh.joints[c].name);
-            keys.iter().any(|k| n.contains(k))
-        })
-    };
-    if let Some(&c) = named(&["middle1", "middle", "fingerbase", "finger"]) {
+    // Children first, then grandchildren, each with its offset from the hand.
+    let near: Vec<(usize, Vector3<f64>)> = children
+        .iter()
+        .map(|&c| (c, bvh.joints[c].offset))
+        .chain(children.iter().flat_map(|&c| {
+            bvh.children(c)
+                .map(move |g| (g, bvh.joints[c].offset + bvh.joints[g].offset))
+        }))
+        .collect();
+    let finger = near.iter().find(|&&(c, _)| {
+        let n = normalise(&bvh.joints[c].name);
+        ["middle1", "mid1", "middle", "fingerbase", "finger"]
+            .iter()
+            .any(|k| n.contains(k))
+    });
+    if let Some(&(c, offset)) = finger {
         // Down the finger until the chain leaves the wrist (CMU's finger base sits on it).
-        let mut tip = bvh.joints[c].offset;
+        let mut tip = offset;
         let mut at = c;
         while tip.norm() == 0.0 {
             match bvh.children(at).next() {
@@ -505,3 +528,6 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
     let mean = others.iter().sum::<Vector3<f64>>() / others.len() as f64;
     Some(mean).filter(|v| v.norm() > 0.0)
 }
+
+#[cfg(test)]
+mod tests;

@@ -259,6 +259,26 @@ fn naming_schemes_are_recognised() {
             ["shoulder.R", "upper_arm.R", "forearm.R", "hand.R"],
             "Rigify",
         ),
+        (
+            [
+                "DEF-shoulder.L",
+                "DEF-upper_arm.L",
+                "DEF-forearm.L",
+                "DEF-hand.L",
+            ],
+            [
+                "DEF-shoulder.R",
+                "DEF-upper_arm.R",
+                "DEF-forearm.R",
+                "DEF-hand.R",
+            ],
+            "Rigify",
+        ),
+        (
+            ["lCollar", "lShldrBend", "lForearmBend", "lHand"],
+            ["rCollar", "rShldrBend", "rForearmBend", "rHand"],
+            "DAZ",
+        ),
     ];
     for (left, right, scheme) in cases {
         let bvh = skeleton(left, right);

@@ -52,10 +52,12 @@ pub const SCHEMES: &[Scheme] = &[
         hand: &["hand"],
     },
     Scheme {
-        name: "Poser / DAZ (Collar, Shldr, ForeArm, Hand)",
+        // Genesis 3 and 8 split the upper arm and the forearm into a bend and a twist bone
+        // (`lShldrBend` → `lShldrTwist` → `lForearmBend` → `lForearmTwist` → `lHand`).
+        name: "Poser / DAZ (Collar, Shldr or ShldrBend, ForeArm or ForearmBend, Hand)",
         clavicle: &["collar"],
-        upper_arm: &["shldr", "shoulder"],
-        forearm: &["forearm"],
+        upper_arm: &["shldr", "shldrbend", "shoulder"],
+        forearm: &["forearm", "forearmbend"],
         hand: &["hand"],
     },
     Scheme {
@@ -96,7 +98,7 @@ pub fn normalise(name: &str) -> String {
 /// The names a joint answers to: its whole normalised name, then the normalised ends of its
 /// name that start with a side word, cut at word boundaries (`_`, `.`, `-`, spaces, a
 /// lower-to-upper case change), so that `CC_Base_L_Clavicle` answers to `lclavicle` and
-/// `Bip01 L UpperArm` to `lupperarm`.
+/// `Bip01 L UpperArm` to `lupperarm`; and Rigify's `DEF-upper_arm.L` to `upperarml`.
 pub(crate) fn name_forms(name: &str) -> Vec<String> {
     let base = base_name(name);
     let mut words: Vec<String> = Vec::new();
@@ -120,6 +122,11 @@ pub(crate) fn name_forms(name: &str) -> Vec<String> {
         words.push(current);
     }
     let mut forms = vec![normalise(name)];
+    // Rigify's deforming bones, the ones a skin follows (`DEF-upper_arm.L`), answer to their
+    // names without the prefix; its control and mechanism bones (`ORG-`, `MCH-`) do not.
+    if words.first().is_some_and(|w| w == "def") && words.len() > 1 {
+        forms.push(words[1..].concat());
+    }
     for start in 1..words.len() {
         // Only ends that start with the side (`L_Clavicle`): a prefix is cut, not a word of
         // the segment's name (`upper_arm.L` must not answer to `arm.L`).

@@ -1,0 +1,281 @@
+//! Skeletons whose arms carry twist bones in the chain (DAZ's Genesis 3 and 8, Rigify's
+//! deforming bones): the same motion with part of each segment's twist moved into its twist
+//! bone must import to the same human angles as without the twist bones.
+
+use crate::bvh::{Bvh, BvhJoint, Channel};
+use crate::{import_parsed, write_bvh, ImportOptions};
+
+/// A smooth motion of the human model within its joint limits, elbows bent.
+fn motion(frames: usize) -> Vec<[f64; 18]> {
+    let limits = sgplvm_robots::Robot::builtin("human")
+        .unwrap()
+        .joint_limits();
+    (0..frames)
+        .map(|f| {
+            let t = f as f64 / 40.0;
+            let mut q = [0.0; 18];
+            for (k, v) in q.iter_mut().enumerate() {
+                let (lo, hi) = limits[k];
+                *v = 0.5 * (lo + hi) + 0.3 * (hi - lo) * (1.1 * t + k as f64).sin();
+                if k % 9 == 5 {
+                    *v = v.max(0.3);
+                }
+            }
+            q
+        })
+        .collect()
+}
+
+/// A joint's name in a convention from the side (`Left`, `Right`) and the segment (`Shoulder`,
+/// `UpperArm`, `ForeArm`, `Hand`).
+type Namer = dyn Fn(&str, &str) -> String;
+
+/// `bvh` (the human model's own BVH: `Left`/`Right` + `Shoulder`, `UpperArm`, `ForeArm`,
+/// `Hand`, each with `Zrotation Xrotation Yrotation`, bones along the file's y at rest) renamed
+/// by `name` (side, segment → name), with a twist bone (`twist(side, segment)`) inserted
+/// halfway down the upper arm and the forearm. The twist bone turns about the bone's own axis
+/// by `twist_deg(frame, side)` and the segment's own joint by as much less, so every position
+/// and every segment's orientation below the twist bone is unchanged.
+fn with_twist_bones(
+    bvh: &Bvh,
+    name: &Namer,
+    twist: &Namer,
+    twist_deg: &dyn Fn(usize, usize) -> f64,
+) -> Bvh {
+    let mut joints: Vec<BvhJoint> = Vec::new();
+    // Old joint index → new, and per new twist joint: (old segment it splits, side index).
+    let mut new_index = vec![0; bvh.joints.len()];
+    let mut twists: Vec<(usize, usize)> = Vec::new();
+    for (i, j) in bvh.joints.iter().enumerate() {
+        let mut joint = j.clone();
+        joint.parent = j.parent.map(|p| new_index[p]);
+        let side = ["Left", "Right"]
+            .into_iter()
+            .find(|s| j.name.starts_with(s));
+        if let Some(side) = side {
+            let segment = &j.name[side.len()..];
+            joint.name = name(side, segment);
+            let parent_name = j.parent.and_then(|p| bvh.joints[p].name.strip_prefix(side));
+            if matches!(parent_name, Some("UpperArm" | "ForeArm")) {
+                // Hang this joint from a twist bone halfway down its parent.
+                let half = j.offset / 2.0;
+                let parent = joint.parent.unwrap();
+                joints.push(BvhJoint {
+                    name: twist(side, parent_name.unwrap()),
+                    parent: Some(parent),
+                    offset: half,
+                    channels: vec![Channel::Yrotation],
+                    first_channel: 0,
+                    end_site: None,
+                    line: 0,
+                });
+                twists.push((j.parent.unwrap(), usize::from(side == "Right")));
+                joint.parent = Some(joints.len() - 1);
+                joint.offset = half;
+            }
+        }
+        new_index[i] = joints.len();
+        joints.push(joint);
+    }
+    let mut channels = 0;
+    for j in &mut joints {
+        j.first_channel = channels;
+        channels += j.channels.len();
+    }
+    let mut values = Vec::with_capacity(bvh.frames() * channels);
+    for f in 0..bvh.frames() {
+        let old = bvh.frame(f);
+        let start = values.len();
+        values.resize(start + channels, 0.0);
+        let row = &mut values[start..];
+        for (i, j) in bvh.joints.iter().enumerate() {
+            let n = &joints[new_index[i]];
+            row[n.first_channel..n.first_channel + j.channels.len()]
+                .copy_from_slice(&old[j.first_channel..j.first_channel + j.channels.len()]);
+        }
+        for &(segment, side) in &twists {
+            // The forearm's twist bone takes half as much as the upper arm's.
+            let share = if bvh.joints[segment].name.ends_with("UpperArm") {
+                1.0
+            } else {
+                0.5
+            };
+            let a = twist_deg(f, side) * share;
+            // The twist bone: a turn about y; its segment's last channel (Yrotation) less as much:
+            // Rz Rx Ry(c − a) Ry(a) = Rz Rx Ry(c).
+            let twist_joint = joints
+                .iter()
+                .position(|j| {
+                    j.channels == [Channel::Yrotation] && j.parent == Some(new_index[segment])
+                })
+                .unwrap();
+            row[joints[twist_joint].first_channel] = a;
+            let s = &joints[new_index[segment]];
+            assert_eq!(s.channels[2], Channel::Yrotation);
+            row[s.first_channel + 2] -= a;
+        }
+    }
+    Bvh {
+        joints,
+        frame_time: bvh.frame_time,
+        channels,
+        values,
+    }
+}
+
+/// Imports `bvh` with the default options: (scheme, angles).
+fn import(bvh: &Bvh) -> (String, nalgebra::DMatrix<f64>) {
+    let m = import_parsed(bvh, "twist.bvh", &ImportOptions::default()).unwrap();
+    (m.source.skeleton, m.positions)
+}
+
+#[test]
+fn twist_bones_in_the_arm_chain_import_as_the_arm_without_them() {
+    let dir = std::env::temp_dir().join(format!("sgplvm-twist-bones-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("plain.bvh");
+    write_bvh(&path, 1.0 / 40.0, &motion(200)).unwrap();
+    let plain = Bvh::read(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let (_, want) = import(&plain);
+    // A twist that moves on its own: up to 50° in the upper arm, 25° in the forearm.
+    let twist_deg = |f: usize, side: usize| 50.0 * (0.07 * f as f64 + side as f64).sin();
+    let genesis = |side: &str, segment: &str| {
+        let s = &side[..1].to_lowercase();
+        let base = match segment {
+            "Shoulder" => "Collar",
+            "UpperArm" => "ShldrBend",
+            "ForeArm" => "ForearmBend",
+            _ => "Hand",
+        };
+        format!("{s}{base}")
+    };
+    let genesis_twist = |side: &str, segment: &str| {
+        let s = &side[..1].to_lowercase();
+        let base = if segment == "UpperArm" {
+            "ShldrTwist"
+        } else {
+            "ForearmTwist"
+        };
+        format!("{s}{base}")
+    };
+    let rigify = |side: &str, segment: &str| {
+        let base = match segment {
+            "Shoulder" => "shoulder",
+            "UpperArm" => "upper_arm",
+            "ForeArm" => "forearm",
+            _ => "hand",
+        };
+        format!("DEF-{base}.{}", &side[..1])
+    };
+    let rigify_twist = |side: &str, segment: &str| {
+        let base = if segment == "UpperArm" {
+            "upper_arm"
+        } else {
+            "forearm"
+        };
+        format!("DEF-{base}.{}.001", &side[..1])
+    };
+    let cases: [(&Namer, &Namer, &str); 2] = [
+        (&genesis, &genesis_twist, "DAZ"),
+        (&rigify, &rigify_twist, "Rigify"),
+    ];
+    for (name, twist, scheme) in cases {
+        let bvh = with_twist_bones(&plain, name, twist, &twist_deg);
+        assert_eq!(bvh.joints.len(), plain.joints.len() + 4);
+        // The twist bones do move: the wrist is where it was, the upper-arm joint is not.
+        let wrist = bvh.joint(&name("Left", "Hand")).unwrap();
+        let rest_length = bvh.rest_position(bvh.joint(&name("Left", "UpperArm")).unwrap(), wrist);
+        assert!((rest_length.unwrap().norm() - 53.55).abs() < 1e-3);
+        let (found, got) = import(&bvh);
+        assert!(found.contains(scheme), "{scheme}: identified as {found}");
+        assert_eq!(got.shape(), want.shape());
+        let worst = (&got - &want).abs().max();
+        assert!(worst < 1e-9, "{scheme}: angles differ by up to {worst} rad");
+    }
+    // The test can fail: with the twist bones' turns left out, the segments above them are
+    // turned back by as much, and the shoulders' and forearms' angles change.
+    let mut untwisted = with_twist_bones(&plain, &genesis, &genesis_twist, &twist_deg);
+    for j in untwisted.joints.clone() {
+        if j.channels == [Channel::Yrotation] {
+            for f in 0..untwisted.frames() {
+                untwisted.values[f * untwisted.channels + j.first_channel] = 0.0;
+            }
+        }
+    }
+    let moved = (&import(&untwisted).1 - &want).abs().max();
+    assert!(
+        moved > 0.3,
+        "leaving the twist bones out moved the angles by {moved} rad only"
+    );
+}
+
+/// A Genesis 8 skeleton (its names, twist bones, a carpal bone before each finger) in a T-pose,
+/// one frame at rest: the hand ends at the middle finger's base past its carpal bone.
+#[test]
+fn a_hand_ends_at_the_middle_finger_past_a_carpal_bone() {
+    let mut t = String::from(
+        "HIERARCHY\nROOT hip\n{\nOFFSET 0 100 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
+    );
+    let joint = |name: &str, offset: [f64; 3]| {
+        format!(
+            "JOINT {name}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
+            offset[0], offset[1], offset[2]
+        )
+    };
+    let end = |offset: [f64; 3]| {
+        format!(
+            "End Site\n{{\nOFFSET {} {} {}\n}}\n",
+            offset[0], offset[1], offset[2]
+        )
+    };
+    for (s, x) in [("l", 1.0), ("r", -1.0)] {
+        t += &joint(&format!("{s}ThighBend"), [x * 9.0, -5.0, 0.0]);
+        t += &end([0.0, -40.0, 0.0]);
+        t += "}\n";
+    }
+    t += &joint("chestUpper", [0.0, 40.0, 0.0]);
+    t += &joint("neckLower", [0.0, 15.0, 0.0]);
+    t += &end([0.0, 10.0, 0.0]);
+    t += "}\n";
+    let mut channels = 6 + 3 * 3 + 3;
+    for (s, x) in [("l", 1.0), ("r", -1.0)] {
+        let chain = [
+            ("Collar", [x * 3.0, 12.0, 0.0]),
+            ("ShldrBend", [x * 14.0, 0.0, 0.0]),
+            ("ShldrTwist", [x * 13.0, 0.0, 0.0]),
+            ("ForearmBend", [x * 15.0, 0.0, 0.0]),
+            ("ForearmTwist", [x * 12.0, 0.0, 0.0]),
+            ("Hand", [x * 13.0, 0.0, 0.0]),
+        ];
+        for (name, offset) in chain {
+            t += &joint(&format!("{s}{name}"), offset);
+        }
+        t += &joint(&format!("{s}Thumb1"), [x * 2.0, -1.0, 3.0]);
+        t += &end([x * 3.0, 0.0, 0.0]);
+        t += "}\n";
+        t += &joint(&format!("{s}Carpal2"), [x * 1.0, 0.0, 0.5]);
+        t += &joint(&format!("{s}Mid1"), [x * 7.0, 0.0, 0.0]);
+        t += &end([x * 4.0, 0.0, 0.0]);
+        t += "}\n}\n";
+        t += &"}\n".repeat(chain.len());
+        channels += 3 * (chain.len() + 3);
+    }
+    t += "}\n}\nMOTION\nFrames: 1\nFrame Time: 0.025\n";
+    t += &vec!["0"; channels].join(" ");
+    t.push('\n');
+    let bvh = Bvh::parse(&t, "genesis.bvh").unwrap();
+    let s = crate::Skeleton::identify(&bvh, None, "genesis.bvh").unwrap();
+    assert!(s.scheme.contains("DAZ"), "{}", s.scheme);
+    for (arm, x) in s.arms.iter().zip([1.0, -1.0]) {
+        assert_eq!(bvh.joints[arm.upper_arm].name[1..], *"ShldrBend");
+        assert_eq!(bvh.joints[arm.forearm].name[1..], *"ForearmBend");
+        let tip = arm.hand_tip.unwrap();
+        assert!(
+            (tip - nalgebra::Vector3::new(x * 8.0, 0.0, 0.5)).norm() < 1e-12,
+            "{tip}"
+        );
+    }
+    // Upper arm and forearm over their twist bones: 28 + 25 cm.
+    assert!((s.arm_length - 53.0).abs() < 1e-12, "{}", s.arm_length);
+}
