@@ -401,4 +401,47 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     .unwrap();
     let text = evaluated.to_string();
     assert!(text.contains("upper_arm_median_deg"), "{text}");
+    // A latent space per arm: one, the right arm's; the person's left arm is no input.
+    let arms = dir.join("kuka-arms.sgp");
+    let urdf = format!("kuka={}", s(&kuka));
+    ok(&[
+        "train",
+        "--data",
+        s(&demos),
+        "--robot",
+        "kuka",
+        "--parts",
+        "arms",
+        "--urdf",
+        &urdf,
+        "--max-iters",
+        "20",
+        "--out",
+        s(&arms),
+    ]);
+    let model = sgplvm::PartsGplvm::load(&arms).unwrap();
+    assert_eq!(model.part_names(), ["right_arm"]);
+    let human = model.column_names("human").unwrap();
+    let inputs = model.part_columns("right_arm", "human").unwrap();
+    assert!(
+        inputs.len() == 9 && inputs.iter().all(|&c| human[c].starts_with("jRight")),
+        "{inputs:?} of {human:?}"
+    );
+    assert_eq!(model.part_columns("right_arm", "kuka").unwrap().len(), 7);
+    let csv = dir.join("kuka-arms.csv");
+    ok(&[
+        "predict",
+        "--model",
+        s(&arms),
+        "--input",
+        s(&demos),
+        "--robot",
+        "kuka",
+        "--urdf",
+        s(&kuka),
+        "--out",
+        s(&csv),
+    ]);
+    let lines = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(lines.lines().next().unwrap().split(',').count(), 1 + 7);
 }

@@ -73,7 +73,8 @@ fn side_by_name(joint: &str) -> Option<Side> {
 
 /// The columns of body `body` (joint names `joints`) in its left and its right arm: by the
 /// arms of `anatomy` when given, else by the joints' names. A column in neither arm, or an arm
-/// without columns, is [`PipelineError::Parts`] naming it.
+/// without columns, is [`PipelineError::Parts`] naming it — except the arm a one-armed
+/// anatomy does not have, whose columns are empty.
 pub fn arm_columns(
     body: &str,
     joints: &[String],
@@ -104,7 +105,8 @@ pub fn arm_columns(
         };
         arms[usize::from(side == Side::Right)].push(c);
     }
-    if let Some(k) = arms.iter().position(Vec::is_empty) {
+    let absent = |k: usize| anatomy.is_some_and(|a| a.arm([Side::Left, Side::Right][k]).is_none());
+    if let Some(k) = (0..2).find(|&k| arms[k].is_empty() && !absent(k)) {
         return Err(bad(format!(
             "no joint of its {} arm among {joints:?}",
             ["left", "right"][k]
@@ -128,6 +130,17 @@ impl Demonstrations {
             .iter()
             .map(|body| self.robot_arms(body, None))
             .collect::<Result<Vec<_>, _>>()?;
+        if let Some((body, _)) = ds
+            .robots
+            .iter()
+            .zip(&robot_arms)
+            .find(|(_, arms)| arms.iter().any(Vec::is_empty))
+        {
+            return Err(PipelineError::Parts {
+                body: body.name.clone(),
+                detail: "it has one arm; the study recombines two arms' motions".into(),
+            });
+        }
         let blocks: Vec<(usize, usize)> = ds.segments.iter().map(|s| (s.start, s.end)).collect();
         let test_pairs = crate::experiment::pairs(&ds.test, &blocks);
         let train_pairs = crate::experiment::pairs(&ds.train, &blocks);
@@ -171,7 +184,8 @@ pub fn known_anatomy(name: &str, urdf: Option<&Path>) -> Result<Option<Anatomy>,
 impl Demonstrations {
     /// The arm parts ([`ARM_PARTS`]) of the human and `robots`: each body's columns by
     /// [`arm_columns`], robots by their anatomy (`urdfs`: robot name → URDF, else built in)
-    /// when known.
+    /// when known. Robots with one arm (all on the same side) make one part, the person's
+    /// other arm no input; robots trained together with different arms are an error.
     pub fn arm_parts(
         &self,
         robots: &[String],
@@ -188,11 +202,27 @@ impl Demonstrations {
             sides[0].push((name.clone(), l));
             sides[1].push((name.clone(), r));
         }
-        Ok(ARM_PARTS
-            .iter()
-            .zip(sides)
-            .map(|(part, columns)| PartSpec::new(*part, columns))
-            .collect())
+        let mut parts = Vec::new();
+        for (part, columns) in ARM_PARTS.iter().zip(sides) {
+            let robots = &columns[1..];
+            let (with, without): (Vec<_>, Vec<_>) = robots.iter().partition(|(_, c)| !c.is_empty());
+            match (with.first(), without.first()) {
+                (Some((has, _)), Some((lacks, _))) => {
+                    return Err(PipelineError::Parts {
+                        body: lacks.clone(),
+                        detail: format!(
+                            "it has no {} while '{has}' has; robots trained together need the \
+                             same arms",
+                            part.replace('_', " ")
+                        ),
+                    })
+                }
+                (Some(_), None) => parts.push(PartSpec::new(*part, columns)),
+                // No robot has this arm: the person's arm is no input.
+                _ => {}
+            }
+        }
+        Ok(parts)
     }
 
     /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names.
@@ -257,20 +287,39 @@ impl Demonstrations {
         let frames = self.frames_for(model.num_points(), model.config())?;
         let ds = self.training_set(frames);
         let columns = self.robot_arms(body, urdf)?;
-        let parts: BTreeMap<String, Vec<usize>> = model
-            .part_names()
-            .iter()
-            .map(|p| p.to_string())
-            .zip(columns)
-            .collect();
-        if model.part_names() != ARM_PARTS {
+        let names = model.part_names();
+        if names.iter().any(|p| !ARM_PARTS.contains(p)) {
             return Err(PipelineError::Parts {
                 body: robot.to_string(),
                 detail: format!(
-                    "the model's parts are {:?}; transfer here divides a robot into {ARM_PARTS:?}",
-                    model.part_names()
+                    "the model's parts are {names:?}; transfer here divides a robot into \
+                     {ARM_PARTS:?}"
                 ),
             });
+        }
+        let mut parts = BTreeMap::new();
+        for (part, columns) in ARM_PARTS.iter().zip(columns) {
+            let arm = part.replace('_', " ");
+            match (names.contains(part), columns.is_empty()) {
+                (true, false) => {
+                    parts.insert(part.to_string(), columns);
+                }
+                (true, true) => {
+                    return Err(PipelineError::Parts {
+                        body: robot.to_string(),
+                        detail: format!("it has no {arm}, which the model has a latent space for"),
+                    })
+                }
+                (false, false) => {
+                    return Err(PipelineError::Parts {
+                        body: robot.to_string(),
+                        detail: format!(
+                            "its {arm} has no latent space in the model (a one-armed robot's)"
+                        ),
+                    })
+                }
+                (false, true) => {}
+            }
         }
         let data = to_mat(&body.rows(&ds.train));
         let validation = patience.map(|p| self.validation_of(frames, p));

@@ -37,7 +37,7 @@ impl PartsGplvm {
             .iter()
             .map(|&i| (spaces[i].0, spaces[i].1.ncols()))
             .collect();
-        check_parts(&config.parts, &dims)?;
+        check_parts(&config.parts, &dims, Some(input))?;
         if config.parent_latent_dim == Some(0) {
             return Err(Error::InvalidValue {
                 what: "PartsConfig::parent_latent_dim".into(),
@@ -139,7 +139,7 @@ impl PartsGplvm {
                 ),
             });
         }
-        check_parts(&specs, &[(name, data.ncols())])?;
+        check_parts(&specs, &[(name, data.ncols())], None)?;
         let count = self.parts.len();
         let mut out = self.clone();
         for (index, (part, spec)) in out.parts.iter_mut().zip(&specs).enumerate() {

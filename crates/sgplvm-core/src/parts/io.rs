@@ -150,7 +150,8 @@ impl PartsGplvm {
                 columns: p.columns.clone(),
             })
             .collect();
-        check_parts(&specs, &dims).map_err(|e| corrupt(e.to_string()))?;
+        let input = dims.first().map(|&(name, _)| name);
+        check_parts(&specs, &dims, input).map_err(|e| corrupt(e.to_string()))?;
         let mut parts = Vec::with_capacity(file.parts.len());
         for p in file.parts {
             let model = p.entry.read(&format!("part '{}'", p.name))?;

@@ -93,8 +93,9 @@ pub struct PartsConfig {
     /// Every part's configuration (latent dimension, back constraint, seed, sparse or
     /// Bayesian): each part is a model of this kind on its own columns.
     pub model: ModelConfig,
-    /// The parts, each space's columns divided among them (each column in exactly one part,
-    /// every part with at least one column of every space).
+    /// The parts, each space's columns divided among them (each column in at most one part,
+    /// every output column in one, every part with at least one column of every space): a
+    /// human column in no part is not an input (the other arm, for a one-armed robot).
     pub parts: Vec<PartSpec>,
     /// Latent dimension of the parent above the parts (`None`, the default: no parent; no
     /// prediction uses it, and on many frames it costs as much as the parts: see the module
@@ -327,8 +328,14 @@ impl PartsGplvm {
 
 /// Checks that `parts` divide the columns of every space (`dims`: name and columns) among them:
 /// unique non-empty names, known spaces, every part with at least one column of every space,
-/// every column in exactly one part. Errors name the part, the space and the column.
-pub(crate) fn check_parts(parts: &[PartSpec], dims: &[(&str, usize)]) -> Result<()> {
+/// every column in exactly one part — except that columns of space `input`, where given, may
+/// be in no part (inputs the model does not use). Errors name the part, the space and the
+/// column.
+pub(crate) fn check_parts(
+    parts: &[PartSpec],
+    dims: &[(&str, usize)],
+    input: Option<&str>,
+) -> Result<()> {
     let bad = |reason: String| {
         Err(Error::InvalidValue {
             what: "body parts".into(),
@@ -382,7 +389,12 @@ pub(crate) fn check_parts(parts: &[PartSpec], dims: &[(&str, usize)]) -> Result<
                 }
             }
         }
-        if let Some(c) = owner.iter().position(Option::is_none) {
+        let unused_allowed = input == Some(space);
+        if let Some(c) = owner
+            .iter()
+            .position(Option::is_none)
+            .filter(|_| !unused_allowed)
+        {
             return bad(format!(
                 "column {c} of space '{space}' is in no part; expected each column in exactly \
                  one part"

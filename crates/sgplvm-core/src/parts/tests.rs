@@ -84,8 +84,8 @@ fn parts_that_do_not_divide_the_columns_are_refused_naming_what_is_wrong() {
         fails(twice).contains("column 1 of space 'walkman' is in part 'left' and in part 'right'"),
     );
     let mut missing = good.clone();
-    missing[1].columns.get_mut("human").unwrap().pop();
-    assert!(fails(missing).contains("column 5 of space 'human' is in no part"));
+    missing[1].columns.get_mut("walkman").unwrap().pop();
+    assert!(fails(missing).contains("column 3 of space 'walkman' is in no part"));
     let mut out_of_range = good.clone();
     out_of_range[0].columns.get_mut("walkman").unwrap().push(9);
     assert!(fails(out_of_range).contains("column 9 of space 'walkman', which has 4 columns"));
@@ -109,6 +109,40 @@ fn parts_that_do_not_divide_the_columns_are_refused_naming_what_is_wrong() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("parent_latent_dim"), "{e}");
+}
+
+/// A one-armed robot: one part holding the human's right arm and every robot column. The
+/// human's left arm is no input: what it does changes no prediction and no gate signal, and the
+/// file keeps the part's columns.
+#[test]
+fn human_columns_in_no_part_are_not_inputs() {
+    let (h, r, _) = arms(30, 2);
+    let r = PartsGplvm::columns_of(r.as_ref(), &[2, 3]);
+    let spaces = [("human", h.as_ref()), ("arm", r.as_ref())];
+    let right = PartSpec::new("right", [("human", vec![3, 4, 5]), ("arm", vec![0, 1])]);
+    let config = PartsConfig::new(ModelConfig::default().with_latent_dim(2), vec![right]);
+    let model = PartsGplvm::fit(&config, &spaces, "human", &quick(20), None, None).expect("fit");
+    let mut other = h.clone();
+    for i in 0..other.nrows() {
+        for j in 0..3 {
+            other[(i, j)] = 5.0 - 2.0 * other[(i, j)];
+        }
+    }
+    let same = |a: &Mat<f64>, b: &Mat<f64>| (a - b).norm_max() == 0.0;
+    let p = model.predict(h.as_ref(), "arm", true).expect("predict");
+    let q = model.predict(other.as_ref(), "arm", true).expect("predict");
+    assert!(same(&p.mean, &q.mean) && same(&p.latent, &q.latent));
+    let [a, b] = [&h, &other].map(|m| model.gate_ratios(m.as_ref(), "arm").expect("gate"));
+    assert_eq!(a, b);
+    let back = PartsGplvm::from_bytes(&model.to_bytes()).expect("loads");
+    assert_eq!(back.part_columns("right", "human"), Some(&[3, 4, 5][..]));
+    // The right arm does matter.
+    let mut moved = h.clone();
+    moved[(0, 4)] += 0.5;
+    let m = model
+        .predict(moved.as_ref(), "arm", false)
+        .expect("predict");
+    assert!(!same(&m.mean, &p.mean));
 }
 
 /// Each part is exactly the shared GP-LVM of its columns, and the whole predicts each robot

@@ -59,7 +59,8 @@ class PartsGPLVM:
     frozen, each part learns only the new robot's kernel.
 
     Parameters are :class:`SharedGPLVM`'s, applied to every part, plus ``parts`` (``"arms"``,
-    or ``{part: {space: [column, ...]}}`` dividing every column of every space among the parts)
+    or ``{part: {space: [column, ...]}}`` dividing every column of every robot space among the
+    parts; a human column in no part is no input, as a one-armed robot's other arm)
     and ``parent_latent_dim`` (0, the default: no parent; it changes no prediction and trains
     about as long as the parts together).
     """
