@@ -421,6 +421,28 @@ fn print_postures(reports: &[ReachReport]) {
                 first_few(&held, 4)
             );
         }
+        // Joints on a position limit in at least 5 % of the frames: the robot's range, where the
+        // directions' error is large.
+        let on_bounds: Vec<String> = p
+            .position_limited_joints
+            .iter()
+            .filter(|b| 20 * b.frames >= p.frames.max(1))
+            .map(|b| {
+                let which = if b.upper { "upper" } else { "lower" };
+                let share = 100.0 * b.frames as f64 / p.frames.max(1) as f64;
+                format!(
+                    "{} at its {which} limit {:.2} in {share:.0} %",
+                    b.joint, b.bound
+                )
+            })
+            .collect();
+        if !on_bounds.is_empty() {
+            println!(
+                "{:<12} commands on a position limit (the robot's range, not the person's) in 5 % of frames or more: {}",
+                r.robot,
+                first_few(&on_bounds, 4)
+            );
+        }
         if !p.collision_limited_pairs.is_empty() {
             let held: Vec<String> = p
                 .collision_limited_pairs

@@ -45,7 +45,9 @@ mod report;
 mod solver;
 
 use report::Tally;
-pub use report::{JointJumps, LimitHeld, PairHeld, PostureReport, JUMP_RAD, STILL_RAD};
+pub use report::{
+    BoundHeld, JointJumps, LimitHeld, PairHeld, PostureReport, AT_BOUND_RAD, JUMP_RAD, STILL_RAD,
+};
 pub(in crate::retarget) use solver::ArmSolver;
 
 /// The weights of the tasks (and of the posture regulariser).
@@ -443,6 +445,7 @@ pub(super) fn run(
         ..Tally::default()
     };
     let mut sent = vec![0.0; q_index.len()];
+    let position_limits = robot.joint_limits();
     let mut path = Vec::new();
     let mut last: Option<(Vec<f64>, Vec<f64>, f64)> = None;
     for f in 0..frames {
@@ -493,6 +496,7 @@ pub(super) fn run(
             }
             tally.limits_held(robot, q_index, (&asked, &sent), before, &outcome.near);
         }
+        tally.bounds_held(&position_limits, q_index, &sent);
         let mut q = hold.clone();
         for (k, &i) in q_index.iter().enumerate() {
             q[i] = sent[k];

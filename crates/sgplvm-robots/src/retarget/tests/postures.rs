@@ -80,6 +80,25 @@ fn whole_arm_takes_the_person_s_posture_within_limits_and_out_of_self_collision(
             }
         }
     }
+    // Which position limits the commands sat on: exactly the frames counted here.
+    let mut on_bound = std::collections::BTreeMap::new();
+    for f in 0..ds.len() {
+        for j in 0..14 {
+            let v = out.body.positions[(f, j)];
+            for (upper, bound) in [(false, limits[j].0), (true, limits[j].1)] {
+                if (v - bound).abs() <= whole_arm::AT_BOUND_RAD {
+                    *on_bound.entry((names[j].clone(), upper)).or_insert(0usize) += 1;
+                }
+            }
+        }
+    }
+    let reported: std::collections::BTreeMap<(String, bool), usize> = report
+        .position_limited_joints
+        .iter()
+        .map(|b| ((b.joint.clone(), b.upper), b.frames))
+        .collect();
+    assert_eq!(reported, on_bound);
+    assert_eq!(report.frames, ds.len());
     // The report says which velocity limits held how many frames: each joint it names moved
     // by its limit's whole step in at least those frames, and the frames add up to at least
     // the frames held by velocity.

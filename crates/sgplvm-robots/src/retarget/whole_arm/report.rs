@@ -1,5 +1,6 @@
 //! What whole-arm retargeting tells of a robot's run: the report (directions, orientations,
-//! hands, the limits that held and for how many frames) and the tally it is gathered in.
+//! hands, the limits that held — velocity, position, self-collision — and for how many frames)
+//! and the tally it is gathered in.
 
 use serde::{Deserialize, Serialize};
 
@@ -12,6 +13,9 @@ use crate::series::median;
 /// How one robot followed, over every frame.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct PostureReport {
+    /// Frames retargeted.
+    #[serde(default)]
+    pub frames: usize,
     /// Upper arm direction error, degrees: median and 90th percentile.
     pub upper_arm_deg: [f64; 2],
     /// Forearm direction error, degrees: median and 90th percentile.
@@ -48,6 +52,13 @@ pub struct PostureReport {
     /// (rad/s or m/s) and the frames; most frames first.
     #[serde(default)]
     pub velocity_limited_joints: Vec<LimitHeld>,
+    /// Which position limits the commands sat on: per joint and bound that held the command
+    /// (within [`AT_BOUND_RAD`]) in some frame, the joint, the bound and the frames; most frames
+    /// first. Where a robot's range is narrower than a person's (an arm that cannot be raised
+    /// above its shoulder), this says which joint and how often: the directions' error there is
+    /// the robot's reach, not the retargeting.
+    #[serde(default)]
+    pub position_limited_joints: Vec<BoundHeld>,
     /// Which pairs of links the self-collision limit kept apart: per pair of links (nearer than
     /// the margin and a millimetre before the command's step), the frames; most frames first.
     #[serde(default)]
@@ -91,6 +102,22 @@ pub struct LimitHeld {
     /// Frames in which it held the command.
     pub frames: usize,
 }
+
+/// A joint that sat on one of its position limits, and in how many frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoundHeld {
+    /// The joint's URDF name.
+    pub joint: String,
+    /// Whether the bound is the upper one (else the lower).
+    pub upper: bool,
+    /// The bound, rad (m for a prismatic joint).
+    pub bound: f64,
+    /// Frames whose command sat on it.
+    pub frames: usize,
+}
+
+/// How near a command's joint must be to a position limit to sit on it, rad (or m).
+pub const AT_BOUND_RAD: f64 = 1e-4;
 
 /// A joint whose asked posture jumped ([`PostureReport::jump_frames`]), and in how many frames.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -142,6 +169,8 @@ pub(super) struct Tally {
     pub(super) closest: Option<f64>,
     /// Per joint (configuration index): frames its velocity limit held.
     pub(super) joints_held: std::collections::BTreeMap<usize, usize>,
+    /// Per joint (configuration index) and bound (upper or not): frames the command sat on it.
+    pub(super) bounds_held: std::collections::BTreeMap<(usize, bool), usize>,
     /// Per pair of links: frames the self-collision limit kept them apart, and the closest.
     pub(super) pairs_held: std::collections::BTreeMap<(String, String), (usize, f64)>,
     /// Frames whose asked posture jumped, and per joint (configuration index) the frames.
@@ -180,6 +209,19 @@ impl Tally {
             let e = self.pairs_held.entry(key).or_insert((0, f64::INFINITY));
             e.0 += 1;
             e.1 = e.1.min(*d);
+        }
+    }
+
+    /// The position limits one frame's command `sent` (configuration indices `q_index`) sits
+    /// on; `limits` are every joint's (lower, upper).
+    pub(super) fn bounds_held(&mut self, limits: &[(f64, f64)], q_index: &[usize], sent: &[f64]) {
+        for (&i, &q) in q_index.iter().zip(sent) {
+            let (lo, hi) = limits[i];
+            for (upper, bound) in [(false, lo), (true, hi)] {
+                if bound.is_finite() && (q - bound).abs() <= AT_BOUND_RAD {
+                    *self.bounds_held.entry((i, upper)).or_default() += 1;
+                }
+            }
         }
     }
 
@@ -274,6 +316,18 @@ impl Tally {
             })
             .collect();
         collision_limited_pairs.sort_by_key(|p| std::cmp::Reverse(p.frames));
+        let bounds = robot.joint_limits();
+        let mut position_limited_joints: Vec<BoundHeld> = self
+            .bounds_held
+            .iter()
+            .map(|(&(i, upper), &n)| BoundHeld {
+                joint: names[i].clone(),
+                upper,
+                bound: if upper { bounds[i].1 } else { bounds[i].0 },
+                frames: n,
+            })
+            .collect();
+        position_limited_joints.sort_by_key(|j| std::cmp::Reverse(j.frames));
         let mut jumping_joints: Vec<JointJumps> = self
             .joints_jumped
             .iter()
@@ -294,6 +348,7 @@ impl Tally {
             [median(&mut s.clone()), p90]
         };
         PostureReport {
+            frames,
             upper_arm_deg: quantiles(&self.upper),
             forearm_deg: quantiles(&self.forearm),
             hand_of_reach: quantiles(&self.hand),
@@ -306,6 +361,7 @@ impl Tally {
             stepped_from_before_frames: self.from_before,
             from_fixed_starts: self.from_fixed_starts,
             velocity_limited_joints,
+            position_limited_joints,
             collision_limited_pairs,
             jump_frames: self.jumps,
             jumping_joints,
