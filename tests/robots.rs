@@ -444,4 +444,26 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     ]);
     let lines = std::fs::read_to_string(&csv).unwrap();
     assert_eq!(lines.lines().next().unwrap().split(',').count(), 1 + 7);
+    // Retargeted from the person's left arm (`--arm left=…` above): the file says so, and the
+    // arm's latent space is the left's, with no flag at training.
+    let left_arms = dir.join("kuka-left-arms.sgp");
+    ok(&[
+        "train",
+        "--data",
+        s(&dir.join("kuka-left.mcap")),
+        "--robot",
+        "kuka",
+        "--parts",
+        "arms",
+        "--urdf",
+        &urdf,
+        "--max-iters",
+        "20",
+        "--out",
+        s(&left_arms),
+    ]);
+    let model = sgplvm::PartsGplvm::load(&left_arms).unwrap();
+    assert_eq!(model.part_names(), ["left_arm"]);
+    let inputs = model.part_columns("left_arm", "human").unwrap();
+    assert!(inputs.iter().all(|&c| human[c].starts_with("jLeft")));
 }

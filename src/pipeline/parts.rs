@@ -225,14 +225,38 @@ impl Demonstrations {
         Ok(parts)
     }
 
-    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names.
+    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names. A
+    /// one-armed robot's arm is on the side the person's arm that drove it in `retarget` was
+    /// ([`Demonstrations::retargeted_arms`]), where the file says so.
     fn robot_arms(
         &self,
         body: &BodyData,
         urdf: Option<&Path>,
     ) -> Result<[Vec<usize>; 2], PipelineError> {
         let anatomy = known_anatomy(&body.name, urdf)?;
-        arm_columns(&body.name, &body.joint_names, anatomy.as_ref())
+        let mut arms = arm_columns(&body.name, &body.joint_names, anatomy.as_ref())?;
+        let (Some(anatomy), Some(driven)) = (&anatomy, self.retargeted_arms.get(&body.name)) else {
+            return Ok(arms);
+        };
+        let found = anatomy.sides();
+        match (found.as_slice(), driven.as_slice()) {
+            (a, d) if a == d => {}
+            ([a], [d]) => arms.swap(a.index(), d.index()),
+            (a, d) => {
+                let names = |s: &[Side]| s.iter().map(|s| s.as_str()).collect::<Vec<_>>();
+                return Err(PipelineError::Parts {
+                    body: body.name.clone(),
+                    detail: format!(
+                        "{}: retarget drove its arms {:?}, its anatomy here has {:?}; give it the \
+                         arms retarget had (`sgplvm robot URDF --arm SIDE=FROM:TO --write`)",
+                        self.source_name,
+                        names(d),
+                        names(a)
+                    ),
+                });
+            }
+        }
+        Ok(arms)
     }
 
     /// Trains a latent space per part of `parts` on the human and `robots` (every part with

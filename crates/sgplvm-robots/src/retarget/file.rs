@@ -16,9 +16,56 @@ use crate::dataset::{
     CAPTURE_METADATA,
 };
 use crate::joint_state::Compression;
+use crate::Side;
 
 /// Name of the MCAP metadata record with the retargeting's settings and reach reports.
 pub const RETARGET_METADATA: &str = "sgplvm.retarget";
+
+/// Which of the person's arms drove each robot's arms in a file `retarget` wrote (robot name →
+/// sides, left first), from its [`RETARGET_METADATA`] record; empty for a file without one or
+/// written before the record held them.
+pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, Vec<Side>>, RetargetError> {
+    let bad = |detail: String| {
+        RetargetError::Invalid(format!(
+            "{}: record `{RETARGET_METADATA}`: {detail}",
+            path.display()
+        ))
+    };
+    let read = crate::joint_state::read_topics(path, &[]).map_err(|e| bad(e.to_string()))?;
+    let Some(json) = read
+        .metadata
+        .get(RETARGET_METADATA)
+        .and_then(|m| m.get("json"))
+    else {
+        return Ok(BTreeMap::new());
+    };
+    let value: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let Some(arms) = value.get("arms") else {
+        return Ok(BTreeMap::new());
+    };
+    let arms: BTreeMap<String, Vec<String>> =
+        serde_json::from_value(arms.clone()).map_err(|e| {
+            bad(format!(
+                "`arms` is not robot → [\"left\"|\"right\", …]: {e}"
+            ))
+        })?;
+    arms.into_iter()
+        .map(|(robot, sides)| {
+            let sides = sides
+                .iter()
+                .map(|s| match s.as_str() {
+                    "left" => Ok(Side::Left),
+                    "right" => Ok(Side::Right),
+                    other => Err(bad(format!(
+                        "robot `{robot}`: arm side `{other}`; expected \"left\" or \"right\""
+                    ))),
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((robot, sides))
+        })
+        .collect()
+}
 
 /// Which frames are kept for testing, as a user names them.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,12 +186,22 @@ pub fn retarget_files(
         extra.push((CAPTURE_METADATA.to_string(), m));
     }
     let mut m = BTreeMap::new();
+    // Which of the person's arms drove each robot's arms (a one-armed robot's side is chosen
+    // here, by its names or `--arm`): what a latent space per arm is trained on.
+    let arms: BTreeMap<&str, Vec<&str>> = robots
+        .iter()
+        .map(|(name, anatomy)| {
+            let sides = anatomy.sides().into_iter().map(Side::as_str).collect();
+            (name.as_str(), sides)
+        })
+        .collect();
     let settings = serde_json::json!({
         "match": options.mode,
         "redundancy": options.redundancy,
         "split": split,
         "summary": summary,
         "reach": reach,
+        "arms": arms,
     });
     m.insert("json".to_string(), settings.to_string());
     extra.push((RETARGET_METADATA.to_string(), m));
