@@ -20,7 +20,11 @@ Conventions made from a capture (the rest pose is what differs, the motion is th
   along its joint's local x (the zero pose is a line of bones no person takes) and six channels
   on every joint;
 - ``mixamo``: ``mixamorig:`` names, a T-pose, 2.5 times the scale (a rig scaled in its tool),
-  ``Zrotation Yrotation Xrotation``.
+  ``Zrotation Yrotation Xrotation``;
+- ``daz``: DAZ Genesis 8 names (``hip``, ``chestUpper``, ``neckLower``, ``lCollar``,
+  ``lShldrBend``, ``lForearmBend``, ``lHand``), an A-pose (arms 45° below the shoulders),
+  ``Yrotation Zrotation Xrotation``, and twist bones in the arms' chains (``lShldrTwist``,
+  ``lForearmTwist``) carrying part of each segment's twist (:func:`with_twist_bones`).
 """
 
 from __future__ import annotations
@@ -174,14 +178,22 @@ NAMES = {
     "bandai": {"pelvis": "Hips", "torso": "Chest", "neck": "Neck", "head": "Head",
                "lclav": "Shoulder_L", "lupper": "UpperArm_L", "lfore": "LowerArm_L", "lhand": "Hand_L",
                "rclav": "Shoulder_R", "rupper": "UpperArm_R", "rfore": "LowerArm_R", "rhand": "Hand_R"},
+    "daz": {"pelvis": "hip", "torso": "chestUpper", "neck": "neckLower", "head": "head",
+            "lclav": "lCollar", "lupper": "lShldrBend", "lfore": "lForearmBend", "lhand": "lHand",
+            "rclav": "rCollar", "rupper": "rShldrBend", "rfore": "rForearmBend", "rhand": "rHand"},
     "mixamo": {r: "mixamorig:" + n for r, n in {
         "pelvis": "Hips", "torso": "Spine2", "neck": "Neck", "head": "Head",
         "lclav": "LeftShoulder", "lupper": "LeftArm", "lfore": "LeftForeArm", "lhand": "LeftHand",
         "rclav": "RightShoulder", "rupper": "RightArm", "rfore": "RightForeArm", "rhand": "RightHand"}.items()},
 }  # fmt: skip
 
-ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX"}
-SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5}
+ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX", "daz": "YZX"}
+SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5, "daz": 1.0}
+
+# The twist bones of the ``daz`` style: (segment's joint, twist bone's name), per role. Each takes
+# part of its segment's twist; the segment's orientation a suit would stream is the twist bone's.
+TWIST_BONES = {"lupper": "lShldrTwist", "lfore": "lForearmTwist",
+               "rupper": "rShldrTwist", "rfore": "rForearmTwist"}  # fmt: skip
 
 
 def body_axes(bvh: Bvh, torso: str, left_roots: tuple[str, str], pelvis: str, neck: str) -> np.ndarray:
@@ -236,9 +248,21 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
             # Every bone along local x: Q takes x onto the old bone.
             q[j] = minimal_rotation(np.array([1.0, 0, 0]), bone)
         elif role[1:] in ("clav", "upper", "fore", "hand"):
-            # A T-pose with flat clavicles: every arm bone straight out to its side.
+            # A T-pose with flat clavicles: every arm bone straight out to its side (DAZ's
+            # Genesis 8: an A-pose, the arms 45° below).
             side = left if role[0] == "l" else -left
+            if style == "daz":
+                side = (side - up) / math.sqrt(2.0)
             q[j] = minimal_rotation(side, bone)
+    if style == "daz":
+        # The fingers keep their pose on the hand: turned with it into the A-pose.
+        hands = {j for j, role in roles.items() if role[1:] == "hand"}
+        for j in range(len(src.joints)):
+            at = src.joints[j].parent
+            while at is not None and at not in hands:
+                at = src.joints[at].parent
+            if at is not None:
+                q[j] = q[at]
     out_joints: list[Joint] = []
     scale = SCALE[style]
     # Clavicles that start at the torso joint itself (CMU's) start half a unit to their side
@@ -290,7 +314,63 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
         rows.append(row)
     out = Bvh(out_joints, src.frame_time * step, np.array(rows))
     out.first = list(np.cumsum([0] + [len(j.channels) for j in out_joints])[:-1])
+    if style == "daz":
+        out = with_twist_bones(out, {names[r]: t for r, t in TWIST_BONES.items()})
     return out
+
+
+def with_twist_bones(bvh: Bvh, twist_bones: dict) -> Bvh:
+    """``bvh`` with a twist bone halfway down each joint named in ``twist_bones`` (joint name →
+    twist bone's name), as DAZ's Genesis 3 and 8 have them: the segment's child hangs from the
+    twist bone, which turns about the bone's own axis by up to 40° (upper arm) or 20° (forearm),
+    a motion of its own, and the segment's joint by as much less, so that every position and
+    every orientation below is the same motion."""
+    joints: list[Joint] = []
+    new_index: dict[int, int] = {}
+    inserted: dict[int, tuple[int, np.ndarray, float]] = {}  # twist index → (segment, axis, max °)
+    for j, joint in enumerate(bvh.joints):
+        parent = None if joint.parent is None else new_index[joint.parent]
+        old_parent = None if joint.parent is None else bvh.joints[joint.parent]
+        if old_parent is not None and old_parent.name in twist_bones:
+            name = twist_bones[old_parent.name]
+            half = joint.offset / 2
+            rotations = [c for c in old_parent.channels if c.endswith("rotation")]
+            joints.append(Joint(name, parent, half, rotations))
+            most = 40.0 if "Shldr" in name else 20.0
+            inserted[len(joints) - 1] = (joint.parent, half / np.linalg.norm(half), most)
+            parent, offset = len(joints) - 1, half
+        else:
+            offset = joint.offset
+        new_index[j] = len(joints)
+        joints.append(Joint(joint.name, parent, offset, list(joint.channels), joint.end_site))
+    out = Bvh(joints, bvh.frame_time, np.zeros((len(bvh.frames), sum(len(j.channels) for j in joints))))
+    out.first = list(np.cumsum([0] + [len(j.channels) for j in joints])[:-1])
+    for f in range(len(bvh.frames)):
+        for j, joint in enumerate(bvh.joints):
+            n = new_index[j]
+            out.frames[f, out.first[n] : out.first[n] + len(joint.channels)] = bvh.frames[
+                f, bvh.first[j] : bvh.first[j] + len(joint.channels)
+            ]
+        for t, (segment, axis, most) in inserted.items():
+            a = most * math.sin(0.13 * f + t)
+            turn = _about(axis, a)
+            n = new_index[segment]
+            seg = joints[n]
+            _, r = local(out, f, n)
+            rot = r @ turn.T
+            order = "".join(c[0] for c in seg.channels if c.endswith("rotation"))
+            k = [i for i, c in enumerate(seg.channels) if c.endswith("rotation")]
+            for i, v in zip(k, euler(rot, order)):
+                out.frames[f, out.first[n] + i] = v
+            out.frames[f, out.first[t] : out.first[t] + 3] = euler(turn, order)
+    return out
+
+
+def _about(axis: np.ndarray, degrees: float) -> np.ndarray:
+    """The rotation by ``degrees`` about unit ``axis`` (Rodrigues)."""
+    a = math.radians(degrees)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(a) * k + (1 - math.cos(a)) * k @ k
 
 
 def write(bvh: Bvh, path) -> None:

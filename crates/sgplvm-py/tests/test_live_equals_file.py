@@ -1,7 +1,7 @@
-"""Live equals file (issue 48): one motion in four conventions whose rest poses differ — CMU's own,
+"""Live equals file (issue 48): one motion in five conventions whose rest poses differ — CMU's own,
 an Xsens MVN export (T-pose, flat clavicles: the upper arm's twist untold by the rest), a
-Bandai Namco layout (every bone on one line at zero rotation) and a Mixamo rig (2.5 times the
-scale) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
+Bandai Namco layout (every bone on one line at zero rotation), a Mixamo rig (2.5 times the
+scale) and a DAZ Genesis 8 rig (an A-pose, twist bones sharing each segment's twist) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
 the Rust importer). Each file is imported (``sgplvm import``), and the same frames are streamed
 as a tracker and a suit would send them, built here from the BVH's own forward kinematics,
 never with the project's ``replay``:
@@ -49,7 +49,7 @@ import sgplvm
 from _cli import sgplvm_binary
 
 CAPTURE = pathlib.Path(__file__).resolve().parents[3] / "data" / "capture" / "cmu-13_26.bvh"
-STYLES = ["cmu", "xsens", "bandai", "mixamo"]
+STYLES = ["cmu", "xsens", "bandai", "mixamo", "daz"]
 FRAMES = 60
 # Frames 600… of the 120 Hz capture, every 3rd: 40 Hz, the import's rate, so that the imported
 # frames are the file's (no interpolation between them).
@@ -184,14 +184,17 @@ def _mvn_datagrams(rig):
     for side, s in (("Left", "l"), ("Right", "r")):
         for part, role in (("Shoulder", "clav"), ("UpperArm", "upper"), ("ForeArm", "fore"), ("Hand", "hand")):
             segments[side + part] = names[s + role]
+    # Where a segment's twist is shared with a twist bone (DAZ), the suit's segment turns as the
+    # whole segment: as the twist bone, which ends it.
+    twist = {names[r]: t for r, t in bvh_rigs.TWIST_BONES.items()} if rig.style == "daz" else {}
     still = mvn_spec.t_pose()
     out = []
     for f in range(len(rig.times_ns)):
         p, r = bvh_rigs.world(bvh, f)
         poses = {}
         for segment, joint in segments.items():
-            j = bvh.index(joint)
-            poses[segment] = (b.T @ p[j] * rig.metres, b.T @ r[j] @ b)
+            j, o = bvh.index(joint), bvh.index(twist.get(joint, joint))
+            poses[segment] = (b.T @ p[j] * rig.metres, b.T @ r[o] @ b)
         shift = poses["T8"][0] - np.array(still["T8"][0])
         frame = {n: (tuple(np.array(pos) + shift), q) for n, (pos, q) in still.items()}
         frame.update({n: (tuple(pos), _quaternion(rot)) for n, (pos, rot) in poses.items()})
