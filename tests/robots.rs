@@ -401,33 +401,44 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     .unwrap();
     let text = evaluated.to_string();
     assert!(text.contains("upper_arm_median_deg"), "{text}");
-    // A latent space per arm: one, the right arm's; the person's left arm is no input.
-    let arms = dir.join("kuka-arms.sgp");
+    // A latent space per arm: one, the arm's that drove it in `retarget` (the file says which,
+    // no flag at training); the person's other arm is no input.
     let urdf = format!("kuka={}", s(&kuka));
-    ok(&[
-        "train",
-        "--data",
-        s(&demos),
-        "--robot",
-        "kuka",
-        "--parts",
-        "arms",
-        "--urdf",
-        &urdf,
-        "--max-iters",
-        "20",
-        "--out",
-        s(&arms),
-    ]);
-    let model = sgplvm::PartsGplvm::load(&arms).unwrap();
-    assert_eq!(model.part_names(), ["right_arm"]);
-    let human = model.column_names("human").unwrap();
-    let inputs = model.part_columns("right_arm", "human").unwrap();
-    assert!(
-        inputs.len() == 9 && inputs.iter().all(|&c| human[c].starts_with("jRight")),
-        "{inputs:?} of {human:?}"
-    );
-    assert_eq!(model.part_columns("right_arm", "kuka").unwrap().len(), 7);
+    let train_arms = |side: &str| {
+        let (demos, out) = (
+            dir.join(format!("kuka-{side}.mcap")),
+            dir.join(format!("kuka-{side}.sgp")),
+        );
+        ok(&[
+            "train",
+            "--data",
+            s(&demos),
+            "--robot",
+            "kuka",
+            "--parts",
+            "arms",
+            "--urdf",
+            &urdf,
+            "--max-iters",
+            "20",
+            "--out",
+            s(&out),
+        ]);
+        let model = sgplvm::PartsGplvm::load(&out).unwrap();
+        let part = format!("{side}_arm");
+        assert_eq!(model.part_names(), [part.as_str()]);
+        let human = model.column_names("human").unwrap();
+        let inputs = model.part_columns(&part, "human").unwrap();
+        let prefix = if side == "left" { "jLeft" } else { "jRight" };
+        assert!(
+            inputs.len() == 9 && inputs.iter().all(|&c| human[c].starts_with(prefix)),
+            "{inputs:?} of {human:?}"
+        );
+        assert_eq!(model.part_columns(&part, "kuka").unwrap().len(), 7);
+        out
+    };
+    let arms = train_arms("right");
+    train_arms("left");
     let csv = dir.join("kuka-arms.csv");
     ok(&[
         "predict",
@@ -444,26 +455,4 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     ]);
     let lines = std::fs::read_to_string(&csv).unwrap();
     assert_eq!(lines.lines().next().unwrap().split(',').count(), 1 + 7);
-    // Retargeted from the person's left arm (`--arm left=…` above): the file says so, and the
-    // arm's latent space is the left's, with no flag at training.
-    let left_arms = dir.join("kuka-left-arms.sgp");
-    ok(&[
-        "train",
-        "--data",
-        s(&dir.join("kuka-left.mcap")),
-        "--robot",
-        "kuka",
-        "--parts",
-        "arms",
-        "--urdf",
-        &urdf,
-        "--max-iters",
-        "20",
-        "--out",
-        s(&left_arms),
-    ]);
-    let model = sgplvm::PartsGplvm::load(&left_arms).unwrap();
-    assert_eq!(model.part_names(), ["left_arm"]);
-    let inputs = model.part_columns("left_arm", "human").unwrap();
-    assert!(inputs.iter().all(|&c| human[c].starts_with("jLeft")));
 }
