@@ -185,9 +185,6 @@ pub struct Demonstrations {
     pub dataset: Dataset,
     /// The file it came from (or a description of how it was made).
     pub source_name: String,
-    /// Which of the person's arms drove each robot's arms, where `retarget` wrote the file
-    /// ([`sgplvm_robots::retarget::file::retargeted_arms`]; empty otherwise).
-    pub retargeted_arms: std::collections::BTreeMap<String, Vec<sgplvm_robots::Side>>,
 }
 
 /// Loads demonstrations from `path`; with `None`, the shipped `data/demos/bimanual.mcap` when run
@@ -202,17 +199,10 @@ pub fn load(path: Option<&Path>) -> Result<Demonstrations, PipelineError> {
         Some(path) => Ok(Demonstrations {
             dataset: load_demonstrations(&path)?,
             source_name: path.display().to_string(),
-            retargeted_arms: sgplvm_robots::retarget::file::retargeted_arms(&path).map_err(
-                |e| PipelineError::Parts {
-                    body: path.display().to_string(),
-                    detail: e.to_string(),
-                },
-            )?,
         }),
         None => Ok(Demonstrations {
             dataset: generate(&GeneratorConfig::default())?.dataset,
             source_name: "generated demonstrations (default settings)".into(),
-            retargeted_arms: Default::default(),
         }),
     }
 }
@@ -639,7 +629,6 @@ mod tests {
         Demonstrations {
             dataset: generate(&config).expect("generates").dataset,
             source_name: "test".into(),
-            retargeted_arms: Default::default(),
         }
     }
 

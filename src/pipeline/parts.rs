@@ -14,6 +14,7 @@ use std::path::Path;
 use sgplvm_core::{PartSpec, PartsCallback, PartsConfig, PartsGplvm, TrainOptions};
 use sgplvm_robots::anatomy::Anatomy;
 use sgplvm_robots::dataset::BodyData;
+use sgplvm_robots::retarget::file::retargeted_arms;
 use sgplvm_robots::Side;
 
 use super::{to_mat, Demonstrations, FrameSet, PipelineError};
@@ -225,9 +226,24 @@ impl Demonstrations {
         Ok(parts)
     }
 
+    /// Which of the person's arms drove robot `name`'s arms, where `retarget` wrote the file
+    /// the demonstrations came from and said so
+    /// ([`sgplvm_robots::retarget::file::retargeted_arms`]).
+    fn retargeted_arms(&self, name: &str) -> Result<Option<Vec<Side>>, PipelineError> {
+        let path = Path::new(&self.source_name);
+        if !path.is_file() {
+            return Ok(None);
+        }
+        let mut arms = retargeted_arms(path).map_err(|e| PipelineError::Parts {
+            body: name.to_string(),
+            detail: e.to_string(),
+        })?;
+        Ok(arms.remove(name))
+    }
+
     /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names. A
-    /// one-armed robot's arm is on the side the person's arm that drove it in `retarget` was
-    /// ([`Demonstrations::retargeted_arms`]), where the file says so.
+    /// one-armed robot's arm is on the side the person's arm that drove it in `retarget` was,
+    /// where the file says so ([`Demonstrations::retargeted_arms`]).
     fn robot_arms(
         &self,
         body: &BodyData,
@@ -235,7 +251,10 @@ impl Demonstrations {
     ) -> Result<[Vec<usize>; 2], PipelineError> {
         let anatomy = known_anatomy(&body.name, urdf)?;
         let mut arms = arm_columns(&body.name, &body.joint_names, anatomy.as_ref())?;
-        let (Some(anatomy), Some(driven)) = (&anatomy, self.retargeted_arms.get(&body.name)) else {
+        let Some(anatomy) = &anatomy else {
+            return Ok(arms);
+        };
+        let Some(driven) = self.retargeted_arms(&body.name)? else {
             return Ok(arms);
         };
         let found = anatomy.sides();
