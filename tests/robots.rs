@@ -456,3 +456,45 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     let lines = std::fs::read_to_string(&csv).unwrap();
     assert_eq!(lines.lines().next().unwrap().split(',').count(), 1 + 7);
 }
+
+#[test]
+fn a_two_armed_robot_driven_by_one_arm_trains_that_arm_s_latent_space() {
+    // WALK-MAN made one-armed at retargeting (`--arm right=…` alone): its URDF alone finds two
+    // arms, the demonstrations hold the right arm's joints and say which arm drove them.
+    let dir = scratch("robot-one-of-two-arms");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let urdf = root.join("data/urdf/walkman.urdf");
+    let demos = dir.join("right.mcap");
+    ok(&[
+        "retarget",
+        "--demos",
+        s(&root.join("data/demos/captured.mcap")),
+        "--urdf",
+        s(&urdf),
+        "--robot",
+        "wmr",
+        "--arm",
+        "right=DWYTorso:right_hand",
+        "--out",
+        s(&demos),
+    ]);
+    let model = dir.join("right.sgp");
+    ok(&[
+        "train",
+        "--data",
+        s(&demos),
+        "--robot",
+        "wmr",
+        "--parts",
+        "arms",
+        "--urdf",
+        &format!("wmr={}", s(&urdf)),
+        "--max-iters",
+        "10",
+        "--out",
+        s(&model),
+    ]);
+    let model = sgplvm::PartsGplvm::load(&model).unwrap();
+    assert_eq!(model.part_names(), ["right_arm"]);
+    assert_eq!(model.part_columns("right_arm", "wmr").unwrap().len(), 7);
+}

@@ -81,6 +81,18 @@ pub fn arm_columns(
     joints: &[String],
     anatomy: Option<&Anatomy>,
 ) -> Result<[Vec<usize>; 2], PipelineError> {
+    let sides = anatomy.map_or_else(|| vec![Side::Left, Side::Right], Anatomy::sides);
+    arms_of(body, joints, anatomy, &sides)
+}
+
+/// [`arm_columns`] where only the arms `sides` hold columns: a side not among them has none
+/// (a column of its arm is an error), each of them at least one.
+fn arms_of(
+    body: &str,
+    joints: &[String],
+    anatomy: Option<&Anatomy>,
+    sides: &[Side],
+) -> Result<[Vec<usize>; 2], PipelineError> {
     let bad = |detail: String| PipelineError::Parts {
         body: body.to_string(),
         detail,
@@ -104,13 +116,18 @@ pub fn arm_columns(
                  in one arm (give the robot's URDF, or the parts' columns in Python)"
             )));
         };
-        arms[usize::from(side == Side::Right)].push(c);
+        if !sides.contains(&side) {
+            return Err(bad(format!(
+                "joint '{joint}' (column {c}) moves its {} arm, which retarget did not drive",
+                side.as_str()
+            )));
+        }
+        arms[side.index()].push(c);
     }
-    let absent = |k: usize| anatomy.is_some_and(|a| a.arm([Side::Left, Side::Right][k]).is_none());
-    if let Some(k) = (0..2).find(|&k| arms[k].is_empty() && !absent(k)) {
+    if let Some(side) = sides.iter().find(|s| arms[s.index()].is_empty()) {
         return Err(bad(format!(
             "no joint of its {} arm among {joints:?}",
-            ["left", "right"][k]
+            side.as_str()
         )));
     }
     Ok(arms)
@@ -241,29 +258,35 @@ impl Demonstrations {
         Ok(arms.remove(name))
     }
 
-    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names. A
-    /// one-armed robot's arm is on the side the person's arm that drove it in `retarget` was,
-    /// where the file says so ([`Demonstrations::retargeted_arms`]).
+    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names. Where
+    /// the file says which of the person's arms drove the robot in `retarget`
+    /// ([`Demonstrations::retargeted_arms`]), the columns follow it: a one-armed robot's arm is on
+    /// that side, and of a two-armed anatomy only the arms driven hold columns.
     fn robot_arms(
         &self,
         body: &BodyData,
         urdf: Option<&Path>,
     ) -> Result<[Vec<usize>; 2], PipelineError> {
         let anatomy = known_anatomy(&body.name, urdf)?;
-        let mut arms = arm_columns(&body.name, &body.joint_names, anatomy.as_ref())?;
         let Some(anatomy) = &anatomy else {
-            return Ok(arms);
+            return arm_columns(&body.name, &body.joint_names, None);
         };
         let Some(driven) = self.retargeted_arms(&body.name)? else {
-            return Ok(arms);
+            return arm_columns(&body.name, &body.joint_names, Some(anatomy));
         };
         let found = anatomy.sides();
         match (found.as_slice(), driven.as_slice()) {
-            (a, d) if a == d => {}
-            ([a], [d]) => arms.swap(a.index(), d.index()),
+            ([a], [d]) if a != d => {
+                let mut arms = arm_columns(&body.name, &body.joint_names, Some(anatomy))?;
+                arms.swap(a.index(), d.index());
+                Ok(arms)
+            }
+            (a, d) if d.iter().all(|s| a.contains(s)) => {
+                arms_of(&body.name, &body.joint_names, Some(anatomy), d)
+            }
             (a, d) => {
                 let names = |s: &[Side]| s.iter().map(|s| s.as_str()).collect::<Vec<_>>();
-                return Err(PipelineError::Parts {
+                Err(PipelineError::Parts {
                     body: body.name.clone(),
                     detail: format!(
                         "{}: retarget drove its arms {:?}, its anatomy here has {:?}; give it the \
@@ -272,10 +295,9 @@ impl Demonstrations {
                         names(d),
                         names(a)
                     ),
-                });
+                })
             }
         }
-        Ok(arms)
     }
 
     /// Trains a latent space per part of `parts` on the human and `robots` (every part with
