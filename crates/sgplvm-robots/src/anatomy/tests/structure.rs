@@ -1,0 +1,263 @@
+//! Arms found by structure where names do not tell: no side in any name, a five-finger hand on
+//! the arm's tip, a single arm, an arm folded at zero, a model drawn y up.
+
+use super::*;
+
+/// A torso with two 4-joint arms named `arm_a_*` and `arm_b_*` (no side in any name), the
+/// `a` arm at `y_a`, and a head.
+fn unnamed_arms(y_a: f64) -> String {
+    let arm = |tag: &str, y: f64| {
+        let mut s = format!(
+            r#"<link name="{tag}_0"/><joint name="j_{tag}_0" type="revolute"><parent link="torso"/><child link="{tag}_0"/><origin xyz="0 {y} 0.4"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" velocity="2" effort="1"/></joint>"#
+        );
+        for (k, axis) in ["1 0 0", "0 0 1", "0 1 0"].iter().enumerate() {
+            s += &format!(
+                r#"<link name="{tag}_{n}"/><joint name="j_{tag}_{n}" type="revolute"><parent link="{tag}_{k}"/><child link="{tag}_{n}"/><origin xyz="0 0 {z}"/><axis xyz="{axis}"/><limit lower="-2" upper="2" velocity="2" effort="1"/></joint>"#,
+                n = k + 1,
+                z = if k == 0 { 0.0 } else { -0.25 }
+            );
+        }
+        s
+    };
+    format!(
+        r#"<robot name="twin"><link name="torso"/>{}{}<link name="head_link"/><joint name="neck" type="revolute"><parent link="torso"/><child link="head_link"/><origin xyz="0 0 0.6"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>"#,
+        arm("arm_a", y_a),
+        arm("arm_b", -y_a)
+    )
+}
+
+#[test]
+fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
+    for y in [0.2, -0.2] {
+        let robot = Robot::from_urdf_str(&unnamed_arms(y), "twin.urdf").unwrap();
+        let a = Anatomy::of(robot).unwrap();
+        assert_eq!(a.found(), &Found::Structure);
+        let left_first = &a.arm(Side::Left).unwrap().chain.joint_names()[0];
+        assert_eq!(left_first, if y > 0.0 { "j_arm_a_0" } else { "j_arm_b_0" });
+        assert_eq!(a.held_joints().len(), 1);
+        assert!(a.notes().iter().any(|n| n.contains("--arm")));
+    }
+    // A body with no arm at all is an error naming the file and saying how to name arms.
+    let e = Anatomy::of(
+        Robot::from_urdf_str(
+            r#"<robot name="stick"><link name="a"/><link name="b"/><joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>"#,
+            "stick.urdf",
+        )
+        .unwrap(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.starts_with("stick.urdf: cannot tell the robot's arms"),
+        "{e}"
+    );
+    assert!(
+        e.contains("--arm left=FROM_LINK:TO_LINK") && e.contains("stick.anatomy.json"),
+        "{e}"
+    );
+}
+
+/// A dual-arm robot as a maker of mobile manipulators writes one: a prismatic torso lift,
+/// arms `arm_{side}_1_joint` … `arm_{side}_7_joint` whose axes are all local z turned by large
+/// `rpy`, a force-torque sensor and a palm fixed on the last link, and on the palm a
+/// five-finger hand's three actuated joints (`hand_{side}_thumb_joint`, `…_index_joint`,
+/// `…_mrl_joint`: middle, ring and little; "hand" in every name, a finger word in two).
+fn dual_arm_with_five_finger_hands() -> String {
+    let rev = |name: &str, parent: &str, child: &str, xyz: &str, rpy: &str| {
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/><origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" velocity="2" effort="10"/></joint>"#
+        )
+    };
+    let fixed = |name: &str, parent: &str, child: &str, xyz: &str| {
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="fixed"><parent link="{parent}"/><child link="{child}"/><origin xyz="{xyz}"/></joint>"#
+        )
+    };
+    let mut s = String::from(
+        r#"<robot name="dual"><link name="base_link"/><link name="torso_lift_link"/><joint name="torso_lift_joint" type="prismatic"><parent link="base_link"/><child link="torso_lift_link"/><origin xyz="0 0 0.8"/><axis xyz="0 0 1"/><limit lower="0" upper="0.35" velocity="0.07" effort="2000"/></joint>"#,
+    );
+    for (side, y, sign) in [("left", 0.15, 1.0), ("right", -0.15, -1.0)] {
+        let rpys = [
+            format!("{}1.5708 0 0", if sign > 0.0 { "-" } else { "" }),
+            "0 -1.5708 0".to_string(),
+            "1.5708 0 0".into(),
+            "-1.5708 0 0".into(),
+            "1.5708 0 0".into(),
+            "-1.5708 0 0".into(),
+            "1.5708 0 1.5708".into(),
+        ];
+        let xyzs = [
+            "0 0 0",
+            "0 0 0",
+            "0.0 0 0.25",
+            "0 0 0",
+            "0 0 0.25",
+            "0 0 0",
+            "0 0 0",
+        ];
+        let mut parent = "torso_lift_link".to_string();
+        for k in 0..7 {
+            let child = format!("arm_{side}_{}_link", k + 1);
+            let xyz = if k == 0 {
+                format!("0 {y} 0.3")
+            } else {
+                xyzs[k].to_string()
+            };
+            s += &rev(
+                &format!("arm_{side}_{}_joint", k + 1),
+                &parent,
+                &child,
+                &xyz,
+                &rpys[k],
+            );
+            parent = child;
+        }
+        s += &fixed(
+            &format!("wrist_{side}_ft_joint"),
+            &parent,
+            &format!("wrist_{side}_ft_link"),
+            "0 0 0.05",
+        );
+        s += &fixed(
+            &format!("hand_{side}_palm_joint"),
+            &format!("wrist_{side}_ft_link"),
+            &format!("hand_{side}_palm_link"),
+            "0 0 0.05",
+        );
+        for finger in ["thumb", "index", "mrl"] {
+            s += &rev(
+                &format!("hand_{side}_{finger}_joint"),
+                &format!("hand_{side}_palm_link"),
+                &format!("hand_{side}_{finger}_link"),
+                "0 0 0.05",
+                "0 0 0",
+            );
+        }
+    }
+    s + "</robot>"
+}
+
+#[test]
+fn a_finger_on_the_arm_s_tip_link_is_no_arm_joint() {
+    let robot = Robot::from_urdf_str(&dual_arm_with_five_finger_hands(), "dual.urdf").unwrap();
+    let a = Anatomy::of(robot).unwrap();
+    assert_eq!(a.found(), &Found::Names);
+    for side in [Side::Left, Side::Right] {
+        let s = side.as_str();
+        let arm = a.arm(side).unwrap();
+        let names = arm.chain.joint_names();
+        let expected: Vec<String> = (1..=7).map(|k| format!("arm_{s}_{k}_joint")).collect();
+        assert_eq!(names, expected.as_slice(), "{s}");
+        assert_eq!(arm.chain.tip(), format!("hand_{s}_palm_link"), "{s}");
+    }
+    // The fingers and the torso lift are held.
+    let held_joints = a.held_joints();
+    let held: Vec<&str> = held_joints.iter().map(|(n, _)| n.as_str()).collect();
+    assert!(
+        held.contains(&"hand_left_mrl_joint") && held.contains(&"torso_lift_joint"),
+        "{held:?}"
+    );
+    assert_eq!(held.len(), 7, "{held:?}");
+}
+
+#[test]
+fn a_single_arm_is_found_by_structure_driven_by_the_side_its_names_say_else_the_right() {
+    // KUKA's iiwa as published (7 joints, no side in any name): one arm from its base.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let a = Anatomy::load(&kuka, &AnatomySpec::default()).unwrap();
+    assert_eq!(a.found(), &Found::Structure);
+    assert_eq!(a.sides(), vec![Side::Right]);
+    let arm = a.arm(Side::Right).unwrap();
+    assert_eq!(arm.chain.dof(), 7);
+    assert_eq!(a.torso_link(), arm.chain.base());
+    // The body frame is the root link's own axes.
+    let [fwd, left, up] = a.body_axes_in_root();
+    assert!((fwd - Vector3::x()).norm() < 1e-9 && (left - Vector3::y()).norm() < 1e-9);
+    assert!((up - Vector3::z()).norm() < 1e-9);
+    // Its neutral posture is within the limits and the hand is found.
+    for (q, (lo, hi)) in arm.neutral.iter().zip(arm.chain.limits()) {
+        assert!(*q >= lo - 1e-9 && *q <= hi + 1e-9);
+    }
+    assert!(
+        a.notes().iter().any(|n| n.contains("person's right arm")),
+        "{:?}",
+        a.notes()
+    );
+    // The description file round trips a single arm.
+    let file = a.to_file();
+    assert_eq!(file.arms.len(), 1);
+    assert!(file.arms.contains_key("right"));
+
+    // One chain whose names say left: the person's left arm drives it.
+    let twin = unnamed_arms(0.2).replace("arm_b", "left_arm");
+    let one = twin
+        .split("<link name=\"arm_a_0\"/>")
+        .next()
+        .unwrap()
+        .to_string()
+        + &twin[twin.find("<link name=\"left_arm_0\"/>").unwrap()..];
+    let a = Anatomy::of(Robot::from_urdf_str(&one, "one.urdf").unwrap()).unwrap();
+    assert_eq!(a.sides(), vec![Side::Left]);
+    assert_eq!(a.arm_joint_names()[0], "j_left_arm_0");
+}
+
+#[test]
+fn an_arm_folded_at_zero_finds_its_elbow_and_shoulder_from_the_middle_of_its_ranges() {
+    // As Kinova's Jaco 2: at zero the upper arm points down and the forearm folds back up
+    // onto it (the hand beside the shoulder); the ranges are centred on the arm standing
+    // straight up. Until 2026-12-05 the folded zero pose put the elbow at a wrist joint and the
+    // shoulder 0.3 m off.
+    let rev = |name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)| {
+        format!(
+            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
+            range.0, range.1
+        )
+    };
+    let wide = (-6.0, 6.0);
+    let urdf = format!(
+        r#"<robot name="folded"><link name="base"/>{}{}{}{}{}{}<link name="hand"/><joint name="tool" type="fixed"><parent link="wrist_3_link"/><child link="hand"/><origin xyz="0 0 0.1"/></joint></robot>"#,
+        rev("base_yaw", "base", "0 0 0.3", "0 0 1", wide),
+        rev("shoulder", "base_yaw_link", "0 0 0", "0 1 0", (0.82, 5.46)),
+        rev("elbow", "shoulder_link", "0 0 -0.4", "0 1 0", (0.33, 5.95)),
+        rev("wrist_1", "elbow_link", "0 0 0.4", "0 0 1", wide),
+        rev("wrist_2", "wrist_1_link", "0 0 0", "0 1 0", (0.52, 5.76)),
+        rev("wrist_3", "wrist_2_link", "0 0 0", "0 0 1", wide),
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "folded.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "elbow");
+    assert!(
+        (a.torso_in_root() * nalgebra::Point3::from(arm.shoulder))
+            .coords
+            .metric_distance(&Vector3::new(0.0, 0.0, 0.3))
+            < 1e-6,
+        "{:?}",
+        arm.shoulder
+    );
+    // Straightened: 0.8 m of arm, the hand 0.1 m on a wrist that bends at least 30°.
+    assert!(arm.reach > 0.88 && arm.reach < 0.9, "{}", arm.reach);
+}
+
+#[test]
+fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
+    // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
+    // to the right. The root's z runs along the shoulders, so up is from the root (the
+    // pelvis, 0.3 m below the torso) towards the shoulders.
+    let twin = unnamed_arms(0.2)
+        .replace("arm_a", "left_arm")
+        .replace("arm_b", "right_arm")
+        .replace(
+            r#"<robot name="twin"><link name="torso"/>"#,
+            r#"<robot name="twin"><link name="pelvis"/><link name="torso"/><joint name="spine" type="fixed"><parent link="pelvis"/><child link="torso"/><origin xyz="0 0.3 0" rpy="-1.5707963267948966 0 0"/></joint>"#,
+        );
+    let a = Anatomy::of(Robot::from_urdf_str(&twin, "yup.urdf").unwrap()).unwrap();
+    let [fwd, left, up] = a.body_axes_in_root();
+    assert!((up - Vector3::y()).norm() < 1e-9, "{up:?}");
+    assert!((left + Vector3::z()).norm() < 1e-9, "{left:?}");
+    assert!((fwd - Vector3::x()).norm() < 1e-9, "{fwd:?}");
+    assert!(
+        a.notes().iter().any(|n| n.contains("up +y")),
+        "{:?}",
+        a.notes()
+    );
+}
