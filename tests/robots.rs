@@ -321,8 +321,11 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     assert_eq!(arms.len(), 1, "{report}");
     assert_eq!(arms[0]["side"], "right");
     assert!(report["shoulder_width_m"].is_null());
+    // It stands on its base and cannot hang: the person's arm is rolled out to take it.
+    assert_eq!(report["mount"]["why"], "cannot_hang", "{report}");
+    assert_eq!(report["mount"]["roll_deg"], 90.0, "{report}");
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/demos/captured.mcap");
-    let mut medians = Vec::new();
+    let (mut medians, mut ninetieths) = (Vec::new(), Vec::new());
     for (side, demos) in [
         ("right", dir.join("kuka-right.mcap")),
         ("left", dir.join("kuka-left.mcap")),
@@ -345,12 +348,15 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
         let out: serde_json::Value = serde_json::from_str(&out).unwrap();
         let posture = &out["reach"][0]["posture"];
         medians.push(posture["upper_arm_deg"][0].as_f64().unwrap());
+        ninetieths.push(posture["upper_arm_deg"][1].as_f64().unwrap());
         let ds = load_demonstrations(&demos).unwrap();
         assert_eq!(ds.robot("kuka").unwrap().joint_names.len(), 7);
     }
-    // Each side follows its own arm of the person: the commands differ, both are faithful at
-    // the median (the arm stands on its base: where the person's arm hangs it cannot follow).
-    assert!(medians.iter().all(|&m| m < 10.0), "{medians:?}");
+    // Each side follows its own arm of the person (rolled out by the mount): the commands
+    // differ, both are faithful (2.4° / 31.6° at the 90th percentile with `--mount-roll 0`,
+    // where the person's hanging arm asks the arm to point down through its base).
+    assert!(medians.iter().all(|&m| m < 5.0), "{medians:?}");
+    assert!(ninetieths.iter().all(|&m| m < 10.0), "{ninetieths:?}");
     let (r, l) = (
         load_demonstrations(dir.join("kuka-right.mcap")).unwrap(),
         load_demonstrations(dir.join("kuka-left.mcap")).unwrap(),

@@ -1,6 +1,6 @@
 //! A robot as every command loads it: a built-in body, or a URDF with the description file
 //! beside it and the flags that say what its names do not (`--arm`, `--hold`, `--up`,
-//! `--forward`, `--command-joints`), as an [`Anatomy`].
+//! `--forward`, `--mount-roll`, `--command-joints`), as an [`Anatomy`].
 
 use std::path::Path;
 
@@ -32,6 +32,16 @@ pub struct BodyArgs {
     /// from the right shoulder to the left one].
     #[arg(long, value_name = "[ROBOT/]DIR", allow_hyphen_values = true)]
     pub forward: Vec<String>,
+    /// Degrees the person's arm is turned outward about the body's forward axis before the
+    /// robot takes it (mirrored between the sides) [default: 0 where the robot's arms can
+    /// hang, 90 where one cannot (an arm on a table): the person's hanging arm is then its arm
+    /// out to the side, their forward reach its forward reach; `sgplvm robot` says which].
+    #[arg(
+        long = "mount-roll",
+        value_name = "[ROBOT/]DEG",
+        allow_hyphen_values = true
+    )]
+    pub mount_roll: Vec<String>,
     /// The joints the robot's commands name: `arms` (the default), `all` (held joints at their
     /// hold values) or a comma-separated list, in order.
     #[arg(long = "command-joints", value_name = "[ROBOT/]arms|all|LIST")]
@@ -95,6 +105,22 @@ impl BodyArgs {
         if let Some(f) = self.forward.iter().rev().find_map(|s| for_robot(s, robot)) {
             spec.forward = Some(direction(f, "--forward")?);
         }
+        if let Some(m) = self
+            .mount_roll
+            .iter()
+            .rev()
+            .find_map(|s| for_robot(s, robot))
+        {
+            let deg: f64 = m
+                .trim()
+                .parse()
+                .ok()
+                .filter(|d: &f64| d.is_finite() && d.abs() <= 180.0)
+                .ok_or_else(|| {
+                    anyhow!("--mount-roll {m}: expected degrees within ±180 (0: the person's arm as it is)")
+                })?;
+            spec.mount_roll_deg = Some(deg);
+        }
         if let Some(c) = self
             .command_joints
             .iter()
@@ -114,6 +140,7 @@ impl BodyArgs {
             .chain(&self.hold)
             .chain(&self.up)
             .chain(&self.forward)
+            .chain(&self.mount_roll)
             .chain(&self.command_joints);
         for s in all {
             if let Some((who, _)) = s.split_once('/').filter(|(w, _)| !w.contains('=')) {

@@ -50,6 +50,7 @@ fn spec_of(
     hold: Option<std::collections::HashMap<String, f64>>,
     up: Option<(f64, f64, f64)>,
     forward: Option<(f64, f64, f64)>,
+    mount_roll_deg: Option<f64>,
     command_joints: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<AnatomySpec> {
     let mut spec = AnatomySpec::default();
@@ -75,6 +76,14 @@ fn spec_of(
     }
     spec.up = up.map(|(x, y, z)| nalgebra::Vector3::new(x, y, z));
     spec.forward = forward.map(|(x, y, z)| nalgebra::Vector3::new(x, y, z));
+    if let Some(deg) = mount_roll_deg {
+        if !(deg.is_finite() && deg.abs() <= 180.0) {
+            return Err(PyValueError::new_err(format!(
+                "mount_roll_deg is {deg}; expected degrees within ±180 (0: the person's arm as it is)"
+            )));
+        }
+        spec.mount_roll_deg = Some(deg);
+    }
     if let Some(c) = command_joints {
         spec.command_joints = match c.extract::<String>() {
             Ok(text) => CommandJoints::parse(&text),
@@ -126,10 +135,12 @@ impl PyRobot {
     /// frame, reach and neutral posture) is found from the URDF and the description file beside
     /// it (`ROBOT.anatomy.json`), or as `arms` ({"left": (FROM_LINK, TO_LINK), "right": …}; one
     /// side alone for a single-arm robot),
-    /// `hold` ({joint: value}), `up`, `forward` (directions in the torso link's frame) and
-    /// `command_joints` ("arms", "all" or joint names) say.
+    /// `hold` ({joint: value}), `up`, `forward` (directions in the torso link's frame),
+    /// `mount_roll_deg` (degrees the person's arm is turned outward about the forward axis;
+    /// default 0, or 90 for an arm that cannot hang, as on a table) and `command_joints`
+    /// ("arms", "all" or joint names) say.
     #[staticmethod]
-    #[pyo3(signature = (path, base=None, tip=None, *, arms=None, hold=None, up=None, forward=None, command_joints=None))]
+    #[pyo3(signature = (path, base=None, tip=None, *, arms=None, hold=None, up=None, forward=None, mount_roll_deg=None, command_joints=None))]
     #[allow(clippy::too_many_arguments)] // the Python signature, keyword arguments included
     fn from_urdf(
         path: std::path::PathBuf,
@@ -139,10 +150,11 @@ impl PyRobot {
         hold: Option<std::collections::HashMap<String, f64>>,
         up: Option<(f64, f64, f64)>,
         forward: Option<(f64, f64, f64)>,
+        mount_roll_deg: Option<f64>,
         command_joints: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         guarded(|| {
-            let spec = spec_of(arms, hold, up, forward, command_joints)?;
+            let spec = spec_of(arms, hold, up, forward, mount_roll_deg, command_joints)?;
             let robot = Robot::from_urdf_file(&path).map_err(robot_error)?;
             let anatomy = match Anatomy::load(&path, &spec) {
                 Ok(a) => Ok(a),

@@ -92,6 +92,14 @@ def test_arms_and_holds_given_in_python_and_kept_in_a_description_file(tmp_path)
     arms = kuka.anatomy["arms"]
     assert [a["side"] for a in arms] == ["right"] and len(arms[0]["joints"]) == 7, arms
     assert kuka.anatomy["shoulder_width_m"] is None
+    # It stands on its base and cannot hang: the person's arm is rolled out 90° to drive it,
+    # unless told otherwise.
+    assert kuka.anatomy["mount"]["why"] == "cannot_hang" and kuka.anatomy["mount"]["roll_deg"] == 90.0
+    kuka_path = ROOT / "crates" / "sgplvm-robots" / "tests" / "fixtures" / "kuka_iiwa.urdf"
+    as_is = sgplvm.Robot.from_urdf(kuka_path, mount_roll_deg=0.0)
+    assert as_is.anatomy["mount"] == {"roll_deg": 0.0, "why": "given"}
+    with pytest.raises(ValueError, match="mount_roll_deg"):
+        sgplvm.Robot.from_urdf(kuka_path, mount_roll_deg=400.0)
     # A body with no arm at all has no anatomy, but still its kinematics.
     stick = tmp_path / "stick.urdf"
     stick.write_text(

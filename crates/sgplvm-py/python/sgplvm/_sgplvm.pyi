@@ -213,10 +213,13 @@ class Robot:
         hold: Optional[Dict[str, float]] = None,
         up: Optional[Tuple[float, float, float]] = None,
         forward: Optional[Tuple[float, float, float]] = None,
+        mount_roll_deg: Optional[float] = None,
         command_joints: Union[None, str, List[str]] = None,
     ) -> "Robot":
-        """Loads a URDF file as its maker publishes it; ``arms``, ``hold``, ``up``, ``forward``
-        and ``command_joints`` say what its names do not; with ``base``/``tip`` the body is
+        """Loads a URDF file as its maker publishes it; ``arms``, ``hold``, ``up``, ``forward``,
+        ``mount_roll_deg`` (the person's arm turned outward about the forward axis: 90 by
+        default for an arm that cannot hang, as on a table) and ``command_joints`` say what its
+        names do not; with ``base``/``tip`` the body is
         restricted to that chain."""
     @property
     def name(self) -> str: ...

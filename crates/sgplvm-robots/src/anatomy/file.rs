@@ -9,12 +9,14 @@
 //!   "up": [0, 0, 1],
 //!   "forward": [1, 0, 0],
 //!   "neutral": { "left_shoulder_pitch_joint": 0.2 },
+//!   "mount_roll_deg": 0,
 //!   "command_joints": "arms"
 //! }
 //! ```
 //!
 //! Every key but the version is optional; `up` and `forward` are directions in the torso
-//! link's frame; `command_joints` is `"arms"`, `"all"` or a list of joint names. Unknown keys
+//! link's frame; `mount_roll_deg` turns the person's arm outward about the forward axis
+//! (`anatomy::Mount`); `command_joints` is `"arms"`, `"all"` or a list of joint names. Unknown keys
 //! and another version are errors naming the file.
 
 use std::collections::BTreeMap;
@@ -57,6 +59,10 @@ pub struct AnatomyFile {
     /// The neutral posture's arm joint values.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub neutral: BTreeMap<String, f64>,
+    /// Degrees the person's arm is turned outward about the forward axis
+    /// ([`super::Mount`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mount_roll_deg: Option<f64>,
     /// `"arms"`, `"all"` or joint names.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command_joints: Option<serde_json::Value>,
@@ -64,7 +70,7 @@ pub struct AnatomyFile {
 
 impl AnatomyFile {
     /// The file that describes `a` completely: its arms, hold values, body axes, neutral
-    /// posture and command joints.
+    /// posture, mount and command joints.
     pub fn of(a: &Anatomy) -> AnatomyFile {
         let arm = |arm: &super::AnatomyArm| {
             let c = &arm.chain;
@@ -103,6 +109,7 @@ impl AnatomyFile {
                         .zip(arm.neutral.iter().copied())
                 })
                 .collect(),
+            mount_roll_deg: Some(a.mount.roll_deg),
             command_joints: Some(command_joints),
         }
     }
@@ -148,8 +155,17 @@ impl AnatomySpec {
             neutral: f.neutral,
             up: f.up.map(Vector3::from),
             forward: f.forward.map(Vector3::from),
+            mount_roll_deg: f.mount_roll_deg,
             ..AnatomySpec::default()
         };
+        if let Some(deg) = f
+            .mount_roll_deg
+            .filter(|d| !(d.is_finite() && d.abs() <= 180.0))
+        {
+            return Err(bad(format!(
+                "mount_roll_deg: {deg}; expected degrees within ±180 (0: the person's arm as it is)"
+            )));
+        }
         for (side, text) in &f.arms {
             let arm = ArmSpec::parse(text).map_err(|e| bad(format!("arms.{side}: {e}")))?;
             match side.as_str() {

@@ -5,6 +5,7 @@ use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
 
 use super::arm_points::arm_geometry;
 use super::discover::{file_of, FoundArms, RawArm};
+use super::mount::{Mount, HANG_MISS_DEG};
 use super::{Anatomy, AnatomyArm, AnatomyError, AnatomyResult, AnatomySpec, CommandJoints};
 use crate::generator::{KEY_POSES, NEUTRAL};
 use crate::kinematics::Chain;
@@ -56,8 +57,8 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         arms.push(arm_geometry(&robot, raw, chain, &hold, &torso_in_root)?);
     }
     let body_in_torso = body_frame(&arms, &torso_in_root, spec, &file)?;
-    for arm in &mut arms {
-        arm.neutral = neutral_posture(&robot, arm, &body_in_torso, spec, &file)?;
+    let mount = mount_and_neutral(&robot, &mut arms, &body_in_torso, spec, &file)?;
+    for arm in &arms {
         for (k, &i) in arm.chain.robot_indices().iter().enumerate() {
             hold[i] = arm.neutral[k];
         }
@@ -72,6 +73,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         torso_link: torso,
         body_in_torso,
         torso_in_root,
+        mount,
         hold,
         held,
         command,
@@ -270,12 +272,129 @@ fn body_frame(
     Ok(UnitQuaternion::from_rotation_matrix(&r))
 }
 
+/// The mount (`mount.rs`) and each arm's neutral posture through it: the mount `spec` gives,
+/// else none unless an arm cannot hang (its neutral hand stays more than [`HANG_MISS`] of its
+/// reach from the person's hanging hand), then [`Mount::cannot_hang`].
+fn mount_and_neutral(
+    robot: &Robot,
+    arms: &mut [AnatomyArm],
+    body_in_torso: &UnitQuaternion<f64>,
+    spec: &AnatomySpec,
+    file: &str,
+) -> AnatomyResult<Mount> {
+    let mut mount = match spec.mount_roll_deg {
+        Some(deg) if deg.is_finite() && deg.abs() <= 180.0 => Mount::given(deg),
+        Some(deg) => {
+            return Err(AnatomyError::Frame {
+                file: file.to_string(),
+                message: format!(
+                    "mount roll {deg}°: expected a finite angle within ±180° (degrees the person's arm is turned outward about the forward axis)"
+                ),
+            })
+        }
+        None => Mount::default(),
+    };
+    for arm in arms.iter_mut() {
+        arm.neutral = neutral_posture(robot, arm, body_in_torso, &mount, spec, file)?;
+    }
+    if spec.mount_roll_deg.is_none() && spec.neutral.is_empty() {
+        let missed = arms
+            .iter()
+            .map(|arm| hanging_miss_deg(arm, body_in_torso))
+            .fold(0.0, f64::max);
+        if missed > HANG_MISS_DEG {
+            mount = Mount::cannot_hang(missed);
+            for arm in arms.iter_mut() {
+                arm.neutral = neutral_posture(robot, arm, body_in_torso, &mount, spec, file)?;
+            }
+        } else {
+            mount = Mount::hangs(missed);
+        }
+    }
+    Ok(mount)
+}
+
+/// How near (degrees), within the joint limits, `arm`'s upper arm (shoulder centre → elbow
+/// centre) comes to a person's hanging upper arm (the neutral key pose's direction): the
+/// smallest angle over a grid of the joints before the elbow, the only ones that turn it.
+fn hanging_miss_deg(arm: &AnatomyArm, body_in_torso: &UnitQuaternion<f64>) -> f64 {
+    let down = arm.base_in_torso.rotation.inverse()
+        * (body_in_torso * Vector3::from(neutral_key_pose(arm.side)).normalize());
+    let before = arm.elbow.max(1);
+    let per_joint: usize = match before {
+        0..=3 => 25,
+        4 => 13,
+        _ => 7,
+    };
+    let elbow_local = arm.elbow_centre_local();
+    let grids: Vec<Vec<f64>> = arm.chain.limits()[..before]
+        .iter()
+        .map(|&(lo, hi)| {
+            let (lo, hi) = (
+                if lo.is_finite() {
+                    lo
+                } else {
+                    -std::f64::consts::PI
+                },
+                if hi.is_finite() {
+                    hi
+                } else {
+                    std::f64::consts::PI
+                },
+            );
+            (0..per_joint)
+                .map(|k| lo + (hi - lo) * k as f64 / (per_joint - 1) as f64)
+                .collect()
+        })
+        .collect();
+    let mut q = arm.neutral.clone();
+    let mut best = f64::INFINITY;
+    let total = per_joint.pow(before as u32);
+    for index in 0..total {
+        let mut rest = index;
+        for (k, grid) in grids.iter().enumerate() {
+            q[k] = grid[rest % per_joint];
+            rest /= per_joint;
+        }
+        let frames = arm.chain.joint_frames(&q);
+        let elbow = (frames[arm.elbow] * nalgebra::Point3::from(elbow_local)).coords;
+        let upper = elbow - arm.shoulder_at(&q);
+        if let Some(u) = upper.try_normalize(1e-9) {
+            best = best.min(u.angle(&down).to_degrees());
+        }
+    }
+    best
+}
+
+/// The generator's neutral key pose of the arm of `side`: its hand relative to the shoulder in
+/// units of reach, body frame.
+fn neutral_key_pose(side: Side) -> [f64; 3] {
+    match side {
+        Side::Left => KEY_POSES[NEUTRAL].left,
+        Side::Right => KEY_POSES[NEUTRAL].right,
+    }
+}
+
+/// The IK settings of the neutral posture, pulled towards `rest`.
+fn neutral_ik(rest: &[f64]) -> IkOptions {
+    IkOptions {
+        tolerance: 1e-6,
+        max_iters: 200,
+        restarts: 8,
+        posture_gain: 0.5,
+        rest: Some(rest.to_vec()),
+        ..IkOptions::default()
+    }
+}
+
 /// The neutral posture of `arm`: as `spec` gives it, else IK of the generator's neutral key
-/// pose (arms down, slightly forward) within the limits, pulled towards the zero posture.
+/// pose (arms down, slightly forward; turned by `mount`) within the limits, pulled towards the
+/// zero posture.
 fn neutral_posture(
     robot: &Robot,
     arm: &AnatomyArm,
     body_in_torso: &UnitQuaternion<f64>,
+    mount: &Mount,
     spec: &AnatomySpec,
     file: &str,
 ) -> AnatomyResult<Vec<f64>> {
@@ -309,24 +428,17 @@ fn neutral_posture(
         }
         return Ok(given.into_iter().flatten().collect());
     }
-    let rel = match arm.side {
-        Side::Left => KEY_POSES[NEUTRAL].left,
-        Side::Right => KEY_POSES[NEUTRAL].right,
-    };
-    let in_torso = arm.shoulder + arm.reach * (body_in_torso * Vector3::from(rel));
+    let rel = mount.rotation(arm.side) * Vector3::from(neutral_key_pose(arm.side));
+    let in_torso = arm.shoulder + arm.reach * (body_in_torso * rel);
     let target = arm.base_in_torso.inverse() * nalgebra::Point3::from(in_torso);
     let zero = arm.neutral.clone();
-    let options = IkOptions {
-        tolerance: 1e-6,
-        max_iters: 200,
-        restarts: 8,
-        posture_gain: 0.5,
-        rest: Some(zero.clone()),
-        ..IkOptions::default()
-    };
     Ok(arm
         .chain
-        .inverse_kinematics(&IkTarget::Position(target.coords), &zero, &options)
+        .inverse_kinematics(
+            &IkTarget::Position(target.coords),
+            &zero,
+            &neutral_ik(&zero),
+        )
         .q)
 }
 

@@ -36,6 +36,7 @@ mod commands;
 mod discover;
 mod file;
 mod geometry;
+mod mount;
 mod summary;
 pub mod words;
 
@@ -62,6 +63,7 @@ use rapier3d::parry::shape::SharedShape;
 
 pub use commands::CommandColumns;
 pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
+pub use mount::{Mount, MountReason, HANG_MISS_DEG, TABLE_ROLL_DEG};
 pub use summary::{AnatomyReport, ArmReport};
 
 /// An arm named by the user: the link it hangs from and its hand link.
@@ -141,6 +143,10 @@ pub struct AnatomySpec {
     pub forward: Option<Vector3<f64>>,
     /// The neutral posture's arm joint values (default: found by IK).
     pub neutral: BTreeMap<String, f64>,
+    /// Degrees the person's arm is turned outward about the forward axis before the robot
+    /// takes it ([`Mount`];
+    /// default: 0 where the arms hang, [`TABLE_ROLL_DEG`] where one cannot).
+    pub mount_roll_deg: Option<f64>,
     /// Which joints commands name.
     pub command_joints: CommandJoints,
     /// The file this spec was read from, for messages (`None`: the command line or code).
@@ -205,6 +211,9 @@ impl AnatomySpec {
         }
         if spec.forward.is_some() {
             self.forward = spec.forward;
+        }
+        if spec.mount_roll_deg.is_some() {
+            self.mount_roll_deg = spec.mount_roll_deg;
         }
         if spec.command_joints != CommandJoints::Arms {
             self.command_joints = spec.command_joints;
@@ -405,6 +414,8 @@ pub struct Anatomy {
     body_in_torso: UnitQuaternion<f64>,
     /// The torso link's pose in the root frame at the hold posture.
     torso_in_root: Isometry3<f64>,
+    /// How the person's arm is turned before the robot takes it.
+    mount: Mount,
     /// Every joint's value with the arms at their neutral posture and the rest held.
     hold: Vec<f64>,
     /// Indices (configuration order) of the joints outside the arms.
@@ -632,6 +643,12 @@ impl Anatomy {
     /// The torso link's pose in the root link's frame at the hold posture.
     pub fn torso_in_root(&self) -> Isometry3<f64> {
         self.torso_in_root
+    }
+
+    /// How the person's arm is turned before this robot takes it: not where the arms hang,
+    /// outward about the forward axis where an arm stands on a table ([`Mount`]).
+    pub fn mount(&self) -> Mount {
+        self.mount
     }
 
     /// The whole configuration (URDF order) with the arms at their neutral posture and every

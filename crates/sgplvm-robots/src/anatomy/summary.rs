@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use super::{Anatomy, AnatomyArm, Found};
+use super::{Anatomy, AnatomyArm, Found, Mount};
 
 /// One arm as reported.
 #[derive(Debug, Clone, Serialize)]
@@ -51,6 +51,8 @@ pub struct AnatomyReport {
     pub held: Vec<(String, f64)>,
     /// The joints commands name.
     pub command_joints: Vec<String>,
+    /// How the person's arm is turned before the robot takes it.
+    pub mount: Mount,
     /// Distance between the shoulder points, metres (`None` on a single-arm robot).
     pub shoulder_width_m: Option<f64>,
     /// What was noticed.
@@ -82,6 +84,7 @@ impl Anatomy {
             body_axes_in_root: self.body_axes_in_root().map(|v| [v.x, v.y, v.z]),
             held: self.held_joints(),
             command_joints: self.command_joint_names(),
+            mount: self.mount,
             shoulder_width_m: match self.arms.as_slice() {
                 [left, right] => Some((left.shoulder - right.shoulder).norm()),
                 _ => None,
@@ -158,6 +161,7 @@ impl Anatomy {
                 crate::names::few(&r.command_joints, 6)
             }
         );
+        out += &format!("mount: {}\n", r.mount.describe());
         for n in &r.notes {
             out += &format!("note: {n}\n");
         }

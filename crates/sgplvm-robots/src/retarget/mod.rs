@@ -217,7 +217,11 @@ impl ArmFrames {
         Self {
             body_in_base: arms
                 .iter()
-                .map(|a| a.base_in_torso.rotation.inverse() * anatomy.body_in_torso())
+                .map(|a| {
+                    a.base_in_torso.rotation.inverse()
+                        * anatomy.body_in_torso()
+                        * anatomy.mount().rotation(a.side)
+                })
                 .collect(),
             // The shoulder where it is with the arm's joints at zero: a point fixed on the
             // torso, which the hands are placed from.

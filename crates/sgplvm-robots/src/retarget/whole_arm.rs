@@ -129,11 +129,27 @@ pub struct ArmPosture {
     pub upper_turn: UnitQuaternion<f64>,
 }
 
+impl ArmPosture {
+    /// The posture turned by `r` (a rotation of the body frame): directions and the hand's
+    /// place turned, the segments' turns conjugated.
+    fn turned(&self, r: &UnitQuaternion<f64>) -> ArmPosture {
+        ArmPosture {
+            upper_arm: r * self.upper_arm,
+            forearm: r * self.forearm,
+            hand: r * self.hand,
+            turn: r * self.turn * r.inverse(),
+            upper_turn: r * self.upper_turn * r.inverse(),
+        }
+    }
+}
+
 /// A body's arms as postures are measured on them: landmarks, and the rotation from the body
 /// frame to the root frame. Per arm in [`Anatomy::arms`]' order (two, or one on a single-arm
 /// robot; `sides` says whose).
 pub(super) struct PostureGauge {
     sides: Vec<Side>,
+    /// Per arm, the turn of the person's arm it takes ([`crate::anatomy::Mount`]), body frame.
+    mounts: Vec<UnitQuaternion<f64>>,
     landmarks: Vec<ArmLandmarks>,
     body_to_root: UnitQuaternion<f64>,
     /// The fixed shoulder points hands are placed from, root frame.
@@ -163,6 +179,10 @@ impl PostureGauge {
         let neutral = RobotFrames::new(robot, &ancestry, reference);
         PostureGauge {
             sides: anatomy.sides(),
+            mounts: arms
+                .iter()
+                .map(|a| anatomy.mount().rotation(a.side))
+                .collect(),
             body_to_root: torso.rotation * anatomy.body_in_torso(),
             shoulders: arms
                 .iter()
@@ -215,12 +235,16 @@ impl PostureGauge {
     }
 
     /// The person's arm postures (left, right) that this gauge's arms follow, in its arms'
-    /// order: both on a two-armed robot, the one of its side on a single-arm robot.
+    /// order — both on a two-armed robot, the one of its side on a single-arm robot — turned
+    /// by the body's mount.
     pub(super) fn followed<'a>(
         &'a self,
         person: &'a [ArmPosture; 2],
-    ) -> impl Iterator<Item = &'a ArmPosture> + 'a {
-        self.sides.iter().map(move |side| &person[side.index()])
+    ) -> impl Iterator<Item = ArmPosture> + 'a {
+        self.sides
+            .iter()
+            .zip(&self.mounts)
+            .map(move |(side, mount)| person[side.index()].turned(mount))
     }
 }
 
@@ -253,13 +277,13 @@ impl<'a> PostureDistance<'a> {
     /// between configurations `a` and `b` (every movable joint of the URDF, in its order).
     pub fn between(&self, a: &[f64], b: &[f64]) -> Vec<ArmAngles> {
         let b = self.gauge.measure(self.anatomy, b);
-        arm_angles(&self.gauge.measure(self.anatomy, a), b.iter())
+        arm_angles(&self.gauge.measure(self.anatomy, a), b.into_iter())
     }
 }
 
 /// Per arm, the angles between the segments of arm postures `a` and the postures `b` they are
 /// measured against.
-fn arm_angles<'b>(a: &[ArmPosture], b: impl Iterator<Item = &'b ArmPosture>) -> Vec<ArmAngles> {
+fn arm_angles(a: &[ArmPosture], b: impl Iterator<Item = ArmPosture>) -> Vec<ArmAngles> {
     a.iter()
         .zip(b)
         .map(|(a, b)| ArmAngles {

@@ -261,3 +261,60 @@ fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
         a.notes()
     );
 }
+
+#[test]
+fn an_arm_that_cannot_hang_is_mounted_rolled_out_and_the_humanoids_are_not() {
+    use crate::anatomy::{Mount, MountReason, HANG_MISS_DEG, TABLE_ROLL_DEG};
+    // KUKA's iiwa stands on its base: its second joint tilts the upper arm at most 120° from
+    // straight up, never down along a person's hanging arm.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let a = Anatomy::load(&kuka, &AnatomySpec::default()).unwrap();
+    let mount = a.mount();
+    assert_eq!(mount.roll_deg, TABLE_ROLL_DEG);
+    match mount.reason {
+        MountReason::CannotHang { missed } => {
+            assert!(missed > HANG_MISS_DEG && missed < 90.0, "{missed}")
+        }
+        other => panic!("{other:?}"),
+    }
+    // Its neutral posture is the person's neutral rolled out: the hand out to the right at
+    // about shoulder height, not down through its base (the body frame is the root's here).
+    let arm = a.arm(Side::Right).unwrap();
+    let hand = arm.hand_in_torso(&arm.neutral) - arm.shoulder;
+    assert!(hand.y < -0.6 * arm.reach, "{hand}");
+    assert!(hand.z.abs() < 0.2 * arm.reach, "{hand}");
+    assert_eq!(a.to_file().mount_roll_deg, Some(TABLE_ROLL_DEG));
+    // What the user says wins; a roll beyond ±180° is refused naming the file.
+    let said = |deg: f64| AnatomySpec {
+        mount_roll_deg: Some(deg),
+        ..AnatomySpec::default()
+    };
+    let off = Anatomy::load(&kuka, &said(0.0)).unwrap();
+    assert_eq!(off.mount(), Mount::given(0.0));
+    let hand = off.arm(Side::Right).unwrap();
+    assert!((hand.hand_in_torso(&hand.neutral) - hand.shoulder).z < 0.0);
+    let err = Anatomy::load(&kuka, &said(270.0)).unwrap_err().to_string();
+    assert!(
+        err.contains("kuka_iiwa.urdf") && err.contains("mount roll 270"),
+        "{err}"
+    );
+    let err = AnatomySpec::from_json(
+        r#"{"sgplvm_anatomy": 1, "mount_roll_deg": 400}"#,
+        Path::new("arm.anatomy.json"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("arm.anatomy.json") && err.contains("mount_roll_deg"),
+        "{err}"
+    );
+    // Humanoids' arms hang: no mount.
+    for name in ["walkman", "coman", "centauro", "human"] {
+        let m = Anatomy::builtin(name).unwrap().mount();
+        assert_eq!(m.roll_deg, 0.0, "{name}: {m:?}");
+        assert!(
+            matches!(m.reason, MountReason::Hangs { missed } if missed < 10.0),
+            "{name}: {m:?}"
+        );
+    }
+}
