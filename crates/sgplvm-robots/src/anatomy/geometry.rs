@@ -273,8 +273,8 @@ fn body_frame(
 }
 
 /// The mount (`mount.rs`) and each arm's neutral posture through it: the mount `spec` gives,
-/// else none unless an arm cannot hang (its neutral hand stays more than [`HANG_MISS`] of its
-/// reach from the person's hanging hand), then [`Mount::cannot_hang`].
+/// else none unless an arm cannot hang (within its limits its upper arm stays more than
+/// [`HANG_MISS_DEG`] from a person's hanging one), then [`Mount::cannot_hang`].
 fn mount_and_neutral(
     robot: &Robot,
     arms: &mut [AnatomyArm],
@@ -330,18 +330,13 @@ fn hanging_miss_deg(arm: &AnatomyArm, body_in_torso: &UnitQuaternion<f64>) -> f6
     let grids: Vec<Vec<f64>> = arm.chain.limits()[..before]
         .iter()
         .map(|&(lo, hi)| {
-            let (lo, hi) = (
-                if lo.is_finite() {
-                    lo
-                } else {
-                    -std::f64::consts::PI
-                },
-                if hi.is_finite() {
-                    hi
-                } else {
-                    std::f64::consts::PI
-                },
-            );
+            // A joint that turns all the way round (continuous, or a range of a turn or more).
+            let pi = std::f64::consts::PI;
+            let (lo, hi) = if hi - lo >= 2.0 * pi {
+                (-pi, pi)
+            } else {
+                (lo, hi)
+            };
             (0..per_joint)
                 .map(|k| lo + (hi - lo) * k as f64 / (per_joint - 1) as f64)
                 .collect()

@@ -50,7 +50,7 @@ pub enum MountReason {
     /// Set by the user (`--mount-roll`, the description file).
     Given,
     /// An arm cannot hang: its upper arm stays `missed` degrees, at best, from a person's
-    /// hanging upper arm, so the person's arms are turned forward.
+    /// hanging upper arm, so the person's arms are rolled out ([`TABLE_ROLL_DEG`]).
     CannotHang {
         /// The nearest the upper arm comes, degrees.
         missed: f64,
@@ -114,17 +114,15 @@ impl Mount {
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), outward * self.roll_deg.to_radians())
     }
 
-    /// Whether the person's arm is turned at all.
-    pub fn is_turned(&self) -> bool {
-        self.roll_deg != 0.0
-    }
-
     /// One line for a person: what the mount does and why.
     pub fn describe(&self) -> String {
         match self.reason {
             MountReason::Hangs { missed } => format!(
                 "none: the arms hang as a person's do (the upper arm comes within {missed:.0}° of a hanging one; --mount-roll DEG turns the person's arm outward about the forward axis)"
             ),
+            MountReason::Given if self.roll_deg == 0.0 => {
+                "none (given): the person's arm as it is".into()
+            }
             MountReason::Given => format!(
                 "the person's arm turned {:.0}° outward about the body's forward axis (given)",
                 self.roll_deg
