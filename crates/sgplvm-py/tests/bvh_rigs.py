@@ -181,19 +181,28 @@ NAMES = {
     "daz": {"pelvis": "hip", "torso": "chestUpper", "neck": "neckLower", "head": "head",
             "lclav": "lCollar", "lupper": "lShldrBend", "lfore": "lForearmBend", "lhand": "lHand",
             "rclav": "rCollar", "rupper": "rShldrBend", "rfore": "rForearmBend", "rhand": "rHand"},
+    "rigify": {"pelvis": "DEF-spine", "torso": "DEF-spine.003", "neck": "DEF-spine.004", "head": "DEF-spine.006",
+               "lclav": "DEF-shoulder.L", "lupper": "DEF-upper_arm.L", "lfore": "DEF-forearm.L", "lhand": "DEF-hand.L",
+               "rclav": "DEF-shoulder.R", "rupper": "DEF-upper_arm.R", "rfore": "DEF-forearm.R", "rhand": "DEF-hand.R"},
     "mixamo": {r: "mixamorig:" + n for r, n in {
         "pelvis": "Hips", "torso": "Spine2", "neck": "Neck", "head": "Head",
         "lclav": "LeftShoulder", "lupper": "LeftArm", "lfore": "LeftForeArm", "lhand": "LeftHand",
         "rclav": "RightShoulder", "rupper": "RightArm", "rfore": "RightForeArm", "rhand": "RightHand"}.items()},
 }  # fmt: skip
 
-ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX", "daz": "YZX"}
-SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5, "daz": 1.0}
+ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX", "daz": "YZX", "rigify": "XYZ"}
+SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5, "daz": 1.0, "rigify": 1.0}
 
-# The twist bones of the ``daz`` style: (segment's joint, twist bone's name), per role. Each takes
-# part of its segment's twist; the segment's orientation a suit would stream is the twist bone's.
-TWIST_BONES = {"lupper": "lShldrTwist", "lfore": "lForearmTwist",
-               "rupper": "rShldrTwist", "rfore": "rForearmTwist"}  # fmt: skip
+# The twist bones of the ``daz`` and ``rigify`` styles: (segment's joint, twist bone's name), per
+# role. Each takes part of its segment's twist; the segment's orientation a suit would stream is
+# the twist bone's. DAZ's Genesis 8 names them; Blender's Rigify splits each segment in two
+# deforming bones, the second (`.001`) the twisting half.
+TWIST_BONES = {
+    "daz": {"lupper": "lShldrTwist", "lfore": "lForearmTwist",
+            "rupper": "rShldrTwist", "rfore": "rForearmTwist"},
+    "rigify": {"lupper": "DEF-upper_arm.L.001", "lfore": "DEF-forearm.L.001",
+               "rupper": "DEF-upper_arm.R.001", "rfore": "DEF-forearm.R.001"},
+}  # fmt: skip
 
 
 def body_axes(bvh: Bvh, torso: str, left_roots: tuple[str, str], pelvis: str, neck: str) -> np.ndarray:
@@ -314,8 +323,8 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
         rows.append(row)
     out = Bvh(out_joints, src.frame_time * step, np.array(rows))
     out.first = list(np.cumsum([0] + [len(j.channels) for j in out_joints])[:-1])
-    if style == "daz":
-        out = with_twist_bones(out, {names[r]: t for r, t in TWIST_BONES.items()})
+    if style in TWIST_BONES:
+        out = with_twist_bones(out, {names[r]: t for r, t in TWIST_BONES[style].items()})
     return out
 
 

@@ -1,7 +1,9 @@
-"""Live equals file (issue 48): one motion in five conventions whose rest poses differ — CMU's own,
+"""Live equals file (issue 48): one motion in six conventions whose rest poses differ — CMU's own,
 an Xsens MVN export (T-pose, flat clavicles: the upper arm's twist untold by the rest), a
 Bandai Namco layout (every bone on one line at zero rotation), a Mixamo rig (2.5 times the
-scale) and a DAZ Genesis 8 rig (an A-pose, twist bones sharing each segment's twist) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
+scale), a DAZ Genesis 8 rig (an A-pose, twist bones sharing each segment's twist) and a
+Blender Rigify rig (`DEF-` bones, a T-pose, each arm segment split in two deforming bones, the
+second twisting) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
 the Rust importer). Each file is imported (``sgplvm import``), and the same frames are streamed
 as a tracker and a suit would send them, built here from the BVH's own forward kinematics,
 never with the project's ``replay``:
@@ -49,7 +51,7 @@ import sgplvm
 from _cli import sgplvm_binary
 
 CAPTURE = pathlib.Path(__file__).resolve().parents[3] / "data" / "capture" / "cmu-13_26.bvh"
-STYLES = ["cmu", "xsens", "bandai", "mixamo", "daz"]
+STYLES = ["cmu", "xsens", "bandai", "mixamo", "daz", "rigify"]
 FRAMES = 60
 # Frames 600… of the 120 Hz capture, every 3rd: 40 Hz, the import's rate, so that the imported
 # frames are the file's (no interpolation between them).
@@ -101,7 +103,7 @@ def rigs(tmp):
 
 
 def test_the_rigs_rest_poses_differ(rigs):
-    """The four conventions are what they claim: each import names its skeleton, the Xsens and
+    """The conventions are what they claim: each import names its skeleton, the Xsens and
     Bandai rests leave the twist to the elbow's hinge (untold by the rest), CMU's tells it, and
     the Mixamo rig, 2.5 times CMU's scale, is read in units of its own (not "unknown")."""
     twist = {s: [a["twist"]["kind"] for a in r.report["calibration"]["arms"]] for s, r in rigs.items()}
@@ -112,6 +114,11 @@ def test_the_rigs_rest_poses_differ(rigs):
     assert mixamo["arm_length"] / mixamo["calibration"]["metres_per_unit"] == pytest.approx(
         2.5 * cmu["arm_length"] / cmu["calibration"]["metres_per_unit"], rel=1e-9
     )
+    # The twist-bone rigs are read as their makers name them, each segment split in two.
+    for style, scheme in (("daz", "DAZ"), ("rigify", "Rigify")):
+        assert scheme in rigs[style].report["skeleton"], rigs[style].report["skeleton"]
+        names = {j.name for j in rigs[style].bvh.joints}
+        assert set(bvh_rigs.TWIST_BONES[style].values()) <= names, sorted(names)
     # One motion: the rigs' imports agree where the rest tells the twist alike.
     for style in STYLES:
         assert rigs[style].rows.shape == rigs["cmu"].rows.shape
@@ -184,9 +191,9 @@ def _mvn_datagrams(rig):
     for side, s in (("Left", "l"), ("Right", "r")):
         for part, role in (("Shoulder", "clav"), ("UpperArm", "upper"), ("ForeArm", "fore"), ("Hand", "hand")):
             segments[side + part] = names[s + role]
-    # Where a segment's twist is shared with a twist bone (DAZ), the suit's segment turns as the
+    # Where a segment's twist is shared with a twist bone (DAZ, Rigify), the suit's segment turns as the
     # whole segment: as the twist bone, which ends it.
-    twist = {names[r]: t for r, t in bvh_rigs.TWIST_BONES.items()} if rig.style == "daz" else {}
+    twist = {names[r]: t for r, t in bvh_rigs.TWIST_BONES.get(rig.style, {}).items()}
     still = mvn_spec.t_pose()
     out = []
     for f in range(len(rig.times_ns)):
