@@ -16,7 +16,7 @@ export PATH=$work/bin/bin:$PATH
 sgplvm import data/capture/cmu-13_26.bvh --out me.mcap > /dev/null
 sgplvm robot data/urdf/published/g1_29dof.urdf > /dev/null
 sgplvm retarget --demos me.mcap --urdf data/urdf/published/g1_29dof.urdf --robot g1 --out g1-demos.mcap > /dev/null 2>&1
-sgplvm train --data g1-demos.mcap --robot g1 --out g1.sgp > /dev/null 2>&1
+sgplvm train --data g1-demos.mcap --robot g1 --parts arms --out g1.sgp > /dev/null 2>&1
 flag=-n; unshare -n true 2>/dev/null || flag=-rn
 unshare "$flag" bash -c 'ip link set lo up && ip link set lo multicast on
 sgplvm teleop --model g1.sgp --robot g1 --urdf g1=data/urdf/published/g1_29dof.urdf --input mvn:127.0.0.1:9763 --foxglove --max-frames 300 --json > g1-live.json 2>/dev/null &
