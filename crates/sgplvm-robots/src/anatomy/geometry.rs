@@ -474,8 +474,8 @@ fn command_joints(
 
 /// What a user should know about the anatomy found: what the URDF breaks of the specification
 /// (repaired where its meaning is clear); a root frame that is not x forward, y
-/// left, z up; an arm whose zero pose is not its straightened one; shoulders whose axes do
-/// not meet.
+/// left, z up; an arm that cannot hang, and so takes the person's arm rolled out (the mount);
+/// an arm whose zero pose is not its straightened one; shoulders whose axes do not meet.
 fn notes(a: &Anatomy) -> Vec<String> {
     // What the file breaks of the URDF specification, and what loading made of it.
     let mut notes: Vec<String> = a
@@ -504,6 +504,9 @@ fn notes(a: &Anatomy) -> Vec<String> {
             axis_name(&left),
             axis_name(&up)
         ));
+    }
+    if matches!(a.mount.reason, super::MountReason::CannotHang { .. }) {
+        notes.push(format!("mount: {}", a.mount.describe()));
     }
     for arm in &a.arms {
         if arm.zero_pose_reach < 0.95 * arm.reach {

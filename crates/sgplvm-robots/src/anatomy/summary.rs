@@ -162,7 +162,8 @@ impl Anatomy {
             }
         );
         out += &format!("mount: {}\n", r.mount.describe());
-        for n in &r.notes {
+        // The notes say the mount too (every command prints them); said once here.
+        for n in r.notes.iter().filter(|n| !n.starts_with("mount: ")) {
             out += &format!("note: {n}\n");
         }
         out
