@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
-use sgplvm::robots::anatomy::{Anatomy, AnatomySpec, CommandJoints};
+use sgplvm::robots::anatomy::{Anatomy, AnatomySpec, CommandJoints, Mount};
 use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::Robot;
 
@@ -115,7 +115,7 @@ impl BodyArgs {
                 .trim()
                 .parse()
                 .ok()
-                .filter(|d: &f64| d.is_finite() && d.abs() <= 180.0)
+                .filter(|&d: &f64| Mount::valid_roll(d))
                 .ok_or_else(|| {
                     anyhow!("--mount-roll {m}: expected degrees within ±180 (0: the person's arm as it is)")
                 })?;

@@ -6,7 +6,7 @@ use numpy::PyArray2;
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyAnyMethods;
-use sgplvm_robots::anatomy::{Anatomy, AnatomyError, AnatomySpec, ArmSpec, CommandJoints};
+use sgplvm_robots::anatomy::{Anatomy, AnatomyError, AnatomySpec, ArmSpec, CommandJoints, Mount};
 use sgplvm_robots::{Chain, Robot, RobotError};
 
 pub(crate) fn robot_error(e: RobotError) -> PyErr {
@@ -77,7 +77,7 @@ fn spec_of(
     spec.up = up.map(|(x, y, z)| nalgebra::Vector3::new(x, y, z));
     spec.forward = forward.map(|(x, y, z)| nalgebra::Vector3::new(x, y, z));
     if let Some(deg) = mount_roll_deg {
-        if !(deg.is_finite() && deg.abs() <= 180.0) {
+        if !Mount::valid_roll(deg) {
             return Err(PyValueError::new_err(format!(
                 "mount_roll_deg is {deg}; expected degrees within ±180 (0: the person's arm as it is)"
             )));

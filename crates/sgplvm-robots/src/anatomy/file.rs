@@ -158,10 +158,7 @@ impl AnatomySpec {
             mount_roll_deg: f.mount_roll_deg,
             ..AnatomySpec::default()
         };
-        if let Some(deg) = f
-            .mount_roll_deg
-            .filter(|d| !(d.is_finite() && d.abs() <= 180.0))
-        {
+        if let Some(deg) = f.mount_roll_deg.filter(|&d| !super::Mount::valid_roll(d)) {
             return Err(bad(format!(
                 "mount_roll_deg: {deg}; expected degrees within ±180 (0: the person's arm as it is)"
             )));

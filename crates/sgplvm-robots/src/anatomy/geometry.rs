@@ -283,7 +283,7 @@ fn mount_and_neutral(
     file: &str,
 ) -> AnatomyResult<Mount> {
     let mut mount = match spec.mount_roll_deg {
-        Some(deg) if deg.is_finite() && deg.abs() <= 180.0 => Mount::given(deg),
+        Some(deg) if Mount::valid_roll(deg) => Mount::given(deg),
         Some(deg) => {
             return Err(AnatomyError::Frame {
                 file: file.to_string(),

@@ -144,8 +144,8 @@ pub struct AnatomySpec {
     /// The neutral posture's arm joint values (default: found by IK).
     pub neutral: BTreeMap<String, f64>,
     /// Degrees the person's arm is turned outward about the forward axis before the robot
-    /// takes it ([`Mount`];
-    /// default: 0 where the arms hang, [`TABLE_ROLL_DEG`] where one cannot).
+    /// takes it ([`Mount`]; default: 0 where the arms hang, [`TABLE_ROLL_DEG`] where one
+    /// cannot).
     pub mount_roll_deg: Option<f64>,
     /// Which joints commands name.
     pub command_joints: CommandJoints,

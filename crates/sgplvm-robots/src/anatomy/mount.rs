@@ -87,6 +87,11 @@ impl Mount {
         }
     }
 
+    /// Whether `roll_deg` is a roll a user may set: finite, within ±180°.
+    pub fn valid_roll(roll_deg: f64) -> bool {
+        roll_deg.is_finite() && roll_deg.abs() <= 180.0
+    }
+
     /// The mount a user set.
     pub fn given(roll_deg: f64) -> Mount {
         Mount {
