@@ -297,7 +297,9 @@ fn mount_and_neutral(
     for arm in arms.iter_mut() {
         arm.neutral = neutral_posture(robot, arm, body_in_torso, &mount, spec, file)?;
     }
-    if spec.mount_roll_deg.is_none() && spec.neutral.is_empty() {
+    // A neutral posture the user gave stays theirs (`neutral_posture` returns it), mounted or
+    // not; whether the arm can hang is the robot's, whatever its neutral.
+    if spec.mount_roll_deg.is_none() {
         let missed = arms
             .iter()
             .map(|arm| hanging_miss_deg(arm, body_in_torso))

@@ -284,6 +284,15 @@ fn an_arm_that_cannot_hang_is_mounted_rolled_out_and_the_humanoids_are_not() {
     assert!(hand.y < -0.6 * arm.reach, "{hand}");
     assert!(hand.z.abs() < 0.2 * arm.reach, "{hand}");
     assert_eq!(a.to_file().mount_roll_deg, Some(TABLE_ROLL_DEG));
+    // A description file written before the mount gives the neutral posture but no mount: the
+    // arm still cannot hang, and its neutral stays the file's.
+    let older = AnatomySpec {
+        neutral: a.to_file().neutral,
+        ..AnatomySpec::default()
+    };
+    let b = Anatomy::load(&kuka, &older).unwrap();
+    assert!(matches!(b.mount().reason, MountReason::CannotHang { .. }));
+    assert_eq!(b.arm(Side::Right).unwrap().neutral, arm.neutral);
     // What the user says wins; a roll beyond ±180° is refused naming the file.
     let said = |deg: f64| AnatomySpec {
         mount_roll_deg: Some(deg),
