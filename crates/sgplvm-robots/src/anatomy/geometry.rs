@@ -80,6 +80,7 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
         notes: found.notes,
         meshes: MeshSearch::for_robot(&robot).unwrap_or_default(),
         hulls: super::HullCache::default(),
+        proofs: crate::kinematics::ApartProofs::default(),
         robot,
     };
     anatomy.notes.extend(notes(&anatomy));

@@ -53,13 +53,12 @@ use serde::Serialize;
 use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::Ancestry;
 use crate::kinematics::tasks::LinkPoint;
-use crate::kinematics::Chain;
+use crate::kinematics::{ApartProofs, Chain};
 use crate::models::Side;
-use crate::physics::mesh_hull;
+use crate::physics::{mesh_shapes, MeshShapes};
 use crate::urdf::MeshSearch;
 use crate::urdf::Robot;
 use crate::RobotError;
-use rapier3d::parry::shape::SharedShape;
 
 pub use commands::CommandColumns;
 pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
@@ -428,10 +427,12 @@ pub struct Anatomy {
     /// The meshes' hulls once read, shared by every collision model of this anatomy (and its
     /// clones): retargeting and its safety step, the live node's robots.
     hulls: HullCache,
+    /// The pairs of collision shapes proven kept apart by the joint limits, shared likewise.
+    proofs: ApartProofs,
 }
 
-/// A mesh (its URI and scale's bits) to its hull, or why there is none.
-type HullMap = std::collections::HashMap<(String, [u64; 3]), Result<SharedShape, String>>;
+/// A mesh (its URI and scale's bits) to its hull and triangles, or why there are none.
+type HullMap = std::collections::HashMap<(String, [u64; 3]), Result<MeshShapes, String>>;
 
 /// The hulls read so far, shared between clones.
 #[derive(Clone, Default)]
@@ -445,13 +446,13 @@ impl std::fmt::Debug for HullCache {
 }
 
 impl HullCache {
-    /// The hull of mesh `file` at `scale`, read through `search` the first time.
-    fn get(&self, search: &MeshSearch, file: &str, scale: [f64; 3]) -> Result<SharedShape, String> {
+    /// The hull and triangles of mesh `file` at `scale`, read through `search` the first time.
+    fn get(&self, search: &MeshSearch, file: &str, scale: [f64; 3]) -> Result<MeshShapes, String> {
         let key = (file.to_string(), scale.map(f64::to_bits));
         if let Some(found) = self.0.lock().ok().and_then(|m| m.get(&key).cloned()) {
             return found;
         }
-        let hull = mesh_hull(search, file, scale);
+        let hull = mesh_shapes(search, file, scale);
         if let Ok(mut m) = self.0.lock() {
             m.insert(key, hull.clone());
         }
@@ -717,6 +718,7 @@ impl Anatomy {
     pub fn with_meshes(mut self, search: MeshSearch) -> Anatomy {
         self.meshes = search;
         self.hulls = HullCache::default();
+        self.proofs = ApartProofs::default();
         self
     }
 
@@ -736,6 +738,7 @@ impl Anatomy {
             &self.hold,
             apart,
             Some(&loader),
+            Some(&self.proofs),
         )
     }
 

@@ -16,8 +16,10 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d::parry;
 use rapier3d::parry::shape::{SharedShape, SupportMap};
 
+use super::apart::{kept_apart, ApartProofs, MODEL_SURFACE_BUDGET};
 use super::frames::{Ancestry, RobotFrames};
 use super::hull::ClimbingHull;
+use crate::physics::MeshShapes;
 use crate::urdf::{pose_from_xyz_rpy, Robot};
 
 /// One collision shape of a link.
@@ -34,6 +36,8 @@ pub struct LinkShape {
     pub bound: (Vector3<f64>, f64),
     /// A mesh's hull in the form whose support points are climbed to, not scanned for.
     hull: Option<Arc<ClimbingHull>>,
+    /// A mesh's own triangles (the shape is their hull), for proving a pair apart.
+    pub(super) surface: Option<SharedShape>,
     /// A box holding it, in the link's frame: the second, tighter test before parry's.
     obb: Obb,
 }
@@ -109,8 +113,16 @@ impl Obb {
 }
 
 impl LinkShape {
+    /// The triangles of a mesh's surface (1 for a shape without: a primitive, a hull alone).
+    pub(super) fn triangles(&self) -> usize {
+        self.surface
+            .as_ref()
+            .and_then(|s| s.as_trimesh())
+            .map_or(1, |t| t.indices().len())
+    }
+
     /// The shape as GJK queries it: the climbing hull where there is one.
-    fn support_map(&self) -> Option<&dyn SupportMap> {
+    pub(super) fn support_map(&self) -> Option<&dyn SupportMap> {
         match &self.hull {
             Some(h) => Some(h.as_ref()),
             None => self.shape.as_support_map(),
@@ -140,13 +152,14 @@ pub struct CollisionModel {
     pairs: Vec<(usize, usize)>,
     unchecked: Vec<String>,
     overlapping_at_reference: usize,
+    kept_apart_by_limits: usize,
 }
 
-/// Turns a mesh collision element (file name as written in the URDF, scale) into a shape, or
-/// says why it cannot.
-pub type MeshLoader<'a> = dyn Fn(&str, [f64; 3]) -> Result<SharedShape, String> + 'a;
+/// Turns a mesh collision element (file name as written in the URDF, scale) into its hull and
+/// triangles, or says why it cannot.
+pub type MeshLoader<'a> = dyn Fn(&str, [f64; 3]) -> Result<MeshShapes, String> + 'a;
 
-fn pose_to_parry(p: &Isometry3<f64>) -> parry::math::Pose {
+pub(super) fn pose_to_parry(p: &Isometry3<f64>) -> parry::math::Pose {
     let t = p.translation.vector;
     let q = p.rotation;
     parry::math::Pose::from_parts(
@@ -160,16 +173,16 @@ fn vec_from_parry(v: parry::math::Vector) -> Vector3<f64> {
 }
 
 /// The shape of one URDF collision geometry (URDF cylinders and capsules lie along z; parry's
-/// cylinder along y, hence a turn).
+/// cylinder along y, hence a turn), a mesh's triangles beside its hull.
 fn shape_of(
     geometry: &urdf_rs::Geometry,
     meshes: Option<&MeshLoader<'_>>,
-) -> Result<(SharedShape, Isometry3<f64>), String> {
+) -> Result<(SharedShape, Option<SharedShape>, Isometry3<f64>), String> {
     let z_to_y = Isometry3::from_parts(
         nalgebra::Translation3::identity(),
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2),
     );
-    Ok(match geometry {
+    let primitive = match geometry {
         urdf_rs::Geometry::Box { size } => (
             SharedShape::cuboid(
                 (size[0] / 2.0) as f32,
@@ -192,16 +205,20 @@ fn shape_of(
         urdf_rs::Geometry::Mesh { filename, scale } => {
             let scale = scale.as_ref().map_or([1.0; 3], |s| [s[0], s[1], s[2]]);
             let loader = meshes.ok_or_else(|| format!("mesh {filename} (meshes not loaded)"))?;
-            (loader(filename, scale)?, Isometry3::identity())
+            let mesh = loader(filename, scale)?;
+            return Ok((mesh.hull, mesh.surface, Isometry3::identity()));
         }
-    })
+    };
+    Ok((primitive.0, None, primitive.1))
 }
 
 impl CollisionModel {
     /// The collision model of `robot`: its shapes (meshes through `meshes`, when given) and
     /// the pairs that can meet when the joints `moving` (indices into [`Robot::joints`]) move,
     /// judged at the reference configuration `reference`: pairs nearer than `apart` there (their
-    /// own overlap, or the margin a step will keep) are left out.
+    /// own overlap, or the margin a step will keep) are left out, and so are pairs the joint
+    /// limits keep apart (proven, see [`CollisionModel::kept_apart_by_limits`]; the proofs kept
+    /// in `proofs`, when given, for the next model of the same robot and reference).
     pub fn new(
         robot: &Robot,
         ancestry: &Ancestry,
@@ -209,6 +226,7 @@ impl CollisionModel {
         reference: &[f64],
         apart: f64,
         meshes: Option<&MeshLoader<'_>>,
+        proofs: Option<&ApartProofs>,
     ) -> CollisionModel {
         let mut shapes = Vec::new();
         let mut unchecked = Vec::new();
@@ -222,7 +240,7 @@ impl CollisionModel {
                     [c.origin.rpy[0], c.origin.rpy[1], c.origin.rpy[2]],
                 );
                 match shape_of(&c.geometry, meshes) {
-                    Ok((shape, turn)) => {
+                    Ok((shape, surface, turn)) => {
                         let local = origin * turn;
                         let sphere = shape.compute_local_bounding_sphere();
                         let centre =
@@ -238,6 +256,7 @@ impl CollisionModel {
                             local,
                             bound: (centre, f64::from(sphere.radius)),
                             hull,
+                            surface,
                             obb,
                         });
                     }
@@ -264,8 +283,10 @@ impl CollisionModel {
             pairs: Vec::new(),
             unchecked,
             overlapping_at_reference: 0,
+            kept_apart_by_limits: 0,
         };
         let frames = RobotFrames::new(robot, ancestry, reference);
+        let mut candidates = Vec::new();
         for i in 0..model.shapes.len() {
             for k in (i + 1)..model.shapes.len() {
                 let (a, b) = (model.shapes[i].link, model.shapes[k].link);
@@ -279,9 +300,35 @@ impl CollisionModel {
                     model.overlapping_at_reference += 1;
                     continue;
                 }
-                model.pairs.push((i, k));
+                candidates.push((i, k));
             }
         }
+        // The proofs in order of their meshes' size, so that the model's budget goes first to
+        // the pairs it proves cheapest; the pairs kept stay in shape order.
+        let mut by_cost = candidates.clone();
+        by_cost.sort_by_key(|&(i, k)| model.shapes[i].triangles() + model.shapes[k].triangles());
+        let mut budget = MODEL_SURFACE_BUDGET;
+        let mut proven = std::collections::HashSet::new();
+        for (i, k) in by_cost {
+            let (sa, sb) = (&model.shapes[i], &model.shapes[k]);
+            let pair = ((i, sa), (k, sb));
+            if kept_apart(
+                robot,
+                ancestry,
+                moving,
+                reference,
+                pair,
+                proofs,
+                &mut budget,
+            ) {
+                proven.insert((i, k));
+            }
+        }
+        model.kept_apart_by_limits = proven.len();
+        model.pairs = candidates
+            .into_iter()
+            .filter(|p| !proven.contains(p))
+            .collect();
         model
     }
 
@@ -304,6 +351,14 @@ impl CollisionModel {
     /// reference posture.
     pub fn overlapping_at_reference(&self) -> usize {
         self.overlapping_at_reference
+    }
+
+    /// Pairs left out because the joint limits keep them apart: proven, over the joints between
+    /// their links (at most two) within their limits, never to come within a millimetre (on the
+    /// meshes' own triangles where the hulls do not settle it), as MoveIt's "never in
+    /// collision" pairs are left out.
+    pub fn kept_apart_by_limits(&self) -> usize {
+        self.kept_apart_by_limits
     }
 
     /// The pair's two link indices.
@@ -435,7 +490,7 @@ mod tests {
         let ancestry = Ancestry::of(&robot);
         let moving = robot.movable.clone();
         let zero = robot.neutral_configuration();
-        let model = CollisionModel::new(&robot, &ancestry, &moving, &zero, 0.0, None);
+        let model = CollisionModel::new(&robot, &ancestry, &moving, &zero, 0.0, None, None);
         assert!(model.unchecked().is_empty());
         assert!(!model.pairs().is_empty());
         let frames = RobotFrames::new(&robot, &ancestry, &zero);

@@ -16,6 +16,7 @@
 //! `mod.rs` cuts the chain out of the robot and computes its forward kinematics and Jacobian;
 //! `ik.rs` solves inverse kinematics on it.
 
+mod apart;
 pub mod collision;
 pub mod frames;
 mod hull;
@@ -24,6 +25,7 @@ pub mod limits;
 pub mod qp;
 pub mod tasks;
 
+pub use apart::ApartProofs;
 pub use ik::{IkOptions, IkSolution, IkTarget};
 
 use nalgebra::{Isometry3, Matrix6xX, Translation3, Unit, UnitQuaternion, Vector3, Vector6};

@@ -101,8 +101,9 @@ pub(super) struct LoadedMeshes {
 /// A problem and its message.
 type Failure = (MeshProblem, String);
 
-/// The vertices of a mesh file (every mesh of it), shared between collisions naming it.
-type Vertices = Arc<Vec<[f32; 3]>>;
+/// The vertices and triangles of a mesh file (every mesh of it, the triangles indexing the
+/// joined vertices), shared between collisions naming it.
+type MeshData = Arc<(Vec<[f32; 3]>, Vec<[u32; 3]>)>;
 
 /// Finds, reads and hulls every mesh of `meshes` (links named by `links`).
 pub(super) fn load(
@@ -112,18 +113,18 @@ pub(super) fn load(
 ) -> LoadedMeshes {
     let started = Instant::now();
     let mut loaded = LoadedMeshes::default();
-    let mut files: HashMap<PathBuf, Result<Vertices, Failure>> = HashMap::new();
+    let mut files: HashMap<PathBuf, Result<MeshData, Failure>> = HashMap::new();
     for mesh in meshes {
         let link_name = links.get(mesh.link).map_or("", |l| l.name.as_str());
         let hull = search
             .resolve(&mesh.filename)
             .map_err(|miss| (MeshProblem::NotFound, miss.to_string()))
             .and_then(|path| {
-                let vertices = files
+                let mesh_data = files
                     .entry(path.clone())
-                    .or_insert_with(|| read_vertices(&path))
+                    .or_insert_with(|| read_mesh(&path))
                     .clone()?;
-                hull_of(&vertices, mesh.scale)
+                hull_of(&mesh_data.0, mesh.scale)
                     .map_err(|why| (MeshProblem::Unusable, format!("{}: {why}", path.display())))
             });
         match hull {
@@ -144,16 +145,51 @@ pub(super) fn load(
     loaded
 }
 
-/// The convex hull of the collision mesh `filename` (as the URDF names it) scaled by `scale`,
-/// found through `search`; what went wrong, naming the file, when it cannot be had.
-pub fn mesh_hull(
+/// A collision mesh as the self-collision model uses it: its convex hull (what is checked
+/// every step) and its own triangles (what is true, for proving a pair apart once).
+#[derive(Clone)]
+pub struct MeshShapes {
+    /// The convex hull of the mesh's vertices.
+    pub hull: SharedShape,
+    /// The mesh's triangles as a triangle mesh; `None` when the file has no usable triangles
+    /// (then the hull stands for it).
+    pub surface: Option<SharedShape>,
+}
+
+/// The collision mesh `filename` (as the URDF names it) scaled by `scale`, found through
+/// `search`, as its hull and its triangles; what went wrong, naming the file, when it cannot
+/// be had.
+pub fn mesh_shapes(
     search: &MeshSearch,
     filename: &str,
     scale: [f64; 3],
-) -> Result<SharedShape, String> {
+) -> Result<MeshShapes, String> {
     let path = search.resolve(filename).map_err(|miss| miss.to_string())?;
-    let vertices = read_vertices(&path).map_err(|(_, message)| message)?;
-    hull_of(&vertices, scale).map_err(|why| format!("{}: {why}", path.display()))
+    let mesh_data = read_mesh(&path).map_err(|(_, message)| message)?;
+    let (vertices, triangles) = (&mesh_data.0, &mesh_data.1);
+    let hull = hull_of(vertices, scale).map_err(|why| format!("{}: {why}", path.display()))?;
+    // The hull has checked the scaled vertices (finite, within reach).
+    let points: Vec<Vector> = vertices
+        .iter()
+        .map(|v| {
+            Vector::new(
+                (f64::from(v[0]) * scale[0]) as Real,
+                (f64::from(v[1]) * scale[1]) as Real,
+                (f64::from(v[2]) * scale[2]) as Real,
+            )
+        })
+        .collect();
+    let in_range = triangles
+        .iter()
+        .all(|t| t.iter().all(|&i| (i as usize) < points.len()));
+    let surface = (in_range && !triangles.is_empty())
+        .then(|| {
+            crate::panics::catch(|| SharedShape::trimesh(points, triangles.clone()).ok())
+                .ok()
+                .flatten()
+        })
+        .flatten();
+    Ok(MeshShapes { hull, surface })
 }
 
 /// A URDF `<origin>` as a rapier pose (`rpy` fixed-axis: `Rz(yaw) Ry(pitch) Rx(roll)`, as
@@ -171,9 +207,9 @@ fn pose_of(origin: &urdf_rs::Pose) -> Pose {
     )
 }
 
-/// Every vertex of the mesh file `path`; the format is told by the extension (`.stl`, `.dae`,
-/// `.obj`, any case), else by the content.
-fn read_vertices(path: &Path) -> Result<Vertices, Failure> {
+/// Every vertex and triangle of the mesh file `path`; the format is told by the extension
+/// (`.stl`, `.dae`, `.obj`, any case), else by the content.
+fn read_mesh(path: &Path) -> Result<MeshData, Failure> {
     let shown = path.display();
     let unreadable = |why: String| (MeshProblem::Unreadable, format!("{shown}: {why}"));
     let size = std::fs::metadata(path)
@@ -226,12 +262,18 @@ fn read_vertices(path: &Path) -> Result<Vertices, Failure> {
             )))
         }
     };
-    let vertices: Vec<[f32; 3]> = scene
-        .meshes
-        .iter()
-        .flat_map(|m| m.vertices.iter().copied())
-        .collect();
-    Ok(Arc::new(vertices))
+    let mut vertices: Vec<[f32; 3]> = Vec::new();
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    for mesh in &scene.meshes {
+        let offset = vertices.len() as u32;
+        vertices.extend(mesh.vertices.iter().copied());
+        triangles.extend(
+            mesh.faces
+                .iter()
+                .map(|f| f.map(|i| i.saturating_add(offset))),
+        );
+    }
+    Ok(Arc::new((vertices, triangles)))
 }
 
 /// Whether `bytes` have the size of a binary STL: an 80-byte header, a little-endian triangle

@@ -62,7 +62,7 @@ mod trajectory;
 use rapier3d_urdf::urdf_rs;
 
 pub use error::PhysicsError;
-pub use hulls::{mesh_hull, MeshProblem, UncheckedMesh, MAX_MESH_BYTES};
+pub use hulls::{mesh_shapes, MeshProblem, MeshShapes, UncheckedMesh, MAX_MESH_BYTES};
 pub use options::ReplayOptions;
 pub use report::{
     Collision, Divergence, JointTracking, LimitViolation, ReferenceJump, ReplayReport,

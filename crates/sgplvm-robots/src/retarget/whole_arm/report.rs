@@ -82,6 +82,9 @@ pub struct PostureReport {
     pub margin_m: f64,
     /// Pairs of shapes that can meet.
     pub pairs: usize,
+    /// Pairs of shapes left unchecked because the joint limits keep them apart (proven when the
+    /// model was made: [`crate::kinematics::collision::CollisionModel::kept_apart_by_limits`]).
+    pub pairs_kept_apart: usize,
     /// What could not be checked (collision meshes not found …).
     pub unchecked: Vec<String>,
     /// Gauss–Newton steps per frame, mean.
@@ -369,6 +372,7 @@ impl Tally {
             closest_m: self.closest,
             margin_m: options.margin_m,
             pairs: model.pairs().len(),
+            pairs_kept_apart: model.kept_apart_by_limits(),
             unchecked: model.unchecked().to_vec(),
             steps_per_frame: self.steps as f64 / frames.max(1) as f64,
             constrained_steps: self.constrained as f64 / self.steps.max(1) as f64,

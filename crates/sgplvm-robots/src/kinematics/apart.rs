@@ -1,0 +1,363 @@
+//! Pairs of a robot's own shapes that its joint limits keep apart: proven once, when the
+//! collision model is made, so that they are never checked (MoveIt's Setup Assistant calls
+//! them "never in collision" and finds them by sampling the whole robot; here the proof is over
+//! the joints between the two links alone, with their limits: a bound, not a sample).
+//!
+//! Only the joints between two links (above one and not the other) move them relative to each
+//! other. Over a box of those joints' values, a point of a shape moves by at most
+//! `Σⱼ rⱼ |Δqⱼ|`, where `rⱼ` bounds the point's distance from joint j's axis (the lengths down the
+//! chain from j to the shape, plus the shape's bounding sphere; 1 for a prismatic joint). So if
+//! the shapes are `d` apart at the box's centre and `d − Σⱼ rⱼ hⱼ` (hⱼ the half-widths) is more
+//! than the clearance, they keep that clearance everywhere in the box. The whole range is split
+//! into such boxes (branch and bound, within a budget of distance queries); a box whose centre
+//! is within the clearance ends the proof: the pair can meet and is kept.
+//!
+//! The shapes are the meshes' own triangles where the hulls do not settle it (the hull checked
+//! every step reaches into a mesh's concave places: IIT's ergoCub's forearm hull comes within
+//! 10 mm of its wrist's in nearly every posture, their triangles never within 1 mm), else the
+//! shapes themselves. A pair apart at the reference posture that
+//! came to overlap somewhere in the range would pass through touching on the way there (the
+//! box is connected and holds the reference), so surfaces suffice.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use nalgebra::Isometry3;
+use rapier3d::parry;
+use rapier3d::parry::shape::SharedShape;
+
+use super::collision::{pose_to_parry, LinkShape};
+use super::frames::{Ancestry, RobotFrames};
+use crate::urdf::{JointKind, Robot};
+
+/// The most joints that may lie between two links for the proof to be tried (beyond, the
+/// boxes multiply: a hand and a torso are checked as they are).
+pub(super) const MAX_JOINTS_BETWEEN: usize = 2;
+
+/// Distance queries one pair's proof may take on the hulls (microseconds each) ...
+const BUDGET: usize = 4_000;
+
+/// ... and on the meshes' triangles ...
+const SURFACE_BUDGET: usize = 300;
+
+/// ... and all the pairs of one collision model on triangles, counted as the triangles of the
+/// two meshes queried (a query's cost grows with them: a few milliseconds on a published
+/// robot's 10,000): a robot's start stays within seconds, and the count is deterministic (not
+/// a clock: the same robot gets the same pairs on any machine).
+pub(super) const MODEL_SURFACE_BUDGET: usize = 3_000_000;
+
+/// The distance the limits must keep between the shapes, metres.
+const CLEARANCE_M: f64 = 0.001;
+
+/// The joints between two shapes' links, their ranges and Lipschitz factors.
+struct Between {
+    /// Configuration indices.
+    q_index: Vec<usize>,
+    /// Each joint's range, `(lo, hi)`, holding the reference value.
+    range: Vec<(f64, f64)>,
+    /// How far a point of the shape moves per unit of the joint (metres per radian or metre).
+    reach: Vec<f64>,
+}
+
+/// Proofs already made for one robot at one reference posture, shared by its collision models
+/// (and clones of its anatomy): (the two shapes' indices, the joints between) → kept apart.
+#[derive(Clone, Default)]
+pub struct ApartProofs(Arc<Mutex<HashMap<ProofKey, bool>>>);
+
+/// Two shapes of a collision model (indices) and the joints between their links.
+type ProofKey = (usize, usize, Vec<usize>);
+
+impl std::fmt::Debug for ApartProofs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.lock().map_or(0, |m| m.len());
+        write!(f, "ApartProofs({n} pairs)")
+    }
+}
+
+/// Whether the joint limits keep shapes `a` and `b` (indices `ia`, `ib` of their model) apart
+/// by more than a millimetre for every value of the joints between their links (of the joints
+/// `moving`, indices into [`Robot::joints`]; the others at `reference`). False when it cannot
+/// be proven: a posture brings them that close, too many joints lie between, a range is
+/// unbounded, or a budget ran out (`surface_budget`: the model's triangle queries left).
+pub(super) fn kept_apart(
+    robot: &Robot,
+    ancestry: &Ancestry,
+    moving: &[usize],
+    reference: &[f64],
+    ((ia, a), (ib, b)): ((usize, &LinkShape), (usize, &LinkShape)),
+    proofs: Option<&ApartProofs>,
+    surface_budget: &mut usize,
+) -> bool {
+    let Some(between) = joints_between(robot, ancestry, moving, reference, a, b) else {
+        return false;
+    };
+    let key = (ia, ib, between.q_index.clone());
+    let known = proofs.and_then(|p| p.0.lock().ok().and_then(|m| m.get(&key).copied()));
+    if let Some(known) = known {
+        return known;
+    }
+    let apart = proven(robot, ancestry, reference, &between, (a, b), surface_budget);
+    if let Some(mut m) = proofs.and_then(|p| p.0.lock().ok()) {
+        m.insert(key, apart);
+    }
+    apart
+}
+
+/// The joints between the links of `a` and `b`, or `None` when the proof is not tried.
+fn joints_between(
+    robot: &Robot,
+    ancestry: &Ancestry,
+    moving: &[usize],
+    reference: &[f64],
+    a: &LinkShape,
+    b: &LinkShape,
+) -> Option<Between> {
+    let (above_a, above_b) = (ancestry.above(a.link), ancestry.above(b.link));
+    let mut between = Between {
+        q_index: Vec::new(),
+        range: Vec::new(),
+        reach: Vec::new(),
+    };
+    for (side, above, other) in [(a, above_a, above_b), (b, above_b, above_a)] {
+        for &j in above.iter().filter(|j| !other.contains(j)) {
+            if !moving.contains(&j) {
+                continue;
+            }
+            if between.q_index.len() == MAX_JOINTS_BETWEEN {
+                return None;
+            }
+            let joint = &robot.joints[j];
+            let i = joint.q_index?;
+            let now = reference.get(i).copied().unwrap_or(0.0);
+            let (lo, hi) = joint.limits;
+            let range = match joint.kind {
+                JointKind::Prismatic if lo.is_finite() && hi.is_finite() && lo <= hi => {
+                    (lo.min(now), hi.max(now))
+                }
+                JointKind::Prismatic => return None,
+                _ if lo <= hi && hi - lo < std::f64::consts::TAU => (lo.min(now), hi.max(now)),
+                // A whole turn or more, or no limits: every angle.
+                _ => (now - std::f64::consts::PI, now + std::f64::consts::PI),
+            };
+            let reach = match joint.kind {
+                JointKind::Prismatic => 1.0,
+                _ => reach_below(robot, ancestry, moving, reference, j, side)?,
+            };
+            between.q_index.push(i);
+            between.range.push(range);
+            between.reach.push(reach);
+        }
+    }
+    (!between.q_index.is_empty()).then_some(between)
+}
+
+/// A bound on the distance of any point of `shape` from the axis of joint `j` above its link,
+/// whatever the joints between: where no moving joint lies between `j` and the link, the shape's
+/// bounding sphere's distance from the axis line (at `reference`); else the lengths down the
+/// chain from `j` to the link (a prismatic joint's full travel), then the sphere.
+fn reach_below(
+    robot: &Robot,
+    ancestry: &Ancestry,
+    moving: &[usize],
+    reference: &[f64],
+    j: usize,
+    shape: &LinkShape,
+) -> Option<f64> {
+    let path = robot.path_to(shape.link);
+    let after = path.iter().position(|&k| k == j)? + 1;
+    let below = &path[after..];
+    if !below.iter().any(|k| moving.contains(k)) {
+        let frames = RobotFrames::new(robot, ancestry, reference);
+        let centre = frames.link(shape.link) * nalgebra::Point3::from(shape.bound.0);
+        let joint_frame = frames.link(robot.joints[j].parent) * robot.joints[j].origin;
+        let axis = joint_frame.rotation * robot.joints[j].axis.into_inner();
+        let offset = centre.coords - joint_frame.translation.vector;
+        let off_axis = (offset - axis * axis.dot(&offset)).norm();
+        return Some(off_axis + shape.bound.1);
+    }
+    let mut reach = shape.bound.0.norm() + shape.bound.1;
+    for &k in below {
+        let joint = &robot.joints[k];
+        reach += joint.origin.translation.vector.norm();
+        if joint.kind == JointKind::Prismatic {
+            let now = joint.q_index.and_then(|i| reference.get(i)).copied();
+            let travel = joint.limits.0.abs().max(joint.limits.1.abs());
+            reach += travel.max(now.unwrap_or(0.0).abs());
+        }
+    }
+    reach.is_finite().then_some(reach)
+}
+
+/// Branch and bound over `between`'s box: true when every part of it is proven to keep the
+/// shapes of `pair` more than the clearance apart within the budgets. Each box is judged on
+/// the shapes checked every step (hulls: cheap, never nearer than the truth), then, where they
+/// do not settle it, on the meshes' triangles (each such query taken from `surface_budget`).
+fn proven(
+    robot: &Robot,
+    ancestry: &Ancestry,
+    reference: &[f64],
+    between: &Between,
+    pair: (&LinkShape, &LinkShape),
+    surface_budget: &mut usize,
+) -> bool {
+    let surfaces = (pair.0.surface.is_some() || pair.1.surface.is_some()).then(|| {
+        let truly = |s: &LinkShape| s.surface.clone().unwrap_or_else(|| s.shape.clone());
+        (truly(pair.0), truly(pair.1))
+    });
+    let mut q = reference.to_vec();
+    let mut boxes = vec![between.range.clone()];
+    let (mut queries, mut surface_queries) = (0, 0);
+    while let Some(cell) = boxes.pop() {
+        if queries == BUDGET {
+            return false;
+        }
+        queries += 1;
+        for (&i, &(lo, hi)) in between.q_index.iter().zip(&cell) {
+            if let Some(v) = q.get_mut(i) {
+                *v = 0.5 * (lo + hi);
+            }
+        }
+        let frames = RobotFrames::new(robot, ancestry, &q);
+        let distance = |ga: &SharedShape, gb: &SharedShape| -> Option<f64> {
+            let place = |s: &LinkShape| -> Isometry3<f64> { frames.link(s.link) * s.local };
+            parry::query::distance(
+                &pose_to_parry(&place(pair.0)),
+                ga.as_ref(),
+                &pose_to_parry(&place(pair.1)),
+                gb.as_ref(),
+            )
+            .ok()
+            .map(|d| f64::from(d.distance))
+        };
+        let moves: Vec<f64> = cell
+            .iter()
+            .zip(&between.reach)
+            .map(|(&(lo, hi), r)| r * 0.5 * (hi - lo))
+            .collect();
+        let slack = CLEARANCE_M + moves.iter().sum::<f64>();
+        let hulls = (pair.0.support_map(), pair.1.support_map());
+        let Some(mut apart) = (match hulls {
+            (Some(ga), Some(gb)) => {
+                let pa = pose_to_parry(&(frames.link(pair.0.link) * pair.0.local));
+                let pb = pose_to_parry(&(frames.link(pair.1.link) * pair.1.local));
+                let d = parry::query::details::distance_support_map_support_map(
+                    &pa.inv_mul(&pb),
+                    ga,
+                    gb,
+                );
+                Some(f64::from(d))
+            }
+            _ => distance(&pair.0.shape, &pair.1.shape),
+        }) else {
+            return false;
+        };
+        if apart <= slack {
+            if let Some((sa, sb)) = &surfaces {
+                let cost = pair.0.triangles() + pair.1.triangles();
+                if surface_queries == SURFACE_BUDGET || *surface_budget < cost {
+                    return false;
+                }
+                surface_queries += 1;
+                *surface_budget -= cost;
+                let Some(d) = distance(sa, sb) else {
+                    return false;
+                };
+                apart = d;
+            }
+        }
+        if apart <= CLEARANCE_M {
+            return false;
+        }
+        if apart > slack {
+            continue;
+        }
+
+        // Halve the joint that moves the shapes most over the box.
+        let widest = (0..moves.len())
+            .max_by(|&x, &y| moves[x].total_cmp(&moves[y]))
+            .unwrap_or(0);
+        let (lo, hi) = cell[widest];
+        let mid = 0.5 * (lo + hi);
+        let mut lower = cell.clone();
+        lower[widest] = (lo, mid);
+        let mut upper = cell;
+        upper[widest] = (mid, hi);
+        boxes.push(lower);
+        boxes.push(upper);
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::collision::CollisionModel;
+    use super::*;
+
+    /// A post on the base at x = −0.4 and a two-joint arm (a yaw, then a pitch) whose forearm
+    /// box reaches 0.3–0.5 m out along x: the yaw's limits `±yaw` decide whether it can swing
+    /// round to the post.
+    fn arm_and_post(yaw: f64) -> Robot {
+        let xml = format!(
+            r#"<robot name="post">
+  <link name="base"><collision><origin xyz="-0.4 0 0.1"/><geometry><box size="0.1 0.1 0.4"/></geometry></collision></link>
+  <link name="yaw_link"/>
+  <link name="forearm"><collision><origin xyz="0.4 0 0"/><geometry><box size="0.2 0.05 0.05"/></geometry></collision></link>
+  <joint name="yaw" type="revolute"><parent link="base"/><child link="yaw_link"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-{yaw}" upper="{yaw}" effort="1" velocity="1"/></joint>
+  <joint name="pitch" type="revolute"><parent link="yaw_link"/><child link="forearm"/><axis xyz="0 1 0"/><limit lower="-0.3" upper="0.3" effort="1" velocity="1"/></joint>
+</robot>"#
+        );
+        Robot::from_urdf_str(&xml, "post.urdf").unwrap()
+    }
+
+    fn model(robot: &Robot) -> CollisionModel {
+        let ancestry = Ancestry::of(robot);
+        let zero = vec![0.0; robot.dof()];
+        CollisionModel::new(robot, &ancestry, &robot.movable, &zero, 0.01, None, None)
+    }
+
+    #[test]
+    fn a_pair_the_limits_keep_apart_is_left_out_and_one_they_let_meet_is_kept() {
+        // Within ±1 rad of yaw the forearm stays ≥ 0.1 m from the post.
+        let held = arm_and_post(1.0);
+        let m = model(&held);
+        assert_eq!((m.pairs().len(), m.kept_apart_by_limits()), (0, 1));
+        // Within ±3 rad it swings into the post (at yaw = π it would pass through it).
+        let free = arm_and_post(3.0);
+        let m = model(&free);
+        assert_eq!((m.pairs().len(), m.kept_apart_by_limits()), (1, 0));
+    }
+
+    #[test]
+    fn what_is_proven_apart_is_apart_everywhere_in_the_limits() {
+        // The largest yaw range still proven: sampled densely, no posture comes within the
+        // clearance (the Lipschitz bound is a bound, not an estimate).
+        let mut widest = 0.0;
+        for step in 1..=30 {
+            let yaw = 0.1 * f64::from(step);
+            if model(&arm_and_post(yaw)).kept_apart_by_limits() == 1 {
+                widest = yaw;
+            }
+        }
+        assert!(widest >= 1.0, "proven up to ±{widest} rad only");
+        let robot = arm_and_post(widest);
+        let ancestry = Ancestry::of(&robot);
+        let m = model(&arm_and_post(3.0));
+        let mut least = f64::INFINITY;
+        for i in 0..=200 {
+            for k in 0..=20 {
+                let q = [
+                    -widest + 2.0 * widest * f64::from(i) / 200.0,
+                    -0.3 + 0.6 * f64::from(k) / 20.0,
+                ];
+                let frames = RobotFrames::new(&robot, &ancestry, &q);
+                if let Some(p) = m.proximities(&frames, 1.0).first() {
+                    least = least.min(p.distance);
+                }
+            }
+        }
+        assert!(least > CLEARANCE_M, "{least} m at ±{widest} rad");
+        // The post is 0.4 m out and the forearm reaches 0.5 m: at yaw π − 0.4 they are close;
+        // the proof cannot claim much beyond where they actually come within the clearance.
+        assert!(widest < 3.0, "{widest}");
+    }
+}
