@@ -232,14 +232,15 @@ pub fn teleop(
             ips.join(", ")
         ));
     }
+    let status = status_publisher(&mut node, options)?;
+    let (driven, slots) = drive_all(&mut node, drives, options, log)?;
     // The JointState topic is the input only when no other is named: a publisher on it must
-    // not drive the robots alongside a suit or a skeleton.
+    // not drive the robots alongside a suit or a skeleton. Subscribed once every robot is ready
+    // (its collision model made): a sender that waits to be matched sends nothing that is lost.
     let input = match (options.mvn, &options.tf) {
         (None, None) => Some(subscribe_input(&mut node, options)?),
         _ => None,
     };
-    let status = status_publisher(&mut node, options)?;
-    let (driven, slots) = drive_all(&mut node, drives, options, log)?;
     let view = start_view(options, &driven, &human, log)?;
     let mvn = options
         .mvn

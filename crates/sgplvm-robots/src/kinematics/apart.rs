@@ -5,8 +5,8 @@
 //!
 //! Only the joints between two links (above one and not the other) move them relative to each
 //! other. Over a box of those joints' values, a point of a shape moves by at most
-//! `Σⱼ rⱼ |Δqⱼ|`, where `rⱼ` bounds the point's distance from joint j's axis (the lengths down the
-//! chain from j to the shape, plus the shape's bounding sphere; 1 for a prismatic joint). So if
+//! `Σⱼ rⱼ |Δqⱼ|`, where `rⱼ` bounds the point's distance from joint j's axis (from the corners of
+//! a box holding the shape: see `reach_below`; 1 for a prismatic joint). So if
 //! the shapes are `d` apart at the box's centre and `d − Σⱼ rⱼ hⱼ` (hⱼ the half-widths) is more
 //! than the clearance, they keep that clearance everywhere in the box. The whole range is split
 //! into such boxes (branch and bound, within a budget of distance queries); a box whose centre
@@ -24,6 +24,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::Isometry3;
 use rapier3d::parry;
+use rapier3d::parry::query::ClosestPoints;
 use rapier3d::parry::shape::SharedShape;
 
 use super::collision::{pose_to_parry, LinkShape};
@@ -35,15 +36,15 @@ use crate::urdf::{JointKind, Robot};
 pub(super) const MAX_JOINTS_BETWEEN: usize = 2;
 
 /// Distance queries one pair's proof may take on the hulls (microseconds each) ...
-const BUDGET: usize = 4_000;
+const BUDGET: usize = 1_000;
 
 /// ... and on the meshes' triangles ...
 const SURFACE_BUDGET: usize = 300;
 
 /// ... and all the pairs of one collision model on triangles, counted as the triangles of the
-/// two meshes queried (a query's cost grows with them: a few milliseconds on a published
-/// robot's 10,000): a robot's start stays within seconds, and the count is deterministic (not
-/// a clock: the same robot gets the same pairs on any machine).
+/// two meshes queried (a query's cost grows with them: about 1 µs a triangle, 2–3 ms a query
+/// on Fetch's meshes of 1,000): at most a few seconds more at a robot's start, and the count is
+/// deterministic (not a clock: the same robot gets the same pairs on any machine).
 pub(super) const MODEL_SURFACE_BUDGET: usize = 3_000_000;
 
 /// The distance the limits must keep between the shapes, metres.
@@ -152,9 +153,11 @@ fn joints_between(
 }
 
 /// A bound on the distance of any point of `shape` from the axis of joint `j` above its link,
-/// whatever the joints between: where no moving joint lies between `j` and the link, the shape's
-/// bounding sphere's distance from the axis line (at `reference`); else the lengths down the
-/// chain from `j` to the link (a prismatic joint's full travel), then the sphere.
+/// whatever the joints between, from the corners of a box holding the shape (at `reference`):
+/// where no moving joint lies between `j` and the link, the farthest corner's distance from
+/// the axis line; where one does (`k`: at most two joints lie between), the distance from `j`'s
+/// origin to `k`'s (rigid in `j`'s child), plus the farthest corner's from `k`'s origin (which
+/// `k`'s turn keeps; a prismatic `k` adds its travel).
 fn reach_below(
     robot: &Robot,
     ancestry: &Ancestry,
@@ -165,26 +168,43 @@ fn reach_below(
 ) -> Option<f64> {
     let path = robot.path_to(shape.link);
     let after = path.iter().position(|&k| k == j)? + 1;
-    let below = &path[after..];
-    if !below.iter().any(|k| moving.contains(k)) {
-        let frames = RobotFrames::new(robot, ancestry, reference);
-        let centre = frames.link(shape.link) * nalgebra::Point3::from(shape.bound.0);
-        let joint_frame = frames.link(robot.joints[j].parent) * robot.joints[j].origin;
-        let axis = joint_frame.rotation * robot.joints[j].axis.into_inner();
-        let offset = centre.coords - joint_frame.translation.vector;
-        let off_axis = (offset - axis * axis.dot(&offset)).norm();
-        return Some(off_axis + shape.bound.1);
-    }
-    let mut reach = shape.bound.0.norm() + shape.bound.1;
-    for &k in below {
-        let joint = &robot.joints[k];
-        reach += joint.origin.translation.vector.norm();
-        if joint.kind == JointKind::Prismatic {
-            let now = joint.q_index.and_then(|i| reference.get(i)).copied();
-            let travel = joint.limits.0.abs().max(joint.limits.1.abs());
-            reach += travel.max(now.unwrap_or(0.0).abs());
+    let frames = RobotFrames::new(robot, ancestry, reference);
+    let place = frames.link(shape.link);
+    let corners: Vec<_> = shape
+        .corners()
+        .iter()
+        .map(|c| (place * nalgebra::Point3::from(*c)).coords)
+        .collect();
+    let joint_at = |k: usize| {
+        let frame = frames.link(robot.joints[k].parent) * robot.joints[k].origin;
+        let axis = frame.rotation * robot.joints[k].axis.into_inner();
+        (frame.translation.vector, axis)
+    };
+    let (origin, axis) = joint_at(j);
+    let mut below = path[after..].iter().copied().filter(|k| moving.contains(k));
+    let reach = match (below.next(), below.next()) {
+        (None, _) => corners
+            .iter()
+            .map(|c| {
+                let offset = c - origin;
+                (offset - axis * axis.dot(&offset)).norm()
+            })
+            .fold(0.0, f64::max),
+        (Some(k), None) => {
+            let (next, _) = joint_at(k);
+            let farthest = corners
+                .iter()
+                .map(|c| (c - next).norm())
+                .fold(0.0, f64::max);
+            let joint = &robot.joints[k];
+            let travel = match joint.kind {
+                JointKind::Prismatic => (joint.limits.1 - joint.limits.0).abs(),
+                _ => 0.0,
+            };
+            (next - origin).norm() + farthest + travel
         }
-    }
+        _ => return None,
+    };
     reach.is_finite().then_some(reach)
 }
 
@@ -205,9 +225,12 @@ fn proven(
         (truly(pair.0), truly(pair.1))
     });
     let mut q = reference.to_vec();
-    let mut boxes = vec![between.range.clone()];
+    // Best first: the box whose parent came nearest (the least lower bound on its distance)
+    // is split next, so that a pair that can meet is found meeting within few queries.
+    let mut boxes = std::collections::BinaryHeap::new();
+    boxes.push(Cell(f64::NEG_INFINITY, between.range.clone()));
     let (mut queries, mut surface_queries) = (0, 0);
-    while let Some(cell) = boxes.pop() {
+    while let Some(Cell(_, cell)) = boxes.pop() {
         if queries == BUDGET {
             return false;
         }
@@ -259,10 +282,21 @@ fn proven(
                 }
                 surface_queries += 1;
                 *surface_budget -= cost;
-                let Some(d) = distance(sa, sb) else {
-                    return false;
+                // Only whether they are nearer than the slack, and then how near: parry's
+                // trees skip every pair of triangles farther apart than that.
+                let place = |s: &LinkShape| pose_to_parry(&(frames.link(s.link) * s.local));
+                let (pa, pb) = (place(pair.0), place(pair.1));
+                apart = match parry::query::closest_points(
+                    &pa,
+                    sa.as_ref(),
+                    &pb,
+                    sb.as_ref(),
+                    slack as f32,
+                ) {
+                    Ok(ClosestPoints::Disjoint) => f64::INFINITY,
+                    Ok(ClosestPoints::WithinMargin(p1, p2)) => f64::from((p1 - p2).length()),
+                    Ok(ClosestPoints::Intersecting) | Err(_) => return false,
                 };
-                apart = d;
             }
         }
         if apart <= CLEARANCE_M {
@@ -282,10 +316,35 @@ fn proven(
         lower[widest] = (lo, mid);
         let mut upper = cell;
         upper[widest] = (mid, hi);
-        boxes.push(lower);
-        boxes.push(upper);
+        let bound = apart - slack;
+        boxes.push(Cell(bound, lower));
+        boxes.push(Cell(bound, upper));
     }
     true
+}
+
+/// A box of joint values and a lower bound on the shapes' distance over it (its parent's
+/// distance less its parent's slack), ordered so that the least bound comes first.
+struct Cell(f64, Vec<(f64, f64)>);
+
+impl PartialEq for Cell {
+    fn eq(&self, other: &Cell) -> bool {
+        self.0.total_cmp(&other.0).is_eq()
+    }
+}
+
+impl Eq for Cell {}
+
+impl PartialOrd for Cell {
+    fn partial_cmp(&self, other: &Cell) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Cell {
+    fn cmp(&self, other: &Cell) -> std::cmp::Ordering {
+        other.0.total_cmp(&self.0)
+    }
 }
 
 #[cfg(test)]

@@ -113,6 +113,18 @@ impl Obb {
 }
 
 impl LinkShape {
+    /// The corners of a box holding the shape, in its link's frame.
+    pub(super) fn corners(&self) -> [Vector3<f64>; 8] {
+        let o = &self.obb;
+        std::array::from_fn(|n| {
+            let sign = |bit: usize| if n >> bit & 1 == 1 { 1.0 } else { -1.0 };
+            o.centre
+                + o.axes.column(0) * (sign(0) * o.half.x)
+                + o.axes.column(1) * (sign(1) * o.half.y)
+                + o.axes.column(2) * (sign(2) * o.half.z)
+        })
+    }
+
     /// The triangles of a mesh's surface (1 for a shape without: a primitive, a hull alone).
     pub(super) fn triangles(&self) -> usize {
         self.surface
