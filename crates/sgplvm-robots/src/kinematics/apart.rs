@@ -351,6 +351,7 @@ impl Ord for Cell {
 mod tests {
     use super::super::collision::CollisionModel;
     use super::*;
+    use crate::physics::MeshShapes;
 
     /// A post on the base at x = −0.4 and a two-joint arm (a yaw, then a pitch) whose forearm
     /// box reaches 0.3–0.5 m out along x: the yaw's limits `±yaw` decide whether it can swing
@@ -384,6 +385,90 @@ mod tests {
         let free = arm_and_post(3.0);
         let m = model(&free);
         assert_eq!((m.pairs().len(), m.kept_apart_by_limits()), (1, 0));
+    }
+
+    /// A U-shaped bracket (three boxes' triangles, its opening towards the base) on the base
+    /// and a slider carrying a box into the opening, `travel` metres from x = 0.25–0.35, with a
+    /// small yaw between: the hull of the U fills its opening, its triangles do not.
+    fn slider_into_a_u(travel: f64) -> (Robot, MeshShapes) {
+        let xml = format!(
+            r#"<robot name="u">
+  <link name="base"><collision><geometry><mesh filename="u.stl"/></geometry></collision></link>
+  <link name="carriage"/>
+  <link name="block"><collision><origin xyz="0.3 0 0"/><geometry><box size="0.1 0.05 0.03"/></geometry></collision></link>
+  <joint name="slide" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="1 0 0"/><limit lower="0" upper="{travel}" effort="1" velocity="1"/></joint>
+  <joint name="yaw" type="revolute"><parent link="carriage"/><child link="block"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="1" velocity="1"/></joint>
+</robot>"#
+        );
+        let robot = Robot::from_urdf_str(&xml, "u.urdf").unwrap();
+        // Two walls at |y| = 0.18–0.22 from x = 0.4 to 0.8 and the back wall at x = 0.78–0.8.
+        let walls = [
+            ([0.4, 0.18, -0.05], [0.8, 0.22, 0.05]),
+            ([0.4, -0.22, -0.05], [0.8, -0.18, 0.05]),
+            ([0.78, -0.22, -0.05], [0.8, 0.22, 0.05]),
+        ];
+        let (mut points, mut triangles) = (Vec::new(), Vec::new());
+        for (lo, hi) in walls {
+            let base = points.len() as u32;
+            for n in 0..8 {
+                let pick = |axis: usize| {
+                    if n >> axis & 1 == 1 {
+                        hi[axis]
+                    } else {
+                        lo[axis]
+                    }
+                };
+                points.push(parry::math::Vector::new(pick(0), pick(1), pick(2)));
+            }
+            for face in [
+                [0, 1, 3],
+                [0, 3, 2],
+                [4, 6, 7],
+                [4, 7, 5],
+                [0, 4, 5],
+                [0, 5, 1],
+                [2, 3, 7],
+                [2, 7, 6],
+                [0, 2, 6],
+                [0, 6, 4],
+                [1, 5, 7],
+                [1, 7, 3],
+            ] {
+                triangles.push(face.map(|i: u32| base + i));
+            }
+        }
+        let hull = SharedShape::convex_hull(&points).unwrap();
+        let surface = SharedShape::trimesh(points, triangles).ok();
+        (robot, MeshShapes { hull, surface })
+    }
+
+    #[test]
+    fn a_hull_that_fills_a_concave_mesh_does_not_keep_a_pair_its_triangles_keep_apart() {
+        let count_with = |travel: f64, triangles: bool| {
+            let (robot, mut mesh) = slider_into_a_u(travel);
+            if !triangles {
+                mesh.surface = None;
+            }
+            let loader = |_: &str, _: [f64; 3]| Ok(mesh.clone());
+            let ancestry = Ancestry::of(&robot);
+            let zero = vec![0.0; robot.dof()];
+            let m = CollisionModel::new(
+                &robot,
+                &ancestry,
+                &robot.movable,
+                &zero,
+                0.01,
+                Some(&loader),
+                None,
+            );
+            (m.pairs().len(), m.kept_apart_by_limits())
+        };
+        // 0.3 m in: the block (to x = 0.65, |y| ≤ 0.09) is inside the hull, between the walls.
+        assert_eq!(count_with(0.3, true), (0, 1));
+        // The hull alone cannot tell.
+        assert_eq!(count_with(0.3, false), (1, 0));
+        // 0.5 m in: it reaches the back wall.
+        assert_eq!(count_with(0.5, true), (1, 0));
     }
 
     #[test]
