@@ -42,10 +42,10 @@ const BUDGET: usize = 1_000;
 const SURFACE_BUDGET: usize = 300;
 
 /// ... and all the pairs of one collision model on triangles, counted as the triangles of the
-/// two meshes queried (a query's cost grows with them: about 1 µs a triangle, 2–3 ms a query
-/// on Fetch's meshes of 1,000): at most a few seconds more at a robot's start, and the count is
+/// two meshes queried (a query's cost grows with them: 1–7 µs a triangle, 2–3 ms a query on
+/// Fetch's meshes of 1,000): at most a few seconds more at a robot's start, and the count is
 /// deterministic (not a clock: the same robot gets the same pairs on any machine).
-pub(super) const MODEL_SURFACE_BUDGET: usize = 3_000_000;
+pub(super) const MODEL_SURFACE_BUDGET: usize = 2_000_000;
 
 /// The distance the limits must keep between the shapes, metres.
 const CLEARANCE_M: f64 = 0.001;
