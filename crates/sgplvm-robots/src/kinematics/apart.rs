@@ -22,10 +22,8 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-use nalgebra::Isometry3;
 use rapier3d::parry;
 use rapier3d::parry::query::ClosestPoints;
-use rapier3d::parry::shape::SharedShape;
 
 use super::collision::{pose_to_parry, LinkShape};
 use super::frames::{Ancestry, RobotFrames};
@@ -241,37 +239,25 @@ fn proven(
             }
         }
         let frames = RobotFrames::new(robot, ancestry, &q);
-        let distance = |ga: &SharedShape, gb: &SharedShape| -> Option<f64> {
-            let place = |s: &LinkShape| -> Isometry3<f64> { frames.link(s.link) * s.local };
-            parry::query::distance(
-                &pose_to_parry(&place(pair.0)),
-                ga.as_ref(),
-                &pose_to_parry(&place(pair.1)),
-                gb.as_ref(),
-            )
-            .ok()
-            .map(|d| f64::from(d.distance))
-        };
+        let place = |s: &LinkShape| pose_to_parry(&(frames.link(s.link) * s.local));
+        let (pa, pb) = (place(pair.0), place(pair.1));
         let moves: Vec<f64> = cell
             .iter()
             .zip(&between.reach)
             .map(|(&(lo, hi), r)| r * 0.5 * (hi - lo))
             .collect();
         let slack = CLEARANCE_M + moves.iter().sum::<f64>();
-        let hulls = (pair.0.support_map(), pair.1.support_map());
-        let Some(mut apart) = (match hulls {
-            (Some(ga), Some(gb)) => {
-                let pa = pose_to_parry(&(frames.link(pair.0.link) * pair.0.local));
-                let pb = pose_to_parry(&(frames.link(pair.1.link) * pair.1.local));
-                let d = parry::query::details::distance_support_map_support_map(
-                    &pa.inv_mul(&pb),
-                    ga,
-                    gb,
-                );
-                Some(f64::from(d))
-            }
-            _ => distance(&pair.0.shape, &pair.1.shape),
-        }) else {
+        let Some(mut apart) = (match (pair.0.support_map(), pair.1.support_map()) {
+            (Some(ga), Some(gb)) => Some(parry::query::details::distance_support_map_support_map(
+                &pa.inv_mul(&pb),
+                ga,
+                gb,
+            )),
+            _ => parry::query::distance(&pa, pair.0.shape.as_ref(), &pb, pair.1.shape.as_ref())
+                .ok()
+                .map(|d| d.distance),
+        })
+        .map(f64::from) else {
             return false;
         };
         if apart <= slack {
@@ -284,15 +270,9 @@ fn proven(
                 *surface_budget -= cost;
                 // Only whether they are nearer than the slack, and then how near: parry's
                 // trees skip every pair of triangles farther apart than that.
-                let place = |s: &LinkShape| pose_to_parry(&(frames.link(s.link) * s.local));
-                let (pa, pb) = (place(pair.0), place(pair.1));
-                apart = match parry::query::closest_points(
-                    &pa,
-                    sa.as_ref(),
-                    &pb,
-                    sb.as_ref(),
-                    slack as f32,
-                ) {
+                let near =
+                    parry::query::closest_points(&pa, sa.as_ref(), &pb, sb.as_ref(), slack as f32);
+                apart = match near {
                     Ok(ClosestPoints::Disjoint) => f64::INFINITY,
                     Ok(ClosestPoints::WithinMargin(p1, p2)) => f64::from((p1 - p2).length()),
                     Ok(ClosestPoints::Intersecting) | Err(_) => return false,
@@ -352,6 +332,7 @@ mod tests {
     use super::super::collision::CollisionModel;
     use super::*;
     use crate::physics::MeshShapes;
+    use rapier3d::parry::shape::SharedShape;
 
     /// A post on the base at x = −0.4 and a two-joint arm (a yaw, then a pitch) whose forearm
     /// box reaches 0.3–0.5 m out along x: the yaw's limits `±yaw` decide whether it can swing
