@@ -75,19 +75,21 @@ impl std::fmt::Debug for ApartProofs {
 
 /// Whether the joint limits keep shapes `a` and `b` (indices `ia`, `ib` of their model) apart
 /// by more than a millimetre for every value of the joints between their links (of the joints
-/// `moving`, indices into [`Robot::joints`]; the others at `reference`). False when it cannot
-/// be proven: a posture brings them that close, too many joints lie between, a range is
-/// unbounded, or a budget ran out (`surface_budget`: the model's triangle queries left).
+/// `moving`, indices into [`Robot::joints`]; the others at `reference`, whose frames are
+/// `at_reference`). False when it cannot be proven: a posture brings them that close, too many
+/// joints lie between, a range is unbounded, or a budget ran out (`surface_budget`: the
+/// model's triangle queries left).
 pub(super) fn kept_apart(
     robot: &Robot,
     ancestry: &Ancestry,
     moving: &[usize],
-    reference: &[f64],
+    (reference, at_reference): (&[f64], &RobotFrames),
     ((ia, a), (ib, b)): ((usize, &LinkShape), (usize, &LinkShape)),
     proofs: Option<&ApartProofs>,
     surface_budget: &mut usize,
 ) -> bool {
-    let Some(between) = joints_between(robot, ancestry, moving, reference, a, b) else {
+    let Some(between) = joints_between(robot, ancestry, moving, (reference, at_reference), a, b)
+    else {
         return false;
     };
     let key = (ia, ib, between.q_index.clone());
@@ -107,7 +109,7 @@ fn joints_between(
     robot: &Robot,
     ancestry: &Ancestry,
     moving: &[usize],
-    reference: &[f64],
+    (reference, at_reference): (&[f64], &RobotFrames),
     a: &LinkShape,
     b: &LinkShape,
 ) -> Option<Between> {
@@ -140,7 +142,7 @@ fn joints_between(
             };
             let reach = match joint.kind {
                 JointKind::Prismatic => 1.0,
-                _ => reach_below(robot, ancestry, moving, reference, j, side)?,
+                _ => reach_below(robot, moving, at_reference, j, side)?,
             };
             between.q_index.push(i);
             between.range.push(range);
@@ -151,22 +153,21 @@ fn joints_between(
 }
 
 /// A bound on the distance of any point of `shape` from the axis of joint `j` above its link,
-/// whatever the joints between, from the corners of a box holding the shape (at `reference`):
+/// whatever the joints between, from the corners of a box holding the shape (at the reference
+/// posture, `frames`):
 /// where no moving joint lies between `j` and the link, the farthest corner's distance from
 /// the axis line; where one does (`k`: at most two joints lie between), the distance from `j`'s
 /// origin to `k`'s (rigid in `j`'s child), plus the farthest corner's from `k`'s origin (which
 /// `k`'s turn keeps; a prismatic `k` adds its travel).
 fn reach_below(
     robot: &Robot,
-    ancestry: &Ancestry,
     moving: &[usize],
-    reference: &[f64],
+    frames: &RobotFrames,
     j: usize,
     shape: &LinkShape,
 ) -> Option<f64> {
     let path = robot.path_to(shape.link);
     let after = path.iter().position(|&k| k == j)? + 1;
-    let frames = RobotFrames::new(robot, ancestry, reference);
     let place = frames.link(shape.link);
     let corners: Vec<_> = shape
         .corners()

@@ -328,7 +328,7 @@ impl CollisionModel {
                 robot,
                 ancestry,
                 moving,
-                reference,
+                (reference, &frames),
                 pair,
                 proofs,
                 &mut budget,
