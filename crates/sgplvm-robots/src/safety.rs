@@ -215,11 +215,12 @@ impl SafetyStep {
                 .filter(|p| p.distance < self.options.margin_m + 1e-3)
             {
                 let (a, b) = self.collision.pair_links(p.pair);
-                outcome.near.push((
-                    self.robot.links[a].clone(),
-                    self.robot.links[b].clone(),
-                    p.distance,
-                ));
+                let (a, b) = (&self.robot.links[a], &self.robot.links[b]);
+                // One entry per pair of links (a pair of meshes may near at several parts).
+                match outcome.near.iter_mut().find(|n| &n.0 == a && &n.1 == b) {
+                    Some(n) => n.2 = n.2.min(p.distance),
+                    None => outcome.near.push((a.clone(), b.clone(), p.distance)),
+                }
             }
         }
         let (mut delta, free) = match step.solve() {

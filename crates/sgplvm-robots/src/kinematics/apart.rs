@@ -219,8 +219,8 @@ fn proven(
     pair: (&LinkShape, &LinkShape),
     surface_budget: &mut usize,
 ) -> bool {
-    let surfaces = (pair.0.surface.is_some() || pair.1.surface.is_some()).then(|| {
-        let truly = |s: &LinkShape| s.surface.clone().unwrap_or_else(|| s.shape.clone());
+    let surfaces = (pair.0.surface().is_some() || pair.1.surface().is_some()).then(|| {
+        let truly = |s: &LinkShape| s.surface().cloned().unwrap_or_else(|| s.shape.clone());
         (truly(pair.0), truly(pair.1))
     });
     let mut q = reference.to_vec();
@@ -329,7 +329,7 @@ impl Ord for Cell {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::collision::CollisionModel;
     use super::*;
     use crate::physics::MeshShapes;
@@ -372,7 +372,7 @@ mod tests {
     /// A U-shaped bracket (three boxes' triangles, its opening towards the base) on the base
     /// and a slider carrying a box into the opening, `travel` metres from x = 0.25–0.35, with a
     /// small yaw between: the hull of the U fills its opening, its triangles do not.
-    fn slider_into_a_u(travel: f64) -> (Robot, MeshShapes) {
+    pub(in crate::kinematics) fn slider_into_a_u(travel: f64) -> (Robot, MeshShapes) {
         let xml = format!(
             r#"<robot name="u">
   <link name="base"><collision><geometry><mesh filename="u.stl"/></geometry></collision></link>
@@ -421,7 +421,7 @@ mod tests {
         }
         let hull = SharedShape::convex_hull(&points).unwrap();
         let surface = SharedShape::trimesh(points, triangles).ok();
-        (robot, MeshShapes { hull, surface })
+        (robot, MeshShapes::new(hull, surface))
     }
 
     #[test]

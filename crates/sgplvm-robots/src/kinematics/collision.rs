@@ -4,7 +4,9 @@
 //!
 //! Shapes are the URDF's `<collision>` elements: boxes, cylinders, capsules and spheres, and
 //! meshes where a loader turns them into convex hulls; what cannot be checked (a mesh not
-//! found) is listed, never silently dropped. A pair of shapes *can meet* when their links move
+//! found) is listed, never silently dropped. A mesh in a pair that can meet is also split into
+//! convex parts, checked where the two hulls come near (a hull fills a mesh's concave places:
+//! the PR2's forearm hull meets its upper arm's long before the meshes do). A pair of shapes *can meet* when their links move
 //! relative to each other through the moving joints, are not neighbours (one joint apart) and
 //! are apart at the reference posture (pairs already touching there, like an upper arm's
 //! capsule reaching into the shoulder's, are the model's own overlap, as in MoveIt's "never in
@@ -17,6 +19,7 @@ use rapier3d::parry;
 use rapier3d::parry::shape::{SharedShape, SupportMap};
 
 use super::apart::{kept_apart, ApartProofs, MODEL_SURFACE_BUDGET};
+use super::bounds::{Obb, Placed};
 use super::frames::{Ancestry, RobotFrames};
 use super::hull::ClimbingHull;
 use crate::physics::MeshShapes;
@@ -36,83 +39,66 @@ pub struct LinkShape {
     pub bound: (Vector3<f64>, f64),
     /// A mesh's hull in the form whose support points are climbed to, not scanned for.
     hull: Option<Arc<ClimbingHull>>,
-    /// A mesh's own triangles (the shape is their hull), for proving a pair apart.
-    pub(super) surface: Option<SharedShape>,
+    /// The mesh the shape is the hull of: its triangles, for proving a pair apart, and its
+    /// convex parts, for checking a pair the hull is too coarse for.
+    mesh: Option<MeshShapes>,
     /// A box holding it, in the link's frame: the second, tighter test before parry's.
     obb: Obb,
 }
 
-/// An oriented box: centre, axes (columns) and half extents, in some frame.
-#[derive(Debug, Clone, Copy)]
-struct Obb {
-    centre: Vector3<f64>,
-    axes: nalgebra::Matrix3<f64>,
-    half: Vector3<f64>,
-}
-
-impl Obb {
-    /// The box of `shape` (its own axis-aligned box) placed at `local` in its link.
-    fn of(shape: &SharedShape, local: &Isometry3<f64>) -> Obb {
-        let aabb = shape.compute_local_aabb();
-        let centre = vec_from_parry((aabb.mins + aabb.maxs) * 0.5);
-        let half = vec_from_parry((aabb.maxs - aabb.mins) * 0.5);
-        Obb {
-            centre: (local * nalgebra::Point3::from(centre)).coords,
-            axes: *local.rotation.to_rotation_matrix().matrix(),
-            half,
-        }
-    }
-
-    /// This box moved by `pose`.
-    fn placed(&self, pose: &Isometry3<f64>) -> Obb {
-        Obb {
-            centre: (pose * nalgebra::Point3::from(self.centre)).coords,
-            axes: pose.rotation.to_rotation_matrix().matrix() * self.axes,
-            half: self.half,
-        }
-    }
-
-    /// Whether a plane separates the boxes by more than `gap` (the separating-axis test over
-    /// the 15 axes of two boxes): then no two points of them are within `gap`.
-    fn apart(&self, other: &Obb, gap: f64) -> bool {
-        let (a, b) = (self, other);
-        // b's axes in a's frame, and the centres' offset in a's frame.
-        let r = a.axes.transpose() * b.axes;
-        let t = a.axes.transpose() * (b.centre - a.centre);
-        let abs_r = r.map(|v| v.abs() + 1e-9);
-        for i in 0..3 {
-            let ra = a.half[i];
-            let rb = b.half.dot(&abs_r.row(i).transpose());
-            if t[i].abs() > ra + rb + gap {
-                return true;
-            }
-        }
-        for j in 0..3 {
-            let ra = a.half.dot(&abs_r.column(j));
-            let rb = b.half[j];
-            if t.dot(&r.column(j)).abs() > ra + rb + gap {
-                return true;
-            }
-        }
-        for i in 0..3 {
-            for j in 0..3 {
-                let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
-                let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
-                let ra = a.half[i1] * abs_r[(i2, j)] + a.half[i2] * abs_r[(i1, j)];
-                let rb = b.half[j1] * abs_r[(i, j2)] + b.half[j2] * abs_r[(i, j1)];
-                let dist = (t[i2] * r[(i1, j)] - t[i1] * r[(i2, j)]).abs();
-                // The axis aᵢ × bⱼ has length sin(angle): the gap scales with it.
-                let len = (1.0 - r[(i, j)] * r[(i, j)]).max(0.0).sqrt();
-                if len > 1e-6 && dist > ra + rb + gap * len {
-                    return true;
-                }
-            }
-        }
-        false
-    }
-}
-
 impl LinkShape {
+    /// Shape `shape` of link `link` at `local` in the link's frame, the hull of `mesh` if given.
+    fn new(
+        link: usize,
+        shape: SharedShape,
+        local: Isometry3<f64>,
+        mesh: Option<MeshShapes>,
+    ) -> LinkShape {
+        let sphere = shape.compute_local_bounding_sphere();
+        let centre = (local * nalgebra::Point3::from(vec_from_parry(sphere.center))).coords;
+        let hull = shape
+            .as_convex_polyhedron()
+            .and_then(ClimbingHull::of)
+            .map(Arc::new);
+        let obb = Obb::of(&shape, &local);
+        LinkShape {
+            link,
+            shape,
+            local,
+            bound: (centre, f64::from(sphere.radius)),
+            hull,
+            mesh,
+            obb,
+        }
+    }
+
+    /// Its bounding sphere and box placed by `frames`.
+    fn placed(&self, frames: &RobotFrames) -> Placed {
+        let pose = frames.link(self.link);
+        Placed {
+            centre: (pose * nalgebra::Point3::from(self.bound.0)).coords,
+            radius: self.bound.1,
+            obb: self.obb.placed(pose),
+        }
+    }
+
+    /// A mesh's own triangles (the shape is their hull).
+    pub(super) fn surface(&self) -> Option<&SharedShape> {
+        self.mesh.as_ref()?.surface.as_ref()
+    }
+
+    /// The convex parts of the shape's mesh as shapes of its link (none: the shape is checked
+    /// whole).
+    fn parts(&self) -> Vec<LinkShape> {
+        let Some(mesh) = &self.mesh else {
+            return Vec::new();
+        };
+        mesh.convex_parts()
+            .iter()
+            .map(|part| LinkShape::new(self.link, part.clone(), self.local, None))
+            .collect()
+    }
+
     /// The corners of a box holding the shape, in its link's frame.
     pub(super) fn corners(&self) -> [Vector3<f64>; 8] {
         let o = &self.obb;
@@ -127,8 +113,7 @@ impl LinkShape {
 
     /// The triangles of a mesh's surface (1 for a shape without: a primitive, a hull alone).
     pub(super) fn triangles(&self) -> usize {
-        self.surface
-            .as_ref()
+        self.surface()
             .and_then(|s| s.as_trimesh())
             .map_or(1, |t| t.indices().len())
     }
@@ -161,6 +146,11 @@ pub struct Proximity {
 #[derive(Clone)]
 pub struct CollisionModel {
     shapes: Vec<LinkShape>,
+    /// Each shape's convex parts where it is a mesh in a pair that can meet (empty: whole).
+    parts: Vec<Vec<LinkShape>>,
+    /// Below this distance of their hulls two meshes are checked on their parts (further, the
+    /// hulls' distance is a bound that does not hold a step back).
+    parts_below: f64,
     pairs: Vec<(usize, usize)>,
     unchecked: Vec<String>,
     overlapping_at_reference: usize,
@@ -180,7 +170,7 @@ pub(super) fn pose_to_parry(p: &Isometry3<f64>) -> parry::math::Pose {
     )
 }
 
-fn vec_from_parry(v: parry::math::Vector) -> Vector3<f64> {
+pub(super) fn vec_from_parry(v: parry::math::Vector) -> Vector3<f64> {
     Vector3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z))
 }
 
@@ -189,7 +179,7 @@ fn vec_from_parry(v: parry::math::Vector) -> Vector3<f64> {
 fn shape_of(
     geometry: &urdf_rs::Geometry,
     meshes: Option<&MeshLoader<'_>>,
-) -> Result<(SharedShape, Option<SharedShape>, Isometry3<f64>), String> {
+) -> Result<(SharedShape, Option<MeshShapes>, Isometry3<f64>), String> {
     let z_to_y = Isometry3::from_parts(
         nalgebra::Translation3::identity(),
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2),
@@ -218,7 +208,7 @@ fn shape_of(
             let scale = scale.as_ref().map_or([1.0; 3], |s| [s[0], s[1], s[2]]);
             let loader = meshes.ok_or_else(|| format!("mesh {filename} (meshes not loaded)"))?;
             let mesh = loader(filename, scale)?;
-            return Ok((mesh.hull, mesh.surface, Isometry3::identity()));
+            return Ok((mesh.hull.clone(), Some(mesh), Isometry3::identity()));
         }
     };
     Ok((primitive.0, None, primitive.1))
@@ -252,25 +242,8 @@ impl CollisionModel {
                     [c.origin.rpy[0], c.origin.rpy[1], c.origin.rpy[2]],
                 );
                 match shape_of(&c.geometry, meshes) {
-                    Ok((shape, surface, turn)) => {
-                        let local = origin * turn;
-                        let sphere = shape.compute_local_bounding_sphere();
-                        let centre =
-                            (local * nalgebra::Point3::from(vec_from_parry(sphere.center))).coords;
-                        let hull = shape
-                            .as_convex_polyhedron()
-                            .and_then(ClimbingHull::of)
-                            .map(Arc::new);
-                        let obb = Obb::of(&shape, &local);
-                        shapes.push(LinkShape {
-                            link: l,
-                            shape,
-                            local,
-                            bound: (centre, f64::from(sphere.radius)),
-                            hull,
-                            surface,
-                            obb,
-                        });
+                    Ok((shape, mesh, turn)) => {
+                        shapes.push(LinkShape::new(l, shape, origin * turn, mesh));
                     }
                     Err(why) => unchecked.push(format!("{}: {why}", link.name)),
                 }
@@ -291,6 +264,8 @@ impl CollisionModel {
             one_apart(a, b) || one_apart(b, a)
         };
         let mut model = CollisionModel {
+            parts: vec![Vec::new(); shapes.len()],
+            parts_below: apart.max(0.0) + PARTS_BEYOND_MARGIN_M,
             shapes,
             pairs: Vec::new(),
             unchecked,
@@ -305,8 +280,7 @@ impl CollisionModel {
                 if a == b || neighbours(a, b) || moves(a) == moves(b) {
                     continue;
                 }
-                if model
-                    .distance(&frames, i, k, apart)
+                if contact(&frames, &model.shapes[i], &model.shapes[k], apart)
                     .is_some_and(|p| p.1 <= apart)
                 {
                     model.overlapping_at_reference += 1;
@@ -341,6 +315,14 @@ impl CollisionModel {
             .into_iter()
             .filter(|p| !proven.contains(p))
             .collect();
+        // The meshes of the pairs kept are checked on their convex parts: a part of a mesh is
+        // within its hull, so a pair apart at the reference stays so part by part.
+        let mut in_pairs: Vec<usize> = model.pairs.iter().flat_map(|&(i, k)| [i, k]).collect();
+        in_pairs.sort_unstable();
+        in_pairs.dedup();
+        for (i, parts) in parts_of(&model.shapes, &in_pairs) {
+            model.parts[i] = parts;
+        }
         model
     }
 
@@ -379,68 +361,149 @@ impl CollisionModel {
         (self.shapes[i].link, self.shapes[k].link)
     }
 
-    /// The contact of shapes `i` and `k` when within `within` metres: (normal-carrying contact,
-    /// distance).
-    fn distance(
+    /// Shape `i` as it is checked, placed by `frames`: its parts that may come within
+    /// `within` of the shape placed at `other`, or itself whole when it has no parts.
+    fn nearing(
         &self,
-        frames: &RobotFrames,
         i: usize,
-        k: usize,
+        other: &Placed,
+        frames: &RobotFrames,
         within: f64,
-    ) -> Option<(parry::query::Contact, f64)> {
-        let (a, b) = (&self.shapes[i], &self.shapes[k]);
-        let pa = pose_to_parry(&(frames.link(a.link) * a.local));
-        let pb = pose_to_parry(&(frames.link(b.link) * b.local));
-        let c = match (a.support_map(), b.support_map()) {
-            (Some(ga), Some(gb)) if a.hull.is_some() || b.hull.is_some() => {
-                let pos12 = pa.inv_mul(&pb);
-                let mut c = parry::query::contact::contact_support_map_support_map(
-                    &pos12,
-                    ga,
-                    gb,
-                    within as f32,
-                )?;
-                c.transform_by_mut(&pa, &pb);
-                c
-            }
-            _ => parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
-                .ok()??,
-        };
-        let d = f64::from(c.dist);
-        Some((c, d))
-    }
-
-    /// Every pair within `within` metres at `frames`, with its closest points and normal.
-    pub fn proximities(&self, frames: &RobotFrames, within: f64) -> Vec<Proximity> {
-        let centres: Vec<Vector3<f64>> = self
-            .shapes
+    ) -> Vec<(&LinkShape, Placed)> {
+        if self.parts[i].is_empty() {
+            return vec![(&self.shapes[i], self.shapes[i].placed(frames))];
+        }
+        self.parts[i]
             .iter()
-            .map(|s| (frames.link(s.link) * nalgebra::Point3::from(s.bound.0)).coords)
-            .collect();
-        self.pairs
-            .iter()
-            .enumerate()
-            .filter(|&(_, &(i, k))| {
-                let reach = self.shapes[i].bound.1 + self.shapes[k].bound.1 + within;
-                reach >= 0.0 && (centres[i] - centres[k]).norm_squared() <= reach * reach
-            })
-            .filter(|&(_, &(i, k))| {
-                let (a, b) = (&self.shapes[i], &self.shapes[k]);
-                let oa = a.obb.placed(frames.link(a.link));
-                !oa.apart(&b.obb.placed(frames.link(b.link)), within)
-            })
-            .filter_map(|(p, &(i, k))| {
-                let (c, d) = self.distance(frames, i, k, within)?;
-                Some(Proximity {
-                    pair: p,
-                    distance: d,
-                    point_a: vec_from_parry(c.point1),
-                    point_b: vec_from_parry(c.point2),
-                    normal: vec_from_parry(c.normal1),
-                })
-            })
+            .map(|s| (s, s.placed(frames)))
+            .filter(|(_, placed)| placed.may_near(other, within))
             .collect()
     }
+
+    /// The [`PARTS_PER_PAIR`] nearest contacts within `within` of shapes `i` and `k` (placed at
+    /// `pa` and `pb`) on their parts, into `found`.
+    fn nearest_parts(
+        &self,
+        (i, pa): (usize, &Placed),
+        (k, pb): (usize, &Placed),
+        frames: &RobotFrames,
+        within: f64,
+        found: &mut Vec<(parry::query::Contact, f64)>,
+    ) {
+        // Each mesh's parts that may near the other shape at all, then their pairs.
+        let parts_a = self.nearing(i, pb, frames, within);
+        let parts_b = self.nearing(k, pa, frames, within);
+        // The pairs of parts nearest first by their spheres (a lower bound of their
+        // distance), until the next cannot be nearer than the nearest found.
+        let mut order: Vec<(f64, &LinkShape, &LinkShape)> = Vec::new();
+        for (sa, qa) in &parts_a {
+            for (sb, qb) in &parts_b {
+                if qa.may_near(qb, within) {
+                    order.push((qa.gap(qb), sa, sb));
+                }
+            }
+        }
+        order.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for (bound, sa, sb) in order {
+            if found.len() == PARTS_PER_PAIR && found.iter().all(|f: &(_, f64)| f.1 <= bound) {
+                break;
+            }
+            found.extend(contact(frames, sa, sb, within));
+            found.sort_by(|x, y| x.1.total_cmp(&y.1));
+            found.truncate(PARTS_PER_PAIR);
+        }
+    }
+
+    /// Every pair within `within` metres at `frames`, with its closest points and normal (a
+    /// pair of meshes whose hulls come near is checked on their convex parts: a proximity for
+    /// each of the two nearest pairs of parts).
+    pub fn proximities(&self, frames: &RobotFrames, within: f64) -> Vec<Proximity> {
+        let placed: Vec<Placed> = self.shapes.iter().map(|s| s.placed(frames)).collect();
+        let mut near = Vec::new();
+        let mut found = Vec::new();
+        for (p, &(i, k)) in self.pairs.iter().enumerate() {
+            let (a, b) = (&self.shapes[i], &self.shapes[k]);
+            let (pa, pb) = (&placed[i], &placed[k]);
+            if !pa.may_near(pb, within) {
+                continue;
+            }
+            let whole = contact(frames, a, b, within);
+            let coarse = self.parts[i].is_empty() && self.parts[k].is_empty();
+            if coarse || whole.is_none_or(|w| w.1 >= self.parts_below) {
+                found.extend(whole);
+            } else {
+                self.nearest_parts((i, pa), (k, pb), frames, within, &mut found);
+            }
+            near.extend(found.drain(..).map(|(c, d)| Proximity {
+                pair: p,
+                distance: d,
+                point_a: vec_from_parry(c.point1),
+                point_b: vec_from_parry(c.point2),
+                normal: vec_from_parry(c.normal1),
+            }));
+        }
+        near
+    }
+}
+
+/// How far beyond the margin two meshes' hulls may come before their parts are checked, metres.
+const PARTS_BEYOND_MARGIN_M: f64 = 0.01;
+
+/// The nearest contacts of two meshes' parts a pair gives (the rest are further, and come in
+/// when they are nearest: one step moves little).
+const PARTS_PER_PAIR: usize = 2;
+
+/// The convex parts of shapes `which` (indices into `shapes`), decomposed on every core (a mesh
+/// takes tens of milliseconds; a humanoid has dozens).
+fn parts_of(shapes: &[LinkShape], which: &[usize]) -> Vec<(usize, Vec<LinkShape>)> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads.min(which.len()))
+            .map(|t| {
+                scope.spawn(move || {
+                    which
+                        .iter()
+                        .skip(t)
+                        .step_by(threads)
+                        .map(|&i| (i, shapes[i].parts()))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().unwrap_or_default())
+            .collect()
+    })
+}
+
+/// The contact of shapes `a` and `b` placed by `frames` when within `within` metres:
+/// (normal-carrying contact, distance).
+fn contact(
+    frames: &RobotFrames,
+    a: &LinkShape,
+    b: &LinkShape,
+    within: f64,
+) -> Option<(parry::query::Contact, f64)> {
+    let pa = pose_to_parry(&(frames.link(a.link) * a.local));
+    let pb = pose_to_parry(&(frames.link(b.link) * b.local));
+    let c = match (a.support_map(), b.support_map()) {
+        (Some(ga), Some(gb)) if a.hull.is_some() || b.hull.is_some() => {
+            let pos12 = pa.inv_mul(&pb);
+            let mut c = parry::query::contact::contact_support_map_support_map(
+                &pos12,
+                ga,
+                gb,
+                within as f32,
+            )?;
+            c.transform_by_mut(&pa, &pb);
+            c
+        }
+        _ => parry::query::contact(&pa, a.shape.as_ref(), &pb, b.shape.as_ref(), within as f32)
+            .ok()??,
+    };
+    let d = f64::from(c.dist);
+    Some((c, d))
 }
 
 #[cfg(test)]
@@ -448,52 +511,48 @@ mod tests {
     use super::*;
 
     #[test]
-    fn boxes_said_apart_are_further_apart_than_the_gap() {
-        let mut seed = 99u64;
-        let mut rand = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
-        let (mut apart, mut near) = (0, 0);
-        for _ in 0..3000 {
-            let shape = |r: &mut dyn FnMut() -> f64| {
-                SharedShape::cuboid(
-                    (0.02 + 0.1 * r().abs()) as f32,
-                    (0.02 + 0.1 * r().abs()) as f32,
-                    (0.02 + 0.1 * r().abs()) as f32,
-                )
-            };
-            let (sa, sb) = (shape(&mut rand), shape(&mut rand));
-            let pose = |r: &mut dyn FnMut() -> f64| {
-                Isometry3::new(
-                    Vector3::new(0.15 * r(), 0.15 * r(), 0.15 * r()),
-                    Vector3::new(3.0 * r(), 3.0 * r(), 3.0 * r()),
-                )
-            };
-            let (pa, pb) = (pose(&mut rand), pose(&mut rand));
-            let gap = 0.05 * rand().abs();
-            let ident = Isometry3::identity();
-            let said = Obb::of(&sa, &ident)
-                .placed(&pa)
-                .apart(&Obb::of(&sb, &ident).placed(&pb), gap);
-            let d = parry::query::distance(
-                &pose_to_parry(&pa),
-                sa.as_ref(),
-                &pose_to_parry(&pb),
-                sb.as_ref(),
-            )
-            .unwrap()
-            .distance;
-            if said {
-                apart += 1;
-                assert!(f64::from(d) > gap - 1e-5, "apart by {gap} said, {d} found");
-            } else {
-                near += 1;
-            }
+    fn a_concave_mesh_is_checked_on_parts_that_hold_its_surface_and_not_its_hull() {
+        let (robot, mesh) = super::super::apart::tests::slider_into_a_u(0.5);
+        let loader = |_: &str, _: [f64; 3]| Ok(mesh.clone());
+        let ancestry = Ancestry::of(&robot);
+        let zero = vec![0.0; robot.dof()];
+        let model = CollisionModel::new(
+            &robot,
+            &ancestry,
+            &robot.movable,
+            &zero,
+            0.01,
+            Some(&loader),
+            None,
+        );
+        assert_eq!(model.pairs().len(), 1);
+        let u = model
+            .shapes()
+            .iter()
+            .position(|s| s.mesh.is_some())
+            .unwrap();
+        let parts = &model.parts[u];
+        assert!(parts.len() >= 3, "{} parts", parts.len());
+        // Every point of the surface is in a part (the parts are checked instead of the mesh).
+        let surface = mesh.surface.as_ref().and_then(|s| s.as_trimesh()).unwrap();
+        let identity = pose_to_parry(&Isometry3::identity());
+        for v in surface.vertices() {
+            let inside = parts
+                .iter()
+                .any(|p| p.shape.distance_to_point(&identity, *v, true) < 1e-4);
+            assert!(inside, "{v:?} in no part");
         }
-        assert!(apart > 300 && near > 300, "{apart} apart, {near} near");
+        let near_at = |slide: f64| {
+            let frames = RobotFrames::new(&robot, &ancestry, &[slide, 0.0]);
+            model.proximities(&frames, 0.05)
+        };
+        // 0.3 m in, the block (x 0.55–0.65, |y| ≤ 0.025) is inside the hull, 0.13 m from the
+        // back wall and 0.155 m from the side walls: nothing near.
+        let within_hull = near_at(0.3);
+        assert!(within_hull.is_empty(), "{within_hull:?}");
+        // 0.44 m in it reaches into the back wall (x ≥ 0.78).
+        let touching = near_at(0.44);
+        assert!(touching.iter().any(|p| p.distance < 0.0), "{touching:?}");
     }
 
     #[test]

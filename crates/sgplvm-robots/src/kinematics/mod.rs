@@ -17,6 +17,7 @@
 //! `ik.rs` solves inverse kinematics on it.
 
 mod apart;
+mod bounds;
 pub mod collision;
 pub mod frames;
 mod hull;

@@ -8,12 +8,13 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use rapier3d::geometry::SharedShape;
 use rapier3d::glamx::EulerRot;
 use rapier3d::math::{Pose, Real, Rotation, Vector};
+use rapier3d::parry::transformation::vhacd::{VHACDParameters, VHACD};
 use rapier3d_urdf::urdf_rs;
 use serde::Serialize;
 
@@ -145,8 +146,10 @@ pub(super) fn load(
     loaded
 }
 
-/// A collision mesh as the self-collision model uses it: its convex hull (what is checked
-/// every step) and its own triangles (what is true, for proving a pair apart once).
+/// A collision mesh as the self-collision model uses it: its convex hull (the cheapest shape to
+/// check), its own triangles (what is true, for proving a pair apart once) and, made when first
+/// asked for, convex parts that follow its concave places (what is checked where the hull is
+/// too coarse).
 #[derive(Clone)]
 pub struct MeshShapes {
     /// The convex hull of the mesh's vertices.
@@ -154,6 +157,59 @@ pub struct MeshShapes {
     /// The mesh's triangles as a triangle mesh; `None` when the file has no usable triangles
     /// (then the hull stands for it).
     pub surface: Option<SharedShape>,
+    /// The convex parts, decomposed once and shared by every clone.
+    parts: Arc<OnceLock<Arc<[SharedShape]>>>,
+}
+
+/// Voxels along the longest side of a mesh's box when it is split into convex parts, and how
+/// deep (a share of that side) a part's concave places may be: a coarse split, a few parts a
+/// mesh, tight where a hull is not (a forearm's hull fills the bend of an elbow; its parts do
+/// not). Each part is the hull of the mesh's own triangles within it (not of voxels), so the
+/// parts hold the whole surface. Chosen on seven published robots (PR2, Fetch, Valkyrie, G1,
+/// TIAGo Pro, ergoCub, iCub) for their retargeting on the shipped captured motion and its speed:
+/// 32 voxels and 1 % cost 30–60 % more time for the same figures within 0.5°.
+const DECOMPOSITION_RESOLUTION: u32 = 24;
+const DECOMPOSITION_CONCAVITY: Real = 0.03;
+
+impl MeshShapes {
+    /// A mesh's hull and triangles (no triangles: the hull stands for the mesh).
+    pub fn new(hull: SharedShape, surface: Option<SharedShape>) -> MeshShapes {
+        MeshShapes {
+            hull,
+            surface,
+            parts: Arc::default(),
+        }
+    }
+
+    /// Convex parts whose union holds the mesh's surface, tighter than its hull where the mesh
+    /// is concave (an approximate convex decomposition, V-HACD as parry has it; tens of
+    /// milliseconds a mesh, the first time): empty when the mesh has no triangles or is one
+    /// part, its hull.
+    pub fn convex_parts(&self) -> Arc<[SharedShape]> {
+        self.parts
+            .get_or_init(|| {
+                let Some(mesh) = self.surface.as_ref().and_then(|s| s.as_trimesh()) else {
+                    return Arc::from([]);
+                };
+                let params = VHACDParameters {
+                    resolution: DECOMPOSITION_RESOLUTION,
+                    concavity: DECOMPOSITION_CONCAVITY,
+                    ..VHACDParameters::default()
+                };
+                let parts = crate::panics::catch(|| {
+                    VHACD::decompose(&params, mesh.vertices(), mesh.indices(), true)
+                        .compute_exact_convex_hulls(mesh.vertices(), mesh.indices())
+                        .into_iter()
+                        .filter_map(|(points, _)| SharedShape::convex_hull(&points))
+                        .collect::<Vec<_>>()
+                });
+                match parts {
+                    Ok(parts) if parts.len() > 1 => Arc::from(parts),
+                    _ => Arc::from([]),
+                }
+            })
+            .clone()
+    }
 }
 
 /// The collision mesh `filename` (as the URDF names it) scaled by `scale`, found through
@@ -189,7 +245,7 @@ pub fn mesh_shapes(
                 .flatten()
         })
         .flatten();
-    Ok(MeshShapes { hull, surface })
+    Ok(MeshShapes::new(hull, surface))
 }
 
 /// A URDF `<origin>` as a rapier pose (`rpy` fixed-axis: `Rz(yaw) Ry(pitch) Rx(roll)`, as
