@@ -25,7 +25,7 @@ pub struct SimulateArgs {
     #[arg(long, required_unless_present = "urdf")]
     robot: Option<String>,
     /// A URDF file instead of a built-in robot. Its collision meshes (STL, COLLADA, OBJ) are
-    /// simulated as convex hulls: relative paths are found beside the file, package://PKG/…
+    /// simulated as convex hulls (a concave one as its convex parts): relative paths are found beside the file, package://PKG/…
     /// through --package-path, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. With --model: the URDF
     /// of the model's robot (--robot names it in the model).
     #[arg(long)]

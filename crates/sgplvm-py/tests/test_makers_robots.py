@@ -42,10 +42,12 @@ SINGLE_ARM = {"tiago", "panda", "so100"}
 # Whose retargeted demonstrations (velocity limits off, as training data is made) jump where the
 # person barely moves: a shoulder changes branch, 1.35-2.7 rad in one 25 ms frame, 2.55 s into
 # the short capture. Replayed as they are, the jump flings the arm and the replay runs away
-# (PR2's l_upper_arm_roll_joint, Romeo's LElbowRoll): `simulate` says so and names the jump
-# (`after_jump`). A model's prediction is replayed as `predict` sends it, within the velocity
-# limits, and runs through (until 2026-12-05 it ran away too).
-JUMPS_IN_DEMONSTRATIONS = {"pr2", "romeo"}
+# (Romeo's LElbowRoll): `simulate` says so and names the jump (`after_jump`). A model's
+# prediction is replayed as `predict` sends it, within the velocity limits, and runs through
+# (until 2026-12-05 it ran away too). The PR2's demonstrations still jump there (its upper arm
+# roll, 0.74 rad in 25 ms), but since its meshes are simulated on their convex parts
+# (2026-12-06) its arm no longer catches on its own hulls and that replay runs through.
+JUMPS_IN_DEMONSTRATIONS = {"romeo"}
 
 
 def robots_dir():

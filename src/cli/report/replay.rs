@@ -233,7 +233,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     }
     if report.mesh_hulls > 0 || !report.unchecked_meshes.is_empty() {
         line(format!(
-            "collision meshes: {} simulated as convex hulls (read in {:.2} s), {} not",
+            "collision meshes: {} simulated as convex hulls or, concave, as their convex parts (read in {:.2} s), {} not",
             report.mesh_hulls,
             report.mesh_seconds,
             report.unchecked_meshes.len()

@@ -1,10 +1,12 @@
-//! Collision meshes in the replay: every `<collision>` `<mesh>` that the replay's
+//! Collision meshes in the replay and in self-collision: every `<collision>` `<mesh>` that a
 //! [`MeshSearch`] finds is read (STL, COLLADA or OBJ, by `mesh-loader`) and becomes the convex
 //! hull of its vertices, scaled by the mesh's `scale`, placed at the collision's `<origin>` in
-//! its link. One hull per `<collision>` element, whatever the number of meshes in the file
-//! (a hull is the cheapest shape parry tests for contact and never misses a contact the
-//! mesh has; it reports contacts in the mesh's concave places too). A mesh that cannot be found,
-//! read or made a hull is an [`UncheckedMesh`] of the report: its link is simulated without it.
+//! its link, and, where the mesh is concave, convex parts that hold its surface (a hull is the
+//! cheapest shape parry tests for contact and never misses a contact the mesh has, but it
+//! reports contacts in the mesh's concave places too: an elbow's hull fills its bend). One
+//! shape per `<collision>` element, whatever the number of meshes in the file. A mesh that
+//! cannot be found, read or made a hull is an [`UncheckedMesh`] of the report: its link is
+//! simulated without it.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -77,7 +79,8 @@ pub(super) struct MeshCollision {
     pub(super) scale: [f64; 3],
 }
 
-/// A collision mesh made a convex hull, ready to be attached to its link's body.
+/// A collision mesh made a convex hull or, concave, a compound of convex parts, ready to be
+/// attached to its link's body.
 #[derive(Clone)]
 pub(super) struct MeshHull {
     /// URDF index of the link.
@@ -106,18 +109,23 @@ type Failure = (MeshProblem, String);
 /// joined vertices), shared between collisions naming it.
 type MeshData = Arc<(Vec<[f32; 3]>, Vec<[u32; 3]>)>;
 
-/// Finds, reads and hulls every mesh of `meshes` (links named by `links`).
+/// Finds, reads and hulls every mesh of `meshes` (links named by `links`); a mesh is simulated
+/// as its convex parts where it has more than one, as self-collision checks it in retargeting,
+/// but on the links `carried` (parts held still on a moving arm: a hand's fingers, which touch
+/// each other all the time and are cheaper in contact as hulls).
 pub(super) fn load(
     meshes: &[MeshCollision],
     links: &[urdf_rs::Link],
     search: &MeshSearch,
+    carried: &[bool],
 ) -> LoadedMeshes {
     let started = Instant::now();
     let mut loaded = LoadedMeshes::default();
     let mut files: HashMap<PathBuf, Result<MeshData, Failure>> = HashMap::new();
+    let mut found = Vec::new();
     for mesh in meshes {
         let link_name = links.get(mesh.link).map_or("", |l| l.name.as_str());
-        let hull = search
+        let shapes = search
             .resolve(&mesh.filename)
             .map_err(|miss| (MeshProblem::NotFound, miss.to_string()))
             .and_then(|path| {
@@ -125,15 +133,14 @@ pub(super) fn load(
                     .entry(path.clone())
                     .or_insert_with(|| read_mesh(&path))
                     .clone()?;
-                hull_of(&mesh_data.0, mesh.scale)
+                shapes_of(&mesh_data, mesh.scale)
                     .map_err(|why| (MeshProblem::Unusable, format!("{}: {why}", path.display())))
             });
-        match hull {
-            Ok(shape) => loaded.hulls.push(MeshHull {
-                link: mesh.link,
-                pose: pose_of(&mesh.origin),
-                shape,
-            }),
+        match shapes {
+            Ok(shapes) => {
+                let split = !carried.get(mesh.link).copied().unwrap_or(true);
+                found.push((mesh, shapes, split));
+            }
             Err((problem, message)) => loaded.unchecked.push(UncheckedMesh {
                 link: link_name.to_string(),
                 uri: mesh.filename.clone(),
@@ -141,6 +148,35 @@ pub(super) fn load(
                 message,
             }),
         }
+    }
+    // Decomposed on every core (tens of milliseconds a mesh), then attached in URDF order.
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    std::thread::scope(|scope| {
+        for t in 0..threads {
+            let found = &found;
+            scope.spawn(move || {
+                for (_, shapes, _) in found.iter().skip(t).step_by(threads).filter(|f| f.2) {
+                    shapes.convex_parts();
+                }
+            });
+        }
+    });
+    for (mesh, shapes, split) in found {
+        let parts = if split {
+            shapes.convex_parts()
+        } else {
+            Arc::from([])
+        };
+        let shape = if parts.is_empty() {
+            shapes.hull
+        } else {
+            SharedShape::compound(parts.iter().map(|p| (Pose::IDENTITY, p.clone())).collect())
+        };
+        loaded.hulls.push(MeshHull {
+            link: mesh.link,
+            pose: pose_of(&mesh.origin),
+            shape,
+        });
     }
     loaded.seconds = started.elapsed().as_secs_f64();
     loaded
@@ -222,8 +258,14 @@ pub fn mesh_shapes(
 ) -> Result<MeshShapes, String> {
     let path = search.resolve(filename).map_err(|miss| miss.to_string())?;
     let mesh_data = read_mesh(&path).map_err(|(_, message)| message)?;
+    shapes_of(&mesh_data, scale).map_err(|why| format!("{}: {why}", path.display()))
+}
+
+/// A mesh's vertices and triangles scaled by `scale`, as its hull and triangle mesh, or why the
+/// mesh is unusable.
+fn shapes_of(mesh_data: &MeshData, scale: [f64; 3]) -> Result<MeshShapes, String> {
     let (vertices, triangles) = (&mesh_data.0, &mesh_data.1);
-    let hull = hull_of(vertices, scale).map_err(|why| format!("{}: {why}", path.display()))?;
+    let hull = hull_of(vertices, scale)?;
     // The hull has checked the scaled vertices (finite, within reach).
     let points: Vec<Vector> = vertices
         .iter()

@@ -102,7 +102,8 @@ pub(super) fn prepare_model(
     check_acyclic(&robot, &parent_of, &err)?;
     let welded = weld(&mut robot, held)?;
     let held_part = held_parts(&robot, &parent_of, &welded);
-    let loaded = hulls::load(&mesh_collisions, &robot.links, meshes);
+    let carried = carried_held_parts(&robot, &parent_of, &held_part);
+    let loaded = hulls::load(&mesh_collisions, &robot.links, meshes, &carried);
     for hull in &loaded.hulls {
         has_shape[hull.link] = true;
     }
@@ -169,6 +170,23 @@ fn weld(
     }
     welded.sort_by_key(|&(j, _)| j);
     Ok(welded)
+}
+
+/// For each link, whether it is a part held still that a moving joint further up carries (a
+/// hand's fingers on a moving arm; not a torso on a held lift, nor a held head or leg).
+fn carried_held_parts(robot: &urdf_rs::Robot, parent_of: &ParentOf, held: &[bool]) -> Vec<bool> {
+    (0..robot.links.len())
+        .map(|link| {
+            let mut at = link;
+            while let Some((j, parent)) = parent_of[at] {
+                if robot.joints[j].joint_type != urdf_rs::JointType::Fixed {
+                    return held[link];
+                }
+                at = parent;
+            }
+            false
+        })
+        .collect()
 }
 
 /// For each link, whether the nearest joint above it that moves, or was welded, was welded.
@@ -491,6 +509,32 @@ mod tests {
                 assert_eq!(m[i * n + j], m[j * n + i]);
             }
         }
+    }
+
+    #[test]
+    fn only_parts_held_on_a_moving_joint_are_carried() {
+        // Held: j_b (b, on the moving j_a: a finger on an arm) and j_d (d and e, on the fixed
+        // base: a torso on a held lift); j_a moves.
+        let robot = urdf_rs::read_from_string(TREE).unwrap();
+        let held = [("j_b".to_string(), 0.0), ("j_d".to_string(), 0.0)];
+        let model = prepare_model(&robot, "tree.urdf", &MeshSearch::new(), &held).unwrap();
+        let mut parent_of = vec![None; model.robot.links.len()];
+        let index = |name: &str| {
+            model
+                .robot
+                .links
+                .iter()
+                .position(|l| l.name == name)
+                .unwrap()
+        };
+        for (j, joint) in model.robot.joints.iter().enumerate() {
+            parent_of[index(&joint.child.link)] = Some((j, index(&joint.parent.link)));
+        }
+        let carried = carried_held_parts(&model.robot, &parent_of, &model.held_part);
+        let is = |name: &str| carried[index(name)];
+        assert!(is("b"));
+        assert!(!is("base") && !is("a") && !is("c") && !is("d") && !is("e"));
+        assert!(model.held_part[index("d")] && model.held_part[index("e")]);
     }
 
     #[test]

@@ -136,7 +136,8 @@ pub struct ReplayReport {
     pub warnings: Vec<String>,
     /// Collision shapes in the simulation: the URDF's primitives and its meshes' hulls.
     pub collision_shapes: usize,
-    /// Collision meshes simulated as convex hulls.
+    /// Collision meshes simulated as convex hulls (a concave one as its convex parts, but on a
+    /// hand's fingers held still).
     pub mesh_hulls: usize,
     /// Wall-clock seconds spent finding, reading and hulling the collision meshes.
     pub mesh_seconds: f64,
