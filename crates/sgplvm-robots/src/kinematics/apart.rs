@@ -424,6 +424,25 @@ pub(super) mod tests {
         (robot, MeshShapes::new(hull, surface))
     }
 
+    /// The collision model of `robot` (a 1 cm margin, every joint moving) whose mesh is `mesh`.
+    pub(in crate::kinematics) fn model_with_mesh(
+        robot: &Robot,
+        mesh: &MeshShapes,
+    ) -> CollisionModel {
+        let loader = |_: &str, _: [f64; 3]| Ok(mesh.clone());
+        let ancestry = Ancestry::of(robot);
+        let zero = vec![0.0; robot.dof()];
+        CollisionModel::new(
+            robot,
+            &ancestry,
+            &robot.movable,
+            &zero,
+            0.01,
+            Some(&loader),
+            None,
+        )
+    }
+
     #[test]
     fn a_hull_that_fills_a_concave_mesh_does_not_keep_a_pair_its_triangles_keep_apart() {
         let count_with = |travel: f64, triangles: bool| {
@@ -431,18 +450,7 @@ pub(super) mod tests {
             if !triangles {
                 mesh.surface = None;
             }
-            let loader = |_: &str, _: [f64; 3]| Ok(mesh.clone());
-            let ancestry = Ancestry::of(&robot);
-            let zero = vec![0.0; robot.dof()];
-            let m = CollisionModel::new(
-                &robot,
-                &ancestry,
-                &robot.movable,
-                &zero,
-                0.01,
-                Some(&loader),
-                None,
-            );
+            let m = model_with_mesh(&robot, &mesh);
             (m.pairs().len(), m.kept_apart_by_limits())
         };
         // 0.3 m in: the block (to x = 0.65, |y| ≤ 0.09) is inside the hull, between the walls.

@@ -320,8 +320,13 @@ impl CollisionModel {
         let mut in_pairs: Vec<usize> = model.pairs.iter().flat_map(|&(i, k)| [i, k]).collect();
         in_pairs.sort_unstable();
         in_pairs.dedup();
-        for (i, parts) in parts_of(&model.shapes, &in_pairs) {
-            model.parts[i] = parts;
+        let meshes: Vec<&MeshShapes> = in_pairs
+            .iter()
+            .filter_map(|&i| model.shapes[i].mesh.as_ref())
+            .collect();
+        crate::physics::decompose_all(&meshes);
+        for i in in_pairs {
+            model.parts[i] = model.shapes[i].parts();
         }
         model
     }
@@ -453,30 +458,6 @@ const PARTS_BEYOND_MARGIN_M: f64 = 0.01;
 /// when they are nearest: one step moves little).
 const PARTS_PER_PAIR: usize = 2;
 
-/// The convex parts of shapes `which` (indices into `shapes`), decomposed on every core (a mesh
-/// takes tens of milliseconds; a humanoid has dozens).
-fn parts_of(shapes: &[LinkShape], which: &[usize]) -> Vec<(usize, Vec<LinkShape>)> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    std::thread::scope(|scope| {
-        let workers: Vec<_> = (0..threads.min(which.len()))
-            .map(|t| {
-                scope.spawn(move || {
-                    which
-                        .iter()
-                        .skip(t)
-                        .step_by(threads)
-                        .map(|&i| (i, shapes[i].parts()))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().unwrap_or_default())
-            .collect()
-    })
-}
-
 /// The contact of shapes `a` and `b` placed by `frames` when within `within` metres:
 /// (normal-carrying contact, distance).
 fn contact(
@@ -512,19 +493,10 @@ mod tests {
 
     #[test]
     fn a_concave_mesh_is_checked_on_parts_that_hold_its_surface_and_not_its_hull() {
-        let (robot, mesh) = super::super::apart::tests::slider_into_a_u(0.5);
-        let loader = |_: &str, _: [f64; 3]| Ok(mesh.clone());
+        use super::super::apart::tests::{model_with_mesh, slider_into_a_u};
+        let (robot, mesh) = slider_into_a_u(0.5);
+        let model = model_with_mesh(&robot, &mesh);
         let ancestry = Ancestry::of(&robot);
-        let zero = vec![0.0; robot.dof()];
-        let model = CollisionModel::new(
-            &robot,
-            &ancestry,
-            &robot.movable,
-            &zero,
-            0.01,
-            Some(&loader),
-            None,
-        );
         assert_eq!(model.pairs().len(), 1);
         let u = model
             .shapes()

@@ -149,18 +149,8 @@ pub(super) fn load(
             }),
         }
     }
-    // Decomposed on every core (tens of milliseconds a mesh), then attached in URDF order.
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    std::thread::scope(|scope| {
-        for t in 0..threads {
-            let found = &found;
-            scope.spawn(move || {
-                for (_, shapes, _) in found.iter().skip(t).step_by(threads).filter(|f| f.2) {
-                    shapes.convex_parts();
-                }
-            });
-        }
-    });
+    let split: Vec<&MeshShapes> = found.iter().filter(|f| f.2).map(|f| &f.1).collect();
+    decompose_all(&split);
     for (mesh, shapes, split) in found {
         let parts = if split {
             shapes.convex_parts()
@@ -205,7 +195,23 @@ pub struct MeshShapes {
 /// TIAGo Pro, ergoCub, iCub) for their retargeting on the shipped captured motion and its speed:
 /// 32 voxels and 1 % cost 30–60 % more time for the same figures within 0.5°.
 const DECOMPOSITION_RESOLUTION: u32 = 24;
+/// See [`DECOMPOSITION_RESOLUTION`].
 const DECOMPOSITION_CONCAVITY: Real = 0.03;
+
+/// Splits every one of `meshes` into its convex parts (see [`MeshShapes::convex_parts`]) on
+/// every core: tens of milliseconds a mesh, and a humanoid has dozens.
+pub fn decompose_all(meshes: &[&MeshShapes]) {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    std::thread::scope(|scope| {
+        for t in 0..threads.min(meshes.len()) {
+            scope.spawn(move || {
+                for mesh in meshes.iter().skip(t).step_by(threads) {
+                    mesh.convex_parts();
+                }
+            });
+        }
+    });
+}
 
 impl MeshShapes {
     /// A mesh's hull and triangles (no triangles: the hull stands for the mesh).

@@ -62,7 +62,9 @@ mod trajectory;
 use rapier3d_urdf::urdf_rs;
 
 pub use error::PhysicsError;
-pub use hulls::{mesh_shapes, MeshProblem, MeshShapes, UncheckedMesh, MAX_MESH_BYTES};
+pub use hulls::{
+    decompose_all, mesh_shapes, MeshProblem, MeshShapes, UncheckedMesh, MAX_MESH_BYTES,
+};
 pub use options::ReplayOptions;
 pub use report::{
     Collision, Divergence, JointTracking, LimitViolation, ReferenceJump, ReplayReport,
