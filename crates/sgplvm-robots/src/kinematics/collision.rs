@@ -6,11 +6,11 @@
 //! meshes where a loader turns them into convex hulls; what cannot be checked (a mesh not
 //! found) is listed, never silently dropped. A mesh in a pair that can meet is also split into
 //! convex parts, checked where the two hulls come near (a hull fills a mesh's concave places:
-//! the PR2's forearm hull meets its upper arm's long before the meshes do). A pair of shapes *can meet* when their links move
-//! relative to each other through the moving joints, are not neighbours (one joint apart) and
-//! are apart at the reference posture (pairs already touching there, like an upper arm's
-//! capsule reaching into the shoulder's, are the model's own overlap, as in MoveIt's "never in
-//! collision / adjacent" lists).
+//! the PR2's forearm hull meets its upper arm's long before the meshes do). A pair of shapes
+//! *can meet* when their links move relative to each other through the moving joints, are not
+//! neighbours (one joint apart) and are apart at the reference posture (pairs already touching
+//! there, like an upper arm's capsule reaching into the shoulder's, are the model's own
+//! overlap, as in MoveIt's "never in collision / adjacent" lists).
 
 use std::sync::Arc;
 
