@@ -80,6 +80,7 @@ impl Obb {
 }
 
 /// A shape's bounding sphere and box placed by a configuration's frames.
+#[derive(Debug, Clone, Copy)]
 pub(super) struct Placed {
     /// The sphere's centre.
     pub(super) centre: Vector3<f64>,

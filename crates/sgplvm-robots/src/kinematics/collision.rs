@@ -366,17 +366,17 @@ impl CollisionModel {
         (self.shapes[i].link, self.shapes[k].link)
     }
 
-    /// Shape `i` as it is checked, placed by `frames`: its parts that may come within
-    /// `within` of the shape placed at `other`, or itself whole when it has no parts.
+    /// Shape `i` (placed at `own`) as it is checked, placed by `frames`: its parts that may
+    /// come within `within` of the shape placed at `other`, or itself whole when it has none.
     fn nearing(
         &self,
-        i: usize,
+        (i, own): (usize, &Placed),
         other: &Placed,
         frames: &RobotFrames,
         within: f64,
     ) -> Vec<(&LinkShape, Placed)> {
         if self.parts[i].is_empty() {
-            return vec![(&self.shapes[i], self.shapes[i].placed(frames))];
+            return vec![(&self.shapes[i], *own)];
         }
         self.parts[i]
             .iter()
@@ -396,8 +396,8 @@ impl CollisionModel {
         found: &mut Vec<(parry::query::Contact, f64)>,
     ) {
         // Each mesh's parts that may near the other shape at all, then their pairs.
-        let parts_a = self.nearing(i, pb, frames, within);
-        let parts_b = self.nearing(k, pa, frames, within);
+        let parts_a = self.nearing((i, pa), pb, frames, within);
+        let parts_b = self.nearing((k, pb), pa, frames, within);
         // The pairs of parts nearest first by their spheres (a lower bound of their
         // distance), until the next cannot be nearer than the nearest found.
         let mut order: Vec<(f64, &LinkShape, &LinkShape)> = Vec::new();
