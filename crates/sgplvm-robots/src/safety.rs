@@ -210,10 +210,9 @@ impl SafetyStep {
                 1.0,
             );
             within_detect = !near.is_empty();
-            for p in near
-                .iter()
-                .filter(|p| p.distance < self.options.margin_m + 1e-3)
-            {
+            for p in near.iter().filter(|p| {
+                p.distance < self.collision.margin_of(p.pair, self.options.margin_m) + 1e-3
+            }) {
                 let (a, b) = self.collision.pair_links(p.pair);
                 let (a, b) = (&self.robot.links[a], &self.robot.links[b]);
                 // One entry per pair of links (a pair of meshes may near at several parts).

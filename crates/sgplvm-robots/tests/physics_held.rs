@@ -124,11 +124,18 @@ fn links_touching_at_rest_are_left_out_and_listed() {
     // Without a hold the finger is a joint of its own with no column: allowed, it is driven to
     // 0 by its motor, and its sphere overlapping the hand's at rest is the model's own overlap.
     // (Hand and finger are neighbours, never checked.) A finger reaching back into the
-    // forearm at rest: not neighbours (the hand between has a shape), the model's own overlap.
-    let reaching = ARM.replace(
-        r#"<origin xyz="-0.03 0 0"/><geometry><sphere radius="0.03"/>"#,
-        r#"<origin xyz="0 0 0.08"/><geometry><sphere radius="0.03"/>"#,
-    );
+    // forearm at rest across a moving wrist: not neighbours (two moving joints, the hand
+    // between has a shape), the model's own overlap.
+    let reaching = ARM
+        .replace(
+            r#"<origin xyz="-0.03 0 0"/><geometry><sphere radius="0.03"/>"#,
+            r#"<origin xyz="0 0 0.08"/><geometry><sphere radius="0.03"/>"#,
+        )
+        .replace(
+            r#"<joint name="wrist" type="fixed">"#,
+            r#"<joint name="wrist" type="revolute"><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1" effort="10" velocity="2"/>"#,
+        );
     let still = arm_motion(1.0, |_| [0.0, 0.0]);
     let options = ReplayOptions {
         allow_missing_joints: true,
@@ -141,7 +148,7 @@ fn links_touching_at_rest_are_left_out_and_listed() {
     );
     assert!(report.collisions.is_empty(), "{:?}", report.collisions);
     let names: Vec<&str> = report.joints.iter().map(|j| j.name.as_str()).collect();
-    assert_eq!(names, ["shoulder_pitch", "elbow", "finger_joint"]);
+    assert_eq!(names, ["shoulder_pitch", "elbow", "wrist", "finger_joint"]);
 }
 
 #[test]

@@ -137,7 +137,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
             .map(|(a, b)| format!("{a} ↔ {b}"))
             .collect();
         line(format!(
-            "not checked: {} pair(s) of links already touching at rest, the model's own overlap ({})",
+            "not checked: {} pair(s) of links touching at rest or a joint housing's width apart (within 1 cm, at most two joints between), the model's own closeness ({})",
             pairs.len(),
             shown(&pairs, 4)
         ));

@@ -335,6 +335,10 @@ pub(super) mod tests {
     use crate::physics::MeshShapes;
     use rapier3d::parry::shape::SharedShape;
 
+    /// A speck of a shape 2 m up, for a link between two others: with no shape there the two
+    /// would be neighbours (`neighbour_matrix`), never checked.
+    pub(in crate::kinematics) const SPECK: &str = r#"<collision><origin xyz="0 0 2"/><geometry><sphere radius="0.001"/></geometry></collision>"#;
+
     /// A post on the base at x = −0.4 and a two-joint arm (a yaw, then a pitch) whose forearm
     /// box reaches 0.3–0.5 m out along x: the yaw's limits `±yaw` decide whether it can swing
     /// round to the post.
@@ -342,7 +346,7 @@ pub(super) mod tests {
         let xml = format!(
             r#"<robot name="post">
   <link name="base"><collision><origin xyz="-0.4 0 0.1"/><geometry><box size="0.1 0.1 0.4"/></geometry></collision></link>
-  <link name="yaw_link"/>
+  <link name="yaw_link">{SPECK}</link>
   <link name="forearm"><collision><origin xyz="0.4 0 0"/><geometry><box size="0.2 0.05 0.05"/></geometry></collision></link>
   <joint name="yaw" type="revolute"><parent link="base"/><child link="yaw_link"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-{yaw}" upper="{yaw}" effort="1" velocity="1"/></joint>
   <joint name="pitch" type="revolute"><parent link="yaw_link"/><child link="forearm"/><axis xyz="0 1 0"/><limit lower="-0.3" upper="0.3" effort="1" velocity="1"/></joint>
@@ -376,7 +380,7 @@ pub(super) mod tests {
         let xml = format!(
             r#"<robot name="u">
   <link name="base"><collision><geometry><mesh filename="u.stl"/></geometry></collision></link>
-  <link name="carriage"/>
+  <link name="carriage">{SPECK}</link>
   <link name="block"><collision><origin xyz="0.3 0 0"/><geometry><box size="0.1 0.05 0.03"/></geometry></collision></link>
   <joint name="slide" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="1 0 0"/><limit lower="0" upper="{travel}" effort="1" velocity="1"/></joint>
   <joint name="yaw" type="revolute"><parent link="carriage"/><child link="block"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1" effort="1" velocity="1"/></joint>

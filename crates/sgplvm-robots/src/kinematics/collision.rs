@@ -8,9 +8,12 @@
 //! convex parts, checked where the two hulls come near (a hull fills a mesh's concave places:
 //! the PR2's forearm hull meets its upper arm's long before the meshes do). A pair of shapes
 //! *can meet* when their links move relative to each other through the moving joints, are not
-//! neighbours (one joint apart) and are apart at the reference posture (pairs already touching
-//! there, like an upper arm's capsule reaching into the shoulder's, are the model's own
-//! overlap, as in MoveIt's "never in collision / adjacent" lists).
+//! neighbours (`neighbour_matrix`: one moving joint apart) and are not the model's own
+//! closeness at the reference posture (`own_closeness`, on the meshes' parts: touching there,
+//! like an upper arm's capsule reaching into the shoulder's, or a joint's housing beside the
+//! next link's), as in MoveIt's "adjacent / default" lists and as the physics replay judges
+//! them at rest. A pair nearer than the margin there keeps the distance it has there
+//! ([`CollisionModel::margin_of`]).
 
 use std::sync::Arc;
 
@@ -152,6 +155,9 @@ pub struct CollisionModel {
     /// hulls' distance is a bound that does not hold a step back).
     parts_below: f64,
     pairs: Vec<(usize, usize)>,
+    /// Each pair's distance at the reference where nearer than the margin there (infinite
+    /// where not): what it keeps instead of the margin.
+    at_reference: Vec<f64>,
     unchecked: Vec<String>,
     overlapping_at_reference: usize,
     kept_apart_by_limits: usize,
@@ -217,8 +223,9 @@ fn shape_of(
 impl CollisionModel {
     /// The collision model of `robot`: its shapes (meshes through `meshes`, when given) and
     /// the pairs that can meet when the joints `moving` (indices into [`Robot::joints`]) move,
-    /// judged at the reference configuration `reference`: pairs nearer than `apart` there (their
-    /// own overlap, or the margin a step will keep) are left out, and so are pairs the joint
+    /// judged at the reference configuration `reference`: pairs that are the model's own
+    /// closeness there (on the meshes' parts) are left out, other pairs nearer than `apart`
+    /// keep their distance there instead ([`CollisionModel::margin_of`]), and pairs the joint
     /// limits keep apart (proven, see [`CollisionModel::kept_apart_by_limits`]; the proofs kept
     /// in `proofs`, when given, for the next model of the same robot and reference).
     pub fn new(
@@ -257,38 +264,65 @@ impl CollisionModel {
                 .filter(|j| moving.contains(j))
                 .collect()
         };
-        let neighbours = |a: usize, b: usize| {
-            let one_apart = |child: usize, parent: usize| {
-                robot.parent_joint[child].is_some_and(|j| robot.joints[j].parent == parent)
-            };
-            one_apart(a, b) || one_apart(b, a)
-        };
+        let parent_of: Vec<Option<(usize, usize)>> = robot
+            .parent_joint
+            .iter()
+            .map(|p| p.map(|j| (j, robot.joints[j].parent)))
+            .collect();
+        let mut has_shape = vec![false; parent_of.len()];
+        for s in &shapes {
+            has_shape[s.link] = true;
+        }
+        let n_links = parent_of.len();
+        let adjacent = neighbour_matrix(
+            &parent_of,
+            |j| robot.joints[j].q_index.is_some(),
+            &has_shape,
+        );
+        let neighbours = |a: usize, b: usize| adjacent[a * n_links + b];
         let mut model = CollisionModel {
             parts: vec![Vec::new(); shapes.len()],
             parts_below: apart.max(0.0) + PARTS_BEYOND_MARGIN_M,
             shapes,
             pairs: Vec::new(),
+            at_reference: Vec::new(),
             unchecked,
             overlapping_at_reference: 0,
             kept_apart_by_limits: 0,
         };
         let frames = RobotFrames::new(robot, ancestry, reference);
         let mut candidates = Vec::new();
+        let mut near = Vec::new();
         for i in 0..model.shapes.len() {
             for k in (i + 1)..model.shapes.len() {
                 let (a, b) = (model.shapes[i].link, model.shapes[k].link);
                 if a == b || neighbours(a, b) || moves(a) == moves(b) {
                     continue;
                 }
-                if contact(&frames, &model.shapes[i], &model.shapes[k], apart)
-                    .is_some_and(|p| p.1 <= apart)
-                {
-                    model.overlapping_at_reference += 1;
-                    continue;
+                match contact(&frames, &model.shapes[i], &model.shapes[k], apart) {
+                    Some((_, d)) if d <= apart => near.push((i, k)),
+                    _ => candidates.push((i, k)),
                 }
-                candidates.push((i, k));
             }
         }
+        // Pairs near at the reference are judged on their meshes' parts: the model's own
+        // closeness (`own_closeness`) is left out, the others keep the distance they have there
+        // (nearer than the margin) or the margin.
+        model.split_meshes(near.iter().flat_map(|&(i, k)| [i, k]));
+        let mut at_reference = std::collections::HashMap::new();
+        for (i, k) in near {
+            let links = (model.shapes[i].link, model.shapes[k].link);
+            match model.distance(&frames, i, k, apart) {
+                None => candidates.push((i, k)),
+                Some(d) if own_closeness(&parent_of, |j| moving.contains(&j), links, d) => {
+                    model.overlapping_at_reference += 1;
+                }
+                Some(d) => {
+                    at_reference.insert((i, k), d);
+                }
+            }
+        }
+        candidates.sort_unstable();
         // The proofs in order of their meshes' size, so that the model's budget goes first to
         // the pairs it proves cheapest; the pairs kept stay in shape order.
         let mut by_cost = candidates.clone();
@@ -311,24 +345,49 @@ impl CollisionModel {
             }
         }
         model.kept_apart_by_limits = proven.len();
+        // Kept: the pairs not proven apart and those near at the reference (never proven).
         model.pairs = candidates
             .into_iter()
             .filter(|p| !proven.contains(p))
+            .chain(at_reference.keys().copied())
             .collect();
-        // The meshes of the pairs kept are checked on their convex parts: a part of a mesh is
-        // within its hull, so a pair apart at the reference stays so part by part.
-        let mut in_pairs: Vec<usize> = model.pairs.iter().flat_map(|&(i, k)| [i, k]).collect();
-        in_pairs.sort_unstable();
-        in_pairs.dedup();
-        let meshes: Vec<&MeshShapes> = in_pairs
+        model.pairs.sort_unstable();
+        model.at_reference = model
+            .pairs
             .iter()
-            .filter_map(|&i| model.shapes[i].mesh.as_ref())
+            .map(|p| at_reference.get(p).copied().unwrap_or(f64::INFINITY))
+            .collect();
+        // The meshes of the pairs kept are checked on their convex parts.
+        let kept: Vec<usize> = model.pairs.iter().flat_map(|&(i, k)| [i, k]).collect();
+        model.split_meshes(kept.into_iter());
+        model
+    }
+
+    /// Splits the meshes among `shapes` (indices) not split yet into their convex parts
+    /// (decomposed on every core).
+    fn split_meshes(&mut self, shapes: impl Iterator<Item = usize>) {
+        let mut todo: Vec<usize> = shapes
+            .filter(|&i| self.parts[i].is_empty() && self.shapes[i].mesh.is_some())
+            .collect();
+        todo.sort_unstable();
+        todo.dedup();
+        let meshes: Vec<&MeshShapes> = todo
+            .iter()
+            .filter_map(|&i| self.shapes[i].mesh.as_ref())
             .collect();
         crate::physics::decompose_all(&meshes);
-        for i in in_pairs {
-            model.parts[i] = model.shapes[i].parts();
+        for i in todo {
+            self.parts[i] = self.shapes[i].parts();
         }
-        model
+    }
+
+    /// The distance of shapes `i` and `k` placed by `frames`, on their parts where split, when
+    /// within `within`.
+    fn distance(&self, frames: &RobotFrames, i: usize, k: usize, within: f64) -> Option<f64> {
+        let (pa, pb) = (self.shapes[i].placed(frames), self.shapes[k].placed(frames));
+        let mut found = Vec::new();
+        self.nearest_parts((i, &pa), (k, &pb), frames, within, &mut found);
+        found.first().map(|f| f.1)
     }
 
     /// The shapes.
@@ -346,10 +405,16 @@ impl CollisionModel {
         &self.unchecked
     }
 
-    /// Pairs left out because their shapes overlap, or come nearer than the margin, at the
-    /// reference posture.
+    /// Pairs left out as the model's own closeness at the reference posture: touching there (on
+    /// the meshes' parts), or within a centimetre with at most two moving joints between.
     pub fn overlapping_at_reference(&self) -> usize {
         self.overlapping_at_reference
+    }
+
+    /// The distance pair `pair` is kept apart by, for a margin of `margin`: the margin, or less
+    /// where the pair is nearer at the reference posture (which must stay within the limit).
+    pub fn margin_of(&self, pair: usize, margin: f64) -> f64 {
+        margin.min(self.at_reference[pair])
     }
 
     /// Pairs left out because the joint limits keep them apart: proven, over the joints between
@@ -451,6 +516,99 @@ impl CollisionModel {
     }
 }
 
+/// Link `link`'s chain up to its root, itself first (`parent_of`: each link's parent joint
+/// and link).
+fn chain(parent_of: &[Option<(usize, usize)>], link: usize) -> Vec<usize> {
+    let mut chain = vec![link];
+    while let Some((_, parent)) = parent_of[*chain.last().unwrap_or(&link)] {
+        chain.push(parent);
+    }
+    chain
+}
+
+/// The tree path between two links of chains `ca` and `cb` ([`chain`]): the links strictly between and the links
+/// below their lowest common ancestor (each the child of one joint on the path); `None` for
+/// links of different trees.
+fn tree_path(ca: &[usize], cb: &[usize]) -> Option<(Vec<usize>, Vec<usize>)> {
+    let (ia, ib) = ca
+        .iter()
+        .enumerate()
+        .find_map(|(ia, l)| cb.iter().position(|m| m == l).map(|ib| (ia, ib)))?;
+    let mut between: Vec<usize> = ca.get(1..ia).unwrap_or(&[]).to_vec();
+    between.extend_from_slice(cb.get(1..ib).unwrap_or(&[]));
+    if ia > 0 && ib > 0 {
+        between.push(ca[ia]);
+    }
+    let below = ca[..ia].iter().chain(&cb[..ib]).copied().collect();
+    Some((between, below))
+}
+
+/// Which pairs of links are neighbours, never checked against each other (`n × n`, row-major):
+/// links whose tree path holds at most one movable joint (links joined by fixed joints are one
+/// body, as in MoveIt's adjacent pairs), or whose links strictly between have no shape.
+/// `parent_of` gives each link's parent joint and link, `movable` whether a joint moves.
+pub(crate) fn neighbour_matrix(
+    parent_of: &[Option<(usize, usize)>],
+    movable: impl Fn(usize) -> bool,
+    has_shape: &[bool],
+) -> Vec<bool> {
+    let n = parent_of.len();
+    let chains: Vec<Vec<usize>> = (0..n).map(|l| chain(parent_of, l)).collect();
+    let mut matrix = vec![false; n * n];
+    for a in 0..n {
+        matrix[a * n + a] = true;
+        for b in (a + 1)..n {
+            let Some((between, below)) = tree_path(&chains[a], &chains[b]) else {
+                continue; // different trees: not neighbours
+            };
+            let shapeless_between = between.iter().all(|&l| !has_shape[l]);
+            let moving = below
+                .iter()
+                .filter(|&&l| parent_of[l].is_some_and(|(j, _)| movable(j)))
+                .count();
+            if shapeless_between || moving <= 1 {
+                matrix[a * n + b] = true;
+                matrix[b * n + a] = true;
+            }
+        }
+    }
+    matrix
+}
+
+/// Whether links `a` and `b`, their shapes `distance` apart at rest, are the model's own
+/// closeness, never checked: touching there, or nearer than [`DESIGNED_CLEARANCE_M`] with
+/// at most [`DESIGNED_CLEARANCE_JOINTS`] movable joints between them (a joint's housing next
+/// to the next link's, a clearance the joints keep and approximate shapes cannot tell). The
+/// one rule of retargeting's collision model and the physics replay.
+pub(crate) fn own_closeness(
+    parent_of: &[Option<(usize, usize)>],
+    movable: impl Fn(usize) -> bool,
+    (a, b): (usize, usize),
+    distance: f64,
+) -> bool {
+    if distance <= 0.0 {
+        return true;
+    }
+    if distance >= DESIGNED_CLEARANCE_M {
+        return false;
+    }
+    tree_path(&chain(parent_of, a), &chain(parent_of, b)).is_some_and(|(_, below)| {
+        below
+            .iter()
+            .filter(|&&l| parent_of[l].is_some_and(|(j, _)| movable(j)))
+            .count()
+            <= DESIGNED_CLEARANCE_JOINTS
+    })
+}
+
+/// Below this distance at rest, two links at most [`DESIGNED_CLEARANCE_JOINTS`] apart are the
+/// model's own closeness, metres.
+pub(crate) const DESIGNED_CLEARANCE_M: f64 = 0.01;
+
+/// At most this many movable joints between two links near at rest make their closeness the
+/// model's own ([`own_closeness`]).
+const DESIGNED_CLEARANCE_JOINTS: usize = 2;
+
 /// How far beyond the margin two meshes' hulls may come before their parts are checked, metres.
 const PARTS_BEYOND_MARGIN_M: f64 = 0.01;
 
@@ -525,6 +683,74 @@ mod tests {
         // 0.44 m in it reaches into the back wall (x ≥ 0.78).
         let touching = near_at(0.44);
         assert!(touching.iter().any(|p| p.distance < 0.0), "{touching:?}");
+    }
+
+    /// A base box and, `joints` revolute joints on (the links between with a speck of a shape,
+    /// `SPECK`), a block whose face is `gap` metres
+    /// from the base's at zero.
+    fn block_near_base(joints: usize, gap: f64) -> Robot {
+        let mut links = String::new();
+        let mut chain = String::new();
+        let mut parent = "base".to_string();
+        for j in 0..joints {
+            let child = if j + 1 == joints {
+                "block".to_string()
+            } else {
+                format!("l{j}")
+            };
+            if child != "block" {
+                links += &format!(
+                    r#"<link name="{child}">{}</link>"#,
+                    super::super::apart::tests::SPECK
+                );
+            }
+            let axis = ["0 0 1", "0 1 0", "1 0 0"][j % 3];
+            chain += &format!(
+                r#"<joint name="j{j}" type="revolute"><parent link="{parent}"/><child link="{child}"/><axis xyz="{axis}"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>"#
+            );
+            parent = child;
+        }
+        let x = 0.1 + gap;
+        let xml = format!(
+            r#"<robot name="near">
+  <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  {links}
+  <link name="block"><collision><origin xyz="{x} 0 0"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  {chain}
+</robot>"#
+        );
+        Robot::from_urdf_str(&xml, "near.urdf").unwrap()
+    }
+
+    #[test]
+    fn a_pair_near_at_the_reference_keeps_its_distance_there_unless_it_is_the_models_own() {
+        // The model, and its pair of the base and the block if kept.
+        let model_of = |joints: usize, gap: f64| {
+            let robot = block_near_base(joints, gap);
+            let ancestry = Ancestry::of(&robot);
+            let zero = vec![0.0; robot.dof()];
+            let m = CollisionModel::new(&robot, &ancestry, &robot.movable, &zero, 0.01, None, None);
+            let pair = (0..m.pairs().len()).find(|&p| {
+                let (a, b) = m.pair_links(p);
+                (robot.links[a].as_str(), robot.links[b].as_str()) == ("base", "block")
+            });
+            (m, pair)
+        };
+        // Three moving joints between, 5 mm apart at the reference: kept, at 5 mm, not 10.
+        let (m, pair) = model_of(3, 0.005);
+        let kept = m.margin_of(pair.expect("kept"), 0.01);
+        assert!((kept - 0.005).abs() < 1e-5, "{kept}");
+        assert_eq!(m.overlapping_at_reference(), 0);
+        // Touching there: the model's own overlap, left out.
+        let (m, pair) = model_of(3, -0.005);
+        assert_eq!((pair, m.overlapping_at_reference()), (None, 1));
+        // Two joints between, 5 mm apart: a joint's housing next to the next link's, left out
+        // (and so is the same pair in the physics replay: `own_closeness`).
+        let (m, pair) = model_of(2, 0.005);
+        assert_eq!((pair, m.overlapping_at_reference()), (None, 1));
+        // Two joints, 3 cm apart: checked, at the margin.
+        let (m, pair) = model_of(2, 0.03);
+        assert_eq!(m.margin_of(pair.expect("kept"), 0.01), 0.01);
     }
 
     #[test]

@@ -41,7 +41,8 @@ pub fn velocity_limits(step: &mut Step, ctx: &TaskContext<'_>, dt: f64) {
     }
 }
 
-/// Keeps every pair of `model`'s shapes at least `margin` apart (see the module docs): one row
+/// Keeps every pair of `model`'s shapes at least `margin` apart, or as far as at the reference
+/// where nearer there ([`CollisionModel::margin_of`]; see the module docs): one row
 /// per pair within `detect` metres, the distance's linear change scaled by `gain` (1: reach the
 /// margin in one step). Returns the pairs near enough to be limited.
 pub fn collision_limit(
@@ -68,7 +69,7 @@ pub fn collision_limit(
         // −nᵀ(J_b − J_a) Δq ≤ gain (d − margin)
         step.add_row(
             DVector::from_iterator(row.len(), row.iter().map(|v| -v)),
-            gain * (p.distance - margin),
+            gain * (p.distance - model.margin_of(p.pair, margin)),
         );
     }
     near

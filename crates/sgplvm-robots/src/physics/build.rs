@@ -21,6 +21,7 @@ use rapier3d_urdf::{
 
 use super::model::{element_of_joint, PreparedModel};
 use super::{PhysicsError, ReplayOptions, Trajectory};
+use crate::kinematics::collision::{own_closeness, DESIGNED_CLEARANCE_M};
 
 /// Density (kg/m³, about that of water) given to the collision shapes of a link that declares
 /// no mass, so that every moving link has an inertia.
@@ -166,9 +167,10 @@ pub(super) struct Scene {
     pub(super) initial: Vec<f64>,
     /// The model's warnings and those of loading it.
     pub(super) warnings: Vec<String>,
-    /// Link pairs (URDF indices) whose shapes already touch at the rest posture (every joint
-    /// at its hold value): the model's own overlap, never checked (as retargeting's collision
-    /// model and MoveIt's "never in collision" lists leave it out).
+    /// Link pairs (URDF indices) that are the model's own closeness at the rest posture (every
+    /// joint at its hold value): touching there, or within a centimetre with at most two
+    /// joints between; never checked, by the rule retargeting's collision model keeps
+    /// (`own_closeness`).
     pub(super) overlapping_at_rest: Vec<(usize, usize)>,
 }
 
@@ -207,7 +209,7 @@ impl Scene {
         let mut hooks = collision_filter(model, options)?;
         let rest: Vec<f64> = driven.iter().map(|d| d.hold).collect();
         place(&mut world, &driven, &rest, options.armature);
-        let overlapping_at_rest = rest_overlaps(&world, &hooks, options.contact_distance);
+        let overlapping_at_rest = rest_overlaps(model, &world, &hooks, options.contact_distance);
         for &(a, b) in &overlapping_at_rest {
             hooks.skip[a * hooks.n_links + b] = true;
             hooks.skip[b * hooks.n_links + a] = true;
@@ -440,13 +442,17 @@ fn release_limits(world: &mut PhysicsWorld, driven: &[DrivenJoint]) {
     }
 }
 
-/// Link pairs the filter checks whose shapes are within `distance` (touching or
-/// penetrating, for 0) as the world stands: each pair once, in URDF order.
+/// Link pairs the filter checks that are the model's own closeness as the world stands (at
+/// rest): within `distance` (touching or penetrating, for 0), or near with few joints between
+/// (`own_closeness`, retargeting's rule); each pair once, in URDF order.
 fn rest_overlaps(
+    model: &PreparedModel,
     world: &PhysicsWorld,
     hooks: &SelfCollisionFilter,
     distance: f64,
 ) -> Vec<(usize, usize)> {
+    let movable = |j: usize| model.robot.joints[j].joint_type != urdf_rs::JointType::Fixed;
+    let within = distance.max(DESIGNED_CLEARANCE_M);
     let n = hooks.n_links;
     let placed: Vec<(usize, rapier3d::math::Pose, &dyn rapier3d::geometry::Shape)> = world
         .colliders
@@ -465,9 +471,9 @@ fn rest_overlaps(
             if a == b || hooks.skip[a * n + b] || found.contains(&key) {
                 continue;
             }
-            let contact =
-                rapier3d::parry::query::contact(pa, *sa, pb, *sb, distance.max(0.0) as Real);
-            if matches!(contact, Ok(Some(c)) if f64::from(c.dist) <= distance) {
+            let contact = rapier3d::parry::query::contact(pa, *sa, pb, *sb, within as Real);
+            let own = |d: f64| d <= distance || own_closeness(&model.parent_of, movable, key, d);
+            if matches!(contact, Ok(Some(c)) if own(f64::from(c.dist))) {
                 found.push(key);
             }
         }

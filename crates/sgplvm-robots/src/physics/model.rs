@@ -11,6 +11,7 @@ use rapier3d_urdf::urdf_rs;
 
 use super::hulls::{self, MeshCollision, MeshHull, UncheckedMesh};
 use super::PhysicsError;
+use crate::kinematics::collision::neighbour_matrix;
 use crate::urdf::{MeshSearch, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 /// A checked, simulation-ready copy of the URDF.
@@ -24,6 +25,8 @@ pub(super) struct PreparedModel {
     pub(super) has_shape: Vec<bool>,
     /// Link pairs (by URDF link index) never checked, as a dense symmetric matrix.
     pub(super) neighbours: Vec<bool>,
+    /// For each link, its parent joint and parent link (URDF indices), `None` for a root.
+    pub(super) parent_of: ParentOf,
     /// What was worked around (fixed floating joints ...).
     pub(super) warnings: Vec<String>,
     /// The collision meshes made convex hulls.
@@ -69,7 +72,7 @@ fn finite3(v: &[f64; 3]) -> bool {
 }
 
 /// For each link, its parent joint and parent link (URDF indices), `None` for a root.
-type ParentOf = Vec<Option<(usize, usize)>>;
+pub(super) type ParentOf = Vec<Option<(usize, usize)>>;
 
 /// Checks the URDF tree and numbers, fixes what a fixed-base replay needs fixed, welds the
 /// joints `held` at their values (as a controller holding them would keep them) and makes the
@@ -107,7 +110,11 @@ pub(super) fn prepare_model(
     for hull in &loaded.hulls {
         has_shape[hull.link] = true;
     }
-    let neighbours = neighbour_matrix(&robot, &parent_of, &has_shape);
+    let neighbours = neighbour_matrix(
+        &parent_of,
+        |j| robot.joints[j].joint_type != urdf_rs::JointType::Fixed,
+        &has_shape,
+    );
     let held = welded
         .iter()
         .map(|&(j, v)| (robot.joints[j].name.clone(), v))
@@ -116,6 +123,7 @@ pub(super) fn prepare_model(
         robot,
         has_shape,
         neighbours,
+        parent_of,
         warnings,
         hulls: loaded.hulls,
         unchecked_meshes: loaded.unchecked,
@@ -400,64 +408,6 @@ fn check_acyclic(
     Ok(())
 }
 
-/// The chain of (joint, link) steps from `link` up to its root, `link` first.
-fn ancestry(link: usize, parent_of: &[Option<(usize, usize)>]) -> Vec<usize> {
-    let mut chain = vec![link];
-    let mut current = link;
-    while let Some((_, parent)) = parent_of[current] {
-        chain.push(parent);
-        current = parent;
-    }
-    chain
-}
-
-/// Which link pairs are neighbours (never collision-checked): every intermediate link on the
-/// tree path has no shape, or every joint on the path is fixed.
-fn neighbour_matrix(
-    robot: &urdf_rs::Robot,
-    parent_of: &[Option<(usize, usize)>],
-    has_shape: &[bool],
-) -> Vec<bool> {
-    let n = robot.links.len();
-    let mut matrix = vec![false; n * n];
-    let chains: Vec<Vec<usize>> = (0..n).map(|l| ancestry(l, parent_of)).collect();
-    for a in 0..n {
-        matrix[a * n + a] = true;
-        for b in (a + 1)..n {
-            let (ca, cb) = (&chains[a], &chains[b]);
-            // Lowest common ancestor: the first link of a's chain that is in b's chain.
-            let Some((ia, ib)) = ca
-                .iter()
-                .enumerate()
-                .find_map(|(ia, l)| cb.iter().position(|m| m == l).map(|ib| (ia, ib)))
-            else {
-                continue; // different trees: not neighbours
-            };
-            // Links strictly between a and b on the path (the common ancestor included when it
-            // is neither end).
-            let mut between: Vec<usize> = ca.get(1..ia).unwrap_or(&[]).to_vec();
-            between.extend_from_slice(cb.get(1..ib).unwrap_or(&[]));
-            if ia > 0 && ib > 0 {
-                between.push(ca[ia]);
-            }
-            let shapeless_between = between.iter().all(|&l| !has_shape[l]);
-            // Joints on the path: the parent joint of every link below the common ancestor.
-            let all_fixed = ca[..ia]
-                .iter()
-                .chain(cb[..ib].iter())
-                .all(|&l| match parent_of[l] {
-                    Some((j, _)) => robot.joints[j].joint_type == urdf_rs::JointType::Fixed,
-                    None => true,
-                });
-            if shapeless_between || all_fixed {
-                matrix[a * n + b] = true;
-                matrix[b * n + a] = true;
-            }
-        }
-    }
-    matrix
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -488,7 +438,7 @@ mod tests {
     }
 
     #[test]
-    fn neighbours_are_tree_adjacent_through_shapeless_links_or_fixed_joints() {
+    fn neighbours_are_one_moving_joint_apart_or_joined_through_shapeless_links() {
         let (names, m) = neighbours(TREE);
         let n = names.len();
         let idx = |s: &str| names.iter().position(|x| x == s).unwrap();
@@ -499,10 +449,11 @@ mod tests {
         assert!(near("base", "b") && near("b", "base"));
         // All-fixed path.
         assert!(near("base", "c"));
-        // c (with a shape) sits between base and d, and the path has a moving joint.
-        assert!(!near("base", "d") && !near("base", "e"));
-        // Across the base: b and c, b and d are not neighbours.
-        assert!(!near("b", "c") && !near("b", "d") && !near("c", "e"));
+        // One moving joint between two bodies of links joined by fixed joints (MoveIt's
+        // adjacency): base + c and d + e.
+        assert!(near("base", "d") && near("base", "e") && near("c", "e"));
+        // Across the base, two moving joints and shapes between: not neighbours.
+        assert!(!near("b", "c") && !near("b", "d") && !near("b", "e"));
         // Symmetric.
         for i in 0..n {
             for j in 0..n {

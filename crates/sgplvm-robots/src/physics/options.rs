@@ -57,8 +57,10 @@ pub struct ReplayOptions {
     pub held: Vec<(String, f64)>,
     /// Extra link pairs never checked for collision, in either order. Links that are
     /// neighbours in the kinematic tree are always skipped: a pair is skipped when every link
-    /// on the tree path between them has no collision shape, or when every joint on that path
-    /// is fixed.
+    /// on the tree path between them has no collision shape, or when that path holds at most
+    /// one joint that is not fixed (links joined by fixed joints are one body, as in MoveIt's
+    /// adjacent pairs); so are pairs that are the model's own closeness at rest
+    /// ([`ReplayReport::overlapping_at_rest`](crate::physics::ReplayReport::overlapping_at_rest)).
     pub ignored_pairs: Vec<(String, String)>,
     /// Reflected rotor inertia added to every joint, kg·m² (default 1e-4). Keeps the dynamics
     /// well posed when a URDF gives a link no inertia about its joint axis.

@@ -150,8 +150,10 @@ pub struct ReplayReport {
     /// The joints held still by their controllers (welded at these values: see
     /// [`ReplayOptions::held`](crate::physics::ReplayOptions::held)), in URDF order.
     pub held: Vec<(String, f64)>,
-    /// Link pairs whose shapes already touch at the rest posture (every joint at its hold
-    /// value): the model's own overlap, not checked.
+    /// Link pairs that are the model's own closeness at the rest posture (every joint at its
+    /// hold value): touching there, or within a centimetre with at most two moving joints
+    /// between (a joint's housing next to the next link's); not checked, as retargeting leaves
+    /// them out.
     pub overlapping_at_rest: Vec<(String, String)>,
     /// Where the replay ran away and stopped, if it did.
     pub diverged: Option<Divergence>,

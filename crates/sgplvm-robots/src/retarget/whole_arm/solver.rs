@@ -8,7 +8,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use super::{ArmPosture, PersonGauge, PostureGauge, WholeArmOptions};
 use crate::anatomy::Anatomy;
-use crate::kinematics::collision::CollisionModel;
+use crate::kinematics::collision::{CollisionModel, Proximity};
 use crate::kinematics::frames::RobotFrames;
 use crate::kinematics::limits::{collision_limit, position_limits};
 use crate::kinematics::qp::{Solved, Step};
@@ -419,11 +419,9 @@ impl FrameSolver<'_> {
         let (mut steps, mut constrained) = self.solve(q, tasks, false, iterations);
         if self.options.self_collision {
             let frames = RobotFrames::new(self.anatomy.robot(), &self.gauge.ancestry, q);
-            if !self
-                .model
-                .proximities(&frames, self.options.margin_m)
-                .is_empty()
-            {
+            let margin = self.options.margin_m;
+            let within = |p: &Proximity| p.distance < self.model.margin_of(p.pair, margin);
+            if self.model.proximities(&frames, margin).iter().any(within) {
                 let (s, c) = self.solve(q, tasks, true, iterations);
                 steps += s;
                 constrained += c;
