@@ -273,8 +273,6 @@ pub(super) fn arm_geometry(
     };
     let after = group;
     let local = riding(&chain, &zero, after, point);
-    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow_first);
-    let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
     let distal = (group + size).min(chain.dof())..chain.dof();
     let with = |tail: &[f64]| -> Vec<f64> {
         let mut q = zero.clone();
@@ -304,6 +302,11 @@ pub(super) fn arm_geometry(
         .clone()
         .min_by(|&a, &b| bend(a).total_cmp(&bend(b)))
         .unwrap_or(0);
+    // The wrist's axes start after the elbow found, not the guessed one: Aldebaran's NAO and
+    // Pepper turn the upper arm (elbow yaw) and bend (elbow roll) at one point, and the bend's
+    // axis meets the forearm's roll at the elbow, not at a wrist.
+    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow);
+    let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
     Ok(AnatomyArm {
         side: raw.side,
         shoulder: (base_in_torso * nalgebra::Point3::from(point)).coords,

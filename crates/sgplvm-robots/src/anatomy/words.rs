@@ -114,11 +114,22 @@ pub fn part_of(name: &str) -> Part {
     }
 }
 
+/// Words of a sensor's frame, never a hand's point however its name goes on (Aldebaran's NAO
+/// and Pepper put `LHandTouchLeft_frame`, a touch sensor 25 mm off the hand's side, on the
+/// wrist beside the gripper).
+const SENSOR: &[&str] = &[
+    "touch", "sensor", "camera", "cam", "optical", "imu", "laser", "tactile", "skin", "marker",
+    "led", "contact",
+];
+
 /// How strongly a link name says "this is the hand / end effector" (higher is more): `hand`,
-/// `palm`, `tool`, `tcp`, `ee`, `flange`, `gripper`; 0 for none.
+/// `palm`, `tool`, `tcp`, `ee`, `flange`, `gripper`; 0 for none, and for a sensor's frame.
 pub fn hand_score(name: &str) -> u32 {
-    words(name)
-        .iter()
+    let w = words(name);
+    if w.iter().any(|x| SENSOR.contains(&x.as_str())) {
+        return 0;
+    }
+    w.iter()
         .map(|w| match w.as_str() {
             "hand" | "palm" => 3,
             "tool" | "tcp" | "ee" | "effector" | "flange" => 2,
@@ -170,5 +181,7 @@ mod tests {
         assert_eq!(part_of("left_e1"), Part::Arm);
         assert_eq!(part_of("l_wrist_prosup"), Part::Arm);
         assert!(hand_score("left_rubber_hand") > hand_score("wrist_left_ft_link"));
+        assert_eq!(hand_score("LHandTouchLeft_frame"), 0);
+        assert_eq!(hand_score("l_hand_camera_optical_frame"), 0);
     }
 }

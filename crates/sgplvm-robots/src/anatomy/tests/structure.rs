@@ -327,3 +327,70 @@ fn an_arm_that_cannot_hang_is_mounted_rolled_out_and_the_humanoids_are_not() {
         );
     }
 }
+
+/// Two arms as Aldebaran draws NAO's: the shoulder's pitch and roll at one point, the elbow's
+/// yaw (the upper arm's turn, along it) and roll (its bend) at one point, the forearm's yaw
+/// 56 mm on, and on the wrist link a gripper joint, fingers and touch sensors' frames (one
+/// 25 mm off the hand's side, named `…HandTouchLeft_frame`).
+fn elbow_turning_and_bending_at_one_point() -> String {
+    let joint = |name: &str,
+                 kind: &str,
+                 parent: &str,
+                 child: &str,
+                 xyz: &str,
+                 axis: &str,
+                 lim: (f64, f64)| {
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="5" effort="1"/></joint>"#,
+            lim.0, lim.1
+        )
+    };
+    let arm = |s: &str, lower: &str, sign: f64| {
+        let m = |lo: f64, hi: f64| if sign > 0.0 { (lo, hi) } else { (-hi, -lo) };
+        [
+            joint(&format!("{s}ShoulderPitch"), "revolute", "torso", &format!("{s}Shoulder"), &format!("0 {} 0.1", 0.098 * sign), "0 1 0", (-2.08, 2.08)),
+            joint(&format!("{s}ShoulderRoll"), "revolute", &format!("{s}Shoulder"), &format!("{s}Bicep"), "0 0 0", "0 0 1", m(-0.31, 1.33)),
+            joint(&format!("{s}ElbowYaw"), "revolute", &format!("{s}Bicep"), &format!("{s}Elbow"), &format!("0.105 {} 0", 0.015 * sign), "1 0 0", (-2.08, 2.08)),
+            joint(&format!("{s}ElbowRoll"), "revolute", &format!("{s}Elbow"), &format!("{s}ForeArm"), "0 0 0", "0 0 1", m(-1.54, -0.035)),
+            joint(&format!("{s}WristYaw"), "revolute", &format!("{s}ForeArm"), &format!("{lower}_wrist"), "0.05595 0 0", "1 0 0", (-1.82, 1.82)),
+            joint(&format!("{s}Hand"), "revolute", &format!("{lower}_wrist"), &format!("{lower}_gripper"), "0.05775 0 -0.01231", "1 0 0", (0.0, 1.0)),
+            joint(&format!("{s}Finger11"), "revolute", &format!("{lower}_wrist"), &format!("{s}Finger11_link"), "0.069 0.012 -0.003", "0 1 0", (0.0, 1.0)),
+            format!(
+                r#"<link name="{s}HandTouchLeft_frame"/><joint name="{s}HandTouchLeft_fixed" type="fixed"><parent link="{lower}_wrist"/><child link="{s}HandTouchLeft_frame"/><origin xyz="0.032 0.025 0.003"/></joint>"#
+            ),
+        ]
+        .concat()
+    };
+    format!(
+        r#"<robot name="elbowyaw"><link name="torso"/>{}{}</robot>"#,
+        arm("L", "l", 1.0),
+        arm("R", "r", -1.0)
+    )
+}
+
+#[test]
+fn an_elbow_that_turns_and_bends_at_one_point_ends_its_forearm_at_the_wrist_not_a_sensor() {
+    let robot =
+        Robot::from_urdf_str(&elbow_turning_and_bending_at_one_point(), "nao.urdf").unwrap();
+    let a = Anatomy::of(robot).unwrap();
+    for (side, wrist) in [(Side::Left, "l_wrist"), (Side::Right, "r_wrist")] {
+        let arm = a.arm(side).unwrap();
+        // The hand is the wrist link, not a touch sensor's frame beside it.
+        assert_eq!(arm.chain.tip(), wrist, "{side:?}");
+        assert_eq!(
+            a.robot().joint_names()[arm.chain.robot_indices()[arm.elbow]],
+            format!("{}ElbowRoll", &format!("{side:?}")[..1])
+        );
+        // The forearm's bone line runs from the elbow to the wrist, 56 mm on (the elbow's bend
+        // axis meets the forearm's yaw at the elbow: no wrist there).
+        let m = arm.landmarks(a.robot());
+        let ancestry = crate::kinematics::frames::Ancestry::of(a.robot());
+        let frames = crate::kinematics::frames::RobotFrames::new(
+            a.robot(),
+            &ancestry,
+            a.hold_configuration(),
+        );
+        let forearm = (m.wrist.at(&frames) - m.elbow.at(&frames)).norm();
+        assert!((forearm - 0.05595).abs() < 1e-3, "{side:?}: {forearm}");
+    }
+}
