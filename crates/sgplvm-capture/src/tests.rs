@@ -279,6 +279,11 @@ fn naming_schemes_are_recognised() {
             ["rCollar", "rShldrBend", "rForearmBend", "rHand"],
             "DAZ",
         ),
+        (
+            ["LShoulder", "LUArm", "LFArm", "LHand"],
+            ["RShoulder", "RUArm", "RFArm", "RHand"],
+            "OptiTrack Motive",
+        ),
     ];
     for (left, right, scheme) in cases {
         let bvh = skeleton(left, right);

@@ -68,6 +68,15 @@ pub const SCHEMES: &[Scheme] = &[
         hand: &["hand"],
     },
     Scheme {
+        // OptiTrack Motive's skeletons (`Hip`, `Ab`, `Chest`, `LShoulder`, `LUArm`, `LFArm`,
+        // `LHand`), as its BVH export and its NatNet stream name them.
+        name: "OptiTrack Motive (Shoulder, UArm, FArm, Hand)",
+        clavicle: &["shoulder"],
+        upper_arm: &["uarm"],
+        forearm: &["farm"],
+        hand: &["hand"],
+    },
+    Scheme {
         // The bones of CMU's own ASF skeleton, as BVH files converted straight from the AMC
         // files name them: lclavicle, lhumerus, lradius, lwrist (a short bone on the forearm's
         // line that turns it), lhand (the hand, where the wrist flexes), lfingers, lthumb.
