@@ -284,6 +284,11 @@ fn naming_schemes_are_recognised() {
             ["RShoulder", "RUArm", "RFArm", "RHand"],
             "OptiTrack Motive",
         ),
+        (
+            ["LeftCollar", "LeftUpArm", "LeftLowArm", "LeftHand"],
+            ["RightCollar", "RightUpArm", "RightLowArm", "RightHand"],
+            "Biovision",
+        ),
     ];
     for (left, right, scheme) in cases {
         let bvh = skeleton(left, right);

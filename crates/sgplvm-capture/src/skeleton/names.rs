@@ -68,6 +68,15 @@ pub const SCHEMES: &[Scheme] = &[
         hand: &["hand"],
     },
     Scheme {
+        // The BVH format's own examples (Biovision, as its description by Thingvold and
+        // Maddock gives them): `LeftCollar`, `LeftUpArm`, `LeftLowArm`, `LeftHand`.
+        name: "Biovision (Collar, UpArm, LowArm, Hand)",
+        clavicle: &["collar"],
+        upper_arm: &["uparm"],
+        forearm: &["lowarm"],
+        hand: &["hand"],
+    },
+    Scheme {
         // OptiTrack Motive's skeletons (`Hip`, `Ab`, `Chest`, `LShoulder`, `LUArm`, `LFArm`,
         // `LHand`), as its BVH export and its NatNet stream name them.
         name: "OptiTrack Motive (Shoulder, UArm, FArm, Hand)",
