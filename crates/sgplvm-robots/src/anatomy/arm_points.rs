@@ -239,6 +239,52 @@ fn maximise(
     best
 }
 
+/// The least distance (metres) of the last link's centre of mass from the last joint's axis
+/// for the link to count as carrying the forearm and the hand beyond that joint.
+const FOREARM_LEVER_M: f64 = 0.02;
+
+/// The hand point in the tip link's frame: its origin, unless the tip link is the last joint's
+/// own link, its origin lies on that joint's axis (the joint moves nothing of it), the joint
+/// stands alone (at least [`FOREARM_LEVER_M`] from the joint before: an elbow, not a wrist
+/// whose axes meet) and the link's centre of mass lies at least that far off the axis: a
+/// forearm with its hand in one link past the elbow (Poppy's, ROBOTIS' OP3), whose hand is
+/// taken twice the centre of mass from the joint (a link of even mass ends there).
+fn hand_point(robot: &Robot, chain: &Chain) -> Vector3<f64> {
+    let none = Vector3::zeros();
+    let (Some(&tip), Some(&last)) = (
+        robot.link_index.get(chain.tip()),
+        chain.robot_indices().last(),
+    ) else {
+        return none;
+    };
+    let joint = robot.movable[last];
+    let origins = chain.joint_origins(&vec![0.0; chain.dof()]);
+    let alone = match origins.as_slice() {
+        [.., before, at] => (at - before).norm() >= FOREARM_LEVER_M,
+        _ => false,
+    };
+    let on_axis = {
+        let tail =
+            chain.forward(&vec![0.0; chain.dof()]).translation.vector - origins[origins.len() - 1];
+        tail.norm() < 1e-6
+    };
+    if robot.parent_joint[tip] != Some(joint) || !alone || !on_axis {
+        return none;
+    }
+    let Some(link) = robot.urdf.links.iter().find(|l| l.name == chain.tip()) else {
+        return none;
+    };
+    let c = &link.inertial.origin.xyz;
+    let com = Vector3::new(c[0], c[1], c[2]);
+    let axis = robot.joints[joint].axis.into_inner();
+    let lever = com - axis * com.dot(&axis);
+    if lever.norm() >= FOREARM_LEVER_M {
+        2.0 * com
+    } else {
+        none
+    }
+}
+
 /// One arm's geometry: its pose on the torso, shoulder, reach and elbow (the neutral posture
 /// comes once the body frame is known).
 ///
@@ -254,6 +300,8 @@ pub(super) fn arm_geometry(
     torso_in_root: &Isometry3<f64>,
 ) -> AnatomyResult<AnatomyArm> {
     let base_in_torso = torso_in_root.inverse() * robot.forward_kinematics(hold, &raw.base)?;
+    let hand_local = hand_point(robot, &chain);
+    let chain = chain.with_tip_point(hand_local);
     let zero: Vec<f64> = chain
         .limits()
         .iter()
@@ -304,9 +352,14 @@ pub(super) fn arm_geometry(
         .unwrap_or(0);
     // The wrist's axes start after the elbow found, not the guessed one: Aldebaran's NAO and
     // Pepper turn the upper arm (elbow yaw) and bend (elbow roll) at one point, and the bend's
-    // axis meets the forearm's roll at the elbow, not at a wrist.
-    let (wrist_after, _, wrist_point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow);
-    let wrist_local = riding(&chain, &zero, wrist_after, wrist_point);
+    // axis meets the forearm's roll at the elbow, not at a wrist. No joint after the elbow:
+    // the wrist is the hand point.
+    let (wrist_after, wrist_local) = if elbow + 1 >= chain.dof() {
+        (chain.dof(), hand_local)
+    } else {
+        let (after, _, point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow);
+        (after, riding(&chain, &zero, after, point))
+    };
     Ok(AnatomyArm {
         side: raw.side,
         shoulder: (base_in_torso * nalgebra::Point3::from(point)).coords,
@@ -319,6 +372,7 @@ pub(super) fn arm_geometry(
         shoulder_local: local,
         wrist_after,
         wrist_local,
+        hand_local,
         base_in_torso,
         reach,
         straight,

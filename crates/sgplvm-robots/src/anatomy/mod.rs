@@ -36,6 +36,7 @@ mod commands;
 mod discover;
 mod file;
 mod geometry;
+mod landmarks;
 mod mount;
 mod summary;
 pub mod words;
@@ -52,7 +53,6 @@ use serde::Serialize;
 
 use crate::kinematics::collision::CollisionModel;
 use crate::kinematics::frames::Ancestry;
-use crate::kinematics::tasks::LinkPoint;
 use crate::kinematics::{ApartProofs, Chain};
 use crate::models::Side;
 use crate::physics::{mesh_shapes, MeshShapes};
@@ -62,6 +62,7 @@ use crate::RobotError;
 
 pub use commands::CommandColumns;
 pub use file::{description_path, AnatomyFile, ANATOMY_FILE_VERSION};
+pub use landmarks::ArmLandmarks;
 pub use mount::{Mount, MountReason, HANG_MISS_DEG, TABLE_ROLL_DEG};
 pub use summary::{AnatomyReport, ArmReport};
 
@@ -277,10 +278,16 @@ pub struct AnatomyArm {
     /// The shoulder point in the frame of chain joint `shoulder_after` (the chain's base frame
     /// when that is 0), so that it moves with the joints before it.
     pub shoulder_local: Vector3<f64>,
-    /// The first chain joint of the wrist (the last joints whose axes meet).
+    /// The first chain joint of the wrist (the last joints whose axes meet); the chain's length
+    /// where no joint follows the elbow (the wrist is then the hand point on the last link).
     pub wrist_after: usize,
-    /// The wrist centre in the frame of chain joint `wrist_after` (before its motion).
+    /// The wrist centre in the frame of chain joint `wrist_after` (before its motion), or in
+    /// the tip link's frame where `wrist_after` is the chain's length.
     pub wrist_local: Vector3<f64>,
+    /// The hand point in the tip link's frame: its origin, or, where the arm's last link
+    /// carries the forearm beyond the last joint's axis (Poppy's, ROBOTIS' small humanoids),
+    /// twice its centre of mass from there.
+    pub hand_local: Vector3<f64>,
     /// The largest shoulder-to-hand distance within the joint limits, metres.
     pub reach: f64,
     /// The arm's joint values (chain order) of that straightened arm.
@@ -292,113 +299,6 @@ pub struct AnatomyArm {
     /// The chain joint at the elbow: the one farthest from both the shoulder and the hand on
     /// the straightened arm.
     pub elbow: usize,
-}
-
-impl AnatomyArm {
-    /// The shoulder point in the chain's base frame at the arm's joint values `q`.
-    pub fn shoulder_at(&self, q: &[f64]) -> Vector3<f64> {
-        if self.shoulder_after == 0 {
-            self.shoulder_local
-        } else {
-            (self.chain.joint_frames(q)[self.shoulder_after]
-                * nalgebra::Point3::from(self.shoulder_local))
-            .coords
-        }
-    }
-
-    /// The elbow's centre on the arm's bone line, in the elbow joint's frame (before its
-    /// motion): the point of the elbow's axis midway, along that axis, between the shoulder
-    /// centre and the wrist centre. A URDF may place the elbow joint's origin anywhere on its
-    /// axis (at the side of the arm, say); this point lies in the plane the shoulder, elbow
-    /// and wrist centres bend in, so that shoulder → elbow → wrist are the upper arm's and the
-    /// forearm's bone lines. Read at the neutral posture (the axial places do not change as the
-    /// elbow bends).
-    pub fn elbow_centre_local(&self) -> Vector3<f64> {
-        if self.chain.is_prismatic(self.elbow) {
-            return Vector3::zeros();
-        }
-        let q = &self.neutral;
-        let frames = self.chain.joint_frames(q);
-        let (Some(elbow), Some(wrist_frame)) =
-            (frames.get(self.elbow), frames.get(self.wrist_after))
-        else {
-            return Vector3::zeros();
-        };
-        let axis = self.chain.joint_axes(q)[self.elbow];
-        let at = elbow.translation.vector;
-        let shoulder = self.shoulder_at(q);
-        let wrist = (wrist_frame * nalgebra::Point3::from(self.wrist_local)).coords;
-        let along = 0.5 * ((shoulder - at).dot(&axis) + (wrist - at).dot(&axis));
-        elbow.rotation.inverse() * (axis * along)
-    }
-
-    /// The arm's landmarks (shoulder, elbow centre, wrist centre, hand) as points fixed on the
-    /// robot's links, for tasks evaluated on the whole robot.
-    pub fn landmarks(&self, robot: &Robot) -> ArmLandmarks {
-        let on_joint = |k: usize, local: Vector3<f64>| -> LinkPoint {
-            // A joint's frame before its motion is its parent link's frame times its origin.
-            match self.chain.robot_indices().get(k).map(|&i| robot.movable[i]) {
-                Some(j) => {
-                    let joint = &robot.joints[j];
-                    LinkPoint {
-                        link: joint.parent,
-                        local: (joint.origin * nalgebra::Point3::from(local)).coords,
-                    }
-                }
-                None => LinkPoint {
-                    link: robot.root,
-                    local,
-                },
-            }
-        };
-        let base = robot
-            .link_index
-            .get(self.chain.base())
-            .copied()
-            .unwrap_or(robot.root);
-        let shoulder = if self.shoulder_after == 0 {
-            LinkPoint {
-                link: base,
-                local: self.shoulder_local,
-            }
-        } else {
-            on_joint(self.shoulder_after, self.shoulder_local)
-        };
-        ArmLandmarks {
-            shoulder,
-            elbow: on_joint(self.elbow, self.elbow_centre_local()),
-            wrist: on_joint(self.wrist_after, self.wrist_local),
-            hand: LinkPoint {
-                link: robot
-                    .link_index
-                    .get(self.chain.tip())
-                    .copied()
-                    .unwrap_or(robot.root),
-                local: Vector3::zeros(),
-            },
-        }
-    }
-
-    /// The hand's position in the torso link's frame for the arm's joint values `q` (chain
-    /// order).
-    pub fn hand_in_torso(&self, q: &[f64]) -> Vector3<f64> {
-        (self.base_in_torso * self.chain.forward(q))
-            .translation
-            .vector
-    }
-}
-
-/// An arm's landmarks as points fixed on the robot's links.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ArmLandmarks {
-    /// The shoulder centre.
-    pub shoulder: LinkPoint,
-    /// The elbow's centre on the bone line ([`AnatomyArm::elbow_centre_local`]).
-    pub elbow: LinkPoint,
-    /// The wrist centre.
-    pub wrist: LinkPoint,
-    /// The hand (the hand link's origin).
-    pub hand: LinkPoint,
 }
 
 /// A robot with its arms, held joints, body frame, reach and neutral posture (module docs).

@@ -181,6 +181,13 @@ impl Chain {
             .collect()
     }
 
+    /// The chain ending at `point` (in the tip link's frame) instead of the tip link's origin:
+    /// the hand of an arm whose last link carries the forearm and the hand beyond its joint.
+    pub fn with_tip_point(mut self, point: Vector3<f64>) -> Chain {
+        self.tail *= nalgebra::Translation3::from(point);
+        self
+    }
+
     /// Tip pose in the base frame.
     ///
     /// `q` holds one value per joint; missing values count as 0 and extra ones are ignored

@@ -394,3 +394,87 @@ fn an_elbow_that_turns_and_bends_at_one_point_ends_its_forearm_at_the_wrist_not_
         assert!((forearm - 0.05595).abs() < 1e-3, "{side:?}: {forearm}");
     }
 }
+
+/// Two arms as Poppy's: shoulder pitch and roll, the upper arm's turn, and the elbow, whose
+/// link is the forearm with the hand (no link beyond it; its centre of mass 0.107 m on).
+fn forearm_on_the_elbow_link() -> String {
+    let arm = |s: &str, sign: f64| {
+        let link = |name: &str, com: &str| {
+            format!(
+                r#"<link name="{s}_{name}"><inertial><origin xyz="{com}"/><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>"#
+            )
+        };
+        let joint = |name: &str, parent: &str, child: &str, xyz: String, axis: &str| {
+            format!(
+                r#"<joint name="{s}_{name}" type="revolute"><parent link="{parent}"/><child link="{s}_{child}"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="-2.5" upper="2.5" velocity="5" effort="1"/></joint>"#
+            )
+        };
+        [
+            link("shoulder", "0 0 0"),
+            link("shoulder_motor", "0 0 -0.01"),
+            link("upper_arm", "0 0 -0.06"),
+            link("forearm", "0 0 -0.107"),
+            joint(
+                "shoulder_y",
+                "chest",
+                "shoulder",
+                format!("0 {} 0.3", 0.08 * sign),
+                "0 1 0",
+            ),
+            joint(
+                "shoulder_x",
+                &format!("{s}_shoulder"),
+                "shoulder_motor",
+                "0 0 0".into(),
+                "1 0 0",
+            ),
+            joint(
+                "arm_z",
+                &format!("{s}_shoulder_motor"),
+                "upper_arm",
+                "0 0 -0.036".into(),
+                "0 0 1",
+            ),
+            joint(
+                "elbow_y",
+                &format!("{s}_upper_arm"),
+                "forearm",
+                "0 0 -0.112".into(),
+                "0 1 0",
+            ),
+        ]
+        .concat()
+    };
+    format!(
+        r#"<robot name="poppy"><link name="chest"/>{}{}</robot>"#,
+        arm("l", 1.0),
+        arm("r", -1.0)
+    )
+}
+
+#[test]
+fn a_forearm_on_the_elbow_s_own_link_ends_at_its_hand_point() {
+    let robot = Robot::from_urdf_str(&forearm_on_the_elbow_link(), "poppy.urdf").unwrap();
+    let a = Anatomy::of(robot).unwrap();
+    for side in [Side::Left, Side::Right] {
+        let arm = a.arm(side).unwrap();
+        // The elbow is the last joint, the hand twice the forearm's centre of mass on.
+        assert_eq!(arm.elbow, 3, "{side:?}");
+        assert!((arm.hand_local - Vector3::new(0.0, 0.0, -0.214)).norm() < 1e-9);
+        assert!(
+            (arm.reach - (0.036 + 0.112 + 0.214)).abs() < 1e-3,
+            "{}",
+            arm.reach
+        );
+        // The forearm's bone line runs from the elbow to that hand point.
+        let m = arm.landmarks(a.robot());
+        let ancestry = crate::kinematics::frames::Ancestry::of(a.robot());
+        let frames = crate::kinematics::frames::RobotFrames::new(
+            a.robot(),
+            &ancestry,
+            a.hold_configuration(),
+        );
+        let forearm = (m.wrist.at(&frames) - m.elbow.at(&frames)).norm();
+        assert!((forearm - 0.214).abs() < 1e-3, "{side:?}: {forearm}");
+    }
+}
