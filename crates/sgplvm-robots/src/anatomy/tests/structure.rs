@@ -328,6 +328,15 @@ fn an_arm_that_cannot_hang_is_mounted_rolled_out_and_the_humanoids_are_not() {
     }
 }
 
+/// The length of an arm's forearm bone line (elbow centre to wrist centre) at the hold posture.
+fn forearm_bone_line(a: &Anatomy, arm: &AnatomyArm) -> f64 {
+    let m = arm.landmarks(a.robot());
+    let ancestry = crate::kinematics::frames::Ancestry::of(a.robot());
+    let frames =
+        crate::kinematics::frames::RobotFrames::new(a.robot(), &ancestry, a.hold_configuration());
+    (m.wrist.at(&frames) - m.elbow.at(&frames)).norm()
+}
+
 /// Two arms as Aldebaran draws NAO's: the shoulder's pitch and roll at one point, the elbow's
 /// yaw (the upper arm's turn, along it) and roll (its bend) at one point, the forearm's yaw
 /// 56 mm on, and on the wrist link a gripper joint, fingers and touch sensors' frames (one
@@ -383,14 +392,7 @@ fn an_elbow_that_turns_and_bends_at_one_point_ends_its_forearm_at_the_wrist_not_
         );
         // The forearm's bone line runs from the elbow to the wrist, 56 mm on (the elbow's bend
         // axis meets the forearm's yaw at the elbow: no wrist there).
-        let m = arm.landmarks(a.robot());
-        let ancestry = crate::kinematics::frames::Ancestry::of(a.robot());
-        let frames = crate::kinematics::frames::RobotFrames::new(
-            a.robot(),
-            &ancestry,
-            a.hold_configuration(),
-        );
-        let forearm = (m.wrist.at(&frames) - m.elbow.at(&frames)).norm();
+        let forearm = forearm_bone_line(&a, arm);
         assert!((forearm - 0.05595).abs() < 1e-3, "{side:?}: {forearm}");
     }
 }
@@ -467,14 +469,7 @@ fn a_forearm_on_the_elbow_s_own_link_ends_at_its_hand_point() {
             arm.reach
         );
         // The forearm's bone line runs from the elbow to that hand point.
-        let m = arm.landmarks(a.robot());
-        let ancestry = crate::kinematics::frames::Ancestry::of(a.robot());
-        let frames = crate::kinematics::frames::RobotFrames::new(
-            a.robot(),
-            &ancestry,
-            a.hold_configuration(),
-        );
-        let forearm = (m.wrist.at(&frames) - m.elbow.at(&frames)).norm();
+        let forearm = forearm_bone_line(&a, arm);
         assert!((forearm - 0.214).abs() < 1e-3, "{side:?}: {forearm}");
     }
 }
