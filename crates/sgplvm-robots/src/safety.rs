@@ -51,8 +51,9 @@ impl Default for SafetyOptions {
 pub struct SafetyOutcome {
     /// Whether the command differs from the one asked for (by more than 1e-9 on a joint).
     pub changed: bool,
-    /// Pairs of links nearer than the margin plus 1 mm before the step (the step kept them
-    /// apart or moved them apart), with their distances, metres.
+    /// Pairs of links nearer than their margin plus 1 mm before the step (the margin, or less
+    /// for a pair nearer at rest: `CollisionModel::margin_of`; the step kept them apart or moved
+    /// them apart), with their distances, metres.
     pub near: Vec<(String, String, f64)>,
     /// The limits admitted no step (the last command is sent again).
     pub infeasible: bool,

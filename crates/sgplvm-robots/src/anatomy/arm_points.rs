@@ -258,17 +258,14 @@ fn hand_point(robot: &Robot, chain: &Chain) -> Vector3<f64> {
         return none;
     };
     let joint = robot.movable[last];
-    let origins = chain.joint_origins(&vec![0.0; chain.dof()]);
-    let alone = match origins.as_slice() {
-        [.., before, at] => (at - before).norm() >= FOREARM_LEVER_M,
+    let zero = vec![0.0; chain.dof()];
+    let tip_at = chain.forward(&zero).translation.vector;
+    // The joint alone (the one before it at least the lever away) and the tip on it.
+    let alone_under_tip = match chain.joint_origins(&zero).as_slice() {
+        [.., before, at] => (at - before).norm() >= FOREARM_LEVER_M && (tip_at - at).norm() < 1e-6,
         _ => false,
     };
-    let on_axis = {
-        let tail =
-            chain.forward(&vec![0.0; chain.dof()]).translation.vector - origins[origins.len() - 1];
-        tail.norm() < 1e-6
-    };
-    if robot.parent_joint[tip] != Some(joint) || !alone || !on_axis {
+    if robot.parent_joint[tip] != Some(joint) || !alone_under_tip {
         return none;
     }
     let Some(link) = robot.urdf.links.iter().find(|l| l.name == chain.tip()) else {
