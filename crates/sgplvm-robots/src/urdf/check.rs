@@ -405,12 +405,14 @@ fn check_limit(
     let upper = opt_attr_number(ctx, lat, "upper")?.unwrap_or(0.0);
     let velocity = opt_attr_number(ctx, lat, "velocity")?.unwrap_or(0.0);
     let effort = opt_attr_number(ctx, lat, "effort")?.unwrap_or(0.0);
-    if lower > upper && matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
-        return Err(lat.error(
-            ctx,
-            format!("lower {lower} > upper {upper}, expected lower ≤ upper"),
-        ));
-    }
+    // Limits written the wrong way round (InMoov's head roll: lower 0.3, upper -0.3) are read
+    // swapped, and the repair pass says so (see `repair.rs`).
+    let (lower, upper) =
+        if lower > upper && matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+            (upper, lower)
+        } else {
+            (lower, upper)
+        };
     if kind == JointKind::Prismatic {
         check_length(ctx, lat, "lower", lower.abs(), "a travel")?;
         check_length(ctx, lat, "upper", upper.abs(), "a travel")?;

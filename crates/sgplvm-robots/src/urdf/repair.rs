@@ -257,10 +257,23 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
                 r.replace(l, attr, "0");
             }
         }
-        let (lower, upper) = (
+        let (mut lower, mut upper) = (
             number("lower").unwrap_or(0.0),
             number("upper").unwrap_or(0.0),
         );
+        if matches!(ty, "revolute" | "prismatic") && lower > upper {
+            let text_of = |a: &str| l.attribute(a).unwrap_or("").trim().to_string();
+            let (lo, hi) = (text_of("lower"), text_of("upper"));
+            r.note(
+                "<limit> whose lower is above its upper",
+                "read the other way round",
+                l,
+                owner.clone(),
+            );
+            r.replace(l, "lower", &hi);
+            r.replace(l, "upper", &lo);
+            (lower, upper) = (upper, lower);
+        }
         let moves = ty == "continuous" || (matches!(ty, "revolute" | "prismatic") && lower < upper);
         if moves && number("velocity") == Some(0.0) {
             r.note(
