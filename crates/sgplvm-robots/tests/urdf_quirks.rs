@@ -183,6 +183,14 @@ fn limits_written_the_wrong_way_round_are_read_swapped_and_said() {
             && notes[0].contains("read the other way round"),
         "{notes:?}"
     );
+    // Without a lower (the specification's 0), an upper below it.
+    let r = load(&arm(
+        r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+        <axis xyz="0 0 1"/><limit upper="-0.5" effort="1" velocity="1"/></joint>"#,
+    ));
+    assert_eq!(r.joint_limits(), vec![(-0.5, 0.0)]);
+    let limit = &r.urdf().joints[0].limit;
+    assert_eq!((limit.lower, limit.upper), (-0.5, 0.0));
 }
 
 #[test]

@@ -228,7 +228,37 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
     origins(r, text, joint, urdf_1_1);
     let ty = joint.attribute("type").unwrap_or("").trim();
     for l in children(joint, "limit") {
-        r.default_attrs(text, l, &["lower", "upper"], "0");
+        let number = |a: &str| l.attribute(a).and_then(|v| v.trim().parse::<f64>().ok());
+        let (lower, upper) = (
+            number("lower").unwrap_or(0.0),
+            number("upper").unwrap_or(0.0),
+        );
+        // Limits written the wrong way round are read swapped (a missing one is the
+        // specification's 0); else the missing ones are filled with 0 for urdf-rs.
+        let swapped = matches!(ty, "revolute" | "prismatic") && lower > upper;
+        if swapped {
+            r.note(
+                "<limit> whose lower is above its upper",
+                "read the other way round",
+                l,
+                owner.clone(),
+            );
+            for (attr, value) in [("lower", upper), ("upper", lower)] {
+                let value = format!("{value}");
+                if l.attribute(attr).is_some() {
+                    r.replace(l, attr, &value);
+                } else {
+                    r.set(text, l, attr, &value);
+                }
+            }
+        } else {
+            r.default_attrs(text, l, &["lower", "upper"], "0");
+        }
+        let (lower, upper) = if swapped {
+            (upper, lower)
+        } else {
+            (lower, upper)
+        };
         for attr in ["effort", "velocity"] {
             if l.attribute(attr).is_none() {
                 r.note(
@@ -240,7 +270,6 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
                 r.set(text, l, attr, "0");
             }
         }
-        let number = |a: &str| l.attribute(a).and_then(|v| v.trim().parse::<f64>().ok());
         for attr in ["effort", "velocity"] {
             // A limit is > 0; makers write -1 for "none" (Halodi's EVE on 23 joints), which
             // ROS's parser and Pinocchio read without a word.
@@ -256,23 +285,6 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
                 );
                 r.replace(l, attr, "0");
             }
-        }
-        let (mut lower, mut upper) = (
-            number("lower").unwrap_or(0.0),
-            number("upper").unwrap_or(0.0),
-        );
-        if matches!(ty, "revolute" | "prismatic") && lower > upper {
-            let text_of = |a: &str| l.attribute(a).unwrap_or("").trim().to_string();
-            let (lo, hi) = (text_of("lower"), text_of("upper"));
-            r.note(
-                "<limit> whose lower is above its upper",
-                "read the other way round",
-                l,
-                owner.clone(),
-            );
-            r.replace(l, "lower", &hi);
-            r.replace(l, "upper", &lo);
-            (lower, upper) = (upper, lower);
         }
         let moves = ty == "continuous" || (matches!(ty, "revolute" | "prismatic") && lower < upper);
         if moves && number("velocity") == Some(0.0) {
