@@ -8,7 +8,7 @@
 //! convex parts, checked where the two hulls come near (a hull fills a mesh's concave places:
 //! the PR2's forearm hull meets its upper arm's long before the meshes do). A pair of shapes
 //! *can meet* when their links move relative to each other through the moving joints, are not
-//! neighbours (`neighbour_matrix`: one moving joint apart) and are not the model's own
+//! neighbours (`adjacency::neighbour_matrix`: one moving joint apart) and are not the model's own
 //! closeness at the reference posture (`own_closeness`, on the meshes' parts: touching there,
 //! like an upper arm's capsule reaching into the shoulder's, or a joint's housing beside the
 //! next link's), as in MoveIt's "adjacent / default" lists and as the physics replay judges
@@ -21,6 +21,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d::parry;
 use rapier3d::parry::shape::{SharedShape, SupportMap};
 
+use super::adjacency::{neighbour_matrix, own_closeness};
 use super::apart::{kept_apart, ApartProofs, MODEL_SURFACE_BUDGET};
 use super::bounds::{Obb, Placed};
 use super::frames::{Ancestry, RobotFrames};
@@ -515,99 +516,6 @@ impl CollisionModel {
         near
     }
 }
-
-/// Link `link`'s chain up to its root, itself first (`parent_of`: each link's parent joint
-/// and link).
-fn chain(parent_of: &[Option<(usize, usize)>], link: usize) -> Vec<usize> {
-    let mut chain = vec![link];
-    while let Some((_, parent)) = parent_of[*chain.last().unwrap_or(&link)] {
-        chain.push(parent);
-    }
-    chain
-}
-
-/// The tree path between two links of chains `ca` and `cb` ([`chain`]): the links strictly between and the links
-/// below their lowest common ancestor (each the child of one joint on the path); `None` for
-/// links of different trees.
-fn tree_path(ca: &[usize], cb: &[usize]) -> Option<(Vec<usize>, Vec<usize>)> {
-    let (ia, ib) = ca
-        .iter()
-        .enumerate()
-        .find_map(|(ia, l)| cb.iter().position(|m| m == l).map(|ib| (ia, ib)))?;
-    let mut between: Vec<usize> = ca.get(1..ia).unwrap_or(&[]).to_vec();
-    between.extend_from_slice(cb.get(1..ib).unwrap_or(&[]));
-    if ia > 0 && ib > 0 {
-        between.push(ca[ia]);
-    }
-    let below = ca[..ia].iter().chain(&cb[..ib]).copied().collect();
-    Some((between, below))
-}
-
-/// Which pairs of links are neighbours, never checked against each other (`n × n`, row-major):
-/// links whose tree path holds at most one movable joint (links joined by fixed joints are one
-/// body, as in MoveIt's adjacent pairs), or whose links strictly between have no shape.
-/// `parent_of` gives each link's parent joint and link, `movable` whether a joint moves.
-pub(crate) fn neighbour_matrix(
-    parent_of: &[Option<(usize, usize)>],
-    movable: impl Fn(usize) -> bool,
-    has_shape: &[bool],
-) -> Vec<bool> {
-    let n = parent_of.len();
-    let chains: Vec<Vec<usize>> = (0..n).map(|l| chain(parent_of, l)).collect();
-    let mut matrix = vec![false; n * n];
-    for a in 0..n {
-        matrix[a * n + a] = true;
-        for b in (a + 1)..n {
-            let Some((between, below)) = tree_path(&chains[a], &chains[b]) else {
-                continue; // different trees: not neighbours
-            };
-            let shapeless_between = between.iter().all(|&l| !has_shape[l]);
-            let moving = below
-                .iter()
-                .filter(|&&l| parent_of[l].is_some_and(|(j, _)| movable(j)))
-                .count();
-            if shapeless_between || moving <= 1 {
-                matrix[a * n + b] = true;
-                matrix[b * n + a] = true;
-            }
-        }
-    }
-    matrix
-}
-
-/// Whether links `a` and `b`, their shapes `distance` apart at rest, are the model's own
-/// closeness, never checked: touching there, or nearer than [`DESIGNED_CLEARANCE_M`] with
-/// at most [`DESIGNED_CLEARANCE_JOINTS`] movable joints between them (a joint's housing next
-/// to the next link's, a clearance the joints keep and approximate shapes cannot tell). The
-/// one rule of retargeting's collision model and the physics replay.
-pub(crate) fn own_closeness(
-    parent_of: &[Option<(usize, usize)>],
-    movable: impl Fn(usize) -> bool,
-    (a, b): (usize, usize),
-    distance: f64,
-) -> bool {
-    if distance <= 0.0 {
-        return true;
-    }
-    if distance >= DESIGNED_CLEARANCE_M {
-        return false;
-    }
-    tree_path(&chain(parent_of, a), &chain(parent_of, b)).is_some_and(|(_, below)| {
-        below
-            .iter()
-            .filter(|&&l| parent_of[l].is_some_and(|(j, _)| movable(j)))
-            .count()
-            <= DESIGNED_CLEARANCE_JOINTS
-    })
-}
-
-/// Below this distance at rest, two links at most [`DESIGNED_CLEARANCE_JOINTS`] apart are the
-/// model's own closeness, metres.
-pub(crate) const DESIGNED_CLEARANCE_M: f64 = 0.01;
-
-/// At most this many movable joints between two links near at rest make their closeness the
-/// model's own ([`own_closeness`]).
-const DESIGNED_CLEARANCE_JOINTS: usize = 2;
 
 /// How far beyond the margin two meshes' hulls may come before their parts are checked, metres.
 const PARTS_BEYOND_MARGIN_M: f64 = 0.01;

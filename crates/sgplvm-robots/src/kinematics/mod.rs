@@ -16,6 +16,7 @@
 //! `mod.rs` cuts the chain out of the robot and computes its forward kinematics and Jacobian;
 //! `ik.rs` solves inverse kinematics on it.
 
+pub(crate) mod adjacency;
 mod apart;
 mod bounds;
 pub mod collision;

@@ -21,7 +21,7 @@ use rapier3d_urdf::{
 
 use super::model::{element_of_joint, PreparedModel};
 use super::{PhysicsError, ReplayOptions, Trajectory};
-use crate::kinematics::collision::{own_closeness, DESIGNED_CLEARANCE_M};
+use crate::kinematics::adjacency::{own_closeness, DESIGNED_CLEARANCE_M};
 
 /// Density (kg/m³, about that of water) given to the collision shapes of a link that declares
 /// no mass, so that every moving link has an inertia.

@@ -11,7 +11,7 @@ use rapier3d_urdf::urdf_rs;
 
 use super::hulls::{self, MeshCollision, MeshHull, UncheckedMesh};
 use super::PhysicsError;
-use crate::kinematics::collision::neighbour_matrix;
+use crate::kinematics::adjacency::neighbour_matrix;
 use crate::urdf::{MeshSearch, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 /// A checked, simulation-ready copy of the URDF.
