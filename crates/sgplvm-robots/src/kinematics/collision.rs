@@ -82,7 +82,7 @@ impl LinkShape {
         Placed {
             centre: (pose * nalgebra::Point3::from(self.bound.0)).coords,
             radius: self.bound.1,
-            obb: self.obb.placed(pose),
+            obb: self.obb.placed(&pose),
         }
     }
 

@@ -1,10 +1,13 @@
 //! The whole robot at one configuration: every link's pose in the root frame and every movable
-//! joint's origin and axis there, in one pass over the tree, so that the Jacobian of any point
-//! on any link with respect to any set of joints is a few cross products.
+//! joint's origin and axis there, in one pass over the tree (bare frames on fixed joints, which
+//! nothing but a name hangs on, are found from their body when asked), so that the Jacobian of
+//! any point on any link with respect to any set of joints is a few cross products.
 //!
 //! For a point p on link L and a revolute joint j above L (origin oⱼ, unit axis aⱼ), the
 //! column of ∂p/∂qⱼ is aⱼ × (p − oⱼ); for a prismatic joint it is aⱼ; for a joint not above L
 //! it is 0.
+
+use std::sync::Arc;
 
 use nalgebra::{Isometry3, Matrix3xX, Vector3};
 
@@ -19,6 +22,20 @@ pub struct RobotFrames {
     origins: Vec<Vector3<f64>>,
     /// Unit axis of each joint in the root frame.
     axes: Vec<Vector3<f64>>,
+    /// The bare frames, whose poses are left out of `links` (shared with the ancestry).
+    bare: Arc<BareFrames>,
+}
+
+/// A robot's bare frames: links on fixed joints with no mass, shape or look and no body below
+/// them (a sensor's or a skin patch's frame: iCub has 174 of its 213 links so), each its
+/// body's pose times a fixed offset. Retargeting takes the frames at every step; it need not
+/// place them.
+#[derive(Debug, Default)]
+struct BareFrames {
+    /// Per link: its place in `offsets`, or `u32::MAX` for a body.
+    of_link: Vec<u32>,
+    /// The link each bare frame hangs on (a body) and its offset from it.
+    offsets: Vec<(usize, Isometry3<f64>)>,
 }
 
 /// For each link, the movable joints above it (configuration indices) and their joint indices:
@@ -27,8 +44,10 @@ pub struct RobotFrames {
 pub struct Ancestry {
     /// Per link: the joint indices (into [`Robot::joints`]) of the movable joints above it.
     above: Vec<Vec<usize>>,
-    /// Joints in an order where each joint comes after the one above it.
+    /// The joints whose child is a body, each after the one above it.
     order: Vec<usize>,
+    /// The links left out of the pass.
+    bare: Arc<BareFrames>,
 }
 
 impl Ancestry {
@@ -45,7 +64,47 @@ impl Ancestry {
             .collect();
         let mut order: Vec<usize> = (0..robot.joints.len()).collect();
         order.sort_by_key(|&j| robot.path_to(robot.joints[j].child).len());
-        Ancestry { above, order }
+        // A body has mass, a shape or a look, or a body below it, or moves (deepest first, so
+        // that a child is settled before its parent).
+        let mut body = vec![false; robot.links.len()];
+        for link in &robot.urdf.links {
+            if let Some(&l) = robot.link_index.get(&link.name) {
+                let massless = link.inertial.mass.value == 0.0;
+                body[l] = !(massless && link.collision.is_empty() && link.visual.is_empty());
+            }
+        }
+        for &j in order.iter().rev() {
+            let joint = &robot.joints[j];
+            if body[joint.child] || joint.kind.is_movable() {
+                body[joint.parent] = true;
+            }
+        }
+        let mut bare = BareFrames {
+            of_link: vec![u32::MAX; robot.links.len()],
+            offsets: Vec::new(),
+        };
+        order.retain(|&j| {
+            let joint = &robot.joints[j];
+            if body[joint.child] || joint.kind.is_movable() {
+                return true;
+            }
+            // Parents come first: a bare parent's own offset is known.
+            let (on, offset) = match bare.of_link[joint.parent] {
+                u32::MAX => (joint.parent, joint.origin),
+                b => {
+                    let (on, above) = bare.offsets[b as usize];
+                    (on, above * joint.origin)
+                }
+            };
+            bare.of_link[joint.child] = u32::try_from(bare.offsets.len()).unwrap_or(u32::MAX);
+            bare.offsets.push((on, offset));
+            false
+        });
+        Ancestry {
+            above,
+            order,
+            bare: Arc::new(bare),
+        }
     }
 
     /// The movable joints (indices into [`Robot::joints`]) above link `link`.
@@ -86,12 +145,20 @@ impl RobotFrames {
             links,
             origins,
             axes,
+            bare: Arc::clone(&ancestry.bare),
         }
     }
 
     /// Pose of link `link` (index) in the root frame.
-    pub fn link(&self, link: usize) -> &Isometry3<f64> {
-        &self.links[link]
+    #[inline]
+    pub fn link(&self, link: usize) -> Isometry3<f64> {
+        match self.bare.of_link.get(link) {
+            Some(&b) if b != u32::MAX => {
+                let (on, offset) = &self.bare.offsets[b as usize];
+                self.links[*on] * offset
+            }
+            _ => self.links[link],
+        }
     }
 
     /// The Jacobian (3 × `active.len()`) of the point `point` (root frame) fixed on link
@@ -172,6 +239,30 @@ mod tests {
             b[i] -= h;
             let fd = (at(&a) - at(&b)) / (2.0 * h);
             assert!((fd - jac.column(c)).norm() < 1e-8, "joint {i}");
+        }
+    }
+
+    #[test]
+    fn links_on_fixed_joints_are_where_forward_kinematics_puts_them() {
+        // iCub as example-robot-data publishes it: 23 fixed joints, sensor and DH frames on
+        // links that hang on other fixed links.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../data/urdf/published/icub.urdf");
+        let robot = Robot::from_urdf_file(&path).unwrap();
+        let ancestry = Ancestry::of(&robot);
+        assert!(ancestry.bare.offsets.len() >= 10, "{:?}", ancestry.bare);
+        let q: Vec<f64> = (0..robot.dof())
+            .map(|i| 0.4 * (i as f64 * 1.3).cos())
+            .collect();
+        let frames = RobotFrames::new(&robot, &ancestry, &q);
+        for (l, name) in robot.link_names().iter().enumerate() {
+            let fk = robot.forward_kinematics(&q, name).unwrap();
+            let at = frames.link(l);
+            assert!(
+                (fk.translation.vector - at.translation.vector).norm() < 1e-12,
+                "{name}"
+            );
+            assert!(fk.rotation.angle_to(&at.rotation) < 1e-12, "{name}");
         }
     }
 }
