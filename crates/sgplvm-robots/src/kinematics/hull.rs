@@ -4,8 +4,11 @@
 //! the hulls of published collision meshes have hundreds to thousands of vertices (a G1 link's
 //! median is about 900), which made the scan most of retargeting's time. On a convex polytope a
 //! vertex that no neighbour improves on is the furthest of all, so the climb from the last
-//! support vertex (GJK's directions change little from one query to the next) gives the same
-//! point after a few dot products.
+//! support vertex found for a direction like this one (GJK's directions change little from one
+//! query to the next) gives the same point after a few dot products. "Like" is one of 24 cones
+//! of directions (the octant and the largest component): a hull checked against several shapes
+//! is asked along several directions in turn, and one shared start would send each climb
+//! across the hull from the last pair's side.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -22,10 +25,41 @@ pub(crate) struct ClimbingHull {
     /// Neighbours of vertex `v`: `neighbours[offsets[v]..offsets[v + 1]]`.
     offsets: Vec<u32>,
     neighbours: Vec<u32>,
-    /// The last support vertex found: GJK asks along directions that change little from one
-    /// iteration (and one IK step) to the next, so a climb from it is short. Only a start: the
-    /// climb is exact from any vertex, whichever thread wrote it last.
-    last: AtomicU32,
+    /// The last support vertex found for each cone of directions ([`cone_of`]): GJK asks along
+    /// directions that change little from one iteration (and one IK step) to the next, so a
+    /// climb from it is short. Only a start: the climb is exact from any vertex, whichever
+    /// thread wrote it last.
+    last: [AtomicU32; CONES],
+}
+
+/// How many cones the directions are sorted into: 8 octants × 3 largest components.
+const CONES: usize = 24;
+
+/// The cone of direction `dir`: its octant and which component is largest in magnitude.
+fn cone_of(dir: Vector) -> usize {
+    let (x, y, z) = (dir.x.abs(), dir.y.abs(), dir.z.abs());
+    let largest = if x >= y && x >= z {
+        0
+    } else if y >= z {
+        1
+    } else {
+        2
+    };
+    let octant =
+        usize::from(dir.x < 0.0) | usize::from(dir.y < 0.0) << 1 | usize::from(dir.z < 0.0) << 2;
+    largest * 8 + octant
+}
+
+/// A direction inside cone `cone` (its largest component twice the others).
+fn inside_cone(cone: usize) -> Vector {
+    let mut v = [1.0f32; 3];
+    v[cone / 8] = 2.0;
+    for (axis, c) in v.iter_mut().enumerate() {
+        if cone >> axis & 1 == 1 {
+            *c = -*c;
+        }
+    }
+    Vector::new(v[0], v[1], v[2])
 }
 
 impl ClimbingHull {
@@ -60,17 +94,26 @@ impl ClimbingHull {
             neighbours.extend_from_slice(a);
             offsets.push(u32::try_from(neighbours.len()).ok()?);
         }
+        // Each cone's first start: its furthest vertex along a direction inside it.
+        let last = std::array::from_fn(|cone| {
+            let dir = inside_cone(cone);
+            let furthest = (0..points.len())
+                .max_by(|&a, &b| points[a].dot(dir).total_cmp(&points[b].dot(dir)))
+                .unwrap_or(0);
+            AtomicU32::new(u32::try_from(furthest).unwrap_or(0))
+        });
         Some(ClimbingHull {
             points,
             offsets,
             neighbours,
-            last: AtomicU32::new(0),
+            last,
         })
     }
 
     /// The index of the vertex furthest along `dir`.
     fn support_id(&self, dir: Vector) -> usize {
-        let mut best = (self.last.load(Ordering::Relaxed) as usize).min(self.points.len() - 1);
+        let last = &self.last[cone_of(dir)];
+        let mut best = (last.load(Ordering::Relaxed) as usize).min(self.points.len() - 1);
         let mut best_dot = self.points[best].dot(dir);
         // Each move strictly increases the dot product, so the climb ends.
         loop {
@@ -84,8 +127,7 @@ impl ClimbingHull {
                 }
             }
             if next == best {
-                self.last
-                    .store(u32::try_from(best).unwrap_or(0), Ordering::Relaxed);
+                last.store(u32::try_from(best).unwrap_or(0), Ordering::Relaxed);
                 return best;
             }
             best = next;
@@ -103,6 +145,14 @@ impl SupportMap for ClimbingHull {
 mod tests {
     use super::*;
     use rapier3d::parry::shape::SharedShape;
+
+    #[test]
+    fn each_cone_holds_its_own_inside_direction() {
+        for cone in 0..CONES {
+            assert_eq!(cone_of(inside_cone(cone)), cone);
+        }
+        assert_eq!(cone_of(Vector::new(0.1, -0.9, 0.3)), 8 + 0b010);
+    }
 
     #[test]
     fn the_climb_finds_the_scan_s_support_point_on_a_many_sided_hull() {
