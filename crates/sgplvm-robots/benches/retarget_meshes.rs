@@ -8,7 +8,9 @@
 //! The published robots come from PyPI's `example-robot-data` (6.0.0, the wheel carries the
 //! URDFs and their meshes), which `.ci/run` installs into `target/ci-venv`:
 //! `SGPLVM_ROBOTS_DIR=…/cmeel.prefix/share/example-robot-data/robots` points elsewhere. A robot
-//! not found is skipped with a line saying so.
+//! not found is skipped with a line saying so. `SGPLVM_BENCH_URDFS=name=path,...` adds robots
+//! from elsewhere (their meshes found as `robot --urdf` finds them: the makers' own iCub,
+//! `robotology/icub-models`' `iCub/robots/iCubGenova04/model.urdf`, say).
 //!
 //! Run: `cargo bench -p sgplvm-robots --bench retarget_meshes` (one thread: the retargeting of
 //! one robot is serial).
@@ -34,6 +36,7 @@ const ROBOTS: &[(&str, &str)] = &[
     ("pr2", "pr2_description/urdf/pr2.urdf"),
     ("romeo", "romeo_description/urdf/romeo.urdf"),
     ("alex", "alex_description/urdf/alex_psyonic_hands.urdf"),
+    ("icub", "icub_description/robots/icub.urdf"),
 ];
 
 /// example-robot-data's robots folder: `SGPLVM_ROBOTS_DIR`, else the CI venv's copy.
@@ -48,6 +51,15 @@ fn robots_dir() -> Option<PathBuf> {
             .join("site-packages/cmeel.prefix/share/example-robot-data/robots");
         dir.is_dir().then_some(dir)
     })
+}
+
+/// Further robots from `SGPLVM_BENCH_URDFS` (`name=path,...`).
+fn extra_urdfs() -> Vec<(String, PathBuf)> {
+    let list = std::env::var("SGPLVM_BENCH_URDFS").unwrap_or_default();
+    list.split(',')
+        .filter_map(|item| item.split_once('='))
+        .map(|(name, path)| (name.trim().to_string(), PathBuf::from(path.trim())))
+        .collect()
 }
 
 /// The capture's first `FRAMES` frames of the human.
@@ -93,6 +105,19 @@ fn bench(c: &mut Criterion) {
             "retarget_meshes: example-robot-data not found (pip install example-robot-data==6.0.0 into target/ci-venv, or set SGPLVM_ROBOTS_DIR): the published robots are skipped"
         ),
     }
+    for (name, path) in extra_urdfs() {
+        match Anatomy::load(&path, &AnatomySpec::default()) {
+            Ok(a) => robots.push((name, a)),
+            Err(e) => eprintln!("retarget_meshes: {name} skipped: {e}"),
+        }
+    }
+    // Criterion's filter (the first argument not an option), applied before the robots' first,
+    // untimed retargeting: `cargo bench --bench retarget_meshes -- icub` reads only iCubs.
+    let filter = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .unwrap_or_default();
+    robots.retain(|(name, _)| name.contains(&filter));
     for (name, anatomy) in robots {
         let one = vec![(name.clone(), anatomy)];
         // Read the meshes once (the hulls are kept by the anatomy), and say what was checked.

@@ -269,15 +269,10 @@ fn proven(
                 }
                 surface_queries += 1;
                 *surface_budget -= cost;
-                // Only whether they are nearer than the slack, and then how near: parry's
-                // trees skip every pair of triangles farther apart than that.
-                let near =
-                    parry::query::closest_points(&pa, sa.as_ref(), &pb, sb.as_ref(), slack as f32);
-                apart = match near {
-                    Ok(ClosestPoints::Disjoint) => f64::INFINITY,
-                    Ok(ClosestPoints::WithinMargin(p1, p2)) => f64::from((p1 - p2).length()),
-                    Ok(ClosestPoints::Intersecting) | Err(_) => return false,
+                let Some(on_surfaces) = surface_distance((&pa, sa), (&pb, sb), apart, slack) else {
+                    return false;
                 };
+                apart = on_surfaces;
             }
         }
         if apart <= CLEARANCE_M {
@@ -302,6 +297,33 @@ fn proven(
         boxes.push(Cell(bound, upper));
     }
     true
+}
+
+/// The distance of the triangles of `a` and `b` when at most `up_to` (infinite when more; `None`
+/// when they intersect), knowing it is at least `from` (their hulls' distance).
+///
+/// Only whether they are nearer than `up_to`, and then how near: parry's trees skip every pair
+/// of triangles farther apart than the margin asked, but a query's cost grows with the pairs
+/// within it (80 ms at 8 cm on iCub's shoulder and upper arm, against 0.3 ms at 1 mm). So the
+/// margin grows from just beyond the hulls' distance, fourfold a time, up to `up_to`: where the
+/// triangles are about as near as the hulls (most pairs of shoulders and arms) the first,
+/// cheap query finds them; only a box that may be proven pays for the whole margin.
+fn surface_distance(
+    (pa, a): (&parry::math::Pose, &parry::shape::SharedShape),
+    (pb, b): (&parry::math::Pose, &parry::shape::SharedShape),
+    from: f64,
+    up_to: f64,
+) -> Option<f64> {
+    let mut beyond = CLEARANCE_M;
+    loop {
+        let margin = (from.max(0.0) + beyond).min(up_to);
+        match parry::query::closest_points(pa, a.as_ref(), pb, b.as_ref(), margin as f32) {
+            Ok(ClosestPoints::WithinMargin(p1, p2)) => return Some(f64::from((p1 - p2).length())),
+            Ok(ClosestPoints::Disjoint) if margin >= up_to => return Some(f64::INFINITY),
+            Ok(ClosestPoints::Disjoint) => beyond *= 4.0,
+            Ok(ClosestPoints::Intersecting) | Err(_) => return None,
+        }
+    }
 }
 
 /// A box of joint values and a lower bound on the shapes' distance over it (its parent's
@@ -334,6 +356,32 @@ pub(super) mod tests {
     use super::*;
     use crate::physics::MeshShapes;
     use rapier3d::parry::shape::SharedShape;
+
+    #[test]
+    fn surface_distance_is_exact_within_its_reach_and_infinite_beyond() {
+        // Two unit cubes' surfaces, their faces `gap` apart along x.
+        let cube = || {
+            let (v, i) = SharedShape::cuboid(0.5, 0.5, 0.5)
+                .as_cuboid()
+                .unwrap()
+                .to_trimesh();
+            SharedShape::trimesh(v, i).unwrap()
+        };
+        let (a, b) = (cube(), cube());
+        let at = |x: f32| parry::math::Pose::translation(x, 0.0, 0.0);
+        let (pa, pb) = (at(0.0), at(1.3));
+        // 0.3 apart: found from any lower bound, whatever the reach beyond it.
+        for from in [0.0, 0.1, 0.29] {
+            let d = surface_distance((&pa, &a), (&pb, &b), from, 1.0).unwrap();
+            assert!((d - 0.3).abs() < 1e-5, "{d}");
+        }
+        assert_eq!(
+            surface_distance((&pa, &a), (&pb, &b), 0.0, 0.25),
+            Some(f64::INFINITY)
+        );
+        // Overlapping: none.
+        assert_eq!(surface_distance((&pa, &a), (&at(0.9), &b), 0.0, 1.0), None);
+    }
 
     /// A speck of a shape 2 m up, for a link between two others: with no shape there the two
     /// would be neighbours (`neighbour_matrix`), never checked.
