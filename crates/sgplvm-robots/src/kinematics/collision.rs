@@ -275,11 +275,9 @@ impl CollisionModel {
             has_shape[s.link] = true;
         }
         let n_links = parent_of.len();
-        let adjacent = neighbour_matrix(
-            &parent_of,
-            |j| robot.joints[j].q_index.is_some(),
-            &has_shape,
-        );
+        // Joints that do not move here (a neck, a waist, legs held by their controllers) join
+        // their links into one body, as the physics replay welds them.
+        let adjacent = neighbour_matrix(&parent_of, |j| moving.contains(&j), &has_shape);
         let neighbours = |a: usize, b: usize| adjacent[a * n_links + b];
         let mut model = CollisionModel {
             parts: vec![Vec::new(); shapes.len()],
@@ -659,6 +657,24 @@ mod tests {
         // Two joints, 3 cm apart: checked, at the margin.
         let (m, pair) = model_of(2, 0.03);
         assert_eq!(m.margin_of(pair.expect("kept"), 0.01), 0.01);
+    }
+
+    #[test]
+    fn a_joint_that_does_not_move_joins_its_links_into_one_body() {
+        // Two joints between the base and the block, 3 cm apart: checked while both move.
+        let robot = block_near_base(2, 0.03);
+        let ancestry = Ancestry::of(&robot);
+        let zero = vec![0.0; robot.dof()];
+        let pairs_moving = |moving: &[usize]| {
+            CollisionModel::new(&robot, &ancestry, moving, &zero, 0.01, None, None)
+                .pairs()
+                .len()
+        };
+        let (first, second) = (robot.movable[0], robot.movable[1]);
+        assert_eq!(pairs_moving(&[first, second]), 1);
+        // The first held (a neck, a waist): one moving joint between, neighbours, as the
+        // physics replay welds a held joint.
+        assert_eq!(pairs_moving(&[second]), 0);
     }
 
     #[test]
