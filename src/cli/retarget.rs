@@ -406,6 +406,14 @@ fn print_postures(reports: &[ReachReport]) {
             },
             1e3 * p.margin_m,
         );
+        if p.frames_seconds > 0.0 {
+            println!(
+                "{:<12} start {:.1} s (collision model, solver), then {:.0} frames/s: the rate a live stream is followed at",
+                r.robot,
+                p.start_seconds,
+                p.frames as f64 / p.frames_seconds
+            );
+        }
         if !p.velocity_limited_joints.is_empty() {
             let held: Vec<String> = p
                 .velocity_limited_joints

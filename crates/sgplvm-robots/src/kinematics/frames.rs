@@ -212,6 +212,20 @@ impl RobotFrames {
 mod tests {
     use super::*;
 
+    /// Asserts that every link of `robot` is where forward kinematics puts it at `q`; returns
+    /// the frames.
+    fn frames_at_forward_kinematics(robot: &Robot, ancestry: &Ancestry, q: &[f64]) -> RobotFrames {
+        let frames = RobotFrames::new(robot, ancestry, q);
+        for (l, name) in robot.link_names().iter().enumerate() {
+            let fk = robot.forward_kinematics(q, name).unwrap();
+            let at = frames.link(l);
+            let apart = (fk.translation.vector - at.translation.vector).norm();
+            assert!(apart < 1e-12, "{name}: {apart} m");
+            assert!(fk.rotation.angle_to(&at.rotation) < 1e-12, "{name}");
+        }
+        frames
+    }
+
     #[test]
     fn frames_equal_forward_kinematics_and_jacobians_equal_finite_differences() {
         let robot = Robot::builtin("walkman").unwrap();
@@ -219,12 +233,7 @@ mod tests {
         let q: Vec<f64> = (0..robot.dof())
             .map(|i| 0.3 * (i as f64 * 0.7).sin())
             .collect();
-        let frames = RobotFrames::new(&robot, &ancestry, &q);
-        for (l, name) in robot.link_names().iter().enumerate() {
-            let fk = robot.forward_kinematics(&q, name).unwrap();
-            assert!((fk.translation.vector - frames.link(l).translation.vector).norm() < 1e-12);
-            assert!(fk.rotation.angle_to(&frames.link(l).rotation) < 1e-12);
-        }
+        let frames = frames_at_forward_kinematics(&robot, &ancestry, &q);
         let hand = robot.link_index["left_hand"];
         let active: Vec<usize> = robot.movable.clone();
         let local = nalgebra::Point3::new(0.01, -0.02, 0.03);
@@ -254,15 +263,6 @@ mod tests {
         let q: Vec<f64> = (0..robot.dof())
             .map(|i| 0.4 * (i as f64 * 1.3).cos())
             .collect();
-        let frames = RobotFrames::new(&robot, &ancestry, &q);
-        for (l, name) in robot.link_names().iter().enumerate() {
-            let fk = robot.forward_kinematics(&q, name).unwrap();
-            let at = frames.link(l);
-            assert!(
-                (fk.translation.vector - at.translation.vector).norm() < 1e-12,
-                "{name}"
-            );
-            assert!(fk.rotation.angle_to(&at.rotation) < 1e-12, "{name}");
-        }
+        frames_at_forward_kinematics(&robot, &ancestry, &q);
     }
 }

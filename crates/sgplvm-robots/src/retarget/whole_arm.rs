@@ -447,6 +447,7 @@ pub(super) fn run(
     options: &WholeArmOptions,
     velocity_limits: bool,
 ) -> Result<(DMatrix<f64>, Vec<f64>, PostureReport), String> {
+    let started = std::time::Instant::now();
     let robot = anatomy.robot();
     let solver = ArmSolver::new(anatomy, person, seeds, options);
     let (gauge, model, q_index, hold) =
@@ -472,6 +473,7 @@ pub(super) fn run(
     let position_limits = robot.joint_limits();
     let mut path = Vec::new();
     let mut last: Option<(Vec<f64>, Vec<f64>, f64)> = None;
+    let start_seconds = started.elapsed().as_secs_f64();
     for f in 0..frames {
         let q_human: Vec<f64> = human.row(f).iter().copied().collect();
         person.path(&q_human, &mut path);
@@ -536,7 +538,9 @@ pub(super) fn run(
         .enumerate()
         .map(|(k, h)| h * gauge.reach[k % arms])
         .collect();
-    let report = tally.report(options, model, (robot, frames));
+    let mut report = tally.report(options, model, (robot, frames));
+    report.start_seconds = start_seconds;
+    report.frames_seconds = started.elapsed().as_secs_f64() - start_seconds;
     Ok((out, misses, report))
 }
 

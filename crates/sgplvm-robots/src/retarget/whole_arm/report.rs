@@ -91,6 +91,14 @@ pub struct PostureReport {
     pub steps_per_frame: f64,
     /// Share of steps in which a limit was active (the QP solver ran).
     pub constrained_steps: f64,
+    /// Seconds the robot's start took before the first frame: its collision model (meshes'
+    /// hulls and convex parts, the proofs that limits keep pairs apart) and its solver.
+    #[serde(default)]
+    pub start_seconds: f64,
+    /// Seconds the frames took after the start: frames over this is the rate a live stream
+    /// is followed at.
+    #[serde(default)]
+    pub frames_seconds: f64,
 }
 
 /// A joint whose velocity limit held the commands, and in how many frames.
@@ -376,6 +384,8 @@ impl Tally {
             unchecked: model.unchecked().to_vec(),
             steps_per_frame: self.steps as f64 / frames.max(1) as f64,
             constrained_steps: self.constrained as f64 / self.steps.max(1) as f64,
+            start_seconds: 0.0,
+            frames_seconds: 0.0,
         }
     }
 }
