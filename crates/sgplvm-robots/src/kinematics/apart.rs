@@ -359,7 +359,7 @@ pub(super) mod tests {
 
     #[test]
     fn surface_distance_is_exact_within_its_reach_and_infinite_beyond() {
-        // Two unit cubes' surfaces, their faces `gap` apart along x.
+        // Two unit cubes' surfaces, centres 1.3 m apart along x: their faces 0.3 m apart.
         let cube = || {
             let (v, i) = SharedShape::cuboid(0.5, 0.5, 0.5)
                 .as_cuboid()
