@@ -10,7 +10,8 @@
 //! `SGPLVM_ROBOTS_DIR=…/cmeel.prefix/share/example-robot-data/robots` points elsewhere. A robot
 //! not found is skipped with a line saying so. `SGPLVM_BENCH_URDFS=name=path,...` adds robots
 //! from elsewhere (their meshes found as `robot --urdf` finds them: the makers' own iCub,
-//! `robotology/icub-models`' `iCub/robots/iCubGenova04/model.urdf`, say).
+//! `robotology/icub-models`' `iCub/robots/iCubGenova04/model.urdf`, say);
+//! `SGPLVM_BENCH_ROBOTS=icub,coman` reads only the robots whose names hold one of these.
 //!
 //! Run: `cargo bench -p sgplvm-robots --bench retarget_meshes` (one thread: the retargeting of
 //! one robot is serial).
@@ -111,13 +112,11 @@ fn bench(c: &mut Criterion) {
             Err(e) => eprintln!("retarget_meshes: {name} skipped: {e}"),
         }
     }
-    // Criterion's filter (the first argument not an option), applied before the robots' first,
-    // untimed retargeting: `cargo bench --bench retarget_meshes -- icub` reads only iCubs.
-    let filter = std::env::args()
-        .skip(1)
-        .find(|a| !a.starts_with('-'))
-        .unwrap_or_default();
-    robots.retain(|(name, _)| name.contains(&filter));
+    // `SGPLVM_BENCH_ROBOTS=icub,coman`: only robots whose names hold one of these, left out
+    // before their first, untimed retargeting (criterion's own filter comes after it).
+    if let Ok(only) = std::env::var("SGPLVM_BENCH_ROBOTS") {
+        robots.retain(|(name, _)| only.split(',').any(|o| name.contains(o.trim())));
+    }
     for (name, anatomy) in robots {
         let one = vec![(name.clone(), anatomy)];
         // Read the meshes once (the hulls are kept by the anatomy), and say what was checked.

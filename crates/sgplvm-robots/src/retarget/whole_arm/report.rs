@@ -92,12 +92,13 @@ pub struct PostureReport {
     /// Share of steps in which a limit was active (the QP solver ran).
     pub constrained_steps: f64,
     /// Seconds the robot's start took before the first frame: its collision model (meshes'
-    /// hulls and convex parts, the proofs that limits keep pairs apart) and its solver.
-    #[serde(default)]
+    /// hulls and convex parts, the proofs that limits keep pairs apart) and its solver. A fact
+    /// of the run, not of the data: never written, so that the same input gives the same file.
+    #[serde(skip)]
     pub start_seconds: f64,
     /// Seconds the frames took after the start: frames over this is the rate a live stream
-    /// is followed at.
-    #[serde(default)]
+    /// is followed at (not written either).
+    #[serde(skip)]
     pub frames_seconds: f64,
 }
 
