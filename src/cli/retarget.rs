@@ -457,7 +457,7 @@ fn print_postures(reports: &[ReachReport]) {
                 .iter()
                 .map(|h| {
                     format!(
-                        "{} ↔ {} in {} (closest {:.1} mm)",
+                        "{} ↔ {} in {} (asked as near as {:.1} mm)",
                         h.link_a,
                         h.link_b,
                         h.frames,
@@ -498,12 +498,17 @@ fn print_postures(reports: &[ReachReport]) {
                 r.robot, p.stepped_from_before_frames
             );
         }
-        if !p.unchecked.is_empty() {
-            println!(
-                "{:<12} self-collision not checked for {} collision element(s): {}",
-                r.robot,
-                p.unchecked.len(),
-                p.unchecked.first().map_or("", String::as_str)
+        if let Some(first) = p.unchecked.first() {
+            // Every shape missing is not a detail: the robot is not kept off itself at all.
+            let n = p.unchecked.len();
+            let how_many = if p.pairs == 0 {
+                format!("at all (no pair of shapes left to check): {n} collision element(s) could not be read")
+            } else {
+                format!("for {n} collision element(s)")
+            };
+            eprintln!(
+                "warning: {}: self-collision not checked {how_many}: {first}",
+                r.robot
             );
         }
     }

@@ -317,6 +317,26 @@ fn convention(tree: &Tree) -> Option<FoundArms> {
     })
 }
 
+/// Why no arm was found when the tree has no chain that could be one: its arm joints fixed (a
+/// description made for training the legs, the arms locked), else no names and no chain.
+fn no_chain_why(tree: &Tree) -> String {
+    let locked: Vec<&str> = (0..tree.robot.joints.len())
+        .filter(|&j| {
+            tree.robot.joints[j].kind == JointKind::Fixed
+                && part_of(tree.joint_name(j)) == Part::Arm
+        })
+        .map(|j| tree.joint_name(j))
+        .collect();
+    if locked.is_empty() {
+        return "no joint name says left or right, and the tree has no serial chain of four or more revolute joints".into();
+    }
+    format!(
+        "{} named as arm joints are fixed in this file ({}): its arms cannot move (a description made for walking, the arms locked?); use the maker's description whose arm joints are revolute",
+        crate::names::count(locked.len(), "joint"),
+        few(&locked, 4)
+    )
+}
+
 /// Whether joint `j` can be an arm joint by its words (and its child link's, unless its own
 /// name says arm: a `wrist_roll` joint may carry the link a maker calls `gripper`).
 fn armlike(tree: &Tree, j: usize) -> bool {
@@ -453,11 +473,7 @@ fn by_structure(tree: &Tree) -> AnatomyResult<FoundArms> {
                 )],
             });
         }
-        [] => {
-            return Err(no_arms(
-                "no joint name says left or right, and the tree has no serial chain of four or more revolute joints".into(),
-            ))
-        }
+        [] => return Err(no_arms(no_chain_why(tree))),
         more => {
             let equal: Vec<(usize, usize)> = (0..more.len())
                 .flat_map(|a| ((a + 1)..more.len()).map(move |b| (a, b)))

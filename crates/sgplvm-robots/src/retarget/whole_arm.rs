@@ -515,7 +515,9 @@ pub(super) fn run(
             outcome
         };
         if outcome.changed {
-            if outcome.near.is_empty() {
+            // Without velocity limits only the robot's own shapes move a command (a frame
+            // stepped from the command before may end with no pair near).
+            if velocity_limits && outcome.near.is_empty() {
                 tally.velocity_limited += 1;
             } else {
                 tally.collision_limited += 1;

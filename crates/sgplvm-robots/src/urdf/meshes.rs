@@ -8,7 +8,7 @@
 //! |---|---|
 //! | `meshes/arm.stl` | the URDF file's directory |
 //! | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
-//! | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, an ancestor of the URDF's directory named `PKG`, or a folder `PKG` beside one (up to [`ANCESTOR_LEVELS`] levels up) |
+//! | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is `PKG`'s folder, `DIR/PKG`, then `PKG`'s folder up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, an ancestor of the URDF's directory that is `PKG`'s folder, or a folder `PKG` beside one (up to [`ANCESTOR_LEVELS`] levels up). A package's folder is named `PKG` or, as ROS finds packages whatever their folder's name, holds a `package.xml` whose `<name>` is `PKG` |
 //!
 //! A URI that cannot be resolved gives a [`MeshMiss`] saying what was tried. Nothing here
 //! reads a mesh: that is the caller's business (the physics replay builds convex hulls, the
@@ -47,7 +47,7 @@ const MAX_FOLDERS_SEARCHED: usize = 4096;
 /// |---|---|
 /// | `meshes/arm.stl` | the URDF file's directory |
 /// | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
-/// | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is named `PKG`, `DIR/PKG`, then a folder named `PKG` holding a `package.xml` up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, the URDF directory's ancestors (an ancestor named `PKG`, or `PKG` beside one) |
+/// | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is `PKG`'s folder, `DIR/PKG`, then `PKG`'s folder up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, the URDF directory's ancestors (one that is `PKG`'s folder, or `PKG` beside one). A package's folder is named `PKG` or holds a `package.xml` whose `<name>` is `PKG` |
 ///
 /// The default search knows no directory: it resolves absolute paths and `file://` URIs only.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -313,8 +313,9 @@ impl MeshSearch {
 }
 
 impl MeshSearch {
-    /// Folders of `package` among the URDF directory's ancestors: an ancestor named `package`,
-    /// or a folder `package` beside one, up to [`ANCESTOR_LEVELS`] levels up.
+    /// Folders of `package` among the URDF directory's ancestors: an ancestor that is
+    /// `package`'s folder ([`is_package`]), or a folder `package` beside one, up to
+    /// [`ANCESTOR_LEVELS`] levels up.
     fn package_ancestors(&self, package: &str) -> Vec<PathBuf> {
         let Some(dir) = &self.urdf_dir else {
             return Vec::new();
@@ -322,7 +323,7 @@ impl MeshSearch {
         let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.clone());
         let mut found = Vec::new();
         for anc in dir.ancestors().take(ANCESTOR_LEVELS) {
-            if anc.file_name() == Some(OsStr::new(package)) {
+            if is_package(anc, package) {
                 found.push(anc.to_path_buf());
             }
             let beside = anc.join(package);
@@ -390,7 +391,7 @@ fn parse_uri(uri: &str) -> Result<Target<'_>, MeshMiss> {
 /// is named `package`, `root/package`, then package folders found by a shallow search.
 fn package_dirs(root: &Path, package: &str) -> Vec<PathBuf> {
     let mut dirs = Vec::new();
-    if root.file_name() == Some(OsStr::new(package)) && root.is_dir() {
+    if is_package(root, package) {
         dirs.push(root.to_path_buf());
     }
     let direct = root.join(package);
@@ -405,7 +406,29 @@ fn package_dirs(root: &Path, package: &str) -> Vec<PathBuf> {
     dirs
 }
 
-/// Folders named `package` that hold a `package.xml`, at most [`PACKAGE_SEARCH_DEPTH`] levels
+/// Whether `dir` is the folder of `package`: named so, or (as ROS finds packages, whatever
+/// their folder's name) holding a `package.xml` whose `<name>` is `package`.
+fn is_package(dir: &Path, package: &str) -> bool {
+    dir.is_dir()
+        && (dir.file_name() == Some(OsStr::new(package))
+            || package_xml_name(dir).as_deref() == Some(package))
+}
+
+/// The `<name>` a folder's `package.xml` gives its package, if it has one that says.
+fn package_xml_name(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join("package.xml")).ok()?;
+    let doc = roxmltree::Document::parse(&text).ok()?;
+    let name = doc
+        .root_element()
+        .children()
+        .find(|n| n.has_tag_name("name"))?
+        .text()?
+        .trim()
+        .to_string();
+    (!name.is_empty()).then_some(name)
+}
+
+/// Package folders (named `package`, or whose `package.xml` names it) at most [`PACKAGE_SEARCH_DEPTH`] levels
 /// below `root` (breadth first, names sorted, hidden folders skipped).
 fn shallow_search(root: &Path, package: &str) -> Vec<PathBuf> {
     let mut found = Vec::new();
@@ -430,9 +453,7 @@ fn shallow_search(root: &Path, package: &str) -> Vec<PathBuf> {
                 .collect();
             children.sort();
             for child in children {
-                if child.file_name() == Some(OsStr::new(package))
-                    && child.join("package.xml").is_file()
-                {
+                if child.join("package.xml").is_file() && is_package(&child, package) {
                     found.push(child.clone());
                 }
                 next.push(child);
@@ -633,6 +654,33 @@ mod tests {
                 .unwrap(),
             package.join("meshes/arm.dae")
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_package_is_found_by_its_package_xml_whatever_its_folder_s_name() {
+        // As Galaxea publishes its R1: the package `r1_v2_1_0` in a folder `R1`.
+        let dir = scratch("named");
+        let package = dir.join("repo/R1");
+        touch(&package.join("meshes/arm.STL"));
+        std::fs::write(
+            package.join("package.xml"),
+            "<?xml version=\"1.0\"?>\n<package format=\"2\">\n  <name> r1_v2_1_0 </name>\n  <version>1.0.0</version>\n</package>\n",
+        )
+        .unwrap();
+        let uri = "package://r1_v2_1_0/meshes/arm.STL";
+        let want = std::fs::canonicalize(package.join("meshes/arm.STL")).unwrap();
+        // The package folder itself, the folder holding it, or no path at all (the URDF inside).
+        for search in [
+            MeshSearch::new().with_package_path(&package),
+            MeshSearch::new().with_package_path(dir.join("repo")),
+            MeshSearch::for_urdf_file(&package.join("urdf/r1.urdf")),
+        ] {
+            assert_eq!(search.resolve(uri).unwrap(), want, "{search:?}");
+        }
+        // Another package's name is not this one.
+        let other = MeshSearch::new().with_package_path(&package);
+        assert!(other.resolve("package://r1_v2_2_0/meshes/arm.STL").is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

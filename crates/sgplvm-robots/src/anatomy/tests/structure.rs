@@ -57,6 +57,45 @@ fn arms_without_side_names_are_found_by_structure_left_along_the_root_s_y() {
     );
 }
 
+#[test]
+fn arms_whose_joints_are_fixed_are_said_to_be_locked_not_unnamed() {
+    // A walking robot's training description (AgiBot's X1, Booster's T1_locomotion): the arm
+    // joints say their side and part, but are fixed; only the legs move.
+    let mut urdf = String::from(r#"<robot name="walker"><link name="base"/>"#);
+    for side in ["left", "right"] {
+        let mut parent = "base".to_string();
+        for part in [
+            "shoulder_pitch",
+            "shoulder_roll",
+            "elbow_pitch",
+            "wrist_roll",
+        ] {
+            let child = format!("{side}_{part}_link");
+            urdf += &format!(
+                r#"<link name="{child}"/><joint name="{side}_{part}_joint" type="fixed"><parent link="{parent}"/><child link="{child}"/><origin xyz="0 0 -0.1"/></joint>"#
+            );
+            parent = child;
+        }
+        let mut parent = "base".to_string();
+        for part in ["hip_pitch", "hip_roll", "knee", "ankle_pitch"] {
+            let child = format!("{side}_{part}_link");
+            urdf += &format!(
+                r#"<link name="{child}"/><joint name="{side}_{part}_joint" type="revolute"><parent link="{parent}"/><child link="{child}"/><origin xyz="0 0 -0.2"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>"#
+            );
+            parent = child;
+        }
+    }
+    urdf += "</robot>";
+    let robot = Robot::from_urdf_str(&urdf, "walker.urdf").unwrap();
+    let e = Anatomy::of(robot).unwrap_err().to_string();
+    assert!(
+        e.contains("8 joints named as arm joints are fixed in this file")
+            && e.contains(r#""left_shoulder_pitch_joint""#)
+            && !e.contains("no joint name says left or right"),
+        "{e}"
+    );
+}
+
 /// A dual-arm robot as a maker of mobile manipulators writes one: a prismatic torso lift,
 /// arms `arm_{side}_1_joint` … `arm_{side}_7_joint` whose axes are all local z turned by large
 /// `rpy`, a force-torque sensor and a palm fixed on the last link, and on the palm a

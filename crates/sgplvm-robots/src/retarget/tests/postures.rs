@@ -306,6 +306,8 @@ fn a_person_moving_a_little_moves_the_robot_a_little() {
         .filter(|&f| (y.row(f) - y.row(f - 1)).amax() > whole_arm::JUMP_RAD)
         .count();
     assert_eq!(report.jump_frames, counted);
+    // Without velocity limits no frame is said to be held by one.
+    assert_eq!(report.velocity_limited_frames, 0);
     assert_eq!(
         report
             .jumping_joints
