@@ -3,7 +3,8 @@
 //! direction, a few times per iteration). parry's convex polyhedron scans every vertex for it;
 //! the hulls of published collision meshes have hundreds to thousands of vertices (a G1 link's
 //! median is about 900), which made the scan most of retargeting's time. On a convex polytope a
-//! vertex that no neighbour improves on is the furthest of all, so the climb from the last
+//! vertex that no neighbour improves on is the furthest of all (the surface climbed over is
+//! checked convex first: a folded one is scanned, [`convex_triangulation`]), so the climb from the last
 //! support vertex found for a direction like this one (GJK's directions change little from one
 //! query to the next) gives the same point after a few dot products. "Like" is one of 24 cones
 //! of directions (the octant and the largest component): a hull checked against several shapes
@@ -12,6 +13,7 @@
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
+use rapier3d::parry;
 use rapier3d::parry::math::Vector;
 use rapier3d::parry::shape::{ConvexPolyhedron, SupportMap};
 
@@ -31,6 +33,42 @@ pub(crate) struct ClimbingHull {
     /// thread wrote it last.
     last: [AtomicU32; CONES],
 }
+
+/// The hull of `points` as triangles (its vertices and their indices), checked convex: every
+/// triangle's plane has every vertex behind it, within [`FLAT_TOLERANCE`] of the hull's size.
+/// `None` where it is not. parry's hull of a published mesh can fold some of its triangles
+/// inwards (f32 rounding over near-coplanar points: 86 of the 348 hulls and parts of Galaxea's
+/// R1, 84 of 392 of the G1 with hands, 10 of 374 of Kinova's MOVO; 7 of 904 triangles on one
+/// of R1's arm links); its vertices are still the hull's, so a scan finds the support points,
+/// but a climb over the folded surface stopped up to 0.43 m short of them, and GJK took the
+/// shapes for further apart than they were.
+fn convex_triangulation(points: &[Vector]) -> Option<(Vec<Vector>, Vec<[u32; 3]>)> {
+    let (points, triangles) = parry::transformation::try_convex_hull(points).ok()?;
+    convex(&points, &triangles).then_some((points, triangles))
+}
+
+/// Whether `triangles` (outward by their winding) over `points` bound a convex solid: every
+/// vertex behind every triangle's plane, within [`FLAT_TOLERANCE`] of the points' size.
+fn convex(points: &[Vector], triangles: &[[u32; 3]]) -> bool {
+    let (lo, hi) = points.iter().fold(
+        (Vector::splat(f32::MAX), Vector::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let tolerance = FLAT_TOLERANCE * (hi - lo).length();
+    !triangles.is_empty()
+        && triangles.iter().all(|t| {
+            let [a, b, c] = t.map(|i| points[i as usize]);
+            let Some(normal) = (b - a).cross(c - a).try_normalize() else {
+                return true; // a sliver: its neighbours' planes hold the surface
+            };
+            points.iter().all(|p| (*p - a).dot(normal) <= tolerance)
+        })
+}
+
+/// How far (relative to the hull's diagonal) a vertex may stand in front of a triangle's plane
+/// of a hull still taken as convex: the f32 rounding of a hull's planes, far below a
+/// millimetre on a link.
+const FLAT_TOLERANCE: f32 = 1e-4;
 
 /// How many cones the directions are sorted into: 8 octants × 3 largest components.
 const CONES: usize = 24;
@@ -63,24 +101,22 @@ fn inside_cone(cone: usize) -> Vector {
 }
 
 impl ClimbingHull {
-    /// The climbing form of `hull`; `None` when it is small enough to scan.
+    /// The climbing form of `hull`; `None` when it is small enough to scan, or when no
+    /// triangulation of its surface is found convex ([`convex_triangulation`]): a climb is exact
+    /// only over a convex surface.
     pub(crate) fn of(hull: &ConvexPolyhedron) -> Option<ClimbingHull> {
-        let points = hull.points().to_vec();
-        if points.len() < SCAN_BELOW {
+        if hull.points().len() < SCAN_BELOW {
             return None;
         }
+        let (points, triangles) = convex_triangulation(hull.points())?;
         let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); points.len()];
-        for e in hull.edges() {
-            let [a, b] = e.vertices;
-            let (ai, bi) = (a as usize, b as usize);
-            if ai >= points.len() || bi >= points.len() || a == b {
-                continue;
-            }
-            if !adjacent[ai].contains(&b) {
-                adjacent[ai].push(b);
-            }
-            if !adjacent[bi].contains(&a) {
-                adjacent[bi].push(a);
+        for t in &triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if !adjacent[a as usize].contains(&b) {
+                    adjacent[a as usize].push(b);
+                    adjacent[b as usize].push(a);
+                }
             }
         }
         // A vertex without an edge could never be reached: scan instead.
@@ -195,5 +231,19 @@ mod tests {
             let scanned = poly.local_support_point(dir).dot(dir);
             assert!((climbed - scanned).abs() <= 1e-6);
         }
+    }
+
+    #[test]
+    fn a_folded_triangulation_is_not_climbed() {
+        // A cube's hull is convex; the same triangles with a corner pushed in (a fold, as
+        // parry's hull of some published meshes has) are not, and would stop a climb there.
+        let corners: Vec<Vector> = (0..8)
+            .map(|n| Vector::new((n & 1) as f32, (n >> 1 & 1) as f32, (n >> 2 & 1) as f32))
+            .collect();
+        let (points, triangles) = parry::transformation::try_convex_hull(&corners).unwrap();
+        assert!(convex(&points, &triangles));
+        let mut folded = points.clone();
+        folded[0] = folded[0] * 0.2 + Vector::splat(0.4);
+        assert!(!convex(&folded, &triangles));
     }
 }
