@@ -15,7 +15,7 @@
 use nalgebra::DVector;
 
 use crate::anatomy::Anatomy;
-use crate::kinematics::collision::CollisionModel;
+use crate::kinematics::collision::{CollisionModel, Proximity};
 use crate::kinematics::frames::{Ancestry, RobotFrames};
 use crate::kinematics::limits::{collision_limit, position_limits, velocity_limits};
 use crate::kinematics::qp::{Solved, Step};
@@ -168,6 +168,51 @@ impl SafetyStep {
             .any(|p| p.distance < 0.0)
     }
 
+    /// The pairs of links among `near` within a millimetre of their margin
+    /// ([`SafetyOutcome::near`]): one entry per pair of links (a pair of meshes may near at
+    /// several parts), at its least distance.
+    fn near_links(&self, near: &[Proximity]) -> Vec<(String, String, f64)> {
+        let mut links: Vec<(String, String, f64)> = Vec::new();
+        let margin = self.options.margin_m;
+        for p in near
+            .iter()
+            .filter(|p| p.distance < self.collision.margin_of(p.pair, margin) + 1e-3)
+        {
+            let (a, b) = self.collision.pair_links(p.pair);
+            let (a, b) = (&self.robot.links[a], &self.robot.links[b]);
+            match links.iter_mut().find(|n| &n.0 == a && &n.1 == b) {
+                Some(n) => n.2 = n.2.min(p.distance),
+                None => links.push((a.clone(), b.clone(), p.distance)),
+            }
+        }
+        links
+    }
+
+    /// Whether the posture of `ctx` (the one asked for, with no command before) is a safe
+    /// command as it is: every joint within its position limits and every pair at least its
+    /// margin apart, so that the step from it would be none. Then the pairs within a
+    /// millimetre of their margin, as the step lists them; asked within that distance, not
+    /// the detection distance a step needs (the costly part: meshes' hulls and parts).
+    fn already_safe(&self, ctx: &TaskContext<'_>) -> Option<Vec<(String, String, f64)>> {
+        let q = ctx.active_values();
+        let within_limits = self.active.iter().zip(&q).all(|(&j, &v)| {
+            let (lo, hi) = self.robot.joints[j].limits;
+            lo > hi || (lo <= v && v <= hi)
+        });
+        if !within_limits {
+            return None;
+        }
+        if !self.options.self_collision {
+            return Some(Vec::new());
+        }
+        let margin = self.options.margin_m;
+        let near = self.collision.proximities(ctx.frames, margin + 1e-3);
+        let clear = near
+            .iter()
+            .all(|p| p.distance >= self.collision.margin_of(p.pair, margin));
+        clear.then(|| self.near_links(&near))
+    }
+
     /// [`SafetyStep::step`] from the command `last` sent at its time (`None`: none sent yet).
     pub fn step_from(
         &mut self,
@@ -192,6 +237,20 @@ impl SafetyStep {
             active: &self.active,
         };
         let n = self.active.len();
+        if self.last.is_none() {
+            if let Some(near) = self
+                .already_safe(&ctx)
+                .filter(|_| std::env::var_os("OLDSAFE").is_none())
+            {
+                // The step from the asked posture itself would be none: it is the command.
+                out[..n].copy_from_slice(asked);
+                self.last = Some((asked.to_vec(), now_s));
+                return SafetyOutcome {
+                    near,
+                    ..SafetyOutcome::default()
+                };
+            }
+        }
         let mut step = Step::new(n, 0.0);
         let target = DVector::from_iterator(n, asked.iter().zip(&from).map(|(a, f)| a - f));
         step.add_task(&nalgebra::DMatrix::identity(n, n), &target, 1.0);
@@ -211,17 +270,7 @@ impl SafetyStep {
                 1.0,
             );
             within_detect = !near.is_empty();
-            for p in near.iter().filter(|p| {
-                p.distance < self.collision.margin_of(p.pair, self.options.margin_m) + 1e-3
-            }) {
-                let (a, b) = self.collision.pair_links(p.pair);
-                let (a, b) = (&self.robot.links[a], &self.robot.links[b]);
-                // One entry per pair of links (a pair of meshes may near at several parts).
-                match outcome.near.iter_mut().find(|n| &n.0 == a && &n.1 == b) {
-                    Some(n) => n.2 = n.2.min(p.distance),
-                    None => outcome.near.push((a.clone(), b.clone(), p.distance)),
-                }
-            }
+            outcome.near = self.near_links(&near);
         }
         let (mut delta, free) = match step.solve() {
             Ok((d, how)) => (d, how == Solved::Unconstrained),
@@ -234,6 +283,32 @@ impl SafetyStep {
         // shape: the step is cut back until nothing overlaps (from a command that did not).
         // No shape near and a step too short to close the detection distance (a metre of
         // lever per radian, more than any arm here has): nothing can overlap.
+        if std::env::var_os("OLDSAFE").is_some()
+            && self.already_safe(&ctx).is_some()
+            && delta.amax() > 1e-9
+        {
+            let near = self
+                .collision
+                .proximities(ctx.frames, self.options.detect_m);
+            let m: Vec<(usize, f64, f64)> = near
+                .iter()
+                .map(|p| {
+                    (
+                        p.pair,
+                        p.distance,
+                        self.collision.margin_of(p.pair, self.options.margin_m),
+                    )
+                })
+                .collect();
+            let near2 = self
+                .collision
+                .proximities(ctx.frames, self.options.margin_m + 1e-3);
+            let m2: Vec<(usize, f64)> = near2.iter().map(|p| (p.pair, p.distance)).collect();
+            eprintln!(
+                "DBG safe-but-moved {:.3e} free {free}\n detect {m:?}\n margin {m2:?}",
+                delta.amax()
+            );
+        }
         let short = !within_detect && delta.amax() < self.options.detect_m;
         let mut cuts = 0;
         if self.options.self_collision && self.last.is_some() && !short {

@@ -499,17 +499,22 @@ pub(super) fn run(
         } else {
             let before_sent = sent.clone();
             let mut outcome = safety.step_from(&asked, None, now, &mut sent);
-            for _ in 0..SAFE_PASSES {
-                let at = sent.clone();
-                if !safety.step_from(&at, None, now, &mut sent).changed {
-                    break;
+            // A posture the step leaves as asked, having found a step, keeps every pair its
+            // margin apart (more than nothing): it would be left so again, and nothing overlaps.
+            if outcome.changed || outcome.infeasible {
+                for _ in 0..SAFE_PASSES {
+                    let at = sent.clone();
+                    if !safety.step_from(&at, None, now, &mut sent).changed {
+                        break;
+                    }
                 }
-            }
-            if f > 0 && safety.overlaps(&sent) {
-                // No safe posture found from the pose alone: the step from the command before,
-                // cut back until nothing overlaps (this frame then depends on the path).
-                tally.from_before += 1;
-                outcome = safety.step_from(&asked, Some((&before_sent, now)), now, &mut sent);
+                if f > 0 && safety.overlaps(&sent) {
+                    // No safe posture found from the pose alone: the step from the command
+                    // before, cut back until nothing overlaps (this frame then depends on the
+                    // path).
+                    tally.from_before += 1;
+                    outcome = safety.step_from(&asked, Some((&before_sent, now)), now, &mut sent);
+                }
             }
             outcome.changed = sent.iter().zip(&asked).any(|(o, a)| (o - a).abs() > 1e-9);
             outcome
