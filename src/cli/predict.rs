@@ -151,6 +151,9 @@ impl PredictArgs {
         match (&target.anatomy, self.raw) {
             (Some(anatomy), false) => {
                 let limits = CommandLimits::for_joints(anatomy.robot(), target.names())?;
+                if let Some(note) = limits.assumed() {
+                    eprintln!("warning: {}: {note}", anatomy.robot().name());
+                }
                 let safety = (self.margin > 0.0)
                     .then(|| {
                         SafetyStep::new(

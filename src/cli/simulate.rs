@@ -105,6 +105,9 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             let mut predicted = predicted_trajectory(model, input, topic, robot)?;
             let body = sgplvm::robots::Robot::from_urdf_str(&xml, &source)?;
             let limits = CommandLimits::for_joints(&body, &predicted.joint_names)?;
+            if let Some(note) = limits.assumed() {
+                eprintln!("warning: {robot}: {note}");
+            }
             let t0 = predicted.times.first().copied().unwrap_or(0.0);
             let times: Vec<f64> = predicted.times.iter().map(|t| t - t0).collect();
             let counts = limits.apply_all(&mut predicted.positions, &times);

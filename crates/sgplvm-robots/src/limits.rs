@@ -6,15 +6,82 @@
 //! moved is counted, so that a report can say how often the model asked for more than the robot
 //! can do.
 
-use crate::{Robot, RobotError};
+use crate::{JointKind, Robot, RobotError};
+
+/// The velocity limit a command keeps for a revolute joint whose URDF gives none (`velocity`
+/// absent, 0 or negative) when no other commanded joint of its kind states one, rad/s: a
+/// command is never unbounded in speed, and a person's arm (up to 5 rad/s) is followed slowly
+/// rather than a robot swung at whatever a model asks.
+pub const UNSTATED_REVOLUTE_RAD_S: f64 = 1.0;
+
+/// [`UNSTATED_REVOLUTE_RAD_S`] for a prismatic joint, m/s.
+pub const UNSTATED_PRISMATIC_M_S: f64 = 0.1;
+
+/// The velocity limit every command keeps for joints `joints` (names) of `robot`, in their
+/// order: the URDF's, or where it states none (0, negative or absent), the median of the limits
+/// the other named joints of its kind state, else [`UNSTATED_REVOLUTE_RAD_S`] /
+/// [`UNSTATED_PRISMATIC_M_S`]. Also a note naming the joints so assumed and the limit taken
+/// (none where every joint states its own). Names that are not movable joints are skipped (the
+/// callers check them).
+pub fn command_velocity_limits(robot: &Robot, joints: &[String]) -> (Vec<f64>, Option<String>) {
+    let stated = robot.velocity_limits();
+    let found: Vec<Option<(f64, bool)>> = joints
+        .iter()
+        .map(|n| {
+            let i = robot.joint_index(n)?;
+            let prismatic = robot.joints[robot.movable[i]].kind == JointKind::Prismatic;
+            Some((stated[i], prismatic))
+        })
+        .collect();
+    let median_of = |prismatic: bool| {
+        let mut v: Vec<f64> = found
+            .iter()
+            .flatten()
+            .filter(|(v, p)| *p == prismatic && *v > 0.0)
+            .map(|(v, _)| *v)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let mut assumed: Vec<String> = Vec::new();
+    let limits = found
+        .iter()
+        .zip(joints)
+        .map(|(f, name)| match *f {
+            Some((v, _)) if v > 0.0 => v,
+            Some((_, prismatic)) => {
+                let (fallback, unit) = if prismatic {
+                    (UNSTATED_PRISMATIC_M_S, "m/s")
+                } else {
+                    (UNSTATED_REVOLUTE_RAD_S, "rad/s")
+                };
+                let v = median_of(prismatic).unwrap_or(fallback);
+                assumed.push(format!("{name} {v:.2} {unit}"));
+                v
+            }
+            None => f64::INFINITY,
+        })
+        .collect();
+    let note = (!assumed.is_empty()).then(|| {
+        format!(
+            "{} commanded joint(s) state no velocity limit in the URDF (velocity absent, 0 or negative); commands keep {}: the median of the other joints' stated limits, else {UNSTATED_REVOLUTE_RAD_S} rad/s ({UNSTATED_PRISMATIC_M_S} m/s prismatic). State the robot's own in its URDF's <limit velocity=...>",
+            assumed.len(),
+            crate::names::few(&assumed, 4)
+        )
+    });
+    (limits, note)
+}
 
 /// A robot's position and velocity limits for the joints of a command, in the command's order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandLimits {
     names: Vec<String>,
     position: Vec<(f64, f64)>,
-    /// rad/s (m/s for prismatic joints); infinite where the URDF gives none.
+    /// rad/s (m/s for prismatic joints); where the URDF gives none, as
+    /// [`command_velocity_limits`] assumes.
     velocity: Vec<f64>,
+    /// What was assumed for joints whose URDF gives no velocity limit, if any.
+    assumed: Option<String>,
 }
 
 /// Which joints of one command had to be moved, and by how much at most.
@@ -56,9 +123,8 @@ impl CommandLimits {
     pub fn for_joints(robot: &Robot, joints: &[String]) -> Result<CommandLimits, RobotError> {
         let names = robot.joint_names();
         let limits = robot.joint_limits();
-        let velocity = robot.velocity_limits();
+        let (speed, assumed) = command_velocity_limits(robot, joints);
         let mut position = Vec::with_capacity(joints.len());
-        let mut speed = Vec::with_capacity(joints.len());
         for j in joints {
             let Some(k) = names.iter().position(|n| n == j) else {
                 return Err(RobotError::Invalid {
@@ -73,17 +139,19 @@ impl CommandLimits {
                 });
             };
             position.push(limits[k]);
-            speed.push(if velocity[k] > 0.0 {
-                velocity[k]
-            } else {
-                f64::INFINITY
-            });
         }
         Ok(CommandLimits {
             names: joints.to_vec(),
             position,
             velocity: speed,
+            assumed,
         })
+    }
+
+    /// What was assumed for joints whose URDF states no velocity limit (a note for the user),
+    /// if any.
+    pub fn assumed(&self) -> Option<&str> {
+        self.assumed.as_deref()
     }
 
     /// The joints' names, in command order.
@@ -96,7 +164,7 @@ impl CommandLimits {
         &self.position
     }
 
-    /// Velocity limits per joint (infinite where none).
+    /// Velocity limits per joint (assumed where the URDF states none).
     pub fn velocity(&self) -> &[f64] {
         &self.velocity
     }
@@ -267,6 +335,50 @@ impl LimitCounts {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_joint_without_a_stated_velocity_limit_is_held_to_an_assumed_one() {
+        // Elephant Robotics' Mercury and AgileX's Piper write velocity="0": a command must not
+        // then move the joint at any speed.
+        let joint = |n: usize, velocity: f64, kind: &str| {
+            format!(
+                r#"<link name="l{n}"/><joint name="j{n}" type="{kind}"><parent link="l{p}"/><child link="l{n}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="{velocity}" effort="1"/></joint>"#,
+                p = n - 1
+            )
+        };
+        let urdf = format!(
+            r#"<robot name="r"><link name="l0"/>{}{}{}{}</robot>"#,
+            joint(1, 0.0, "revolute"),
+            joint(2, 2.0, "revolute"),
+            joint(3, 3.0, "revolute"),
+            joint(4, 0.0, "prismatic")
+        );
+        let robot = Robot::from_urdf_str(&urdf, "r.urdf").unwrap();
+        let names: Vec<String> = ["j1", "j2", "j3", "j4"].map(String::from).to_vec();
+        let limits = CommandLimits::for_joints(&robot, &names).unwrap();
+        // j1 takes the median of j2 and j3 (the upper of two), j4 the prismatic default.
+        assert_eq!(limits.velocity(), &[3.0, 2.0, 3.0, UNSTATED_PRISMATIC_M_S]);
+        let note = limits.assumed().unwrap();
+        assert!(
+            note.contains(r#""j1 3.00 rad/s""#) && note.contains("j4"),
+            "{note}"
+        );
+        let mut q = [1.0, 0.0, 0.0, 1.0];
+        let c = limits.apply(&mut q, Some((&[0.0; 4], 0.1)));
+        assert_eq!(c.velocity, 2);
+        assert!(
+            (q[0] - 0.3).abs() < 1e-12 && (q[3] - 0.01).abs() < 1e-12,
+            "{q:?}"
+        );
+        // No joint stating one: the revolute default.
+        let alone = CommandLimits::for_joints(&robot, &names[..1]).unwrap();
+        assert_eq!(alone.velocity(), &[UNSTATED_REVOLUTE_RAD_S]);
+        // Every joint stating its own: nothing assumed.
+        assert!(CommandLimits::for_joints(&robot, &names[1..3])
+            .unwrap()
+            .assumed()
+            .is_none());
+    }
 
     #[test]
     fn positions_and_velocities_are_held_and_counted() {

@@ -17,7 +17,7 @@ use nalgebra::DVector;
 use crate::anatomy::Anatomy;
 use crate::kinematics::collision::{CollisionModel, Proximity};
 use crate::kinematics::frames::{Ancestry, RobotFrames};
-use crate::kinematics::limits::{collision_limit, position_limits, velocity_limits};
+use crate::kinematics::limits::{collision_limit, position_limits};
 use crate::kinematics::qp::{Solved, Step};
 use crate::kinematics::tasks::TaskContext;
 use crate::urdf::Robot;
@@ -70,6 +70,9 @@ pub struct SafetyStep {
     q_index: Vec<usize>,
     /// The whole configuration: the joints not commanded at their hold values.
     base: Vec<f64>,
+    /// Each commanded joint's velocity limit, as every command keeps it
+    /// ([`crate::limits::command_velocity_limits`]: assumed where the URDF states none).
+    velocity: Vec<f64>,
     last: Option<(Vec<f64>, f64)>,
     options: SafetyOptions,
 }
@@ -106,6 +109,7 @@ impl SafetyStep {
         }
         let base = anatomy.hold_configuration().to_vec();
         let collision = anatomy.collision_model(&q_index, options.margin_m);
+        let (velocity, _) = crate::limits::command_velocity_limits(&robot, joints);
         Ok(SafetyStep {
             robot,
             ancestry,
@@ -113,6 +117,7 @@ impl SafetyStep {
             active,
             q_index,
             base,
+            velocity,
             last: None,
             options,
         })
@@ -256,7 +261,9 @@ impl SafetyStep {
         step.add_task(&nalgebra::DMatrix::identity(n, n), &target, 1.0);
         position_limits(&mut step, &ctx, None);
         if let (true, Some(dt)) = (self.options.velocity_limits, dt) {
-            velocity_limits(&mut step, &ctx, dt);
+            for (k, v) in self.velocity.iter().enumerate() {
+                step.bound(k, -v * dt, v * dt);
+            }
         }
         let mut outcome = SafetyOutcome::default();
         let mut within_detect = false;

@@ -176,6 +176,9 @@ fn drive_one(
     let (sent_names, order) = sent_order(&drive, &joints, options)?;
     let limits = CommandLimits::for_joints(drive.anatomy.robot(), &joints)
         .map_err(|e| LiveError::Config(e.to_string()))?;
+    if let Some(note) = limits.assumed() {
+        log(&format!("{}: {note}", drive.robot));
+    }
     let topic = match &options.command_topic {
         Some(t) => t.replace("{robot}", &drive.robot),
         None => options.form.default_topic(&drive.robot, shared),

@@ -3,7 +3,6 @@
 //!
 //! - [`position_limits`]: `lo − q ≤ Δq ≤ hi − q` (and a step bound, the trust region of one
 //!   Gauss–Newton step);
-//! - [`velocity_limits`]: `|Δq| ≤ v_max · dt` over the step's interval;
 //! - [`collision_limit`]: for every pair of the robot's own shapes closer than a detection
 //!   distance, their distance linearised with the closest points (`d + nᵀ(J_b − J_a) Δq ≥
 //!   margin`, n from shape a to shape b), so that the step keeps them at least `margin` apart,
@@ -26,17 +25,6 @@ pub fn position_limits(step: &mut Step, ctx: &TaskContext<'_>, max_step: Option<
         }
         if let Some(m) = max_step {
             step.bound(k, -m, m);
-        }
-    }
-}
-
-/// Bounds the step of every active joint by its velocity limit over `dt` seconds (joints with
-/// no velocity limit: unbounded).
-pub fn velocity_limits(step: &mut Step, ctx: &TaskContext<'_>, dt: f64) {
-    for (k, &j) in ctx.active.iter().enumerate() {
-        let v = ctx.robot.joints[j].velocity;
-        if v > 0.0 && dt.is_finite() && dt >= 0.0 {
-            step.bound(k, -v * dt, v * dt);
         }
     }
 }

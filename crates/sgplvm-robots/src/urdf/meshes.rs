@@ -297,6 +297,9 @@ impl MeshSearch {
             }
             tried.push(file);
         }
+        // The same folder found twice (a package path that is the URDF's own package).
+        let mut seen = std::collections::HashSet::new();
+        tried.retain(|f| seen.insert(f.clone()));
         if tried.is_empty() {
             Err(MeshMiss::PackageNotFound {
                 uri: uri.into(),

@@ -179,8 +179,8 @@ pub(super) struct Tally {
     pub(super) from_before: usize,
     pub(super) colliding: usize,
     pub(super) closest: Option<f64>,
-    /// Per joint (configuration index): frames its velocity limit held.
-    pub(super) joints_held: std::collections::BTreeMap<usize, usize>,
+    /// Per joint (configuration index): frames its velocity limit held, and the limit.
+    pub(super) joints_held: std::collections::BTreeMap<usize, (usize, f64)>,
     /// Per joint (configuration index) and bound (upper or not): frames the command sat on it.
     pub(super) bounds_held: std::collections::BTreeMap<(usize, bool), usize>,
     /// Per pair of links: frames the self-collision limit kept them apart, and the closest.
@@ -196,19 +196,17 @@ impl Tally {
     /// the pairs of links the safety step found near.
     pub(super) fn limits_held(
         &mut self,
-        robot: &crate::urdf::Robot,
-        q_index: &[usize],
+        (q_index, velocity): (&[usize], &[f64]),
         (asked, sent): (&[f64], &[f64]),
         before: Option<(Vec<f64>, f64)>,
         near: &[(String, String, f64)],
     ) {
         if let Some((last, dt)) = before {
-            let limits = robot.velocity_limits();
-            for (k, &i) in q_index.iter().enumerate() {
-                let step = limits[i] * dt;
+            for (k, (&i, &limit)) in q_index.iter().zip(velocity).enumerate() {
+                let step = limit * dt;
                 let short = (asked[k] - sent[k]).abs() > 1e-9;
-                if limits[i] > 0.0 && short && (sent[k] - last[k]).abs() >= step - 1e-9 {
-                    *self.joints_held.entry(i).or_default() += 1;
+                if short && (sent[k] - last[k]).abs() >= step - 1e-9 {
+                    self.joints_held.entry(i).or_insert((0, limit)).0 += 1;
                 }
             }
         }
@@ -305,13 +303,12 @@ impl Tally {
         (robot, frames): (&crate::urdf::Robot, usize),
     ) -> PostureReport {
         let names = robot.joint_names();
-        let limits = robot.velocity_limits();
         let mut velocity_limited_joints: Vec<LimitHeld> = self
             .joints_held
             .iter()
-            .map(|(&i, &n)| LimitHeld {
+            .map(|(&i, &(n, limit))| LimitHeld {
                 joint: names[i].clone(),
-                limit: limits[i],
+                limit,
                 prismatic: robot.joints[robot.movable[i]].kind == crate::urdf::JointKind::Prismatic,
                 frames: n,
             })
