@@ -137,7 +137,8 @@ pub struct TeleopArgs {
     /// The status topic (diagnostic_msgs/msg/DiagnosticArray).
     #[arg(long, default_value = "/sgplvm/status")]
     status_topic: String,
-    /// Stop after this many human frames (default: run until Ctrl-C or SIGTERM).
+    /// Stop after this many human frames, or once the input has stopped for 5 s short of them
+    /// (default: run until Ctrl-C or SIGTERM).
     #[arg(long)]
     max_frames: Option<usize>,
     /// Serve a live view for Foxglove (WebSocket, `foxglove.sdk.v1`) on ADDR:PORT [default

@@ -1058,6 +1058,38 @@ def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, m
     assert worst < 1e-4, worst
 
 
+def test_a_bounded_run_whose_input_ends_short_stops_and_says_so(tmp, data, models):
+    """``--max-frames`` with a stream that ends before that many frames (a sender started
+    before the node listened, a recording shorter than asked): the node stops 5 s after the
+    last frame and writes its summary, instead of holding forever."""
+    import socket
+
+    import mvn_spec
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    domain = next_domain()
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", f"mvn:127.0.0.1:{port}",
+        "--margin", "0", "--max-frames", "300",
+    ])
+    rows = data["rows"][:20]
+    try:
+        ros = Ros2(domain)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        for d in _mvn_frames(rows):
+            mvn_spec.send([d], port=port)
+            time.sleep(0.025)
+        code = node.proc.wait(timeout=30)
+    finally:
+        summary, err = node.stop()
+    assert code == 0, err
+    assert summary["mvn"]["frames"] == len(rows), (summary, err)
+    assert f"stopping after {len(rows)} of the 300 frames asked" in err, err
+
+
 def test_import_records_an_mvn_stream_as_the_angles_it_was_made_from(tmp, data):
     """``sgplvm import --mvn`` records a stream written from the specification's tables, each
     frame through the same fit as ``teleop --input mvn``, on the stream's time code (40 Hz here,

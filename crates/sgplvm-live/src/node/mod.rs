@@ -210,7 +210,8 @@ pub struct RobotSummary {
     pub novelty_threshold: f64,
 }
 
-/// Runs the node until `stop` is set (or `max_frames` input frames were used); `log` receives
+/// Runs the node until `stop` is set (or `max_frames` input frames were used, or its input
+/// stopped for [`BOUNDED_RUN_IDLE`] short of them); `log` receives
 /// one line per warning and state change.
 pub fn teleop(
     drives: Vec<Drive>,
@@ -296,9 +297,25 @@ pub fn teleop(
     let mut session = Session::new(options, parts)?;
     while !stop.load(Ordering::Relaxed) && options.max_frames.is_none_or(|m| session.frames() < m) {
         session.step(log)?;
+        // A run of a bounded number of frames ends when its input has ended short of them (a
+        // sender that started before the node listened, a recording shorter than asked):
+        // not held forever.
+        if let (Some(m), Some(idle)) = (options.max_frames, session.since_input()) {
+            if idle > BOUNDED_RUN_IDLE {
+                log(&format!(
+                    "stopping after {} of the {m} frames asked: no input for {:.0} s",
+                    session.frames(),
+                    idle.as_secs_f64()
+                ));
+                break;
+            }
+        }
     }
     session.finish(log)
 }
+
+/// How long a run with `max_frames` waits for more input once its input has stopped.
+const BOUNDED_RUN_IDLE: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// The subscription to the human's JointState topic.
 fn subscribe_input(

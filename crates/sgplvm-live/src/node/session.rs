@@ -142,6 +142,11 @@ impl<'a> Session<'a> {
         self.summary.frames
     }
 
+    /// How long since the last input frame, once one came.
+    pub(super) fn since_input(&self) -> Option<std::time::Duration> {
+        self.last_input.map(|t| t.elapsed())
+    }
+
     /// One wake-up: wait, use the newest message, check for stale input, publish the status
     /// if due.
     pub(super) fn step(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), LiveError> {
