@@ -211,7 +211,7 @@ pub struct RobotSummary {
 }
 
 /// Runs the node until `stop` is set (or `max_frames` input frames were used, or its input
-/// stopped for [`BOUNDED_RUN_IDLE`] short of them); `log` receives
+/// stopped for 5 s short of them); `log` receives
 /// one line per warning and state change.
 pub fn teleop(
     drives: Vec<Drive>,
