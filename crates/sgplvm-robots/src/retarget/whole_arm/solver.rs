@@ -82,9 +82,73 @@ impl ArmSolver {
         solver
             .frame()
             .solve_from_starts(&mut start, neutral_target, seeds);
-        solver.start = start;
+        solver.start = solver.hanging_way(start, neutral_target, person.probes());
         solver.choose(person.probes());
         solver
+    }
+
+    /// The posture the paths start from: `first` (the neutral's best fit), or another posture
+    /// that fits the person's neutral about as well (a shoulder turned half round, converged)
+    /// from which the person's key postures are followed better by more than [`START_GAIN`]
+    /// (their tasks' total error, the posture pull left out). An arm that hangs two ways (a Motoman SDA5F's
+    /// shoulder with S at −90° or +90°) starts the way from which a forward raise stays
+    /// within its limits. A property of the robot and the probes, never of the data.
+    fn hanging_way(
+        &self,
+        first: Vec<f64>,
+        neutral: &[ArmPosture; 2],
+        probes: &[Vec<[ArmPosture; 2]>],
+    ) -> Vec<f64> {
+        let frame = self.frame();
+        let fit = |q: &[f64], target: &[ArmPosture; 2]| {
+            let mut tasks = frame.tasks(target);
+            tasks.retain(|(t, _)| !matches!(t, Task::Posture { .. }));
+            frame.cost(q, &tasks)
+        };
+        let followed = |start: &[f64]| -> f64 {
+            probes
+                .iter()
+                .filter_map(|path| {
+                    let mut q = start.to_vec();
+                    frame.follow(&mut q, path);
+                    Some(fit(&q, path.last()?))
+                })
+                .sum()
+        };
+        let neutral_fit = fit(&first, neutral);
+        let mut best = (followed(&first), first);
+        // Each shoulder turned half round: the first joint by ±π, the second negated, the third
+        // by ±π (either way round) — the same upper arm for a shoulder whose first and third
+        // axes meet in line, and a start on its other way of hanging for others.
+        let limits = self.anatomy.robot().joint_limits();
+        let pi = std::f64::consts::PI;
+        for arm in self.anatomy.arms() {
+            let joints = arm.chain.robot_indices();
+            if arm.elbow < 3 || (0..3).any(|k| arm.chain.is_prismatic(k)) {
+                continue;
+            }
+            let (a, b, c) = (joints[0], joints[1], joints[2]);
+            for (turn_a, turn_c) in [(pi, pi), (pi, -pi), (-pi, pi), (-pi, -pi)] {
+                let mut q = best.1.clone();
+                (q[a], q[b], q[c]) = (q[a] + turn_a, -q[b], q[c] + turn_c);
+                let within = [a, b, c].iter().all(|&i| {
+                    let (lo, hi) = limits[i];
+                    lo > hi || (lo <= q[i] && q[i] <= hi)
+                });
+                if !within {
+                    continue;
+                }
+                frame.converge(&mut q, &frame.tasks(neutral));
+                let hangs = fit(&q, neutral) <= neutral_fit * 1.25 + START_TIE;
+                if hangs {
+                    let probe_fit = followed(&q);
+                    if probe_fit < best.0 * (1.0 - START_GAIN) {
+                        best = (probe_fit, q);
+                    }
+                }
+            }
+        }
+        best.1
     }
 
     /// The frame solver over this robot.
@@ -178,6 +242,16 @@ const SEED_STARTS: usize = 2;
 /// Gauss–Newton steps at most per point of a frame's path before its last (the path only
 /// chooses which of the postures that fit the pose the last point converges to).
 const PATH_ITERATIONS: usize = 6;
+
+/// How much worse (the tasks' total squared error, radians² and reach², the posture pull left
+/// out) another posture may fit the person's neutral than the best one and still be a way the
+/// arm hangs ([`ArmSolver::hanging_way`]): a quarter of the best one's error, and this (about
+/// 2° in all).
+const START_TIE: f64 = 1e-3;
+
+/// How much better (a share of the total) the key postures must be followed from another way
+/// of hanging before the paths start from it ([`ArmSolver::hanging_way`]).
+const START_GAIN: f64 = 0.1;
 
 /// How much worse (total objective over the probe poses) following may fit than the fixed
 /// starts before a robot solves from the starts instead ([`ArmSolver::choose`]).
