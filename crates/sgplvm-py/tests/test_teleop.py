@@ -1016,18 +1016,30 @@ def _mvn_frames(rows, period_ms=None):
     return datagrams
 
 
+def _free_udp_port():
+    """A UDP port on the loopback nobody listens on now."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _send_mvn(rows, port):
+    """The human angles `rows` as MVN datagrams written from the specification, at 40 Hz."""
+    import mvn_spec
+
+    for d in _mvn_frames(rows):
+        mvn_spec.send([d], port=port)
+        time.sleep(0.025)
+
+
 def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, models):
     """Datagrams written from the MVN specification's tables (mvn_spec.py, independent of the
     node's decoder) carry a recorded test motion as a suit would; the node fits each frame with
     the importer's fit and sends commands equal to ``predict --raw`` on the angles the frames were
     made from — to the single precision MVN sends (f32 positions and quaternions)."""
-    import socket
-
-    import mvn_spec
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
+    port = _free_udp_port()
     domain = next_domain()
     urdf = relaxed_urdf(tmp, "coman")
     node = Teleop(tmp, domain, [
@@ -1039,9 +1051,7 @@ def test_an_mvn_stream_written_from_the_specification_drives_teleop(tmp, data, m
         ros = Ros2(domain)
         ros.reader("/coman/joint_command", JointState)
         ros.wait_matched()
-        for d in _mvn_frames(rows):
-            mvn_spec.send([d], port=port)
-            time.sleep(0.025)
+        _send_mvn(rows, port)
         commands = ros.take("/coman/joint_command", settle=0.5)
     finally:
         summary, err = node.stop()
@@ -1062,13 +1072,7 @@ def test_a_bounded_run_whose_input_ends_short_stops_and_says_so(tmp, data, model
     """``--max-frames`` with a stream that ends before that many frames (a sender started
     before the node listened, a recording shorter than asked): the node stops 5 s after the
     last frame and writes its summary, instead of holding forever."""
-    import socket
-
-    import mvn_spec
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
+    port = _free_udp_port()
     domain = next_domain()
     node = Teleop(tmp, domain, [
         "--model", str(models["coman"]), "--robot", "coman", "--input", f"mvn:127.0.0.1:{port}",
@@ -1079,9 +1083,7 @@ def test_a_bounded_run_whose_input_ends_short_stops_and_says_so(tmp, data, model
         ros = Ros2(domain)
         ros.reader("/coman/joint_command", JointState)
         ros.wait_matched()
-        for d in _mvn_frames(rows):
-            mvn_spec.send([d], port=port)
-            time.sleep(0.025)
+        _send_mvn(rows, port)
         code = node.proc.wait(timeout=30)
     finally:
         summary, err = node.stop()
@@ -1095,13 +1097,9 @@ def test_import_records_an_mvn_stream_as_the_angles_it_was_made_from(tmp, data):
     frame through the same fit as ``teleop --input mvn``, on the stream's time code (40 Hz here,
     the output rate): the file holds the angles the frames were made from, to MVN's single
     precision, and the fit's report."""
-    import socket
-
     import mvn_spec
 
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
+    port = _free_udp_port()
     rows = data["rows"][:80]
     out = tmp / "recorded.mcap"
     proc = subprocess.Popen(
