@@ -506,9 +506,17 @@ fn print_postures(reports: &[ReachReport]) {
             } else {
                 format!("for {n} collision element(s)")
             };
+            // Each entry begins with its link's name: all the links, then the first reason.
+            let mut links: Vec<&str> = p
+                .unchecked
+                .iter()
+                .filter_map(|u| u.split(':').next())
+                .collect();
+            links.dedup();
             eprintln!(
-                "warning: {}: self-collision not checked {how_many}: {first}",
-                r.robot
+                "warning: {}: self-collision not checked {how_many}, on link(s) {}: {first}",
+                r.robot,
+                sgplvm::robots::names::few(&links, 8)
             );
         }
     }
