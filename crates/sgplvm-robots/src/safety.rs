@@ -128,6 +128,12 @@ impl SafetyStep {
         &self.collision
     }
 
+    /// Each commanded joint's velocity limit as the step keeps it (assumed where the URDF
+    /// states none: [`crate::limits::command_velocity_limits`]), in the order of its joints.
+    pub fn velocity_limits(&self) -> &[f64] {
+        &self.velocity
+    }
+
     /// Forgets the last command (the next one is limited by position and collision only).
     pub fn reset(&mut self) {
         self.last = None;

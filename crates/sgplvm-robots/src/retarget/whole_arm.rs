@@ -471,9 +471,6 @@ pub(super) fn run(
     };
     let mut sent = vec![0.0; q_index.len()];
     let position_limits = robot.joint_limits();
-    let names = robot.joint_names();
-    let arm_names: Vec<String> = q_index.iter().map(|&i| names[i].clone()).collect();
-    let (velocity, _) = crate::limits::command_velocity_limits(robot, &arm_names);
     let mut path = Vec::new();
     let mut last: Option<(Vec<f64>, Vec<f64>, f64)> = None;
     let start_seconds = started.elapsed().as_secs_f64();
@@ -530,7 +527,12 @@ pub(super) fn run(
             } else {
                 tally.collision_limited += 1;
             }
-            tally.limits_held((q_index, &velocity), (&asked, &sent), before, &outcome.near);
+            tally.limits_held(
+                (q_index, safety.velocity_limits()),
+                (&asked, &sent),
+                before,
+                &outcome.near,
+            );
         }
         tally.bounds_held(&position_limits, q_index, &sent);
         let mut q = hold.clone();

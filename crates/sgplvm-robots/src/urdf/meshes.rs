@@ -391,7 +391,8 @@ fn parse_uri(uri: &str) -> Result<Target<'_>, MeshMiss> {
 }
 
 /// The folders of `package` under `root`, in the order they are tried: `root` itself when it
-/// is named `package`, `root/package`, then package folders found by a shallow search.
+/// is the package's folder ([`is_package`]), `root/package`, then package folders found by a
+/// shallow search.
 fn package_dirs(root: &Path, package: &str) -> Vec<PathBuf> {
     let mut dirs = Vec::new();
     if is_package(root, package) {
@@ -431,8 +432,9 @@ fn package_xml_name(dir: &Path) -> Option<String> {
     (!name.is_empty()).then_some(name)
 }
 
-/// Package folders (named `package`, or whose `package.xml` names it) at most [`PACKAGE_SEARCH_DEPTH`] levels
-/// below `root` (breadth first, names sorted, hidden folders skipped).
+/// Package folders (holding a `package.xml`, named `package` or whose `package.xml` names it)
+/// at most [`PACKAGE_SEARCH_DEPTH`] levels below `root` (breadth first, names sorted, hidden
+/// folders skipped).
 fn shallow_search(root: &Path, package: &str) -> Vec<PathBuf> {
     let mut found = Vec::new();
     let mut level = vec![root.to_path_buf()];
