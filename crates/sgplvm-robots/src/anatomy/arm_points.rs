@@ -11,6 +11,9 @@ use super::{AnatomyArm, AnatomyResult};
 use crate::kinematics::Chain;
 use crate::urdf::Robot;
 
+/// A joint bends the arm to a point when bending it shortens the straightened arm's distance
+/// to that point at least this fast (second derivative, per metre of reach).
+const BENDS: f64 = 0.01;
 /// Axes closer than this (sine of their angle) count as parallel.
 const PARALLEL: f64 = 0.05;
 /// Axes of a shoulder meet when the point nearest to them is this close to each, as a fraction
@@ -81,6 +84,18 @@ fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
         .unwrap_or(0)
 }
 
+/// How near a group's axes must come to one point to meet: [`MEET_FRACTION`] of the arm's
+/// length along its links at `q` (at least 5 mm).
+fn meet_tolerance(chain: &Chain, q: &[f64]) -> f64 {
+    let origins = chain.joint_origins(q);
+    let length: f64 = origins
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .sum::<f64>()
+        + (chain.forward(q).translation.vector - origins[origins.len() - 1]).norm();
+    (MEET_FRACTION * length).max(0.005)
+}
+
 /// Where a group of the chain's axes meets at `q`: among groups of two or three consecutive
 /// revolute joints on `end`'s side of the (guessed) elbow, no two of them parallel, the group
 /// whose axes meet (within [`MEET_FRACTION`] of the arm's length), nearest the elbow (shoulder)
@@ -96,12 +111,7 @@ fn meeting_axes(
     let frames = chain.joint_frames(q);
     let axes = chain.joint_axes(q);
     let origins: Vec<Vector3<f64>> = frames.iter().map(|f| f.translation.vector).collect();
-    let length: f64 = origins
-        .windows(2)
-        .map(|w| (w[1] - w[0]).norm())
-        .sum::<f64>()
-        + (chain.forward(q).translation.vector - origins[origins.len() - 1]).norm();
-    let meet = (MEET_FRACTION * length).max(0.005);
+    let meet = meet_tolerance(chain, q);
     let n = chain.dof();
     let mut groups = Vec::new();
     for len in [3usize, 2] {
@@ -144,6 +154,23 @@ fn meeting_axes(
         (None, End::Shoulder) => (0, 1, origins[0], 0.0),
         (None, End::Wrist) => (n - 1, 1, origins[n - 1], 0.0),
     }
+}
+
+/// The wrist of the part of the arm after chain joint `after_shoulder` as a function of the
+/// configuration: the point where the axes of a group of joints beyond it meet at `zero`
+/// (nearest the hand, see [`meeting_axes`]), riding on the group's first joint; `None` where no
+/// such group's axes meet.
+fn wrist_point<'a>(
+    chain: &'a Chain,
+    zero: &[f64],
+    after_shoulder: usize,
+) -> Option<impl Fn(&[f64]) -> Vector3<f64> + 'a> {
+    let (after, size, point, spread) = meeting_axes(chain, zero, End::Wrist, after_shoulder);
+    if size < 2 || spread > meet_tolerance(chain, zero) {
+        return None;
+    }
+    let local = nalgebra::Point3::from(riding(chain, zero, after, point));
+    Some(move |q: &[f64]| (chain.joint_frames(q)[after] * local).coords)
 }
 
 /// A point of the chain's base frame at `q` expressed in the frame of chain joint `after`
@@ -288,7 +315,8 @@ fn hand_point(robot: &Robot, chain: &Chain) -> Vector3<f64> {
 /// The reach is the largest shoulder-to-hand distance over the joints beyond the shoulder
 /// (those before it and the shoulder's own at 0 within their limits): the straightened arm,
 /// measured without swinging the hand around shoulder axes that miss the shoulder point. The
-/// elbow is the joint beyond the shoulder whose bending shortens that straightened arm most.
+/// elbow is the joint beyond the shoulder whose bending shortens that straightened arm most,
+/// measured to the wrist where the wrist's axes meet.
 pub(super) fn arm_geometry(
     robot: &Robot,
     raw: &RawArm,
@@ -335,18 +363,36 @@ pub(super) fn arm_geometry(
     );
     let straight = with(&tail);
     let zero_pose_reach = span(&zero);
-    let bend = |i: usize| {
-        let h = 1e-3;
-        let mut a = straight.clone();
-        let mut b = straight.clone();
-        a[i] += h;
-        b[i] -= h;
-        (span(&a) - 2.0 * reach + span(&b)) / (h * h)
+    // How much bending joint `i` shortens the straightened arm, measured to the wrist (where
+    // the axes of a group of joints after the shoulder's meet, nearest the hand), not to the
+    // hand: a gripper as long as a forearm (Trossen's WXAI) makes the wrist's pitch shorten the
+    // reach to its tip as much as the elbow does. To the hand where no joint bends the arm to
+    // that point: it is the elbow itself where the elbow's axes meet the forearm's roll
+    // (Aldebaran's NAO and Pepper), or there is no wrist.
+    let elbow = {
+        let wrist = wrist_point(&chain, &zero, group + size - 1);
+        let bend_to = |i: usize, to: &dyn Fn(&[f64]) -> Vector3<f64>| {
+            let length = |q: &[f64]| (to(q) - point).norm();
+            let h = 1e-3;
+            let mut a = straight.clone();
+            let mut b = straight.clone();
+            a[i] += h;
+            b[i] -= h;
+            (length(&a) - 2.0 * length(&straight) + length(&b)) / (h * h)
+        };
+        let hand = |q: &[f64]| chain.forward(q).translation.vector;
+        let most_bending = |to: &dyn Fn(&[f64]) -> Vector3<f64>| {
+            distal
+                .clone()
+                .map(|i| (i, bend_to(i, to)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+        };
+        match wrist.as_ref().and_then(|w| most_bending(w)) {
+            Some((i, bend)) if bend < -BENDS * reach => Some(i),
+            _ => most_bending(&hand).map(|(i, _)| i),
+        }
+        .unwrap_or(0)
     };
-    let elbow = distal
-        .clone()
-        .min_by(|&a, &b| bend(a).total_cmp(&bend(b)))
-        .unwrap_or(0);
     // The wrist's axes start after the elbow found, not the guessed one: Aldebaran's NAO and
     // Pepper turn the upper arm (elbow yaw) and bend (elbow roll) at one point, and the bend's
     // axis meets the forearm's roll at the elbow, not at a wrist. No joint after the elbow:

@@ -278,6 +278,34 @@ fn an_arm_folded_at_zero_finds_its_elbow_and_shoulder_from_the_middle_of_its_ran
 }
 
 #[test]
+fn a_gripper_as_long_as_the_forearm_does_not_make_the_wrist_s_pitch_the_elbow() {
+    // As Trossen's WXAI (the Stationary AI's arms): folded at zero, the elbow bends at most
+    // 135°, and the gripper reaches 0.25 m past the wrist's pitch, as far as the forearm.
+    // Bending the wrist's pitch shortens the straightened arm to the gripper's tip as much as
+    // the elbow does; to the wrist (where the wrist's yaw and roll meet) it barely does. Until
+    // 2026-12-07 the wrist's pitch was taken for the elbow.
+    let rev = |name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)| {
+        format!(
+            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
+            range.0, range.1
+        )
+    };
+    let (half, pi) = (std::f64::consts::FRAC_PI_2, std::f64::consts::PI);
+    let urdf = format!(
+        r#"<robot name="wxai"><link name="base"/>{}{}{}{}{}{}<link name="gripper"/><joint name="tool" type="fixed"><parent link="wrist_roll_link"/><child link="gripper"/><origin xyz="0.156 0 0"/></joint></robot>"#,
+        rev("base_yaw", "base", "0 0 0.057", "0 0 1", (-3.0, 3.0)),
+        rev("shoulder", "base_yaw_link", "0.02 0 0.046", "0 1 0", (0.0, pi)),
+        rev("elbow", "shoulder_link", "-0.264 0 0", "0 -1 0", (0.0, 2.356)),
+        rev("wrist_pitch", "elbow_link", "0.245 0 0.06", "0 -1 0", (-half, half)),
+        rev("wrist_yaw", "wrist_pitch_link", "0.068 0 0.0455", "0 0 -1", (-half, half)),
+        rev("wrist_roll", "wrist_yaw_link", "0.029 0 -0.0455", "1 0 0", (-pi, pi)),
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "wxai.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "elbow");
+}
+
+#[test]
 fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
     // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
     // to the right. The root's z runs along the shoulders, so up is from the root (the
