@@ -17,7 +17,9 @@
 //!   hangs from: spine and legs; the root where none does) to the neck, along the spine's
 //!   offsets: the spine's own line, whichever local axis its bones lie along. The offset of
 //!   a root above the pelvis (a floor joint's height in some files) plays no part. Without a
-//!   neck or head joint, up ends between the shoulders.
+//!   neck or head joint, up ends between the shoulders. Where the spine's zero pose folds
+//!   (two bones turned by more than 60°, as where the pelvis' bone lies along its y and those
+//!   above along their x), the line starts above the fold.
 //! * forward = left × up, left first made square to up.
 //!
 //! The axes are fixed in the torso's frame: every frame takes them along with the torso's
@@ -80,7 +82,8 @@ pub fn body_axes(
         Some(n) => at(n),
         None => 0.5 * (at(shoulders[0]) + at(shoulders[1])),
     };
-    let up = top - at(pelvis);
+    let bottom = spine_start(bvh, pelvis, neck.unwrap_or(torso));
+    let up = top - at(bottom);
     let top_name = match neck {
         Some(n) => format!("`{}`", name(n)),
         None => format!(
@@ -95,7 +98,7 @@ pub fn body_axes(
             "cannot tell the torso's axes: the line from `{}` to `{}` (left) runs along the spine from `{}` to {top_name} (up), or the spine has no length",
             name(left_joints[1]),
             name(left_joints[0]),
-            name(pelvis),
+            name(bottom),
         ),
     })?;
     let left_how = if fixed {
@@ -109,7 +112,7 @@ pub fn body_axes(
             "left from `{}` to `{}` ({left_how}), up from `{}` to {top_name} along the spine",
             name(left_joints[1]),
             name(left_joints[0]),
-            name(pelvis),
+            name(bottom),
         ),
     })
 }
@@ -151,6 +154,34 @@ fn pelvis(bvh: &Bvh, torso: usize) -> usize {
         .or(above.last())
         .copied()
         .unwrap_or(torso)
+}
+
+/// The spine folds at zero rotation where two of its bones on the way up turn by more than
+/// this (radians): no person's spine does, so the offsets below the fold do not tell up.
+const SPINE_FOLD: f64 = std::f64::consts::FRAC_PI_3;
+
+/// Where the spine's line from `pelvis` up to `top` starts: the pelvis, or the joint above the
+/// highest fold of the spine's zero pose ([`SPINE_FOLD`]). Rokoko Studio lays the pelvis'
+/// first bone along its y and every bone above it along its own x: summed at zero rotation,
+/// the line from the pelvis leans 17° towards a shoulder, while the bones above the fold are
+/// the spine's own line in the torso's frame.
+fn spine_start(bvh: &Bvh, pelvis: usize, top: usize) -> usize {
+    let path = bvh.path(pelvis, top).unwrap_or_default();
+    let mut start = pelvis;
+    let mut below: Option<Vector3<f64>> = None;
+    for &j in &path {
+        let bone = bvh.joints[j].offset;
+        if bone.norm() < 1e-9 {
+            continue;
+        }
+        if let Some(b) = below {
+            if b.angle(&bone) > SPINE_FOLD {
+                start = bvh.joints[j].parent.unwrap_or(pelvis);
+            }
+        }
+        below = Some(bone);
+    }
+    start
 }
 
 /// Body axes (forward, left, up) as the columns of a rotation, from a left and an up vector.

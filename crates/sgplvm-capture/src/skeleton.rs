@@ -22,6 +22,7 @@ use nalgebra::{Rotation3, Vector3};
 
 use crate::axes::body_axes;
 use crate::bvh::{Bvh, BvhJoint, Channel};
+use crate::calibration::HandEnd;
 use crate::CaptureError;
 use sgplvm_robots::Side;
 
@@ -74,6 +75,11 @@ pub struct ArmJoints {
     /// Where the hand ends, in the hand's frame (a finger-base child, the End Site, or the
     /// mean of its children); `None` if the hand has neither.
     pub hand_tip: Option<Vector3<f64>>,
+    /// Whether the skeleton says where the hand ends (a finger or an End Site), or
+    /// `hand_tip` is a guess (the mean of children that are no fingers, such as an Xsens
+    /// prop; none). A ROS 2 TF tree carries no End Sites: where a file's hand ends at one, the
+    /// same motion's tree guesses.
+    pub hand_end: HandEnd,
 }
 
 /// The arms of a capture's skeleton and the body axes of its upper torso.
@@ -402,6 +408,7 @@ fn find_arms_with(
                 forearm: fore,
                 hand,
                 hand_tip: hand_tip(bvh, hand),
+                hand_end: hand_end(bvh, hand),
             });
         }
         let [l, r]: [ArmJoints; 2] = arms.try_into().ok()?;
@@ -471,7 +478,30 @@ fn arm_from_map(
         forearm: fore,
         hand,
         hand_tip: hand_tip(bvh, hand),
+        hand_end: hand_end(bvh, hand),
     })
+}
+
+/// Whether [`hand_tip`] finds where the hand ends (a finger, an End Site) rather than guessing.
+fn hand_end(bvh: &Bvh, hand: usize) -> HandEnd {
+    let fingers = bvh
+        .children(hand)
+        .chain(bvh.children(hand).flat_map(|c| bvh.children(c)))
+        .any(|c| is_finger(&bvh.joints[c].name));
+    let end_site = bvh.joints[hand].end_site.is_some_and(|v| v.norm() > 0.0);
+    if fingers || end_site {
+        HandEnd::Measured
+    } else {
+        HandEnd::Unmeasured
+    }
+}
+
+/// Whether a joint named `name` is a middle finger or a finger's base (where a hand ends).
+fn is_finger(name: &str) -> bool {
+    let n = normalise(name);
+    ["middle1", "mid1", "middle", "fingerbase", "finger"]
+        .iter()
+        .any(|k| n.contains(k))
 }
 
 /// Where the hand ends, in its own frame: a middle-finger or finger-base child (or grandchild,
@@ -488,12 +518,7 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
                 .map(move |g| (g, bvh.joints[c].offset + bvh.joints[g].offset))
         }))
         .collect();
-    let finger = near.iter().find(|&&(c, _)| {
-        let n = normalise(&bvh.joints[c].name);
-        ["middle1", "mid1", "middle", "fingerbase", "finger"]
-            .iter()
-            .any(|k| n.contains(k))
-    });
+    let finger = near.iter().find(|&&(c, _)| is_finger(&bvh.joints[c].name));
     if let Some(&(c, offset)) = finger {
         // Down the finger until the chain leaves the wrist (CMU's finger base sits on it).
         let mut tip = offset;

@@ -377,6 +377,40 @@ fn body_axes_come_from_the_clavicles_and_the_spine_not_the_floor_joint() {
 }
 
 #[test]
+fn a_spine_that_folds_at_rest_takes_up_along_the_bones_above_the_fold() {
+    // As Rokoko Studio exports: the pelvis in the world's axes, its first spine bone along y,
+    // every bone above it along its own x (the shoulders apart along y). Summed at zero
+    // rotation, the line from the pelvis to the neck leans 13° towards the left shoulder; the
+    // spine above the fold runs along x.
+    let mut t = String::from("HIERARCHY\nROOT Hips\n{\nOFFSET 0 90 0\nCHANNELS 6 Xposition Yposition Zposition Yrotation Xrotation Zrotation\nJOINT LeftUpLeg\n{\nOFFSET 10 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nEnd Site\n{\nOFFSET 40 0 0\n}\n}\nJOINT RightUpLeg\n{\nOFFSET -10 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nEnd Site\n{\nOFFSET 40 0 0\n}\n}\nJOINT Spine\n{\nOFFSET 0 10 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nJOINT Spine1\n{\nOFFSET 12 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nJOINT Spine2\n{\nOFFSET 12 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nJOINT Neck\n{\nOFFSET 18 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\nEnd Site\n{\nOFFSET 10 0 0\n}\n}\n");
+    for (side, y) in [("Left", 7.0), ("Right", -7.0)] {
+        t.push_str(&format!(
+            "JOINT {side}Shoulder\n{{\nOFFSET 10 {y} 0\nCHANNELS 3 Yrotation Xrotation Zrotation\n"
+        ));
+        for (name, x) in [("Arm", 13.0), ("ForeArm", 26.0), ("Hand", 29.0)] {
+            t.push_str(&format!("JOINT {side}{name}\n{{\nOFFSET {x} 0 0\nCHANNELS 3 Yrotation Xrotation Zrotation\n"));
+        }
+        t.push_str("End Site\n{\nOFFSET 5 0 0\n}\n}\n}\n}\n}\n");
+    }
+    t.push_str("}\n}\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n");
+    t.push_str(&["0"; 48].join(" "));
+    t.push('\n');
+    let bvh = Bvh::parse(&t, "rokoko.bvh").unwrap();
+    let s = Skeleton::identify(&bvh, None, "rokoko.bvh").unwrap();
+    let axes = s.axes.matrix();
+    let expect = [-Vector3::z(), Vector3::y(), Vector3::x()];
+    for (k, e) in expect.iter().enumerate() {
+        assert!((axes.column(k) - e).norm() < 1e-12, "{axes}");
+    }
+    assert!(
+        s.axes_from
+            .ends_with("up from `Spine` to `Neck` along the spine"),
+        "{}",
+        s.axes_from
+    );
+}
+
+#[test]
 fn a_torso_whose_axes_cannot_be_told_is_an_error_naming_the_joints() {
     // Both arms start at one place all the way down to the shoulders.
     let bvh = floor_skeleton([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 20.0, 0.0]);

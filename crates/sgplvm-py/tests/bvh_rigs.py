@@ -14,11 +14,15 @@ Conventions made from a capture (the rest pose is what differs, the motion is th
 - ``xsens``: Xsens MVN BVH export names (``Hips``, ``Chest`` …, ``LeftCollar``,
   ``LeftShoulder`` for the upper arm, ``LeftElbow``, ``LeftWrist``), a T-pose with flat clavicles
   (the arms straight out to the sides, which leaves the upper arm's twist untold), centimetres,
-  ``Zrotation Xrotation Yrotation``, and on each hand a prop joint beside its End Site;
+  ``Zrotation Xrotation Yrotation``, each hand ending at an End Site and the right one with a
+  prop joint beside it;
 - ``bandai``: the Bandai Namco Research motion datasets' layout: ``joint_Root``, ``Hips``,
   ``Spine``, ``Chest``, ``Shoulder_L``, ``UpperArm_L``, ``LowerArm_L``, ``Hand_L``; every bone
   along its joint's local x (the zero pose is a line of bones no person takes) and six channels
   on every joint;
+- ``rokoko``: Rokoko Studio's layout: CMU's names, the pelvis in the world's axes with its first
+  spine bone along y, every bone above it (and in the arms) along its joint's local x: the
+  spine's zero pose folds at a right angle above the pelvis; ``Yrotation Xrotation Zrotation``;
 - ``mixamo``: ``mixamorig:`` names, a T-pose, 2.5 times the scale (a rig scaled in its tool),
   ``Zrotation Yrotation Xrotation``;
 - ``daz``: DAZ Genesis 8 names (``hip``, ``chestUpper``, ``neckLower``, ``lCollar``,
@@ -190,8 +194,8 @@ NAMES = {
         "rclav": "RightShoulder", "rupper": "RightArm", "rfore": "RightForeArm", "rhand": "RightHand"}.items()},
 }  # fmt: skip
 
-ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX", "daz": "YZX", "rigify": "XYZ"}
-SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5, "daz": 1.0, "rigify": 1.0}
+ORDER = {"cmu": None, "xsens": "ZXY", "bandai": "ZXY", "mixamo": "ZYX", "daz": "YZX", "rigify": "XYZ", "rokoko": "YXZ"}
+SCALE = {"cmu": 1.0, "xsens": 1.0, "bandai": 1.0, "mixamo": 2.5, "daz": 1.0, "rigify": 1.0, "rokoko": 1.0}
 
 # The twist bones of the ``daz`` and ``rigify`` styles: (segment's joint, twist bone's name), per
 # role. Each takes part of its segment's twist; the segment's orientation a suit would stream is
@@ -253,7 +257,10 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
         if bone is None or np.linalg.norm(bone) == 0 or style == "cmu":
             continue
         role = roles.get(j, "")
-        if style == "bandai":
+        if style == "rokoko" and src.joints[j].name in ("Hips", "LowerBack"):
+            # Rokoko Studio: the pelvis in the world's axes, its first spine bone along y.
+            continue
+        if style in ("bandai", "rokoko"):
             # Every bone along local x: Q takes x onto the old bone.
             q[j] = minimal_rotation(np.array([1.0, 0, 0]), bone)
         elif role[1:] in ("clav", "upper", "fore", "hand"):
@@ -277,7 +284,7 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
     # Clavicles that start at the torso joint itself (CMU's) start half a unit to their side
     # in the Bandai rig, as the datasets' do: a line of bones needs them apart to tell left.
     moved = {}
-    if style == "bandai":
+    if style in ("bandai", "rokoko"):
         for j, role in roles.items():
             if role[1:] == "clav" and np.linalg.norm(src.joints[j].offset) == 0:
                 moved[j] = (left if role[0] == "l" else -left) * 0.5
@@ -296,11 +303,14 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
             channels = (["Xposition", "Yposition", "Zposition"] if parent is None else []) + [a + "rotation" for a in order]
         out_joints.append(Joint(name, parent, offset, channels, end))
     if style == "xsens":
-        # A prop joint on each hand beside its End Site (Xsens exports carry one).
+        # Each hand ends at an End Site, the right one with a prop joint beside it (as an Xsens
+        # export with a prop on the right hand: a ROS 2 TF tree of it has no frame where the
+        # left hand ends).
         for r in ("lhand", "rhand"):
             h = next(i for i, rr in roles.items() if rr == r)
             out_joints[h].end_site = scale * (q[h].T @ (bone_of(h) * 1.5))
-            out_joints.append(Joint(out_joints[h].name + "Prop", h, np.array([0.0, -2.0, 3.0]), ["Zrotation", "Xrotation", "Yrotation"]))
+            if r == "rhand":
+                out_joints.append(Joint(out_joints[h].name + "Prop", h, np.array([0.0, -2.0, 3.0]), ["Zrotation", "Xrotation", "Yrotation"]))
     rows = []
     for f in range(first, first + frames * step, step):
         p, r = world(src, f)
@@ -323,8 +333,38 @@ def rerig(src: Bvh, style: str, first: int, frames: int, step: int) -> Bvh:
         rows.append(row)
     out = Bvh(out_joints, src.frame_time * step, np.array(rows))
     out.first = list(np.cumsum([0] + [len(j.channels) for j in out_joints])[:-1])
+    if style == "xsens":
+        # No fingers: the hands end at their End Sites (and the right one's prop).
+        hands = [names["lhand"], names["rhand"]]
+        out = without_descendants(out, hands, keep=[h + "Prop" for h in hands])
     if style in TWIST_BONES:
         out = with_twist_bones(out, {names[r]: t for r, t in TWIST_BONES[style].items()})
+    return out
+
+
+def without_descendants(bvh: Bvh, ancestors: list[str], keep: list[str] = ()) -> Bvh:
+    """``bvh`` without the joints below those named in ``ancestors`` (but those named in
+    ``keep``), their channels left out of every frame."""
+    top = {bvh.index(n) for n in ancestors}
+
+    def below(j: int) -> bool:
+        p = bvh.joints[j].parent
+        while p is not None:
+            if p in top:
+                return True
+            p = bvh.joints[p].parent
+        return False
+
+    kept = [j for j, joint in enumerate(bvh.joints) if not below(j) or joint.name in keep]
+    new = {old: k for k, old in enumerate(kept)}
+    joints = [
+        Joint(bvh.joints[j].name, None if bvh.joints[j].parent is None else new[bvh.joints[j].parent],
+              bvh.joints[j].offset, bvh.joints[j].channels, bvh.joints[j].end_site)
+        for j in kept
+    ]
+    columns = [c for j in kept for c in range(bvh.first[j], bvh.first[j] + len(bvh.joints[j].channels))]
+    out = Bvh(joints, bvh.frame_time, bvh.frames[:, columns])
+    out.first = list(np.cumsum([0] + [len(j.channels) for j in joints])[:-1])
     return out
 
 

@@ -1,9 +1,10 @@
-"""Live equals file (issue 48): one motion in six conventions whose rest poses differ — CMU's own,
-an Xsens MVN export (T-pose, flat clavicles: the upper arm's twist untold by the rest), a
-Bandai Namco layout (every bone on one line at zero rotation), a Mixamo rig (2.5 times the
-scale), a DAZ Genesis 8 rig (an A-pose, twist bones sharing each segment's twist) and a
-Blender Rigify rig (`DEF-` bones, a T-pose, each arm segment split in two deforming bones, the
-second twisting) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
+"""Live equals file (issue 48): one motion in seven conventions whose rest poses differ — CMU's
+own, an Xsens MVN export (T-pose, flat clavicles: the upper arm's twist untold by the rest; the
+left hand ends at an End Site only, which a TF tree does not carry), a Bandai Namco layout (every
+bone on one line at zero rotation), a Mixamo rig (2.5 times the scale), a DAZ Genesis 8 rig (an
+A-pose, twist bones sharing each segment's twist), a Blender Rigify rig (`DEF-` bones, a T-pose,
+each arm segment split in two deforming bones, the second twisting) and a Rokoko Studio layout
+(the pelvis' first bone along y, every bone above along its own x: the spine folds at rest) — made from a shipped CMU capture by ``bvh_rigs.py`` (BVH written and read independently of
 the Rust importer). Each file is imported (``sgplvm import``), and the same frames are streamed
 as a tracker and a suit would send them, built here from the BVH's own forward kinematics,
 never with the project's ``replay``:
@@ -51,7 +52,7 @@ import sgplvm
 from _cli import sgplvm_binary
 
 CAPTURE = pathlib.Path(__file__).resolve().parents[3] / "data" / "capture" / "cmu-13_26.bvh"
-STYLES = ["cmu", "xsens", "bandai", "mixamo", "daz", "rigify"]
+STYLES = ["cmu", "xsens", "bandai", "mixamo", "daz", "rigify", "rokoko"]
 FRAMES = 60
 # Frames 600… of the 120 Hz capture, every 3rd: 40 Hz, the import's rate, so that the imported
 # frames are the file's (no interpolation between them).
@@ -107,7 +108,9 @@ def test_the_rigs_rest_poses_differ(rigs):
     Bandai rests leave the twist to the elbow's hinge (untold by the rest), CMU's tells it, and
     the Mixamo rig, 2.5 times CMU's scale, is read in units of its own (not "unknown")."""
     twist = {s: [a["twist"]["kind"] for a in r.report["calibration"]["arms"]] for s, r in rigs.items()}
-    assert twist["xsens"] == twist["bandai"] == ["elbow_hinge"] * 2, twist
+    assert twist["xsens"] == twist["bandai"] == twist["rokoko"] == ["elbow_hinge"] * 2, twist
+    # Rokoko's spine folds above the pelvis at rest: up runs along the bones above the fold.
+    assert "up from `Spine` to `Neck`" in rigs["rokoko"].report["body_axes"], rigs["rokoko"].report["body_axes"]
     assert twist["cmu"] == ["rest_pose"] * 2, twist
     mixamo, cmu = rigs["mixamo"].report, rigs["cmu"].report
     assert mixamo["units"] != "unknown", mixamo["units"]

@@ -13,8 +13,8 @@ use std::collections::BTreeSet;
 
 use nalgebra::Rotation3;
 use sgplvm_capture::{
-    tree_skeleton, ArmMap, ArmPose, Bvh, CaptureError, FrameFit, HumanArms, PoseFitter, Skeleton,
-    StreamCalibration, StreamCalibrationOptions, TreeFrame, Twist,
+    tree_skeleton, ArmMap, ArmPose, Bvh, CaptureError, FrameFit, HandEnd, HumanArms, PoseFitter,
+    Skeleton, StreamCalibration, StreamCalibrationOptions, TreeFrame, Twist,
 };
 use sgplvm_robots::{Robot, Side};
 
@@ -155,7 +155,15 @@ pub fn identify(
     }
     Ok(Fitted {
         needed: needed.into_iter().collect(),
-        calibration: StreamCalibration::new(options, Twist::Assumed, SOURCE),
+        calibration: if skeleton
+            .arms
+            .iter()
+            .all(|a| a.hand_end == HandEnd::Measured)
+        {
+            StreamCalibration::new(options, Twist::Assumed, SOURCE)
+        } else {
+            StreamCalibration::new(options, Twist::Assumed, SOURCE).hand_end_unmeasured()
+        },
         bvh,
         skeleton,
         model,

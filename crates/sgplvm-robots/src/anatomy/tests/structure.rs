@@ -291,14 +291,19 @@ fn a_gripper_as_long_as_the_forearm_does_not_make_the_wrist_s_pitch_the_elbow() 
         )
     };
     let (half, pi) = (std::f64::consts::FRAC_PI_2, std::f64::consts::PI);
+    #[rustfmt::skip]
+    let joints = [
+        ("base_yaw", "base", "0 0 0.057", "0 0 1", (-3.0, 3.0)),
+        ("shoulder", "base_yaw_link", "0.02 0 0.046", "0 1 0", (0.0, pi)),
+        ("elbow", "shoulder_link", "-0.264 0 0", "0 -1 0", (0.0, 2.356)),
+        ("wrist_pitch", "elbow_link", "0.245 0 0.06", "0 -1 0", (-half, half)),
+        ("wrist_yaw", "wrist_pitch_link", "0.068 0 0.0455", "0 0 -1", (-half, half)),
+        ("wrist_roll", "wrist_yaw_link", "0.029 0 -0.0455", "1 0 0", (-pi, pi)),
+    ]
+    .map(|(name, parent, xyz, axis, range)| rev(name, parent, xyz, axis, range))
+    .concat();
     let urdf = format!(
-        r#"<robot name="wxai"><link name="base"/>{}{}{}{}{}{}<link name="gripper"/><joint name="tool" type="fixed"><parent link="wrist_roll_link"/><child link="gripper"/><origin xyz="0.156 0 0"/></joint></robot>"#,
-        rev("base_yaw", "base", "0 0 0.057", "0 0 1", (-3.0, 3.0)),
-        rev("shoulder", "base_yaw_link", "0.02 0 0.046", "0 1 0", (0.0, pi)),
-        rev("elbow", "shoulder_link", "-0.264 0 0", "0 -1 0", (0.0, 2.356)),
-        rev("wrist_pitch", "elbow_link", "0.245 0 0.06", "0 -1 0", (-half, half)),
-        rev("wrist_yaw", "wrist_pitch_link", "0.068 0 0.0455", "0 0 -1", (-half, half)),
-        rev("wrist_roll", "wrist_yaw_link", "0.029 0 -0.0455", "1 0 0", (-pi, pi)),
+        r#"<robot name="wxai"><link name="base"/>{joints}<link name="gripper"/><joint name="tool" type="fixed"><parent link="wrist_roll_link"/><child link="gripper"/><origin xyz="0.156 0 0"/></joint></robot>"#
     );
     let a = Anatomy::of(Robot::from_urdf_str(&urdf, "wxai.urdf").unwrap()).unwrap();
     let arm = &a.arms()[0];
