@@ -52,8 +52,8 @@ enum End {
     Wrist,
 }
 
-/// The chain joint most in the middle of the arm (farthest from both its first joint and the
-/// hand), the first and last joints aside: a first guess of the elbow, which tells the
+/// The chain joint most in the middle of the arm (farthest from its first joint, its last
+/// and the hand), the first and last joints aside: a first guess of the elbow, which tells the
 /// shoulder's joints from the wrist's. Judged at the zero configuration `zero`, unless the arm
 /// is folded there and stretches out at the middle of its joints' ranges (Kinova's Jaco 2: its
 /// zero pose folds the arm down onto itself, the hand 27 % of the reach from the shoulder, and
@@ -70,10 +70,14 @@ fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
     let origins = chain.joint_origins(q);
     let hand = chain.forward(q).translation.vector;
     let n = origins.len();
+    // Farthest from the first joint, the last (a wrist's) and the hand: a hand as long as the
+    // forearm beyond the wrist (Leju's Kuavo, Trossen's WXAI) puts the middle of the arm at
+    // the wrist.
     let score = |i: usize| {
         (origins[i] - origins[0])
             .norm()
             .min((origins[i] - hand).norm())
+            .min((origins[i] - origins[n - 1]).norm())
     };
     let best = (1..n.saturating_sub(1).max(1))
         .map(score)

@@ -311,6 +311,43 @@ fn a_gripper_as_long_as_the_forearm_does_not_make_the_wrist_s_pitch_the_elbow() 
 }
 
 #[test]
+fn a_hand_as_long_as_the_forearm_does_not_move_the_shoulder_to_the_elbow() {
+    // As Leju's Kuavo 4: three shoulder axes at one point, the elbow 0.28 m below (2 cm
+    // aside), the forearm's turn, the wrist's roll and pitch, and the hand's end 0.17 m past
+    // the wrist. The joint most in the middle of shoulder and hand was the forearm's turn, the
+    // elbow's axis and the upper arm's turn (2 cm apart) were taken for the shoulder, and the
+    // wrist's roll for the elbow (until 2026-12-07).
+    let rev = |name: &str, parent: &str, xyz: &str, axis: &str| {
+        format!(
+            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="-2.6" upper="2.0" velocity="1" effort="1"/></joint>"#
+        )
+    };
+    #[rustfmt::skip]
+    let joints = [
+        ("shoulder_pitch", "base", "0 0 0.42", "0 1 0"),
+        ("shoulder_roll", "shoulder_pitch_link", "0 0 0", "1 0 0"),
+        ("shoulder_yaw", "shoulder_roll_link", "0 0 0", "0 0 1"),
+        ("elbow", "shoulder_yaw_link", "0.02 0 -0.2837", "0 1 0"),
+        ("forearm_yaw", "elbow_link", "-0.02 0 -0.127", "0 0 1"),
+        ("wrist_roll", "forearm_yaw_link", "0 0 -0.1065", "1 0 0"),
+        ("wrist_pitch", "wrist_roll_link", "0 0 -0.021", "0 1 0"),
+    ]
+    .map(|(name, parent, xyz, axis)| rev(name, parent, xyz, axis))
+    .concat();
+    let urdf = format!(
+        r#"<robot name="kuavo"><link name="base"/>{joints}<link name="hand"/><joint name="tool" type="fixed"><parent link="wrist_pitch_link"/><child link="hand"/><origin xyz="0 -0.03 -0.17"/></joint></robot>"#
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "kuavo.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "elbow");
+    let shoulder = (a.torso_in_root() * nalgebra::Point3::from(arm.shoulder)).coords;
+    assert!(
+        shoulder.metric_distance(&Vector3::new(0.0, 0.0, 0.42)) < 1e-6,
+        "{shoulder:?}"
+    );
+}
+
+#[test]
 fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
     // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
     // to the right. The root's z runs along the shoulders, so up is from the root (the
