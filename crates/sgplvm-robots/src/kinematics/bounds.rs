@@ -42,6 +42,28 @@ impl Obb {
     /// Whether a plane separates the boxes by more than `gap` (the separating-axis test over
     /// the 15 axes of two boxes): then no two points of them are within `gap`.
     pub(super) fn apart(&self, other: &Obb, gap: f64) -> bool {
+        let mut apart = false;
+        self.each_separation(other, |s| {
+            apart = s > gap;
+            apart
+        });
+        apart
+    }
+
+    /// How far apart the boxes are along the axis of the 15 that separates them most (negative
+    /// where none does): no two points of them are nearer.
+    pub(super) fn separation(&self, other: &Obb) -> f64 {
+        let mut most = f64::NEG_INFINITY;
+        self.each_separation(other, |s| {
+            most = most.max(s);
+            false
+        });
+        most
+    }
+
+    /// The boxes' separation along each of the separating-axis test's 15 axes (the gap between
+    /// their projections, per unit length of the axis), until `enough` says so.
+    fn each_separation(&self, other: &Obb, mut enough: impl FnMut(f64) -> bool) {
         let (a, b) = (self, other);
         // b's axes in a's frame, and the centres' offset in a's frame.
         let r = a.axes.transpose() * b.axes;
@@ -50,15 +72,15 @@ impl Obb {
         for i in 0..3 {
             let ra = a.half[i];
             let rb = b.half.dot(&abs_r.row(i).transpose());
-            if t[i].abs() > ra + rb + gap {
-                return true;
+            if enough(t[i].abs() - ra - rb) {
+                return;
             }
         }
         for j in 0..3 {
             let ra = a.half.dot(&abs_r.column(j));
             let rb = b.half[j];
-            if t.dot(&r.column(j)).abs() > ra + rb + gap {
-                return true;
+            if enough(t.dot(&r.column(j)).abs() - ra - rb) {
+                return;
             }
         }
         for i in 0..3 {
@@ -70,12 +92,11 @@ impl Obb {
                 let dist = (t[i2] * r[(i1, j)] - t[i1] * r[(i2, j)]).abs();
                 // The axis aᵢ × bⱼ has length sin(angle): the gap scales with it.
                 let len = (1.0 - r[(i, j)] * r[(i, j)]).max(0.0).sqrt();
-                if len > 1e-6 && dist > ra + rb + gap * len {
-                    return true;
+                if len > 1e-6 && enough((dist - ra - rb) / len) {
+                    return;
                 }
             }
         }
-        false
     }
 }
 
@@ -91,9 +112,11 @@ pub(super) struct Placed {
 }
 
 impl Placed {
-    /// The distance of the spheres: no two points of the shapes are nearer.
+    /// A lower bound of the shapes' distance: the spheres' or the boxes' separation, the
+    /// larger.
     pub(super) fn gap(&self, other: &Placed) -> f64 {
-        (self.centre - other.centre).norm() - self.radius - other.radius
+        let spheres = (self.centre - other.centre).norm() - self.radius - other.radius;
+        spheres.max(self.obb.separation(&other.obb))
     }
 
     /// Whether the spheres and boxes (cheap) do not rule out the shapes being within `within`.
@@ -112,7 +135,7 @@ mod tests {
     use rapier3d::parry;
 
     #[test]
-    fn boxes_said_apart_are_further_apart_than_the_gap() {
+    fn boxes_said_apart_are_further_apart_than_the_gap_and_their_separation_bounds_it() {
         let mut seed = 99u64;
         let mut rand = || {
             seed = seed
@@ -139,9 +162,11 @@ mod tests {
             let (pa, pb) = (pose(&mut rand), pose(&mut rand));
             let gap = 0.05 * rand().abs();
             let ident = Isometry3::identity();
-            let said = Obb::of(&sa, &ident)
-                .placed(&pa)
-                .apart(&Obb::of(&sb, &ident).placed(&pb), gap);
+            let (ba, bb) = (
+                Obb::of(&sa, &ident).placed(&pa),
+                Obb::of(&sb, &ident).placed(&pb),
+            );
+            let said = ba.apart(&bb, gap);
             let d = parry::query::distance(
                 &pose_to_parry(&pa),
                 sa.as_ref(),
@@ -150,6 +175,10 @@ mod tests {
             )
             .unwrap()
             .distance;
+            // The separation is a lower bound of the distance (apart: beyond the gap).
+            let separation = ba.separation(&bb);
+            assert!(f64::from(d) > separation - 1e-5, "{separation} > {d}");
+            assert_eq!(said, separation > gap);
             if said {
                 apart += 1;
                 assert!(f64::from(d) > gap - 1e-5, "apart by {gap} said, {d} found");

@@ -19,6 +19,7 @@ use std::sync::Arc;
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rapier3d::parry;
+use rapier3d::parry::query::gjk::{self, CsoPoint, GJKResult, VoronoiSimplex};
 use rapier3d::parry::shape::{SharedShape, SupportMap};
 
 use super::adjacency::{neighbour_matrix, own_closeness};
@@ -496,12 +497,16 @@ impl CollisionModel {
             if !pa.may_near(pb, within) {
                 continue;
             }
-            let whole = contact(frames, a, b, within);
             let coarse = self.parts[i].is_empty() && self.parts[k].is_empty();
-            if coarse || whole.is_none_or(|w| w.1 >= self.parts_below) {
-                found.extend(whole);
+            let whole = if coarse {
+                Whole::from(contact(frames, a, b, within))
             } else {
-                self.nearest_parts((i, pa), (k, pb), frames, within, &mut found);
+                closeness(frames, a, b, within)
+            };
+            match whole {
+                Whole::Beyond => {}
+                Whole::Near(c, d) if coarse || d >= self.parts_below => found.push((c, d)),
+                _ => self.nearest_parts((i, pa), (k, pb), frames, within, &mut found),
             }
             near.extend(found.drain(..).map(|(c, d)| Proximity {
                 pair: p,
@@ -521,6 +526,52 @@ const PARTS_BEYOND_MARGIN_M: f64 = 0.01;
 /// The nearest contacts of two meshes' parts a pair gives (the rest are further, and come in
 /// when they are nearest: one step moves little).
 const PARTS_PER_PAIR: usize = 2;
+
+/// What two shapes' whole hulls say of a pair before their parts are asked.
+enum Whole {
+    /// Further apart than asked.
+    Beyond,
+    /// Overlapping (how deep not measured: the parts tell).
+    Overlapping,
+    /// Within the distance asked (negative: penetrating): the contact and the distance.
+    Near(parry::query::Contact, f64),
+}
+
+impl From<Option<(parry::query::Contact, f64)>> for Whole {
+    fn from(c: Option<(parry::query::Contact, f64)>) -> Whole {
+        c.map_or(Whole::Beyond, |(c, d)| Whole::Near(c, d))
+    }
+}
+
+/// How near shapes `a` and `b` placed by `frames` are, as [`contact`] measures it, but with
+/// no depth measured where they overlap (the expanding-polytope search after GJK is the costly
+/// part of a query between shapes that overlap, and the pair's parts measure it anyway).
+fn closeness(frames: &RobotFrames, a: &LinkShape, b: &LinkShape, within: f64) -> Whole {
+    let (Some(ga), Some(gb)) = (a.support_map(), b.support_map()) else {
+        return Whole::from(contact(frames, a, b, within));
+    };
+    let pa = pose_to_parry(&(frames.link(a.link) * a.local));
+    let pb = pose_to_parry(&(frames.link(b.link) * b.local));
+    let pos12 = pa.inv_mul(&pb);
+    let dir = pos12
+        .translation
+        .try_normalize()
+        .unwrap_or(parry::math::Vector::X);
+    let mut simplex = VoronoiSimplex::new();
+    simplex.reset(CsoPoint::from_shapes(&pos12, ga, gb, dir));
+    match gjk::closest_points(&pos12, ga, gb, within as f32, true, &mut simplex) {
+        GJKResult::ClosestPoints(point1, point2_1, normal1) => {
+            let dist = (point2_1 - point1).dot(normal1);
+            let point2 = pos12.inverse_transform_point(point2_1);
+            let normal2 = pos12.rotation.inverse() * -normal1;
+            let mut c = parry::query::Contact::new(point1, point2, normal1, normal2, dist);
+            c.transform_by_mut(&pa, &pb);
+            Whole::Near(c, f64::from(dist))
+        }
+        GJKResult::Intersection => Whole::Overlapping,
+        GJKResult::NoIntersection(_) | GJKResult::Proximity(_) => Whole::Beyond,
+    }
+}
 
 /// The contact of shapes `a` and `b` placed by `frames` when within `within` metres:
 /// (normal-carrying contact, distance).
