@@ -730,6 +730,8 @@ fn generate_records_the_chosen_robots() {
 #[test]
 fn simulate_a_prediction() {
     let f = fixture();
+    let dir = scratch("simulate-model");
+    let (predicted, replay) = (dir.join("predicted.mcap"), dir.join("replay.mcap"));
     let json = ok(&[
         "simulate",
         "--model",
@@ -739,10 +741,33 @@ fn simulate_a_prediction() {
         "--robot",
         "walkman",
         "--json",
+        "--out",
+        s(&replay),
     ]);
     let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["joints"].as_array().unwrap().len(), 14);
     assert!(report["physics_steps"].as_u64().unwrap() > 1000);
+    // What is replayed is what `predict` sends: the same commands, to the last bit (within the
+    // limits and kept out of self-collision; until 2026-12-07 the self-collision step was left
+    // out, and a published humanoid's replay diverged where predict's own output did not).
+    ok(&[
+        "predict",
+        "--model",
+        s(&f.model),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "walkman",
+        "--no-tf",
+        "--out",
+        s(&predicted),
+    ]);
+    let read = |p: &Path| {
+        sgplvm::robots::joint_state::read_joint_states(p, "/walkman/joint_command").unwrap()
+    };
+    let (sent, replayed) = (read(&predicted), read(&replay));
+    assert_eq!(sent.names, replayed.names);
+    assert_eq!(sent.positions, replayed.positions);
     let err = fails(
         &[
             "simulate",

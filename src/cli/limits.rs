@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use sgplvm::robots::limits::{CommandLimits, LimitCounts};
 use sgplvm::robots::safety::SafetyStep;
+use sgplvm::robots::series::seconds_from_ns;
 
 /// What a command output holds.
 pub enum Commands {
@@ -22,6 +23,36 @@ pub enum Commands {
 }
 
 impl Commands {
+    /// Bounds a series of commands (`rows`, row-major, `d` per command, at `times_ns`): within
+    /// the limits, then out of self-collision one after another; what held them back (`None`
+    /// for raw commands, or without a self-collision limit).
+    pub fn apply(
+        &mut self,
+        rows: &mut [f64],
+        d: usize,
+        times_ns: &[i64],
+    ) -> (Option<LimitCounts>, Option<KeptApart>) {
+        let Commands::Limited {
+            limits,
+            timed,
+            safety,
+        } = self
+        else {
+            return (None, None);
+        };
+        // Seconds from the first frame, subtracted in nanoseconds: an absolute clock (1.7e9 s)
+        // leaves a double too few digits for a velocity limit's step.
+        let t0 = times_ns.first().copied().unwrap_or(0);
+        let times: Vec<f64> = if *timed {
+            times_ns.iter().map(|&t| seconds_from_ns(t - t0)).collect()
+        } else {
+            Vec::new()
+        };
+        let counts = limits.apply_all(rows, &times);
+        let kept = safety.as_mut().map(|s| keep_apart(s, rows, d, &times));
+        (Some(counts), kept)
+    }
+
     /// One line saying what the commands of `robot` are, for a CSV comment.
     pub fn describe(&self, robot: &str) -> String {
         match self {
@@ -113,7 +144,7 @@ impl KeptApart {
 
 /// Keeps a series of commands (`rows`, row-major, `d` per command, at `times` seconds, or
 /// untimed) out of self-collision, one command after another.
-pub fn keep_apart(safety: &mut SafetyStep, rows: &mut [f64], d: usize, times: &[f64]) -> KeptApart {
+fn keep_apart(safety: &mut SafetyStep, rows: &mut [f64], d: usize, times: &[f64]) -> KeptApart {
     let mut kept = KeptApart::default();
     let mut out = vec![0.0; d];
     for (f, row) in rows.chunks_exact_mut(d.max(1)).enumerate() {

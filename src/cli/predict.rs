@@ -28,7 +28,7 @@ use super::body::BodyArgs;
 use super::frames::{
     advise_unnamed, column_order, model_joint_names, read_human_frames, require_robot,
 };
-use super::limits::{keep_apart, Commands, KeptApart};
+use super::limits::{Commands, KeptApart};
 
 pub(super) mod scene;
 
@@ -104,63 +104,69 @@ impl Target {
     }
 }
 
-impl PredictArgs {
-    /// The robot predicted for.
-    fn target(&self, model: &dyn Predictor) -> Result<Target> {
-        let model_columns = model_joint_names(model, &self.robot);
-        let known = self.urdf.is_some() || Robot::builtin_urdf(&self.robot).is_some();
-        if !known && self.raw {
+impl Target {
+    /// Robot `robot` as the model predicts for it: its anatomy (built in, or from `urdf` with
+    /// `body`'s flags) and the command joints (`raw`: the model's own columns; a robot neither
+    /// built in nor given then needs no anatomy).
+    pub fn load(
+        model: &dyn Predictor,
+        robot: &str,
+        urdf: Option<&Path>,
+        body: &BodyArgs,
+        raw: bool,
+    ) -> Result<Target> {
+        let model_columns = model_joint_names(model, robot);
+        let known = urdf.is_some() || Robot::builtin_urdf(robot).is_some();
+        if !known && raw {
             return Ok(Target {
-                robot: self.robot.clone(),
+                robot: robot.to_string(),
                 anatomy: None,
                 columns: CommandColumns::identity(&model_columns),
             });
         }
-        let anatomy = self.body.load(
-            &self.robot,
-            self.urdf.as_deref(),
+        let anatomy = body.load(
+            robot,
+            urdf,
             "its joint limits bound the commands: give its URDF with --urdf FILE, or write --raw for the model's output as it is",
         )?;
-        let columns = if self.raw {
+        let columns = if raw {
             CommandColumns::identity(&model_columns)
         } else {
             advise_unnamed(
-                anatomy.command_columns(&model_columns).with_context(|| {
-                    format!("the model's {} joints and the robot's URDF", self.robot)
-                }),
+                anatomy
+                    .command_columns(&model_columns)
+                    .with_context(|| format!("the model's {robot} joints and the robot's URDF")),
                 model,
-                &self.robot,
+                robot,
             )?
         };
         Ok(Target {
-            robot: self.robot.clone(),
+            robot: robot.to_string(),
             anatomy: Some(anatomy),
             columns,
         })
     }
 
-    /// What the commands will be: raw, or within the limits of the robot's body (`timed`:
-    /// whether the frames have times for the velocity limits) and out of self-collision.
-    fn commands(&self, target: &Target, timed: bool) -> Result<Commands> {
-        if !(self.margin.is_finite() && self.margin >= 0.0) {
-            bail!(
-                "--margin {}: expected metres ≥ 0 (0: no self-collision limit)",
-                self.margin
-            );
+    /// What its commands will be: raw, or within the limits of the robot's body (`timed`:
+    /// whether the frames have times for the velocity limits) and, with a `margin` (metres)
+    /// above 0, out of self-collision.
+    pub fn commands(&self, timed: bool, margin: f64, raw: bool) -> Result<Commands> {
+        if !(margin.is_finite() && margin >= 0.0) {
+            bail!("--margin {margin}: expected metres ≥ 0 (0: no self-collision limit)");
         }
-        match (&target.anatomy, self.raw) {
+        match (&self.anatomy, raw) {
             (Some(anatomy), false) => {
-                let limits = CommandLimits::for_joints(anatomy.robot(), target.names())?;
+                let limits = CommandLimits::for_joints(anatomy.robot(), self.names())?;
                 if let Some(note) = limits.assumed() {
                     eprintln!("warning: {}: {note}", anatomy.robot().name());
                 }
-                let safety = (self.margin > 0.0)
+                let safety = (margin > 0.0)
                     .then(|| {
                         SafetyStep::new(
                             anatomy,
-                            target.names(),
+                            self.names(),
                             SafetyOptions {
-                                margin_m: self.margin,
+                                margin_m: margin,
                                 velocity_limits: timed,
                                 ..SafetyOptions::default()
                             },
@@ -177,6 +183,24 @@ impl PredictArgs {
             }
             _ => Ok(Commands::Raw),
         }
+    }
+}
+
+impl PredictArgs {
+    /// The robot predicted for.
+    fn target(&self, model: &dyn Predictor) -> Result<Target> {
+        Target::load(
+            model,
+            &self.robot,
+            self.urdf.as_deref(),
+            &self.body,
+            self.raw,
+        )
+    }
+
+    /// What the commands will be (see [`Target::commands`]).
+    fn commands(&self, target: &Target, timed: bool) -> Result<Commands> {
+        target.commands(timed, self.margin, self.raw)
     }
 }
 
@@ -223,33 +247,7 @@ pub fn run(args: PredictArgs) -> Result<()> {
     };
     let mut mean = target.columns.rows(&rows(&prediction.mean, |v| v), false);
     let mut commands = commands;
-    let mut kept = None;
-    let counts = match &mut commands {
-        Commands::Raw => None,
-        Commands::Limited {
-            limits,
-            timed,
-            safety,
-        } => {
-            // Seconds from the first frame, subtracted in nanoseconds: an absolute clock
-            // (1.7e9 s) leaves a double too few digits for a velocity limit's step.
-            let t0 = human.times_ns.first().copied().unwrap_or(0);
-            let times: Vec<f64> = if *timed {
-                human
-                    .times_ns
-                    .iter()
-                    .map(|&t| seconds_from_ns(t - t0))
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            let counts = limits.apply_all(&mut mean, &times);
-            if let Some(s) = safety.as_mut() {
-                kept = Some(keep_apart(s, &mut mean, target.names().len(), &times));
-            }
-            Some(counts)
-        }
-    };
+    let (counts, kept) = commands.apply(&mut mean, target.names().len(), &human.times_ns);
     let predicted = Predicted {
         frames: prediction.mean.nrows(),
         mean,

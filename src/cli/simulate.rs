@@ -5,15 +5,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use sgplvm::robots::limits::CommandLimits;
 use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
 
 use super::args::load_any_model;
 use super::body::BodyArgs;
-use super::frames::{
-    builtin_urdf, model_joint_names, read_human_frames, read_trajectory, require_robot,
-};
+use super::frames::{builtin_urdf, read_human_frames, read_trajectory, require_robot};
+use super::predict::Target;
 use super::progress::Activity;
 use super::report;
 
@@ -54,6 +52,10 @@ pub struct SimulateArgs {
     /// Human frames (MCAP or CSV) for --model.
     #[arg(long, requires = "model")]
     input: Option<String>,
+    /// With --model: how far apart the robot's own collision shapes stay, metres, as `predict`
+    /// keeps them (0: no self-collision limit).
+    #[arg(long, default_value_t = 0.01, requires = "model")]
+    margin: f64,
     /// Print the whole report as JSON (every violation and collision interval).
     #[arg(long)]
     json: bool,
@@ -101,19 +103,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         args.model.as_deref().zip(args.input.as_deref()),
         &args.trajectory,
     ) {
-        (Some((model, input)), _) => {
-            let mut predicted = predicted_trajectory(model, input, topic, robot)?;
-            let body = sgplvm::robots::Robot::from_urdf_str(&xml, &source)?;
-            let limits = CommandLimits::for_joints(&body, &predicted.joint_names)?;
-            if let Some(note) = limits.assumed() {
-                eprintln!("warning: {robot}: {note}");
-            }
-            let t0 = predicted.times.first().copied().unwrap_or(0.0);
-            let times: Vec<f64> = predicted.times.iter().map(|t| t - t0).collect();
-            let counts = limits.apply_all(&mut predicted.positions, &times);
-            eprintln!("{}", counts.summary(robot, &predicted.joint_names));
-            predicted
-        }
+        (Some((model, input)), _) => predicted_trajectory(model, input, &args)?,
         (None, Some(path)) => read_trajectory(path, topic, robot)?,
         (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
     };
@@ -228,26 +218,38 @@ fn in_trajectory(e: PhysicsError, file: Option<&str>) -> anyhow::Error {
     }
 }
 
-/// The trajectory `model` (one shared latent space, or one per body part) predicts for `robot`
-/// from the human frames of `input`.
-fn predicted_trajectory(
-    model_path: &Path,
-    input: &str,
-    topic: Option<&str>,
-    robot: &str,
-) -> Result<Trajectory> {
+/// The commands `model` (one shared latent space, or one per body part) predicts for the
+/// robot from the human frames of `input`, as `predict` sends them: the robot's command
+/// joints, within its position and velocity limits and out of self-collision by `--margin`.
+fn predicted_trajectory(model_path: &Path, input: &str, args: &SimulateArgs) -> Result<Trajectory> {
+    let robot = args.robot.as_deref().unwrap_or("robot");
     let loaded = load_any_model(model_path)?;
     let model = loaded.predictor();
     require_robot(model, model_path, robot)?;
-    let human = read_human_frames(model, input, topic)?;
+    let body = BodyArgs {
+        hold: args.hold.clone(),
+        package_path: args.package_paths.clone(),
+        ..BodyArgs::default()
+    };
+    let target = Target::load(model, robot, args.urdf.as_deref(), &body, false)?;
+    let human = read_human_frames(model, input, args.topic.as_deref())?;
+    let mut commands = target.commands(human.timed, args.margin, false)?;
     let mean = model.predict(human.frames.as_ref(), robot, false)?.mean;
-    let d = mean.ncols();
-    let positions = (0..mean.nrows())
-        .flat_map(|i| (0..d).map(move |j| (i, j)))
+    let rows: Vec<f64> = (0..mean.nrows())
+        .flat_map(|i| (0..mean.ncols()).map(move |j| (i, j)))
         .map(|(i, j)| mean[(i, j)])
         .collect();
+    let mut positions = target.columns.rows(&rows, false);
+    let names = target.names();
+    let (counts, kept) = commands.apply(&mut positions, names.len(), &human.times_ns);
+    if let Some(counts) = counts {
+        eprintln!("{}", counts.summary(robot, names));
+    }
+    if let Some(kept) = kept {
+        eprintln!("{}", kept.summary(robot));
+    }
     Ok(Trajectory::from_ns(
-        model_joint_names(model, robot),
+        names.to_vec(),
         &human.times_ns,
         positions,
     )?)
