@@ -27,8 +27,16 @@ fn g1_copy(dir: &Path) -> PathBuf {
 fn robot_reports_what_it_finds_and_keeps_it() {
     let dir = scratch("robot-describe");
     let urdf = g1_copy(&dir);
-    let json = ok(&["robot", s(&urdf), "--json"]);
-    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let out = common::sgplvm(&["robot", s(&urdf), "--json"]);
+    assert!(out.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // Its meshes are not beside it: a viewer would draw its links without them, and it says so.
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("warning: g1: 35 visual mesh(es) not found, on link(s) \"pelvis\"")
+            && said.contains("Foxglove draws those links without them"),
+        "{said}"
+    );
     assert_eq!(report["found"], "names");
     assert_eq!(report["torso_link"], "torso_link");
     assert_eq!(report["arms"][1]["to"], "right_rubber_hand");

@@ -274,7 +274,7 @@ fn print_reports(done: &FilesRetargeted, args: &RetargetArgs) {
         args.mode.name()
     );
     if args.mode == Match::Arms {
-        print_postures(reports);
+        print_postures(reports, args.velocity_limits);
     } else {
         print_hands(reports);
     }
@@ -381,8 +381,9 @@ fn first_few(items: &[String], n: usize) -> String {
 }
 
 /// Per robot, how the arm postures followed and how near the robot came to itself
-/// (`--match arms`), and which limits held the commands.
-fn print_postures(reports: &[ReachReport]) {
+/// (`--match arms`), and which limits held the commands (`velocity_limits`: whether the
+/// commands written were held within them).
+fn print_postures(reports: &[ReachReport], velocity_limits: bool) {
     println!("robot        upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)");
     for r in reports {
         let Some(p) = &r.posture else { continue };
@@ -478,10 +479,15 @@ fn print_postures(reports: &[ReachReport]) {
                 .map(|j| format!("{} in {}", j.joint, j.frames))
                 .collect();
             println!(
-                "{:<12} posture jumps (a joint turned > {:.0} rad between frames where the person moved < {:.1} rad: the posture changed branch, docs/robots.md) in {} frame(s): {}",
+                "{:<12} posture jumps (the asked posture: a joint turned > {:.0} rad between frames where the person moved < {:.1} rad, the posture changing branch, docs/robots.md{}) in {} frame(s): {}",
                 r.robot,
                 JUMP_RAD,
                 STILL_RAD,
+                if velocity_limits {
+                    "; the commands written take each within the velocity limits"
+                } else {
+                    ""
+                },
                 p.jump_frames,
                 first_few(&jumped, 4)
             );

@@ -44,6 +44,16 @@ pub fn run(args: RobotArgs) -> Result<()> {
     } else {
         print!("{}", anatomy.summary());
     }
+    let unseen = anatomy.visual_meshes_not_found();
+    if let Some((_, first)) = unseen.first() {
+        let mut links: Vec<&str> = unseen.iter().map(|(l, _)| l.as_str()).collect();
+        links.dedup();
+        eprintln!(
+            "warning: {name}: {} visual mesh(es) not found, on link(s) {}: Foxglove draws those links without them (--package-path DIR where the meshes are): {first}",
+            unseen.len(),
+            sgplvm::robots::names::few(&links, 8)
+        );
+    }
     if args.write {
         let Some(urdf) = urdf else {
             bail!(

@@ -60,7 +60,8 @@ pub enum CalibrationProgress {
         /// Frames with a bent elbow so far, left and right.
         bent_frames: [usize; 2],
     },
-    /// Calibrated: what the fit goes through, in a sentence.
+    /// Calibrated: what the fit goes through, as a noun phrase ("the calibration of …", "a
+    /// calibration made on …").
     Done(String),
 }
 
@@ -184,7 +185,7 @@ impl StreamCalibration {
             scheme,
             metres_per_unit,
         );
-        self.done = Some(format!("calibrated on {}", calibration.describe()));
+        self.done = Some(format!("a calibration made on {}", calibration.describe()));
         Ok(Some(PoseFitter::new(model.clone(), &calibration)))
     }
 }

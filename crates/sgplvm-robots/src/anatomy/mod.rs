@@ -622,6 +622,22 @@ impl Anatomy {
         self
     }
 
+    /// The visual meshes of the robot's links that are not found where its URDF says (a
+    /// viewer draws those links without them): each link's name and why, in file order.
+    pub fn visual_meshes_not_found(&self) -> Vec<(String, String)> {
+        let mut missing = Vec::new();
+        for link in &self.robot.urdf().links {
+            for visual in &link.visual {
+                if let urdf_rs::Geometry::Mesh { filename, .. } = &visual.geometry {
+                    if let Err(e) = self.meshes.resolve(filename) {
+                        missing.push((link.name.clone(), e.to_string()));
+                    }
+                }
+            }
+        }
+        missing
+    }
+
     /// The robot's own collision shapes (meshes as convex hulls where found) and the pairs of
     /// them that can meet when the joints `moving` (configuration indices) move, judged at the
     /// hold posture (pairs nearer than `apart` metres there are the model's own closeness and
