@@ -220,6 +220,15 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
             joints.len(),
             violations.len() - commanded
         ));
+        if commanded > 0 && kind.starts_with("velocity") {
+            line(
+                "  the trajectory itself is faster than the joints may move: demonstrations \
+                 retargeted without velocity limits (as training data is made) or a posture \
+                 jump flings the arm; `retarget --velocity-limits`, `predict` and `simulate \
+                 --model` send commands within them"
+                    .into(),
+            );
+        }
         let mut worst: Vec<&LimitViolation> = violations.iter().collect();
         if !verbose {
             worst.sort_by(|a, b| b.amount.total_cmp(&a.amount));
