@@ -480,6 +480,19 @@ impl Step {
 mod tests {
     use super::*;
 
+    /// A random step over `n` variables: a task of `n + 2` random rows, every variable within
+    /// ±`bound`.
+    fn random_step(rand: &mut impl FnMut() -> f64, n: usize, bound: f64) -> Step {
+        let a = DMatrix::from_fn(n + 2, n, |_, _| rand());
+        let e = DVector::from_fn(n + 2, |_, _| 2.0 * rand());
+        let mut s = Step::new(n, 1e-3);
+        s.add_task(&a, &e, 1.0);
+        for i in 0..n {
+            s.bound(i, -bound, bound);
+        }
+        s
+    }
+
     #[test]
     fn the_unconstrained_step_is_least_squares_and_limits_bind_as_a_qp() {
         // Two variables, task: x = (1, 2) with weight 1, tiny damping.
@@ -535,13 +548,7 @@ mod tests {
         // And with rows too, from a feasible zero step.
         for _ in 0..50 {
             let n = 6;
-            let a = DMatrix::from_fn(8, n, |_, _| rand());
-            let e = DVector::from_fn(8, |_, _| 2.0 * rand());
-            let mut s = Step::new(n, 1e-3);
-            s.add_task(&a, &e, 1.0);
-            for i in 0..n {
-                s.bound(i, -0.3, 0.3);
-            }
+            let mut s = random_step(&mut rand, n, 0.3);
             for _ in 0..3 {
                 s.add_row(
                     DVector::from_fn(n, |_, _| rand()),
@@ -557,13 +564,7 @@ mod tests {
         let (mut solved, mut contradicted) = (0, 0);
         for _ in 0..100 {
             let n = 7;
-            let a = DMatrix::from_fn(9, n, |_, _| rand());
-            let e = DVector::from_fn(9, |_, _| 2.0 * rand());
-            let mut s = Step::new(n, 1e-3);
-            s.add_task(&a, &e, 1.0);
-            for i in 0..n {
-                s.bound(i, -0.4, 0.4);
-            }
+            let mut s = random_step(&mut rand, n, 0.4);
             for _ in 0..4 {
                 s.add_row(DVector::from_fn(n, |_, _| rand()), 0.1 * rand());
             }
@@ -581,13 +582,7 @@ mod tests {
         // A row no step within the bounds can keep: both say so.
         for _ in 0..20 {
             let n = 7;
-            let a = DMatrix::from_fn(9, n, |_, _| rand());
-            let e = DVector::from_fn(9, |_, _| 2.0 * rand());
-            let mut s = Step::new(n, 1e-3);
-            s.add_task(&a, &e, 1.0);
-            for i in 0..n {
-                s.bound(i, -0.4, 0.4);
-            }
+            let mut s = random_step(&mut rand, n, 0.4);
             let row = DVector::from_fn(n, |_, _| rand());
             let beyond = -0.4 * row.abs().sum() - 0.05;
             s.add_row(DVector::from_fn(n, |_, _| rand()), 0.1 * rand().abs());

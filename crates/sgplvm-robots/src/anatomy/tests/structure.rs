@@ -240,27 +240,30 @@ fn a_single_arm_is_found_by_structure_driven_by_the_side_its_names_say_else_the_
     assert_eq!(a.arm_joint_names()[0], "j_left_arm_0");
 }
 
+/// A revolute joint `name` on `parent` at `xyz` turning about `axis` within `range`, and its
+/// link `{name}_link`.
+fn revolute(name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)) -> String {
+    format!(
+        r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
+        range.0, range.1
+    )
+}
+
 #[test]
 fn an_arm_folded_at_zero_finds_its_elbow_and_shoulder_from_the_middle_of_its_ranges() {
     // As Kinova's Jaco 2: at zero the upper arm points down and the forearm folds back up
     // onto it (the hand beside the shoulder); the ranges are centred on the arm standing
     // straight up. Until 2026-12-05 the folded zero pose put the elbow at a wrist joint and the
     // shoulder 0.3 m off.
-    let rev = |name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)| {
-        format!(
-            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
-            range.0, range.1
-        )
-    };
     let wide = (-6.0, 6.0);
     let urdf = format!(
         r#"<robot name="folded"><link name="base"/>{}{}{}{}{}{}<link name="hand"/><joint name="tool" type="fixed"><parent link="wrist_3_link"/><child link="hand"/><origin xyz="0 0 0.1"/></joint></robot>"#,
-        rev("base_yaw", "base", "0 0 0.3", "0 0 1", wide),
-        rev("shoulder", "base_yaw_link", "0 0 0", "0 1 0", (0.82, 5.46)),
-        rev("elbow", "shoulder_link", "0 0 -0.4", "0 1 0", (0.33, 5.95)),
-        rev("wrist_1", "elbow_link", "0 0 0.4", "0 0 1", wide),
-        rev("wrist_2", "wrist_1_link", "0 0 0", "0 1 0", (0.52, 5.76)),
-        rev("wrist_3", "wrist_2_link", "0 0 0", "0 0 1", wide),
+        revolute("base_yaw", "base", "0 0 0.3", "0 0 1", wide),
+        revolute("shoulder", "base_yaw_link", "0 0 0", "0 1 0", (0.82, 5.46)),
+        revolute("elbow", "shoulder_link", "0 0 -0.4", "0 1 0", (0.33, 5.95)),
+        revolute("wrist_1", "elbow_link", "0 0 0.4", "0 0 1", wide),
+        revolute("wrist_2", "wrist_1_link", "0 0 0", "0 1 0", (0.52, 5.76)),
+        revolute("wrist_3", "wrist_2_link", "0 0 0", "0 0 1", wide),
     );
     let a = Anatomy::of(Robot::from_urdf_str(&urdf, "folded.urdf").unwrap()).unwrap();
     let arm = &a.arms()[0];
@@ -284,12 +287,6 @@ fn a_gripper_as_long_as_the_forearm_does_not_make_the_wrist_s_pitch_the_elbow() 
     // Bending the wrist's pitch shortens the straightened arm to the gripper's tip as much as
     // the elbow does; to the wrist (where the wrist's yaw and roll meet) it barely does. Until
     // 2026-12-07 the wrist's pitch was taken for the elbow.
-    let rev = |name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)| {
-        format!(
-            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{}" upper="{}" velocity="1" effort="1"/></joint>"#,
-            range.0, range.1
-        )
-    };
     let (half, pi) = (std::f64::consts::FRAC_PI_2, std::f64::consts::PI);
     #[rustfmt::skip]
     let joints = [
@@ -300,7 +297,7 @@ fn a_gripper_as_long_as_the_forearm_does_not_make_the_wrist_s_pitch_the_elbow() 
         ("wrist_yaw", "wrist_pitch_link", "0.068 0 0.0455", "0 0 -1", (-half, half)),
         ("wrist_roll", "wrist_yaw_link", "0.029 0 -0.0455", "1 0 0", (-pi, pi)),
     ]
-    .map(|(name, parent, xyz, axis, range)| rev(name, parent, xyz, axis, range))
+    .map(|(name, parent, xyz, axis, range)| revolute(name, parent, xyz, axis, range))
     .concat();
     let urdf = format!(
         r#"<robot name="wxai"><link name="base"/>{joints}<link name="gripper"/><joint name="tool" type="fixed"><parent link="wrist_roll_link"/><child link="gripper"/><origin xyz="0.156 0 0"/></joint></robot>"#
@@ -317,11 +314,6 @@ fn a_hand_as_long_as_the_forearm_does_not_move_the_shoulder_to_the_elbow() {
     // the wrist. The joint most in the middle of shoulder and hand was the forearm's turn, the
     // elbow's axis and the upper arm's turn (2 cm apart) were taken for the shoulder, and the
     // wrist's roll for the elbow (until 2026-12-07).
-    let rev = |name: &str, parent: &str, xyz: &str, axis: &str| {
-        format!(
-            r#"<link name="{name}_link"/><joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/><origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="-2.6" upper="2.0" velocity="1" effort="1"/></joint>"#
-        )
-    };
     #[rustfmt::skip]
     let joints = [
         ("shoulder_pitch", "base", "0 0 0.42", "0 1 0"),
@@ -332,7 +324,7 @@ fn a_hand_as_long_as_the_forearm_does_not_move_the_shoulder_to_the_elbow() {
         ("wrist_roll", "forearm_yaw_link", "0 0 -0.1065", "1 0 0"),
         ("wrist_pitch", "wrist_roll_link", "0 0 -0.021", "0 1 0"),
     ]
-    .map(|(name, parent, xyz, axis)| rev(name, parent, xyz, axis))
+    .map(|(name, parent, xyz, axis)| revolute(name, parent, xyz, axis, (-2.6, 2.0)))
     .concat();
     let urdf = format!(
         r#"<robot name="kuavo"><link name="base"/>{joints}<link name="hand"/><joint name="tool" type="fixed"><parent link="wrist_pitch_link"/><child link="hand"/><origin xyz="0 -0.03 -0.17"/></joint></robot>"#
