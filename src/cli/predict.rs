@@ -102,9 +102,7 @@ impl Target {
     pub fn names(&self) -> &[String] {
         self.columns.names()
     }
-}
 
-impl Target {
     /// Robot `robot` as the model predicts for it: its anatomy (built in, or from `urdf` with
     /// `body`'s flags) and the command joints (`raw`: the model's own columns; a robot neither
     /// built in nor given then needs no anatomy).
