@@ -133,9 +133,20 @@ fn pick_topic(
         .iter()
         .filter(|c| c.topic.contains(hint))
         .collect();
-    match (matching.as_slice(), joint_states.as_slice()) {
-        ([one], _) => Ok(one.topic.clone()),
-        ([], [one]) if or_only => Ok(one.topic.clone()),
+    // A topic under `/human/` before one that merely contains the word (a robot named
+    // `berkeley-humanoid-lite` has its commands on `/berkeley-humanoid-lite/joint_command`).
+    let named: Vec<_> = matching
+        .iter()
+        .copied()
+        .filter(|c| c.topic.split('/').any(|part| part == hint))
+        .collect();
+    match (
+        named.as_slice(),
+        matching.as_slice(),
+        joint_states.as_slice(),
+    ) {
+        ([one], _, _) | ([], [one], _) => Ok(one.topic.clone()),
+        ([], [], [one]) if or_only => Ok(one.topic.clone()),
         _ => bail!(
             "{path}: cannot tell the {what} topic among {:?}; name it with --topic",
             channels.iter().map(|c| &c.topic).collect::<Vec<_>>()

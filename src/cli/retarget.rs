@@ -185,7 +185,7 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     for (k, path) in args.urdf.iter().enumerate() {
         let name = match args.robot.get(k) {
             Some(n) => n.clone(),
-            None => Robot::from_urdf_file(path)?.name().to_string(),
+            None => topic_safe(Robot::from_urdf_file(path)?.name()),
         };
         let anatomy = args.body.load(&name, Some(path), "")?;
         for n in anatomy.notes() {
@@ -263,6 +263,32 @@ pub fn run(args: RetargetArgs) -> Result<()> {
         print_reports(&done, &args);
     }
     Ok(())
+}
+
+/// A URDF's robot name as the name of its topics (`/NAME/joint_command`): every character a
+/// ROS 2 name may not hold (`berkeley-humanoid-lite`'s hyphens) an underscore, said on stderr.
+fn topic_safe(urdf_name: &str) -> String {
+    let mut safe: String = urdf_name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if safe.is_empty() {
+        safe = "robot".into();
+    } else if safe.starts_with(|c: char| c.is_ascii_digit()) {
+        safe.insert_str(0, "robot_");
+    }
+    if safe != urdf_name {
+        eprintln!(
+            "{safe}: note: named `{safe}`: the URDF's robot name `{urdf_name}` is no ROS 2 topic name (--robot NAME to choose another)"
+        );
+    }
+    safe
 }
 
 fn print_reports(done: &FilesRetargeted, args: &RetargetArgs) {
@@ -525,5 +551,19 @@ fn print_postures(reports: &[ReachReport], velocity_limits: bool) {
                 sgplvm::robots::names::few(&links, 8)
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::topic_safe;
+
+    #[test]
+    fn a_urdf_name_becomes_a_ros_2_topic_name() {
+        assert_eq!(topic_safe("g1_29dof"), "g1_29dof");
+        assert_eq!(topic_safe("berkeley-humanoid-lite"), "berkeley_humanoid_lite");
+        assert_eq!(topic_safe("vega-1"), "vega_1");
+        assert_eq!(topic_safe("3r arm"), "robot_3r_arm");
+        assert_eq!(topic_safe(""), "robot");
     }
 }

@@ -68,7 +68,8 @@ fn side_by_name(joint: &str) -> Option<Side> {
     match (chars.next(), chars.next()) {
         (Some('L'), Some(c)) if c.is_ascii_uppercase() => Some(Side::Left),
         (Some('R'), Some(c)) if c.is_ascii_uppercase() => Some(Side::Right),
-        _ => None,
+        // Any side word, as the anatomy reads names (`arm_left_1_joint`, `J_arm_l_01`).
+        _ => sgplvm_robots::anatomy::words::side_of(joint),
     }
 }
 
@@ -109,7 +110,7 @@ fn arms_of(
         let Some(side) = side else {
             let how = match anatomy {
                 Some(_) => "is in neither arm of its anatomy",
-                None => "does not say which arm it moves (jLeft…/jRight…, L…/R…, left_…/right_…)",
+                None => "does not say which arm it moves (a side word: left/l/right/r, jLeft…/jRight…, L…/R…)",
             };
             return Err(bad(format!(
                 "joint '{joint}' (column {c}) {how}; a latent space per arm needs every column \
@@ -437,6 +438,20 @@ mod tests {
             e.contains("'waist_yaw' (column 1)") && e.contains("g1"),
             "{e}"
         );
+        // Side words anywhere in the name, as the anatomy reads them (Berkeley Humanoid Lite,
+        // OpenLoong's AzureLoong).
+        let [l, r] = arm_columns(
+            "x",
+            &names(&[
+                "arm_left_shoulder_pitch_joint",
+                "J_arm_l_01",
+                "arm_right_elbow_pitch_joint",
+                "J_arm_r_04",
+            ]),
+            None,
+        )
+        .unwrap();
+        assert_eq!((l, r), (vec![0, 1], vec![2, 3]));
         let e = arm_columns("x", &names(&["LShSag", "LElbj"]), None)
             .unwrap_err()
             .to_string();

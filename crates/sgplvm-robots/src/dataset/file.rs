@@ -223,8 +223,14 @@ fn load_foreign(path: &Path, probe: &TopicsRead, options: &LoadOptions) -> Resul
         Some(t) => t.clone(),
         None => {
             let humans: Vec<&String> = topics.iter().filter(|t| t.contains("human")).collect();
-            match humans.as_slice() {
-                [one] => (*one).clone(),
+            // `/human/…` before a topic that merely contains the word (`/berkeley-humanoid-lite/…`).
+            let named: Vec<&&String> = humans
+                .iter()
+                .filter(|t| t.split('/').any(|part| part == "human"))
+                .collect();
+            match (named.as_slice(), humans.as_slice()) {
+                ([one], _) => (**one).clone(),
+                ([], [one]) => (*one).clone(),
                 _ => {
                     return Err(JointStateError::InvalidInput {
                         what: path.display().to_string(),
