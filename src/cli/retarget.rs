@@ -561,7 +561,10 @@ mod tests {
     #[test]
     fn a_urdf_name_becomes_a_ros_2_topic_name() {
         assert_eq!(topic_safe("g1_29dof"), "g1_29dof");
-        assert_eq!(topic_safe("berkeley-humanoid-lite"), "berkeley_humanoid_lite");
+        assert_eq!(
+            topic_safe("berkeley-humanoid-lite"),
+            "berkeley_humanoid_lite"
+        );
         assert_eq!(topic_safe("vega-1"), "vega_1");
         assert_eq!(topic_safe("3r arm"), "robot_3r_arm");
         assert_eq!(topic_safe(""), "robot");

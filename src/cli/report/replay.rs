@@ -101,6 +101,32 @@ fn cell(v: &JointViolations, scale: f64) -> (String, String) {
     }
 }
 
+/// The lines saying what the replay held still and which pairs of links it left unchecked.
+fn held_and_unchecked(report: &ReplayReport) -> Vec<String> {
+    let mut lines = Vec::new();
+    if !report.held.is_empty() {
+        let names: Vec<&str> = report.held.iter().map(|(n, _)| n.as_str()).collect();
+        lines.push(format!(
+            "held still, as their controllers would: {} joint(s) without a trajectory column ({})",
+            names.len(),
+            shown(&names, 6)
+        ));
+    }
+    if !report.overlapping_at_rest.is_empty() {
+        let pairs: Vec<String> = report
+            .overlapping_at_rest
+            .iter()
+            .map(|(a, b)| format!("{a} ↔ {b}"))
+            .collect();
+        lines.push(format!(
+            "not checked: {} pair(s) of links touching at rest or a joint housing's width apart (within 1 cm, at most two joints between), the model's own closeness ({})",
+            pairs.len(),
+            shown(&pairs, 4)
+        ));
+    }
+    lines
+}
+
 /// The text `simulate` prints (see [`replay`]).
 fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     use std::fmt::Write;
@@ -122,26 +148,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
     if let Some(d) = &report.diverged {
         line(divergence(d));
     }
-    if !report.held.is_empty() {
-        let names: Vec<&str> = report.held.iter().map(|(n, _)| n.as_str()).collect();
-        line(format!(
-            "held still, as their controllers would: {} joint(s) without a trajectory column ({})",
-            names.len(),
-            shown(&names, 6)
-        ));
-    }
-    if !report.overlapping_at_rest.is_empty() {
-        let pairs: Vec<String> = report
-            .overlapping_at_rest
-            .iter()
-            .map(|(a, b)| format!("{a} ↔ {b}"))
-            .collect();
-        line(format!(
-            "not checked: {} pair(s) of links touching at rest or a joint housing's width apart (within 1 cm, at most two joints between), the model's own closeness ({})",
-            pairs.len(),
-            shown(&pairs, 4)
-        ));
-    }
+    held_and_unchecked(report).into_iter().for_each(&mut line);
     line(String::new());
     line(format!(
         "{:<20} {:>9} {:>9} {:>8}  {:>10} {:>11}  {:>8} {:>13}",
