@@ -330,6 +330,18 @@ fn no_chain_why(tree: &Tree) -> String {
     if locked.is_empty() {
         return "no joint name says left or right, and the tree has no serial chain of four or more revolute joints".into();
     }
+    // Arm joints that turn as well: the chain is broken by branches, not locked (ToddlerBot's
+    // gear trains: a `left_sho_yaw_drive` pinion beside each `left_sho_yaw_driven` joint).
+    let turning = (0..tree.robot.joints.len())
+        .filter(|&j| tree.revolute(j) && part_of(tree.joint_name(j)) == Part::Arm)
+        .count();
+    if turning >= 2 * locked.len().max(3) {
+        return format!(
+            "its {turning} revolute arm joints do not make a serial chain from the torso to each hand (the tree branches between them: gear trains, motors or sensors on the arm, beside {} fixed ones such as {})",
+            locked.len(),
+            few(&locked, 2)
+        );
+    }
     format!(
         "{} named as arm joints are fixed in this file ({}): its arms cannot move (a description made for walking, the arms locked?); use the maker's description whose arm joints are revolute",
         crate::names::count(locked.len(), "joint"),

@@ -90,8 +90,8 @@ const TORSO: &[&str] = &[
     "waist", "torso", "chest", "spine", "trunk", "pelvis", "lumbar", "back",
 ];
 const ARM: &[&str] = &[
-    "arm", "shoulder", "sh", "shld", "shldr", "elbow", "elb", "el", "forearm", "upperarm", "wrist",
-    "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
+    "arm", "shoulder", "sh", "sho", "shld", "shldr", "elbow", "elb", "el", "forearm", "upperarm",
+    "wrist", "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
 ];
 
 /// The part a name's words say it belongs to; gripper, leg and head words win over arm words

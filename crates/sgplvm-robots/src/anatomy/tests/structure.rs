@@ -96,6 +96,52 @@ fn arms_whose_joints_are_fixed_are_said_to_be_locked_not_unnamed() {
     );
 }
 
+#[test]
+fn arms_broken_by_gear_trains_are_said_to_branch_not_to_be_locked() {
+    // As ToddlerBot's main description: beside each driven arm joint a drive pinion turns on a
+    // leaf of its own, and fixed connectors join the gears; the arms turn, but the tree
+    // branches between their joints.
+    let mut urdf = String::from(r#"<robot name="toddler"><link name="torso"/>"#);
+    let joint = |name: &str, kind: &str, parent: &str, child: &str| {
+        let limit = if kind == "revolute" {
+            r#"<axis xyz="0 1 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/>"#
+        } else {
+            ""
+        };
+        format!(
+            r#"<link name="{child}"/><joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/><origin xyz="0 0 -0.05"/>{limit}</joint>"#
+        )
+    };
+    for side in ["left", "right"] {
+        let l = |n: &str| format!("{side}_{n}");
+        #[rustfmt::skip]
+        let parts = [
+            (l("sho_pitch"), "revolute", "torso".to_string(), l("sho_pitch_link")),
+            (l("sho_roll"), "revolute", l("sho_pitch_link"), l("gears")),
+            (l("sho_yaw_drive"), "revolute", l("gears"), l("pinion")),
+            (l("sho_yaw_driven"), "revolute", l("gears"), l("driven")),
+            (l("sho_yaw_fixed"), "fixed", l("driven"), l("sho_yaw_link")),
+            (l("elbow_roll"), "revolute", l("sho_yaw_link"), l("gears_2")),
+            (l("elbow_yaw_drive"), "revolute", l("gears_2"), l("pinion_2")),
+            (l("elbow_yaw_driven"), "revolute", l("gears_2"), l("driven_2")),
+            (l("elbow_yaw_fixed"), "fixed", l("driven_2"), l("elb_yaw_link")),
+            (l("wrist_roll"), "revolute", l("elb_yaw_link"), l("hand")),
+        ];
+        for (name, kind, parent, child) in parts {
+            urdf += &joint(&name, kind, &parent, &child);
+        }
+    }
+    urdf += "</robot>";
+    let robot = Robot::from_urdf_str(&urdf, "toddler.urdf").unwrap();
+    let e = Anatomy::of(robot).unwrap_err().to_string();
+    assert!(
+        e.contains("its 16 revolute arm joints do not make a serial chain")
+            && !e.contains("cannot move")
+            && e.contains("--arm left=FROM_LINK:TO_LINK"),
+        "{e}"
+    );
+}
+
 /// A dual-arm robot as a maker of mobile manipulators writes one: a prismatic torso lift,
 /// arms `arm_{side}_1_joint` … `arm_{side}_7_joint` whose axes are all local z turned by large
 /// `rpy`, a force-torque sensor and a palm fixed on the last link, and on the palm a
