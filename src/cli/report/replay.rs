@@ -275,7 +275,7 @@ fn replay_text(source: &str, report: &ReplayReport, verbose: bool) -> String {
 /// One line of a limit violation, its amount and limit already formatted with their unit.
 fn violation(v: &LimitViolation, amount: &str, limit: &str) -> String {
     format!(
-        "  {:>7.3}–{:<7.3} s  {:<20} {amount} beyond its limit of {limit} ({})",
+        "  {:>7.3}–{:<7.3} s  {:<20} past its limit of {limit} by up to {amount} ({})",
         v.time,
         v.end_time,
         v.joint,
