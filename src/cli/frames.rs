@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
 use sgplvm::csv::{read_frames, CsvFrames, STD_SUFFIX};
-use sgplvm::robots::joint_state::{list_channels, read_topics, TopicRequest};
+use sgplvm::robots::joint_state::{list_channels, read_topics, topic_for, TopicRequest};
 use sgplvm::robots::names::{count, few, SHOWN};
 use sgplvm::robots::Trajectory;
 use sgplvm::{Mat, Predictor, Robot};
@@ -129,24 +129,10 @@ fn pick_topic(
         .filter(|c| c.schema.is_empty() || c.schema.ends_with("JointState"))
         .filter(|c| !c.topic.ends_with(STD_SUFFIX))
         .collect();
-    let matching: Vec<_> = joint_states
-        .iter()
-        .filter(|c| c.topic.contains(hint))
-        .collect();
-    // A topic under `/human/` before one that merely contains the word (a robot named
-    // `berkeley-humanoid-lite` has its commands on `/berkeley-humanoid-lite/joint_command`).
-    let named: Vec<_> = matching
-        .iter()
-        .copied()
-        .filter(|c| c.topic.split('/').any(|part| part == hint))
-        .collect();
-    match (
-        named.as_slice(),
-        matching.as_slice(),
-        joint_states.as_slice(),
-    ) {
-        ([one], _, _) | ([], [one], _) => Ok(one.topic.clone()),
-        ([], [], [one]) if or_only => Ok(one.topic.clone()),
+    let topics: Vec<&str> = joint_states.iter().map(|c| c.topic.as_str()).collect();
+    match (topic_for(&topics, hint), topics.as_slice()) {
+        (Some(one), _) => Ok(one.to_string()),
+        (None, [one]) if or_only => Ok(one.to_string()),
         _ => bail!(
             "{path}: cannot tell the {what} topic among {:?}; name it with --topic",
             channels.iter().map(|c| &c.topic).collect::<Vec<_>>()

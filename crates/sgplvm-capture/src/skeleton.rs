@@ -402,14 +402,7 @@ fn find_arms_with(
             {
                 continue 'scheme;
             }
-            arms.push(ArmJoints {
-                clavicle,
-                upper_arm: upper,
-                forearm: fore,
-                hand,
-                hand_tip: hand_tip(bvh, hand),
-                hand_end: hand_end(bvh, hand),
-            });
+            arms.push(ArmJoints::of(bvh, clavicle, upper, fore, hand));
         }
         let [l, r]: [ArmJoints; 2] = arms.try_into().ok()?;
         if l.upper_arm == r.upper_arm {
@@ -472,27 +465,27 @@ fn arm_from_map(
             message: format!("the {} arm's segments do not hang from each other (clavicle → upper arm → forearm → hand)", side.as_str()),
         });
     }
-    Ok(ArmJoints {
-        clavicle,
-        upper_arm: upper,
-        forearm: fore,
-        hand,
-        hand_tip: hand_tip(bvh, hand),
-        hand_end: hand_end(bvh, hand),
-    })
+    Ok(ArmJoints::of(bvh, clavicle, upper, fore, hand))
 }
 
-/// Whether [`hand_tip`] finds where the hand ends (a finger, an End Site) rather than guessing.
-fn hand_end(bvh: &Bvh, hand: usize) -> HandEnd {
-    let fingers = bvh
-        .children(hand)
-        .chain(bvh.children(hand).flat_map(|c| bvh.children(c)))
-        .any(|c| is_finger(&bvh.joints[c].name));
-    let end_site = bvh.joints[hand].end_site.is_some_and(|v| v.norm() > 0.0);
-    if fingers || end_site {
-        HandEnd::Measured
-    } else {
-        HandEnd::Unmeasured
+impl ArmJoints {
+    /// The arm of `bvh` with these joints, and where its hand ends ([`hand_tip`]).
+    fn of(
+        bvh: &Bvh,
+        clavicle: Option<usize>,
+        upper_arm: usize,
+        forearm: usize,
+        hand: usize,
+    ) -> Self {
+        let tip = hand_tip(bvh, hand);
+        ArmJoints {
+            clavicle,
+            upper_arm,
+            forearm,
+            hand,
+            hand_tip: tip.map(|(at, _)| at),
+            hand_end: tip.map_or(HandEnd::Unmeasured, |(_, end)| end),
+        }
     }
 }
 
@@ -507,7 +500,7 @@ fn is_finger(name: &str) -> bool {
 /// Where the hand ends, in its own frame: a middle-finger or finger-base child (or grandchild,
 /// past a carpal bone: DAZ's `lCarpal2` → `lMid1`) if there is one, else the End Site, else the
 /// mean of the children that are not the thumb.
-fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
+fn hand_tip(bvh: &Bvh, hand: usize) -> Option<(Vector3<f64>, HandEnd)> {
     let children: Vec<usize> = bvh.children(hand).collect();
     // Children first, then grandchildren, each with its offset from the hand.
     let near: Vec<(usize, Vector3<f64>)> = children
@@ -536,11 +529,11 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
             }
         }
         if tip.norm() > 0.0 {
-            return Some(tip);
+            return Some((tip, HandEnd::Measured));
         }
     }
     if let Some(e) = bvh.joints[hand].end_site.filter(|v| v.norm() > 0.0) {
-        return Some(e);
+        return Some((e, HandEnd::Measured));
     }
     let others: Vec<Vector3<f64>> = children
         .iter()
@@ -550,8 +543,9 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<Vector3<f64>> {
     if others.is_empty() {
         return None;
     }
+    // The mean of children that are no fingers (an Xsens prop): a guess.
     let mean = others.iter().sum::<Vector3<f64>>() / others.len() as f64;
-    Some(mean).filter(|v| v.norm() > 0.0)
+    Some((mean, HandEnd::Unmeasured)).filter(|(v, _)| v.norm() > 0.0)
 }
 
 #[cfg(test)]

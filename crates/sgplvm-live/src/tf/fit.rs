@@ -155,14 +155,18 @@ pub fn identify(
     }
     Ok(Fitted {
         needed: needed.into_iter().collect(),
-        calibration: if skeleton
-            .arms
-            .iter()
-            .all(|a| a.hand_end == HandEnd::Measured)
-        {
-            StreamCalibration::new(options, Twist::Assumed, SOURCE)
-        } else {
-            StreamCalibration::new(options, Twist::Assumed, SOURCE).hand_end_unmeasured()
+        calibration: {
+            let c = StreamCalibration::new(options, Twist::Assumed, SOURCE);
+            // A tree carries no End Sites: a hand without a finger frame ends where it guesses.
+            if skeleton
+                .arms
+                .iter()
+                .all(|a| a.hand_end == HandEnd::Measured)
+            {
+                c
+            } else {
+                c.hand_end_unmeasured()
+            }
         },
         bvh,
         skeleton,

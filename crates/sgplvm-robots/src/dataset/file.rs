@@ -9,9 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use super::{BodyData, Dataset, Segment, DATASET_FORMAT_VERSION, DATASET_METADATA};
 use crate::joint_state::{
-    align_onto_clock, read_topics, write_topics, Compression, JointStateError, JointStates,
-    MessageEncoding, Result, TopicData, TopicRequest, TopicsRead, WriteSettings, DEFAULT_RATE_HZ,
-    JOINT_STATE_SCHEMA,
+    align_onto_clock, read_topics, topic_for, write_topics, Compression, JointStateError,
+    JointStates, MessageEncoding, Result, TopicData, TopicRequest, TopicsRead, WriteSettings,
+    DEFAULT_RATE_HZ, JOINT_STATE_SCHEMA,
 };
 
 #[derive(Serialize, Deserialize)]
@@ -222,16 +222,10 @@ fn load_foreign(path: &Path, probe: &TopicsRead, options: &LoadOptions) -> Resul
     let human_topic = match &options.human_topic {
         Some(t) => t.clone(),
         None => {
-            let humans: Vec<&String> = topics.iter().filter(|t| t.contains("human")).collect();
-            // `/human/…` before a topic that merely contains the word (`/berkeley-humanoid-lite/…`).
-            let named: Vec<&&String> = humans
-                .iter()
-                .filter(|t| t.split('/').any(|part| part == "human"))
-                .collect();
-            match (named.as_slice(), humans.as_slice()) {
-                ([one], _) => (**one).clone(),
-                ([], [one]) => (*one).clone(),
-                _ => {
+            let names: Vec<&str> = topics.iter().map(String::as_str).collect();
+            match topic_for(&names, "human") {
+                Some(one) => one.to_string(),
+                None => {
                     return Err(JointStateError::InvalidInput {
                         what: path.display().to_string(),
                         detail: format!(

@@ -46,8 +46,8 @@ pub use error::{
     DemoError, JointStateError, Result, ALIGN_MIN_VALUES, ALIGN_VALUES_PER_VALUE_READ,
 };
 pub use read::{
-    list_channels, read_joint_states, read_topics, record_length_limit, ChannelInfo, TimeSource,
-    TopicRequest, TopicsRead,
+    list_channels, read_joint_states, read_topics, record_length_limit, topic_for, ChannelInfo,
+    TimeSource, TopicRequest, TopicsRead,
 };
 pub use states::JointStates;
 pub use write::{

@@ -531,3 +531,18 @@ fn long_joint_lists_are_shortened_in_messages() {
     );
     assert!(msg.len() < 300, "{} bytes", msg.len());
 }
+
+#[test]
+fn the_human_topic_is_the_one_named_for_it_before_one_that_holds_the_word() {
+    let robot = "/berkeley-humanoid-lite/joint_command";
+    assert_eq!(
+        topic_for(&["/human/joint_states", robot], "human"),
+        Some("/human/joint_states")
+    );
+    assert_eq!(
+        topic_for(&["/person_human_fit", "/coman/x"], "human"),
+        Some("/person_human_fit")
+    );
+    assert_eq!(topic_for(&[robot, "/another_human_x"], "human"), None);
+    assert_eq!(topic_for(&["/coman/joint_command"], "human"), None);
+}

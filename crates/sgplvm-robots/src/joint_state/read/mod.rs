@@ -175,6 +175,26 @@ pub fn record_length_limit(file_len: u64) -> usize {
     usize::try_from(file_len.saturating_mul(RATIO).saturating_add(FLOOR)).unwrap_or(usize::MAX)
 }
 
+/// Of `topics`, the one named for `word`: the single one with a path part `word`
+/// (`/human/joint_states`), else the single one whose name contains it; `None` when neither is
+/// single. A robot named `berkeley-humanoid-lite` puts `human` in its own topic.
+pub fn topic_for<'a>(topics: &[&'a str], word: &str) -> Option<&'a str> {
+    let named: Vec<&str> = topics
+        .iter()
+        .copied()
+        .filter(|t| t.split('/').any(|part| part == word))
+        .collect();
+    let containing: Vec<&str> = topics
+        .iter()
+        .copied()
+        .filter(|t| t.contains(word))
+        .collect();
+    match (named.as_slice(), containing.as_slice()) {
+        ([one], _) | ([], [one]) => Some(one),
+        _ => None,
+    }
+}
+
 /// Lists the channels of a file (one streaming pass, no message decoded).
 pub fn list_channels(path: impl AsRef<Path>) -> Result<Vec<ChannelInfo>> {
     Ok(read_topics(path, &[])?.channels)
