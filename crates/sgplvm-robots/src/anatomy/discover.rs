@@ -328,6 +328,19 @@ fn no_chain_why(tree: &Tree) -> String {
         .map(|j| tree.joint_name(j))
         .collect();
     if locked.is_empty() {
+        // Chains there are, but their names say legs, a head or grippers (EngineAI's SA01:
+        // two 6-joint legs and no arm).
+        let other: Vec<&str> = (0..tree.robot.joints.len())
+            .filter(|&j| tree.revolute(j) && !armlike(tree, j))
+            .map(|j| tree.joint_name(j))
+            .collect();
+        if !other.is_empty() && (0..tree.robot.joints.len()).all(|j| !armlike(tree, j)) {
+            return format!(
+                "its {} revolute joints are named as legs, a head or grippers ({}): no arm",
+                other.len(),
+                few(&other, 3)
+            );
+        }
         return "no joint name says left or right, and the tree has no serial chain of four or more revolute joints".into();
     }
     // Arm joints that turn as well: the chain is broken by branches, not locked (ToddlerBot's

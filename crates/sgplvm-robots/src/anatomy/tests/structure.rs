@@ -97,6 +97,29 @@ fn arms_whose_joints_are_fixed_are_said_to_be_locked_not_unnamed() {
 }
 
 #[test]
+fn a_robot_of_legs_alone_is_said_to_have_no_arm() {
+    // As EngineAI's SA01: two 6-joint legs named `leg_l1_joint` …, nothing else moves.
+    let mut urdf = String::from(r#"<robot name="legs"><link name="base"/>"#);
+    for side in ["l", "r"] {
+        let mut parent = "base".to_string();
+        for k in 1..=6 {
+            let name = format!("leg_{side}{k}");
+            urdf += &revolute(&name, &parent, "0 0 -0.1", "0 1 0", (-1.0, 1.0));
+            parent = format!("{name}_link");
+        }
+    }
+    urdf += "</robot>";
+    let e = Anatomy::of(Robot::from_urdf_str(&urdf, "legs.urdf").unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("its 12 revolute joints are named as legs, a head or grippers")
+            && e.contains("no arm"),
+        "{e}"
+    );
+}
+
+#[test]
 fn arms_broken_by_gear_trains_are_said_to_branch_not_to_be_locked() {
     // As ToddlerBot's main description: beside each driven arm joint a drive pinion turns on a
     // leaf of its own, and fixed connectors join the gears; the arms turn, but the tree
