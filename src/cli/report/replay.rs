@@ -390,14 +390,17 @@ mod tests {
         let text = replay_text("test.urdf", &report, false);
         let lines: Vec<&str> = text
             .lines()
-            .filter(|l| l.contains("beyond its limit of"))
+            .filter(|l| l.contains("past its limit of"))
             .collect();
         assert_eq!(lines.len(), 4, "{text}");
         let wanted = [
-            ("LShLat", "1.28° beyond its limit of -17.99°"),
-            ("slide", "3.2 mm beyond its limit of 120.0 mm"),
-            ("LShLat", "4.95 rad/s beyond its limit of -4.000 rad/s"),
-            ("slide", "0.10 m/s beyond its limit of 0.500 m/s"),
+            ("LShLat", "past its limit of -17.99° by up to 1.28°"),
+            ("slide", "past its limit of 120.0 mm by up to 3.2 mm"),
+            (
+                "LShLat",
+                "past its limit of -4.000 rad/s by up to 4.95 rad/s",
+            ),
+            ("slide", "past its limit of 0.500 m/s by up to 0.10 m/s"),
         ];
         for (joint, says) in wanted {
             assert!(
