@@ -420,14 +420,16 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     let text = evaluated.to_string();
     assert!(text.contains("upper_arm_median_deg"), "{text}");
     // A latent space per arm: one, the arm's that drove it in `retarget` (the file says which,
-    // no flag at training); the person's other arm is no input.
+    // no flag at training); the person's other arm is no input. Its joints come from the
+    // URDF's anatomy where given, else from the file (retarget recorded each arm's joints:
+    // none of iiwa's names says a side).
     let urdf = format!("kuka={}", s(&kuka));
-    let train_arms = |side: &str| {
+    let train_arms = |side: &str, with_urdf: bool| {
         let (demos, out) = (
             dir.join(format!("kuka-{side}.mcap")),
             dir.join(format!("kuka-{side}.sgp")),
         );
-        ok(&[
+        let mut args = vec![
             "train",
             "--data",
             s(&demos),
@@ -435,13 +437,15 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
             "kuka",
             "--parts",
             "arms",
-            "--urdf",
-            &urdf,
             "--max-iters",
             "20",
             "--out",
             s(&out),
-        ]);
+        ];
+        if with_urdf {
+            args.extend(["--urdf", &urdf]);
+        }
+        ok(&args);
         let model = sgplvm::PartsGplvm::load(&out).unwrap();
         let part = format!("{side}_arm");
         assert_eq!(model.part_names(), [part.as_str()]);
@@ -455,8 +459,8 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
         assert_eq!(model.part_columns(&part, "kuka").unwrap().len(), 7);
         out
     };
-    predicts_the_arm(&train_arms("right"));
-    train_arms("left");
+    predicts_the_arm(&train_arms("right", true));
+    predicts_the_arm(&train_arms("left", false));
 }
 
 #[test]
@@ -499,4 +503,30 @@ fn a_two_armed_robot_driven_by_one_arm_trains_that_arm_s_latent_space() {
     let model = sgplvm::PartsGplvm::load(&model).unwrap();
     assert_eq!(model.part_names(), ["right_arm"]);
     assert_eq!(model.part_columns("right_arm", "wmr").unwrap().len(), 7);
+    // `simulate --arm` as `retarget --arm`: the left arm is no arm, held still as the waist
+    // and head are; without it the left arm's joints have no column and no hold value.
+    let replay = ok(&[
+        "simulate",
+        "--urdf",
+        s(&urdf),
+        "--arm",
+        "right=DWYTorso:right_hand",
+        "--trajectory",
+        s(&demos),
+        "--topic",
+        "/wmr/joint_command",
+        "--json",
+    ]);
+    let replay: serde_json::Value = serde_json::from_str(&replay).unwrap();
+    let held: Vec<&str> = replay["held"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|h| h[0].as_str().unwrap())
+        .collect();
+    assert!(
+        held.contains(&"LShSag") && held.contains(&"LElbj"),
+        "{held:?}"
+    );
+    assert!(!held.contains(&"RShSag"), "{held:?}");
 }

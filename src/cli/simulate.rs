@@ -33,6 +33,11 @@ pub struct SimulateArgs {
     /// ROS_PACKAGE_PATH and AMENT_PREFIX_PATH. Repeatable.
     #[arg(long = "package-path", value_name = "DIR")]
     package_paths: Vec<PathBuf>,
+    /// An arm of the URDF robot, SIDE=FROM_LINK:TO_LINK, where its names do not tell (as
+    /// `sgplvm robot --arm`; FILE.anatomy.json beside the URDF is read without it): the joints
+    /// outside the arms are held still, and with --model the arms are kept within their limits.
+    #[arg(long = "arm", value_name = "SIDE=FROM:TO", requires = "urdf")]
+    arm: Vec<String>,
     /// Hold a joint the trajectory leaves out (waist, legs, head, grippers of a URDF robot) at
     /// VALUE [default: its hold value, as `sgplvm robot FILE` shows: 0 within its limits].
     #[arg(long = "hold", value_name = "JOINT=VALUE", requires = "urdf")]
@@ -108,7 +113,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
     };
     let held = match &args.urdf {
-        Some(urdf) => held_joints(&trajectory, urdf, &args.hold)?,
+        Some(urdf) => held_joints(&trajectory, urdf, &args.hold, &args.arm)?,
         None => Vec::new(),
     };
     // Report times from the start of the trajectory (recordings carry wall-clock stamps).
@@ -151,20 +156,23 @@ pub fn run(args: SimulateArgs) -> Result<()> {
 /// (its waist, legs, head, grippers, fingers: `retarget`, `predict` and `teleop` command the arm
 /// joints only), at its hold value, said on stderr: the replay holds them still, as their
 /// controllers would. A robot whose arms cannot be found holds nothing (the replay then names
-/// the joints without a column), unless `--hold` asked for the anatomy.
+/// the joints without a column), unless `--hold` or `--arm` asked for the anatomy.
 fn held_joints(
     trajectory: &Trajectory,
     urdf: &Path,
     hold: &[String],
+    arm: &[String],
 ) -> Result<Vec<(String, f64)>> {
     let body = BodyArgs {
         hold: hold.to_vec(),
+        arm: arm.to_vec(),
         ..BodyArgs::default()
     };
     let anatomy = match body.load("robot", Some(urdf), "") {
         Ok(anatomy) => anatomy,
-        Err(_) if hold.is_empty() => return Ok(Vec::new()),
-        Err(e) => return Err(e.context("--hold needs the robot's arms")),
+        Err(_) if hold.is_empty() && arm.is_empty() => return Ok(Vec::new()),
+        Err(e) if arm.is_empty() => return Err(e.context("--hold needs the robot's arms")),
+        Err(e) => return Err(e),
     };
     let held: Vec<(String, f64)> = anatomy
         .held_joints()
@@ -228,6 +236,7 @@ fn predicted_trajectory(model_path: &Path, input: &str, args: &SimulateArgs) -> 
     require_robot(model, model_path, robot)?;
     let body = BodyArgs {
         hold: args.hold.clone(),
+        arm: args.arm.clone(),
         package_path: args.package_paths.clone(),
         ..BodyArgs::default()
     };

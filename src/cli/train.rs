@@ -44,8 +44,9 @@ pub struct PartsArgs {
     /// the right), each back-constrained on its own arm (the paper's future work, §V-B; a parent
     /// latent space joins them with --parent-latent-dim). A new pairing of arm motions is then predicted as
     /// each arm's own motion. Every setting (--latent-dim, --inducing, --bayesian, ...) applies
-    /// to each arm's model. Robots' arms come from their anatomy (built-in robots, --urdf) or
-    /// their joint names (L…/R…, left_…/right_…).
+    /// to each arm's model. Robots' arms are the joints `retarget` took as each arm (the file
+    /// records them), else come from their anatomy (built-in robots, --urdf) or their joint
+    /// names (L…/R…, left_…/right_…).
     #[arg(long, value_name = "arms", value_parser = parse_parts)]
     pub parts: Option<Parts>,
     /// With --parts: also train a parent latent space of dimension Q above the parts' (the
@@ -55,7 +56,8 @@ pub struct PartsArgs {
     #[arg(long, value_name = "Q", requires = "parts")]
     pub parent_latent_dim: Option<u64>,
     /// With --parts: a robot's URDF, ROBOT=FILE, whose anatomy (with the description file
-    /// beside it) says which joints are its arms, where its joint names do not.
+    /// beside it) says which joints are its arms, before the file's record of them (a file
+    /// `retarget` wrote before it recorded them).
     #[arg(long = "urdf", value_name = "ROBOT=FILE", requires = "parts")]
     pub urdf: Vec<String>,
 }

@@ -14,7 +14,7 @@ use std::path::Path;
 use sgplvm_core::{PartSpec, PartsCallback, PartsConfig, PartsGplvm, TrainOptions};
 use sgplvm_robots::anatomy::Anatomy;
 use sgplvm_robots::dataset::BodyData;
-use sgplvm_robots::retarget::file::retargeted_arms;
+use sgplvm_robots::retarget::file::{retargeted_arms, RetargetedArms};
 use sgplvm_robots::Side;
 
 use super::{to_mat, Demonstrations, FrameSet, PipelineError};
@@ -94,23 +94,48 @@ fn arms_of(
     anatomy: Option<&Anatomy>,
     sides: &[Side],
 ) -> Result<[Vec<usize>; 2], PipelineError> {
+    match anatomy {
+        Some(a) => arms_by(body, joints, sides, ArmsFrom::Anatomy, |joint| {
+            [Side::Left, Side::Right].into_iter().find(|&s| {
+                a.arm(s)
+                    .is_some_and(|arm| arm.chain.joint_names().iter().any(|n| n == joint))
+            })
+        }),
+        None => arms_by(body, joints, sides, ArmsFrom::Names, side_by_name),
+    }
+}
+
+/// What says which arm a column moves, for the error that names a column in neither.
+#[derive(Clone, Copy)]
+enum ArmsFrom {
+    /// The robot's anatomy (built in, or its URDF).
+    Anatomy,
+    /// The arms' joints as `retarget` recorded them in the file.
+    Retarget,
+    /// The joint's name.
+    Names,
+}
+
+/// The columns of `body` (joint names `joints`) in each arm, each joint's side by `side_of`
+/// (read from `from`); only the arms `sides` hold columns, each at least one.
+fn arms_by(
+    body: &str,
+    joints: &[String],
+    sides: &[Side],
+    from: ArmsFrom,
+    side_of: impl Fn(&str) -> Option<Side>,
+) -> Result<[Vec<usize>; 2], PipelineError> {
     let bad = |detail: String| PipelineError::Parts {
         body: body.to_string(),
         detail,
     };
     let mut arms = [Vec::new(), Vec::new()];
     for (c, joint) in joints.iter().enumerate() {
-        let side = match anatomy {
-            Some(a) => [Side::Left, Side::Right].into_iter().find(|&s| {
-                a.arm(s)
-                    .is_some_and(|arm| arm.chain.joint_names().contains(joint))
-            }),
-            None => side_by_name(joint),
-        };
-        let Some(side) = side else {
-            let how = match anatomy {
-                Some(_) => "is in neither arm of its anatomy",
-                None => "does not say which arm it moves (a side word: left/l/right/r, jLeft…/jRight…, L…/R…)",
+        let Some(side) = side_of(joint) else {
+            let how = match from {
+                ArmsFrom::Anatomy => "is in neither arm of its anatomy",
+                ArmsFrom::Retarget => "is in neither arm retarget drove",
+                ArmsFrom::Names => "does not say which arm it moves (a side word: left/l/right/r, jLeft…/jRight…, L…/R…)",
             };
             return Err(bad(format!(
                 "joint '{joint}' (column {c}) {how}; a latent space per arm needs every column \
@@ -244,10 +269,10 @@ impl Demonstrations {
         Ok(parts)
     }
 
-    /// Which of the person's arms drove robot `name`'s arms, where `retarget` wrote the file
-    /// the demonstrations came from and said so
+    /// The arms `retarget` drove on robot `name` (which of the person's arms, and each arm's
+    /// joints), where `retarget` wrote the file the demonstrations came from and said so
     /// ([`sgplvm_robots::retarget::file::retargeted_arms`]).
-    fn retargeted_arms(&self, name: &str) -> Result<Option<Vec<Side>>, PipelineError> {
+    fn retargeted_arms(&self, name: &str) -> Result<Option<RetargetedArms>, PipelineError> {
         let path = Path::new(&self.source_name);
         if !path.is_file() {
             return Ok(None);
@@ -259,20 +284,38 @@ impl Demonstrations {
         Ok(arms.remove(name))
     }
 
-    /// Robot `body`'s arm columns: by its anatomy when the facade knows it, else its names. Where
-    /// the file says which of the person's arms drove the robot in `retarget`
-    /// ([`Demonstrations::retargeted_arms`]), the columns follow it: a one-armed robot's arm is on
-    /// that side, and of a two-armed anatomy only the arms driven hold columns.
+    /// Robot `body`'s arm columns: by the anatomy of its URDF (`urdf`) when given, else by the
+    /// arms' joints `retarget` recorded in the file, else by its built-in anatomy, else by its
+    /// names. Where the file says which of the person's arms drove the robot
+    /// ([`Demonstrations::retargeted_arms`]), the columns follow it: a one-armed robot's arm is
+    /// on that side, and of a two-armed anatomy only the arms driven hold columns.
     fn robot_arms(
         &self,
         body: &BodyData,
         urdf: Option<&Path>,
     ) -> Result<[Vec<usize>; 2], PipelineError> {
+        let recorded = self.retargeted_arms(&body.name)?;
+        if let Some(arms) = recorded
+            .as_ref()
+            .filter(|r| urdf.is_none() && r.joints.iter().any(|j| !j.is_empty()))
+        {
+            return arms_by(
+                &body.name,
+                &body.joint_names,
+                &arms.sides,
+                ArmsFrom::Retarget,
+                |joint| {
+                    [Side::Left, Side::Right]
+                        .into_iter()
+                        .find(|s| arms.joints[s.index()].iter().any(|n| n == joint))
+                },
+            );
+        }
         let anatomy = known_anatomy(&body.name, urdf)?;
         let Some(anatomy) = &anatomy else {
             return arm_columns(&body.name, &body.joint_names, None);
         };
-        let Some(driven) = self.retargeted_arms(&body.name)? else {
+        let Some(driven) = recorded.map(|r| r.sides) else {
             return arm_columns(&body.name, &body.joint_names, Some(anatomy));
         };
         let found = anatomy.sides();

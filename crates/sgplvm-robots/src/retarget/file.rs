@@ -21,10 +21,22 @@ use crate::Side;
 /// Name of the MCAP metadata record with the retargeting's settings and reach reports.
 pub const RETARGET_METADATA: &str = "sgplvm.retarget";
 
-/// Which of the person's arms drove each robot's arms in a file `retarget` wrote (robot name →
-/// sides, left first), from its [`RETARGET_METADATA`] record; empty for a file without one or
-/// written before the record held them.
-pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, Vec<Side>>, RetargetError> {
+/// The arms `retarget` drove on one robot, as its file records them
+/// ([`retargeted_arms`]).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RetargetedArms {
+    /// Which of the person's arms drove the robot's arms, left first.
+    pub sides: Vec<Side>,
+    /// The robot's joints of the arm each side drove, by [`Side::index`]: what the robot's
+    /// anatomy took as that arm (names, structure or `--arm`). Both empty in a file written
+    /// before they were recorded.
+    pub joints: [Vec<String>; 2],
+}
+
+/// The arms `retarget` drove on each robot of a file it wrote (robot name → arms), from its
+/// [`RETARGET_METADATA`] record; empty for a file without one or written before the record
+/// held them.
+pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, RetargetedArms>, RetargetError> {
     let bad = |detail: String| {
         RetargetError::Invalid(format!(
             "{}: record `{RETARGET_METADATA}`: {detail}",
@@ -44,25 +56,40 @@ pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, Vec<Side>>, Retar
     let Some(arms) = value.get("arms") else {
         return Ok(BTreeMap::new());
     };
+    let side = |robot: &str, s: &str| match s {
+        "left" => Ok(Side::Left),
+        "right" => Ok(Side::Right),
+        other => Err(bad(format!(
+            "robot `{robot}`: arm side `{other}`; expected \"left\" or \"right\""
+        ))),
+    };
     let arms: BTreeMap<String, Vec<String>> =
         serde_json::from_value(arms.clone()).map_err(|e| {
             bad(format!(
                 "`arms` is not robot → [\"left\"|\"right\", …]: {e}"
             ))
         })?;
+    let joints: BTreeMap<String, BTreeMap<String, Vec<String>>> = match value.get("arm_joints") {
+        Some(j) => serde_json::from_value(j.clone()).map_err(|e| {
+            bad(format!(
+                "`arm_joints` is not robot → {{\"left\"|\"right\": [joint, …]}}: {e}"
+            ))
+        })?,
+        None => BTreeMap::new(),
+    };
     arms.into_iter()
         .map(|(robot, sides)| {
-            let sides = sides
-                .iter()
-                .map(|s| match s.as_str() {
-                    "left" => Ok(Side::Left),
-                    "right" => Ok(Side::Right),
-                    other => Err(bad(format!(
-                        "robot `{robot}`: arm side `{other}`; expected \"left\" or \"right\""
-                    ))),
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            Ok((robot, sides))
+            let mut found = RetargetedArms {
+                sides: sides
+                    .iter()
+                    .map(|s| side(&robot, s))
+                    .collect::<Result<Vec<_>, _>>()?,
+                ..RetargetedArms::default()
+            };
+            for (s, names) in joints.get(&robot).into_iter().flatten() {
+                found.joints[side(&robot, s)?.index()].clone_from(names);
+            }
+            Ok((robot, found))
         })
         .collect()
 }
@@ -195,6 +222,24 @@ pub fn retarget_files(
             (name.as_str(), sides)
         })
         .collect();
+    // And each arm's joints: what a latent space per arm takes as that arm's columns, with no
+    // URDF or flag needed where the names do not tell.
+    let arm_joints: BTreeMap<&str, BTreeMap<&str, Vec<String>>> = robots
+        .iter()
+        .map(|(name, anatomy)| {
+            let joints = anatomy
+                .sides()
+                .into_iter()
+                .filter_map(|side| {
+                    Some((
+                        side.as_str(),
+                        anatomy.arm(side)?.chain.joint_names().to_vec(),
+                    ))
+                })
+                .collect();
+            (name.as_str(), joints)
+        })
+        .collect();
     let settings = serde_json::json!({
         "match": options.mode,
         "redundancy": options.redundancy,
@@ -202,6 +247,7 @@ pub fn retarget_files(
         "summary": summary,
         "reach": reach,
         "arms": arms,
+        "arm_joints": arm_joints,
     });
     m.insert("json".to_string(), settings.to_string());
     extra.push((RETARGET_METADATA.to_string(), m));
