@@ -3,7 +3,7 @@
 //!
 //! The arms are found by name ([`SCHEMES`]: CMU/cgspeed and Mixamo `LeftShoulder/LeftArm/
 //! LeftForeArm/LeftHand`, Xsens MVN `LeftShoulder/LeftUpperArm/...`, Xsens BVH exports and
-//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, Poser/DAZ `lCollar/lShldr/...` (Genesis
+//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, MakeHuman `lcollar/lshoulder/lelbow/lhand`, Poser/DAZ `lCollar/lShldr/...` (Genesis
 //! 3 and 8 `lShldrBend/lForearmBend`), Unreal and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/
 //! hand_l`, Rigify `shoulder.L/upper_arm.L/...` (and `DEF-upper_arm.L`)), namespace prefixes
 //! (`mixamorig:`, a TF frame's `actor1/`) and case, `_`, `.`, `-` and spaces aside; or by an
@@ -132,7 +132,7 @@ impl Skeleton {
             ),
             None => find_arms(bvh).ok_or_else(|| CaptureError::NoArms {
                 file: file.to_string(),
-                segments: bvh.joints.iter().map(|j| j.name.clone()).collect(),
+                segments: nearest_the_root_first(bvh),
             })?,
         };
         let top = |a: &ArmJoints| a.clavicle.unwrap_or(a.upper_arm);
@@ -411,6 +411,23 @@ fn find_arms_with(
         return Some((scheme.name.to_string(), [l, r]));
     }
     None
+}
+
+/// Every joint's name, nearest the root first (file order within a depth): the arms sit a few
+/// joints from the root, a face's or a hand's many bones deep below it, so a list cut short
+/// still shows the arms (MakeHuman's rig declares 90 face bones before its collars).
+fn nearest_the_root_first(bvh: &Bvh) -> Vec<String> {
+    let mut depth = vec![0usize; bvh.joints.len()];
+    for (i, joint) in bvh.joints.iter().enumerate() {
+        // A parent is declared before its children.
+        depth[i] = joint.parent.map_or(0, |p| depth[p] + 1);
+    }
+    let mut order: Vec<usize> = (0..bvh.joints.len()).collect();
+    order.sort_by_key(|&i| depth[i]);
+    order
+        .into_iter()
+        .map(|i| bvh.joints[i].name.clone())
+        .collect()
 }
 
 /// The arm of `side` as `map` names it.

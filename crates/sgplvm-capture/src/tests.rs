@@ -155,8 +155,21 @@ fn time_range_and_rate_are_checked() {
 }
 
 #[test]
-fn unknown_skeletons_list_their_segments() {
-    let text = "HIERARCHY\nROOT pelvis\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT tail\n{\nOFFSET 0 -1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 -1 0\n}\n}\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0 0 0 0\n0 0 0 0 0 0\n";
+fn unknown_skeletons_list_their_segments_nearest_the_root_first() {
+    // `jaw` is declared before `tail` but lies deeper: listed after it (a face's many bones
+    // declared before the arms would otherwise fill the list).
+    let joint = |name: &str, inner: &str| {
+        format!("JOINT {name}\n{{\nOFFSET 0 -1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n{inner}}}\n")
+    };
+    let end = "End Site\n{\nOFFSET 0 -1 0\n}\n";
+    let text = format!(
+        "HIERARCHY\nROOT pelvis\n{{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n{}{}}}\nMOTION\nFrames: 2\nFrame Time: 0.1\n{}\n{}\n",
+        joint("head", &joint("jaw", end)),
+        joint("tail", end),
+        ["0"; 12].join(" "),
+        ["0"; 12].join(" "),
+    );
+    let text = text.as_str();
     let bvh = Bvh::parse(text, "robot.bvh").unwrap();
     let e = import_parsed(&bvh, "robot.bvh", &ImportOptions::default())
         .unwrap_err()
@@ -166,7 +179,8 @@ fn unknown_skeletons_list_their_segments() {
         "{e}"
     );
     assert!(
-        e.contains("are: pelvis, tail") && e.contains("--map"),
+        e.contains("4 segments, nearest the root first: pelvis, head, tail, jaw")
+            && e.contains("--map"),
         "{e}"
     );
 }
@@ -238,6 +252,11 @@ fn naming_schemes_are_recognised() {
             ["lCollar", "lShldr", "lForeArm", "lHand"],
             ["rCollar", "rShldr", "rForeArm", "rHand"],
             "Poser",
+        ),
+        (
+            ["lcollar", "lshoulder", "lelbow", "lhand"],
+            ["rcollar", "rshoulder", "relbow", "rhand"],
+            "MakeHuman",
         ),
         (
             [

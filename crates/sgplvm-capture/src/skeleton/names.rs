@@ -38,6 +38,15 @@ pub const SCHEMES: &[Scheme] = &[
         hand: &["wrist"],
     },
     Scheme {
+        // MakeHuman's "CMU MB" rig (as MocapNET's BVH files have it): `lcollar`, `lshoulder`,
+        // `lelbow`, `lhand`. After the scheme above, whose `wrist` is the hand where both are.
+        name: "MakeHuman (collar, shoulder, elbow, hand)",
+        clavicle: &["collar"],
+        upper_arm: &["shoulder"],
+        forearm: &["elbow"],
+        hand: &["hand"],
+    },
+    Scheme {
         name: "CMU / Mixamo / LAFAN1 (Shoulder, Arm, ForeArm, Hand)",
         clavicle: &["shoulder"],
         upper_arm: &["arm"],
