@@ -38,6 +38,8 @@ struct Tree<'a> {
     children: Vec<Vec<usize>>,
     /// Per joint: whether it, or any joint below it, is movable.
     moves: Vec<bool>,
+    /// Per joint: whether it mimics another (`<mimic>`): moved by that joint, never commanded.
+    mimics: Vec<bool>,
 }
 
 impl<'a> Tree<'a> {
@@ -54,10 +56,23 @@ impl<'a> Tree<'a> {
             moves[j] = robot.joints[j].kind.is_movable()
                 || children[robot.joints[j].child].iter().any(|&c| moves[c]);
         }
+        let mimicking: std::collections::HashSet<&str> = robot
+            .urdf
+            .joints
+            .iter()
+            .filter(|j| j.mimic.is_some())
+            .map(|j| j.name.as_str())
+            .collect();
+        let mimics = robot
+            .joints
+            .iter()
+            .map(|j| mimicking.contains(j.name.as_str()))
+            .collect();
         Tree {
             robot,
             children,
             moves,
+            mimics,
         }
     }
 
@@ -363,11 +378,14 @@ fn no_chain_why(tree: &Tree) -> String {
 }
 
 /// Whether joint `j` can be an arm joint by its words (and its child link's, unless its own
-/// name says arm: a `wrist_roll` joint may carry the link a maker calls `gripper`).
+/// name says arm: a `wrist_roll` joint may carry the link a maker calls `gripper`); a joint
+/// that mimics another never is (Toyota's HSR: three of each gripper finger's four joints,
+/// `hand_l_spring_proximal_joint` …, whose names say left and hand).
 fn armlike(tree: &Tree, j: usize) -> bool {
     let own = part_of(tree.joint_name(j));
     let link = part_of(tree.link_name(tree.robot.joints[j].child));
     tree.revolute(j)
+        && !tree.mimics[j]
         && !matches!(own, Part::Gripper | Part::Leg | Part::Head | Part::Torso)
         && (own == Part::Arm || !matches!(link, Part::Gripper | Part::Leg | Part::Head))
 }

@@ -643,3 +643,43 @@ fn a_forearm_on_the_elbow_s_own_link_ends_at_its_hand_point() {
         assert!((forearm - 0.214).abs() < 1e-3, "{side:?}: {forearm}");
     }
 }
+
+#[test]
+fn a_gripper_s_mimic_joints_are_no_arm_though_their_names_say_a_side_and_hand() {
+    // Toyota's HSR: each finger of its gripper is four joints named `hand_l_…`/`hand_r_…`,
+    // three of them `<mimic>` joints; by their names they were taken as the two arms (reach
+    // 7 cm, the retarget report NaN). On KUKA's iiwa here: the one arm by structure.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let xml = std::fs::read_to_string(kuka).unwrap();
+    let finger = |s: &str, y: f64| {
+        let mut text = revolute(
+            &format!("hand_{s}_proximal_joint"),
+            "lbr_iiwa_link_7",
+            &format!("0 {y} 0.05"),
+            "1 0 0",
+            (-0.8, 0.8),
+        );
+        let mut parent = format!("hand_{s}_proximal_joint_link");
+        for part in ["spring_proximal", "mimic_distal", "distal"] {
+            let name = format!("hand_{s}_{part}_joint");
+            text += &revolute(&name, &parent, "0 0 0.02", "1 0 0", (-0.8, 0.8)).replace(
+                "</joint>",
+                &format!(r#"<mimic joint="hand_{s}_proximal_joint" multiplier="1"/></joint>"#),
+            );
+            parent = format!("{name}_link");
+        }
+        text
+    };
+    let with_gripper = xml.replace(
+        "</robot>",
+        &format!("{}{}</robot>", finger("l", 0.02), finger("r", -0.02)),
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&with_gripper, "hsr_like.urdf").unwrap()).unwrap();
+    assert_eq!(a.found(), &Found::Structure);
+    assert_eq!(a.sides(), vec![Side::Right]);
+    assert_eq!(a.arm(Side::Right).unwrap().chain.dof(), 7);
+    assert!(a
+        .arm_joint_names()
+        .iter()
+        .all(|n| n.starts_with("lbr_iiwa")));
+}
