@@ -160,3 +160,69 @@ fn a_fast_command_is_followed_not_taken_for_a_runaway() {
     assert!(report.diverged.is_none(), "{:?}", report.diverged);
     assert_eq!(report.physics_steps, 1000);
 }
+
+/// A dual-arm station as Franka's FR3 pair is published: an empty root link (no inertia, no
+/// shape), each arm's base fixed to it through an empty mount link 0.4 m to its side, and on
+/// each base a one-joint arm whose 0.25 m sphere would overlap the other's at the origin.
+const STATION: &str = r#"<?xml version="1.0"?>
+<robot name="station">
+  <link name="base"/>
+  <link name="left_mount"/>
+  <link name="right_mount"/>
+  <link name="left_link0">
+    <inertial><mass value="5"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.25"/></geometry></collision>
+  </link>
+  <link name="right_link0">
+    <inertial><mass value="5"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.25"/></geometry></collision>
+  </link>
+  <link name="left_link1">
+    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.4"/><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+  <link name="right_link1">
+    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.4"/><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+  <joint name="left_mount_joint" type="fixed">
+    <parent link="base"/><child link="left_mount"/><origin xyz="0 0.4 0" rpy="-0.7 0 0"/>
+  </joint>
+  <joint name="right_mount_joint" type="fixed">
+    <parent link="base"/><child link="right_mount"/><origin xyz="0 -0.4 0" rpy="0.7 0 0"/>
+  </joint>
+  <joint name="left_base_joint" type="fixed">
+    <parent link="left_mount"/><child link="left_link0"/>
+  </joint>
+  <joint name="right_base_joint" type="fixed">
+    <parent link="right_mount"/><child link="right_link0"/>
+  </joint>
+  <joint name="left_joint1" type="revolute">
+    <parent link="left_link0"/><child link="left_link1"/><origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="50" velocity="2"/>
+  </joint>
+  <joint name="right_joint1" type="revolute">
+    <parent link="right_link0"/><child link="right_link1"/><origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="50" velocity="2"/>
+  </joint>
+</robot>"#;
+
+#[test]
+fn arms_mounted_on_an_empty_root_stand_where_their_fixed_joints_put_them() {
+    // rapier3d-urdf's squeeze of empty links dropped the mounts' origins: both bases at the
+    // origin, their spheres inside each other, 2,907 intervals and a divergence on the FR3 pair.
+    let still = Trajectory::new(
+        vec!["left_joint1".into(), "right_joint1".into()],
+        vec![0.0, 0.5, 1.0],
+        vec![0.0, 0.0, 0.3, -0.3, 0.0, 0.0],
+    )
+    .unwrap();
+    let report = replay(STATION, "station.urdf", &still, &ReplayOptions::default()).unwrap();
+    assert!(report.collisions.is_empty(), "{:?}", report.collisions);
+    assert!(
+        report.overlapping_at_rest.is_empty(),
+        "{:?}",
+        report.overlapping_at_rest
+    );
+    assert!(report.diverged.is_none());
+}

@@ -255,6 +255,12 @@ fn load_links(
     let robot = &model.robot;
     let loader_options = UrdfLoaderOptions {
         make_roots_fixed: true,
+        // rapier3d-urdf 0.36 drops an empty root link and fixes its children where they are
+        // declared, without its fixed joints' origins: the two arms of a dual-arm station
+        // (Franka's FR3 pair: `base` → `left_base`, `right_base`, 0.2 m apart and rolled) were
+        // both built at the origin, inside each other. Empty links stay (a fixed one couples
+        // nothing; a moving one gets a placeholder mass below).
+        squeeze_empty_fixed_links: false,
         enable_joint_collisions: false,
         collider_blueprint: collider_blueprint(),
         rigid_body_blueprint: RigidBodyBuilder::dynamic().can_sleep(false),
