@@ -242,7 +242,7 @@ impl MeshShapes {
                     VHACD::decompose(&params, mesh.vertices(), mesh.indices(), true)
                         .compute_exact_convex_hulls(mesh.vertices(), mesh.indices())
                         .into_iter()
-                        .filter_map(|(points, _)| SharedShape::convex_hull(&points))
+                        .filter_map(|(points, _)| convex_hull(&points))
                         .collect::<Vec<_>>()
                 });
                 match parts {
@@ -419,7 +419,7 @@ fn hull_of(vertices: &[[f32; 3]], scale: [f64; 3]) -> Result<SharedShape, String
     }
     let span = bounding_diameter(&points);
     let hull = crate::panics::catch(|| {
-        SharedShape::convex_hull(&points).map(|shape| {
+        convex_hull(&points).map(|shape| {
             // parry returns a flat polyhedron for points in a plane: no solid.
             let volume = shape.mass_properties(1.0).mass();
             (shape, volume)
@@ -429,8 +429,12 @@ fn hull_of(vertices: &[[f32; 3]], scale: [f64; 3]) -> Result<SharedShape, String
         Ok(Some((shape, volume))) if volume.is_finite() && volume > 1e-9 * span.powi(3) => {
             Ok(shape)
         }
-        Ok(_) => Err(format!(
+        Ok(Some(_)) => Err(format!(
             "its {} vertices span no volume (all in a plane or a line); expected a solid",
+            points.len()
+        )),
+        Ok(None) => Err(format!(
+            "no convex hull could be made of its {} vertices (parry's quickhull gave none)",
             points.len()
         )),
         Err(panic) => Err(format!(
@@ -438,6 +442,20 @@ fn hull_of(vertices: &[[f32; 3]], scale: [f64; 3]) -> Result<SharedShape, String
             crate::panics::one_line(&panic)
         )),
     }
+}
+
+/// The convex hull of `points`, each distinct point once: parry's quickhull gives none for
+/// a mesh whose triangles repeat their shared corners (ABB's YuMi `coarse/link_3.stl`: 23,424
+/// vertices, 3,776 distinct), which every STL file does.
+fn convex_hull(points: &[Vector]) -> Option<SharedShape> {
+    let mut distinct = points.to_vec();
+    distinct.sort_unstable_by(|a, b| {
+        a.x.total_cmp(&b.x)
+            .then(a.y.total_cmp(&b.y))
+            .then(a.z.total_cmp(&b.z))
+    });
+    distinct.dedup();
+    SharedShape::convex_hull(&distinct)
 }
 
 /// The diagonal of the points' bounding box.
