@@ -1120,7 +1120,20 @@ fn messages_say_what_happened() {
     ];
     let said = ok(&args);
     let lines: Vec<&str> = said.lines().collect();
-    assert_eq!(lines.len(), 2, "{said}");
+    // A budget of fewer than 5 iterations gets a third line saying what it means.
+    let budget: usize = lines[1]
+        .trim_start_matches("  validated budget: ")
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert_eq!(lines.len(), if budget < 5 { 3 } else { 2 }, "{said}");
+    assert_eq!(
+        lines.get(2).is_some_and(|l| l.starts_with("  note: ")
+            && l.contains("predicted the held-out training motions best")),
+        budget < 5,
+        "{said}"
+    );
     assert!(
         lines[1].starts_with("  validated budget: ")
             && lines[1].contains("held-out training frames")

@@ -173,6 +173,16 @@ impl Target {
                     .transpose()
                     .map_err(|e| anyhow!(e))?
                     .map(Box::new);
+                if let Some(step) = &safety {
+                    let model = step.collision();
+                    if let Some(warning) = super::report::self_collision_unchecked(
+                        &self.robot,
+                        model.unchecked(),
+                        model.pairs().len(),
+                    ) {
+                        eprintln!("{warning}");
+                    }
+                }
                 Ok(Commands::Limited {
                     limits,
                     timed,

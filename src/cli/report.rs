@@ -12,6 +12,32 @@ use sgplvm::{PartsGplvm, SharedGplvm, StopReason};
 mod replay;
 pub use replay::replay;
 
+/// The warning that robot `robot`'s self-collision is not checked for the collision elements
+/// `unchecked` (one line each, beginning with its link's name; `pairs`: the pairs of shapes
+/// still checked), or `None` when every element gave a shape. Missing meshes are no detail:
+/// with none left the robot is not kept off itself at all.
+pub fn self_collision_unchecked(robot: &str, unchecked: &[String], pairs: usize) -> Option<String> {
+    let first = unchecked.first()?;
+    let n = unchecked.len();
+    let how_many = if pairs == 0 {
+        format!(
+            "at all (no pair of shapes left to check): {n} collision element(s) could not be read"
+        )
+    } else {
+        format!("for {n} collision element(s)")
+    };
+    // Each entry begins with its link's name: all the links, then the first reason.
+    let mut links: Vec<&str> = unchecked
+        .iter()
+        .filter_map(|u| u.split(':').next())
+        .collect();
+    links.dedup();
+    Some(format!(
+        "warning: {robot}: self-collision not checked {how_many}, on link(s) {}: {first}",
+        sgplvm::robots::names::few(&links, 8)
+    ))
+}
+
 /// After `train`: robots, frames, seconds, iterations, objective and stop reason.
 pub fn training(model: &SharedGplvm, seconds: f64, out: &Path, json: bool) {
     let what = format!(
@@ -251,13 +277,33 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
             count(iterations, "iteration")
         ),
     };
+    // A budget of a few iterations reads like a failure: say that it is the held-out error's
+    // choice, and what it means.
+    let few = if s.chose_the_budget() && s.best_iteration < FEW_ITERATIONS {
+        format!(
+            "  note: {} kept: the model{} predicted the held-out training motions best; \
+             training on fitted the training motions at their cost (few training motions, or \
+             unlike the held-out ones). `--validation none` trains the whole budget regardless\n",
+            count(s.best_iteration, "iteration"),
+            if s.best_iteration == 0 {
+                " as initialised (latent points from the data's principal components)"
+            } else {
+                ", barely moved from its start,"
+            }
+        )
+    } else {
+        String::new()
+    };
     format!(
         "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3}; wrote {}\n  \
-         {chosen}, then retrained on all {} frames{ending}\n",
+         {chosen}, then retrained on all {} frames{ending}\n{few}",
         out.display(),
         s.fit_frames + s.validation_frames,
     )
 }
+
+/// Validated budgets below this many iterations get a note saying what they mean.
+const FEW_ITERATIONS: usize = 5;
 
 /// `evaluate`: the test error overall and per joint, and the trust threshold's rates (a single
 /// latent space's).

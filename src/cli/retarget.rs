@@ -530,26 +530,10 @@ fn print_postures(reports: &[ReachReport], velocity_limits: bool) {
                 r.robot, p.stepped_from_before_frames
             );
         }
-        if let Some(first) = p.unchecked.first() {
-            // Every shape missing is not a detail: the robot is not kept off itself at all.
-            let n = p.unchecked.len();
-            let how_many = if p.pairs == 0 {
-                format!("at all (no pair of shapes left to check): {n} collision element(s) could not be read")
-            } else {
-                format!("for {n} collision element(s)")
-            };
-            // Each entry begins with its link's name: all the links, then the first reason.
-            let mut links: Vec<&str> = p
-                .unchecked
-                .iter()
-                .filter_map(|u| u.split(':').next())
-                .collect();
-            links.dedup();
-            eprintln!(
-                "warning: {}: self-collision not checked {how_many}, on link(s) {}: {first}",
-                r.robot,
-                sgplvm::robots::names::few(&links, 8)
-            );
+        if let Some(warning) =
+            super::report::self_collision_unchecked(&r.robot, &p.unchecked, p.pairs)
+        {
+            eprintln!("{warning}");
         }
     }
 }
