@@ -161,7 +161,12 @@ fn hostile_bvh_files_are_one_line_naming_the_file_and_line() {
     }
     refused(&dir, "deep.bvh", &deep, "nested deeper than 1000");
     let armless = "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Tail\n{\nOFFSET 0 -1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 -1 0\n}\n}\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0\n0 0 0 0 0 0\n";
-    refused(&dir, "armless.bvh", armless, "segments are: Hips, Tail");
+    refused(
+        &dir,
+        "armless.bvh",
+        armless,
+        "segments, nearest the root first: Hips, Tail",
+    );
     refused(&dir, "empty.bvh", "", "empty");
     let missing = dir.join("nosuch.bvh");
     let err = fails_on_one_line(&["import", s(&missing), "--out", s(&dir.join("x.mcap"))]);
