@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
+use sgplvm::robots::limits::CommandLimits;
 use sgplvm::robots::names::count;
 use sgplvm::robots::retarget::file::{retarget_files, FilesRetargeted, TestChoice};
 use sgplvm::robots::retarget::split::{SplitOptions, MIN_TRAIN_FRAMES};
@@ -201,6 +202,15 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     for (k, (name, _)) in robots.iter().enumerate() {
         if robots[..k].iter().any(|(n, _)| n == name) {
             bail!("robot `{name}` named twice");
+        }
+    }
+    if args.velocity_limits {
+        // As predict says it: a limit the URDF does not state is assumed, and it holds frames.
+        for (name, anatomy) in &robots {
+            let limits = CommandLimits::for_joints(anatomy.robot(), &anatomy.arm_joint_names())?;
+            if let Some(note) = limits.assumed() {
+                eprintln!("warning: {name}: {note}");
+            }
         }
     }
     if args.split != SplitArg::Files && !args.test_files.is_empty() {

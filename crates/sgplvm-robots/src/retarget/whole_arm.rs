@@ -520,19 +520,20 @@ pub(super) fn run(
             outcome
         };
         if outcome.changed {
-            // Without velocity limits only the robot's own shapes move a command (a frame
-            // stepped from the command before may end with no pair near).
-            if velocity_limits && outcome.near.is_empty() {
-                tally.velocity_limited += 1;
-            } else {
-                tally.collision_limited += 1;
-            }
-            tally.limits_held(
+            // A joint held at its velocity limit, and no pair near, is a frame the velocity
+            // limits held; else the robot's own shapes moved it (a frame stepped out of them
+            // may end with no pair near, and then no joint at its velocity limit either).
+            let by_velocity = tally.limits_held(
                 (q_index, safety.velocity_limits()),
                 (&asked, &sent),
                 before,
                 &outcome.near,
             );
+            if velocity_limits && by_velocity && outcome.near.is_empty() {
+                tally.velocity_limited += 1;
+            } else {
+                tally.collision_limited += 1;
+            }
         }
         tally.bounds_held(&position_limits, q_index, &sent);
         let mut q = hold.clone();

@@ -193,20 +193,23 @@ pub(super) struct Tally {
 impl Tally {
     /// Which limits held one frame's command: the joints that moved by their velocity limit's
     /// whole step over `dt` from the command `before` and fell short of what was asked, and
-    /// the pairs of links the safety step found near.
+    /// the pairs of links the safety step found near; whether any joint was held by its
+    /// velocity limit.
     pub(super) fn limits_held(
         &mut self,
         (q_index, velocity): (&[usize], &[f64]),
         (asked, sent): (&[f64], &[f64]),
         before: Option<(Vec<f64>, f64)>,
         near: &[(String, String, f64)],
-    ) {
+    ) -> bool {
+        let mut by_velocity = false;
         if let Some((last, dt)) = before {
             for (k, (&i, &limit)) in q_index.iter().zip(velocity).enumerate() {
                 let step = limit * dt;
                 let short = (asked[k] - sent[k]).abs() > 1e-9;
                 if short && (sent[k] - last[k]).abs() >= step - 1e-9 {
                     self.joints_held.entry(i).or_insert((0, limit)).0 += 1;
+                    by_velocity = true;
                 }
             }
         }
@@ -220,6 +223,7 @@ impl Tally {
             e.0 += 1;
             e.1 = e.1.min(*d);
         }
+        by_velocity
     }
 
     /// The position limits one frame's command `sent` (configuration indices `q_index`) sits
