@@ -461,38 +461,6 @@ fn a_single_arm_robot_goes_through_every_command_driven_by_the_arm_its_side_name
     };
     predicts_the_arm(&train_arms("right", true));
     predicts_the_arm(&train_arms("left", false));
-    // A URDF without velocity limits: `retarget --velocity-limits` says what it assumes (as
-    // `predict` does), and that its meshes are not found (no self-collision checked at all).
-    let unstated = dir.join("kuka_no_velocity.urdf");
-    let xml = std::fs::read_to_string(&kuka).unwrap();
-    let without: String = xml
-        .split("velocity=\"")
-        .enumerate()
-        .map(|(k, part)| match k {
-            0 => part,
-            _ => part.split_once('"').map_or(part, |(_, rest)| rest),
-        })
-        .collect();
-    std::fs::write(&unstated, without).unwrap();
-    let out = sgplvm(&[
-        "retarget",
-        "--demos",
-        s(&data),
-        "--urdf",
-        s(&unstated),
-        "--robot",
-        "kuka",
-        "--velocity-limits",
-        "--out",
-        s(&dir.join("unstated.mcap")),
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(
-        err.contains("warning: kuka: 7 commanded joint(s) state no velocity limit"),
-        "{err}"
-    );
-    assert!(err.contains("self-collision not checked at all"), "{err}");
 }
 
 #[test]
@@ -561,4 +529,44 @@ fn a_two_armed_robot_driven_by_one_arm_trains_that_arm_s_latent_space() {
         "{held:?}"
     );
     assert!(!held.contains(&"RShSag"), "{held:?}");
+}
+
+#[test]
+fn retargeting_says_what_it_assumes_of_a_urdf_without_velocity_limits() {
+    // `retarget --velocity-limits` says what it assumes (as `predict` does), and that the
+    // meshes are not found (no self-collision checked at all): KUKA's iiwa without them.
+    let dir = scratch("robot-no-velocity");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let kuka = root.join("crates/sgplvm-robots/tests/fixtures/kuka_iiwa.urdf");
+    let data = root.join("data/demos/captured.mcap");
+    let unstated = dir.join("kuka_no_velocity.urdf");
+    let xml = std::fs::read_to_string(&kuka).unwrap();
+    let without: String = xml
+        .split("velocity=\"")
+        .enumerate()
+        .map(|(k, part)| match k {
+            0 => part,
+            _ => part.split_once('"').map_or(part, |(_, rest)| rest),
+        })
+        .collect();
+    std::fs::write(&unstated, without).unwrap();
+    let out = sgplvm(&[
+        "retarget",
+        "--demos",
+        s(&data),
+        "--urdf",
+        s(&unstated),
+        "--robot",
+        "kuka",
+        "--velocity-limits",
+        "--out",
+        s(&dir.join("unstated.mcap")),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: kuka: 7 commanded joint(s) state no velocity limit"),
+        "{err}"
+    );
+    assert!(err.contains("self-collision not checked at all"), "{err}");
 }
