@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use sgplvm::robots::anatomy::Anatomy;
-use sgplvm::robots::limits::CommandLimits;
+use sgplvm::robots::limits::command_velocity_limits;
 use sgplvm::robots::names::count;
 use sgplvm::robots::retarget::file::{retarget_files, FilesRetargeted, TestChoice};
 use sgplvm::robots::retarget::split::{SplitOptions, MIN_TRAIN_FRAMES};
@@ -207,8 +207,8 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     if args.velocity_limits {
         // As predict says it: a limit the URDF does not state is assumed, and it holds frames.
         for (name, anatomy) in &robots {
-            let limits = CommandLimits::for_joints(anatomy.robot(), &anatomy.arm_joint_names())?;
-            if let Some(note) = limits.assumed() {
+            let (_, assumed) = command_velocity_limits(anatomy.robot(), &anatomy.arm_joint_names());
+            if let Some(note) = assumed {
                 eprintln!("warning: {name}: {note}");
             }
         }
