@@ -120,6 +120,22 @@ fn a_held_finger_is_welded_and_what_it_touches_is_named_as_a_held_part() {
 }
 
 #[test]
+fn a_joint_with_one_value_allowed_is_held_there_without_a_column() {
+    // Toyota's HSR: `wrist_ft_sensor_frame_joint` is revolute with lower = upper = 0. With no
+    // column for it the replay refused the file (or, commanded, took it as unlimited); it is
+    // held at its one value, as any held joint.
+    let pinned = ARM.replace(
+        r#"<limit lower="-1" upper="1" effort="1" velocity="2"/>"#,
+        r#"<limit lower="0.25" upper="0.25" effort="1" velocity="2"/>"#,
+    );
+    assert_ne!(pinned, ARM);
+    let still = arm_motion(1.0, |_| [0.0, 0.0]);
+    let report = replay(&pinned, "pinned.urdf", &still, &ReplayOptions::default()).unwrap();
+    assert_eq!(report.held, vec![("finger_joint".to_string(), 0.25)]);
+    assert!(report.diverged.is_none());
+}
+
+#[test]
 fn links_touching_at_rest_are_left_out_and_listed() {
     // Without a hold the finger is a joint of its own with no column: allowed, it is driven to
     // 0 by its motor, and its sphere overlapping the hand's at rest is the model's own overlap.

@@ -7,7 +7,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::discover::RawArm;
-use super::{AnatomyArm, AnatomyResult};
+use super::{AnatomyArm, AnatomyResult, MIN_BONE_MM};
 use crate::kinematics::Chain;
 use crate::urdf::Robot;
 
@@ -401,11 +401,20 @@ pub(super) fn arm_geometry(
     // Pepper turn the upper arm (elbow yaw) and bend (elbow roll) at one point, and the bend's
     // axis meets the forearm's roll at the elbow, not at a wrist. No joint after the elbow:
     // the wrist is the hand point.
-    let (wrist_after, wrist_local) = if elbow + 1 >= chain.dof() {
-        (chain.dof(), hand_local)
-    } else {
-        let (after, _, point, _) = meeting_axes(&chain, &zero, End::Wrist, elbow);
-        (after, riding(&chain, &zero, after, point))
+    // Nor where the wrist's axes meet on the elbow's own axis (Toyota's HSR: the wrist's roll
+    // meets its flex, which is the arm's elbow): the forearm would have no length.
+    let on_elbow_axis = |point: &Vector3<f64>| {
+        let frames = chain.joint_frames(&zero);
+        let axis = chain.joint_axes(&zero)[elbow];
+        let from = point - frames[elbow].translation.vector;
+        (from - axis * from.dot(&axis)).norm() * 1000.0 < MIN_BONE_MM
+    };
+    let wrist = (elbow + 1 < chain.dof())
+        .then(|| meeting_axes(&chain, &zero, End::Wrist, elbow))
+        .filter(|(_, _, point, _)| !on_elbow_axis(point));
+    let (wrist_after, wrist_local) = match wrist {
+        Some((after, _, point, _)) => (after, riding(&chain, &zero, after, point)),
+        None => (chain.dof(), hand_local),
     };
     Ok(AnatomyArm {
         side: raw.side,

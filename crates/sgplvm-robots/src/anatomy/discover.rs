@@ -53,7 +53,7 @@ impl<'a> Tree<'a> {
         order.sort_by_key(|&j| std::cmp::Reverse(robot.path_to(robot.joints[j].child).len()));
         let mut moves = vec![false; robot.joints.len()];
         for j in order {
-            moves[j] = robot.joints[j].kind.is_movable()
+            moves[j] = robot.joints[j].can_move()
                 || children[robot.joints[j].child].iter().any(|&c| moves[c]);
         }
         let mimicking: std::collections::HashSet<&str> = robot
@@ -84,15 +84,18 @@ impl<'a> Tree<'a> {
         &self.robot.joints[j].name
     }
 
+    /// Whether joint `j` can move (a joint with one value allowed cannot).
     fn movable(&self, j: usize) -> bool {
-        self.robot.joints[j].kind.is_movable()
+        self.robot.joints[j].can_move()
     }
 
+    /// Whether joint `j` turns (revolute or continuous, and can move).
     fn revolute(&self, j: usize) -> bool {
-        matches!(
-            self.robot.joints[j].kind,
-            JointKind::Revolute | JointKind::Continuous
-        )
+        self.movable(j)
+            && matches!(
+                self.robot.joints[j].kind,
+                JointKind::Revolute | JointKind::Continuous
+            )
     }
 
     /// Whether the subtree under joint `j` (the joint included) moves anything.
@@ -100,19 +103,29 @@ impl<'a> Tree<'a> {
         self.moves[j]
     }
 
+    /// The child joints of `link` whose subtrees move anything, but for a head: a head turning
+    /// on an arm's link (Rethink's Sawyer pans its head on the arm's first link) does not end
+    /// the arm there.
+    fn onward(&self, link: usize) -> Vec<usize> {
+        self.children[link]
+            .iter()
+            .copied()
+            .filter(|&c| {
+                self.moves(c)
+                    && part_of(self.joint_name(c)) != Part::Head
+                    && part_of(self.link_name(self.robot.joints[c].child)) != Part::Head
+            })
+            .collect()
+    }
+
     /// The serial chain of movable joints starting at joint `j`: each link passed on has one
-    /// child branch that moves anything; it ends where the tree branches (a gripper's fingers)
-    /// or nothing moves below.
+    /// child branch that moves anything ([`Tree::onward`]: a head aside); it ends where the
+    /// tree branches (a gripper's fingers) or nothing moves below.
     fn serial_from(&self, j: usize) -> Vec<usize> {
         let mut chain = vec![j];
         let mut link = self.robot.joints[j].child;
         loop {
-            let moving: Vec<usize> = self.children[link]
-                .iter()
-                .copied()
-                .filter(|&c| self.moves(c))
-                .collect();
-            match moving.as_slice() {
+            match self.onward(link).as_slice() {
                 [one] => {
                     if self.movable(*one) {
                         chain.push(*one);
@@ -133,7 +146,7 @@ impl<'a> Tree<'a> {
         let mut frontier = vec![(start, 0usize)];
         while let Some((link, depth)) = frontier.pop() {
             for &c in &self.children[link] {
-                if self.robot.joints[c].kind == JointKind::Fixed {
+                if !self.movable(c) {
                     let child = self.robot.joints[c].child;
                     let score = hand_score(self.link_name(child));
                     let cand = (score, depth + 1, child);
@@ -149,16 +162,12 @@ impl<'a> Tree<'a> {
 
     /// Whether the tree branches between joint `upper` and joint `lower` below it: a link from
     /// `upper`'s child down to `lower`'s parent with more than one child branch that moves
-    /// anything (a palm's fingers). An arm is serial: what lies past such a branch is a hand.
+    /// anything, a head aside (a palm's fingers). An arm is serial: what lies past such a branch is a hand.
     fn branches_between(&self, upper: usize, lower: usize) -> bool {
         let stop = self.robot.joints[upper].child;
         let mut link = self.robot.joints[lower].parent;
         loop {
-            let moving = self.children[link]
-                .iter()
-                .filter(|&&c| self.moves(c))
-                .count();
-            if moving > 1 {
+            if self.onward(link).len() > 1 {
                 return true;
             }
             if link == stop {

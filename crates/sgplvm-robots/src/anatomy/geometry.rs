@@ -6,7 +6,9 @@ use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
 use super::arm_points::arm_geometry;
 use super::discover::{file_of, FoundArms, RawArm};
 use super::mount::{Mount, HANG_MISS_DEG};
-use super::{Anatomy, AnatomyArm, AnatomyError, AnatomyResult, AnatomySpec, CommandJoints};
+use super::{
+    Anatomy, AnatomyArm, AnatomyError, AnatomyResult, AnatomySpec, CommandJoints, MIN_BONE_MM,
+};
 use crate::generator::{KEY_POSES, NEUTRAL};
 use crate::kinematics::Chain;
 use crate::models::Side;
@@ -55,6 +57,9 @@ pub(super) fn build(robot: Robot, found: FoundArms, spec: &AnatomySpec) -> Anato
     let mut arms = Vec::with_capacity(found.arms.len());
     for (raw, chain) in found.arms.iter().zip(chains) {
         arms.push(arm_geometry(&robot, raw, chain, &hold, &torso_in_root)?);
+    }
+    for (raw, arm) in found.arms.iter().zip(&arms) {
+        check_bones(raw, arm, &robot)?;
     }
     let body_in_torso = body_frame(&arms, &torso_in_root, spec, &file)?;
     let mount = mount_and_neutral(&robot, &mut arms, &body_in_torso, spec, &file)?;
@@ -170,13 +175,21 @@ fn lowest_common_ancestor(robot: &Robot, a: &str, b: &str) -> AnatomyResult<Stri
     Ok(robot.links[common].clone())
 }
 
+/// A direction as messages print it: `(0.00, 0.00, 1.00)`.
+fn direction(v: &Vector3<f64>) -> String {
+    format!("({:.2}, {:.2}, {:.2})", v.x, v.y, v.z)
+}
+
 /// Parses a direction given in the torso frame and checks it.
 fn unit(v: &Vector3<f64>, what: &str, file: &str) -> AnatomyResult<Vector3<f64>> {
     let n = v.norm();
     if !(n.is_finite() && n > 1e-9) {
         return Err(AnatomyError::Frame {
             file: file.to_string(),
-            message: format!("{what} {v:?} is not a direction (expected a non-zero vector)"),
+            message: format!(
+                "{what} {} is not a direction (expected a non-zero vector)",
+                direction(v)
+            ),
         });
     }
     Ok(v / n)
@@ -212,7 +225,9 @@ fn body_frame(
         let square = f - u * u.dot(&f);
         if square.norm() < 0.3 {
             return Err(frame_error(format!(
-                "forward {f:?} runs nearly along up {u:?} (in the torso link's frame): give --forward square to up"
+                "forward {} runs nearly along up {} (in the torso link's frame): give --forward square to up",
+                direction(&f),
+                direction(&u)
             )));
         }
         let forward = square.normalize();
@@ -231,7 +246,9 @@ fn body_frame(
         let s = v - l * l.dot(&v);
         if s.norm() < 0.3 {
             return Err(frame_error(format!(
-                "the {what} direction {v:?} runs nearly along the shoulders (left is {l:?} in the torso link's frame): expected a direction square to them"
+                "the {what} direction {} runs nearly along the shoulders (left is {} in the torso link's frame): expected a direction square to them; where one arm stands above the other (two arms on one column), name one of them alone",
+                direction(&v),
+                direction(&l)
             )));
         }
         Ok(s.normalize())
@@ -262,7 +279,11 @@ fn body_frame(
                 let given = unit(f, "forward", file)?;
                 if given.dot(&fwd) < 0.7 {
                     return Err(frame_error(format!(
-                        "forward {given:?} and up {u:?} do not fit the shoulders (left {l:?}): with them forward is {fwd:?}"
+                        "forward {} and up {} do not fit the shoulders (left {}): with them forward is {}",
+                        direction(&given),
+                        direction(&u),
+                        direction(&l),
+                        direction(&fwd)
                     )));
                 }
             }
@@ -362,6 +383,28 @@ fn hanging_miss_deg(arm: &AnatomyArm, body_in_torso: &UnitQuaternion<f64>) -> f6
         }
     }
     best
+}
+
+/// Refuses an arm whose upper arm or forearm is shorter than [`MIN_BONE_MM`] on its bone line.
+fn check_bones(raw: &RawArm, arm: &AnatomyArm, robot: &Robot) -> AnatomyResult<()> {
+    let (upper, fore) = arm.bone_lengths();
+    for (bone, length) in [
+        ("upper arm (shoulder centre → elbow centre)", upper),
+        ("forearm (elbow centre → wrist centre)", fore),
+    ] {
+        let length_mm = 1000.0 * length;
+        if length_mm.is_nan() || length_mm < MIN_BONE_MM {
+            return Err(AnatomyError::NoBone {
+                file: file_of(robot),
+                side: raw.side.as_str(),
+                from: raw.base.clone(),
+                to: raw.hand.clone(),
+                bone,
+                length_mm,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The generator's neutral key pose of the arm of `side`: its hand relative to the shoulder in
@@ -497,7 +540,7 @@ fn notes(a: &Anatomy) -> Vec<String> {
         if v[k].abs() > 0.9 {
             format!("{}{}", if v[k] > 0.0 { "+" } else { "-" }, names[k])
         } else {
-            format!("({:.2}, {:.2}, {:.2})", v.x, v.y, v.z)
+            direction(v)
         }
     };
     if fwd.x < 0.9 || left.y < 0.9 || up.z < 0.9 {

@@ -48,6 +48,21 @@ impl AnatomyArm {
         elbow.rotation.inverse() * (axis * along)
     }
 
+    /// The upper arm's and the forearm's lengths on the bone line (shoulder centre → elbow
+    /// centre → wrist centre) at the neutral posture, metres.
+    pub fn bone_lengths(&self) -> (f64, f64) {
+        let q = &self.neutral;
+        let frames = self.chain.joint_frames(q);
+        let point = |k: usize, local: Vector3<f64>| match frames.get(k) {
+            Some(f) => (f * nalgebra::Point3::from(local)).coords,
+            None => self.chain.forward(q).translation.vector,
+        };
+        let shoulder = self.shoulder_at(q);
+        let elbow = point(self.elbow, self.elbow_centre_local());
+        let wrist = point(self.wrist_after, self.wrist_local);
+        ((elbow - shoulder).norm(), (wrist - elbow).norm())
+    }
+
     /// The arm's landmarks (shoulder, elbow centre, wrist centre, hand) as points fixed on the
     /// robot's links, for tasks evaluated on the whole robot.
     pub fn landmarks(&self, robot: &Robot) -> ArmLandmarks {

@@ -56,6 +56,10 @@ use crate::kinematics::frames::Ancestry;
 use crate::kinematics::{ApartProofs, Chain};
 use crate::models::Side;
 use crate::physics::{mesh_shapes, MeshShapes};
+
+/// The shortest upper arm or forearm an arm may have on its bone line, millimetres: shorter,
+/// the bone's direction is undefined ([`AnatomyError::NoBone`]).
+pub const MIN_BONE_MM: f64 = 10.0;
 use crate::urdf::MeshSearch;
 use crate::urdf::Robot;
 use crate::RobotError;
@@ -416,6 +420,24 @@ pub enum AnatomyError {
         to: String,
         /// How many movable joints it has.
         count: usize,
+    },
+    /// An arm's upper arm or forearm has next to no length on its bone line: not an arm (a
+    /// gripper's fingers or a chain of sensor frames taken for one); its directions would be
+    /// undefined.
+    #[error("{file}: the {side} arm {from} → {to} is no arm: its {bone} is {length_mm:.1} mm long at the neutral posture, where an arm's bones are at least {MIN_BONE_MM} mm; name the arm with --arm {side}=FROM_LINK:TO_LINK")]
+    NoBone {
+        /// The URDF.
+        file: String,
+        /// Which arm.
+        side: &'static str,
+        /// Its first link.
+        from: String,
+        /// Its hand link.
+        to: String,
+        /// Which bone, with its ends.
+        bone: &'static str,
+        /// Its length, millimetres.
+        length_mm: f64,
     },
     /// Both arms move the same joints (e.g. both start at the pelvis, below a waist).
     #[error("{file}: the left arm ({} → {}) and the right arm ({} → {}) share the movable joint(s) {}; start both arms below them (e.g. --arm left={}:{}): shared joints are held, not moved by either arm", .arms.lfrom, .arms.lto, .arms.rfrom, .arms.rto, .arms.joints, .arms.below, .arms.lto)]

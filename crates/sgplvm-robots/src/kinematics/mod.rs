@@ -44,7 +44,7 @@ struct Segment {
     prismatic: bool,
 }
 
-/// Ordered movable joints from a base link to a tip link.
+/// Ordered joints that can move, from a base link to a tip link.
 #[derive(Debug, Clone)]
 pub struct Chain {
     base: String,
@@ -58,7 +58,8 @@ pub struct Chain {
 }
 
 impl Robot {
-    /// The chain of movable joints from link `base` down to link `tip`.
+    /// The chain of joints that can move ([`crate::urdf::JointInfo::can_move`]) from link
+    /// `base` down to link `tip`; a joint with one value allowed is held at it.
     ///
     /// Fails if either link is unknown or `tip` is not below `base` in the tree.
     pub fn chain(&self, base: &str, tip: &str) -> RobotResult<Chain> {
@@ -89,18 +90,22 @@ impl Robot {
         let mut acc = Isometry3::identity();
         for j in joints {
             let joint = &self.joints[j];
+            // A joint that cannot move (fixed, or one value allowed) is part of the segment,
+            // at that value.
+            let Some(qi) = joint.q_index.filter(|_| joint.can_move()) else {
+                acc *= joint.transform(joint.limits.0);
+                continue;
+            };
             acc *= joint.origin;
-            if let Some(qi) = joint.q_index {
-                segments.push(Segment {
-                    pre: acc,
-                    axis: joint.axis,
-                    prismatic: joint.kind == JointKind::Prismatic,
-                });
-                names.push(joint.name.clone());
-                limits.push(joint.limits);
-                robot_indices.push(qi);
-                acc = Isometry3::identity();
-            }
+            segments.push(Segment {
+                pre: acc,
+                axis: joint.axis,
+                prismatic: joint.kind == JointKind::Prismatic,
+            });
+            names.push(joint.name.clone());
+            limits.push(joint.limits);
+            robot_indices.push(qi);
+            acc = Isometry3::identity();
         }
         Ok(Chain {
             base: base.to_string(),

@@ -106,7 +106,15 @@ pub fn replay_urdf(
             expected: "joints the trajectory has no column for (a held joint is not commanded)",
         });
     }
-    let model = model::prepare_model(robot, source, &options.meshes, &options.held)?;
+    // A joint with one value allowed cannot move: where the trajectory does not command it, it
+    // is held there as any held joint (no column needed).
+    let mut held = options.held.clone();
+    for (name, value) in model::one_valued_joints(robot) {
+        if !trajectory.joint_names.contains(&name) && !held.iter().any(|(h, _)| *h == name) {
+            held.push((name, value));
+        }
+    }
+    let model = model::prepare_model(robot, source, &options.meshes, &held)?;
     // rapier asserts a few invariants of its own; anything we did not foresee becomes an
     // error value instead of tearing down the caller.
     match crate::panics::catch(|| control::simulate(&model, source, trajectory, options)) {

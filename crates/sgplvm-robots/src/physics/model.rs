@@ -1,9 +1,9 @@
 //! The first stage of a replay: the URDF (as urdf-rs parsed it) checked for what the
 //! simulator needs — one tree of uniquely named links, finite numbers, collision shapes, axes
 //! and limits — and adjusted for a fixed-base replay (floating roots fixed, zero-range
-//! revolute joints made continuous). Collision meshes are taken out of the URDF and made
-//! convex hulls (`hulls`). It also decides which link pairs are neighbours and never
-//! collision-checked.
+//! revolute joints held, or made continuous where the trajectory commands them). Collision
+//! meshes are taken out of the URDF and made convex hulls (`hulls`). It also decides which
+//! link pairs are neighbours and never collision-checked.
 
 use std::collections::HashMap;
 
@@ -16,7 +16,8 @@ use crate::urdf::{MeshSearch, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
 
 /// A checked, simulation-ready copy of the URDF.
 pub(super) struct PreparedModel {
-    /// The URDF with floating roots fixed and zero-range revolute joints made continuous;
+    /// The URDF with floating roots fixed, held joints welded and commanded zero-range revolute
+    /// joints made continuous;
     /// every collision mesh replaced by a zero-size box (which rapier3d-urdf skips, and which
     /// keeps the link from being squeezed away as empty).
     pub(super) robot: urdf_rs::Robot,
@@ -100,7 +101,8 @@ pub(super) fn prepare_model(
         if !finite3(&joint.origin.xyz.0) || !finite3(&joint.origin.rpy.0) {
             return Err(err.at(element, "expected a finite <origin>".into()));
         }
-        check_joint_type(joint, element, &err, &mut warnings)?;
+        let is_held = held.iter().any(|(name, _)| *name == joint.name);
+        check_joint_type(joint, element, &err, &mut warnings, is_held)?;
     }
     check_acyclic(&robot, &parent_of, &err)?;
     let welded = weld(&mut robot, held)?;
@@ -131,6 +133,23 @@ pub(super) fn prepare_model(
         held,
         held_part,
     })
+}
+
+/// The revolute and prismatic joints whose lower and upper limits are equal and finite (a
+/// sensor frame's joint, as Toyota's HSR's `wrist_ft_sensor_frame_joint`), with that value.
+pub(super) fn one_valued_joints(robot: &urdf_rs::Robot) -> Vec<(String, f64)> {
+    robot
+        .joints
+        .iter()
+        .filter(|j| {
+            matches!(
+                j.joint_type,
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic
+            ) && j.limit.lower == j.limit.upper
+                && j.limit.lower.is_finite()
+        })
+        .map(|j| (j.name.clone(), j.limit.lower))
+        .collect()
 }
 
 /// Makes every joint of `held` fixed at its value: its origin becomes the origin moved by the
@@ -328,12 +347,14 @@ fn joint_links(
 
 /// What each joint type needs: floating and planar joints are fixed (the base is fixed to
 /// the world), spherical ones refused, movable ones need a finite non-zero axis and (unless
-/// continuous) finite ordered limits; a revolute joint with both limits 0 becomes continuous.
+/// continuous) finite ordered limits; a revolute joint with both limits 0 that is not held
+/// (the trajectory commands it) becomes continuous.
 fn check_joint_type(
     joint: &mut urdf_rs::Joint,
     element: String,
     err: &ModelErr<'_>,
     warnings: &mut Vec<String>,
+    is_held: bool,
 ) -> Result<(), PhysicsError> {
     let file = err.file;
     match joint.joint_type {
@@ -369,10 +390,13 @@ fn check_joint_type(
                         format!("lower = {lower}, upper = {upper}; expected finite limits with lower <= upper"),
                     ));
                 }
-                if joint.joint_type == urdf_rs::JointType::Revolute && lower == 0.0 && upper == 0.0
+                if joint.joint_type == urdf_rs::JointType::Revolute
+                    && lower == 0.0
+                    && upper == 0.0
+                    && !is_held
                 {
                     warnings.push(format!(
-                        "{file}: {element}: revolute joint with both limits 0 treated as unlimited"
+                        "{file}: {element}: revolute joint with both limits 0, commanded by the trajectory: treated as unlimited"
                     ));
                     joint.joint_type = urdf_rs::JointType::Continuous;
                 }

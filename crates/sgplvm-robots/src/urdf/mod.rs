@@ -20,7 +20,8 @@
 //! Quirks that load: joints without `<origin>`, origins without `rpy` or `xyz`, numbers such as
 //! `0.` or `1.6E-4`, a floating root joint (held at its origin: the base is fixed),
 //! `<gazebo>`, `<sensor>`, `<transmission>` and other foreign blocks (ignored), revolute joints
-//! whose lower and upper limits are equal (kept as a movable joint with that one value allowed),
+//! whose lower and upper limits are equal (kept in the configuration with that one value allowed,
+//! never part of an arm: [`JointInfo::can_move`]),
 //! mesh files that do not exist (meshes are never opened).
 //!
 //! `mod.rs` holds the robot model and its queries (joint order, limits, forward kinematics);
@@ -114,6 +115,14 @@ pub struct JointInfo {
 }
 
 impl JointInfo {
+    /// Whether the joint can move: movable by its type, and not a revolute or prismatic joint
+    /// whose lower and upper limits are equal (one value allowed, as Toyota's HSR's
+    /// `wrist_ft_sensor_frame_joint`: a sensor frame's joint, never commanded).
+    pub fn can_move(&self) -> bool {
+        self.kind.is_movable()
+            && !(self.kind != JointKind::Continuous && self.limits.0 == self.limits.1)
+    }
+
     /// The joint's local transform (origin then motion) for coordinate `q`.
     pub fn transform(&self, q: f64) -> Isometry3<f64> {
         match self.kind {

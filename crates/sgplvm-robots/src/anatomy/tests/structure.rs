@@ -683,3 +683,61 @@ fn a_gripper_s_mimic_joints_are_no_arm_though_their_names_say_a_side_and_hand() 
         .iter()
         .all(|n| n.starts_with("lbr_iiwa")));
 }
+
+#[test]
+fn a_joint_with_one_value_allowed_is_no_arm_joint_and_is_held_at_that_value() {
+    // Toyota's HSR: `wrist_ft_sensor_frame_joint` is revolute with lower = upper = 0; it was
+    // commanded as an arm joint. Here KUKA's iiwa with its sixth joint allowed 0.4 rad only.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let xml = std::fs::read_to_string(kuka).unwrap();
+    let range = r#"lower="-2.09439510239" upper="2.09439510239""#;
+    let at = xml.find("lbr_iiwa_joint_6").unwrap();
+    let pinned = format!(
+        "{}{}",
+        &xml[..at],
+        xml[at..].replacen(range, r#"lower="0.4" upper="0.4""#, 1)
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&pinned, "pinned.urdf").unwrap()).unwrap();
+    let arm = a.arm(Side::Right).unwrap();
+    assert_eq!(arm.chain.dof(), 6);
+    assert!(!a
+        .arm_joint_names()
+        .contains(&"lbr_iiwa_joint_6".to_string()));
+    assert!(a
+        .held_joints()
+        .contains(&("lbr_iiwa_joint_6".to_string(), 0.4)));
+    // The arm's chain holds that joint at its value: its hand lies where the whole robot's is.
+    let robot = a.robot();
+    let mut q = a.hold_configuration().to_vec();
+    let arm_q: Vec<f64> = (0..6).map(|i| 0.3 - 0.1 * f64::from(i)).collect();
+    for (&i, &v) in arm.chain.robot_indices().iter().zip(&arm_q) {
+        q[i] = v;
+    }
+    let base = robot.forward_kinematics(&q, arm.chain.base()).unwrap();
+    let tip = robot.forward_kinematics(&q, arm.chain.tip()).unwrap();
+    let chain_tip = arm.chain.forward(&arm_q);
+    let gap = (base * chain_tip).translation.vector - tip.translation.vector;
+    assert!(gap.norm() < 1e-12, "{gap}");
+    assert!((base * chain_tip).rotation.angle_to(&tip.rotation) < 1e-12);
+}
+
+#[test]
+fn a_head_turning_on_an_arm_s_first_link_does_not_end_the_arm_there() {
+    // Rethink's Sawyer pans its head on `right_l0`, the link its arm's first joint turns: the
+    // branch ended the arm's chain there, and its first joint was held. Here KUKA's iiwa with
+    // a head on its first link.
+    let kuka = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf");
+    let xml = std::fs::read_to_string(kuka).unwrap();
+    let head = revolute(
+        "head_pan",
+        "lbr_iiwa_link_1",
+        "0 0 0.3",
+        "0 0 1",
+        (-1.0, 1.0),
+    );
+    let with_head = xml.replace("</robot>", &format!("{head}</robot>"));
+    let a = Anatomy::of(Robot::from_urdf_str(&with_head, "sawyer_like.urdf").unwrap()).unwrap();
+    assert_eq!(a.found(), &Found::Structure);
+    assert_eq!(a.arm(Side::Right).unwrap().chain.dof(), 7);
+    assert_eq!(a.held_joints(), vec![("head_pan".to_string(), 0.0)]);
+}
