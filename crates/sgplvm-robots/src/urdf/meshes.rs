@@ -251,13 +251,23 @@ impl MeshSearch {
             }
         };
         if full.is_file() {
-            Ok(full)
-        } else {
-            Err(MeshMiss::NotFound {
-                uri: uri.into(),
-                tried: vec![full],
-            })
+            return Ok(full);
         }
+        // An absolute path into an installed ROS package on the machine the file was made on
+        // (Kinova's Gen3: `file:///root/…/install/kortex_description/share/kortex_description/
+        // meshes/…`): looked for as `package://PKG/rest`, as the package it names.
+        let mut tried = vec![full.clone()];
+        if let Some((package, rest)) = installed_package(&full) {
+            match self.resolve_package(uri, &package, &rest) {
+                Ok(found) => return Ok(found),
+                Err(MeshMiss::NotFound { tried: more, .. }) => tried.extend(more),
+                Err(_) => {}
+            }
+        }
+        Err(MeshMiss::NotFound {
+            uri: uri.into(),
+            tried,
+        })
     }
 
     /// `rest` inside the first folder of `package` that holds it.
@@ -313,6 +323,16 @@ impl MeshSearch {
             })
         }
     }
+}
+
+/// The package and the path inside it of an absolute path into an installed ROS package
+/// (`…/share/PKG/rest`, the last `share` folder), if it is one.
+fn installed_package(path: &Path) -> Option<(String, String)> {
+    let parts: Vec<&str> = path.iter().filter_map(|c| c.to_str()).collect();
+    let share = parts.iter().rposition(|&c| c == "share")?;
+    let package = parts.get(share + 1)?;
+    let rest = parts.get(share + 2..).filter(|r| !r.is_empty())?;
+    Some(((*package).to_string(), rest.join("/")))
 }
 
 impl MeshSearch {
@@ -558,6 +578,35 @@ mod tests {
             Err(MeshMiss::NoUrdfDirectory { .. })
         ));
         assert_eq!(MeshSearch::new().resolve(&uri).unwrap(), arm);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_absolute_path_into_another_machine_s_install_is_looked_for_as_its_package() {
+        // Kinova's Gen3 as published: `file:///root/c3pzero_ws/install/kortex_description/
+        // share/kortex_description/meshes/…`, the maker's build machine.
+        let dir = scratch("installed");
+        let urdf = dir.join("kortex_description/robots/gen3.urdf");
+        touch(&urdf);
+        touch(&dir.join("kortex_description/package.xml"));
+        let mesh = dir.join("kortex_description/meshes/arms/gen3/base_link.STL");
+        touch(&mesh);
+        let uri = "file:///root/ws/install/kortex_description/share/kortex_description/meshes/arms/gen3/base_link.STL";
+        let search = MeshSearch::for_urdf_file(&urdf);
+        assert_eq!(search.resolve(uri).unwrap(), mesh);
+        // Not there either: every place tried is named, the path as given first.
+        let gone = uri.replace("base_link", "shoulder_link");
+        match search.resolve(&gone) {
+            Err(MeshMiss::NotFound { tried, .. }) => {
+                assert_eq!(tried[0], Path::new(&gone["file://".len()..]));
+                assert!(
+                    tried.contains(&mesh.with_file_name("shoulder_link.STL")),
+                    "{tried:?}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(installed_package(Path::new("/opt/ros/share/pkg")), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
