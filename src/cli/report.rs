@@ -231,8 +231,8 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
         .map_or("not trained".to_string(), ToString::to_string);
     let Some(s) = model.selection() else {
         return format!(
-            "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3} \
-             ({stop}); wrote {}\n",
+            "{what} in {seconds:.2} s, {}, objective {objective:.3} ({stop}); wrote {}\n",
+            count(iterations, "iteration"),
             out.display()
         );
     };
@@ -295,8 +295,9 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
         String::new()
     };
     format!(
-        "{what} in {seconds:.2} s, {iterations} iterations, objective {objective:.3}; wrote {}\n  \
+        "{what} in {seconds:.2} s, {}, objective {objective:.3}; wrote {}\n  \
          {chosen}, then retrained on all {} frames{ending}\n{few}",
+        count(iterations, "iteration"),
         out.display(),
         s.fit_frames + s.validation_frames,
     )
