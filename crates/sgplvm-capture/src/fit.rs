@@ -18,8 +18,9 @@
 //! model (after clamping to joint limits), so a limit costs only what it must.
 //!
 //! Where Euler angles have two solutions the one within the limits and nearest the previous
-//! frame wins; at the shoulder's gimbal point (abduction ±90°) the flexion of the previous
-//! frame is kept. Twists that positions cannot tell (shoulder rotation with a straight elbow,
+//! frame wins, unless a limit holds it and the other, held by its own limits, brings elbow and
+//! wrist nearer the capture by a centimetre or more (the arm's direction before continuity);
+//! at the shoulder's gimbal point (abduction ±90°) the flexion of the previous frame is kept. Twists that positions cannot tell (shoulder rotation with a straight elbow,
 //! pronation) come from the capture's segment orientations, calibrated on its rest pose: every
 //! channel at zero is taken as no twist (a T- or A-pose with palms down, or arms hanging with
 //! palms facing the body, as capture systems define it). Where the rest pose holds the upper
@@ -290,11 +291,15 @@ pub const REST_GIMBAL: f64 = 0.12;
 /// form, a few steps from its optimum).
 const REFINE_ITERATIONS: usize = 30;
 
-/// Shoulder angles `(f, a, r)` with `Ry(−f) Rx(a) Rz(−r) = m`: of the two Euler solutions (and
-/// at the gimbal point, the flexion kept from `prev`), the one nearest `prev` unless the other
-/// lies within the limits by [`BRANCH_SWITCH_MARGIN`] more; without `prev` the one least
-/// outside `limits`.
-fn shoulder_angles(m: &Matrix3<f64>, prev: Option<[f64; 3]>, limits: &[(f64, f64)]) -> [f64; 3] {
+/// Shoulder angles `(f, a, r)` with `Ry(−f) Rx(a) Rz(−r) = m`, every Euler solution (and at
+/// the gimbal point, the flexion kept from `prev`), the preferred first: the one nearest `prev`
+/// unless another lies within the limits by [`BRANCH_SWITCH_MARGIN`] more; without `prev` the
+/// one least outside `limits`.
+fn shoulder_angles(
+    m: &Matrix3<f64>,
+    prev: Option<[f64; 3]>,
+    limits: &[(f64, f64)],
+) -> Vec<[f64; 3]> {
     // m = Ry(α) Rx(β) Rz(γ), α = −f, β = a, γ = −r.
     let cb = m[(0, 2)].hypot(m[(2, 2)]);
     let alpha0 = m[(0, 2)].atan2(m[(2, 2)]);
@@ -340,8 +345,20 @@ fn shoulder_angles(m: &Matrix3<f64>, prev: Option<[f64; 3]>, limits: &[(f64, f64
     } else {
         solutions.iter().min_by(|a, b| least_outside(a, b))
     };
-    best.map(|b| b.0).unwrap_or(reference)
+    let Some(best) = best.map(|b| b.0) else {
+        return vec![reference];
+    };
+    std::iter::once(best)
+        .chain(solutions.iter().map(|s| s.0).filter(|s| *s != best))
+        .collect()
 }
+
+/// How much nearer (metres: the elbow's and the wrist's distances to the capture, summed) a
+/// shoulder solution that a limit held must bring the arm than the preferred one for the fit
+/// to take it: the other Euler branch, clamped, may keep the arm's direction where the
+/// preferred one, clamped, gives it up (FAIR's zombie take: a left arm held forward came out
+/// at the flexion's lower limit, 52° off).
+const BRANCH_POSITION_GAIN: f64 = 0.01;
 
 /// Clamps `v` into `lim`, recording whether it moved.
 fn clamp_into(v: f64, lim: (f64, f64), clamped: &mut bool) -> f64 {
@@ -452,20 +469,37 @@ impl HumanArms {
         let upper = hinge_frame(&u, &plane);
         let m = rc.inverse() * upper;
         let prev3 = prev.map(|p| [p[2], p[3], p[4]]);
-        let s = shoulder_angles(m.matrix(), prev3, &lim[2..5]);
-        for k in 0..3 {
-            q[2 + k] = clamp_into(s[k], lim[2 + k], &mut clamped[2 + k]);
-        }
-        let upper = rc * shoulder_rotation(q[2], q[3], q[4]);
-        // Elbow flexion: the forearm's angle in the hinge plane.
-        let wu = upper.inverse() * w;
-        q[5] = clamp_into(wu.x.atan2(-wu.z), lim[5], &mut clamped[5]);
         let capture_elbow_angle = u.dot(&w).clamp(-1.0, 1.0).acos();
-        if clamped[..6].iter().any(|c| *c) {
-            // A limit held the arm (a clamped clavicle shifts the shoulder): bring elbow and
-            // wrist as near the capture as the limits
-            // let the shoulder and elbow go.
-            self.refine_at_limits(t, lim, capture_elbow_angle, &mut q);
+        let goal = self.target_points(t);
+        let mut best: Option<([f64; 9], [bool; 9], f64)> = None;
+        for s in shoulder_angles(m.matrix(), prev3, &lim[2..5]) {
+            let (mut qs, mut held) = (q, clamped);
+            for k in 0..3 {
+                qs[2 + k] = clamp_into(s[k], lim[2 + k], &mut held[2 + k]);
+            }
+            let upper = rc * shoulder_rotation(qs[2], qs[3], qs[4]);
+            // Elbow flexion: the forearm's angle in the hinge plane.
+            let wu = upper.inverse() * w;
+            qs[5] = clamp_into(wu.x.atan2(-wu.z), lim[5], &mut held[5]);
+            // Within the limits the capture's directions are met exactly; where a limit held
+            // the arm (a clamped clavicle shifts the shoulder), elbow and wrist are brought as
+            // near the capture as the limits let the shoulder and elbow go.
+            let miss = if held[..6].iter().any(|c| *c) {
+                self.refine_at_limits(t, lim, capture_elbow_angle, &mut qs);
+                let (e, wr) = self.elbow_wrist_left(&qs);
+                (e - goal.elbow).norm() + (wr - goal.wrist).norm()
+            } else {
+                0.0
+            };
+            if best.is_none_or(|b| miss < b.2 - BRANCH_POSITION_GAIN) {
+                best = Some((qs, held, miss));
+            }
+            if miss <= BRANCH_POSITION_GAIN {
+                break;
+            }
+        }
+        if let Some((qs, held, _)) = best {
+            (q, clamped) = (qs, held);
         }
         let rc = clavicle_rotation(q[0], q[1]);
         let upper = rc * shoulder_rotation(q[2], q[3], q[4]);
@@ -712,6 +746,33 @@ mod tests {
         for (k, (a, b)) in fit.angles.iter().zip(&q).enumerate() {
             assert!((a - b).abs() < 2e-2, "angle {k}: {a} vs {b}");
         }
+    }
+
+    #[test]
+    fn a_limit_on_the_other_euler_branch_does_not_give_up_the_arm_s_direction() {
+        // FAIR's zombie take: an arm held forward, its twist beyond the shoulder rotation's
+        // limit. The previous frame on the other Euler branch kept the fit there, clamped at
+        // the flexion's lower limit: the upper arm 52° off. The branch that keeps the arm's
+        // direction (only the twist clamped) is taken.
+        let (robot, h) = human();
+        let q = [0.0, 0.0, 1.8, -0.17, 1.8, 0.05, 0.0, 0.0, 0.0];
+        let t = target_from_model(&robot, Side::Left, &q);
+        let mut prev = q;
+        prev[2..5].copy_from_slice(&[-1.047, 3.1, -1.22]);
+        let fit = h.fit(Side::Left, &t, Some(&prev));
+        let (e, w) = h.elbow_and_wrist(Side::Left, &fit.angles);
+        let p = h.target_points(&t);
+        assert!(
+            (e - p.elbow).norm() + (w - p.wrist).norm() < 0.01,
+            "{:?}",
+            fit.angles
+        );
+        assert!((fit.angles[2] - 1.8).abs() < 0.02, "{:?}", fit.angles);
+        assert!(
+            fit.clamped[4],
+            "the rotation is held at its limit: {:?}",
+            fit.angles
+        );
     }
 
     #[test]
