@@ -33,8 +33,9 @@ fn robot_reports_what_it_finds_and_keeps_it() {
     // Its meshes are not beside it: a viewer would draw its links without them, and it says so.
     let said = String::from_utf8_lossy(&out.stderr);
     assert!(
-        said.contains("warning: g1: 35 visual mesh(es) not found, on link(s) \"pelvis\"")
-            && said.contains("Foxglove draws those links without them"),
+        said.contains(
+            "warning: g1_29dof_rev_1_0: 35 visual mesh(es) not found, on link(s) \"pelvis\""
+        ) && said.contains("Foxglove draws those links without them"),
         "{said}"
     );
     assert_eq!(report["found"], "names");

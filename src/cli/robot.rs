@@ -49,7 +49,8 @@ pub fn run(args: RobotArgs) -> Result<()> {
         let mut links: Vec<&str> = unseen.iter().map(|(l, _)| l.as_str()).collect();
         links.dedup();
         eprintln!(
-            "warning: {name}: {} visual mesh(es) not found, on link(s) {}: Foxglove draws those links without them: {first}",
+            "warning: {}: {} visual mesh(es) not found, on link(s) {}: Foxglove draws those links without them: {first}",
+            anatomy.robot().name(),
             unseen.len(),
             sgplvm::robots::names::few(&links, 8)
         );

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use sgplvm::robots::urdf::MeshSearch;
-use sgplvm::robots::{PhysicsError, ReplayOptions, Trajectory};
+use sgplvm::robots::{PhysicsError, ReplayOptions, Robot, Trajectory};
 
 use super::args::load_any_model;
 use super::body::BodyArgs;
@@ -102,7 +102,19 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             }
         }
     }
-    let robot = args.robot.as_deref().unwrap_or("robot");
+    // The robot's name: given, else the URDF's own (`<robot name>`: its trajectory's topic
+    // `/NAME/joint_command` found with no --topic, and the replay's topics named so).
+    let urdf_name = match (&args.robot, &args.urdf) {
+        (None, Some(_)) => Robot::from_urdf_str(&xml, &source)
+            .map(|r| r.name().to_string())
+            .ok(),
+        _ => None,
+    };
+    let robot = args
+        .robot
+        .as_deref()
+        .or(urdf_name.as_deref())
+        .unwrap_or("robot");
     let topic = args.topic.as_deref();
     let mut trajectory = match (
         args.model.as_deref().zip(args.input.as_deref()),

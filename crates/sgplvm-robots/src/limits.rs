@@ -308,21 +308,26 @@ impl LimitCounts {
         let mut worst: Vec<usize> = (0..names.len())
             .filter(|&k| self.largest[k] > 0.0)
             .collect();
-        worst.sort_by(|&a, &b| self.largest[b].total_cmp(&self.largest[a]));
+        let times = |k: usize| self.position[k] + self.velocity[k];
+        worst.sort_by(|&a, &b| {
+            times(b)
+                .cmp(&times(a))
+                .then(self.largest[b].total_cmp(&self.largest[a]))
+        });
         let shown: Vec<String> = worst
             .iter()
             .take(3)
             .map(|&k| {
                 format!(
-                    "{} {}×, up to {:.1}°",
+                    "{} {}× (moved up to {:.1}° from the command asked)",
                     names[k],
-                    self.position[k] + self.velocity[k],
+                    times(k),
                     self.largest[k].to_degrees()
                 )
             })
             .collect();
         format!(
-            "{} of {} commands moved within {robot}'s limits ({} joint positions beyond a position limit, {} joint steps beyond a velocity limit; most: {})",
+            "{} of {} commands moved within {robot}'s limits ({} joint positions beyond a position limit, {} joint steps beyond a velocity limit; most often: {})",
             self.commands_clamped,
             self.commands,
             self.position.iter().sum::<usize>(),
@@ -408,6 +413,23 @@ mod tests {
         let line = counts.summary("coman", &names);
         assert!(
             line.starts_with("2 of 3 commands moved within coman's limits"),
+            "{line}"
+        );
+        // Joints listed by how often they were moved, each with how far at most (Sawyer's
+        // report listed the joint moved farthest first, 1340× before 2311×).
+        let counts = LimitCounts {
+            commands: 10,
+            commands_clamped: 9,
+            position: vec![0, 1, 0],
+            velocity: vec![2, 7, 0],
+            largest: vec![3.0, 0.5, 0.0],
+        };
+        let line = counts.summary("coman", &names);
+        assert!(
+            line.ends_with(
+                "most often: LShLat 8× (moved up to 28.6° from the command asked), \
+                 LShSag 2× (moved up to 171.9° from the command asked))"
+            ),
             "{line}"
         );
         let e = CommandLimits::for_joints(&robot, &["elbow".to_string()])
