@@ -57,6 +57,9 @@ pub struct LiveView {
     stream: SceneStream,
     last_static: Option<Instant>,
     port: u16,
+    /// Not a number in every latent dimension: what `/latent` shows for a frame whose pose
+    /// could not be reconstructed.
+    no_latent: Vec<f64>,
     _context: Arc<Context>,
 }
 
@@ -101,7 +104,8 @@ fn fetch(assets: &Assets, uri: &str) -> Result<Vec<u8>, String> {
 
 impl LiveView {
     /// Starts the server on `addr` (port 0: any free port) for the human (`human_joints`, the
-    /// model's human columns) and `robots`, with a latent space of `latent_dim` dimensions.
+    /// model's human columns) and `robots`, with a latent space of `latent_dim` dimensions (a
+    /// per-part model's parts side by side; 0 where the robots are retargeted, no model).
     pub fn start(
         addr: SocketAddr,
         human_joints: Vec<String>,
@@ -169,6 +173,7 @@ impl LiveView {
             stream,
             last_static: None,
             port,
+            no_latent: vec![f64::NAN; latent_dim],
             _context: context,
         })
     }
@@ -180,13 +185,14 @@ impl LiveView {
 
     /// Sends one frame: the human's joints, each robot's command, and per robot its standard
     /// deviations and trust (`[reconstruction error, threshold, sd, threshold, state]`), then
-    /// the latent point.
+    /// the latent point (`None`: not a number, the pose not reconstructed; every other topic
+    /// is shown all the same).
     pub fn frame(
         &mut self,
         time_ns: i64,
         human: &[f64],
         robots: &[(&[f64], &[f64], [f64; 5])],
-        latent: &[f64],
+        latent: Option<&[f64]>,
     ) -> Result<(), LiveError> {
         if self
             .last_static
@@ -209,7 +215,7 @@ impl LiveView {
             arrays.push(r.1);
             arrays.push(&r.2);
         }
-        arrays.push(latent);
+        arrays.push(latent.unwrap_or(&self.no_latent));
         let messages = self
             .stream
             .frame(time_ns, &joints, &arrays)

@@ -887,12 +887,27 @@ def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
     assert summary["robots"]["coman"]["position_clamped"] == 1
 
 
-def test_live_view_serves_foxglove(tmp, data, models):
+@pytest.mark.parametrize("driven", ["one latent space", "a latent space per arm", "retargeting"])
+def test_live_view_serves_foxglove(tmp, data, models, driven):
     """A WebSocket client subscribing as Foxglove does (``foxglove.sdk.v1``) sees the scene files'
-    channels with their ROS 2 schemas, and transforms at the input rate."""
+    channels with their ROS 2 schemas, and transforms at the input rate, whatever drives the
+    robot: a per-arm model (the ten-minute guide's) sent nothing until 2026-12-07, every frame
+    dropped for want of a single latent point."""
+    if driven == "a latent space per arm":
+        parts = tmp / "view_parts.sgp"
+        subprocess.run(
+            [str(sgplvm_binary()), "train", "--parts", "arms", "--data", str(DEMOS), "--robot", "coman",
+             "--max-iters", "20", "--validation", "none", "--out", str(parts)],
+            check=True, capture_output=True,
+        )
+        source = ["--model", str(parts)]
+    elif driven == "retargeting":
+        source = ["--retarget", "--margin", "0", "--urdf", f"coman={relaxed_urdf(tmp, 'coman')[0]}"]
+    else:
+        source = ["--model", str(models["coman"])]
     domain = next_domain()
     port = 18765 + domain
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--foxglove", f"127.0.0.1:{port}"])
+    node = Teleop(tmp, domain, [*source, "--robot", "coman", "--foxglove", f"127.0.0.1:{port}"])
     try:
         ros = Ros2(domain)
         w = ros.writer("/human/joint_states", JointState)
@@ -941,7 +956,8 @@ def test_live_view_serves_foxglove(tmp, data, models):
 
         asyncio.run(client())
     finally:
-        node.stop()
+        _, err = node.stop()
+    assert "live view:" in err and "not a number" not in err, err
     topics = {c["topic"]: c for c in result["channels"].values()}
     expected = {
         "/human/joint_states": "sensor_msgs/msg/JointState",
@@ -963,6 +979,7 @@ def test_live_view_serves_foxglove(tmp, data, models):
     rate = (len(tf) - 1) / (tf[-1] - tf[0])
     assert 30 <= rate <= 50, rate
     assert len(result["counts"].get("/coman/joint_command", [])) >= 0.9 * len(data["rows"])
+    assert len(result["counts"].get("/latent", [])) >= 0.9 * len(data["rows"])
 
 
 def _quaternion(m):

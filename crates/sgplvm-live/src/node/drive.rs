@@ -319,11 +319,12 @@ pub(super) fn start_view(
                     rest: r.drive.anatomy.hold_configuration().to_vec(),
                 })
                 .collect();
-            // The first robot's latent point is shown, where it has a single latent space.
-            let q = match driven.first().and_then(|r| r.drive.model.as_deref()) {
-                Some(AnyModel::Single(m)) => m.config().latent_dim,
-                _ => 0,
-            };
+            // The first robot's latent point is shown (a per-part model's parts side by side;
+            // none where it is retargeted).
+            let q = driven
+                .first()
+                .and_then(|r| r.drive.model.as_deref())
+                .map_or(0, AnyModel::latent_dim);
             let v = crate::view::LiveView::start(addr, human.to_vec(), robots, q)?;
             log(&format!(
                 "live view: Foxglove WebSocket on ws://{}:{}",

@@ -359,19 +359,13 @@ impl<'a> Session<'a> {
         }
         self.latencies.push(received.elapsed().as_secs_f64() * 1e6);
         if let Some(v) = self.view.as_mut() {
-            // The latent point of a single latent space (a per-part model has one per part).
-            let latent = self.driven[0]
-                .model_slot
-                .map(|k| &self.slots[k])
-                .filter(|l| matches!(l.model.as_ref(), AnyModel::Single(_)));
-            show(
-                v,
-                &self.driven,
-                &self.h,
-                latent.and_then(|l| l.ok.then_some(&l.x[..])),
-                stamp.to_ns(),
-                log,
-            );
+            // The first robot's latent point (a per-part model's parts side by side; an empty
+            // one where the robot is retargeted, no model).
+            let latent = match self.driven[0].model_slot.map(|k| &self.slots[k]) {
+                Some(l) => l.ok.then_some(&l.x[..]),
+                None => Some(&[][..]),
+            };
+            show(v, &self.driven, &self.h, latent, stamp.to_ns(), log);
         }
         self.summary.frames += 1;
         self.last_input = Some(received);

@@ -156,13 +156,7 @@ pub(super) fn show(
             )
         })
         .collect();
-    let sent = match latent {
-        Some(x) => view.frame(time_ns, h, &robots, x),
-        None => Err(LiveError::View(
-            "the frame's latent point is not a number".into(),
-        )),
-    };
-    if let Err(e) = sent {
+    if let Err(e) = view.frame(time_ns, h, &robots, latent) {
         log(&format!("warning: {e}"));
     }
 }
