@@ -75,7 +75,7 @@ pub enum CaptureError {
     #[error(transparent)]
     Bvh(#[from] BvhError),
     /// No naming scheme identifies both arms.
-    #[error("{file}: cannot tell which segments are the arms; the names of one of these schemes were expected: {}. The file's {} segments, nearest the root first: {}. Name them with --map FILE (a JSON object such as {{\"jLeftShoulder\": \"L_UpperArm\", \"jLeftElbow\": \"L_Forearm\", \"jLeftWrist\": \"L_Hand\", ...}})",
+    #[error("{file}: cannot tell which segments are the arms; the names of one of these schemes were expected: {}. Its {} segments, nearest the root first: {}. Name them with --map FILE (a JSON object such as {{\"jLeftShoulder\": \"L_UpperArm\", \"jLeftElbow\": \"L_Forearm\", \"jLeftWrist\": \"L_Hand\", ...}})",
         SCHEMES.iter().map(|s| s.name).collect::<Vec<_>>().join("; "), .segments.len(), list(.segments))]
     NoArms {
         /// The capture file.

@@ -1109,6 +1109,30 @@ def test_a_bounded_run_whose_input_ends_short_stops_and_says_so(tmp, data, model
     assert f"stopping after {len(rows)} of the 300 frames asked" in err, err
 
 
+def test_a_bounded_run_whose_input_ends_while_calibrating_stops_and_says_so(tmp, data, models):
+    """A TF stream shorter than its calibration (1 s of frames, 5 s to watch): the node saw
+    input but fitted no frame; it ran on until killed (helper session, 2026-12-07, a Bandai
+    capture of 1.2 s). It stops 5 s after the last transforms and says why."""
+    domain = next_domain()
+    human = tmp / "human_tf_short.mcap"
+    rows, times = data["rows"][:40], data["times_ns"][:40]
+    sgplvm.write_joint_states(human, "/human/joint_states", times.astype(np.int64), data["names"], rows)
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--margin", "0", "--max-frames", "40",
+    ])
+    try:
+        out = subprocess.run(
+            [str(sgplvm_binary()), "replay", "--as", "tf", "--input", str(human), "--domain-id", str(domain)],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert out.returncode == 0, out.stderr
+        code = node.proc.wait(timeout=30)
+    finally:
+        summary, err = node.stop()
+    assert code == 0, err
+    assert "stopping after 0 of the 40 frames asked" in err and "while calibrating the person" in err, err
+
+
 def test_import_records_an_mvn_stream_as_the_angles_it_was_made_from(tmp, data):
     """``sgplvm import --mvn`` records a stream written from the specification's tables, each
     frame through the same fit as ``teleop --input mvn``, on the stream's time code (40 Hz here,

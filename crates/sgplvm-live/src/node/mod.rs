@@ -302,8 +302,11 @@ pub fn teleop(
         // not held forever.
         if let (Some(m), Some(idle)) = (options.max_frames, session.since_input()) {
             if idle > BOUNDED_RUN_IDLE {
+                let calibrating = session.calibrating().map_or(String::new(), |c| {
+                    format!(" (it ended while {c}; --calibration FILE or --calibration-seconds 0 commands from the first frame)")
+                });
                 log(&format!(
-                    "stopping after {} of the {m} frames asked: no input for {:.0} s",
+                    "stopping after {} of the {m} frames asked: no input for {:.0} s{calibrating}",
                     session.frames(),
                     idle.as_secs_f64()
                 ));

@@ -80,6 +80,8 @@ pub(super) struct MvnInput {
     /// What was last said of the sender, refusals and units (a change is logged and
     /// published).
     said: (Option<std::net::IpAddr>, usize, String),
+    /// When a pose datagram last arrived (during the calibration too, when no frame is fitted).
+    pub(super) heard: Option<std::time::Instant>,
 }
 
 impl MvnInput {
@@ -107,7 +109,16 @@ impl MvnInput {
             calibration: None,
             calibrating_frames: 0,
             said: (None, 0, String::new()),
+            heard: None,
         })
+    }
+
+    /// The calibration under way (`calibrating the person: …`), if the stream is being
+    /// calibrated.
+    pub(super) fn calibrating(&self) -> Option<&str> {
+        self.calibration
+            .as_deref()
+            .filter(|c| c.starts_with("calibrating"))
     }
 
     /// Whose datagrams are taken, in words.
@@ -204,7 +215,10 @@ impl MvnInput {
     /// whether there was one. A frame the fit cannot use is counted and skipped.
     pub(super) fn newest(&mut self, h: &mut [f64], log: &mut dyn FnMut(&str)) -> bool {
         let pose = match self.receiver.newest() {
-            Ok(Some(pose)) => pose,
+            Ok(Some(pose)) => {
+                self.heard = Some(std::time::Instant::now());
+                pose
+            }
             Ok(None) => return false,
             Err(e) => {
                 log(&format!("--input mvn: {e}"));

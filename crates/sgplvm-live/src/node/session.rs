@@ -144,7 +144,20 @@ impl<'a> Session<'a> {
 
     /// How long since the last input frame, once one came.
     pub(super) fn since_input(&self) -> Option<std::time::Duration> {
-        self.last_input.map(|t| t.elapsed())
+        let heard = [
+            self.last_input,
+            self.tf.as_ref().and_then(|t| t.heard),
+            self.mvn.as_ref().and_then(|m| m.heard),
+        ];
+        heard.into_iter().flatten().max().map(|t| t.elapsed())
+    }
+
+    /// The stream's calibration under way, if its person is being calibrated (no frame
+    /// commanded until it is done).
+    pub(super) fn calibrating(&self) -> Option<String> {
+        let tf = self.tf.as_ref().and_then(|t| t.calibrating());
+        let mvn = self.mvn.as_ref().and_then(|m| m.calibrating());
+        tf.or(mvn).map(str::to_string)
     }
 
     /// One wake-up: wait, use the newest message, check for stale input, publish the status

@@ -86,7 +86,15 @@ pub(super) struct TfInput {
     elbow: Vec<f64>,
     wrist: Vec<f64>,
     warned: BTreeSet<String>,
+    /// When transforms last arrived (during the calibration too, when no frame is fitted).
+    pub(super) heard: Option<std::time::Instant>,
+    /// Why the arms were not found in the tree as it last was, and since when (not said until
+    /// the tree has kept that shape for [`UNFOUND_PATIENCE`]).
+    unfound: Option<(String, std::time::Instant)>,
 }
+
+/// How long a tree without arms must keep its shape before the node says so.
+const UNFOUND_PATIENCE: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// `/tf`: as tf2's listener, many transforms kept (a publisher may send them one by one);
 /// best effort, so that reliable and best-effort publishers both match.
@@ -106,6 +114,15 @@ fn static_qos() -> QosProfile {
 }
 
 impl TfInput {
+    /// The calibration under way (`calibrating the person: …`), if the stream is being
+    /// calibrated.
+    pub(super) fn calibrating(&self) -> Option<&str> {
+        self.summary
+            .calibration
+            .as_deref()
+            .filter(|c| c.starts_with("calibrating"))
+    }
+
     /// How the stream's person is calibrated, for the status.
     pub(super) fn calibration_status(&self) -> String {
         self.summary
@@ -143,6 +160,8 @@ impl TfInput {
             elbow: Vec::new(),
             wrist: Vec::new(),
             warned: BTreeSet::new(),
+            heard: None,
+            unfound: None,
         })
     }
 
@@ -196,13 +215,16 @@ impl TfInput {
     /// models' order); its stamp, if there was one.
     pub(super) fn newest(&mut self, h: &mut [f64], log: &mut dyn FnMut(&str)) -> Option<Time> {
         if !self.take(log) {
+            self.say_unfound(log);
             return None;
         }
+        self.heard = Some(std::time::Instant::now());
         // The arms are found again whenever the tree changes shape (latched frames arriving
         // after the first dynamic ones, a tracker adding a person's frames).
         if self.tried != Some(self.buffer.generation()) {
             self.find_arms(log);
         }
+        self.say_unfound(log);
         let fitted = self.fitted.as_mut()?;
         let next = self.sets.next(&self.buffer, fitted.needed());
         for (stamp, missing) in next.incomplete {
@@ -267,7 +289,16 @@ impl TfInput {
     fn find_arms(&mut self, log: &mut dyn FnMut(&str)) {
         self.tried = Some(self.buffer.generation());
         match identify(&self.buffer, self.map.as_ref(), self.calibration.clone()) {
+            // The tree grew (latched frames after the first dynamic ones) and the arms are the
+            // same: the fit and its calibration under way go on.
+            Ok(f)
+                if self.fitted.as_ref().is_some_and(|old| {
+                    old.scheme() == f.scheme()
+                        && old.torso() == f.torso()
+                        && old.needed() == f.needed()
+                }) => {}
             Ok(f) => {
+                self.unfound = None;
                 log(&format!(
                     "--input tf: arms found by {} hanging from `{}`; the fit needs {}",
                     f.scheme(),
@@ -282,10 +313,23 @@ impl TfInput {
             }
             Err(e) => {
                 let message = format!("--input tf: {e}");
-                log(&message);
                 if self.fitted.is_none() {
-                    self.summary.error = Some(message);
+                    self.summary.error = Some(message.clone());
                 }
+                // Said once the tree has kept its shape a while: the first dynamic frames often
+                // arrive before the latched ones that hold the arms.
+                self.unfound = Some((message, std::time::Instant::now()));
+            }
+        }
+    }
+
+    /// Says why no arms were found, once, when the tree has not changed for
+    /// [`UNFOUND_PATIENCE`].
+    fn say_unfound(&mut self, log: &mut dyn FnMut(&str)) {
+        if let Some((message, since)) = &self.unfound {
+            if since.elapsed() >= UNFOUND_PATIENCE {
+                log(message);
+                self.unfound = None;
             }
         }
     }
