@@ -186,9 +186,16 @@ fn drive_one(
     let publisher = command_publisher(node, &topic, options.form, options.command_qos)?;
     let d = joints.len();
     let m = model_columns.len();
-    let mapping = match &retargeter {
-        Some(_) => "whole-arm retargeting of each frame (no model: nothing held for trust)".into(),
-        None => thresholds.to_string(),
+    let mapping = match (&retargeter, drive.model.as_deref()) {
+        (Some(_), _) => {
+            "whole-arm retargeting of each frame (no model: nothing held for trust)".into()
+        }
+        // A per-part model's signals are each part's over its own threshold, the worst part's:
+        // 1 is every threshold.
+        (None, Some(AnyModel::Parts(_))) => format!(
+            "{thresholds}: per part, each part's signal over its own threshold (the worst part's), so 1 is at the threshold"
+        ),
+        (None, _) => thresholds.to_string(),
     };
     log(&format!(
         "{}: {} joints as {} on {topic}; {mapping}",
