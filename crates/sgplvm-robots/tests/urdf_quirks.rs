@@ -237,6 +237,37 @@ fn nameless_materials_load_as_ros_reads_them_and_each_is_named_by_line() {
 }
 
 #[test]
+fn text_beside_a_geometry_s_shape_is_left_out_as_ros_reads_it() {
+    // AgileX's Tracer wheels (mobile_aloha_sim, expanded from xacro): `<geometry>-->`, a
+    // comment's end left behind. urdf-rs took the text for a shape ("unknown variant `-->`",
+    // no line); ROS's parser reads the mesh.
+    let xml = r#"<?xml version="1.0"?>
+<robot name="wheeled">
+  <link name="base">
+    <collision><geometry>--><cylinder radius="0.1" length="0.05"/></geometry></collision>
+  </link>
+  <link name="tip">
+    <visual><geometry><sphere radius="0.1"/>
+      --></geometry></visual>
+  </link>
+  <joint name="j" type="continuous"><parent link="base"/><child link="tip"/></joint>
+</robot>"#;
+    let e = urdf_rs::read_from_string(xml).unwrap_err().to_string();
+    assert!(e.contains("-->"), "{e}");
+    let r = load(xml);
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("2 × text inside a <geometry> beside its shape at line 4 (<link name=\"base\"> <collision>), line 8 (<link name=\"tip\"> <visual>)"),
+        "{notes:?}"
+    );
+    assert!(matches!(
+        r.urdf().links[0].collision[0].geometry,
+        urdf_rs::Geometry::Cylinder { .. }
+    ));
+}
+
+#[test]
 fn what_the_specification_defaults_is_filled_and_what_it_requires_is_noted() {
     let xml = arm(
         r#"<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>

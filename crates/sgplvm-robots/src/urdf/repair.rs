@@ -70,7 +70,12 @@ struct Repairs {
 impl Repairs {
     /// Records `problem` at `node` (described as belonging to `owner`), repaired as `repair`.
     fn note(&mut self, problem: &str, repair: &str, node: El, owner: String) {
-        let place = (line_of(node), owner);
+        self.note_at(problem, repair, line_of(node), owner);
+    }
+
+    /// Records `problem` at `line` (in what `owner` describes), repaired as `repair`.
+    fn note_at(&mut self, problem: &str, repair: &str, line: u32, owner: String) {
+        let place = (line, owner);
         match self
             .found
             .iter_mut()
@@ -162,6 +167,9 @@ pub(super) fn repair(
         for part in ["inertial", "visual", "collision"] {
             for p in children(link, part) {
                 origins(&mut r, text, p, urdf_1_1);
+                for g in children(p, "geometry") {
+                    stray_text(&mut r, text, g, format!("{owner} <{part}>"));
+                }
             }
         }
     }
@@ -209,6 +217,26 @@ fn material(r: &mut Repairs, text: &str, m: El, owner: String) {
             );
             r.remove(text, t);
         }
+    }
+}
+
+/// Text inside a `<geometry>` beside its shape (AgileX's Tracer wheels: `<geometry>-->`, a
+/// comment's end left behind): urdfdom reads the shape and ignores the text, urdf-rs takes the
+/// text for a shape and refuses the file. Left out.
+fn stray_text(r: &mut Repairs, text: &str, geometry: El, owner: String) {
+    for t in geometry.children().filter(|c| c.is_text()) {
+        let Some(s) = t.text().filter(|s| !s.trim().is_empty()) else {
+            continue;
+        };
+        // The line of the text itself, not of the line end before it.
+        let start = t.range().start + (s.len() - s.trim_start().len());
+        r.note_at(
+            "text inside a <geometry> beside its shape",
+            "left out, as ROS's parser ignores it",
+            t.document().text_pos_at(start).row,
+            owner.clone(),
+        );
+        r.remove(text, t);
     }
 }
 
