@@ -544,6 +544,21 @@ pub struct ReplayArgs {
     /// With --as tf: a prefix of every frame name (a namespace such as `actor1/`).
     #[arg(long, default_value = "")]
     tf_prefix: String,
+    /// With --as tf and --bvh: whose skeleton the frames are — `model`, the human model's
+    /// segments (Xsens MVN names), or `source`, the file's own joints, every frame of the file
+    /// at its own rate, as a tracker streams that skeleton (teleop then fits it through the
+    /// calibration the file was imported with: `import --rate` at the file's rate gives the
+    /// same frames).
+    #[arg(long, value_enum, default_value = "model")]
+    skeleton: Skeleton,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Skeleton {
+    /// The human model's segments.
+    Model,
+    /// The capture file's own joints.
+    Source,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -556,12 +571,53 @@ enum SendAs {
     Tf,
 }
 
+/// `replay --bvh FILE --as tf --skeleton source`: the file's own joints on /tf.
+fn replay_source_skeleton(args: &ReplayArgs) -> Result<()> {
+    let (Some(path), SendAs::Tf) = (&args.bvh, args.send_as) else {
+        bail!("--skeleton source: expected --bvh FILE and --as tf (the file's own joints are sent as TF frames)");
+    };
+    let bvh = sgplvm::capture::Bvh::read(path)?;
+    // Imported at the file's own rate: its frames as they are, on the clock of the stream.
+    let own_rate = sgplvm::capture::ImportOptions {
+        rate_hz: 1.0 / bvh.frame_time,
+        ..Default::default()
+    };
+    let motion = sgplvm::capture::import_parsed(&bvh, &path.display().to_string(), &own_rate)?;
+    let options = ReplayOptions {
+        domain_id: domain_id(args.domain_id)?,
+        topic: args.topic.clone(),
+        rate: args.rate,
+        looped: args.looped,
+        qos: args.qos.reliability(),
+        wait_s: args.wait,
+        max_messages: args.max_messages,
+    };
+    let stop = stop_flag()?;
+    eprintln!(
+        "replaying {} of {} (its own {} joints at {:.0} Hz) on /tf{}",
+        sgplvm::robots::names::count(
+            bvh.frames() - (motion.source.span_s.0 / bvh.frame_time).round() as usize,
+            "frame"
+        ),
+        path.display(),
+        bvh.joints.len(),
+        1.0 / bvh.frame_time,
+        if args.looped { ", looped" } else { "" }
+    );
+    let sent = sgplvm_live::replay_tf_skeleton(&bvh, &motion, &args.tf_prefix, &options, &stop)?;
+    eprintln!("published {sent} messages");
+    Ok(())
+}
+
 /// The human series of `path`: its JointState `topic` as recorded (stamps and all).
 fn human_series(path: &std::path::Path, topic: &str) -> Result<JointStates> {
     Ok(read_joint_states(path, topic)?)
 }
 
 pub fn run_replay(args: ReplayArgs) -> Result<()> {
+    if args.skeleton == Skeleton::Source {
+        return replay_source_skeleton(&args);
+    }
     let (series, source) = match (&args.input, &args.bvh) {
         (Some(input), _) => (human_series(input, &args.topic)?, input.clone()),
         (None, Some(bvh)) => {

@@ -377,8 +377,15 @@ fn resample(
 ) -> Result<(DMatrix<f64>, Vec<i64>), CaptureError> {
     let n = angles.nrows();
     let quarter = std::f64::consts::FRAC_PI_2;
+    // At the file's own rate (within 0.1 %: CMU's frame time .0083333 for 120 Hz) every frame
+    // is taken as it is, at its own time: a stream of the file's frames (`replay --skeleton
+    // source`) then carries the same frames and stamps.
+    let own_rate = (options.rate_hz * dt - 1.0).abs() < 1e-3;
     // A frame time written with few digits (CMU's .0083333) must not lose the last frame.
-    let out_n = (span * options.rate_hz + 1e-3).floor() as usize + 1;
+    let out_n = match own_rate {
+        true => n - start_row,
+        false => (span * options.rate_hz + 1e-3).floor() as usize + 1,
+    };
     if out_n > MAX_OUTPUT_FRAMES {
         return Err(bad(format!(
             "{:.0} s at {} Hz would be {out_n} frames; at most {MAX_OUTPUT_FRAMES} are written (lower --rate or cut with --from/--to)",
@@ -388,8 +395,13 @@ fn resample(
     let mut out = DMatrix::<f64>::zeros(out_n, 18);
     let mut times_ns = Vec::with_capacity(out_n);
     for k in 0..out_n {
-        let t = k as f64 / options.rate_hz;
-        let x = (t / dt).min((n - 1 - start_row) as f64);
+        let (t, x) = match own_rate {
+            true => (k as f64 * dt, k as f64),
+            false => {
+                let t = k as f64 / options.rate_hz;
+                (t, (t / dt).min((n - 1 - start_row) as f64))
+            }
+        };
         let i = (x.floor() as usize).min(n - 2 - start_row);
         let a = x - i as f64;
         for side in 0..2 {

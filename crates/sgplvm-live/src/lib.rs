@@ -28,7 +28,7 @@ pub mod view;
 pub use commands::CommandForm;
 pub use gate::{Gate, GateOptions};
 pub use node::{teleop, Drive, Reliability, TeleopOptions, TeleopSummary, TfInputOptions};
-pub use replay::{replay, replay_mvn, replay_tf, ReplayOptions};
+pub use replay::{replay, replay_mvn, replay_tf, replay_tf_skeleton, ReplayOptions};
 
 /// What went wrong in the live node.
 #[derive(Debug, thiserror::Error)]

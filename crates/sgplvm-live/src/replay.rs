@@ -76,21 +76,14 @@ pub fn replay(
     let publisher: Publisher<JointState> = node
         .create_publisher(&topic, Some(qos(options.qos)))
         .map_err(|e| dds(format!("{e:?}")))?;
-    let waited = Instant::now();
-    while options.wait_s > 0.0
-        && node.subscription_count(&options.topic) == 0
-        && waited.elapsed().as_secs_f64() < options.wait_s
-        && !stop.load(Ordering::Relaxed)
-    {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_subscriber(&node, &options.topic, options, stop);
     let start = Instant::now();
     play(
-        series,
+        &series.times_ns,
         options,
         stop,
         start,
-        period_ns(series),
+        period_ns(&series.times_ns),
         |k, stamp_ns, _| {
             let msg = JointState {
                 header: Header {
@@ -138,7 +131,7 @@ pub fn replay_mvn(
     let start = Instant::now() + Duration::from_millis(50);
     let mut sample: u32 = 1;
     play(
-        series,
+        &series.times_ns,
         options,
         stop,
         start,
@@ -160,18 +153,20 @@ pub fn replay_mvn(
 /// time since the first frame — until the end, `stop` or `options.max_messages`. Returns the
 /// frames sent.
 fn play(
-    series: &JointStates,
+    times_ns: &[i64],
     options: &ReplayOptions,
     stop: &AtomicBool,
     start: Instant,
     gap_ns: i64,
     mut each: impl FnMut(usize, i64, i64) -> Result<(), LiveError>,
 ) -> Result<usize, LiveError> {
-    let t0 = series.times_ns[0];
-    let lap_ns = series.times_ns[series.len() - 1] - t0 + gap_ns;
+    let (Some(&t0), Some(&last)) = (times_ns.first(), times_ns.last()) else {
+        return Ok(0);
+    };
+    let lap_ns = last - t0 + gap_ns;
     let mut sent = 0usize;
     for lap in 0i64.. {
-        for (k, &t) in series.times_ns.iter().enumerate() {
+        for (k, &t) in times_ns.iter().enumerate() {
             if stop.load(Ordering::Relaxed) || options.max_messages.is_some_and(|m| sent >= m) {
                 return Ok(sent);
             }
@@ -190,13 +185,12 @@ fn play(
     Ok(sent)
 }
 
-/// The series' mean frame period (25 ms for a single frame): the gap between laps.
-fn period_ns(series: &JointStates) -> i64 {
-    let span = series.times_ns[series.len() - 1] - series.times_ns[0];
-    if series.len() > 1 {
-        span / (series.len() as i64 - 1)
-    } else {
-        25_000_000
+/// The mean frame period of frames at `times_ns` (25 ms for a single frame): the gap between
+/// laps.
+fn period_ns(times_ns: &[i64]) -> i64 {
+    match times_ns {
+        [first, .., last] => (last - first) / (times_ns.len() as i64 - 1),
+        _ => 25_000_000,
     }
 }
 
@@ -235,6 +229,80 @@ fn model_order(series: &JointStates, what: &str) -> Result<Vec<usize>, LiveError
         .collect()
 }
 
+/// Waits up to `options.wait_s` for a subscriber of `topic` (or `stop`).
+fn wait_for_subscriber(
+    node: &ros2_client::Node,
+    topic: &str,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+) {
+    let waited = Instant::now();
+    while options.wait_s > 0.0
+        && node.subscription_count(topic) == 0
+        && waited.elapsed().as_secs_f64() < options.wait_s
+        && !stop.load(Ordering::Relaxed)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A node publishing TF: `/tf` (reliable, volatile) and `/tf_static` (reliable, transient
+/// local: latched for late subscribers).
+struct TfPublishers {
+    node: ros2_client::Node,
+    dynamic: Publisher<crate::msgs::TFMessage>,
+    statics: Publisher<crate::msgs::TFMessage>,
+}
+
+impl TfPublishers {
+    fn new(options: &ReplayOptions) -> Result<TfPublishers, LiveError> {
+        use crate::tf::{TF_STATIC_TOPIC, TF_TOPIC};
+        use ros2_client::qos::{Durability, History, WhenFull};
+        use ros2_client::QosProfile;
+        let mut node = new_node(options.domain_id, "sgplvm_replay")?;
+        let dds = |e: String| LiveError::Dds { message: e };
+        let (pkg, name) = types::TF_MESSAGE;
+        let mut publisher = |topic: &str, q: QosProfile| {
+            let t = node
+                .create_topic(&topic_name(topic)?, MessageTypeName::new(pkg, name), &q)
+                .map_err(|e| dds(format!("{e:?}")))?;
+            node.create_publisher(&t, Some(q))
+                .map_err(|e| dds(format!("{e:?}")))
+        };
+        let dynamic = publisher(
+            TF_TOPIC,
+            QosProfile::publisher_default()
+                .reliability_reliable(WhenFull::DEFAULT)
+                .durability(Durability::Volatile)
+                .history(History::KeepLast { depth: 100 }),
+        )?;
+        let statics = publisher(
+            TF_STATIC_TOPIC,
+            QosProfile::publisher_default()
+                .reliability_reliable(WhenFull::DEFAULT)
+                .durability(Durability::TransientLocal)
+                .history(History::KeepLast { depth: 1 }),
+        )?;
+        Ok(TfPublishers {
+            node,
+            dynamic,
+            statics,
+        })
+    }
+
+    fn publish(&self, statics: bool, msg: crate::msgs::TFMessage) -> Result<(), LiveError> {
+        use crate::tf::{TF_STATIC_TOPIC, TF_TOPIC};
+        let (publisher, topic) = match statics {
+            true => (&self.statics, TF_STATIC_TOPIC),
+            false => (&self.dynamic, TF_TOPIC),
+        };
+        publisher.publish(msg).map_err(|e| LiveError::Publish {
+            topic: topic.to_string(),
+            message: format!("{e:?}"),
+        })
+    }
+}
+
 /// Publishes `series` (the human model's angles) as a TF tree of the human model's segments
 /// ([`crate::tf::HumanTf`], frame names after `prefix`): the fixed part once on `/tf_static`
 /// (reliable, transient local: latched for late subscribers), then one `TFMessage` per frame
@@ -246,69 +314,105 @@ pub fn replay_tf(
     options: &ReplayOptions,
     stop: &AtomicBool,
 ) -> Result<usize, LiveError> {
-    use crate::msgs::TFMessage;
-    use crate::tf::{HumanTf, TF_STATIC_TOPIC, TF_TOPIC};
-    use ros2_client::qos::{Durability, History, WhenFull};
-    use ros2_client::QosProfile;
+    use crate::tf::{HumanTf, TF_TOPIC};
     check(series, options)?;
     let config = |e: String| LiveError::Config(format!("--as tf: {e}"));
     let tree = HumanTf::new(prefix).map_err(|e| config(e.to_string()))?;
     let order = model_order(series, "--as tf")?;
-    let mut node = new_node(options.domain_id, "sgplvm_replay")?;
-    let dds = |e: String| LiveError::Dds { message: e };
-    let (pkg, name) = types::TF_MESSAGE;
-    let mut publisher = |topic: &str, q: QosProfile| -> Result<Publisher<TFMessage>, LiveError> {
-        let t = node
-            .create_topic(&topic_name(topic)?, MessageTypeName::new(pkg, name), &q)
-            .map_err(|e| dds(format!("{e:?}")))?;
-        node.create_publisher(&t, Some(q))
-            .map_err(|e| dds(format!("{e:?}")))
-    };
-    let dynamic = publisher(
-        TF_TOPIC,
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::DEFAULT)
-            .durability(Durability::Volatile)
-            .history(History::KeepLast { depth: 100 }),
-    )?;
-    let statics = publisher(
-        TF_STATIC_TOPIC,
-        QosProfile::publisher_default()
-            .reliability_reliable(WhenFull::DEFAULT)
-            .durability(Durability::TransientLocal)
-            .history(History::KeepLast { depth: 1 }),
-    )?;
-    let fail = |topic: &str, e: String| LiveError::Publish {
-        topic: topic.to_string(),
-        message: e,
-    };
-    statics
-        .publish(tree.static_message(Time::from_ns(series.times_ns[0])))
-        .map_err(|e| fail(TF_STATIC_TOPIC, format!("{e:?}")))?;
-    let waited = Instant::now();
-    while options.wait_s > 0.0
-        && node.subscription_count(TF_TOPIC) == 0
-        && waited.elapsed().as_secs_f64() < options.wait_s
-        && !stop.load(Ordering::Relaxed)
-    {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let start = Instant::now();
+    let tf = TfPublishers::new(options)?;
+    tf.publish(true, tree.static_message(Time::from_ns(series.times_ns[0])))?;
+    wait_for_subscriber(&tf.node, TF_TOPIC, options, stop);
     play(
-        series,
+        &series.times_ns,
         options,
         stop,
-        start,
-        period_ns(series),
+        Instant::now(),
+        period_ns(&series.times_ns),
         |k, stamp_ns, _| {
             let row = series.row(k);
             let q: Vec<f64> = order.iter().map(|&i| row[i]).collect();
             let msg = tree
                 .message(&q, Time::from_ns(stamp_ns))
                 .map_err(|e| config(e.to_string()))?;
-            dynamic
-                .publish(msg)
-                .map_err(|e| fail(TF_TOPIC, format!("{e:?}")))
+            tf.publish(false, msg)
+        },
+    )
+}
+
+/// Publishes a motion capture's own skeleton as a tracker streams it: per frame one
+/// `TFMessage` on `/tf` with every joint of `bvh` in its parent's frame (the root in
+/// `{prefix}world`; frame names the file's joint names after `prefix`), in metres, every frame
+/// of the file from the first one its import `motion` kept, stamped on the import's clock (the
+/// import's first time, then the file's frame time: an import at the file's own rate takes
+/// every frame at these times), at those times scaled by `options.rate`.
+/// Fitted by `teleop --input tf`, the stream gives the import's angles where the import's rate
+/// is the file's (`import --rate`): the check that a file and a stream of one motion agree,
+/// through the skeleton and calibration of the file. Returns the frames published.
+pub fn replay_tf_skeleton(
+    bvh: &sgplvm_capture::bvh::Bvh,
+    motion: &sgplvm_capture::CapturedMotion,
+    prefix: &str,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+) -> Result<usize, LiveError> {
+    use crate::tf::{transform, TF_TOPIC};
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    let config = |e: String| LiveError::Config(format!("--as tf --skeleton source: {e}"));
+    let metres = motion
+        .source
+        .calibration
+        .as_ref()
+        .and_then(|c| c.metres_per_unit)
+        .ok_or_else(|| {
+            config("the file's length units are unknown (import --units names them)".into())
+        })?;
+    let dt = bvh.frame_time;
+    let first = (motion.source.span_s.0 / dt).round() as usize;
+    let t0 = *motion
+        .times_ns
+        .first()
+        .ok_or_else(|| config("no frames".into()))?;
+    let times_ns: Vec<i64> = (first..bvh.frames())
+        .map(|f| t0 + ((f - first) as f64 * dt * 1e9).round() as i64)
+        .collect();
+    if !(options.rate.is_finite() && options.rate > 0.0) {
+        return Err(config(format!(
+            "rate {}; expected a positive speed factor",
+            options.rate
+        )));
+    }
+    let names: Vec<String> = bvh
+        .joints
+        .iter()
+        .map(|j| format!("{prefix}{}", j.name))
+        .collect();
+    let world = format!("{prefix}world");
+    let tf = TfPublishers::new(options)?;
+    wait_for_subscriber(&tf.node, TF_TOPIC, options, stop);
+    play(
+        &times_ns,
+        options,
+        stop,
+        Instant::now(),
+        period_ns(&times_ns),
+        |k, stamp_ns, _| {
+            let values = bvh.frame(first + k);
+            let stamp = Time::from_ns(stamp_ns);
+            let transforms = bvh
+                .joints
+                .iter()
+                .enumerate()
+                .map(|(j, joint)| {
+                    let (t, r) = joint.local(values);
+                    let local = Isometry3::from_parts(
+                        Translation3::from(t * metres),
+                        UnitQuaternion::from_rotation_matrix(&r),
+                    );
+                    let parent = joint.parent.map_or(world.as_str(), |p| names[p].as_str());
+                    transform(parent, &names[j], stamp, &local)
+                })
+                .collect();
+            tf.publish(false, crate::msgs::TFMessage { transforms })
         },
     )
 }

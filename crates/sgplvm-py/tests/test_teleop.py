@@ -1485,3 +1485,50 @@ def test_replay_as_tf_drives_teleop(tmp, data, models):
     order = [data["names"].index(n) for n in sgplvm.Robot.builtin("human").joint_names]
     answered = _commands_equal_predict(tmp, models, urdf, rows[:, order], times, commands, 1e-9)
     assert answered >= 38, (answered, err)
+
+
+def test_replay_of_a_capture_s_own_skeleton_commands_what_its_import_predicts(tmp, models):
+    """``replay --bvh F --as tf --skeleton source`` streams the file's own joints, as a tracker
+    streams that skeleton: ``teleop --input tf`` finds the arms by the importer's names, fits
+    the frames through the calibration the file was imported with (no seconds of watching) and
+    commands what ``predict --raw`` makes of the import at the file's rate."""
+    capture = pathlib.Path(__file__).resolve().parents[3] / "data" / "capture" / "cmu-13_26.bvh"
+    imported = tmp / "own_skeleton.mcap"
+    done = subprocess.run(
+        [str(sgplvm_binary()), "import", str(capture), "--rate", "120", "--out", str(imported)],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    human = sgplvm.load_demonstrations(imported)["human"]
+    order = [list(human["joint_names"]).index(n) for n in sgplvm.Robot.builtin("human").joint_names]
+    rows = np.asarray(human["positions"])[:, order]
+    times = np.asarray(sgplvm.load_demonstrations(imported)["times_ns"]).astype(np.int64)
+    domain = next_domain()
+    urdf = relaxed_urdf(tmp, "coman")
+    node = Teleop(tmp, domain, [
+        "--model", str(models["coman"]), "--robot", "coman", "--input", "tf", "--calibration", str(imported),
+        "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf[0]}",
+    ])
+    try:
+        ros = Ros2(domain)
+        ros.reader("/coman/joint_command", JointState)
+        ros.wait_matched()
+        out = subprocess.run(
+            [str(sgplvm_binary()), "replay", "--bvh", str(capture), "--as", "tf", "--skeleton", "source",
+             "--max-messages", "60", "--domain-id", str(domain)],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert out.returncode == 0, out.stderr
+        assert "published 60 messages" in out.stderr, out.stderr
+        commands = ros.take("/coman/joint_command", settle=0.5)
+    finally:
+        summary, err = node.stop()
+    assert "fitted through the calibration of import of" in err and "calibrating" not in err, err
+    answered = _commands_equal_predict(tmp, models, urdf, rows[:60], times[:60], commands, 1e-6)
+    assert answered >= 55, (answered, err)
+    # Only a file's own skeleton, as TF frames.
+    bad = subprocess.run(
+        [str(sgplvm_binary()), "replay", "--bvh", str(capture), "--as", "mvn", "--skeleton", "source"],
+        capture_output=True, text=True, timeout=30,
+    )
+    assert bad.returncode != 0 and "--skeleton source" in bad.stderr, bad.stderr
