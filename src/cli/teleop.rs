@@ -571,6 +571,21 @@ enum SendAs {
     Tf,
 }
 
+impl ReplayArgs {
+    /// How to replay, as the flags say.
+    fn options(&self) -> Result<ReplayOptions> {
+        Ok(ReplayOptions {
+            domain_id: domain_id(self.domain_id)?,
+            topic: self.topic.clone(),
+            rate: self.rate,
+            looped: self.looped,
+            qos: self.qos.reliability(),
+            wait_s: self.wait,
+            max_messages: self.max_messages,
+        })
+    }
+}
+
 /// `replay --bvh FILE --as tf --skeleton source`: the file's own joints on /tf.
 fn replay_source_skeleton(args: &ReplayArgs) -> Result<()> {
     let (Some(path), SendAs::Tf) = (&args.bvh, args.send_as) else {
@@ -583,15 +598,7 @@ fn replay_source_skeleton(args: &ReplayArgs) -> Result<()> {
         ..Default::default()
     };
     let motion = sgplvm::capture::import_parsed(&bvh, &path.display().to_string(), &own_rate)?;
-    let options = ReplayOptions {
-        domain_id: domain_id(args.domain_id)?,
-        topic: args.topic.clone(),
-        rate: args.rate,
-        looped: args.looped,
-        qos: args.qos.reliability(),
-        wait_s: args.wait,
-        max_messages: args.max_messages,
-    };
+    let options = args.options()?;
     let stop = stop_flag()?;
     eprintln!(
         "replaying {} of {} (its own {} joints at {:.0} Hz) on /tf{}",
@@ -633,15 +640,7 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
         }
         (None, None) => bail!("name the frames to replay: --input MCAP or --bvh FILE"),
     };
-    let options = ReplayOptions {
-        domain_id: domain_id(args.domain_id)?,
-        topic: args.topic.clone(),
-        rate: args.rate,
-        looped: args.looped,
-        qos: args.qos.reliability(),
-        wait_s: args.wait,
-        max_messages: args.max_messages,
-    };
+    let options = args.options()?;
     let stop = stop_flag()?;
     eprintln!(
         "replaying {} frames of {} ({} joints) on {}{}",

@@ -20,10 +20,11 @@
 //! Where Euler angles have two solutions the one within the limits and nearest the previous
 //! frame wins, unless a limit holds it and the other, held by its own limits, brings elbow and
 //! wrist nearer the capture by a centimetre or more (the arm's direction before continuity);
-//! at the shoulder's gimbal point (abduction ±90°) the flexion of the previous frame is kept. Twists that positions cannot tell (shoulder rotation with a straight elbow,
-//! pronation) come from the capture's segment orientations, calibrated on its rest pose: every
-//! channel at zero is taken as no twist (a T- or A-pose with palms down, or arms hanging with
-//! palms facing the body, as capture systems define it). Where the rest pose holds the upper
+//! at the shoulder's gimbal point (abduction ±90°) the flexion of the previous frame is kept.
+//! Twists that positions cannot tell (shoulder rotation with a straight elbow, pronation) come
+//! from the capture's segment orientations, calibrated on its rest pose: every channel at zero
+//! is taken as no twist (a T- or A-pose with palms down, or arms hanging with palms facing the
+//! body, as capture systems define it). Where the rest pose holds the upper
 //! arm at the shoulder's gimbal point (a T-pose with flat clavicles; the line of bones that
 //! is the zero pose of a rig whose bones lie along local x), "no twist" is undefined there:
 //! the elbow's hinge, as the motion bends it, sets the upper arm's twist instead, and the

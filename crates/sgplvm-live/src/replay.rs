@@ -52,17 +52,7 @@ pub fn replay(
     options: &ReplayOptions,
     stop: &AtomicBool,
 ) -> Result<usize, LiveError> {
-    if series.is_empty() {
-        return Err(LiveError::Config(
-            "nothing to replay: the series has no frames".into(),
-        ));
-    }
-    if !(options.rate.is_finite() && options.rate > 0.0) {
-        return Err(LiveError::Config(format!(
-            "rate {}; expected a positive speed factor",
-            options.rate
-        )));
-    }
+    check(series, options)?;
     let mut node = new_node(options.domain_id, "sgplvm_replay")?;
     let dds = |e: String| LiveError::Dds { message: e };
     let (pkg, name) = types::JOINT_STATE;
@@ -201,6 +191,11 @@ fn check(series: &JointStates, options: &ReplayOptions) -> Result<(), LiveError>
             "nothing to replay: the series has no frames".into(),
         ));
     }
+    check_rate(options)
+}
+
+/// A playback speed that can be kept.
+fn check_rate(options: &ReplayOptions) -> Result<(), LiveError> {
     if !(options.rate.is_finite() && options.rate > 0.0) {
         return Err(LiveError::Config(format!(
             "rate {}; expected a positive speed factor",
@@ -375,12 +370,7 @@ pub fn replay_tf_skeleton(
     let times_ns: Vec<i64> = (first..bvh.frames())
         .map(|f| t0 + ((f - first) as f64 * dt * 1e9).round() as i64)
         .collect();
-    if !(options.rate.is_finite() && options.rate > 0.0) {
-        return Err(config(format!(
-            "rate {}; expected a positive speed factor",
-            options.rate
-        )));
-    }
+    check_rate(options)?;
     let names: Vec<String> = bvh
         .joints
         .iter()

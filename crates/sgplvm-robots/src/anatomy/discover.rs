@@ -162,7 +162,8 @@ impl<'a> Tree<'a> {
 
     /// Whether the tree branches between joint `upper` and joint `lower` below it: a link from
     /// `upper`'s child down to `lower`'s parent with more than one child branch that moves
-    /// anything, a head aside (a palm's fingers). An arm is serial: what lies past such a branch is a hand.
+    /// anything, a head aside (a palm's fingers). An arm is serial: what lies past such a
+    /// branch is a hand.
     fn branches_between(&self, upper: usize, lower: usize) -> bool {
         let stop = self.robot.joints[upper].child;
         let mut link = self.robot.joints[lower].parent;
