@@ -21,7 +21,9 @@ pub type FrameFit = ([f64; 18], [ArmFitResult; 2]);
 pub struct ArmFitResult {
     /// The model's 9 angles of the arm, within limits.
     pub angles: ArmAngles,
-    /// Which of them sit at a limit.
+    /// Which of them sit at a limit: held there by the fit, or on it within [`AT_LIMIT_RAD`]
+    /// (a capture already within the limits, such as a stream made from imported angles,
+    /// reads as its file did).
     pub clamped: [bool; 9],
     /// The model's elbow's distance to the scaled capture's, metres.
     pub elbow_m: f64,
@@ -30,6 +32,10 @@ pub struct ArmFitResult {
     /// The elbow angle's difference from the capture's, degrees.
     pub elbow_angle_deg: f64,
 }
+
+/// How near a limit an angle counts as at it, radians: an Xsens MVN stream's single
+/// precision.
+pub const AT_LIMIT_RAD: f64 = 1e-4;
 
 impl ArmFitResult {
     /// Whether the frame is beyond what a faithful fit stays within (3 cm, 2°).
@@ -92,9 +98,15 @@ impl PoseFitter {
             let points = self.model.target_points(&t);
             let (ep, wp) = (mirrored(side, points.elbow), mirrored(side, points.wrist));
             let (e, w) = self.model.elbow_and_wrist(side, &fit.angles);
+            let limits = self.model.limits(side);
+            let clamped = std::array::from_fn(|k| {
+                let (lo, hi) = limits[k];
+                let v = fit.angles[k];
+                fit.clamped[k] || (v - lo).abs() < AT_LIMIT_RAD || (v - hi).abs() < AT_LIMIT_RAD
+            });
             ArmFitResult {
                 angles: fit.angles,
-                clamped: fit.clamped,
+                clamped,
                 elbow_m: (e - ep).norm(),
                 wrist_m: (w - wp).norm(),
                 elbow_angle_deg: (fit.capture_elbow_angle - fit.angles[5]).abs().to_degrees(),
