@@ -1342,12 +1342,13 @@ fn simulate_finds_collision_meshes_through_package_paths() {
         found.contains("no self-collisions among the 2 collision shapes checked\n"),
         "{found}"
     );
+    // The replay's topics are named after the URDF's robot (`<robot name="meshy">`).
     let uri = format!("file://{}", s(&mesh.canonicalize().unwrap()));
     let bytes = std::fs::read(&out).unwrap();
     let description = mcap::MessageStream::new(&bytes)
         .unwrap()
         .map(|m| m.unwrap())
-        .find(|m| m.channel.topic == "/robot/robot_description")
+        .find(|m| m.channel.topic == "/meshy/robot_description")
         .expect("a robot description");
     let description = String::from_utf8_lossy(&description.data);
     assert!(description.contains(&uri), "no {uri} in {description}");
