@@ -18,8 +18,8 @@
 //! model (after clamping to joint limits), so a limit costs only what it must.
 //!
 //! Where Euler angles have two solutions the one within the limits and nearest the previous
-//! frame wins, unless a limit holds it and the other, held by its own limits, brings elbow and
-//! wrist nearer the capture by a centimetre or more (the arm's direction before continuity);
+//! frame wins, unless a limit holds it more than 3 cm from the capture and the other, held by
+//! its own limits, brings elbow and wrist 3 cm nearer (the arm's direction before continuity);
 //! at the shoulder's gimbal point (abduction ±90°) the flexion of the previous frame is kept.
 //! Twists that positions cannot tell (shoulder rotation with a straight elbow, pronation) come
 //! from the capture's segment orientations, calibrated on its rest pose: every channel at zero
@@ -354,12 +354,15 @@ fn shoulder_angles(
         .collect()
 }
 
-/// How much nearer (metres: the elbow's and the wrist's distances to the capture, summed) a
-/// shoulder solution that a limit held must bring the arm than the preferred one for the fit
-/// to take it: the other Euler branch, clamped, may keep the arm's direction where the
-/// preferred one, clamped, gives it up (FAIR's zombie take: a left arm held forward came out
-/// at the flexion's lower limit, 52° off).
-const BRANCH_POSITION_GAIN: f64 = 0.01;
+/// How much nearer (metres: the farther of the elbow and the wrist from the capture) a shoulder
+/// solution that a limit held must bring the arm than the preferred one for the fit to take
+/// it, and how far the preferred one must be for another to be tried: the other Euler branch,
+/// clamped, may keep the arm's direction where the preferred one, clamped, gives it up (FAIR's
+/// zombie take: a left arm held forward came out at the flexion's lower limit, 52° off). A
+/// frame the preferred branch fits faithfully (within the import's 3 cm) keeps it: a switch
+/// of branch is a jump of the angles a model learns from (at 1 cm, CMU 13_26 gained two
+/// switches for 2 cm, and its per-arm G1 model's test error rose from 0.79° to 2.9°).
+const BRANCH_POSITION_GAIN: f64 = crate::WORST_RESIDUAL_LIMIT_M;
 
 /// Clamps `v` into `lim`, recording whether it moved.
 fn clamp_into(v: f64, lim: (f64, f64), clamped: &mut bool) -> f64 {
@@ -488,7 +491,7 @@ impl HumanArms {
             let miss = if held[..6].iter().any(|c| *c) {
                 self.refine_at_limits(t, lim, capture_elbow_angle, &mut qs);
                 let (e, wr) = self.elbow_wrist_left(&qs);
-                (e - goal.elbow).norm() + (wr - goal.wrist).norm()
+                (e - goal.elbow).norm().max((wr - goal.wrist).norm())
             } else {
                 0.0
             };
