@@ -35,7 +35,11 @@ pub enum PipelineError {
     #[error(transparent)]
     Model(#[from] sgplvm_core::Error),
     /// A robot the data does not contain.
-    #[error("{source_name}: no robot named '{name}'; the data has {known:?}")]
+    #[error("{source_name}: no robot named '{name}'; {}", if known.is_empty() {
+        "the data holds the human's frames only (an imported capture?): retarget it onto the robot first (sgplvm retarget --demos FILE)".to_string()
+    } else {
+        format!("the data has {known:?}")
+    })]
     UnknownRobot {
         /// The data file.
         source_name: String,
@@ -440,11 +444,16 @@ impl Demonstrations {
                 (name.clone(), mse)
             })
             .collect();
+        let train = to_mat(&body.rows(&self.dataset.train));
+        let mean = Mat::from_fn(desired.nrows(), desired.ncols(), |_, j| {
+            (0..train.nrows()).map(|i| train[(i, j)]).sum::<f64>() / train.nrows().max(1) as f64
+        });
         Evaluation {
             robot: body.name.clone(),
             frames: desired.nrows(),
             mse: mean_squared_error(predicted, desired.as_ref()),
             per_joint,
+            mean_pose_mse: mean_squared_error(mean.as_ref(), desired.as_ref()),
         }
     }
 }
@@ -569,6 +578,9 @@ pub struct Evaluation {
     pub mse: f64,
     /// Mean squared error of each joint (rad²).
     pub per_joint: Vec<(String, f64)>,
+    /// The test MSE of predicting the mean training pose on every frame (rad²): the error of a
+    /// model that learned nothing, which a model must beat.
+    pub mean_pose_mse: f64,
 }
 
 /// Test frames a model would not trust ([`Demonstrations::test_trust`]).

@@ -239,6 +239,10 @@ pub struct DirectRecord {
     pub test_mse: f64,
     /// Seconds the fit took.
     pub seconds: f64,
+    /// The test MSE of the mean training pose on every frame (rad²): a model that learned
+    /// nothing (absent from results written before 2026-12-07).
+    #[serde(default)]
+    pub mean_pose_mse: Option<f64>,
 }
 
 /// All runs of an experiment.
@@ -320,6 +324,14 @@ impl Results {
             .map(|r| r.shipped().test_mse)
             .collect();
         crate::stats::mean(&values)
+    }
+
+    /// The test MSE of the mean training pose for `robot`, where it was measured.
+    pub fn mean_pose_mse(&self, robot: &str) -> Option<f64> {
+        self.direct_regression
+            .iter()
+            .find(|d| d.robot == robot)
+            .and_then(|d| d.mean_pose_mse)
     }
 
     /// Test error of the direct GP regression for `robot` (NaN if it was not run).

@@ -103,8 +103,12 @@ fn transfer_to_coman(f: &Fixture) -> PathBuf {
     coman
 }
 
-/// Returns `evaluate --json`'s per-joint test MSEs and the overall one.
-fn evaluate_per_joint(f: &Fixture, coman: &Path) -> (Vec<f64>, f64) {
+/// `evaluate --json`'s per-joint test MSEs, the overall one and the mean training pose's.
+type Evaluated = (Vec<f64>, f64, f64);
+
+/// Returns `evaluate --json`'s per-joint test MSEs, the overall one and the mean training
+/// pose's.
+fn evaluate_per_joint(f: &Fixture, coman: &Path) -> Evaluated {
     // Evaluate: overall and per joint, the per-joint errors averaging to the overall one.
     let json = ok(&[
         "evaluate",
@@ -127,7 +131,7 @@ fn evaluate_per_joint(f: &Fixture, coman: &Path) -> (Vec<f64>, f64) {
     let mean = per_joint.iter().sum::<f64>() / 14.0;
     let mse = e["mse"].as_f64().unwrap();
     assert!((mean - mse).abs() < 1e-12 * mse.max(1.0), "{e}");
-    (per_joint, mse)
+    (per_joint, mse, e["mean_pose_mse"].as_f64().unwrap())
 }
 
 /// The predictions written by `predict --std` checked independently: the test MSE recomputed
@@ -137,7 +141,7 @@ fn evaluate_per_joint(f: &Fixture, coman: &Path) -> (Vec<f64>, f64) {
 fn predictions_agree_with_evaluate_and_a_dense_reference(
     f: &Fixture,
     coman: &Path,
-    (per_joint, mse): &(Vec<f64>, f64),
+    (per_joint, mse, mean_pose): &Evaluated,
 ) {
     use sgplvm::robots::joint_state::read_joint_states;
     let ds = sgplvm::robots::dataset::load_demonstrations(&f.data).unwrap();
@@ -150,7 +154,20 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
     let d = predicted.names.len();
     let test = &ds.test;
     let mut baseline = 0.0;
+    let mut train_mean_error = 0.0;
     for (j, &reported) in per_joint.iter().enumerate() {
+        // The error of the mean training pose, which evaluate reports beside the model's.
+        let m = ds
+            .train
+            .iter()
+            .map(|&k| desired.positions[(k, j)])
+            .sum::<f64>()
+            / ds.train.len() as f64;
+        train_mean_error += test
+            .iter()
+            .map(|&k| (desired.positions[(k, j)] - m).powi(2))
+            .sum::<f64>()
+            / (test.len() * d) as f64;
         let err: f64 = test
             .iter()
             .map(|&k| (predicted.row(k)[j] - desired.positions[(k, j)]).powi(2))
@@ -167,6 +184,10 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
             .sum::<f64>()
             / (test.len() * d) as f64;
     }
+    assert!(
+        (train_mean_error - mean_pose).abs() <= 1e-12 * mean_pose.max(1e-12),
+        "{train_mean_error} against evaluate's {mean_pose}"
+    );
     // Measured: test MSE 0.035 rad², 0.29 × the 0.12 rad² of predicting the test mean.
     assert!(*mse > 0.0 && *mse < 0.07, "test MSE {mse}");
     assert!(

@@ -319,6 +319,17 @@ pub fn evaluation(e: &Evaluation, trust: Option<&TestTrust>) {
     for (joint, mse) in &e.per_joint {
         println!("  {joint:<24} {mse:.6}  ({:.2}°)", mse.sqrt().to_degrees());
     }
+    println!(
+        "  the mean training pose on every frame (a model that learned nothing): test MSE {:.6} rad² (RMSE {:.2}°)",
+        e.mean_pose_mse,
+        e.mean_pose_mse.sqrt().to_degrees()
+    );
+    if e.mse >= e.mean_pose_mse {
+        eprintln!(
+            "warning: {}: the model predicts the test frames no better than the mean training pose ({:.6} against {:.6} rad²): it has not learned this robot's motion (jumps between postures in the robot's training data, too few frames, or test people unlike the training ones?)",
+            e.robot, e.mse, e.mean_pose_mse
+        );
+    }
     let Some(trust) = trust else {
         return;
     };

@@ -96,6 +96,15 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let options = args.model.options()?;
     let patience = args.model.budget.patience();
     let label = format!("training {}", args.robots.join(" + "));
+    let n = demos.dataset.train.len();
+    if n <= config.latent_dim && args.choose_latent_dim.is_empty() {
+        bail!(
+            "{}: {} to train on; a latent space of Q = {} dimensions needs more than Q (a longer capture, --train-subsample 1, or a smaller --latent-dim)",
+            demos.source_name,
+            sgplvm::robots::names::count(n, "training frame"),
+            config.latent_dim
+        );
+    }
     if let Some(Parts::Arms) = args.parts.parts {
         let urdfs = args.parts.urdfs()?;
         if let Some(r) = urdfs.keys().find(|r| !args.robots.contains(r)) {
