@@ -219,6 +219,17 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     if args.split != SplitArg::People && !args.test_people.is_empty() {
         bail!("--test-people goes with --split people");
     }
+    if let Some(bvh) = args
+        .demos
+        .iter()
+        .find(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("bvh")))
+    {
+        bail!(
+            "{}: a motion capture (BVH), not demonstrations: import it first (sgplvm import {} --out FILE.mcap), then --demos FILE.mcap",
+            bvh.display(),
+            bvh.display()
+        );
+    }
     let options = RetargetOptions {
         mode: args.mode,
         redundancy: match args.redundancy {
@@ -249,13 +260,17 @@ pub fn run(args: RetargetArgs) -> Result<()> {
     };
     let test = match args.split {
         SplitArg::Blocks => TestChoice::EveryNthBlock(args.test_every),
-        SplitArg::Files => TestChoice::Files(args.test_files.clone()),
-        SplitArg::People => TestChoice::People(args.test_people.clone()),
+        // `--test-people "a, b"`: names as written, the spaces after the commas aside.
+        SplitArg::Files => TestChoice::Files(trimmed(&args.test_files)),
+        SplitArg::People => TestChoice::People(trimmed(&args.test_people)),
         SplitArg::None => TestChoice::AllTraining,
     };
     let done = retarget_files(&args.demos, &robots, &options, &split, &test, &args.out)?;
     if let Some(why) = &done.split.fallback {
         eprintln!("warning: {why}");
+    }
+    if let Some(note) = mixed_rates(&args.demos, &done.rates_hz) {
+        eprintln!("warning: {note}");
     }
     if args.json.json {
         println!(
@@ -548,9 +563,51 @@ fn print_postures(reports: &[ReachReport], velocity_limits: bool) {
     }
 }
 
+/// Files at frame rates more than 1 % apart, said: the training subsample counts frames, so a
+/// file imported at a higher rate weighs more in training.
+fn mixed_rates(demos: &[PathBuf], rates_hz: &[f64]) -> Option<String> {
+    let known: Vec<(&PathBuf, f64)> = demos
+        .iter()
+        .zip(rates_hz.iter().copied())
+        .filter(|(_, r)| r.is_finite())
+        .collect();
+    let (lo, hi) = known
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), (_, r)| {
+            (lo.min(*r), hi.max(*r))
+        });
+    (known.len() > 1 && hi > 1.01 * lo).then(|| {
+        let each: Vec<String> = known
+            .iter()
+            .map(|(p, r)| format!("{} {r:.0} Hz", p.display()))
+            .collect();
+        format!(
+            "the captures' frame rates differ ({}): the training frames are kept one in N frames, so a file's share of them follows its rate, not its duration; import them at one --rate",
+            each.join(", ")
+        )
+    })
+}
+
+/// Each of `names` without the spaces around it (`--test-people "a, b"`).
+fn trimmed(names: &[String]) -> Vec<String> {
+    names.iter().map(|n| n.trim().to_string()).collect()
+}
+
 #[cfg(test)]
 mod tests {
-    use super::topic_safe;
+    use super::{mixed_rates, topic_safe, trimmed};
+    use std::path::PathBuf;
+
+    #[test]
+    fn captures_at_different_rates_are_said_and_names_lose_their_spaces() {
+        let files = [PathBuf::from("a.mcap"), PathBuf::from("b.mcap")];
+        assert_eq!(mixed_rates(&files, &[40.0, 40.2]), None);
+        let said = mixed_rates(&files, &[100.0, 40.0]).unwrap();
+        assert!(said.contains("a.mcap 100 Hz, b.mcap 40 Hz"), "{said}");
+        assert_eq!(mixed_rates(&files[..1], &[100.0]), None);
+        let names = ["jesse".to_string(), " cxk ".to_string()];
+        assert_eq!(trimmed(&names), ["jesse", "cxk"]);
+    }
 
     #[test]
     fn a_urdf_name_becomes_a_ros_2_topic_name() {

@@ -128,6 +128,9 @@ pub struct FilesRetargeted {
     pub train_people: Vec<String>,
     /// See `train_people`.
     pub test_people: Vec<String>,
+    /// Each input file's frame rate (Hz, from its median frame step), in input order: the
+    /// training subsample counts frames, so files at different rates weigh differently.
+    pub rates_hz: Vec<f64>,
 }
 
 /// One entry of a file's [`CAPTURE_METADATA`] record: where a captured file's frames came from
@@ -136,12 +139,11 @@ pub type CaptureRecord = serde_json::Map<String, serde_json::Value>;
 
 /// The demonstrations of `demos`, one after another, with their capture records and the stem
 /// of each segment's file.
-pub fn read_human(
-    demos: &[PathBuf],
-) -> Result<(Dataset, Vec<CaptureRecord>, Vec<String>), RetargetError> {
+pub fn read_human(demos: &[PathBuf]) -> Result<HumanFiles, RetargetError> {
     let mut parts = Vec::with_capacity(demos.len());
     let mut sources: Vec<CaptureRecord> = Vec::new();
     let mut stems = Vec::new();
+    let mut rates = Vec::with_capacity(demos.len());
     let invalid = |e: &dyn std::fmt::Display| RetargetError::Invalid(e.to_string());
     for path in demos {
         let mut ds = load_demonstrations(path).map_err(|e| invalid(&e))?;
@@ -159,13 +161,31 @@ pub fn read_human(
             }
         }
         sources.append(&mut file_sources);
+        rates.push(frame_rate(&ds.times_ns));
         parts.push(Dataset {
             robots: Vec::new(),
             ..ds
         });
     }
     let dataset = concatenate(&parts, 1_000_000_000).map_err(|e| invalid(&e))?;
-    Ok((dataset, sources, stems))
+    Ok((dataset, sources, stems, rates))
+}
+
+/// The human of [`read_human`]: the frames joined, the capture records, the file stems of the
+/// segments and each file's frame rate.
+pub type HumanFiles = (Dataset, Vec<CaptureRecord>, Vec<String>, Vec<f64>);
+
+/// The frame rate (Hz) of frames at `times_ns`, from the median step; NaN for fewer than two.
+fn frame_rate(times_ns: &[i64]) -> f64 {
+    let mut steps: Vec<f64> = times_ns
+        .windows(2)
+        .map(|w| (w[1] - w[0]) as f64)
+        .filter(|d| *d > 0.0)
+        .collect();
+    if steps.is_empty() {
+        return f64::NAN;
+    }
+    1e9 / crate::series::median(&mut steps)
 }
 
 /// Retargets the human of `demos` onto `robots`, splits the frames as `split` and `test` say
@@ -178,7 +198,7 @@ pub fn retarget_files(
     test: &TestChoice,
     out: &Path,
 ) -> Result<FilesRetargeted, RetargetError> {
-    let (mut dataset, sources, stems) = read_human(demos)?;
+    let (mut dataset, sources, stems, rates_hz) = read_human(demos)?;
     let mut split = split.clone();
     split.rule = match test {
         TestChoice::EveryNthBlock(n) => SplitRule::Blocks { test_every: *n },
@@ -262,6 +282,7 @@ pub fn retarget_files(
         test_files,
         train_people: dataset.people_of(&dataset.train),
         test_people: dataset.people_of(&dataset.test),
+        rates_hz,
     })
 }
 
