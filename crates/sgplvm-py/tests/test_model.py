@@ -416,6 +416,12 @@ def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
     train = np.asarray(d["human"]["positions"])[np.asarray(d["train"])]
     assert model.novelty(train[5]) < 1e-12
     assert (model.novelty(test + 1.0) > model.novelty_threshold()).all()
+    # A model fitted here on the same training frames sets the novelty's threshold as `train`
+    # does (random poses within the human's joint limits): until 2026-12-07 a Python model fell
+    # back to another rule and followed 3.3 % of random poses against the CLI's 0.6 %.
+    robot = np.asarray(d["robots"]["walkman"]["positions"])[np.asarray(d["train"])]
+    here = sgplvm.SharedGPLVM(seed=0).fit({"human": train, "walkman": robot}, max_iters=2, validation=None)
+    assert here.novelty_threshold() == pytest.approx(model.novelty_threshold(), rel=1e-12)
     # One frame in, one number out.
     assert isinstance(model.reconstruction_error(test[0]), float) and isinstance(model.trusted(test[0]), bool)
     with pytest.raises(ValueError):

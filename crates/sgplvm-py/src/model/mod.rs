@@ -12,6 +12,7 @@ mod training;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use sgplvm::pipeline::human_pose_bounds;
 use sgplvm_core::{KernelParams, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 use crate::guard::guarded;
@@ -99,8 +100,26 @@ impl NativeModel {
                         None => SharedGplvm::fit(&config, &views, &input, options, cb),
                     }
                 })?;
-            for (space, names) in column_names.unwrap_or_default() {
+            let column_names = column_names.unwrap_or_default();
+            // The novelty's threshold where 1 % of random poses within the human's joint
+            // limits are followed, as `sgplvm train` sets it: an input space of the built-in
+            // human's joints (named so, or 18 columns called `human`, the importer's order).
+            let input_names = column_names
+                .iter()
+                .find(|(space, _)| *space == input)
+                .map(|(_, names)| names.clone())
+                .or_else(|| {
+                    let human = mats.iter().find(|(n, _)| *n == input)?;
+                    let builtin = sgplvm_robots::Robot::builtin("human").ok()?.joint_names();
+                    (input == "human" && human.1.ncols() == builtin.len()).then_some(builtin)
+                });
+            for (space, names) in column_names {
                 model.set_column_names(&space, names).map_err(model_error)?;
+            }
+            if let Some(bounds) = input_names.and_then(|n| human_pose_bounds(&n).ok()) {
+                model
+                    .set_pose_bounds(bounds, sgplvm_core::RANDOM_PERCENTILE)
+                    .map_err(model_error)?;
             }
             finish_training(py, NativeModel { inner: model }, signal)
         })
