@@ -99,7 +99,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let n = demos.dataset.train.len();
     if n <= config.latent_dim && args.choose_latent_dim.is_empty() {
         bail!(
-            "{}: {} to train on; a latent space of Q = {} dimensions needs more than Q (a longer capture, --train-subsample 1, or a smaller --latent-dim)",
+            "{}: {} to train on; latent dimension Q = {} needs more than Q of them (a longer capture, --train-subsample 1, or a smaller --latent-dim)",
             demos.source_name,
             sgplvm::robots::names::count(n, "training frame"),
             config.latent_dim
