@@ -250,7 +250,7 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
             )
         } else {
             format!(
-                "for {}, to the iteration budget or time limit",
+                "for {}, until it stopped (converged, or at the iteration budget or time limit)",
                 count(last, "iteration")
             )
         };
@@ -263,8 +263,9 @@ fn trained_text(what: &str, model: &SharedGplvm, seconds: f64, out: &Path) -> St
         )
     } else {
         format!(
-            "budget: {}: the selection run on {} training frames ended there (iteration budget \
-             or time limit), at its lowest error on {} held-out frames (MSE {held_out_mse:.6})",
+            "budget: {}: the selection run on {} training frames ended there (converged, or at \
+             the iteration budget or time limit), at its lowest error on {} held-out frames (MSE \
+             {held_out_mse:.6})",
             count(s.best_iteration, "iteration"),
             s.fit_frames,
             s.validation_frames,
