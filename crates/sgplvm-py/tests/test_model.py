@@ -428,6 +428,41 @@ def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
         model.reconstruction_error(np.zeros((2, 5)))
 
 
+def test_a_per_arm_model_s_gate_is_evaluate_s(tmp_path):
+    """``PartsGPLVM`` exposes the gate ``teleop`` and ``evaluate`` apply to a latent space per
+    arm (the model training.md advises for strangers): each part's signals over its own
+    thresholds, the worst part's; a frame followed where every part follows it."""
+    import json
+    import subprocess
+
+    from _cli import sgplvm_binary
+
+    captured = pathlib.Path(__file__).resolve().parents[3] / "data" / "demos" / "captured.mcap"
+    path = tmp_path / "arms.sgp"
+    def run(*args):
+        return subprocess.run([str(sgplvm_binary()), *map(str, args)], capture_output=True, text=True, check=True)
+
+    run("train", "--data", captured, "--robot", "walkman", "--parts", "arms", "--out", path)
+    report = json.loads(run("evaluate", "--model", path, "--robot", "walkman", "--data", captured, "--json").stdout)
+    gate = next(r for r in report["gate"]["rates"] if r["gate"] == "known")
+    model = sgplvm.load_model(path)
+    assert isinstance(model, sgplvm.PartsGPLVM)
+    assert model.reconstruction_threshold() == model.novelty_threshold() == 1.0
+    d = sgplvm.load_demonstrations(captured)
+    test = np.asarray(d["human"]["positions"])[np.asarray(d["test"])]
+    for frames, held in ((test, gate["test"]["held"]), (test + 1.0, gate["far"]["held"])):
+        trusted = model.trusted(frames)
+        assert trusted.dtype == bool and int((~trusted).sum()) == held
+        worst = np.maximum(model.reconstruction_error(frames), model.novelty(frames))
+        assert np.array_equal(trusted, worst <= 1.0)
+    # Each part's own gate, combined by hand, is the same decision.
+    by_hand = np.ones(len(test), bool)
+    for name in model.part_names:
+        by_hand &= model.part(name).trusted(test[:, model.part_columns(name)["human"]])
+    assert np.array_equal(model.trusted(test), by_hand)
+    assert isinstance(model.trusted(test[0]), bool) and isinstance(model.novelty(test[0]), float)
+
+
 def test_segments_name_their_people():
     """``load_demonstrations`` gives each segment's person (``import --person``; issue 49): the
     shipped corpus of thirteen people names them all, its test frames are the four strangers'

@@ -237,6 +237,50 @@ class PartsGPLVM:
             return mean, np.sqrt(variance)
         return mean
 
+    def _worst_part(self, H: ArrayLike, signal: str):
+        """Per frame, the worst part's ``signal`` (``reconstruction_error`` or ``novelty``) over
+        that part's own threshold, on the part's human columns."""
+        frames, single = _as_frames(H, "H")
+        worst = np.zeros(len(frames))
+        for name in self.part_names:
+            part = self.part(name)
+            cols = self.part_columns(name)[self.input_name]
+            threshold = {
+                "reconstruction_error": part.reconstruction_threshold,
+                "novelty": part.novelty_threshold,
+            }[signal]()
+            values = np.asarray(getattr(part, signal)(frames[:, cols]), dtype=float)
+            worst = np.maximum(worst, values / threshold)
+        return float(worst[0]) if single else worst
+
+    def reconstruction_error(self, H: ArrayLike):
+        """Per human frame (n × D_H, or one frame), the worst part's reconstruction error over
+        that part's own threshold: ``sgplvm teleop`` holds the robot where it is above 1
+        (:meth:`reconstruction_threshold`), as it gates a per-part model."""
+        return self._worst_part(H, "reconstruction_error")
+
+    def reconstruction_threshold(self) -> float:
+        """1: :meth:`reconstruction_error` is each part's over its own threshold."""
+        return 1.0
+
+    def novelty(self, H: ArrayLike):
+        """Per human frame, the worst part's novelty (distance to the nearest training pose
+        of that part's joints) over that part's own threshold; held above 1."""
+        return self._worst_part(H, "novelty")
+
+    def novelty_threshold(self) -> float:
+        """1: :meth:`novelty` is each part's over its own threshold."""
+        return 1.0
+
+    def trusted(self, H: ArrayLike):
+        """Whether ``teleop``'s default gate follows each human frame: every part's
+        reconstruction error and novelty within that part's thresholds; False where the robot
+        would hold (the counts ``sgplvm evaluate`` reports for a per-part model)."""
+        errors = np.asarray(self.reconstruction_error(H))
+        distances = np.asarray(self.novelty(H))
+        ok = (errors <= 1.0) & (distances <= 1.0)
+        return bool(ok) if ok.ndim == 0 else ok
+
     def latent(self, H: ArrayLike) -> np.ndarray:
         """Latent points of human frames: every part's side by side (n × parts·Q)."""
         frames, single = _as_frames(H, "H")
