@@ -426,6 +426,13 @@ def test_the_gate_s_signal_and_decision_are_those_of_evaluate(tmp_path):
     assert isinstance(model.reconstruction_error(test[0]), float) and isinstance(model.trusted(test[0]), bool)
     with pytest.raises(ValueError):
         model.reconstruction_error(np.zeros((2, 5)))
+    # A frame the signals cannot be had for (NaN, a value far enough to overflow) is held on
+    # its own; the other frames are answered (the whole batch raised until 2026-12-07).
+    bad = test[:3].copy()
+    bad[1, 2], bad[2, 5] = np.nan, 1e155
+    assert model.trusted(bad).tolist() == [bool(model.trusted(test[0])), False, False]
+    errors = model.reconstruction_error(bad)
+    assert np.isfinite(errors[0]) and np.isnan(errors[1:]).all()
 
 
 def test_a_per_arm_model_s_gate_is_evaluate_s(tmp_path):

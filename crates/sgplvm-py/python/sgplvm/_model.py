@@ -55,6 +55,29 @@ def _as_frames(value: ArrayLike, what: str) -> Tuple[np.ndarray, bool]:
     return _as_matrix(array, what), False
 
 
+def _per_frame_signal(signal: Callable[[np.ndarray], object], frames: np.ndarray) -> np.ndarray:
+    """``signal`` of every frame, NaN for a frame it cannot give one for (a non-finite value,
+    a pose far enough to overflow): the gate holds on a signal that is not a number, frame by
+    frame, not the whole batch (``trust-gate.md``)."""
+    out = np.full(len(frames), np.nan)
+    finite = np.isfinite(frames).all(axis=1)
+    if not finite.any():
+        return out
+    try:
+        out[finite] = np.asarray(signal(frames[finite]), dtype=float)
+    except ValueError as batch_error:
+        answered = False
+        for k in np.flatnonzero(finite):
+            try:
+                out[k] = float(np.asarray(signal(frames[k : k + 1]), dtype=float)[0])
+                answered = True
+            except ValueError:
+                pass
+        if not answered:
+            raise batch_error  # no frame answers: the input itself is wrong (its shape, say)
+    return out
+
+
 Validation = Union[str, None, np.ndarray, list, tuple]
 
 #: Iterations without a lower validation error after which the selection run stops.
@@ -406,9 +429,10 @@ class SharedGPLVM:
         """How far each human frame (n × D_H, or one frame) is from the model's own
         reconstruction of it, in the human space's standardised units: one of the two signals
         ``sgplvm teleop``'s default gate holds the robot on (above
-        :meth:`reconstruction_threshold`)."""
+        :meth:`reconstruction_threshold`). NaN for a frame that gives none (a value not finite,
+        or far enough to overflow): the gate holds on it."""
         frames, single = _as_frames(H, "H")
-        errors = np.asarray(self._require().reconstruction_errors(frames))
+        errors = _per_frame_signal(self._require().reconstruction_errors, frames)
         return float(errors[0]) if single else errors
 
     def reconstruction_threshold(self) -> float:
@@ -421,7 +445,7 @@ class SharedGPLVM:
         each joint in units of its spread over the training poses: the other signal
         ``sgplvm teleop``'s default gate holds the robot on (above :meth:`novelty_threshold`)."""
         frames, single = _as_frames(H, "H")
-        distances = np.asarray(self._require().novelties(frames))
+        distances = _per_frame_signal(self._require().novelties, frames)
         return float(distances[0]) if single else distances
 
     def novelty_threshold(self) -> float:
@@ -440,8 +464,9 @@ class SharedGPLVM:
         error and its novelty each within its threshold); False where the robot would hold."""
         frames, single = _as_frames(H, "H")
         native = self._require()
-        errors = np.asarray(native.reconstruction_errors(frames))
-        distances = np.asarray(native.novelties(frames))
+        errors = _per_frame_signal(native.reconstruction_errors, frames)
+        distances = _per_frame_signal(native.novelties, frames)
+        # A signal that is not a number holds the frame (NaN compares False).
         ok = (errors <= self.reconstruction_threshold()) & (distances <= self.novelty_threshold())
         return bool(ok[0]) if single else ok
 
