@@ -169,6 +169,15 @@ pub struct AllFrames {
     pub validation: Vec<usize>,
 }
 
+/// The mean squared error of predicting the mean of the `train` frames for every `test` frame:
+/// what a model that learned nothing scores.
+pub fn mean_pose_mse(train: MatRef<'_, f64>, test: MatRef<'_, f64>) -> f64 {
+    let mean = Mat::from_fn(test.nrows(), test.ncols(), |_, j| {
+        (0..train.nrows()).map(|i| train[(i, j)]).sum::<f64>() / train.nrows().max(1) as f64
+    });
+    mean_squared_error(mean.as_ref(), test)
+}
+
 /// Mean squared error between two matrices of the same shape.
 pub fn mean_squared_error(predicted: MatRef<'_, f64>, desired: MatRef<'_, f64>) -> f64 {
     let n = (predicted.nrows() * predicted.ncols()).max(1);
@@ -445,15 +454,12 @@ impl Demonstrations {
             })
             .collect();
         let train = to_mat(&body.rows(&self.dataset.train));
-        let mean = Mat::from_fn(desired.nrows(), desired.ncols(), |_, j| {
-            (0..train.nrows()).map(|i| train[(i, j)]).sum::<f64>() / train.nrows().max(1) as f64
-        });
         Evaluation {
             robot: body.name.clone(),
             frames: desired.nrows(),
             mse: mean_squared_error(predicted, desired.as_ref()),
             per_joint,
-            mean_pose_mse: mean_squared_error(mean.as_ref(), desired.as_ref()),
+            mean_pose_mse: mean_pose_mse(train.as_ref(), desired.as_ref()),
         }
     }
 }

@@ -16,6 +16,8 @@ mod joints;
 mod limits;
 mod predict;
 mod progress;
+#[cfg(feature = "live")]
+mod replay;
 mod report;
 mod retarget;
 mod robot;
@@ -91,7 +93,7 @@ pub enum Command {
     Teleop(Box<teleop::TeleopArgs>),
     /// Publish recorded human frames on a ROS 2 topic at their own timestamps (for `teleop`).
     #[cfg(feature = "live")]
-    Replay(teleop::ReplayArgs),
+    Replay(replay::ReplayArgs),
 }
 
 impl Command {
@@ -114,7 +116,7 @@ impl Command {
             #[cfg(feature = "live")]
             Command::Teleop(args) => teleop::run(*args),
             #[cfg(feature = "live")]
-            Command::Replay(args) => teleop::run_replay(args),
+            Command::Replay(args) => replay::run_replay(args),
         }
     }
 }

@@ -181,16 +181,15 @@ impl<'a> Job<'a> {
         let predicted = regression
             .predict(data.human.test.as_ref())
             .map_err(|e| self.fail(e))?;
-        // The mean training pose on every test frame: what a model that learned nothing makes.
         let (train, test) = (&split.train, &split.test);
-        let mean = Mat::from_fn(test.nrows(), test.ncols(), |_, j| {
-            (0..train.nrows()).map(|i| train[(i, j)]).sum::<f64>() / train.nrows().max(1) as f64
-        });
         Ok(DirectRecord {
             robot: name.clone(),
             test_mse: mean_squared_error(predicted.as_ref(), test.as_ref()),
             seconds,
-            mean_pose_mse: Some(mean_squared_error(mean.as_ref(), test.as_ref())),
+            mean_pose_mse: Some(crate::pipeline::mean_pose_mse(
+                train.as_ref(),
+                test.as_ref(),
+            )),
         })
     }
 
