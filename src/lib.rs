@@ -27,5 +27,6 @@ pub mod figures;
 pub mod files;
 pub mod pipeline;
 pub mod plots;
+pub mod provenance;
 pub mod results;
 pub mod stats;

@@ -276,6 +276,7 @@ fn the_human_s_own_motion_goes_through_import_retarget_train_transfer_predict() 
         s(&p("c.mcap")),
     ]);
     assert!(p("c.mcap").exists());
+    models_carry_the_person_and_the_robots(&p);
     // Retargeting refuses what it cannot do, naming it.
     let err = fails_on_one_line(&[
         "retarget",
@@ -518,4 +519,62 @@ fn cmu_asf_amc_import_through_the_command_line_and_an_amc_without_its_skeleton_i
     let e = fails_on_one_line(&["import", s(&lone), "--out", s(&never)]);
     assert!(e.contains("02.asf") && e.contains("ASF skeleton"), "{e}");
     assert!(!never.exists());
+}
+
+/// A model trained on imported, retargeted data carries the person's calibration and each
+/// robot it learned, one latent space or one per arm, through transfer; a per-arm model's
+/// calibration serves `import --calibration` (and a stream's, in `teleop`) as a single one's.
+fn models_carry_the_person_and_the_robots(p: &dyn Fn(&str) -> std::path::PathBuf) {
+    for (trained, transferred, parts) in [("w.sgp", "c.sgp", false), ("wp.sgp", "cp.sgp", true)] {
+        let (data, trained, transferred) = (p("demos.mcap"), p(trained), p(transferred));
+        if parts {
+            ok(&[
+                "train",
+                "--data",
+                s(&data),
+                "--robot",
+                "walkman",
+                "--parts",
+                "arms",
+                "--max-iters",
+                "5",
+                "--out",
+                s(&trained),
+            ]);
+            ok(&[
+                "transfer",
+                "--data",
+                s(&data),
+                "--model",
+                s(&trained),
+                "--robot",
+                "coman",
+                "--max-iters",
+                "5",
+                "--out",
+                s(&transferred),
+            ]);
+        }
+        let model = sgplvm::AnyModel::load(&transferred).unwrap();
+        let notes = sgplvm::Predictor::annotations(&model);
+        assert!(notes.contains_key("sgplvm.capture"), "{transferred:?}");
+        let robots = &notes[sgplvm::provenance::ROBOTS_ANNOTATION];
+        for robot in ["walkman", "coman"] {
+            assert!(
+                robots[robot]["joints"]
+                    .as_object()
+                    .is_some_and(|j| j.len() >= 14),
+                "{transferred:?}: {robot}"
+            );
+        }
+    }
+    let again = ok(&[
+        "import",
+        s(&p("capture.bvh")),
+        "--calibration",
+        s(&p("cp.sgp")),
+        "--out",
+        s(&p("again.mcap")),
+    ]);
+    assert!(p("again.mcap").exists(), "{again}");
 }

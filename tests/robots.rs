@@ -244,6 +244,58 @@ fn a_published_humanoid_is_retargeted_trained_and_drawn_with_its_waist_held() {
         assert!(topics.contains(&t), "{t} not in {topics:?}");
     }
     arm_commands_as_csv_replay_with_the_rest_held(&dir, &model, &human, &urdf);
+    another_robot_of_the_same_joint_names_is_said(&dir, &model, &human, &urdf);
+}
+
+/// The model records the G1 its commands were retargeted onto: the same URDF predicts without a
+/// word, a revised one (another name, another elbow limit, the same joint names) is said, by
+/// what differs.
+fn another_robot_of_the_same_joint_names_is_said(
+    dir: &Path,
+    model: &Path,
+    human: &Path,
+    urdf: &Path,
+) {
+    let predict = |urdf: &Path| {
+        let out = sgplvm(&[
+            "predict",
+            "--model",
+            s(model),
+            "--input",
+            s(human),
+            "--robot",
+            "g1",
+            "--urdf",
+            s(urdf),
+            "--out",
+            s(&dir.join("other.csv")),
+        ]);
+        assert!(out.status.success());
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let same = predict(urdf);
+    assert!(!same.contains("another robot"), "{same}");
+    let text = std::fs::read_to_string(urdf).unwrap();
+    let elbow = text.find(r#"<joint name="left_elbow_joint""#).unwrap();
+    let limit = r#"<limit lower="-1.0472""#;
+    let at = elbow + text[elbow..].find(limit).unwrap();
+    let revised = format!(
+        "{}<limit lower=\"-0.5\"{}",
+        &text[..at],
+        &text[at + limit.len()..]
+    )
+    .replacen(
+        r#"<robot name="g1_29dof_rev_1_0""#,
+        r#"<robot name="g1_revised""#,
+        1,
+    );
+    let other = dir.join("g1_revised.urdf");
+    std::fs::write(&other, revised).unwrap();
+    let said = predict(&other);
+    assert!(
+        said.contains("g1: the model's commands were learned on another robot than the URDF given (URDF robot `g1_revised`, not `g1_29dof_rev_1_0`; other limits on `left_elbow_joint`)"),
+        "{said}"
+    );
 }
 
 /// `predict`'s CSV names the G1's 14 arm joints; a command joint the model does not predict is

@@ -4,14 +4,16 @@
 //! A group's flag keeps its name, default and help wherever it is flattened; a command whose help
 //! for the same flag says more overrides only the help text (`mut_arg`).
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
+use sgplvm::provenance::{robots_annotation, ROBOTS_ANNOTATION};
 use sgplvm::robots::dataset::CAPTURE_METADATA;
-use sgplvm::{AnyModel, BackConstraint, ModelConfig, SharedGplvm, TrainOptions, Validation};
+use sgplvm::{AnyModel, BackConstraint, ModelConfig, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
 // struct for the about text of the command it is flattened into.
@@ -30,19 +32,30 @@ impl DataArg {
         Ok(pipeline::load(self.data.as_deref())?)
     }
 
-    /// Attaches where `--data`'s frames were captured — each capture's source with the
-    /// person's calibration, under the record's name ([`CAPTURE_METADATA`]) — to `model`, so
-    /// that `teleop` fits a stream of the same person as the data was imported.
-    pub fn annotate(&self, model: &mut SharedGplvm) -> Result<()> {
+    /// What a model trained on `--data`'s robots `robots` carries of them, as annotations to
+    /// add to one whose annotations are `existing`: where the frames were captured — each
+    /// capture's source with the person's calibration ([`CAPTURE_METADATA`]), so that `teleop`
+    /// fits a stream of the same person as the data was imported — and the robots the
+    /// commands were retargeted onto ([`ROBOTS_ANNOTATION`]), so that driving another is said.
+    pub fn annotations(
+        &self,
+        demos: &Demonstrations,
+        robots: &[String],
+        existing: &BTreeMap<String, serde_json::Value>,
+    ) -> Result<Vec<(&'static str, serde_json::Value)>> {
         let Some(path) = &self.data else {
-            return Ok(());
+            return Ok(Vec::new());
         };
+        let mut found = Vec::new();
         let records = sgplvm::robots::dataset::capture_records(path)
             .with_context(|| path.display().to_string())?;
-        if !records.is_empty() {
-            model.annotate(CAPTURE_METADATA, serde_json::Value::from(records));
+        if !records.is_empty() && !existing.contains_key(CAPTURE_METADATA) {
+            found.push((CAPTURE_METADATA, serde_json::Value::from(records)));
         }
-        Ok(())
+        if let Some(value) = robots_annotation(existing, demos.robot_identities(robots)?) {
+            found.push((ROBOTS_ANNOTATION, value));
+        }
+        Ok(found)
     }
 }
 
@@ -64,11 +77,6 @@ impl ModelFileArg {
 /// Reads a model file of either kind; errors name the file.
 pub fn load_any_model(path: &Path) -> Result<AnyModel> {
     AnyModel::load(path).with_context(|| path.display().to_string())
-}
-
-/// Reads a model file; errors name the file.
-pub fn load_model(path: &Path) -> Result<SharedGplvm> {
-    SharedGplvm::load(path).with_context(|| path.display().to_string())
 }
 
 /// Creates the output folder `dir` (and its parents) before any work, so that a path that cannot

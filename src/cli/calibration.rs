@@ -9,9 +9,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use sgplvm::capture::stream_calibration::DEFAULT_WATCH_SECONDS;
 use sgplvm::capture::{calibrations_in, Calibration, StreamCalibrationOptions, CAPTURE_METADATA};
-use sgplvm::SharedGplvm;
+use sgplvm::{AnyModel, Predictor};
 
-use super::args::load_model;
+use super::args::load_any_model;
 
 #[derive(Args, Clone)]
 pub struct CalibrationArgs {
@@ -40,7 +40,7 @@ pub struct CalibrationArgs {
 impl CalibrationArgs {
     /// The stream calibration's options, offered the calibrations of `models`' training data
     /// unless the user named one or asked for the stream's own.
-    pub fn options(&self, models: &[&SharedGplvm]) -> Result<StreamCalibrationOptions> {
+    pub fn options(&self, models: &[&AnyModel]) -> Result<StreamCalibrationOptions> {
         if !(self.calibration_seconds.is_finite() && self.calibration_seconds >= 0.0) {
             bail!(
                 "--calibration-seconds {}: expected seconds ≥ 0",
@@ -95,7 +95,7 @@ impl CalibrationArgs {
 }
 
 /// The calibrations a model carries (its training data's).
-pub fn model_calibrations(model: &SharedGplvm) -> Result<Vec<Calibration>> {
+pub fn model_calibrations(model: &AnyModel) -> Result<Vec<Calibration>> {
     match model.annotations().get(CAPTURE_METADATA) {
         None => Ok(Vec::new()),
         Some(sources) => calibrations_in(sources)
@@ -110,7 +110,7 @@ pub fn read_calibrations(path: &Path) -> Result<Vec<Calibration>> {
         .map(|b| b.get(..8).map(<[u8]>::to_vec).unwrap_or(b))
         .with_context(|| format!("--calibration {}", path.display()))?;
     if head.as_slice() == sgplvm::core::MAGIC {
-        let model = load_model(path)?;
+        let model = load_any_model(path)?;
         let found = model_calibrations(&model)?;
         if found.is_empty() {
             bail!(

@@ -12,6 +12,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use sgplvm::csv::{format_line, read_header};
 use sgplvm::files::atomic_write_with;
+use sgplvm::provenance::other_robot;
 use sgplvm::robots::joint_state::{
     write_topics, Compression, JointStates, MessageEncoding, TopicData, WriteSettings,
 };
@@ -127,6 +128,9 @@ impl Target {
             urdf,
             "its joint limits bound the commands: give its URDF with --urdf FILE, or write --raw for the model's output as it is",
         )?;
+        if let Some(warning) = other_robot(model.annotations(), robot, &anatomy) {
+            eprintln!("warning: {warning}");
+        }
         let columns = if raw {
             CommandColumns::identity(&model_columns)
         } else {

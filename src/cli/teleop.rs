@@ -7,7 +7,8 @@ use std::sync::Arc;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
-use sgplvm::AnyModel;
+use sgplvm::provenance::other_robot;
+use sgplvm::{AnyModel, Predictor};
 use sgplvm_live::gate::Signals;
 use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, TeleopOptions};
 
@@ -173,18 +174,6 @@ enum GateArg {
     Both,
 }
 
-/// The models of one shared latent space among `models`: they carry the calibrations of the
-/// people they were trained on (a per-part model carries none).
-fn single_latent_spaces(models: &[Arc<AnyModel>]) -> Vec<&sgplvm::SharedGplvm> {
-    models
-        .iter()
-        .filter_map(|m| match m.as_ref() {
-            AnyModel::Single(m) => Some(m),
-            AnyModel::Parts(_) => None,
-        })
-        .collect()
-}
-
 impl TeleopArgs {
     /// The safety rule's parameters; a threshold given for a signal that does not gate is an
     /// error (it would change nothing).
@@ -345,18 +334,10 @@ pub(super) fn stop_flag() -> Result<Arc<AtomicBool>> {
     Ok(stop)
 }
 
-pub fn run(args: TeleopArgs) -> Result<()> {
-    if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
-        bail!("--map names a skeleton's frames: it goes with --input tf");
-    }
-    if args.mvn_from.is_some() && !matches!(args.input, HumanInput::Mvn(_)) {
-        bail!("--mvn-from names the sender of an MVN stream: it goes with --input mvn");
-    }
-    let models: Vec<Arc<AnyModel>> = args
-        .model
-        .iter()
-        .map(|p| load_any_model(p).map(Arc::new))
-        .collect::<Result<_>>()?;
+/// One drive per `--robot`: its model (one for all, or one each; none to retarget) and its
+/// body, with `--urdf ROBOT=FILE` where given; a robot other than the one a model learned on is
+/// said.
+fn drives(args: &TeleopArgs, models: &[Arc<AnyModel>]) -> Result<Vec<Drive>> {
     let model_for = |k: usize| -> Result<Option<Arc<AnyModel>>> {
         match models.len() {
             0 => Ok(None),
@@ -395,12 +376,35 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             urdf,
             &format!("its joint limits bound the commands: give its URDF with --urdf {robot}=FILE"),
         )?;
+        let model = model_for(k)?;
+        if let Some(warning) = model
+            .as_ref()
+            .and_then(|m| other_robot(m.annotations(), robot, &anatomy))
+        {
+            eprintln!("warning: {warning}");
+        }
         drives.push(Drive {
             robot: robot.clone(),
-            model: model_for(k)?,
+            model,
             anatomy,
         });
     }
+    Ok(drives)
+}
+
+pub fn run(args: TeleopArgs) -> Result<()> {
+    if args.map.is_some() && !matches!(args.input, HumanInput::Tf) {
+        bail!("--map names a skeleton's frames: it goes with --input tf");
+    }
+    if args.mvn_from.is_some() && !matches!(args.input, HumanInput::Mvn(_)) {
+        bail!("--mvn-from names the sender of an MVN stream: it goes with --input mvn");
+    }
+    let models: Vec<Arc<AnyModel>> = args
+        .model
+        .iter()
+        .map(|p| load_any_model(p).map(Arc::new))
+        .collect::<Result<_>>()?;
+    let drives = drives(&args, &models)?;
     let options = TeleopOptions {
         domain_id: domain_id(args.domain_id)?,
         dds_interfaces: dds_interfaces(&args.dds_interface),
@@ -430,7 +434,9 @@ pub fn run(args: TeleopArgs) -> Result<()> {
             }),
             _ => None,
         },
-        calibration: args.calibration.options(&single_latent_spaces(&models))?,
+        calibration: args
+            .calibration
+            .options(&models.iter().map(AsRef::as_ref).collect::<Vec<_>>())?,
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(

@@ -116,9 +116,15 @@ pub fn run(args: TrainArgs) -> Result<()> {
         let parts = demos.arm_parts(&args.robots, &urdfs)?;
         let config =
             PartsConfig::new(config, parts).with_parent_latent_dim(args.parts.parent_latent_dim());
-        let model = train_parts_with_progress(&label, args.model.budget.max_iters, |cb| {
+        let mut model = train_parts_with_progress(&label, args.model.budget.max_iters, |cb| {
             demos.train_parts(&args.robots, &config, &options, patience, cb)
         })?;
+        for (key, value) in args
+            .data
+            .annotations(&demos, &args.robots, model.annotations())?
+        {
+            model.annotate(key, value);
+        }
         model.save(&args.output.out)?;
         report::parts_training(&model, &args.output.out, args.output.json.json);
         return Ok(());
@@ -133,7 +139,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
         };
         choose_latent_dim(&args, &demos, &config, &options, patience, &label)?
     };
-    args.data.annotate(&mut model)?;
+    for (key, value) in args
+        .data
+        .annotations(&demos, &args.robots, model.annotations())?
+    {
+        model.annotate(key, value);
+    }
     model.save(&args.output.out)?;
     report::training(&model, seconds, &args.output.out, args.output.json.json);
     Ok(())

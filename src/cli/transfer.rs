@@ -75,9 +75,15 @@ pub fn run(args: TransferArgs) -> Result<()> {
                 }
                 (p, _) => p,
             };
-            let (model, seconds) = train_with_progress(&label, args.budget.max_iters, |cb| {
+            let (mut model, seconds) = train_with_progress(&label, args.budget.max_iters, |cb| {
                 demos.transfer(source, robot, &options, patience, cb)
             })?;
+            for (key, value) in
+                args.data
+                    .annotations(&demos, std::slice::from_ref(robot), model.annotations())?
+            {
+                model.annotate(key, value);
+            }
             model.save(&args.output.out)?;
             report::transfer(
                 source,
@@ -89,9 +95,15 @@ pub fn run(args: TransferArgs) -> Result<()> {
             );
         }
         AnyModel::Parts(source) => {
-            let model = train_parts_with_progress(&label, args.budget.max_iters, |cb| {
+            let mut model = train_parts_with_progress(&label, args.budget.max_iters, |cb| {
                 demos.transfer_parts(source, robot, args.urdf.as_deref(), &options, patience, cb)
             })?;
+            for (key, value) in
+                args.data
+                    .annotations(&demos, std::slice::from_ref(robot), model.annotations())?
+            {
+                model.annotate(key, value);
+            }
             model.save(&args.output.out)?;
             report::parts_transfer(robot, &model, &args.output.out, args.output.json.json);
         }

@@ -272,7 +272,10 @@ impl Demonstrations {
     /// The arms `retarget` drove on robot `name` (which of the person's arms, and each arm's
     /// joints), where `retarget` wrote the file the demonstrations came from and said so
     /// ([`sgplvm_robots::retarget::file::retargeted_arms`]).
-    fn retargeted_arms(&self, name: &str) -> Result<Option<RetargetedArms>, PipelineError> {
+    pub(crate) fn retargeted_arms(
+        &self,
+        name: &str,
+    ) -> Result<Option<RetargetedArms>, PipelineError> {
         let path = Path::new(&self.source_name);
         if !path.is_file() {
             return Ok(None);

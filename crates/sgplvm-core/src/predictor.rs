@@ -34,6 +34,8 @@ pub trait Predictor {
     fn predict_frame(&self, h: &[f64], space: &str, out: &mut [f64]) -> Result<()>;
     /// Latent points of raw human frames (n × [`Predictor::latent_dim`]).
     fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>>;
+    /// What users attached to the model ([`SharedGplvm::annotations`]).
+    fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value>;
 }
 
 impl Predictor for SharedGplvm {
@@ -61,6 +63,9 @@ impl Predictor for SharedGplvm {
     fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         SharedGplvm::latent(self, h)
     }
+    fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value> {
+        SharedGplvm::annotations(self)
+    }
 }
 
 impl Predictor for PartsGplvm {
@@ -87,6 +92,9 @@ impl Predictor for PartsGplvm {
     }
     fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         PartsGplvm::latent(self, h)
+    }
+    fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value> {
+        PartsGplvm::annotations(self)
     }
 }
 
@@ -149,6 +157,14 @@ impl AnyModel {
         }
     }
 
+    /// Attaches `value` under `key` ([`SharedGplvm::annotate`]).
+    pub fn annotate(&mut self, key: &str, value: serde_json::Value) {
+        match self {
+            AnyModel::Single(m) => m.annotate(key, value),
+            AnyModel::Parts(m) => m.annotate(key, value),
+        }
+    }
+
     /// The configuration the model (each of its parts) was trained with.
     pub fn config(&self) -> &crate::ModelConfig {
         match self {
@@ -182,5 +198,8 @@ impl Predictor for AnyModel {
     }
     fn latent(&self, h: MatRef<'_, f64>) -> Result<Mat<f64>> {
         self.predictor().latent(h)
+    }
+    fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value> {
+        self.predictor().annotations()
     }
 }

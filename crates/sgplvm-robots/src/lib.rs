@@ -31,5 +31,5 @@ pub use error::{RobotError, RobotResult};
 pub use kinematics::{Chain, IkOptions, IkSolution, IkTarget};
 pub use models::{Arm, Side};
 pub use physics::{replay, replay_urdf, PhysicsError, ReplayOptions, ReplayReport, Trajectory};
-pub use urdf::{JointInfo, JointKind, Robot};
+pub use urdf::{JointInfo, JointKind, JointRecord, Robot, RobotIdentity};
 pub mod generator;

@@ -12,6 +12,7 @@ use serde::Serialize;
 use sgplvm::pipeline::{
     human_pose_bounds, mean_squared_error, to_mat, Demonstrations, Evaluation, TestTrust,
 };
+use sgplvm::provenance::other_robot;
 use sgplvm::{AnyModel, Mat, Predictor, Robot};
 
 use super::args::{DataArg, JsonArg, ModelFileArg};
@@ -199,6 +200,9 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         (None, None) => None,
         (urdf, _) => {
             let anatomy = args.body.load(&args.robot, urdf.as_deref(), "")?;
+            if let Some(warning) = other_robot(model.annotations(), &args.robot, &anatomy) {
+                eprintln!("warning: {warning}");
+            }
             let test = to_mat(&demos.dataset.human.rows(&demos.dataset.test));
             let predicted = model.predict(test.as_ref(), &args.robot, false)?.mean;
             Some(arms::report(

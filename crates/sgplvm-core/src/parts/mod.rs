@@ -290,6 +290,17 @@ impl PartsGplvm {
         self.parent.as_ref()
     }
 
+    /// What users attached to the model ([`SharedGplvm::annotations`]): kept with the first
+    /// part's model, so through saving, loading and transfer as a single model's are.
+    pub fn annotations(&self) -> &std::collections::BTreeMap<String, serde_json::Value> {
+        self.parts[0].model.annotations()
+    }
+
+    /// Attaches `value` under `key` ([`SharedGplvm::annotate`]).
+    pub fn annotate(&mut self, key: &str, value: serde_json::Value) {
+        self.parts[0].model.annotate(key, value);
+    }
+
     /// The configuration the parts were trained with.
     pub fn config(&self) -> &ModelConfig {
         self.parts[0].model.config()

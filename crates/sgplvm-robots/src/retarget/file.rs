@@ -16,14 +16,14 @@ use crate::dataset::{
     CAPTURE_METADATA,
 };
 use crate::joint_state::Compression;
-use crate::Side;
+use crate::{RobotIdentity, Side};
 
 /// Name of the MCAP metadata record with the retargeting's settings and reach reports.
 pub const RETARGET_METADATA: &str = "sgplvm.retarget";
 
 /// The arms `retarget` drove on one robot, as its file records them
 /// ([`retargeted_arms`]).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct RetargetedArms {
     /// Which of the person's arms drove the robot's arms, left first.
     pub sides: Vec<Side>,
@@ -31,6 +31,9 @@ pub struct RetargetedArms {
     /// anatomy took as that arm (names, structure or `--arm`). Both empty in a file written
     /// before they were recorded.
     pub joints: [Vec<String>; 2],
+    /// The robot the commands were retargeted onto (`None` in a file written before it was
+    /// recorded).
+    pub identity: Option<RobotIdentity>,
 }
 
 /// The arms `retarget` drove on each robot of a file it wrote (robot name → arms), from its
@@ -77,6 +80,11 @@ pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, RetargetedArms>, 
         })?,
         None => BTreeMap::new(),
     };
+    let mut identities: BTreeMap<String, RobotIdentity> = match value.get("kinematics") {
+        Some(k) => serde_json::from_value(k.clone())
+            .map_err(|e| bad(format!("`kinematics` is not robot → its joints: {e}")))?,
+        None => BTreeMap::new(),
+    };
     arms.into_iter()
         .map(|(robot, sides)| {
             let mut found = RetargetedArms {
@@ -84,6 +92,7 @@ pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, RetargetedArms>, 
                     .iter()
                     .map(|s| side(&robot, s))
                     .collect::<Result<Vec<_>, _>>()?,
+                identity: identities.remove(&robot),
                 ..RetargetedArms::default()
             };
             for (s, names) in joints.get(&robot).into_iter().flatten() {
@@ -260,6 +269,15 @@ pub fn retarget_files(
             (name.as_str(), joints)
         })
         .collect();
+    // And the robot itself, as its commands depend on it: a model trained on these commands
+    // then tells when it is given another robot of the same joint names.
+    let kinematics: BTreeMap<&str, RobotIdentity> = robots
+        .iter()
+        .map(|(name, anatomy)| {
+            let joints = anatomy.arm_joint_names();
+            (name.as_str(), anatomy.robot().identity(&joints))
+        })
+        .collect();
     let settings = serde_json::json!({
         "match": options.mode,
         "redundancy": options.redundancy,
@@ -268,6 +286,7 @@ pub fn retarget_files(
         "reach": reach,
         "arms": arms,
         "arm_joints": arm_joints,
+        "kinematics": kinematics,
     });
     m.insert("json".to_string(), settings.to_string());
     extra.push((RETARGET_METADATA.to_string(), m));

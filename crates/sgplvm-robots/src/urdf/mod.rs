@@ -31,12 +31,14 @@
 //! `file://` and `package://` URIs) for the physics replay and the scene files.
 
 mod check;
+mod identity;
 mod meshes;
 mod parse;
 mod repair;
 mod tree;
 
 pub use check::{pose_from_xyz_rpy, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+pub use identity::{JointRecord, RobotIdentity, IDENTITY_TOLERANCE};
 pub use meshes::{file_uri, MeshMiss, MeshSearch, ANCESTOR_LEVELS, PACKAGE_SEARCH_DEPTH};
 pub use parse::MAX_DEPTH;
 pub use repair::UrdfRepair;
