@@ -9,6 +9,12 @@ use common::{fails_on_one_line, ok, s, scratch};
 
 /// A BVH file with a CMU-named two-arm skeleton (ZYX joints, 6-channel root), `frames` lines.
 fn cmu_bvh(frames: usize) -> String {
+    cmu_bvh_bending(frames, 0, 1.0)
+}
+
+/// [`cmu_bvh`] with the elbows bending about their `axis`-th channel (0: z, 1: y) and every
+/// bone `scale` times as long.
+fn cmu_bvh_bending(frames: usize, axis: usize, scale: f64) -> String {
     let mut t = String::from(
         "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n  JOINT Spine1\n  {\n    OFFSET 0 5 0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n    JOINT Neck\n    {\n      OFFSET 0 2 0\n      CHANNELS 3 Zrotation Yrotation Xrotation\n      End Site\n      {\n        OFFSET 0 1 0\n      }\n    }\n",
     );
@@ -21,7 +27,7 @@ fn cmu_bvh(frames: usize) -> String {
         ] {
             t.push_str(&format!(
                 "JOINT {side}{name}\n{{\nOFFSET {} 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n",
-                x * len
+                x * len * scale
             ));
         }
         t.push_str(&format!(
@@ -39,9 +45,9 @@ fn cmu_bvh(frames: usize) -> String {
         let mut v = vec![0.0; 36];
         v[15] = -60.0;
         v[16] = -20.0;
-        v[18] = -20.0 - 0.1 * f as f64;
+        v[18 + axis] = -20.0 - 0.1 * f as f64;
         v[27] = 60.0;
-        v[30] = 20.0 + 0.1 * f as f64;
+        v[30 + axis] = 20.0 + 0.1 * f as f64;
         let line: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
         t.push_str(&line.join(" "));
         t.push('\n');
@@ -577,4 +583,69 @@ fn models_carry_the_person_and_the_robots(p: &dyn Fn(&str) -> std::path::PathBuf
         s(&p("again.mcap")),
     ]);
     assert!(p("again.mcap").exists(), "{again}");
+}
+
+/// Takes of one person (skeletons resting alike) imported together share one calibration, the
+/// twist their rest leaves untold read from the elbow's hinge over all of them (each take alone
+/// told it its own way, and a stream of the person could be fitted through one of them only);
+/// a skeleton resting otherwise keeps its own.
+#[test]
+fn takes_of_one_person_imported_together_share_one_calibration() {
+    let dir = scratch("capture-takes");
+    let p = |n: &str| dir.join(n);
+    std::fs::write(p("a.bvh"), cmu_bvh_bending(120, 0, 1.0)).unwrap();
+    std::fs::write(p("b.bvh"), cmu_bvh_bending(120, 1, 1.0)).unwrap();
+    std::fs::write(p("c.bvh"), cmu_bvh_bending(120, 0, 1.3)).unwrap();
+    let calibrations = |files: &[&str]| -> Vec<serde_json::Value> {
+        let mut args = vec!["import".to_string()];
+        args.extend(files.iter().map(|f| p(f).display().to_string()));
+        args.extend(["--json", "--out"].map(String::from));
+        args.push(p("out.mcap").display().to_string());
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let v: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["calibration"].clone())
+            .collect()
+    };
+    let alone = [calibrations(&["a.bvh"]), calibrations(&["b.bvh"])].map(|mut c| c.remove(0));
+    assert_eq!(
+        alone[0]["arms"][0]["twist"]["kind"], "elbow_hinge",
+        "{}",
+        alone[0]
+    );
+    assert_ne!(
+        alone[0]["arms"][0]["upper_arm_frame"],
+        alone[1]["arms"][0]["upper_arm_frame"]
+    );
+    let together = calibrations(&["a.bvh", "b.bvh", "c.bvh"]);
+    assert_eq!(together[0], together[1]);
+    let made_from = together[0]["made_from"].as_str().unwrap();
+    assert!(
+        made_from.ends_with("a.bvh and 1 more file resting alike"),
+        "{made_from}"
+    );
+    let frames = |c: &serde_json::Value| c["arms"][0]["twist"]["frames"].as_u64().unwrap();
+    assert_eq!(frames(&together[0]), frames(&alone[0]) + frames(&alone[1]));
+    assert!(
+        together[2]["made_from"]
+            .as_str()
+            .unwrap()
+            .ends_with("c.bvh"),
+        "{}",
+        together[2]
+    );
+    // One calibration of one person: --calibration-out writes it.
+    let written = p("person.json");
+    ok(&[
+        "import",
+        s(&p("a.bvh")),
+        s(&p("b.bvh")),
+        "--calibration-out",
+        s(&written),
+        "--out",
+        s(&p("ab.mcap")),
+    ]);
+    assert!(written.exists());
 }

@@ -149,13 +149,13 @@ pub fn run(args: ImportArgs) -> Result<()> {
         )?;
     }
     if let Some(out) = args.calibration.out() {
-        match captures.as_slice() {
-            [one] => match &one.source.calibration {
-                Some(c) => c.write(out)?,
-                None => bail!("--calibration-out: the capture holds no calibration"),
-            },
-            _ => bail!(
-                "--calibration-out {}: {} captures, each with its person's calibration; import one at a time (the MCAP keeps every one: --calibration takes it)",
+        // One calibration, whether of one capture or shared by captures of one person.
+        let mut all = captures.iter().map(|c| c.source.calibration.as_ref());
+        match all.next().flatten() {
+            None => bail!("--calibration-out: the capture holds no calibration"),
+            Some(first) if all.all(|c| c == Some(first)) => first.write(out)?,
+            Some(_) => bail!(
+                "--calibration-out {}: {} captures of more than one person (their skeletons rest differently), each with its calibration; import one person at a time (the MCAP keeps every one: --calibration takes it)",
                 out.display(),
                 captures.len()
             ),
@@ -195,6 +195,9 @@ fn summary(s: &CaptureSource, frames_out: usize) {
     );
     if !s.body_axes.is_empty() {
         println!("  body axes {}", s.body_axes);
+    }
+    if let Some(c) = &s.calibration {
+        println!("  calibration: {}", c.describe());
     }
     let units = if s.units == "unknown" {
         "units unknown".to_string()

@@ -272,6 +272,15 @@ impl HingeEstimate {
         }
     }
 
+    /// Adds the frames `other` saw (another take of the same person).
+    pub fn merge(&mut self, other: &HingeEstimate) {
+        for s in 0..2 {
+            self.sum[s] += other.sum[s];
+            self.total[s] += other.total[s];
+            self.frames[s] += other.frames[s];
+        }
+    }
+
     /// Frames of arm `side` in which the elbow was bent enough to count.
     pub fn bent_frames(&self, side: Side) -> usize {
         self.frames[side_index(side)]

@@ -6,7 +6,9 @@ use std::path::Path;
 
 use nalgebra::DMatrix;
 
-use crate::calibration::{Calibration, HingeEstimate, Twist, UntoldTwist};
+use crate::calibration::{
+    Calibration, HandEnd, HingeEstimate, Twist, UntoldTwist, REST_MATCH_FRACTION,
+};
 use crate::fit::HumanArms;
 use crate::skeleton::Skeleton;
 use crate::stream::PoseFitter;
@@ -36,7 +38,7 @@ pub fn import_files(
 ) -> Result<Vec<CapturedMotion>, CaptureError> {
     let has = |p: &Path, ext: &str| p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext));
     let mut skeleton: Option<&Path> = None;
-    let mut captures = Vec::with_capacity(paths.len());
+    let mut parsed = Vec::with_capacity(paths.len());
     for path in paths {
         if has(path, "asf") {
             skeleton = Some(path);
@@ -45,13 +47,15 @@ pub fn import_files(
                 Some(s) => s.to_path_buf(),
                 None => crate::asf::skeleton_beside(path)?,
             };
-            let bvh = crate::asf::read_asf_amc(&asf, path)?;
-            captures.push(import_parsed(&bvh, &path.display().to_string(), options)?);
+            parsed.push((
+                crate::asf::read_asf_amc(&asf, path)?,
+                path.display().to_string(),
+            ));
         } else {
-            captures.push(import_bvh(path, options)?);
+            parsed.push((Bvh::read(path)?, path.display().to_string()));
         }
     }
-    if captures.is_empty() && skeleton.is_some() {
+    if parsed.is_empty() && skeleton.is_some() {
         return Err(CaptureError::Options {
             file: skeleton
                 .map(|s| s.display().to_string())
@@ -59,7 +63,113 @@ pub fn import_files(
             message: "an ASF file is a skeleton, no motion: give its AMC files after it".into(),
         });
     }
-    Ok(captures)
+    let shared = if options.calibration.is_empty() {
+        shared_calibrations(&parsed, options)
+    } else {
+        vec![None; parsed.len()]
+    };
+    parsed
+        .iter()
+        .zip(shared)
+        .map(|((bvh, file), calibration)| match calibration {
+            Some(c) => {
+                let through = ImportOptions {
+                    calibration: vec![c],
+                    ..options.clone()
+                };
+                import_parsed(bvh, file, &through)
+            }
+            None => import_parsed(bvh, file, options),
+        })
+        .collect()
+}
+
+/// One calibration per person among `files`: files whose skeletons rest alike (every rest
+/// point within [`REST_MATCH_FRACTION`] of the arm's length, the live node's own test of one
+/// person, and arms as long within it) share the first one's rest pose, with an upper arm's twist
+/// that the rest leaves untold read from the elbow's hinge over all their motion — each
+/// take of a person alone told it differently (up to 27° over six 2-second takes of one
+/// subject), and a stream of that person could be fitted through one of them only. `None` for
+/// a file alike to no other (it calibrates itself, as imported alone) or that cannot be read
+/// (its import says why).
+fn shared_calibrations(
+    files: &[(Bvh, String)],
+    options: &ImportOptions,
+) -> Vec<Option<Calibration>> {
+    let Ok(human) = Robot::builtin("human") else {
+        return vec![None; files.len()];
+    };
+    let Ok(model) = HumanArms::new(&human) else {
+        return vec![None; files.len()];
+    };
+    struct Group {
+        first: usize,
+        arm_length: f64,
+        calibration: Calibration,
+        hinge: HingeEstimate,
+        members: Vec<usize>,
+    }
+    let mut groups: Vec<Group> = Vec::new();
+    for (k, (bvh, file)) in files.iter().enumerate() {
+        let Ok(skeleton) = Skeleton::identify(bvh, options.map.as_ref(), file) else {
+            continue;
+        };
+        let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
+        let (calibration, hinge) = calibrate(bvh, &skeleton, &model, file, units);
+        let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
+        let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
+        // The same proportions (the live node's test, which cannot know a stream's units) and
+        // the same size: one person, not two of one build.
+        let arm_length = skeleton.arm_length * units.map_or(1.0, Units::metres);
+        let alike = groups.iter_mut().find(|g| {
+            (g.arm_length - arm_length).abs() <= REST_MATCH_FRACTION * g.arm_length
+                && g.calibration
+                    .check_rest([&rest[0], &rest[1]], has_clavicle, HandEnd::Measured)
+                    .is_ok()
+        });
+        match alike {
+            Some(g) => {
+                g.hinge.merge(&hinge);
+                g.members.push(k);
+            }
+            None => groups.push(Group {
+                first: k,
+                arm_length,
+                calibration,
+                hinge,
+                members: vec![k],
+            }),
+        }
+    }
+    let mut shared = vec![None; files.len()];
+    for g in groups.into_iter().filter(|g| g.members.len() > 1) {
+        let (bvh, file) = &files[g.first];
+        let Ok(skeleton) = Skeleton::identify(bvh, options.map.as_ref(), file) else {
+            continue;
+        };
+        let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
+        let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
+        let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
+        let calibration = Calibration::from_rest(
+            &model,
+            [&rest[0], &rest[1]],
+            has_clavicle,
+            UntoldTwist {
+                hinge: Some(&g.hinge),
+                otherwise: Twist::Assumed,
+            },
+            &format!(
+                "import of {file} and {} resting alike",
+                sgplvm_robots::names::count(g.members.len() - 1, "more file")
+            ),
+            &skeleton.scheme,
+            units.map(Units::metres),
+        );
+        for k in g.members {
+            shared[k] = Some(calibration.clone());
+        }
+    }
+    shared
 }
 
 /// [`import_bvh`] of an already parsed file; `file` names it in reports and errors.
@@ -89,7 +199,7 @@ pub fn import_parsed(
     let model = HumanArms::new(&human)?;
     let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
     let calibration = match options.calibration.as_slice() {
-        [] => calibrate(bvh, &skeleton, &model, file, units),
+        [] => calibrate(bvh, &skeleton, &model, file, units).0,
         given => given_calibration(bvh, &skeleton, given, file)?,
     };
     let mut fitter = PoseFitter::new(model, &calibration);
@@ -129,14 +239,14 @@ pub fn import_parsed(
 
 /// The calibration of the file's skeleton: its rest pose, and where that leaves an upper arm's
 /// twist untold, the elbow's hinge over the file's motion (at most [`HINGE_FRAMES`] frames,
-/// evenly spaced).
+/// evenly spaced); and that hinge, to be pooled with other files of the same person.
 fn calibrate(
     bvh: &Bvh,
     skeleton: &Skeleton,
     model: &HumanArms,
     file: &str,
     units: Option<Units>,
-) -> Calibration {
+) -> (Calibration, HingeEstimate) {
     let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
     let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
     let mut hinge = HingeEstimate::new();
@@ -152,7 +262,7 @@ fn calibrate(
             hinge.add([&poses[0], &poses[1]]);
         }
     }
-    Calibration::from_rest(
+    let calibration = Calibration::from_rest(
         model,
         [&rest[0], &rest[1]],
         has_clavicle,
@@ -163,7 +273,8 @@ fn calibrate(
         &format!("import of {file}"),
         &skeleton.scheme,
         units.map(Units::metres),
-    )
+    );
+    (calibration, hinge)
 }
 
 /// Of the calibrations given for the file, the one whose rest pose is the file's.
