@@ -230,7 +230,9 @@ class Robot:
     @property
     def link_names(self) -> List[str]: ...
     def forward_kinematics(self, q: Sequence[float], link: Optional[str] = None) -> _F64:
-        """4×4 pose of ``link`` for configuration ``q`` (in ``joint_names`` order)."""
+        """4×4 pose of ``link`` for configuration ``q``: every joint of ``joint_names``, in that
+        order (a whole robot's every movable joint, not only ``command_joint_names``). ``link``
+        may be left out for a chain (``Robot.chain``): its tip; a whole robot needs it named."""
     @property
     def anatomy(self) -> Dict[str, Any]:
         """Arms, held joints, body frame, reach, neutral posture and notes."""

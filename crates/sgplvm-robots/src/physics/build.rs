@@ -28,6 +28,8 @@ use crate::kinematics::adjacency::{own_closeness, DESIGNED_CLEARANCE_M};
 const DEFAULT_DENSITY: Real = 1000.0;
 /// Mass (kg) of a moving link that declares neither a mass nor a collision shape.
 const PLACEHOLDER_MASS: Real = 1e-3;
+/// How many massless links the warning names.
+const MASSLESS_NAMED: usize = 4;
 /// Principal inertia (kg·m²) of such a placeholder link.
 const PLACEHOLDER_INERTIA: Real = 1e-6;
 /// Standard gravity, m/s².
@@ -284,6 +286,7 @@ fn load_links(
             });
         }
     }
+    let mut massless = Vec::new();
     for link in &mut urdf_robot.links {
         let source = &robot.links[link.urdf_link_index];
         for collider in &mut link.colliders {
@@ -301,15 +304,26 @@ fn load_links(
                     false,
                 );
             } else {
-                warnings.push(format!(
-                    "{file}: <link name=\"{}\"> declares no mass; its collision shapes were given a density of {DEFAULT_DENSITY} kg/m³",
-                    source.name
-                ));
+                massless.push(format!("\"{}\"", source.name));
                 for collider in &mut link.colliders {
                     collider.collider.set_density(DEFAULT_DENSITY);
                 }
             }
         }
+    }
+    // One line for them all: a URDF without inertias (SDA10F's 16 links) said it 16 times.
+    if !massless.is_empty() {
+        let shown = massless.len().min(MASSLESS_NAMED);
+        warnings.push(format!(
+            "{file}: no mass declared on {} ({}{}); their collision shapes were given a density of {DEFAULT_DENSITY} kg/m³",
+            crate::names::count(massless.len(), "link"),
+            massless[..shown].join(", "),
+            if massless.len() > shown {
+                format!(" and {} more", massless.len() - shown)
+            } else {
+                String::new()
+            }
+        ));
     }
     split_branches(&mut urdf_robot);
     // Which URDF joint each rapier joint came from (the squeeze of empty links may merge).
