@@ -122,7 +122,7 @@ impl Anatomy {
                         file: self.robot.source().to_string(),
                         what: format!("command joint {n}"),
                         message: format!(
-                            "is an arm joint the model does not predict (it predicts {}); train on data that has it, or leave it out with --command-joints",
+                            "is an arm joint here, one the model does not predict (it predicts {}): name the arms as retarget had them (--arm SIDE=FROM_LINK:TO_LINK, or robot --arm … --write to keep them beside the URDF), leave it out with --command-joints, or train on data that has it",
                             crate::names::few(model_columns, 6)
                         ),
                     })

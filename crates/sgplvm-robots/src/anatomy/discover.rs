@@ -2,7 +2,7 @@
 //! manipulator, an arm on a table): as the user named them, by sgplvm's link convention, by
 //! the joints' names, else by the tree's structure; and each arm's hand link.
 
-use super::words::{hand_score, part_of, side_of, Part};
+use super::words::{hand_score, names_a_finger, names_an_arm_part, part_of, side_of, Part};
 use super::{AnatomyError, AnatomyResult, AnatomySpec, Found};
 use crate::models::Side;
 use crate::names::few;
@@ -393,9 +393,13 @@ fn no_chain_why(tree: &Tree) -> String {
 /// `hand_l_spring_proximal_joint` …, whose names say left and hand).
 fn armlike(tree: &Tree, j: usize) -> bool {
     let own = part_of(tree.joint_name(j));
-    let link = part_of(tree.link_name(tree.robot.joints[j].child));
+    let link_name = tree.link_name(tree.robot.joints[j].child);
+    let link = part_of(link_name);
+    // A joint whose only arm word is `arm` (a namespace) moving a finger's link is a finger.
+    let finger = !names_an_arm_part(tree.joint_name(j)) && names_a_finger(link_name);
     tree.revolute(j)
         && !tree.mimics[j]
+        && !finger
         && !matches!(own, Part::Gripper | Part::Leg | Part::Head | Part::Torso)
         && (own == Part::Arm || !matches!(link, Part::Gripper | Part::Leg | Part::Head))
 }

@@ -69,6 +69,8 @@ pub enum Part {
 const GRIPPER: &[&str] = &[
     "gripper",
     "finger",
+    "fingers",
+    "fngr",
     "fingertip",
     "thumb",
     "index",
@@ -93,6 +95,23 @@ const ARM: &[&str] = &[
     "arm", "shoulder", "sh", "sho", "shld", "shldr", "elbow", "elb", "el", "forearm", "upperarm",
     "wrist", "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
 ];
+
+/// Whether a name says a finger or jaw (a gripper word other than `gripper` and `grasp`, which
+/// makers also give the gripper's base, carried by the wrist).
+pub fn names_a_finger(name: &str) -> bool {
+    words(name)
+        .iter()
+        .any(|w| GRIPPER.contains(&w.as_str()) && w != "gripper" && w != "grasp")
+}
+
+/// Whether a name says which part of the arm it is (`shoulder`, `elbow`, `wrist`, …), not only
+/// `arm`: `arm_` is as often a namespace (Boston Dynamics' Spot: `arm_sh0` … `arm_wr1`, and its
+/// jaw `arm_f1x`).
+pub fn names_an_arm_part(name: &str) -> bool {
+    words(name)
+        .iter()
+        .any(|w| ARM.contains(&w.as_str()) && w != "arm")
+}
 
 /// The part a name's words say it belongs to; gripper, leg and head words win over arm words
 /// (`left_hand_thumb_joint` is a gripper joint, `hand` notwithstanding).

@@ -309,6 +309,24 @@ fn a_single_arm_is_found_by_structure_driven_by_the_side_its_names_say_else_the_
     assert_eq!(a.arm_joint_names()[0], "j_left_arm_0");
 }
 
+#[test]
+fn a_jaw_named_under_the_arm_s_namespace_is_no_arm_joint() {
+    // Boston Dynamics' Spot arm names every joint `arm_…` (`arm_sh0` … `arm_wr1`) and its
+    // gripper's jaw `arm_f1x`, moving `arm_link_fngr`: serial on the wrist, it was taken as the
+    // arm's seventh joint and commanded. Here on the iiwa's tip.
+    let kuka = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/kuka_iiwa.urdf"),
+    )
+    .unwrap();
+    let jaw = r#"<link name="arm_link_fngr"/><joint name="arm_f1x" type="revolute"><parent link="lbr_iiwa_link_7"/><child link="arm_link_fngr"/><origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-1.57" upper="0" velocity="1" effort="1"/></joint></robot>"#;
+    let with_jaw = kuka.replace("</robot>", jaw);
+    let a = Anatomy::of(Robot::from_urdf_str(&with_jaw, "jaw.urdf").unwrap()).unwrap();
+    let arm = a.arm(Side::Right).unwrap();
+    assert_eq!(arm.chain.dof(), 7, "{:?}", arm.chain.joint_names());
+    assert_eq!(arm.chain.joint_names()[6], "lbr_iiwa_joint_7");
+    assert!(a.held_joints().iter().any(|(j, _)| j == "arm_f1x"));
+}
+
 /// A revolute joint `name` on `parent` at `xyz` turning about `axis` within `range`, and its
 /// link `{name}_link`.
 fn revolute(name: &str, parent: &str, xyz: &str, axis: &str, range: (f64, f64)) -> String {
