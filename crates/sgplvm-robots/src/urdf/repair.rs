@@ -9,7 +9,7 @@
 
 use std::fmt;
 
-use super::check::{children, describe, line_of, El};
+use super::check::{children, describe, line_of, unusable_inertial, El};
 
 /// One kind of departure from the URDF specification that loading repaired, with every place
 /// it was found.
@@ -166,6 +166,16 @@ pub(super) fn repair(
         }
         for part in ["inertial", "visual", "collision"] {
             for p in children(link, part) {
+                if let Some(why) = (part == "inertial").then(|| unusable_inertial(p)).flatten() {
+                    r.note(
+                        &format!("<inertial> of no use ({why})"),
+                        "left out: the link declares no mass (retargeting never reads it; simulate gives the link's collision shapes a density)",
+                        p,
+                        owner.clone(),
+                    );
+                    r.remove(text, p);
+                    continue;
+                }
                 origins(&mut r, text, p, urdf_1_1);
                 for g in children(p, "geometry") {
                     stray_text(&mut r, text, g, format!("{owner} <{part}>"));
