@@ -61,9 +61,9 @@ impl Commands {
             ),
             Commands::Limited {
                 timed: true,
-                safety: Some(_),
+                safety: Some(safety),
                 ..
-            } => format!(
+            } if !safety.collision().pairs().is_empty() => format!(
                 "{robot} commands: within the robot's URDF position and velocity limits and out of self-collision (--raw for the model's output)"
             ),
             Commands::Limited { timed: true, .. } => format!(
@@ -110,6 +110,8 @@ impl Commands {
 /// What the self-collision limit did to a series of commands.
 #[derive(Default)]
 pub struct KeptApart {
+    /// Pairs of collision shapes it checked (none: it could check nothing).
+    pub pairs: usize,
     /// Commands it moved.
     pub commands: usize,
     /// The nearest pair of links it kept apart, and their distance (metres).
@@ -137,6 +139,9 @@ impl KeptApart {
                 self.commands,
                 d * 1e3
             ),
+            None if self.pairs == 0 => format!(
+                "self-collision not checked for {robot}: no pair of its collision shapes can meet"
+            ),
             None => format!("no {robot} command came near a self-collision"),
         }
     }
@@ -145,7 +150,10 @@ impl KeptApart {
 /// Keeps a series of commands (`rows`, row-major, `d` per command, at `times` seconds, or
 /// untimed) out of self-collision, one command after another.
 fn keep_apart(safety: &mut SafetyStep, rows: &mut [f64], d: usize, times: &[f64]) -> KeptApart {
-    let mut kept = KeptApart::default();
+    let mut kept = KeptApart {
+        pairs: safety.collision().pairs().len(),
+        ..KeptApart::default()
+    };
     let mut out = vec![0.0; d];
     for (f, row) in rows.chunks_exact_mut(d.max(1)).enumerate() {
         let now = times.get(f).copied().unwrap_or(f as f64);

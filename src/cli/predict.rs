@@ -536,11 +536,20 @@ impl StreamLimits {
             ),
             Commands::Raw => (Commands::Raw, None),
         };
+        let kept = KeptApart {
+            pairs: match &commands {
+                Commands::Limited {
+                    safety: Some(s), ..
+                } => s.collision().pairs().len(),
+                _ => 0,
+            },
+            ..KeptApart::default()
+        };
         StreamLimits {
             commands,
             stream,
             time_unit,
-            kept: KeptApart::default(),
+            kept,
             frames: 0,
             t0: None,
         }

@@ -396,14 +396,15 @@ fn split_line(done: &FilesRetargeted, args: &RetargetArgs) -> String {
 /// Per robot, how the hands followed (the hand-matching modes).
 fn print_hands(reports: &[ReachReport]) {
     let mm = |m: f64| m * 1000.0;
-    println!("robot        reached (of targets): median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)");
+    let w = name_width(reports);
+    println!("{:<w$} reached (of targets): median    worst | unreachable (worst miss) | velocity-limited (worst) | other configuration (worst)", "robot");
     for r in reports {
         let reached = match (r.median_m, r.worst_m) {
             (Some(m), Some(w)) => format!("{:>9.3} mm {:>6.2} mm", mm(m), mm(w)),
             _ => format!("{:>22}", "none reached"),
         };
         println!(
-            "{:<12} {:>6} of {:<6} {reached} | {:>5} ({:>5.1} mm) | {:>6} ({:>6.1} mm)  | {:>6} ({:>6.1} mm){}",
+            "{:<w$} {:>6} of {:<6} {reached} | {:>5} ({:>5.1} mm) | {:>6} ({:>6.1} mm)  | {:>6} ({:>6.1} mm){}",
             r.robot,
             r.reached,
             r.targets,
@@ -422,6 +423,17 @@ fn print_hands(reports: &[ReachReport]) {
     }
 }
 
+/// The width of the tables' robot column: the longest name, at least 12 (a URDF's name, as
+/// `galbot_one_charlie`, is often longer).
+fn name_width(reports: &[ReachReport]) -> usize {
+    reports
+        .iter()
+        .map(|r| r.robot.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(12)
+}
+
 /// The first `n` of `items` and how many more, separated by `; `.
 fn first_few(items: &[String], n: usize) -> String {
     let shown = items[..items.len().min(n)].join("; ");
@@ -435,11 +447,12 @@ fn first_few(items: &[String], n: usize) -> String {
 /// (`--match arms`), and which limits held the commands (`velocity_limits`: whether the
 /// commands written were held within them).
 fn print_postures(reports: &[ReachReport], velocity_limits: bool) {
-    println!("robot        upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)");
+    let w = name_width(reports);
+    println!("{:<w$} upper arm (median, 90th) | forearm (median, 90th) | hand, of reach (median, 90th; within 5 %) | frames held by: velocity, self-collision | in collision (closest, margin)", "robot");
     for r in reports {
         let Some(p) = &r.posture else { continue };
         println!(
-            "{:<12} {:>5.1}° {:>5.1}°        | {:>5.1}° {:>5.1}°         | {:>5.1} % {:>5.1} % ({:>5.1} %)                | {:>6} {:>6}                        | {} ({}, {:.0} mm)",
+            "{:<w$} {:>5.1}° {:>5.1}°        | {:>5.1}° {:>5.1}°         | {:>5.1} % {:>5.1} % ({:>5.1} %)                | {:>6} {:>6}                        | {} ({}, {:.0} mm)",
             r.robot,
             p.upper_arm_deg[0],
             p.upper_arm_deg[1],
