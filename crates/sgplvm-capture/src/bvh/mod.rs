@@ -250,15 +250,28 @@ impl Bvh {
         Some(path)
     }
 
-    /// Position of `joint` in the frame of `ancestor` with every channel at zero (the file's
-    /// rest pose: offsets only).
+    /// Position of `joint` in the frame of `ancestor` with every rotation channel at zero (the
+    /// file's rest pose), each joint translated from its parent as [`Bvh::rest_translation`].
     pub fn rest_position(&self, ancestor: usize, joint: usize) -> Option<Vector3<f64>> {
         Some(
             self.path(ancestor, joint)?
                 .iter()
-                .map(|&j| self.joints[j].offset)
+                .map(|&j| self.rest_translation(j))
                 .sum(),
         )
+    }
+
+    /// Translation of `joint` from its parent at rest: its offset, or where the joint has
+    /// position channels, their values in the first frame — a file that carries positions on
+    /// every joint (Perception Neuron's exports) moves its bones by them, not by the offsets,
+    /// and a stream of it (each joint's translation as the frame gives it) rests so.
+    pub fn rest_translation(&self, joint: usize) -> Vector3<f64> {
+        let j = &self.joints[joint];
+        if j.has_position() && self.frames() > 0 {
+            j.local(self.frame(0)).0
+        } else {
+            j.offset
+        }
     }
 }
 

@@ -50,6 +50,25 @@ fn reads_hierarchy_channels_and_frames() {
 }
 
 #[test]
+fn a_joint_with_position_channels_rests_where_the_first_frame_puts_it() {
+    // Perception Neuron's exports carry positions on every joint, and the bones move by them:
+    // one whose offset says 10 and whose channels say 12 is 12 long at rest, as a stream of it
+    // (each joint's translation as the frame gives it) rests.
+    let six = TWO_FRAMES
+        .replace(
+            "    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Yrotation Xrotation",
+            "    OFFSET 0 10 0\n    CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation",
+        )
+        .replace("1 2 3 0 0 0 90 0 0", "1 2 3 0 0 0 0 12 0 90 0 0")
+        .replace("1 2 3 0 0 0 0 90 0", "1 2 3 0 0 0 0 12 0 0 90 0");
+    let b = Bvh::parse(&six, "t.bvh").unwrap();
+    assert_eq!(b.rest_position(0, 1), Some(Vector3::new(0.0, 12.0, 0.0)));
+    // Without position channels: the offset.
+    let b = Bvh::parse(TWO_FRAMES, "t.bvh").unwrap();
+    assert_eq!(b.rest_position(0, 1), Some(Vector3::new(0.0, 10.0, 0.0)));
+}
+
+#[test]
 fn channel_order_composes_left_to_right() {
     // Zrotation Xrotation Yrotation 30 40 50 is Rz(30) Rx(40) Ry(50).
     let j = BvhJoint {
