@@ -747,6 +747,27 @@ mod tests {
     }
 
     #[test]
+    fn a_moving_link_drawn_without_a_collision_element_is_said_unchecked() {
+        let xml = r#"<robot name="drawn">
+  <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="arm"><visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual></link>
+  <link name="frame"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="f" type="fixed"><parent link="arm"/><child link="frame"/></joint>
+</robot>"#;
+        let robot = Robot::from_urdf_str(xml, "drawn.urdf").unwrap();
+        let ancestry = Ancestry::of(&robot);
+        let m = CollisionModel::new(&robot, &ancestry, &robot.movable, &[0.0], 0.01, None, None);
+        assert_eq!(
+            m.unchecked(),
+            ["arm: a <visual> but no <collision> (a visual is not taken for one)"]
+        );
+        // Held still, it is part of the body it is fixed to: nothing to say.
+        let m = CollisionModel::new(&robot, &ancestry, &[], &[0.0], 0.01, None, None);
+        assert!(m.unchecked().is_empty());
+    }
+
+    #[test]
     fn shapes_within_a_millimetre_touch_and_leave_their_links_out_whole() {
         let model_of = |gaps: &[f64]| {
             let robot = block_near_base_shapes(3, gaps);
