@@ -273,6 +273,23 @@ fn predict_to_csv_and_mcap(f: &Fixture, coman: &Path) -> Vec<f64> {
     assert!(said.status.success());
     let err = String::from_utf8_lossy(&said.stderr);
     assert!(err.contains("self-collision"), "{err}");
+    assert!(!err.contains("that is most of the"), "{err}");
+    // A margin the robot cannot keep holds most commands: said, with the way out.
+    let held = sgplvm(&[
+        "predict",
+        "--model",
+        s(coman),
+        "--input",
+        s(&f.data),
+        "--robot",
+        "coman",
+        "--margin",
+        "0.3",
+        "--out",
+        s(&f.dir.join("coman-held.csv")),
+    ]);
+    let held = String::from_utf8_lossy(&held.stderr);
+    assert!(held.contains("; warning: that is most of the"), "{held}");
     // The CSV starts with its header (numpy, pandas and spreadsheets read it without options);
     // what the commands are is in the sidecar OUT.json and on stderr.
     assert!(std::fs::read_to_string(&safe)

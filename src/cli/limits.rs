@@ -112,6 +112,8 @@ impl Commands {
 pub struct KeptApart {
     /// Pairs of collision shapes it checked (none: it could check nothing).
     pub pairs: usize,
+    /// Commands it saw.
+    pub seen: usize,
     /// Commands it moved.
     pub commands: usize,
     /// The nearest pair of links it kept apart, and their distance (metres).
@@ -121,6 +123,7 @@ pub struct KeptApart {
 impl KeptApart {
     /// Counts one command's outcome.
     pub fn add(&mut self, outcome: sgplvm::robots::safety::SafetyOutcome) {
+        self.seen += 1;
         if outcome.changed && !outcome.near.is_empty() {
             self.commands += 1;
         }
@@ -135,9 +138,15 @@ impl KeptApart {
     pub fn summary(&self, robot: &str) -> String {
         match &self.closest {
             Some((a, b, d)) => format!(
-                "{} {robot} commands kept out of self-collision (closest: {a} and {b}, {:.1} mm)",
+                "{} {robot} commands kept out of self-collision (closest: {a} and {b}, {:.1} mm){}",
                 self.commands,
-                d * 1e3
+                d * 1e3,
+                if self.seen >= 10 && 2 * self.commands > self.seen {
+                    // Galbot's camera held every command before its collision model was mended.
+                    format!("; warning: that is most of the {} commands — if the robot itself does not touch there, its collision meshes are coarser than it (--margin 0 turns the check off)", self.seen)
+                } else {
+                    String::new()
+                }
             ),
             None if self.pairs == 0 => format!(
                 "self-collision not checked for {robot}: no pair of its collision shapes can meet"
