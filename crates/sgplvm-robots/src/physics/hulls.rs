@@ -20,6 +20,7 @@ use rapier3d::parry::transformation::vhacd::{VHACDParameters, VHACD};
 use rapier3d_urdf::urdf_rs;
 use serde::Serialize;
 
+use super::parts_cache;
 use crate::urdf::{MeshSearch, MAX_LENGTH_M};
 
 /// Mesh files larger than this are not read (bytes): 256 MiB, ten times the largest mesh of
@@ -238,11 +239,35 @@ impl MeshShapes {
                     concavity: DECOMPOSITION_CONCAVITY,
                     ..VHACDParameters::default()
                 };
-                let parts = crate::panics::catch(|| {
-                    VHACD::decompose(&params, mesh.vertices(), mesh.indices(), true)
-                        .compute_exact_convex_hulls(mesh.vertices(), mesh.indices())
-                        .into_iter()
-                        .filter_map(|(points, _)| convex_hull(&points))
+                // Kept on disk between runs (`parts_cache`): the split is most of a start.
+                let settings = format!("{DECOMPOSITION_RESOLUTION} {DECOMPOSITION_CONCAVITY}");
+                let kept = parts_cache::folder().map(|dir| {
+                    let key =
+                        parts_cache::key(settings.as_bytes(), mesh.vertices(), mesh.indices());
+                    (dir, key)
+                });
+                let points = match kept
+                    .as_ref()
+                    .and_then(|(dir, key)| parts_cache::read(dir, key))
+                {
+                    Some(points) => Ok(points),
+                    None => crate::panics::catch(|| {
+                        VHACD::decompose(&params, mesh.vertices(), mesh.indices(), true)
+                            .compute_exact_convex_hulls(mesh.vertices(), mesh.indices())
+                            .into_iter()
+                            .map(|(points, _)| points)
+                            .collect::<Vec<_>>()
+                    })
+                    .inspect(|points| {
+                        if let Some((dir, key)) = &kept {
+                            parts_cache::write(dir, key, points);
+                        }
+                    }),
+                };
+                let parts = points.map(|points| {
+                    points
+                        .iter()
+                        .filter_map(|p| convex_hull(p))
                         .collect::<Vec<_>>()
                 });
                 match parts {

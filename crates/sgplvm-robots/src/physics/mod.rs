@@ -56,6 +56,7 @@ mod error;
 mod hulls;
 mod model;
 mod options;
+mod parts_cache;
 mod report;
 mod trajectory;
 
