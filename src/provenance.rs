@@ -64,10 +64,16 @@ pub fn other_robot(
 ) -> Option<String> {
     let learned = recorded(annotations).remove(robot)?;
     let names: Vec<String> = learned.joints.keys().cloned().collect();
-    let differences = learned.differences(&given.robot().identity(&names));
+    let now = given.robot().identity(&names);
+    let differences = learned.differences(&now);
     (!differences.is_empty()).then(|| {
+        let urdfs = if learned.urdf_name == now.urdf_name {
+            format!("URDF robot `{}`", now.urdf_name)
+        } else {
+            format!("URDF robot `{}`, learned on `{}`", now.urdf_name, learned.urdf_name)
+        };
         format!(
-            "{robot}: the model's commands were learned on another robot than the URDF given ({}): its joint limits and collisions hold commands learned for the other; retarget the demonstrations onto this URDF and train again to drive it",
+            "{robot}: the model's commands were learned on another robot than the URDF given ({urdfs}: {}): its joint limits and collisions hold commands learned for the other; retarget the demonstrations onto this URDF and train again to drive it",
             differences.join("; ")
         )
     })

@@ -13,15 +13,15 @@ mod replay;
 pub use replay::replay;
 
 /// The warning that robot `robot`'s self-collision is not checked for the parts `unchecked`
-/// (collision elements that gave no shape, moving links drawn with no collision element; one
-/// line each, beginning with its link's name; `pairs`: the pairs of shapes
-/// still checked), or `None` when every element gave a shape. Missing meshes are no detail:
+/// (collision elements that gave no shape, links drawn with no collision element on a body
+/// without one; one line each, beginning with its link's name; `pairs`: the pairs of shapes
+/// still checked), or `None` when there is no such part. Missing meshes are no detail:
 /// with none left the robot is not kept off itself at all.
 pub fn self_collision_unchecked(robot: &str, unchecked: &[String], pairs: usize) -> Option<String> {
     let first = unchecked.first()?;
     let n = unchecked.len();
     let how_many = if pairs == 0 {
-        format!("at all (no pair of shapes left to check): {n} part(s) give no collision shape")
+        format!("at all (no pair of shapes is left to check); {n} part(s) give no collision shape")
     } else {
         format!("for {n} part(s) that give no collision shape")
     };

@@ -170,7 +170,7 @@ fn spine_start(bvh: &Bvh, pelvis: usize, top: usize) -> usize {
     let mut start = pelvis;
     let mut below: Option<Vector3<f64>> = None;
     for &j in &path {
-        let bone = bvh.joints[j].offset;
+        let bone = bvh.rest_translation(j);
         if bone.norm() < 1e-9 {
             continue;
         }

@@ -31,14 +31,16 @@ pub fn import_bvh(
 
 /// Imports capture files one after another: BVH files, and CMU's ASF/AMC (an `.amc` motion
 /// with the `.asf` skeleton given before it among `paths`, else the one beside it,
-/// [`crate::asf::skeleton_beside`]). An `.asf` is no motion of its own.
+/// [`crate::asf::skeleton_beside`]). An `.asf` is no motion of its own. Takes of one person
+/// share one calibration ([`shared_calibrations`]).
 pub fn import_files(
     paths: &[std::path::PathBuf],
     options: &ImportOptions,
 ) -> Result<Vec<CapturedMotion>, CaptureError> {
     let has = |p: &Path, ext: &str| p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext));
+    // Each motion with the skeleton it is read with (an AMC's ASF).
+    let mut motions: Vec<(&Path, Option<std::path::PathBuf>)> = Vec::new();
     let mut skeleton: Option<&Path> = None;
-    let mut parsed = Vec::with_capacity(paths.len());
     for path in paths {
         if has(path, "asf") {
             skeleton = Some(path);
@@ -47,15 +49,12 @@ pub fn import_files(
                 Some(s) => s.to_path_buf(),
                 None => crate::asf::skeleton_beside(path)?,
             };
-            parsed.push((
-                crate::asf::read_asf_amc(&asf, path)?,
-                path.display().to_string(),
-            ));
+            motions.push((path, Some(asf)));
         } else {
-            parsed.push((Bvh::read(path)?, path.display().to_string()));
+            motions.push((path, None));
         }
     }
-    if parsed.is_empty() && skeleton.is_some() {
+    if motions.is_empty() && skeleton.is_some() {
         return Err(CaptureError::Options {
             file: skeleton
                 .map(|s| s.display().to_string())
@@ -63,109 +62,130 @@ pub fn import_files(
             message: "an ASF file is a skeleton, no motion: give its AMC files after it".into(),
         });
     }
-    let shared = if options.calibration.is_empty() {
-        shared_calibrations(&parsed, options)
-    } else {
-        vec![None; parsed.len()]
+    let read = |(path, asf): &(&Path, Option<std::path::PathBuf>)| match asf {
+        Some(asf) => crate::asf::read_asf_amc(asf, path),
+        None => Bvh::read(path),
     };
-    parsed
+    // Files are read twice where there are several (one at a time, so that many files take
+    // the memory of one): for their rest poses and hinges, then to import them.
+    let shared = if options.calibration.is_empty() && motions.len() > 1 {
+        let mut seen = Vec::with_capacity(motions.len());
+        for m in &motions {
+            let file = m.0.display().to_string();
+            seen.push(read(m).ok().and_then(|bvh| Seen::of(&bvh, &file, options)));
+        }
+        shared_calibrations(&seen)
+    } else {
+        vec![None; motions.len()]
+    };
+    motions
         .iter()
         .zip(shared)
-        .map(|((bvh, file), calibration)| match calibration {
-            Some(c) => {
-                let through = ImportOptions {
-                    calibration: vec![c],
-                    ..options.clone()
-                };
-                import_parsed(bvh, file, &through)
+        .map(|(m, calibration)| {
+            let bvh = read(m)?;
+            let file = m.0.display().to_string();
+            match calibration {
+                Some(c) => {
+                    let through = ImportOptions {
+                        calibration: vec![c],
+                        ..options.clone()
+                    };
+                    import_parsed(&bvh, &file, &through)
+                }
+                None => import_parsed(&bvh, &file, options),
             }
-            None => import_parsed(bvh, file, options),
         })
         .collect()
 }
 
-/// One calibration per person among `files`: files whose skeletons rest alike (every rest
-/// point within [`REST_MATCH_FRACTION`] of the arm's length, the live node's own test of one
-/// person, and arms as long within it) share the first one's rest pose, with an upper arm's twist
-/// that the rest leaves untold read from the elbow's hinge over all their motion — each
-/// take of a person alone told it differently (up to 27° over six 2-second takes of one
-/// subject), and a stream of that person could be fitted through one of them only. `None` for
-/// a file alike to no other (it calibrates itself, as imported alone) or that cannot be read
-/// (its import says why).
-fn shared_calibrations(
-    files: &[(Bvh, String)],
-    options: &ImportOptions,
-) -> Vec<Option<Calibration>> {
-    let Ok(human) = Robot::builtin("human") else {
-        return vec![None; files.len()];
-    };
-    let Ok(model) = HumanArms::new(&human) else {
-        return vec![None; files.len()];
-    };
-    struct Group {
-        first: usize,
-        arm_length: f64,
-        calibration: Calibration,
-        hinge: HingeEstimate,
-        members: Vec<usize>,
-    }
-    let mut groups: Vec<Group> = Vec::new();
-    for (k, (bvh, file)) in files.iter().enumerate() {
-        let Ok(skeleton) = Skeleton::identify(bvh, options.map.as_ref(), file) else {
-            continue;
-        };
+/// What one file tells of its person: its rest pose, its arms' length (metres where the
+/// units are known) and the elbow's hinge over its motion, with its own calibration.
+struct Seen {
+    file: String,
+    scheme: String,
+    units: Option<Units>,
+    rest: [crate::skeleton::ArmPose; 2],
+    has_clavicle: [bool; 2],
+    arm_length: f64,
+    hinge: HingeEstimate,
+    calibration: Calibration,
+}
+
+impl Seen {
+    /// What file `file` (read as `bvh`) tells; `None` where its skeleton is not found (its
+    /// import says why).
+    fn of(bvh: &Bvh, file: &str, options: &ImportOptions) -> Option<Seen> {
+        let skeleton = Skeleton::identify(bvh, options.map.as_ref(), file).ok()?;
+        let model = HumanArms::new(&Robot::builtin("human").ok()?).ok()?;
         let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
         let (calibration, hinge) = calibrate(bvh, &skeleton, &model, file, units);
-        let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
-        let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
-        // The same proportions (the live node's test, which cannot know a stream's units) and
-        // the same size: one person, not two of one build.
-        let arm_length = skeleton.arm_length * units.map_or(1.0, Units::metres);
-        let alike = groups.iter_mut().find(|g| {
-            (g.arm_length - arm_length).abs() <= REST_MATCH_FRACTION * g.arm_length
-                && g.calibration
-                    .check_rest([&rest[0], &rest[1]], has_clavicle, HandEnd::Measured)
+        Some(Seen {
+            file: file.to_string(),
+            scheme: skeleton.scheme.clone(),
+            units,
+            rest: [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side)),
+            has_clavicle: [0, 1].map(|s| skeleton.arms[s].clavicle.is_some()),
+            arm_length: skeleton.arm_length * units.map_or(1.0, Units::metres),
+            hinge,
+            calibration,
+        })
+    }
+}
+
+/// One calibration per person among the files `seen`: files whose skeletons rest alike (every
+/// rest point within [`REST_MATCH_FRACTION`] of the arm's length, the live node's own test of
+/// one person, and arms as long within it) share the first one's rest pose, with an upper
+/// arm's twist that the rest leaves untold read from the elbow's hinge over all their motion —
+/// each take alone told it its own way (up to 27° over six 2-second takes of one subject), and
+/// a stream of that person could be fitted through one of them only. `None` for a file alike
+/// to no other (it calibrates itself, as imported alone) or whose skeleton is not found.
+fn shared_calibrations(seen: &[Option<Seen>]) -> Vec<Option<Calibration>> {
+    let mut shared = vec![None; seen.len()];
+    let Some(model) = Robot::builtin("human")
+        .ok()
+        .and_then(|h| HumanArms::new(&h).ok())
+    else {
+        return shared;
+    };
+    // Each group: its first file and every member.
+    let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+    for (k, s) in seen.iter().enumerate() {
+        let Some(s) = s else { continue };
+        let alike = groups.iter_mut().find(|(first, _)| {
+            let Some(f) = &seen[*first] else { return false };
+            (f.arm_length - s.arm_length).abs() <= REST_MATCH_FRACTION * f.arm_length
+                && f.calibration
+                    .check_rest([&s.rest[0], &s.rest[1]], s.has_clavicle, HandEnd::Measured)
                     .is_ok()
         });
         match alike {
-            Some(g) => {
-                g.hinge.merge(&hinge);
-                g.members.push(k);
-            }
-            None => groups.push(Group {
-                first: k,
-                arm_length,
-                calibration,
-                hinge,
-                members: vec![k],
-            }),
+            Some((_, members)) => members.push(k),
+            None => groups.push((k, vec![k])),
         }
     }
-    let mut shared = vec![None; files.len()];
-    for g in groups.into_iter().filter(|g| g.members.len() > 1) {
-        let (bvh, file) = &files[g.first];
-        let Ok(skeleton) = Skeleton::identify(bvh, options.map.as_ref(), file) else {
-            continue;
-        };
-        let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
-        let rest = [Side::Left, Side::Right].map(|side| skeleton.rest_pose(bvh, side));
-        let has_clavicle = [0, 1].map(|s| skeleton.arms[s].clavicle.is_some());
+    for (first, members) in groups.into_iter().filter(|(_, m)| m.len() > 1) {
+        let Some(f) = &seen[first] else { continue };
+        let mut hinge = HingeEstimate::new();
+        for s in members.iter().filter_map(|&k| seen[k].as_ref()) {
+            hinge.merge(&s.hinge);
+        }
         let calibration = Calibration::from_rest(
             &model,
-            [&rest[0], &rest[1]],
-            has_clavicle,
+            [&f.rest[0], &f.rest[1]],
+            f.has_clavicle,
             UntoldTwist {
-                hinge: Some(&g.hinge),
+                hinge: Some(&hinge),
                 otherwise: Twist::Assumed,
             },
             &format!(
-                "import of {file} and {} resting alike",
-                sgplvm_robots::names::count(g.members.len() - 1, "more file")
+                "import of {} and {} resting alike",
+                f.file,
+                sgplvm_robots::names::count(members.len() - 1, "more file")
             ),
-            &skeleton.scheme,
-            units.map(Units::metres),
+            &f.scheme,
+            f.units.map(Units::metres),
         );
-        for k in g.members {
+        for k in members {
             shared[k] = Some(calibration.clone());
         }
     }

@@ -238,8 +238,8 @@ impl Skeleton {
     pub fn rest_pose(&self, bvh: &Bvh, side: Side) -> ArmPose {
         let zero = vec![0.0; bvh.channels];
         let mut rest = self.arm_pose(bvh, &zero, side);
-        // Position channels replace offsets: at rest they are zero, which is not the
-        // skeleton's rest; use the offsets instead.
+        // Position channels replace offsets: at zero they would put every joint at its
+        // parent; the rest places them as the motion does (`Bvh::rest_translation`).
         let arm = &self.arms[side_index(side)];
         let to_body = self.axes.inverse();
         let p = |j: usize| {
@@ -522,10 +522,10 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<(Vector3<f64>, HandEnd)> {
     // Children first, then grandchildren, each with its offset from the hand.
     let near: Vec<(usize, Vector3<f64>)> = children
         .iter()
-        .map(|&c| (c, bvh.joints[c].offset))
+        .map(|&c| (c, bvh.rest_translation(c)))
         .chain(children.iter().flat_map(|&c| {
             bvh.children(c)
-                .map(move |g| (g, bvh.joints[c].offset + bvh.joints[g].offset))
+                .map(move |g| (g, bvh.rest_translation(c) + bvh.rest_translation(g)))
         }))
         .collect();
     let finger = near.iter().find(|&&(c, _)| is_finger(&bvh.joints[c].name));
@@ -536,7 +536,7 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<(Vector3<f64>, HandEnd)> {
         while tip.norm() == 0.0 {
             match bvh.children(at).next() {
                 Some(next) => {
-                    tip += bvh.joints[next].offset;
+                    tip += bvh.rest_translation(next);
                     at = next;
                 }
                 None => {
@@ -555,7 +555,7 @@ fn hand_tip(bvh: &Bvh, hand: usize) -> Option<(Vector3<f64>, HandEnd)> {
     let others: Vec<Vector3<f64>> = children
         .iter()
         .filter(|&&c| !normalise(&bvh.joints[c].name).contains("thumb"))
-        .map(|&c| bvh.joints[c].offset)
+        .map(|&c| bvh.rest_translation(c))
         .collect();
     if others.is_empty() {
         return None;

@@ -19,8 +19,9 @@
 //! Any channel order is read (CMU's ZYX, Xsens's ZXY, 6-channel joints). Rotations are in
 //! degrees and compose in the order the channels are listed (`Zrotation Xrotation Yrotation`
 //! gives `R = Rz · Rx · Ry`, the convention of every BVH writer). Position channels, where a
-//! joint has them, replace its OFFSET as the translation from its parent (Blender's reading;
-//! in files that give them on every joint their values equal the offsets).
+//! joint has them, replace its OFFSET as the translation from its parent (Blender's reading),
+//! at rest too ([`Bvh::rest_translation`]: files that give them on every joint may not repeat
+//! the offsets in them).
 //!
 //! Every problem is a [`BvhError`] naming the file, the line and what was expected. Memory is
 //! bounded by the file's size: a declared frame count is checked against the bytes that follow

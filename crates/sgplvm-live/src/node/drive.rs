@@ -222,10 +222,7 @@ fn drive_one(
             margin * 1e3,
             match model.unchecked().len() {
                 0 => String::new(),
-                n => format!(
-                    "; {n} collision element(s) not checked (e.g. {})",
-                    model.unchecked()[0]
-                ),
+                n => format!("; {n} part(s) not checked (e.g. {})", model.unchecked()[0]),
             }
         ));
         gate = gate.with_safety(safety);

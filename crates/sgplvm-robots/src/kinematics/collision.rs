@@ -22,7 +22,7 @@ use rapier3d::parry;
 use rapier3d::parry::query::gjk::{self, CsoPoint, GJKResult, VoronoiSimplex};
 use rapier3d::parry::shape::{SharedShape, SupportMap};
 
-use super::adjacency::{neighbour_matrix, own_closeness};
+use super::adjacency::{neighbour_matrix, own_closeness, TOUCHING_M};
 use super::apart::{kept_apart, ApartProofs, MODEL_SURFACE_BUDGET};
 use super::bounds::{Obb, Placed};
 use super::frames::{Ancestry, RobotFrames};
@@ -257,15 +257,6 @@ impl CollisionModel {
                     Err(why) => unchecked.push(format!("{}: {why}", link.name)),
                 }
             }
-            // A moving link drawn but given no collision shape is not checked either: said
-            // (K-Scale's KBot gives 14 of its 18 links visuals alone).
-            let moved = ancestry.above(l).iter().any(|j| moving.contains(j));
-            if link.collision.is_empty() && !link.visual.is_empty() && moved {
-                unchecked.push(format!(
-                    "{}: a <visual> but no <collision> (a visual is not taken for one)",
-                    link.name
-                ));
-            }
         }
         let moves = |link: usize| -> Vec<usize> {
             ancestry
@@ -275,6 +266,22 @@ impl CollisionModel {
                 .filter(|j| moving.contains(j))
                 .collect()
         };
+        // A link drawn but given no collision element, on a body (the links the joints held
+        // still weld to it) with no collision shape at all, is not checked either: said
+        // (K-Scale's KBot gives 14 of its 18 links visuals alone). A wrist link without one,
+        // welded to a palm with one, is checked as that body.
+        let bodies: Vec<Vec<usize>> = shapes.iter().map(|s| moves(s.link)).collect();
+        for link in &robot.urdf.links {
+            let Some(&l) = robot.link_index.get(&link.name) else {
+                continue;
+            };
+            if link.collision.is_empty() && !link.visual.is_empty() && !bodies.contains(&moves(l)) {
+                unchecked.push(format!(
+                    "{}: a <visual> but no <collision> on its body (a visual is not taken for one)",
+                    link.name
+                ));
+            }
+        }
         let parent_of: Vec<Option<(usize, usize)>> = robot
             .parent_joint
             .iter()
@@ -326,14 +333,16 @@ impl CollisionModel {
                 None => candidates.push((i, k)),
                 Some(d) if own_closeness(&parent_of, |j| moving.contains(&j), links, d) => {
                     model.overlapping_at_reference += 1;
-                    own_links.insert(links);
+                    if d <= TOUCHING_M {
+                        own_links.insert(links);
+                    }
                 }
                 Some(d) => {
                     at_reference.insert((i, k), d);
                 }
             }
         }
-        // Two links one of whose shapes is the other's own closeness are the model's own
+        // Two links one of whose shapes touches the other's at rest are the model's own
         // closeness whole, as MoveIt leaves out a pair of links in contact at rest: Galbot's
         // wrist camera, 33 convex pieces, touches its forearm with two and passes 1.5 mm from it
         // with four more, which then held the arm wherever the wrist turned.
@@ -422,13 +431,16 @@ impl CollisionModel {
         &self.pairs
     }
 
-    /// What could not be checked (collision elements that gave no shape), one line each.
+    /// What could not be checked, one line each beginning with its link's name: collision
+    /// elements that gave no shape, and links drawn with no collision element on a body that
+    /// has none.
     pub fn unchecked(&self) -> &[String] {
         &self.unchecked
     }
 
     /// Pairs left out as the model's own closeness at the reference posture: touching there (on
-    /// the meshes' parts), or within a centimetre with at most two moving joints between.
+    /// the meshes' parts, within a millimetre; every other pair of the two links' shapes with
+    /// them), or within a centimetre with at most two moving joints between.
     pub fn overlapping_at_reference(&self) -> usize {
         self.overlapping_at_reference
     }
@@ -747,7 +759,7 @@ mod tests {
     }
 
     #[test]
-    fn a_moving_link_drawn_without_a_collision_element_is_said_unchecked() {
+    fn a_link_drawn_without_a_collision_element_on_a_body_without_one_is_said_unchecked() {
         let xml = r#"<robot name="drawn">
   <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
   <link name="arm"><visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual></link>
@@ -760,11 +772,20 @@ mod tests {
         let m = CollisionModel::new(&robot, &ancestry, &robot.movable, &[0.0], 0.01, None, None);
         assert_eq!(
             m.unchecked(),
-            ["arm: a <visual> but no <collision> (a visual is not taken for one)"]
+            ["arm: a <visual> but no <collision> on its body (a visual is not taken for one)"]
         );
-        // Held still, it is part of the body it is fixed to: nothing to say.
+        // Held still, it is part of the base's body, which has a shape: nothing to say.
         let m = CollisionModel::new(&robot, &ancestry, &[], &[0.0], 0.01, None, None);
         assert!(m.unchecked().is_empty());
+        // Moving, with a shape on a link welded to it: checked as that body.
+        let welded = xml.replace(
+            r#"<link name="frame"/>"#,
+            r#"<link name="frame"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>"#,
+        );
+        let robot = Robot::from_urdf_str(&welded, "drawn.urdf").unwrap();
+        let ancestry = Ancestry::of(&robot);
+        let m = CollisionModel::new(&robot, &ancestry, &robot.movable, &[0.0], 0.01, None, None);
+        assert!(m.unchecked().is_empty(), "{:?}", m.unchecked());
     }
 
     #[test]

@@ -304,7 +304,7 @@ fn load_links(
                     false,
                 );
             } else {
-                massless.push(format!("\"{}\"", source.name));
+                massless.push(source.name.clone());
                 for collider in &mut link.colliders {
                     collider.collider.set_density(DEFAULT_DENSITY);
                 }
@@ -313,16 +313,10 @@ fn load_links(
     }
     // One line for them all: a URDF without inertias (SDA10F's 16 links) said it 16 times.
     if !massless.is_empty() {
-        let shown = massless.len().min(MASSLESS_NAMED);
         warnings.push(format!(
-            "{file}: no mass declared on {} ({}{}); their collision shapes were given a density of {DEFAULT_DENSITY} kg/m³",
+            "{file}: no mass declared on {} ({}); their collision shapes were given a density of {DEFAULT_DENSITY} kg/m³",
             crate::names::count(massless.len(), "link"),
-            massless[..shown].join(", "),
-            if massless.len() > shown {
-                format!(" and {} more", massless.len() - shown)
-            } else {
-                String::new()
-            }
+            crate::names::few(&massless, MASSLESS_NAMED),
         ));
     }
     split_branches(&mut urdf_robot);

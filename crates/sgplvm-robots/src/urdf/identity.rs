@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::Robot;
+use crate::names::few;
 
 /// Positions (metres), angles (radians) and limits that differ by less than this are the
 /// same: a URDF written again with other float formatting is the same robot.
@@ -23,8 +24,10 @@ pub struct JointRecord {
     pub name: String,
     /// Its type, lower case as in the URDF (`revolute`, `fixed`, …).
     pub kind: String,
-    /// Its origin in the parent link: x, y, z (metres) and the rotation's scaled axis (radians).
-    pub origin: [f64; 6],
+    /// Its origin in the parent link: x, y, z (metres).
+    pub origin: [f64; 3],
+    /// Its origin's rotation as a unit quaternion (x, y, z, w; `q` and `−q` are the same).
+    pub rotation: [f64; 4],
     /// Its unit axis.
     pub axis: [f64; 3],
     /// Lower and upper position limits (null where unbounded).
@@ -60,7 +63,7 @@ impl Robot {
                 if joints.contains_key(&j.name) {
                     break;
                 }
-                let rotation = j.origin.rotation.scaled_axis();
+                let q = j.origin.rotation.coords;
                 let t = j.origin.translation.vector;
                 let bound = |v: f64| v.is_finite().then_some(v);
                 joints.insert(
@@ -68,7 +71,8 @@ impl Robot {
                     JointRecord {
                         name: j.name.clone(),
                         kind: format!("{:?}", j.kind).to_lowercase(),
-                        origin: [t.x, t.y, t.z, rotation.x, rotation.y, rotation.z],
+                        origin: [t.x, t.y, t.z],
+                        rotation: [q.x, q.y, q.z, q.w],
                         axis: [j.axis.x, j.axis.y, j.axis.z],
                         limits: [bound(j.limits.0), bound(j.limits.1)],
                         velocity: j.velocity,
@@ -87,22 +91,17 @@ impl Robot {
 impl RobotIdentity {
     /// How `other` differs from this record, one sentence per difference, the first few of
     /// each kind (empty: the same robot as far as commands go).
+    /// The URDF's name is no difference: a file copied under another name, or a nameless one
+    /// named after its file, is the same robot.
     pub fn differences(&self, other: &RobotIdentity) -> Vec<String> {
         let mut out = Vec::new();
-        if self.urdf_name != other.urdf_name {
-            out.push(format!(
-                "URDF robot `{}`, not `{}`",
-                other.urdf_name, self.urdf_name
-            ));
-        }
-        let missing: Vec<String> = self
+        let missing: Vec<&String> = self
             .joints
             .keys()
             .filter(|n| !other.joints.contains_key(*n))
-            .map(|n| format!("`{n}`"))
             .collect();
         if !missing.is_empty() {
-            out.push(format!("no joint {}", listed(&missing)));
+            out.push(format!("no joint {}", few(&missing, 3)));
         }
         let mut placed = Vec::new();
         let mut turned = Vec::new();
@@ -111,17 +110,18 @@ impl RobotIdentity {
             let Some(now) = other.joints.get(name) else {
                 continue;
             };
+            let dot: f64 = (0..4).map(|i| was.rotation[i] * now.rotation[i]).sum();
             if was.kind != now.kind
                 || !close(&was.axis, &now.axis)
-                || !close(&was.origin[3..], &now.origin[3..])
+                || 1.0 - dot.abs() > IDENTITY_TOLERANCE
             {
-                turned.push(format!("`{name}`"));
-            } else if !close(&was.origin[..3], &now.origin[..3]) {
+                turned.push(name.clone());
+            } else if !close(&was.origin, &now.origin) {
                 let d: f64 = (0..3)
                     .map(|i| (was.origin[i] - now.origin[i]).powi(2))
                     .sum::<f64>()
                     .sqrt();
-                placed.push(format!("`{name}` ({:.0} mm)", d * 1000.0));
+                placed.push(format!("{name} ({:.0} mm)", d * 1000.0));
             } else if was
                 .limits
                 .iter()
@@ -133,20 +133,20 @@ impl RobotIdentity {
                 })
                 || (was.velocity - now.velocity).abs() > IDENTITY_TOLERANCE
             {
-                limited.push(format!("`{name}`"));
+                limited.push(name.clone());
             }
         }
         if !placed.is_empty() {
-            out.push(format!("joint {} elsewhere", listed(&placed)));
+            out.push(format!("joint {} elsewhere", few(&placed, 3)));
         }
         if !turned.is_empty() {
             out.push(format!(
                 "joint {} turned or of another type",
-                listed(&turned)
+                few(&turned, 3)
             ));
         }
         if !limited.is_empty() {
-            out.push(format!("other limits on {}", listed(&limited)));
+            out.push(format!("other limits on {}", few(&limited, 3)));
         }
         out
     }
@@ -157,15 +157,6 @@ fn close(a: &[f64], b: &[f64]) -> bool {
     a.iter()
         .zip(b)
         .all(|(x, y)| (x - y).abs() <= IDENTITY_TOLERANCE)
-}
-
-/// `items` as "a, b, c and 3 more" (at most three shown).
-fn listed(items: &[String]) -> String {
-    let shown = items[..items.len().min(3)].join(", ");
-    match items.len() {
-        0..=3 => shown,
-        n => format!("{shown} and {} more", n - 3),
-    }
 }
 
 #[cfg(test)]
@@ -215,15 +206,27 @@ mod tests {
         let said = a.differences(&b).join("; ");
         assert_eq!(
             said,
-            "URDF robot `other`, not `arm`; joint `elbow` (50 mm) elsewhere; other limits on `shoulder`"
+            "joint \"elbow (50 mm)\" elsewhere; other limits on \"shoulder\""
         );
+        // The name alone is no difference, nor a rotation of π written two ways.
+        let renamed = identity(&ARM.replace(r#"name="arm""#, r#"name="other""#));
+        assert!(a.differences(&renamed).is_empty());
+        let half_turn = |rpy: &str| {
+            identity(&ARM.replace(
+                r#"<origin xyz="0 0.2 0.5"/>"#,
+                &format!(r#"<origin xyz="0 0.2 0.5" rpy="{rpy}"/>"#),
+            ))
+        };
+        assert!(half_turn("3.14159265359 0 0")
+            .differences(&half_turn("-3.14159265359 0 0"))
+            .is_empty());
         let turned = identity(&ARM.replace(
             r#"<origin xyz="0 0 -0.3"/><axis xyz="0 1 0"/>"#,
             r#"<origin xyz="0 0 -0.3"/><axis xyz="1 0 0"/>"#,
         ));
         assert_eq!(
             a.differences(&turned),
-            vec!["joint `elbow` turned or of another type"]
+            vec!["joint \"elbow\" turned or of another type"]
         );
     }
 }
