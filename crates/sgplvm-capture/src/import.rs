@@ -32,7 +32,7 @@ pub fn import_bvh(
 /// Imports capture files one after another: BVH files, and CMU's ASF/AMC (an `.amc` motion
 /// with the `.asf` skeleton given before it among `paths`, else the one beside it,
 /// [`crate::asf::skeleton_beside`]). An `.asf` is no motion of its own. Takes of one person
-/// share one calibration ([`shared_calibrations`]).
+/// share one calibration (see `shared_calibrations`).
 pub fn import_files(
     paths: &[std::path::PathBuf],
     options: &ImportOptions,
