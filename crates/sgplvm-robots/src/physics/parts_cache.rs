@@ -5,8 +5,8 @@
 //! and this format's version), so a changed mesh, scale or setting is split afresh; a file that
 //! is not whole (a run stopped while writing, another version's) is split afresh and written
 //! again. Where: `SGPLVM_CACHE_DIR` (`off` for none), else `$XDG_CACHE_HOME/sgplvm`, else
-//! `~/.cache/sgplvm`, in `convex-parts/`. Nothing is said when it cannot be written: it only
-//! ever saves time.
+//! `~/.cache/sgplvm`, in `convex-parts/`, at most 256 MiB (the oldest files go first). Nothing
+//! is said when it cannot be written: it only ever saves time.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -102,6 +102,40 @@ pub(super) fn write(dir: &Path, key: &str, parts: &[Vec<Vector>]) {
     if written.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    prune(dir, MAX_BYTES);
+}
+
+/// The most the folder holds: 256 MiB, the parts of about 500 robots.
+const MAX_BYTES: u64 = 256 << 20;
+
+/// Removes the oldest parts files of `dir` (by modification) until it holds at most three
+/// quarters of `max` bytes, where it holds more than `max`.
+fn prune(dir: &Path, max: u64) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut files: Vec<(std::time::SystemTime, u64, PathBuf)> = entries
+        .filter_map(|e| {
+            let e = e.ok()?;
+            let meta = e.metadata().ok()?;
+            let path = e.path();
+            (meta.is_file() && path.extension().is_some_and(|x| x == "parts"))
+                .then(|| Some((meta.modified().ok()?, meta.len(), path)))?
+        })
+        .collect();
+    let mut total: u64 = files.iter().map(|f| f.1).sum();
+    if total <= max {
+        return;
+    }
+    files.sort();
+    for (_, len, path) in files {
+        if total <= max / 4 * 3 {
+            break;
+        }
+        if std::fs::remove_file(&path).is_ok() {
+            total -= len;
+        }
+    }
 }
 
 /// FNV-1a, 64 bits.
@@ -149,7 +183,7 @@ mod tests {
         );
         assert!(read(&dir, &k).is_none());
         write(&dir, &k, &parts);
-        assert_eq!(read(&dir, &k), Some(parts));
+        assert_eq!(read(&dir, &k).as_ref(), Some(&parts));
         // Cut short, or one byte changed: not read.
         let bytes = std::fs::read(dir.join(&k)).unwrap();
         std::fs::write(dir.join(&k), &bytes[..bytes.len() - 3]).unwrap();
@@ -158,6 +192,14 @@ mod tests {
         changed[12] ^= 1;
         std::fs::write(dir.join(&k), &changed).unwrap();
         assert!(read(&dir, &k).is_none());
+        // A folder over its size loses its oldest files.
+        write(&dir, &k, &parts);
+        let newer = key(b"other", &parts[1], &[]);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        write(&dir, &newer, &parts);
+        let one = std::fs::metadata(dir.join(&k)).unwrap().len();
+        prune(&dir, 2 * one - 1);
+        assert!(!dir.join(&k).exists() && dir.join(&newer).exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
