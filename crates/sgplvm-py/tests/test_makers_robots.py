@@ -37,6 +37,9 @@ ROBOTS = {
     "so100": ("so_arm_description/urdf/so100.urdf", "shoulder_pan", 5),
 }
 SINGLE_ARM = {"tiago", "panda", "so100"}
+# Links drawn with no collision element on a body without one: not checked, and said so. The
+# SO-100 gives its gripper and its jaw visuals alone.
+VISUAL_ONLY = {"so100": ["gripper", "jaw"]}
 
 
 # Whose retargeted demonstrations (velocity limits off, as training data is made) jump where the
@@ -99,7 +102,11 @@ def test_published_as_they_are_through_every_command(name, capture, tmp_path):
     out = cli("retarget", "--demos", capture, "--urdf", path, "--robot", name, "--out", tmp_path / "demos.mcap",
               "--json", cwd=tmp_path)
     posture = json.loads(out.stdout)["reach"][0]["posture"]
-    assert posture["unchecked"] == [] and posture["pairs"] > 0, posture
+    visual_only = [
+        f"{link}: a <visual> but no <collision> on its body (a visual is not taken for one)"
+        for link in VISUAL_ONLY.get(name, [])
+    ]
+    assert posture["unchecked"] == visual_only and posture["pairs"] > 0, posture
     assert posture["colliding_frames"] == 0, posture
     if name == "tiago":
         # Its orientations measured from a reference posture fitted from the fixed starts too:
