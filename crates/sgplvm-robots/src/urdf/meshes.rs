@@ -8,7 +8,7 @@
 //! |---|---|
 //! | `meshes/arm.stl` | the URDF file's directory |
 //! | `/abs/arm.stl`, `file:///abs/arm.stl` | there |
-//! | `package://PKG/meshes/arm.stl` | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is `PKG`'s folder, `DIR/PKG`, then `PKG`'s folder up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, an ancestor of the URDF's directory that is `PKG`'s folder, or a folder `PKG` beside one (up to [`ANCESTOR_LEVELS`] levels up). A package's folder is named `PKG` or, as ROS finds packages whatever their folder's name, holds a `package.xml` whose `<name>` is `PKG` |
+//! | `package://PKG/meshes/arm.stl` (`package:///PKG/…` alike) | for every package path and `ROS_PACKAGE_PATH` entry `DIR`, in order: `DIR` itself when it is `PKG`'s folder, `DIR/PKG`, then `PKG`'s folder up to [`PACKAGE_SEARCH_DEPTH`] levels below `DIR`; then `PREFIX/share/PKG` for every `AMENT_PREFIX_PATH` entry; last, an ancestor of the URDF's directory that is `PKG`'s folder, or a folder `PKG` beside one (up to [`ANCESTOR_LEVELS`] levels up). A package's folder is named `PKG` or, as ROS finds packages whatever their folder's name, holds a `package.xml` whose `<name>` is `PKG` |
 //!
 //! A URI that cannot be resolved gives a [`MeshMiss`] saying what was tried. Nothing here
 //! reads a mesh: that is the caller's business (the physics replay builds convex hulls, the
@@ -394,6 +394,9 @@ fn parse_uri(uri: &str) -> Result<Target<'_>, MeshMiss> {
             Ok(Target::Path(PathBuf::from(decoded)))
         }
         "package" => {
+            // `package:///PKG/rest` (example-robot-data's TALOS) is read as Pinocchio reads it,
+            // the path under a package folder: `package://PKG/rest`.
+            let rest = rest.trim_start_matches('/');
             let (package, rest) = rest.split_once('/').unwrap_or((rest, ""));
             let rest = rest.trim_start_matches('/');
             if package.is_empty() || rest.is_empty() {
@@ -631,6 +634,13 @@ mod tests {
                 .unwrap(),
             dir.join("second/robot_description/meshes/leg.stl")
         );
+        // Three slashes, as example-robot-data's TALOS writes them: the same file.
+        assert_eq!(
+            search
+                .resolve("package:///robot_description/meshes/leg.stl")
+                .unwrap(),
+            dir.join("second/robot_description/meshes/leg.stl")
+        );
         // A package path may be the package folder itself.
         let direct = MeshSearch::new().with_package_path(dir.join("second/robot_description"));
         assert_eq!(
@@ -760,7 +770,13 @@ mod tests {
             search.resolve("model://robot/meshes/a.stl"),
             Err(MeshMiss::UnsupportedScheme { ref scheme, .. }) if scheme == "model"
         ));
-        for uri in ["", "package://", "package://pkg", "package:///meshes/a.stl"] {
+        for uri in [
+            "",
+            "package://",
+            "package://pkg",
+            "package:///",
+            "package:///pkg",
+        ] {
             assert!(
                 matches!(search.resolve(uri), Err(MeshMiss::Malformed { .. })),
                 "{uri}"
