@@ -20,6 +20,7 @@ pub(crate) mod adjacency;
 mod apart;
 mod bounds;
 pub mod collision;
+mod contact;
 pub mod frames;
 mod hull;
 mod ik;
