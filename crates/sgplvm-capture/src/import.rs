@@ -69,12 +69,17 @@ pub fn import_files(
     // Files are read twice where there are several (one at a time, so that many files take
     // the memory of one): for their rest poses and hinges, then to import them.
     let shared = if options.calibration.is_empty() && motions.len() > 1 {
+        let model = HumanArms::new(&Robot::builtin("human")?)?;
         let mut seen = Vec::with_capacity(motions.len());
         for m in &motions {
             let file = m.0.display().to_string();
-            seen.push(read(m).ok().and_then(|bvh| Seen::of(&bvh, &file, options)));
+            seen.push(
+                read(m)
+                    .ok()
+                    .and_then(|bvh| Seen::of(&bvh, &file, &model, options)),
+            );
         }
-        shared_calibrations(&seen)
+        shared_calibrations(&seen, &model)
     } else {
         vec![None; motions.len()]
     };
@@ -114,11 +119,10 @@ struct Seen {
 impl Seen {
     /// What file `file` (read as `bvh`) tells; `None` where its skeleton is not found (its
     /// import says why).
-    fn of(bvh: &Bvh, file: &str, options: &ImportOptions) -> Option<Seen> {
+    fn of(bvh: &Bvh, file: &str, model: &HumanArms, options: &ImportOptions) -> Option<Seen> {
         let skeleton = Skeleton::identify(bvh, options.map.as_ref(), file).ok()?;
-        let model = HumanArms::new(&Robot::builtin("human").ok()?).ok()?;
         let units = options.units.or_else(|| Units::guess(skeleton.arm_length));
-        let (calibration, hinge) = calibrate(bvh, &skeleton, &model, file, units);
+        let (calibration, hinge) = calibrate(bvh, &skeleton, model, file, units);
         Some(Seen {
             file: file.to_string(),
             scheme: skeleton.scheme.clone(),
@@ -139,14 +143,8 @@ impl Seen {
 /// each take alone told it its own way (up to 27° over six 2-second takes of one subject), and
 /// a stream of that person could be fitted through one of them only. `None` for a file alike
 /// to no other (it calibrates itself, as imported alone) or whose skeleton is not found.
-fn shared_calibrations(seen: &[Option<Seen>]) -> Vec<Option<Calibration>> {
+fn shared_calibrations(seen: &[Option<Seen>], model: &HumanArms) -> Vec<Option<Calibration>> {
     let mut shared = vec![None; seen.len()];
-    let Some(model) = Robot::builtin("human")
-        .ok()
-        .and_then(|h| HumanArms::new(&h).ok())
-    else {
-        return shared;
-    };
     // Each group: its first file and every member.
     let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
     for (k, s) in seen.iter().enumerate() {
@@ -170,7 +168,7 @@ fn shared_calibrations(seen: &[Option<Seen>]) -> Vec<Option<Calibration>> {
             hinge.merge(&s.hinge);
         }
         let calibration = Calibration::from_rest(
-            &model,
+            model,
             [&f.rest[0], &f.rest[1]],
             f.has_clavicle,
             UntoldTwist {
