@@ -93,6 +93,9 @@ pub(super) fn y_range_values(panel: &Panel) -> impl Iterator<Item = f64> + '_ {
         )
 }
 
+/// Minor grid lines between two labelled ones (plotters draws ten, a mesh denser than the data).
+const MINOR_GRID_LINES: usize = 4;
+
 /// Draws `panel` in `area`; with `legend_elsewhere` without its legend (the figure draws it).
 pub(super) fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
@@ -152,6 +155,10 @@ pub(super) fn draw_panel<DB: DrawingBackend>(
             .x_label_formatter(&x_label)
             .y_label_formatter(&|v| format!("{v:.1e}"))
             .label_style(("sans-serif", 12))
+            .max_light_lines(MINOR_GRID_LINES)
+            // A logarithmic axis's minor lines crowd unevenly towards each decade, where a
+            // band of them reads like an interval: its labelled lines alone.
+            .y_max_light_lines(0)
             .draw()?;
         draw_content(&mut chart, panel, corner, legend_inside)?;
     } else {
@@ -163,6 +170,7 @@ pub(super) fn draw_panel<DB: DrawingBackend>(
             .x_label_formatter(&x_label)
             .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 12))
+            .max_light_lines(MINOR_GRID_LINES)
             .draw()?;
         draw_content(&mut chart, panel, corner, legend_inside)?;
     }
