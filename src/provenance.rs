@@ -1,36 +1,74 @@
-//! Which robot a model's commands were learned on, carried in the model file: `retarget`
-//! records each robot it retargeted onto ([`RobotIdentity`]: the URDF's name, every joint from
-//! the root to the commanded ones), `train` and `transfer` attach the record of each robot they
-//! fit ([`ROBOTS_ANNOTATION`]), and whoever drives a robot with the model compares the robot it
-//! is given ([`other_robot`]): a robot of the same joint names but other arms or limits (a
-//! family's other member, a revised URDF) is said, not driven silently.
+//! Which robot a model's commands were learned on, and of which person, carried in the model
+//! file: `retarget` records each robot it retargeted onto ([`RobotIdentity`]: the URDF's name,
+//! every joint from the root to the commanded ones) and `import` each capture's person
+//! calibration; `train` and `transfer` — and Python's `model.annotate(demo["provenance"])` —
+//! attach them ([`demonstration_annotations`]), and whoever drives a robot with the model
+//! compares the robot it is given ([`other_robot`]): a robot of the same joint names but other
+//! arms or limits (a family's other member, a revised URDF) is said, not driven silently.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use serde_json::Value;
+use sgplvm_robots::dataset::{capture_records, CAPTURE_METADATA};
+use sgplvm_robots::retarget::file::retargeted_arms;
 use sgplvm_robots::{Anatomy, RobotIdentity};
 
-use crate::pipeline::{Demonstrations, PipelineError};
+use crate::pipeline::PipelineError;
 
 /// The model annotation holding, per robot, the [`RobotIdentity`] its commands were
 /// retargeted onto.
 pub const ROBOTS_ANNOTATION: &str = "sgplvm.robots";
 
-impl Demonstrations {
-    /// The robots of `names` as `retarget` recorded them in the file these demonstrations came
-    /// from (a robot without a record — generated data, a file written before records — is
-    /// left out).
-    pub fn robot_identities(
-        &self,
-        names: &[String],
-    ) -> Result<BTreeMap<String, RobotIdentity>, PipelineError> {
-        let mut found = BTreeMap::new();
-        for name in names {
-            if let Some(identity) = self.retargeted_arms(name)?.and_then(|a| a.identity) {
-                found.insert(name.clone(), identity);
+/// What a model trained on the demonstrations in the file `path` for its robots `robots` carries
+/// of them, as annotations to add to one whose annotations are `existing`: where the frames
+/// were captured — each capture's source with the person's calibration ([`CAPTURE_METADATA`]),
+/// so that `teleop` fits a stream of the same person as the data was imported (kept where
+/// `existing` has it: a transfer keeps its source's) — and the robots the commands were
+/// retargeted onto ([`ROBOTS_ANNOTATION`], added to those `existing` records), so that driving
+/// another is said. A robot without a record (generated data, a file written before records)
+/// adds none.
+pub fn demonstration_annotations(
+    path: &Path,
+    robots: &[String],
+    existing: &BTreeMap<String, Value>,
+) -> Result<Vec<(&'static str, Value)>, PipelineError> {
+    let mut found = Vec::new();
+    let records = capture_records(path)?;
+    if !records.is_empty() && !existing.contains_key(CAPTURE_METADATA) {
+        found.push((CAPTURE_METADATA, Value::from(records)));
+    }
+    let mut identities = BTreeMap::new();
+    if !robots.is_empty() {
+        let mut arms = retargeted_arms(path).map_err(|e| PipelineError::Parts {
+            body: robots.join(", "),
+            detail: e.to_string(),
+        })?;
+        for name in robots {
+            if let Some(identity) = arms.remove(name).and_then(|a| a.identity) {
+                identities.insert(name.clone(), identity);
             }
         }
-        Ok(found)
+    }
+    if let Some(value) = robots_annotation(existing, identities) {
+        found.push((ROBOTS_ANNOTATION, value));
+    }
+    Ok(found)
+}
+
+/// Whether `value` is what `sgplvm` reads under the annotation `key`: for
+/// [`ROBOTS_ANNOTATION`] robot records by name, for [`CAPTURE_METADATA`] a list of capture
+/// records (JSON objects); any value under another key. The error says what was expected.
+pub fn check_annotation(key: &str, value: &Value) -> Result<(), String> {
+    match key {
+        ROBOTS_ANNOTATION => serde_json::from_value::<BTreeMap<String, RobotIdentity>>(value.clone())
+            .map(drop)
+            .map_err(|e| format!("annotation `{key}`: expected robot records by name, as `retarget` writes them: {e}")),
+        CAPTURE_METADATA => match value {
+            Value::Array(records) if records.iter().all(Value::is_object) => Ok(()),
+            _ => Err(format!("annotation `{key}`: expected a list of capture records (JSON objects), as `import` writes them")),
+        },
+        _ => Ok(()),
     }
 }
 
@@ -82,6 +120,16 @@ pub fn other_robot(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_annotations_sgplvm_reads_are_checked_and_others_taken_as_they_are() {
+        assert!(check_annotation(ROBOTS_ANNOTATION, &serde_json::json!({})).is_ok());
+        let wrong = check_annotation(ROBOTS_ANNOTATION, &serde_json::json!([1])).unwrap_err();
+        assert!(wrong.contains(ROBOTS_ANNOTATION) && wrong.contains("robot records"));
+        assert!(check_annotation(CAPTURE_METADATA, &serde_json::json!([{"source": "a"}])).is_ok());
+        assert!(check_annotation(CAPTURE_METADATA, &serde_json::json!({"source": "a"})).is_err());
+        assert!(check_annotation("lab.note", &serde_json::json!(3)).is_ok());
+    }
 
     #[test]
     fn a_robot_recorded_again_replaces_its_record_and_keeps_the_others() {

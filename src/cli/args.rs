@@ -11,8 +11,7 @@ use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use sgplvm::pipeline::{self, Demonstrations};
-use sgplvm::provenance::{robots_annotation, ROBOTS_ANNOTATION};
-use sgplvm::robots::dataset::CAPTURE_METADATA;
+use sgplvm::provenance::demonstration_annotations;
 use sgplvm::{AnyModel, BackConstraint, ModelConfig, TrainOptions, Validation};
 
 // The groups' own doc comments are `//` comments: clap would take a `///` comment on a flattened
@@ -33,29 +32,18 @@ impl DataArg {
     }
 
     /// What a model trained on `--data`'s robots `robots` carries of them, as annotations to
-    /// add to one whose annotations are `existing`: where the frames were captured — each
-    /// capture's source with the person's calibration ([`CAPTURE_METADATA`]), so that `teleop`
-    /// fits a stream of the same person as the data was imported — and the robots the
-    /// commands were retargeted onto ([`ROBOTS_ANNOTATION`]), so that driving another is said.
+    /// add to one whose annotations are `existing` (none for the shipped data):
+    /// [`demonstration_annotations`].
     pub fn annotations(
         &self,
-        demos: &Demonstrations,
         robots: &[String],
         existing: &BTreeMap<String, serde_json::Value>,
     ) -> Result<Vec<(&'static str, serde_json::Value)>> {
         let Some(path) = &self.data else {
             return Ok(Vec::new());
         };
-        let mut found = Vec::new();
-        let records = sgplvm::robots::dataset::capture_records(path)
-            .with_context(|| path.display().to_string())?;
-        if !records.is_empty() && !existing.contains_key(CAPTURE_METADATA) {
-            found.push((CAPTURE_METADATA, serde_json::Value::from(records)));
-        }
-        if let Some(value) = robots_annotation(existing, demos.robot_identities(robots)?) {
-            found.push((ROBOTS_ANNOTATION, value));
-        }
-        Ok(found)
+        demonstration_annotations(path, robots, existing)
+            .with_context(|| path.display().to_string())
     }
 }
 

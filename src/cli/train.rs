@@ -119,10 +119,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         let mut model = train_parts_with_progress(&label, args.model.budget.max_iters, |cb| {
             demos.train_parts(&args.robots, &config, &options, patience, cb)
         })?;
-        for (key, value) in args
-            .data
-            .annotations(&demos, &args.robots, model.annotations())?
-        {
+        for (key, value) in args.data.annotations(&args.robots, model.annotations())? {
             model.annotate(key, value);
         }
         model.save(&args.output.out)?;
@@ -139,10 +136,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         };
         choose_latent_dim(&args, &demos, &config, &options, patience, &label)?
     };
-    for (key, value) in args
-        .data
-        .annotations(&demos, &args.robots, model.annotations())?
-    {
+    for (key, value) in args.data.annotations(&args.robots, model.annotations())? {
         model.annotate(key, value);
     }
     model.save(&args.output.out)?;

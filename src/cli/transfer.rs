@@ -78,9 +78,9 @@ pub fn run(args: TransferArgs) -> Result<()> {
             let (mut model, seconds) = train_with_progress(&label, args.budget.max_iters, |cb| {
                 demos.transfer(source, robot, &options, patience, cb)
             })?;
-            for (key, value) in
-                args.data
-                    .annotations(&demos, std::slice::from_ref(robot), model.annotations())?
+            for (key, value) in args
+                .data
+                .annotations(std::slice::from_ref(robot), model.annotations())?
             {
                 model.annotate(key, value);
             }
@@ -98,9 +98,9 @@ pub fn run(args: TransferArgs) -> Result<()> {
             let mut model = train_parts_with_progress(&label, args.budget.max_iters, |cb| {
                 demos.transfer_parts(source, robot, args.urdf.as_deref(), &options, patience, cb)
             })?;
-            for (key, value) in
-                args.data
-                    .annotations(&demos, std::slice::from_ref(robot), model.annotations())?
+            for (key, value) in args
+                .data
+                .annotations(std::slice::from_ref(robot), model.annotations())?
             {
                 model.annotate(key, value);
             }

@@ -1,10 +1,13 @@
 //! Demonstrations from Python: ROS 2 JointState MCAP files, the dataset, physics replay.
 
+use std::collections::BTreeMap;
+
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use sgplvm::provenance::demonstration_annotations;
 use sgplvm_robots::dataset::{load_demonstrations as load_dataset, BodyData};
 use sgplvm_robots::joint_state::{self, Compression, JointStateError, JointStates};
 use sgplvm_robots::scene::{write_scene, SceneBody, SceneOptions, SceneSeries};
@@ -151,7 +154,9 @@ fn body_dict<'py>(py: Python<'py>, body: &BodyData) -> PyResult<Bound<'py, PyDic
 /// of every training motion), `train_every_frame` (every frame of the training motions, of which
 /// `train` is a subsample: what the sparse and Bayesian models train on) and
 /// `validation_every_frame` (positions in it held out, the same motions as `validation`),
-/// `segments` (start, end, from_pose, to_pose, repetition) and `pose_names`.
+/// `segments` (start, end, from_pose, to_pose, repetition), `pose_names` and `provenance`: what
+/// `sgplvm train` saves with a model of these demonstrations (the person's calibration, each
+/// robot's record from `retarget`), for `model.annotate(demo["provenance"])`.
 #[pyfunction]
 pub fn load_demonstrations<'py>(
     py: Python<'py>,
@@ -192,6 +197,22 @@ pub fn load_demonstrations<'py>(
             segments.append(sd)?;
         }
         d.set_item("segments", segments)?;
+        let robot_names: Vec<String> = ds.robots.iter().map(|r| r.name.clone()).collect();
+        let provenance = py
+            .detach(|| demonstration_annotations(&path, &robot_names, &BTreeMap::new()))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let provenance: serde_json::Map<String, serde_json::Value> = provenance
+            .into_iter()
+            .map(|(key, value)| (key.to_string(), value))
+            .collect();
+        let json = py.import("json")?;
+        d.set_item(
+            "provenance",
+            json.call_method1(
+                "loads",
+                (serde_json::Value::Object(provenance).to_string(),),
+            )?,
+        )?;
         Ok(d)
     })
 }

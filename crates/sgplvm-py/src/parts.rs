@@ -16,8 +16,8 @@ use sgplvm_core::{
 
 use crate::guard::guarded;
 use crate::model::{
-    finish_training, model_error, parse_back_constraint, read_error, settle, signal_interrupt,
-    to_mat, to_numpy, NativeModel,
+    annotations_json, finish_training, model_error, parse_annotations, parse_back_constraint,
+    read_error, settle, signal_interrupt, to_mat, to_numpy, NativeModel,
 };
 
 /// Parts as Python gives them: (part name, [(space name, columns)]).
@@ -322,6 +322,21 @@ impl NativePartsModel {
             self.inner.parent().map(|p| p.config().latent_dim),
         )?;
         Ok(d)
+    }
+
+    /// The annotations saved with the model (kept with its first part) as one JSON object.
+    fn annotations_json(&self) -> String {
+        annotations_json(self.inner.annotations())
+    }
+
+    /// A copy with the annotations of the JSON object `json` added (a key already there is
+    /// replaced).
+    fn with_annotations(&self, json: &str) -> PyResult<Self> {
+        let mut inner = self.inner.clone();
+        for (key, value) in parse_annotations(json)? {
+            inner.annotate(&key, value);
+        }
+        Ok(NativePartsModel { inner })
     }
 
     /// The versioned model file (format 4) as bytes.

@@ -548,6 +548,22 @@ class SharedGPLVM:
         return None if text is None else json.loads(text)
 
     @property
+    def annotations(self) -> Dict[str, Any]:
+        """What the model file carries beside the model, by key (a copy): ``"sgplvm.capture"``,
+        the person's calibration of each capture (``teleop`` fits a stream through it) and
+        ``"sgplvm.robots"``, the robots its commands were learned on (``predict``, ``teleop``
+        and ``simulate`` say when given another); ``sgplvm train`` records both, Python's models
+        once ``annotate`` is called."""
+        return json.loads(self._require().annotations_json())
+
+    def annotate(self, annotations: Mapping[str, Any]) -> None:
+        """Adds ``annotations`` (JSON values by key; a key already there is replaced) to what
+        is saved with the model. ``annotate(load_demonstrations(path)["provenance"])`` records
+        what ``sgplvm train --data path`` does. A value under a key sgplvm reads that it cannot
+        read is a ``ValueError``."""
+        self._native = self._require().with_annotations(json.dumps(dict(annotations)))
+
+    @property
     def params(self) -> dict:
         """Parameters: ``{"latent": X or {"weights": W, "bandwidth": b}, "spaces": {name:
         {"variance", "lengthscale", "noise"}}}``, in GPy's parametrisation."""

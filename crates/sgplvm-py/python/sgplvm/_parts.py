@@ -3,8 +3,9 @@
 
 from __future__ import annotations
 
+import json
 import os
-from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -332,6 +333,18 @@ class PartsGPLVM:
     def column_names(self, space: str) -> Optional[list]:
         """Joint names stored for a space, if any."""
         return self._require().column_names(space)
+
+    @property
+    def annotations(self) -> Dict[str, Any]:
+        """What the model file carries beside the model, by key (a copy; see
+        ``SharedGPLVM.annotations``)."""
+        return json.loads(self._require().annotations_json())
+
+    def annotate(self, annotations: Mapping[str, Any]) -> None:
+        """Adds ``annotations`` (JSON values by key; a key already there is replaced) to what
+        is saved with the model; ``annotate(load_demonstrations(path)["provenance"])`` records
+        what ``sgplvm train --data path`` does (see ``SharedGPLVM.annotate``)."""
+        self._native = self._require().with_annotations(json.dumps(dict(annotations)))
 
     def save(self, path: Union[str, os.PathLike]) -> None:
         """Writes the model to a versioned file (format 4, atomically)."""

@@ -12,7 +12,11 @@ mod training;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use std::collections::BTreeMap;
+
+use pyo3::exceptions::PyValueError;
 use sgplvm::pipeline::human_pose_bounds;
+use sgplvm::provenance::check_annotation;
 use sgplvm_core::{KernelParams, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 use crate::guard::guarded;
@@ -274,6 +278,22 @@ impl NativeModel {
         to_numpy(py, &self.inner.latent_points().to_owned())
     }
 
+    /// The annotations saved with the model (the person's calibration, the robots its commands
+    /// were learned on, …) as one JSON object.
+    fn annotations_json(&self) -> String {
+        annotations_json(self.inner.annotations())
+    }
+
+    /// A copy with the annotations of the JSON object `json` added (a key already there is
+    /// replaced).
+    fn with_annotations(&self, json: &str) -> PyResult<Self> {
+        let mut inner = self.inner.clone();
+        for (key, value) in parse_annotations(json)? {
+            inner.annotate(&key, value);
+        }
+        Ok(NativeModel { inner })
+    }
+
     /// Name of the input (human) space.
     #[getter]
     fn input_name(&self) -> String {
@@ -414,6 +434,26 @@ impl NativeModel {
                 .map_err(|e| read_error(&path.display().to_string(), e))
         })
     }
+}
+
+/// Annotations as one JSON object.
+pub(crate) fn annotations_json(annotations: &BTreeMap<String, serde_json::Value>) -> String {
+    serde_json::Value::Object(annotations.clone().into_iter().collect()).to_string()
+}
+
+/// The annotations of the JSON object `json` (Python's `json.dumps` of a dict), each checked
+/// where sgplvm reads it (a robot record, a capture record): a `ValueError` names the key and
+/// what was expected.
+pub(crate) fn parse_annotations(json: &str) -> PyResult<BTreeMap<String, serde_json::Value>> {
+    let map: BTreeMap<String, serde_json::Value> = serde_json::from_str(json).map_err(|e| {
+        PyValueError::new_err(format!(
+            "annotations: expected a mapping of names to JSON values: {e}"
+        ))
+    })?;
+    for (key, value) in &map {
+        check_annotation(key, value).map_err(PyValueError::new_err)?;
+    }
+    Ok(map)
 }
 
 /// One space's negative collapsed variational bound of the sparse model (see
