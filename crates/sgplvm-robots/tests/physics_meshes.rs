@@ -207,6 +207,11 @@ fn meshes_not_found_or_unreadable_are_reported_not_checked() {
         b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
     );
     write(&dir.join("meshes/notes.txt"), b"not a mesh");
+    // A clone without `git lfs`: a pointer where the mesh should be (AgiBot's G2).
+    write(
+        &dir.join("meshes/lfs.STL"),
+        b"version https://git-lfs.github.com/spec/v1\noid sha256:001ea69c\nsize 132284\n",
+    );
     let search = || MeshSearch::for_urdf_file(&dir.join("meshy.urdf"));
     let base = mesh("meshes/cube.stl", 0.1);
     let cases = [
@@ -227,6 +232,11 @@ fn meshes_not_found_or_unreadable_are_reported_not_checked() {
             "short_binary.stl",
         ),
         ("meshes/notes.txt", MeshProblem::Unreadable, "notes.txt"),
+        (
+            "meshes/lfs.STL",
+            MeshProblem::Unreadable,
+            "a Git LFS pointer",
+        ),
         ("meshes/flat.obj", MeshProblem::Unusable, "flat.obj"),
     ];
     for (uri, problem, named) in cases {

@@ -459,6 +459,46 @@ fn an_unknown_joint_type_lists_the_known_ones() {
 }
 
 #[test]
+fn repeated_elements_ros_reads_once_keep_the_first_and_say_so() {
+    // PAL's REEM-C (expanded from xacro) gives a leg joint two <dynamics>, PAL's ARI a
+    // collision two <origin>: urdfdom reads the first of each, urdf-rs refused the file.
+    let xml = r#"<?xml version="1.0"?>
+<robot name="repeats">
+  <link name="base"/>
+  <link name="tip">
+    <collision>
+      <origin xyz="0 0 0.1"/>
+      <origin xyz="5 5 5"/>
+      <geometry><sphere radius="0.05"/></geometry>
+    </collision>
+  </link>
+  <joint name="j" type="revolute">
+    <parent link="base"/><child link="tip"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="5" velocity="2"/>
+    <dynamics damping="0.5"/>
+    <dynamics damping="9"/>
+    <limit lower="-3" upper="3" effort="5" velocity="2"/>
+  </joint>
+</robot>"#;
+    assert!(urdf_rs::read_from_string(xml).is_err());
+    let r = load(xml);
+    let notes: Vec<String> = r.repairs().iter().map(ToString::to_string).collect();
+    assert_eq!(
+        notes,
+        [
+            "a second <origin> at line 7 (<link name=\"tip\"> <collision>): left out: ROS's parser reads the first",
+            "a second <limit> at line 17 (<joint name=\"j\">): left out: ROS's parser reads the first",
+            "a second <dynamics> at line 16 (<joint name=\"j\">): left out: ROS's parser reads the first",
+        ]
+    );
+    assert_eq!(r.joint_limits()[0], (-1.0, 1.0));
+    let collision = &r.urdf().links[1].collision[0];
+    assert!((collision.origin.xyz[2] - 0.1).abs() < 1e-12);
+    assert_eq!(r.urdf().joints[0].dynamics.as_ref().unwrap().damping, 0.5);
+}
+
+#[test]
 fn other_broken_files() {
     // Not XML.
     let e = Robot::from_urdf_str("<robot name=\"x\"><link name=\"a\"></robot>", "broken.urdf")

@@ -23,6 +23,10 @@ use serde::Serialize;
 use super::parts_cache;
 use crate::urdf::{MeshSearch, MAX_LENGTH_M};
 
+/// How a Git LFS pointer file begins: a repository cloned without `git lfs` holds these small
+/// text files where its meshes should be.
+const GIT_LFS_POINTER: &[u8] = b"version https://git-lfs.github.com/spec/";
+
 /// Mesh files larger than this are not read (bytes): 256 MiB, ten times the largest mesh of
 /// the published robot descriptions we know.
 pub const MAX_MESH_BYTES: u64 = 256 << 20;
@@ -350,6 +354,11 @@ fn read_mesh(path: &Path) -> Result<MeshData, Failure> {
         )));
     }
     let bytes = std::fs::read(path).map_err(|e| unreadable(e.to_string()))?;
+    if bytes.starts_with(GIT_LFS_POINTER) {
+        return Err(unreadable(
+            "a Git LFS pointer, not the mesh: the repository keeps its meshes in Git LFS (`git lfs pull` in the clone fetches them)".into(),
+        ));
+    }
     let extension = path
         .extension()
         .and_then(|e| e.to_str())

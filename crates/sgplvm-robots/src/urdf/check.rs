@@ -155,26 +155,16 @@ fn req_attr<'a, 'i>(ctx: &Ctx, at: At<'_, 'a, 'i>, attr: &str) -> RobotResult<&'
     }
 }
 
-fn at_most_one<'a, 'i>(
-    ctx: &Ctx,
-    at: At<'_, 'a, 'i>,
-    name: &'static str,
-) -> RobotResult<Option<El<'a, 'i>>> {
-    let mut it = children(at.node, name);
-    let first = it.next();
-    if let Some(second) = it.next() {
-        return Err(ctx.invalid(
-            second,
-            at.desc,
-            format!("more than one <{name}>, expected at most one"),
-        ));
-    }
-    Ok(first)
+/// The first child of `at` called `name`, as urdfdom reads it (`FirstChildElement`): a file
+/// that repeats the element (PAL's REEM-C expands two `<dynamics>` into a joint) loads, and the
+/// repair pass says which it left out (`repair.rs`).
+fn first_child<'a, 'i>(at: At<'_, 'a, 'i>, name: &'static str) -> Option<El<'a, 'i>> {
+    children(at.node, name).next()
 }
 
 /// Reads an `<origin>` child (absent → identity; absent `xyz`/`rpy` → zeros).
 fn origin_of(ctx: &Ctx, el: At) -> RobotResult<Isometry3<f64>> {
-    let Some(o) = at_most_one(ctx, el, "origin")? else {
+    let Some(o) = first_child(el, "origin") else {
         return Ok(Isometry3::identity());
     };
     let desc = format!("{} <origin>", el.desc);
@@ -232,25 +222,43 @@ fn check_length(ctx: &Ctx, at: At, attr: &str, v: f64, what: &str) -> RobotResul
     Ok(())
 }
 
-/// A shape size: finite, positive and at most [`MAX_LENGTH_M`].
+/// A shape size: finite, not negative and at most [`MAX_LENGTH_M`]. A zero size is a shape
+/// with no extent, which ROS's parser loads (Pollen's Reachy: five cylinders of radius 0): the
+/// repair pass leaves it out and says so ([`zero_size_shape`]).
 fn check_size(ctx: &Ctx, at: At, attr: &str, v: f64) -> RobotResult<f64> {
     if v < 0.0 {
         return Err(at.attr_error(ctx, attr, format!("{v} is negative, expected a size > 0")));
-    }
-    if v == 0.0 {
-        return Err(at.attr_error(
-            ctx,
-            attr,
-            "the size is zero, expected a size > 0 (leave out a shape that has no extent)",
-        ));
     }
     check_length(ctx, at, attr, v, "a size")?;
     Ok(v)
 }
 
+/// Whether the `<visual>` or `<collision>` `holder`'s shape is a box, cylinder, capsule or
+/// sphere with a size of zero (no extent: nothing to draw or to touch).
+pub(super) fn zero_size_shape(holder: El) -> bool {
+    let Some(shape) = children(holder, "geometry")
+        .next()
+        .and_then(|g| g.children().find(El::is_element))
+    else {
+        return false;
+    };
+    let zero = |attr: &str| {
+        shape.attribute(attr).is_some_and(|t| {
+            t.split_whitespace()
+                .any(|v| v.parse::<f64>().is_ok_and(|v| v == 0.0))
+        })
+    };
+    match shape.tag_name().name() {
+        "box" => zero("size"),
+        "cylinder" | "capsule" => zero("radius") || zero("length"),
+        "sphere" => zero("radius"),
+        _ => false,
+    }
+}
+
 fn check_geometry(ctx: &Ctx, holder: At) -> RobotResult<()> {
     origin_of(ctx, holder)?;
-    let Some(g) = at_most_one(ctx, holder, "geometry")? else {
+    let Some(g) = first_child(holder, "geometry") else {
         return Err(holder.error(ctx, "missing <geometry>"));
     };
     let gdesc = format!("{} <geometry>", holder.desc);
@@ -309,8 +317,8 @@ fn check_geometry(ctx: &Ctx, holder: At) -> RobotResult<()> {
 }
 
 /// Why an `<inertial>` that reads is of no use: an origin, mass or inertia beyond any robot's
-/// ([`MAX_LENGTH_M`], [`MAX_MASS_KG`], [`MAX_INERTIA`]; an exporter's garbage, as UBTech
-/// Walker's palm at 3.8e12 m), which ROS's parser loads; `None` when usable or when it does
+/// ([`MAX_LENGTH_M`], [`MAX_MASS_KG`], [`MAX_INERTIA`], [`MAX_GYRATION_M`]; an exporter's
+/// garbage, as UBTech Walker's palm at 3.8e12 m), which ROS's parser loads; `None` when usable or when it does
 /// not read (the check says why). The repair leaves such an element out: its link then
 /// declares no mass (kinematics never reads it; `simulate` says what it does instead).
 pub(super) fn unusable_inertial(inertial: El) -> Option<String> {
@@ -337,17 +345,36 @@ pub(super) fn unusable_inertial(inertial: El) -> Option<String> {
         return Some(format!("a mass of {v:e} kg"));
     }
     let inertia = first("inertia")?;
-    ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
+    if let Some(v) = ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
         .iter()
         .flat_map(|a| numbers(inertia, a))
         .find(|v| v.abs() > MAX_INERTIA)
-        .map(|v| format!("an inertia of {v:e} kg·m²"))
+    {
+        return Some(format!("an inertia of {v:e} kg·m²"));
+    }
+    // A moment far beyond what the link's mass can make within a robot's size (Pollen's Reachy:
+    // 6.9e4 kg·m² on 0.158 kg, a CAD's g·mm² written as kg·m²): the physics engine's solver
+    // fails on it.
+    let mass = first("mass")
+        .map(|m| numbers(m, "value"))
+        .and_then(|m| m.first().copied())
+        .filter(|m| *m > 0.0)?;
+    ["ixx", "iyy", "izz"]
+        .iter()
+        .flat_map(|a| numbers(inertia, a))
+        .find(|v| (v / mass).sqrt() > MAX_GYRATION_M)
+        .map(|v| {
+            format!(
+                "an inertia of {v:e} kg·m² on {mass} kg: its mass {:.0} m from the axis",
+                (v / mass).sqrt()
+            )
+        })
 }
 
 fn check_inertial(ctx: &Ctx, inertial: El, desc: &str) -> RobotResult<()> {
     let iat = At::new(inertial, desc);
     origin_of(ctx, iat)?;
-    match at_most_one(ctx, iat, "mass")? {
+    match first_child(iat, "mass") {
         Some(m) => {
             let mdesc = format!("{desc} <mass>");
             let mat = At::new(m, &mdesc);
@@ -363,7 +390,7 @@ fn check_inertial(ctx: &Ctx, inertial: El, desc: &str) -> RobotResult<()> {
         }
         None => return Err(iat.error(ctx, "missing <mass>")),
     }
-    match at_most_one(ctx, iat, "inertia")? {
+    match first_child(iat, "inertia") {
         Some(i) => {
             let idesc = format!("{desc} <inertia>");
             let inat = At::new(i, &idesc);
@@ -378,7 +405,7 @@ fn check_inertial(ctx: &Ctx, inertial: El, desc: &str) -> RobotResult<()> {
 }
 
 fn check_link(ctx: &Ctx, link: At) -> RobotResult<()> {
-    if let Some(inertial) = at_most_one(ctx, link, "inertial")? {
+    if let Some(inertial) = first_child(link, "inertial") {
         if unusable_inertial(inertial).is_none() {
             check_inertial(ctx, inertial, &format!("{} <inertial>", link.desc))?;
         }
@@ -412,7 +439,7 @@ fn check_limit(
     kind: JointKind,
     ty: &str,
 ) -> RobotResult<((f64, f64), f64, f64)> {
-    let Some(l) = at_most_one(ctx, at, "limit")? else {
+    let Some(l) = first_child(at, "limit") else {
         if matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
             return Err(at.error(
                 ctx,
@@ -457,7 +484,7 @@ fn check_joint(ctx: &Ctx, joint: At) -> RobotResult<RawJoint> {
         )
     })?;
     let link_of = |role: &'static str| -> RobotResult<String> {
-        let el = at_most_one(ctx, joint, role)?
+        let el = first_child(joint, role)
             .ok_or_else(|| joint.error(ctx, format!("missing <{role} link=\"...\">")))?;
         let desc = format!("{} <{role}>", joint.desc);
         Ok(req_attr(ctx, At::new(el, &desc), "link")?
@@ -467,7 +494,7 @@ fn check_joint(ctx: &Ctx, joint: At) -> RobotResult<RawJoint> {
     let parent = link_of("parent")?;
     let child = link_of("child")?;
     let origin = origin_of(ctx, joint)?;
-    let axis = match at_most_one(ctx, joint, "axis")? {
+    let axis = match first_child(joint, "axis") {
         None => Vector3::x_axis(),
         Some(a) => {
             let adesc = format!("{} <axis>", joint.desc);
@@ -505,7 +532,7 @@ fn check_joint(ctx: &Ctx, joint: At) -> RobotResult<RawJoint> {
         ),
         ("mimic", &["multiplier", "offset"][..]),
     ] {
-        if let Some(el) = at_most_one(ctx, joint, tag)? {
+        if let Some(el) = first_child(joint, tag) {
             let tdesc = format!("{} <{tag}>", joint.desc);
             let tat = At::new(el, &tdesc);
             for a in attrs {
@@ -539,6 +566,10 @@ pub const MAX_MASS_KG: f64 = 1e6;
 
 /// The largest inertia component a link may declare, kg·m².
 pub const MAX_INERTIA: f64 = 1e9;
+
+/// The largest radius of gyration a link's moment of inertia may mean for its mass, metres
+/// (`sqrt(I / m)`; a link's mass lies within a robot's size).
+pub const MAX_GYRATION_M: f64 = 10.0;
 /// The link names in document order and their index, each link checked.
 pub(super) fn read_links(
     ctx: &Ctx,

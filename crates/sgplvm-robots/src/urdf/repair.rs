@@ -9,7 +9,7 @@
 
 use std::fmt;
 
-use super::check::{children, describe, line_of, unusable_inertial, El};
+use super::check::{children, describe, line_of, unusable_inertial, zero_size_shape, El};
 
 /// One kind of departure from the URDF specification that loading repaired, with every place
 /// it was found.
@@ -159,13 +159,26 @@ pub(super) fn repair(
     }
     for link in children(root, "link") {
         let owner = describe(link);
+        later_repeats(&mut r, text, link, first_read("link"), &owner);
         for v in children(link, "visual") {
-            for m in children(v, "material") {
+            for m in children(v, "material").take(1) {
                 material(&mut r, text, m, format!("{owner} <visual>"));
             }
         }
         for part in ["inertial", "visual", "collision"] {
-            for p in children(link, part) {
+            let within = format!("{owner} <{part}>");
+            for p in children(link, part).take(if part == "inertial" { 1 } else { usize::MAX }) {
+                later_repeats(&mut r, text, p, first_read(part), &within);
+                if part != "inertial" && zero_size_shape(p) {
+                    r.note(
+                        &format!("<{part}> whose shape has a size of zero"),
+                        "left out: it has no extent to draw or to touch",
+                        p,
+                        owner.clone(),
+                    );
+                    r.remove(text, p);
+                    continue;
+                }
                 if let Some(why) = (part == "inertial").then(|| unusable_inertial(p)).flatten() {
                     r.note(
                         &format!("<inertial> of no use ({why})"),
@@ -177,7 +190,7 @@ pub(super) fn repair(
                     continue;
                 }
                 origins(&mut r, text, p, urdf_1_1);
-                for g in children(p, "geometry") {
+                for g in children(p, "geometry").take(1) {
                     stray_text(&mut r, text, g, format!("{owner} <{part}>"));
                 }
             }
@@ -252,7 +265,7 @@ fn stray_text(r: &mut Repairs, text: &str, geometry: El, owner: String) {
 
 /// `<origin>` children of `el` without `xyz` or `rpy`: zeros, as the specification says.
 fn origins(r: &mut Repairs, text: &str, el: El, urdf_1_1: bool) {
-    for o in children(el, "origin") {
+    for o in children(el, "origin").take(1) {
         r.default_attrs(text, o, &["xyz"], "0 0 0");
         if !(urdf_1_1 && o.attribute("quat_xyzw").is_some()) {
             r.default_attrs(text, o, &["rpy"], "0 0 0");
@@ -260,12 +273,56 @@ fn origins(r: &mut Repairs, text: &str, el: El, urdf_1_1: bool) {
     }
 }
 
+/// The children ROS's parser reads once in an element called `parent`: only the first of each
+/// (urdfdom's `FirstChildElement`); a link's `<visual>` and `<collision>` elements may repeat.
+fn first_read(parent: &str) -> &'static [&'static str] {
+    match parent {
+        "link" => &["inertial"],
+        "inertial" => &["origin", "mass", "inertia"],
+        "visual" => &["origin", "geometry", "material"],
+        "collision" => &["origin", "geometry"],
+        "joint" => &[
+            "origin",
+            "parent",
+            "child",
+            "axis",
+            "limit",
+            "dynamics",
+            "calibration",
+            "safety_controller",
+            "mimic",
+        ],
+        _ => &[],
+    }
+}
+
+/// The children of `el` called one of `tags` after the first of each, left out as ROS's parser
+/// leaves them (it reads the first; urdf-rs refuses a repeat) and said, `within` naming `el`.
+fn later_repeats(r: &mut Repairs, text: &str, el: El, tags: &[&str], within: &str) {
+    for tag in tags {
+        for repeat in el
+            .children()
+            .filter(|c| c.is_element() && c.tag_name().name() == *tag)
+            .skip(1)
+        {
+            r.note(
+                &format!("a second <{tag}>"),
+                "left out: ROS's parser reads the first",
+                repeat,
+                within.to_string(),
+            );
+            r.remove(text, repeat);
+        }
+    }
+}
+
 /// A `<joint>`'s limits, axis, dynamics and safety controller.
 fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
     let owner = describe(joint);
+    later_repeats(r, text, joint, first_read("joint"), &owner);
     origins(r, text, joint, urdf_1_1);
     let ty = joint.attribute("type").unwrap_or("").trim();
-    for l in children(joint, "limit") {
+    for l in children(joint, "limit").take(1) {
         let number = |a: &str| l.attribute(a).and_then(|v| v.trim().parse::<f64>().ok());
         let (lower, upper) = (
             number("lower").unwrap_or(0.0),
@@ -334,7 +391,7 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
             );
         }
     }
-    for a in children(joint, "axis") {
+    for a in children(joint, "axis").take(1) {
         if a.attribute("xyz").is_none() {
             r.note(
                 "<axis> without xyz (the specification requires it)",
@@ -345,10 +402,10 @@ fn joint(r: &mut Repairs, text: &str, joint: El, urdf_1_1: bool) {
             r.set(text, a, "xyz", "1 0 0");
         }
     }
-    for d in children(joint, "dynamics") {
+    for d in children(joint, "dynamics").take(1) {
         r.default_attrs(text, d, &["damping", "friction"], "0");
     }
-    for s in children(joint, "safety_controller") {
+    for s in children(joint, "safety_controller").take(1) {
         r.default_attrs(
             text,
             s,
