@@ -53,7 +53,7 @@ enum End {
 }
 
 /// The chain joint most in the middle of the arm (farthest from its first joint, its last
-/// and the hand), the first and last joints aside: a first guess of the elbow, which tells the
+/// and the hand), the first joint aside: a first guess of the elbow, which tells the
 /// shoulder's joints from the wrist's. Judged at the zero configuration `zero`, unless the arm
 /// is folded there and stretches out at the middle of its joints' ranges (Kinova's Jaco 2: its
 /// zero pose folds the arm down onto itself, the hand 27 % of the reach from the shoulder, and
@@ -73,17 +73,28 @@ fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
     // Farthest from the first joint, the last (a wrist's) and the hand: a hand as long as the
     // forearm beyond the wrist (Leju's Kuavo, Trossen's WXAI) puts the middle of the arm at
     // the wrist.
+    // The last joint itself may be the elbow, a forearm beyond it and no wrist (PAL's ARI:
+    // shoulder pitch, roll, the upper arm's turn, the elbow): it is then far from the hand.
     let score = |i: usize| {
+        let to_last = if i + 1 == n {
+            f64::INFINITY
+        } else {
+            (origins[i] - origins[n - 1]).norm()
+        };
         (origins[i] - origins[0])
             .norm()
             .min((origins[i] - hand).norm())
-            .min((origins[i] - origins[n - 1]).norm())
+            .min(to_last)
     };
-    let best = (1..n.saturating_sub(1).max(1))
-        .map(score)
-        .fold(0.0, f64::max);
+    let candidates = 1..if n >= 3 {
+        n
+    } else {
+        n.saturating_sub(1).max(1)
+    };
+    let best = candidates.clone().map(score).fold(0.0, f64::max);
     // Joints at one point (an elbow and a forearm roll) tie: the first of them.
-    (1..n.saturating_sub(1).max(1))
+    candidates
+        .clone()
         .find(|&i| score(i) >= best - 1e-3)
         .unwrap_or(0)
 }

@@ -427,6 +427,32 @@ fn a_hand_as_long_as_the_forearm_does_not_move_the_shoulder_to_the_elbow() {
 }
 
 #[test]
+fn an_arm_whose_last_joint_is_its_elbow_finds_it() {
+    // As PAL's ARI: the shoulder's pitch, a roll 0.11 m down its bracket, the upper arm's
+    // turn 0.10 m further, the elbow another 0.10 m down, and no wrist: the hand 0.35 m past the
+    // elbow. The elbow guess never weighed the last joint: it took the roll for the elbow, put
+    // the shoulder on the pitch alone and rolled the person's arm 90° to "mount" an arm that
+    // hangs (until 2026-12-07).
+    #[rustfmt::skip]
+    let joints = [
+        ("arm_1", "base", "0 0 1.1", "0 1 0"),
+        ("arm_2", "arm_1_link", "0 0 -0.11", "1 0 0"),
+        ("arm_3", "arm_2_link", "0 0 -0.10", "0 0 1"),
+        ("arm_4", "arm_3_link", "0 0 -0.10", "0 1 0"),
+    ]
+    .map(|(name, parent, xyz, axis)| revolute(name, parent, xyz, axis, (-2.0, 2.0)))
+    .concat();
+    let urdf = format!(
+        r#"<robot name="ari"><link name="base"/>{joints}<link name="hand"/><joint name="tool" type="fixed"><parent link="arm_4_link"/><child link="hand"/><origin xyz="0 0 -0.35"/></joint></robot>"#
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "ari.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "arm_4");
+    // Straightened from the roll and turn (their axes meet; the pitch sits 0.11 m above).
+    assert!((arm.reach - 0.55).abs() < 1e-6, "{}", arm.reach);
+}
+
+#[test]
 fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
     // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
     // to the right. The root's z runs along the shoulders, so up is from the root (the
