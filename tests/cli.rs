@@ -806,6 +806,25 @@ fn simulate_a_prediction() {
     let (sent, replayed) = (read(&predicted), read(&replay));
     assert_eq!(sent.names, replayed.names);
     assert_eq!(sent.positions, replayed.positions);
+    // A URDF and no --robot: the model's only robot, whatever the URDF calls itself (it said
+    // the model did not know robot 'robot' until 2026-12-07).
+    let renamed = dir.join("renamed.urdf");
+    let walkman = std::fs::read_to_string("data/urdf/walkman.urdf").unwrap();
+    let xml = walkman.replacen(r#"<robot name="walkman""#, r#"<robot name="renamed""#, 1);
+    assert_ne!(xml, walkman);
+    std::fs::write(&renamed, xml).unwrap();
+    let json = ok(&[
+        "simulate",
+        "--model",
+        s(&f.model),
+        "--input",
+        s(&f.data),
+        "--urdf",
+        s(&renamed),
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(report["joints"].as_array().unwrap().len(), 14);
     let err = fails(
         &[
             "simulate",

@@ -120,7 +120,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         args.model.as_deref().zip(args.input.as_deref()),
         &args.trajectory,
     ) {
-        (Some((model, input)), _) => predicted_trajectory(model, input, &args)?,
+        (Some((model, input)), _) => predicted_trajectory(model, input, &args, robot)?,
         (None, Some(path)) => read_trajectory(path, topic, robot)?,
         (None, None) => bail!("give --trajectory FILE, or --model MODEL with --input FILE"),
     };
@@ -241,10 +241,26 @@ fn in_trajectory(e: PhysicsError, file: Option<&str>) -> anyhow::Error {
 /// The commands `model` (one shared latent space, or one per body part) predicts for the
 /// robot from the human frames of `input`, as `predict` sends them: the robot's command
 /// joints, within its position and velocity limits and out of self-collision by `--margin`.
-fn predicted_trajectory(model_path: &Path, input: &str, args: &SimulateArgs) -> Result<Trajectory> {
-    let robot = args.robot.as_deref().unwrap_or("robot");
+/// The robot: `--robot`, else `named` (the URDF's name) where the model knows it, else the
+/// model's only robot.
+fn predicted_trajectory(
+    model_path: &Path,
+    input: &str,
+    args: &SimulateArgs,
+    named: &str,
+) -> Result<Trajectory> {
     let loaded = load_any_model(model_path)?;
     let model = loaded.predictor();
+    let robots = model.output_names();
+    let robot = match (args.robot.as_deref(), robots.as_slice()) {
+        (Some(given), _) => given,
+        (None, _) if robots.contains(&named) => named,
+        (None, [only]) => only,
+        (None, _) => bail!(
+            "{}: the model predicts for {robots:?}: name one with --robot",
+            model_path.display()
+        ),
+    };
     require_robot(model, model_path, robot)?;
     let body = BodyArgs {
         hold: args.hold.clone(),
