@@ -26,7 +26,9 @@ use crate::calibration::HandEnd;
 use crate::CaptureError;
 use sgplvm_robots::Side;
 
+mod hand;
 mod names;
+use hand::hand_tip;
 use names::{name_forms, sided};
 pub use names::{normalise, ArmMap, Scheme, SCHEMES};
 
@@ -72,8 +74,9 @@ pub struct ArmJoints {
     pub forearm: usize,
     /// The hand's joint (at the wrist).
     pub hand: usize,
-    /// Where the hand ends, in the hand's frame (a finger-base child, the End Site, or the
-    /// mean of its children); `None` if the hand has neither.
+    /// Where the hand ends, in the hand's frame (the middle finger's base, else a finger's
+    /// base near the wrist, the End Site, or the mean of its children); `None` if the hand has
+    /// none of them.
     pub hand_tip: Option<Vector3<f64>>,
     /// Whether the skeleton says where the hand ends (a finger or an End Site), or
     /// `hand_tip` is a guess (the mean of children that are no fingers, such as an Xsens
@@ -504,65 +507,6 @@ impl ArmJoints {
             hand_end: tip.map_or(HandEnd::Unmeasured, |(_, end)| end),
         }
     }
-}
-
-/// Whether a joint named `name` is a middle finger or a finger's base (where a hand ends).
-fn is_finger(name: &str) -> bool {
-    let n = normalise(name);
-    ["middle1", "mid1", "middle", "fingerbase", "finger"]
-        .iter()
-        .any(|k| n.contains(k))
-}
-
-/// Where the hand ends, in its own frame: a middle-finger or finger-base child (or grandchild,
-/// past a carpal bone: DAZ's `lCarpal2` → `lMid1`) if there is one, else the End Site, else the
-/// mean of the children that are not the thumb.
-fn hand_tip(bvh: &Bvh, hand: usize) -> Option<(Vector3<f64>, HandEnd)> {
-    let children: Vec<usize> = bvh.children(hand).collect();
-    // Children first, then grandchildren, each with its offset from the hand.
-    let near: Vec<(usize, Vector3<f64>)> = children
-        .iter()
-        .map(|&c| (c, bvh.rest_translation(c)))
-        .chain(children.iter().flat_map(|&c| {
-            bvh.children(c)
-                .map(move |g| (g, bvh.rest_translation(c) + bvh.rest_translation(g)))
-        }))
-        .collect();
-    let finger = near.iter().find(|&&(c, _)| is_finger(&bvh.joints[c].name));
-    if let Some(&(c, offset)) = finger {
-        // Down the finger until the chain leaves the wrist (CMU's finger base sits on it).
-        let mut tip = offset;
-        let mut at = c;
-        while tip.norm() == 0.0 {
-            match bvh.children(at).next() {
-                Some(next) => {
-                    tip += bvh.rest_translation(next);
-                    at = next;
-                }
-                None => {
-                    tip += bvh.joints[at].end_site.unwrap_or_else(Vector3::zeros);
-                    break;
-                }
-            }
-        }
-        if tip.norm() > 0.0 {
-            return Some((tip, HandEnd::Measured));
-        }
-    }
-    if let Some(e) = bvh.joints[hand].end_site.filter(|v| v.norm() > 0.0) {
-        return Some((e, HandEnd::Measured));
-    }
-    let others: Vec<Vector3<f64>> = children
-        .iter()
-        .filter(|&&c| !normalise(&bvh.joints[c].name).contains("thumb"))
-        .map(|&c| bvh.rest_translation(c))
-        .collect();
-    if others.is_empty() {
-        return None;
-    }
-    // The mean of children that are no fingers (an Xsens prop): a guess.
-    let mean = others.iter().sum::<Vector3<f64>>() / others.len() as f64;
-    Some((mean, HandEnd::Unmeasured)).filter(|(v, _)| v.norm() > 0.0)
 }
 
 #[cfg(test)]

@@ -210,6 +210,22 @@ fn twist_bones_in_the_arm_chain_import_as_the_arm_without_them() {
     );
 }
 
+/// A BVH joint's opening lines: its name, offset and three rotation channels.
+fn joint(name: &str, offset: [f64; 3]) -> String {
+    format!(
+        "JOINT {name}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
+        offset[0], offset[1], offset[2]
+    )
+}
+
+/// A BVH End Site.
+fn end(offset: [f64; 3]) -> String {
+    format!(
+        "End Site\n{{\nOFFSET {} {} {}\n}}\n",
+        offset[0], offset[1], offset[2]
+    )
+}
+
 /// A Genesis 8 skeleton (its names, twist bones, a carpal bone before each finger) in a T-pose,
 /// one frame at rest: the hand ends at the middle finger's base past its carpal bone.
 #[test]
@@ -217,18 +233,6 @@ fn a_hand_ends_at_the_middle_finger_past_a_carpal_bone() {
     let mut t = String::from(
         "HIERARCHY\nROOT hip\n{\nOFFSET 0 100 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
     );
-    let joint = |name: &str, offset: [f64; 3]| {
-        format!(
-            "JOINT {name}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Zrotation Xrotation Yrotation\n",
-            offset[0], offset[1], offset[2]
-        )
-    };
-    let end = |offset: [f64; 3]| {
-        format!(
-            "End Site\n{{\nOFFSET {} {} {}\n}}\n",
-            offset[0], offset[1], offset[2]
-        )
-    };
     for (s, x) in [("l", 1.0), ("r", -1.0)] {
         t += &joint(&format!("{s}ThighBend"), [x * 9.0, -5.0, 0.0]);
         t += &end([0.0, -40.0, 0.0]);
@@ -278,4 +282,84 @@ fn a_hand_ends_at_the_middle_finger_past_a_carpal_bone() {
     }
     // Upper arm and forearm over their twist bones: 28 + 25 cm.
     assert!((s.arm_length - 53.0).abs() < 1e-12, "{}", s.arm_length);
+}
+
+/// MakeHuman's default rig (as MocapNET's files have it) numbers the fingers from the thumb:
+/// `finger2-1.l` is the index finger, `finger3-1.l` the middle one, each past a metacarpal bone,
+/// the index finger's first in the file. The hand ends at the middle finger's base (it ended at
+/// the index finger's, the first finger found, and the wrist's angles were 9–10° off).
+#[test]
+fn a_makehuman_hand_ends_at_finger_3_the_middle_one() {
+    let mut t = String::from(
+        "HIERARCHY\nROOT hip\n{\nOFFSET 0 100 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
+    );
+    t += &joint("abdomen", [0.0, 20.0, 0.0]);
+    t += &joint("chest", [0.0, 20.0, 0.0]);
+    t += &joint("neck", [0.0, 15.0, 0.0]);
+    t += &end([0.0, 10.0, 0.0]);
+    t += "}\n";
+    let mut channels = 6 + 3 * 3;
+    for (s, x) in [("l", 1.0), ("r", -1.0)] {
+        let arm = [
+            (format!("{s}collar"), [x * 3.0, 12.0, 0.0]),
+            (format!("{s}shoulder"), [x * 14.0, 0.0, 0.0]),
+            (format!("{s}elbow"), [x * 28.0, 0.0, 0.0]),
+            (format!("{s}hand"), [x * 25.0, 0.0, 0.0]),
+        ];
+        for (name, offset) in &arm {
+            t += &joint(name, *offset);
+        }
+        // Metacarpal bones fanning out from the wrist, each finger's base past its own; the
+        // thumb (finger 1) and the ring and little fingers past two bones.
+        let fingers = [
+            (vec![(format!("metacarpal1.{s}"), 0.5)], "finger2-1", 2.0),
+            (vec![(format!("metacarpal2.{s}"), 0.5)], "finger3-1", 0.0),
+            (
+                vec![
+                    (format!("__metacarpal3.{s}"), 0.5),
+                    (format!("metacarpal3.{s}"), 0.0),
+                ],
+                "finger4-1",
+                -2.0,
+            ),
+            (
+                vec![
+                    (format!("__metacarpal4.{s}"), 0.5),
+                    (format!("metacarpal4.{s}"), 0.0),
+                ],
+                "finger5-1",
+                -4.0,
+            ),
+            (
+                vec![(format!("__{s}thumb"), 0.5), (format!("{s}thumb"), 1.0)],
+                "finger1-2",
+                3.0,
+            ),
+        ];
+        for (bones, base, z) in fingers {
+            for (bone, dx) in &bones {
+                t += &joint(bone, [x * dx, 0.0, 0.0]);
+            }
+            t += &joint(&format!("{base}.{s}"), [x * 8.0, 0.0, z]);
+            t += &end([x * 4.0, 0.0, 0.0]);
+            t += &"}\n".repeat(bones.len() + 1);
+            channels += 3 * (bones.len() + 1);
+        }
+        t += &"}\n".repeat(arm.len());
+        channels += 3 * arm.len();
+    }
+    t += "}\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.025\n";
+    t += &vec!["0"; channels].join(" ");
+    t.push('\n');
+    let bvh = Bvh::parse(&t, "makehuman.bvh").unwrap();
+    assert!(bvh.joint("__lthumb").is_some() && bvh.joint("finger3-1.r").is_some());
+    let s = crate::Skeleton::identify(&bvh, None, "makehuman.bvh").unwrap();
+    assert!(s.scheme.contains("MakeHuman"), "{}", s.scheme);
+    for (arm, x) in s.arms.iter().zip([1.0, -1.0]) {
+        let tip = arm.hand_tip.unwrap();
+        // metacarpal2 (0.5) and finger3-1 (8, straight on), not finger2-1 (2 towards z).
+        let want = nalgebra::Vector3::new(x * 8.5, 0.0, 0.0);
+        assert!((tip - want).norm() < 1e-12, "{tip} (want {want})");
+        assert_eq!(arm.hand_end, crate::HandEnd::Measured);
+    }
 }
