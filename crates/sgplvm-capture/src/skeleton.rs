@@ -3,7 +3,8 @@
 //!
 //! The arms are found by name ([`SCHEMES`]: CMU/cgspeed and Mixamo `LeftShoulder/LeftArm/
 //! LeftForeArm/LeftHand`, Xsens MVN `LeftShoulder/LeftUpperArm/...`, Xsens BVH exports and
-//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, MakeHuman `lcollar/lshoulder/lelbow/lhand`, Poser/DAZ `lCollar/lShldr/...` (Genesis
+//! SMPL `LeftCollar/LeftShoulder/LeftElbow/LeftWrist`, MakeHuman `lcollar/lshoulder/lelbow/lhand`
+//! and its game rig's `Clavicle_L/UpArm_L/LoArm_L/Hand_L`, Poser/DAZ `lCollar/lShldr/...` (Genesis
 //! 3 and 8 `lShldrBend/lForearmBend`), Unreal and 3ds Max `clavicle_l/upperarm_l/lowerarm_l/
 //! hand_l`, Rigify `shoulder.L/upper_arm.L/...` (and `DEF-upper_arm.L`)), namespace prefixes
 //! (`mixamorig:`, a TF frame's `actor1/`) and case, `_`, `.`, `-` and spaces aside; or by an
@@ -29,7 +30,7 @@ use sgplvm_robots::Side;
 mod hand;
 mod names;
 use hand::hand_tip;
-use names::{name_forms, sided};
+use names::{base_name, name_forms, sided};
 pub use names::{normalise, ArmMap, Scheme, SCHEMES};
 
 /// The four arm segments.
@@ -355,11 +356,20 @@ fn common_parent(bvh: &Bvh, a: usize, b: usize) -> Option<usize> {
 /// Tries every scheme; the first whose segments exist on both sides and chain up properly
 /// (clavicle above upper arm above forearm above hand) wins.
 fn find_arms(bvh: &Bvh) -> Option<(String, [ArmJoints; 2])> {
-    // Whole names first, then their word-boundary ends (a whole name wins over an end).
+    // Whole names first, then their word-boundary ends (a whole name wins over an end). Of
+    // two whole names alike but for leading underscores, the one without them: MakeHuman's
+    // exports put a helper joint `__Clavicle_L` on the spine above the clavicle `Clavicle_L`.
     let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
     let forms: Vec<Vec<String>> = bvh.joints.iter().map(|j| name_forms(&j.name)).collect();
-    for (i, f) in forms.iter().enumerate() {
-        by_name.entry(f[0].clone()).or_insert(i);
+    let helper = |i: usize| base_name(&bvh.joints[i].name).starts_with('_');
+    for helpers in [false, true] {
+        for (i, f) in forms
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| helper(*i) == helpers)
+        {
+            by_name.entry(f[0].clone()).or_insert(i);
+        }
     }
     for (i, f) in forms.iter().enumerate() {
         for end in &f[1..] {

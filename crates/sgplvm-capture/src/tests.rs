@@ -332,6 +332,52 @@ fn naming_schemes_are_recognised() {
     assert!(e.contains("`jLeftShoulder` names segment `nope`"), "{e}");
 }
 
+/// MakeHuman's game rig (its `zombieWalk1.bvh`): `Clavicle_L`, `UpArm_L`,
+/// `LoArm_L`, `Hand_L`, each clavicle below a helper joint `__Clavicle_L` on the spine whose
+/// name is the clavicle's but for its underscores.
+#[test]
+fn makehuman_s_game_rig_is_recognised_past_its_helper_joints() {
+    let joint = |name: &str, o: [f64; 3]| {
+        format!(
+            "JOINT {name}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Xrotation Yrotation Zrotation\n",
+            o[0], o[1], o[2]
+        )
+    };
+    let mut t = String::from("HIERARCHY\nROOT Root\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation\n");
+    t += &joint("Spine3", [0.0, 4.0, 0.0]);
+    t += &joint("Neck", [0.0, 1.5, 0.0]);
+    t += "End Site\n{\nOFFSET 0 1 0\n}\n}\n";
+    for (s, x) in [("L", 1.0), ("R", -1.0)] {
+        let chain = [
+            (format!("__Clavicle_{s}"), [0.0, 1.2, 0.0]),
+            (format!("Clavicle_{s}"), [x * 0.3, -0.3, 0.1]),
+            (format!("UpArm_{s}"), [x * 1.5, 0.0, 0.0]),
+            (format!("LoArm_{s}"), [x * 2.0, 0.0, 0.0]),
+            (format!("Hand_{s}"), [x * 2.4, 0.0, 0.0]),
+        ];
+        for (name, o) in &chain {
+            t += &joint(name, *o);
+        }
+        t += &format!("End Site\n{{\nOFFSET {} 0 0\n}}\n", x * 1.0);
+        t += &"}\n".repeat(chain.len());
+    }
+    t += "}\n}\nMOTION\nFrames: 1\nFrame Time: 0.04\n";
+    t += &["0"; 6 + 3 * 12].join(" ");
+    t.push('\n');
+    let bvh = Bvh::parse(&t, "game.bvh").unwrap();
+    let s = Skeleton::identify(&bvh, None, "game.bvh").unwrap();
+    assert!(s.scheme.contains("MakeHuman game rig"), "{}", s.scheme);
+    for (arm, side) in s.arms.iter().zip(["L", "R"]) {
+        let name = |j: usize| bvh.joints[j].name.as_str();
+        assert_eq!(name(arm.clavicle.unwrap()), format!("Clavicle_{side}"));
+        assert_eq!(name(arm.upper_arm), format!("UpArm_{side}"));
+        assert_eq!(name(arm.forearm), format!("LoArm_{side}"));
+        assert_eq!(name(arm.hand), format!("Hand_{side}"));
+    }
+    // Upper arm and forearm: 4.4 units.
+    assert!((s.arm_length - 4.4).abs() < 1e-12, "{}", s.arm_length);
+}
+
 /// A two-arm skeleton under a floor joint: `clavicle` and `upper_arm` are the left arm's
 /// offsets (the right arm mirrors x), `neck` the neck's from the chest.
 fn floor_skeleton(clavicle: [f64; 3], upper_arm: [f64; 3], neck: [f64; 3]) -> Bvh {

@@ -86,6 +86,15 @@ pub const SCHEMES: &[Scheme] = &[
         hand: &["hand"],
     },
     Scheme {
+        // MakeHuman's game rig (its `zombieWalk1.bvh`, `walk1.bvh`): `Clavicle_L`, `UpArm_L`,
+        // `LoArm_L`, `Hand_L`, each clavicle below a helper joint `__Clavicle_L` on the spine.
+        name: "MakeHuman game rig (Clavicle, UpArm, LoArm, Hand)",
+        clavicle: &["clavicle"],
+        upper_arm: &["uparm"],
+        forearm: &["loarm"],
+        hand: &["hand"],
+    },
+    Scheme {
         // OptiTrack Motive's skeletons (`Hip`, `Ab`, `Chest`, `LShoulder`, `LUArm`, `LFArm`,
         // `LHand`), as its BVH export and its NatNet stream name them.
         name: "OptiTrack Motive (Shoulder, UArm, FArm, Hand)",
