@@ -60,7 +60,7 @@ pub struct ImportArgs {
     /// (the clavicles may be left out).
     #[arg(long)]
     map: Option<PathBuf>,
-    /// Length units of the files (m, cm, mm, in, cmu); default: guessed from the arm's length.
+    /// Length units of the files (m, dm, cm, mm, in, cmu); default: guessed from the arm's length.
     /// Only reports use them: positions are scaled to the human model either way.
     #[arg(long, value_parser = parse_units)]
     units: Option<Units>,
@@ -82,7 +82,7 @@ pub struct ImportArgs {
 }
 
 fn parse_units(s: &str) -> Result<Units, String> {
-    Units::parse(s).ok_or_else(|| format!("unknown units `{s}`; expected m, cm, mm, in or cmu"))
+    Units::parse(s).ok_or_else(|| format!("unknown units `{s}`; expected {}", Units::choices()))
 }
 
 pub fn run(args: ImportArgs) -> Result<()> {

@@ -142,6 +142,8 @@ fn list(names: &[String]) -> String {
 pub enum Units {
     /// Metres.
     Metres,
+    /// Decimetres (MakeHuman's game rig exports).
+    Decimetres,
     /// Centimetres (Xsens, Mixamo, most exporters).
     Centimetres,
     /// Millimetres (Vicon, OptiTrack exports).
@@ -153,8 +155,9 @@ pub enum Units {
 }
 
 impl Units {
-    const ALL: [Units; 5] = [
+    const ALL: [Units; 6] = [
         Units::Metres,
+        Units::Decimetres,
         Units::Centimetres,
         Units::Millimetres,
         Units::Inches,
@@ -165,6 +168,7 @@ impl Units {
     pub fn metres(self) -> f64 {
         match self {
             Units::Metres => 1.0,
+            Units::Decimetres => 0.1,
             Units::Centimetres => 0.01,
             Units::Millimetres => 0.001,
             Units::Inches => 0.0254,
@@ -172,10 +176,11 @@ impl Units {
         }
     }
 
-    /// Short name (`m`, `cm`, `mm`, `in`, `cmu`), as `--units` takes it.
+    /// Short name (`m`, `dm`, `cm`, `mm`, `in`, `cmu`), as `--units` takes it.
     pub fn name(self) -> &'static str {
         match self {
             Units::Metres => "m",
+            Units::Decimetres => "dm",
             Units::Centimetres => "cm",
             Units::Millimetres => "mm",
             Units::Inches => "in",
@@ -186,6 +191,15 @@ impl Units {
     /// Parses a short name.
     pub fn parse(s: &str) -> Option<Units> {
         Units::ALL.into_iter().find(|u| u.name() == s)
+    }
+
+    /// The short names [`Units::parse`] takes, for messages: `m, dm, cm, mm, in or cmu`.
+    pub fn choices() -> String {
+        let names: Vec<&str> = Units::ALL.iter().map(|u| u.name()).collect();
+        match names.split_last() {
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        }
     }
 
     /// The units in which `arm_length` (upper arm plus forearm, file units) is nearest an

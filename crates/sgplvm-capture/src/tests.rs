@@ -332,11 +332,11 @@ fn naming_schemes_are_recognised() {
     assert!(e.contains("`jLeftShoulder` names segment `nope`"), "{e}");
 }
 
-/// MakeHuman's game rig (its `zombieWalk1.bvh`): `Clavicle_L`, `UpArm_L`,
+/// MakeHuman's game rig (its `zombieWalk1.bvh`, in decimetres): `Clavicle_L`, `UpArm_L`,
 /// `LoArm_L`, `Hand_L`, each clavicle below a helper joint `__Clavicle_L` on the spine whose
 /// name is the clavicle's but for its underscores.
 #[test]
-fn makehuman_s_game_rig_is_recognised_past_its_helper_joints() {
+fn makehuman_s_game_rig_is_recognised_in_decimetres_past_its_helper_joints() {
     let joint = |name: &str, o: [f64; 3]| {
         format!(
             "JOINT {name}\n{{\nOFFSET {} {} {}\nCHANNELS 3 Xrotation Yrotation Zrotation\n",
@@ -374,8 +374,25 @@ fn makehuman_s_game_rig_is_recognised_past_its_helper_joints() {
         assert_eq!(name(arm.forearm), format!("LoArm_{side}"));
         assert_eq!(name(arm.hand), format!("Hand_{side}"));
     }
-    // Upper arm and forearm: 4.4 units.
+    // Upper arm and forearm: 4.4 units, 44 cm in decimetres (in CMU's units, 24.8 cm).
     assert!((s.arm_length - 4.4).abs() < 1e-12, "{}", s.arm_length);
+    assert_eq!(Units::guess(s.arm_length), Some(Units::Decimetres));
+}
+
+#[test]
+fn decimetres_are_a_unit_and_other_units_are_guessed_as_before() {
+    assert_eq!(Units::parse("dm"), Some(Units::Decimetres));
+    assert_eq!(Units::Decimetres.name(), "dm");
+    assert_eq!(Units::Decimetres.metres(), 0.1);
+    assert_eq!(Units::choices(), "m, dm, cm, mm, in or cmu");
+    // MakeHuman's game rig: 43.8 cm of arm.
+    assert_eq!(Units::guess(4.38), Some(Units::Decimetres));
+    // An adult's arm in each of the other units, and CMU's subject 13 (51.3 cm).
+    assert_eq!(Units::guess(0.54), Some(Units::Metres));
+    assert_eq!(Units::guess(54.0), Some(Units::Centimetres));
+    assert_eq!(Units::guess(540.0), Some(Units::Millimetres));
+    assert_eq!(Units::guess(21.3), Some(Units::Inches));
+    assert_eq!(Units::guess(0.513 / Units::Cmu.metres()), Some(Units::Cmu));
 }
 
 /// A two-arm skeleton under a floor joint: `clavicle` and `upper_arm` are the left arm's

@@ -295,9 +295,7 @@ pub fn read_bvh<'py>(
         let units = units
             .map(|u| {
                 Units::parse(u).ok_or_else(|| {
-                    PyValueError::new_err(format!(
-                        "units {u:?}; expected \"m\", \"cm\", \"mm\", \"in\" or \"cmu\""
-                    ))
+                    PyValueError::new_err(format!("units {u:?}; expected {}", Units::choices()))
                 })
             })
             .transpose()?;

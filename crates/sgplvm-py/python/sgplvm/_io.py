@@ -83,7 +83,7 @@ def read_bvh(
     Unreal and Rigify schemes) or by ``map`` (the model's joint groups ``"jLeftShoulder"``,
     ``"jLeftElbow"``, … to the capture's segments); the motion is taken in the upper torso's
     frame, scaled to the human model and resampled to ``rate`` Hz. ``units`` (``"m"``,
-    ``"cm"``, ``"mm"``, ``"in"``, ``"cmu"``) only names sizes in the report (guessed if
+    ``"dm"``, ``"cm"``, ``"mm"``, ``"in"``, ``"cmu"``) only names sizes in the report (guessed if
     ``None``); ``start`` and ``end`` (seconds) cut the capture.
 
     Returns a dict shaped like :func:`load_demonstrations`'s human part: ``times_ns`` (n,),
