@@ -222,6 +222,9 @@ fn summary(s: &CaptureSource, frames_out: usize) {
             cm(MEDIAN_RESIDUAL_LIMIT_M)
         );
     }
+    if let Some(mirrored) = &s.sides_mirrored {
+        eprintln!("warning: {}: {}", s.file, mirrored.describe());
+    }
     if f.frames_beyond > 0 {
         eprintln!(
             "warning: {}: {} of {} frames beyond {:.0} cm or {:.0}° (first at {:.2} s): poses the human model cannot take within its joint limits",

@@ -257,13 +257,9 @@ impl HingeEstimate {
     /// Adds one frame's arm poses (left, right).
     pub fn add(&mut self, poses: [&ArmPose; 2]) {
         for (s, pose) in poses.iter().enumerate() {
-            let (Some(u), Some(w)) = (
-                (pose.elbow - pose.shoulder).try_normalize(1e-12),
-                (pose.wrist - pose.elbow).try_normalize(1e-12),
-            ) else {
+            let Some((_, bend)) = elbow_bend(pose) else {
                 continue;
             };
-            let bend = w - u * w.dot(&u);
             if bend.norm() > BENT {
                 self.sum[s] += pose.upper_arm_turn.inverse() * bend;
                 self.total[s] += bend.norm();
@@ -294,6 +290,14 @@ impl HingeEstimate {
         (self.total[s] > 0.0 && self.sum[s].norm() > 0.5 * self.total[s])
             .then(|| self.sum[s].normalize())
     }
+}
+
+/// The upper arm's direction of `pose` and the forearm's direction's part across it (its length
+/// the sine of the elbow's bend); `None` where a segment has no length.
+pub(crate) fn elbow_bend(pose: &ArmPose) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    let u = (pose.elbow - pose.shoulder).try_normalize(1e-12)?;
+    let w = (pose.wrist - pose.elbow).try_normalize(1e-12)?;
+    Some((u, w - u * w.dot(&u)))
 }
 
 fn side_index(side: Side) -> usize {

@@ -10,6 +10,7 @@ use crate::calibration::{
     Calibration, HandEnd, HingeEstimate, Twist, UntoldTwist, REST_MATCH_FRACTION,
 };
 use crate::fit::HumanArms;
+use crate::mirror::{ElbowBends, SidesMirrored};
 use crate::skeleton::Skeleton;
 use crate::stream::PoseFitter;
 use crate::{
@@ -251,6 +252,7 @@ pub fn import_parsed(
             fit,
             calibration: Some(calibration),
             person: None,
+            sides_mirrored: SidesMirrored::of(&fits.bends, skeleton.swapped_map(bvh)),
         },
     })
 }
@@ -365,6 +367,8 @@ struct FrameFits {
     at_limit: [usize; 18],
     /// Per model joint: whether it was held at a limit in the first frame.
     first_at_limit: [bool; 18],
+    /// Which way the elbows bent (a mirror-labelled skeleton's bend backwards).
+    bends: ElbowBends,
 }
 
 /// Fits every frame from `first` to `last`, both arms, each continuing from its previous
@@ -384,9 +388,11 @@ fn fit_frames(
     let mut beyond = vec![false; n];
     let mut at_limit = [0usize; 18];
     let mut first_at_limit = [false; 18];
+    let mut bends = ElbowBends::new();
     for (row, f) in (first..=last).enumerate() {
         let values = bvh.frame(f);
         let poses = [Side::Left, Side::Right].map(|side| skeleton.arm_pose(bvh, values, side));
+        bends.add([&poses[0], &poses[1]]);
         let fits = fitter.fit([&poses[0], &poses[1]]);
         for (s, fit) in fits.iter().enumerate() {
             for k in 0..9 {
@@ -410,6 +416,7 @@ fn fit_frames(
         beyond,
         at_limit,
         first_at_limit,
+        bends,
     }
 }
 

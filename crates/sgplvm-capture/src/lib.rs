@@ -24,6 +24,7 @@ pub mod axes;
 pub mod bvh;
 pub mod calibration;
 pub mod fit;
+pub mod mirror;
 pub mod segments;
 pub mod skeleton;
 pub mod stream;
@@ -42,6 +43,7 @@ pub use bvh::{Bvh, BvhError, BvhJoint, Channel};
 pub use calibration::{Calibration, HandEnd, HingeEstimate, Twist};
 pub use fit::{ArmAngles, ArmTarget, HumanArms};
 pub use import::{import_bvh, import_files, import_parsed};
+pub use mirror::{ElbowBends, SidesMirrored};
 pub use segments::{ArmSegments, WorldPose};
 pub use skeleton::{tree_skeleton, ArmMap, ArmPose, Skeleton, TreeFrame, SCHEMES};
 pub use stream::{ArmFitResult, FrameFit, PoseFitter};
@@ -332,6 +334,10 @@ pub struct CaptureSource {
     /// leave-people-out split holds out and a model's trust threshold is calibrated over.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub person: Option<String>,
+    /// Present where most clearly bent elbows bend backwards: the skeleton's Left and Right are
+    /// probably the person's right and left ([`mirror`]), with the `--map` that swaps them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sides_mirrored: Option<SidesMirrored>,
 }
 
 /// One imported capture: the human's 18 joint angles at the asked rate.

@@ -176,6 +176,27 @@ impl Skeleton {
         })
     }
 
+    /// The map (as `--map` takes it) that names each arm's segments as the other side's: what
+    /// imports a skeleton whose Left and Right are the person's right and left as the person's.
+    pub fn swapped_map(&self, bvh: &Bvh) -> ArmMap {
+        let mut map = BTreeMap::new();
+        for (side, other) in [(Side::Left, Side::Right), (Side::Right, Side::Left)] {
+            let arm = &self.arms[side_index(other)];
+            let joints = [
+                arm.clavicle,
+                Some(arm.upper_arm),
+                Some(arm.forearm),
+                Some(arm.hand),
+            ];
+            for (role, joint) in Role::ALL.into_iter().zip(joints) {
+                if let Some(j) = joint {
+                    map.insert(role.keys(side).0, bvh.joints[j].name.clone());
+                }
+            }
+        }
+        ArmMap(map)
+    }
+
     /// The pose of arm `side` in frame `values` (one frame's channels).
     pub fn arm_pose(&self, bvh: &Bvh, values: &[f64], side: Side) -> ArmPose {
         self.arm_pose_with(bvh, &|k| bvh.joints[k].local(values), side)

@@ -194,6 +194,8 @@ fn capture(
             fit: report(frames, &joint_names),
             calibration,
             person: None,
+            // MVN names the sides by its own specification.
+            sides_mirrored: None,
         },
     })
 }

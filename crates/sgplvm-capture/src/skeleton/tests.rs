@@ -4,6 +4,7 @@
 
 use crate::bvh::{Bvh, BvhJoint, Channel};
 use crate::{import_parsed, write_bvh, ImportOptions};
+use sgplvm_robots::Side;
 
 /// A smooth motion of the human model within its joint limits, elbows bent.
 fn motion(frames: usize) -> Vec<[f64; 18]> {
@@ -362,4 +363,92 @@ fn a_makehuman_hand_ends_at_finger_3_the_middle_one() {
         assert!((tip - want).norm() < 1e-12, "{tip} (want {want})");
         assert_eq!(arm.hand_end, crate::HandEnd::Measured);
     }
+}
+
+/// A skeleton labelled as a Kinect v1 / OpenNI recording labels it: the person's left arm
+/// named `Right…` and the right one `Left…`. Every bent elbow bends backwards in the body axes
+/// the labels give; the import says so and names the map that swaps the sides, which imports
+/// it as the correctly labelled file.
+#[test]
+fn a_mirror_labelled_skeleton_is_said_to_be_so_with_the_map_that_swaps_its_sides() {
+    let dir = std::env::temp_dir().join(format!("sgplvm-mirrored-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("plain.bvh");
+    // Natural motion: the arms hanging to raised forwards and sideways, turned inwards and
+    // outwards, the elbows bending (every angle within the model's limits).
+    let ranges = [
+        (-0.1, 0.4),
+        (-0.3, 0.3),
+        (-0.5, 1.6),
+        (0.0, 1.6),
+        (-1.0, 1.2),
+        (0.3, 2.4),
+        (-1.0, 1.0),
+        (-0.5, 0.5),
+        (-0.2, 0.3),
+    ];
+    let natural: Vec<[f64; 18]> = (0..400)
+        .map(|f| {
+            let t = f as f64 / 40.0;
+            std::array::from_fn(|k| {
+                let (lo, hi) = ranges[k % 9];
+                let wave = (0.7 + 0.13 * k as f64) * t + k as f64;
+                lo + (hi - lo) * 0.5 * (1.0 + wave.sin())
+            })
+        })
+        .collect();
+    write_bvh(&path, 1.0 / 40.0, &natural).unwrap();
+    let plain = Bvh::read(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let mut mirrored = plain.clone();
+    for joint in &mut mirrored.joints {
+        let name = &joint.name;
+        joint.name = if let Some(rest) = name.strip_prefix("Left") {
+            format!("Right{rest}")
+        } else if let Some(rest) = name.strip_prefix("Right") {
+            format!("Left{rest}")
+        } else {
+            name.clone()
+        };
+    }
+    let import = |bvh: &Bvh, map: Option<crate::ArmMap>| {
+        let options = ImportOptions {
+            map,
+            ..ImportOptions::default()
+        };
+        import_parsed(bvh, "mirrored.bvh", &options).unwrap()
+    };
+    let want = import(&plain, None);
+    assert_eq!(want.source.sides_mirrored, None);
+    let mut bends = crate::ElbowBends::new();
+    let skeleton = crate::Skeleton::identify(&plain, None, "plain.bvh").unwrap();
+    for f in 0..plain.frames() {
+        let poses = [Side::Left, Side::Right].map(|s| skeleton.arm_pose(&plain, plain.frame(f), s));
+        bends.add([&poses[0], &poses[1]]);
+    }
+    assert_eq!(bends.backwards(), 0, "of {} judged", bends.judged());
+    let got = import(&mirrored, None);
+    let found = got
+        .source
+        .sides_mirrored
+        .expect("the sides are said to be mirrored");
+    assert!(
+        found.judged >= 100 && found.backwards == found.judged,
+        "{} of {} judged frames backwards",
+        found.backwards,
+        found.judged
+    );
+    let text = found.describe();
+    assert!(
+        text.contains(r#""jLeftShoulder": "RightUpperArm""#)
+            && text.contains(r#""jLeftWrist": "RightHand""#)
+            && text.contains(r#""jRightC7Shoulder": "LeftShoulder""#),
+        "{text}"
+    );
+    // Not swapped by the import: the angles are the mislabelled sides'.
+    assert!((&got.positions - &want.positions).abs().max() > 0.1);
+    // The map it names imports the file as the correctly labelled one, to the last bit.
+    let swapped = import(&mirrored, Some(crate::ArmMap(found.swapped_map)));
+    assert_eq!(swapped.source.sides_mirrored, None);
+    assert_eq!(swapped.positions, want.positions);
 }
