@@ -212,6 +212,18 @@ def _mvn_datagrams(rig):
     return out
 
 
+def _stderr_until(proc, text):
+    """The lines ``proc`` writes to stderr up to the first holding ``text`` (it has ended, or
+    never says it, if none does: the assertion shows what it said)."""
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if text in line:
+            return "".join(seen)
+    proc.wait(timeout=60)
+    raise AssertionError(f"it never said {text!r}: {''.join(seen)}")
+
+
 def _free_port():
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))
@@ -230,11 +242,13 @@ def test_an_mvn_stream_records_the_imported_angles(tmp, rigs, style):
          "--max-frames", str(FRAMES), "--out", str(out), "--json"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
-    time.sleep(0.5)
+    # Sent once the importer listens (a fixed wait lost the stream on a loaded machine).
+    started = _stderr_until(proc, "recording the MVN stream")
     for d in _mvn_datagrams(rig):
         mvn_spec.send([d], port=port)
         time.sleep(0.005)
     stdout, stderr = proc.communicate(timeout=60)
+    stderr = started + stderr
     assert proc.returncode == 0, stderr
     recorded = sgplvm.load_demonstrations(out)["human"]
     order = [recorded["joint_names"].index(n) for n in rig.names]
