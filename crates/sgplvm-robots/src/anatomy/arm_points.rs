@@ -74,7 +74,15 @@ fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
     // forearm beyond the wrist (Leju's Kuavo, Trossen's WXAI) puts the middle of the arm at
     // the wrist.
     // The last joint itself may be the elbow, a forearm beyond it and no wrist (PAL's ARI:
-    // shoulder pitch, roll, the upper arm's turn, the elbow): it is then far from the hand.
+    // shoulder pitch, roll, the upper arm's turn, the elbow): an arm of at most four joints
+    // whose last is revolute and bends what lies beyond it (its axis across the line to the
+    // hand), not a roll along it (Toyota's HSR's wrist roll, a seven-joint arm's with a long
+    // tool): it is then far from the hand.
+    let axes = chain.joint_axes(q);
+    let last_bends = n <= 4 && !chain.is_prismatic(n - 1) && {
+        let beyond = hand - origins[n - 1];
+        beyond.norm() > 1e-9 && axes[n - 1].dot(&beyond.normalize()).abs() < 0.5
+    };
     let score = |i: usize| {
         let to_last = if i + 1 == n {
             f64::INFINITY
@@ -86,7 +94,7 @@ fn elbow_guess(chain: &Chain, zero: &[f64]) -> usize {
             .min((origins[i] - hand).norm())
             .min(to_last)
     };
-    let candidates = 1..if n >= 3 {
+    let candidates = 1..if n >= 3 && last_bends {
         n
     } else {
         n.saturating_sub(1).max(1)

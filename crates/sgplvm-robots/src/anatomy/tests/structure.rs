@@ -453,6 +453,49 @@ fn an_arm_whose_last_joint_is_its_elbow_finds_it() {
 }
 
 #[test]
+fn a_roll_last_is_no_elbow_however_long_the_tool_beyond_it() {
+    // The last joint as the elbow (ARI, above) only where it bends what lies beyond it: a
+    // seven-joint arm's wrist roll with a tool longer than the forearm (the review found the
+    // arm refused, its shoulder put at the wrist) and Toyota's HSR's four joints (flex, roll,
+    // wrist flex, wrist roll: the wrist flex is its elbow) keep their elbows.
+    for tool in [0.1, 0.3] {
+        #[rustfmt::skip]
+        let joints = [
+            ("shoulder_pitch", "base", "0 0 1.0", "0 1 0"),
+            ("shoulder_roll", "shoulder_pitch_link", "0 0 0", "1 0 0"),
+            ("shoulder_yaw", "shoulder_roll_link", "0 0 0", "0 0 1"),
+            ("elbow", "shoulder_yaw_link", "0 0 -0.25", "0 1 0"),
+            ("forearm_yaw", "elbow_link", "0 0 -0.2", "0 0 1"),
+            ("wrist_pitch", "forearm_yaw_link", "0 0 0", "0 1 0"),
+            ("wrist_roll", "wrist_pitch_link", "0 0 0", "0 0 1"),
+        ]
+        .map(|(name, parent, xyz, axis)| revolute(name, parent, xyz, axis, (-2.0, 2.0)))
+        .concat();
+        let urdf = format!(
+            r#"<robot name="seven"><link name="base"/>{joints}<link name="tool"/><joint name="tip" type="fixed"><parent link="wrist_roll_link"/><child link="tool"/><origin xyz="0 0 -{tool}"/></joint></robot>"#
+        );
+        let a = Anatomy::of(Robot::from_urdf_str(&urdf, "seven.urdf").unwrap()).unwrap();
+        let arm = &a.arms()[0];
+        assert_eq!(arm.chain.joint_names()[arm.elbow], "elbow", "tool {tool} m");
+    }
+    #[rustfmt::skip]
+    let joints = [
+        ("arm_flex", "base", "0 0 0.8", "0 1 0"),
+        ("arm_roll", "arm_flex_link", "0 0 -0.1", "0 0 1"),
+        ("wrist_flex", "arm_roll_link", "0 0 -0.25", "0 1 0"),
+        ("wrist_roll", "wrist_flex_link", "0 0 0", "0 0 1"),
+    ]
+    .map(|(name, parent, xyz, axis)| revolute(name, parent, xyz, axis, (-2.0, 2.0)))
+    .concat();
+    let urdf = format!(
+        r#"<robot name="hsr"><link name="base"/>{joints}<link name="palm"/><joint name="tip" type="fixed"><parent link="wrist_roll_link"/><child link="palm"/><origin xyz="0 0 -0.14"/></joint></robot>"#
+    );
+    let a = Anatomy::of(Robot::from_urdf_str(&urdf, "hsr.urdf").unwrap()).unwrap();
+    let arm = &a.arms()[0];
+    assert_eq!(arm.chain.joint_names()[arm.elbow], "wrist_flex");
+}
+
+#[test]
 fn a_model_drawn_y_up_takes_up_from_its_root_towards_the_shoulders() {
     // As biomechanics draws people (the ISB human of example-robot-data): x forward, y up, z
     // to the right. The root's z runs along the shoulders, so up is from the root (the
