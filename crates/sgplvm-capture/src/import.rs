@@ -388,7 +388,7 @@ fn fit_frames(
     let mut beyond = vec![false; n];
     let mut at_limit = [0usize; 18];
     let mut first_at_limit = [false; 18];
-    let mut bends = ElbowBends::new();
+    let mut bends = ElbowBends::new(bvh.frame_rate());
     for (row, f) in (first..=last).enumerate() {
         let values = bvh.frame(f);
         let poses = [Side::Left, Side::Right].map(|side| skeleton.arm_pose(bvh, values, side));

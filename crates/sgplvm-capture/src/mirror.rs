@@ -5,8 +5,9 @@
 //! mirror-labelled person is seen from behind, and an elbow, which bends the forearm to the
 //! front of the upper arm, bends it backwards in every frame.
 //!
-//! The import counts, frame by frame, the elbows that bend clearly forwards or backwards
-//! ([`ElbowBends`]) and, where most bend backwards, says so with the `--map` that swaps the
+//! The import counts, frame by frame and arm by arm, the elbows that bend clearly forwards or
+//! backwards ([`ElbowBends`]) and, where each arm's bend backwards in nearly every frame it is
+//! judged in, over at least a second of them, says so with the `--map` that swaps the
 //! sides, in the file's own segment names ([`SidesMirrored`]). It does not swap them itself:
 //! the angles are those of the sides as the file names them.
 
@@ -35,45 +36,69 @@ const LOWERED: f64 = 0.5;
 /// (within 75° of it): a bend to the side tells neither.
 const FRONT_OR_BACK: f64 = 0.25;
 
-/// Fewest judged arm frames for the elbows to say the sides are mirrored.
-pub const MIN_JUDGED_FRAMES: usize = 10;
+/// Least motion (seconds of frames) in which each arm must be judged for the elbows to say the
+/// sides are mirrored: a moment of a hand behind the back (upper arm back, forearm towards the
+/// midline, judged backwards) lasts less, a mirrored recording's bends last its whole length.
+pub const MIN_JUDGED_SECONDS: f64 = 1.0;
 
-/// Which way the elbows bent over a capture's frames (module docs).
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+/// Least share of each arm's judged frames that must bend backwards for the sides to be said
+/// mirrored (a mirror-labelled Kinect recording: 280 of 281 and 261 of 261).
+pub const MOSTLY: f64 = 0.9;
+
+/// Which way the elbows bent over a capture's frames, arm by arm (module docs).
+#[derive(Debug, Clone, PartialEq)]
 pub struct ElbowBends {
-    judged: usize,
-    backwards: usize,
+    /// Frames per second of the poses added, which sets the least judged frames per arm.
+    frame_rate: f64,
+    /// Per arm (left, right): frames judged.
+    judged: [usize; 2],
+    /// Per arm: of those, frames bent backwards.
+    backwards: [usize; 2],
 }
 
 impl ElbowBends {
-    /// No frames yet.
-    pub fn new() -> ElbowBends {
-        ElbowBends::default()
+    /// No frames yet; the poses will be added at `frame_rate` frames per second (the file's
+    /// own frames, which the import judges before it resamples).
+    pub fn new(frame_rate: f64) -> ElbowBends {
+        ElbowBends {
+            frame_rate,
+            judged: [0; 2],
+            backwards: [0; 2],
+        }
     }
 
     /// Adds one frame's arm poses (left, right; body axes).
     pub fn add(&mut self, poses: [&ArmPose; 2]) {
-        for pose in poses {
+        for (arm, pose) in poses.iter().enumerate() {
             if let Some(backwards) = bends_backwards(pose) {
-                self.judged += 1;
-                self.backwards += usize::from(backwards);
+                self.judged[arm] += 1;
+                self.backwards[arm] += usize::from(backwards);
             }
         }
     }
 
     /// Arm frames (both arms counted) in which an elbow bent clearly forwards or backwards.
     pub fn judged(&self) -> usize {
-        self.judged
+        self.judged.iter().sum()
     }
 
     /// Of those, the arm frames in which it bent backwards.
     pub fn backwards(&self) -> usize {
-        self.backwards
+        self.backwards.iter().sum()
     }
 
-    /// Whether most judged arm frames, of at least [`MIN_JUDGED_FRAMES`], bent backwards.
+    /// Least judged frames per arm: [`MIN_JUDGED_SECONDS`] of frames (at least one).
+    pub fn min_judged(&self) -> usize {
+        ((MIN_JUDGED_SECONDS * self.frame_rate).ceil() as usize).max(1)
+    }
+
+    /// Whether each arm was judged in at least [`ElbowBends::min_judged`] frames and bent
+    /// backwards in at least [`MOSTLY`] of them.
     pub fn mostly_backwards(&self) -> bool {
-        self.judged >= MIN_JUDGED_FRAMES && 2 * self.backwards > self.judged
+        (0..2).all(|arm| {
+            let judged = self.judged[arm];
+            judged >= self.min_judged() && self.backwards[arm] as f64 >= MOSTLY * judged as f64
+        })
     }
 }
 
@@ -92,7 +117,7 @@ fn bends_backwards(pose: &ArmPose) -> Option<bool> {
     (cosine.abs() >= FRONT_OR_BACK).then_some(cosine < 0.0)
 }
 
-/// What the import says of a capture whose elbows mostly bend backwards: its sides are
+/// What the import says of a capture whose elbows bend backwards, each arm nearly always: its sides are
 /// probably mirrored (module docs).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SidesMirrored {
@@ -106,7 +131,7 @@ pub struct SidesMirrored {
 }
 
 impl SidesMirrored {
-    /// The finding where `bends` mostly bent backwards; `swapped` is the skeleton's arms with
+    /// The finding where `bends` bent backwards ([`ElbowBends::mostly_backwards`]); `swapped` is the skeleton's arms with
     /// the sides swapped ([`crate::Skeleton::swapped_map`]).
     pub fn of(bends: &ElbowBends, swapped: ArmMap) -> Option<SidesMirrored> {
         bends.mostly_backwards().then(|| SidesMirrored {
@@ -136,9 +161,10 @@ impl SidesMirrored {
     /// A sentence for the import's report.
     pub fn describe(&self) -> String {
         format!(
-            "the elbows bend backwards in {} of {} arm frames where they clearly bend forwards or backwards: the skeleton's Left and Right are probably the person's right and left (as Kinect v1 / OpenNI recordings label them), the person seen from behind. The angles are those of the sides as the file names them; to swap the sides, import with --map FILE, FILE holding {}",
+            "the elbows bend backwards in {} of {} arm frames where they clearly bend forwards or backwards (each arm in at least {:.0} % of its own): the skeleton's Left and Right are probably the person's right and left (as Kinect v1 / OpenNI recordings label them), the person seen from behind. The angles are those of the sides as the file names them; to swap the sides, import with --map FILE, FILE holding {}",
             self.backwards,
             self.judged,
+            100.0 * MOSTLY,
             self.map_json()
         )
     }
@@ -191,19 +217,26 @@ mod tests {
     }
 
     #[test]
-    fn most_judged_frames_backwards_say_the_sides_are_mirrored() {
+    fn nearly_every_judged_frame_of_each_arm_backwards_for_a_second_says_mirrored() {
         let down = -Vector3::z();
         let forwards = arm(down, Vector3::x());
         let backwards = arm(down, -Vector3::x());
-        let mut bends = ElbowBends::new();
-        for _ in 0..4 {
+        let straight = arm(down, down);
+        // At 30 frames per second: a second is 30 judged frames per arm.
+        let mut bends = ElbowBends::new(30.0);
+        assert_eq!(bends.min_judged(), 30);
+        for _ in 0..29 {
             bends.add([&backwards, &backwards]);
         }
         // Too few frames to say.
         assert!(!bends.mostly_backwards());
-        bends.add([&backwards, &forwards]);
-        assert_eq!((bends.judged(), bends.backwards()), (10, 9));
+        bends.add([&backwards, &backwards]);
         assert!(bends.mostly_backwards());
+        // 90 % of each arm's frames still say it, fewer do not.
+        for _ in 0..3 {
+            bends.add([&forwards, &forwards]);
+        }
+        assert_eq!((bends.judged(), bends.backwards()), (66, 60));
         let map = ArmMap(BTreeMap::from([
             ("jRightShoulder".to_string(), "ShoulderLeft".to_string()),
             ("jLeftShoulder".to_string(), "ShoulderRight".to_string()),
@@ -213,10 +246,44 @@ mod tests {
             found.map_json(),
             r#"{"jLeftShoulder": "ShoulderRight", "jRightShoulder": "ShoulderLeft"}"#
         );
-        assert!(found.describe().contains("9 of 10"), "{}", found.describe());
-        for _ in 0..10 {
-            bends.add([&forwards, &forwards]);
-        }
+        assert!(
+            found.describe().contains("60 of 66"),
+            "{}",
+            found.describe()
+        );
+        bends.add([&straight, &forwards]);
         assert!(SidesMirrored::of(&bends, ArmMap::default()).is_none());
+        // One arm alone, however long, does not say it.
+        let mut one = ElbowBends::new(30.0);
+        for _ in 0..300 {
+            one.add([&backwards, &straight]);
+        }
+        assert!(!one.mostly_backwards());
+    }
+
+    #[test]
+    fn a_moment_of_a_hand_behind_the_back_does_not_say_mirrored() {
+        let down = -Vector3::z();
+        // Upper arm 30° back, forearm towards the midline behind the back.
+        let behind = arm(
+            Vector3::new(-0.5, 0.0, -0.866),
+            Vector3::new(-0.3, -1.0, 0.4),
+        );
+        assert_eq!(bends_backwards(&behind), Some(true));
+        let straight = arm(down, Vector3::new(0.05, 0.0, -1.0));
+        assert_eq!(bends_backwards(&straight), None);
+        // Ten seconds at 30 frames per second, arms straight but for both hands behind the
+        // back for half a second: every judged frame bends backwards, over 15 frames an arm.
+        let mut bends = ElbowBends::new(30.0);
+        for frame in 0..300 {
+            let pose = if (100..115).contains(&frame) {
+                &behind
+            } else {
+                &straight
+            };
+            bends.add([pose, pose]);
+        }
+        assert_eq!((bends.judged(), bends.backwards()), (30, 30));
+        assert!(!bends.mostly_backwards());
     }
 }

@@ -420,7 +420,7 @@ fn a_mirror_labelled_skeleton_is_said_to_be_so_with_the_map_that_swaps_its_sides
     };
     let want = import(&plain, None);
     assert_eq!(want.source.sides_mirrored, None);
-    let mut bends = crate::ElbowBends::new();
+    let mut bends = crate::ElbowBends::new(plain.frame_rate());
     let skeleton = crate::Skeleton::identify(&plain, None, "plain.bvh").unwrap();
     for f in 0..plain.frames() {
         let poses = [Side::Left, Side::Right].map(|s| skeleton.arm_pose(&plain, plain.frame(f), s));
