@@ -57,19 +57,37 @@ pub fn demonstration_annotations(
 }
 
 /// Whether `value` is what `sgplvm` reads under the annotation `key`: for
-/// [`ROBOTS_ANNOTATION`] robot records by name, for [`CAPTURE_METADATA`] a list of capture
-/// records (JSON objects); any value under another key. The error says what was expected.
+/// [`ROBOTS_ANNOTATION`] robot records by name, for [`CAPTURE_METADATA`] capture records as
+/// `teleop` reads them (their calibrations valid); any value under another key. The error
+/// says what was expected.
 pub fn check_annotation(key: &str, value: &Value) -> Result<(), String> {
     match key {
         ROBOTS_ANNOTATION => serde_json::from_value::<BTreeMap<String, RobotIdentity>>(value.clone())
             .map(drop)
             .map_err(|e| format!("annotation `{key}`: expected robot records by name, as `retarget` writes them: {e}")),
-        CAPTURE_METADATA => match value {
-            Value::Array(records) if records.iter().all(Value::is_object) => Ok(()),
-            _ => Err(format!("annotation `{key}`: expected a list of capture records (JSON objects), as `import` writes them")),
-        },
+        CAPTURE_METADATA => sgplvm_capture::calibrations_in(value).map(drop).map_err(|e| {
+            format!("annotation `{key}`: expected capture records as `import` writes them: {e}")
+        }),
         _ => Ok(()),
     }
+}
+
+/// The value to keep under annotation `key` when `value` is added to a model whose
+/// annotations are `existing`: robot records join those there (a robot's replacing its
+/// earlier one, as `transfer` adds each robot it fits), any other value replaces; checked as
+/// [`check_annotation`] checks it.
+pub fn added_annotation(
+    existing: &BTreeMap<String, Value>,
+    key: &str,
+    value: Value,
+) -> Result<Value, String> {
+    check_annotation(key, &value)?;
+    if key != ROBOTS_ANNOTATION {
+        return Ok(value);
+    }
+    let identities: BTreeMap<String, RobotIdentity> =
+        serde_json::from_value(value).map_err(|e| e.to_string())?;
+    Ok(robots_annotation(existing, identities).unwrap_or_else(|| serde_json::json!({})))
 }
 
 /// The [`ROBOTS_ANNOTATION`] of a model whose `annotations` are these, with `identities` added
@@ -126,9 +144,39 @@ mod tests {
         assert!(check_annotation(ROBOTS_ANNOTATION, &serde_json::json!({})).is_ok());
         let wrong = check_annotation(ROBOTS_ANNOTATION, &serde_json::json!([1])).unwrap_err();
         assert!(wrong.contains(ROBOTS_ANNOTATION) && wrong.contains("robot records"));
-        assert!(check_annotation(CAPTURE_METADATA, &serde_json::json!([{"source": "a"}])).is_ok());
-        assert!(check_annotation(CAPTURE_METADATA, &serde_json::json!({"source": "a"})).is_err());
+        // A capture record is read as `teleop` reads it: what `import` writes, nothing less.
+        assert!(check_annotation(CAPTURE_METADATA, &serde_json::json!([])).is_ok());
+        for wrong in [serde_json::json!({"file": "a"}), serde_json::json!([{}])] {
+            let said = check_annotation(CAPTURE_METADATA, &wrong).unwrap_err();
+            assert!(said.contains("expected capture records"), "{said}");
+        }
         assert!(check_annotation("lab.note", &serde_json::json!(3)).is_ok());
+    }
+
+    #[test]
+    fn robot_records_added_join_those_there_and_other_values_replace() {
+        let identity = |name: &str| RobotIdentity {
+            urdf_name: name.into(),
+            joints: BTreeMap::new(),
+        };
+        let robots = |names: &[&str]| {
+            serde_json::json!(names
+                .iter()
+                .map(|n| (n.to_string(), identity(n)))
+                .collect::<BTreeMap<_, _>>())
+        };
+        let existing = BTreeMap::from([
+            (ROBOTS_ANNOTATION.to_string(), robots(&["walkman"])),
+            ("lab.note".to_string(), serde_json::json!(1)),
+        ]);
+        let joined = added_annotation(&existing, ROBOTS_ANNOTATION, robots(&["coman"])).unwrap();
+        let read: BTreeMap<String, RobotIdentity> = serde_json::from_value(joined).unwrap();
+        assert_eq!(read.keys().collect::<Vec<_>>(), ["coman", "walkman"]);
+        assert_eq!(
+            added_annotation(&existing, "lab.note", serde_json::json!(2)).unwrap(),
+            serde_json::json!(2)
+        );
+        assert!(added_annotation(&existing, ROBOTS_ANNOTATION, serde_json::json!(3)).is_err());
     }
 
     #[test]

@@ -200,7 +200,10 @@ pub fn load_demonstrations<'py>(
         let robot_names: Vec<String> = ds.robots.iter().map(|r| r.name.clone()).collect();
         let provenance = py
             .detach(|| demonstration_annotations(&path, &robot_names, &BTreeMap::new()))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            .map_err(|e| match e {
+                sgplvm::pipeline::PipelineError::Data(e) => joint_state_error(e),
+                other => PyValueError::new_err(other.to_string()),
+            })?;
         let provenance: serde_json::Map<String, serde_json::Value> = provenance
             .into_iter()
             .map(|(key, value)| (key.to_string(), value))

@@ -9,6 +9,7 @@ use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use sgplvm::provenance::added_annotation;
 use sgplvm_core::{
     AnyModel, Control, IterationRecord, Mat, ModelConfig, PartSpec, PartStage, PartsConfig,
     PartsGplvm, SharedGplvm, TrainOptions, Validation,
@@ -329,11 +330,13 @@ impl NativePartsModel {
         annotations_json(self.inner.annotations())
     }
 
-    /// A copy with the annotations of the JSON object `json` added (a key already there is
-    /// replaced).
+    /// A copy with the annotations of the JSON object `json` added: robot records join those
+    /// there, another key's value replaces its earlier one.
     fn with_annotations(&self, json: &str) -> PyResult<Self> {
         let mut inner = self.inner.clone();
         for (key, value) in parse_annotations(json)? {
+            let value = added_annotation(inner.annotations(), &key, value)
+                .map_err(PyValueError::new_err)?;
             inner.annotate(&key, value);
         }
         Ok(NativePartsModel { inner })

@@ -56,6 +56,9 @@ def test_a_model_fitted_in_python_records_its_person_and_robot(g1_demos, tmp_pat
     m.annotate(provenance)
     m.annotate({"lab.note": {"session": 3}})
     assert m.annotations == {**provenance, "lab.note": {"session": 3}}
+    # Robot records join those there (as `sgplvm transfer` adds each robot it fits).
+    m.annotate({"sgplvm.robots": {"g1_copy": provenance["sgplvm.robots"]["g1"]}})
+    assert set(m.annotations["sgplvm.robots"]) == {"g1", "g1_copy"}
     # Kept through a transfer, a save and a pickle.
     assert sgplvm.SharedGPLVM.from_bytes(m.to_bytes()).annotations == m.annotations
     model = tmp_path / "g1.sgp"
@@ -91,11 +94,14 @@ def test_what_sgplvm_reads_is_checked_when_annotated():
     m.fit({"human": h, "robot": h @ rng.normal(size=(4, 3))}, input="human", max_iters=2, validation=None)
     with pytest.raises(ValueError, match="annotation `sgplvm.robots`: expected robot records"):
         m.annotate({"sgplvm.robots": [1]})
-    with pytest.raises(ValueError, match="annotation `sgplvm.capture`: expected a list of capture records"):
-        m.annotate({"sgplvm.capture": {"source": "x"}})
+    with pytest.raises(ValueError, match="annotation `sgplvm.capture`: expected capture records"):
+        m.annotate({"sgplvm.capture": [{}]})  # no file, skeleton, fit: teleop could not read it
     with pytest.raises(TypeError):
         m.annotate({"lab.when": object()})  # not JSON
     assert m.annotations == {}
+    with pytest.raises(ValueError):
+        m.annotate({"lab.a": 1, "sgplvm.robots": 2})
+    assert m.annotations == {}  # all or nothing
 
     parts = {"a": {"human": [0, 1], "robot": [0]}, "b": {"human": [2, 3], "robot": [1, 2]}}
     arms = sgplvm.PartsGPLVM(latent_dim=2, parts=parts, seed=0)

@@ -557,8 +557,9 @@ class SharedGPLVM:
         return json.loads(self._require().annotations_json())
 
     def annotate(self, annotations: Mapping[str, Any]) -> None:
-        """Adds ``annotations`` (JSON values by key; a key already there is replaced) to what
-        is saved with the model. ``annotate(load_demonstrations(path)["provenance"])`` records
+        """Adds ``annotations`` (JSON values by key) to what is saved with the model: robot
+        records join those there (a robot's replacing its earlier one), another key's value
+        replaces its earlier one. ``annotate(load_demonstrations(path)["provenance"])`` records
         what ``sgplvm train --data path`` does. A value under a key sgplvm reads that it cannot
         read is a ``ValueError``."""
         self._native = self._require().with_annotations(json.dumps(dict(annotations)))

@@ -341,9 +341,8 @@ class PartsGPLVM:
         return json.loads(self._require().annotations_json())
 
     def annotate(self, annotations: Mapping[str, Any]) -> None:
-        """Adds ``annotations`` (JSON values by key; a key already there is replaced) to what
-        is saved with the model; ``annotate(load_demonstrations(path)["provenance"])`` records
-        what ``sgplvm train --data path`` does (see ``SharedGPLVM.annotate``)."""
+        """Adds ``annotations`` (JSON values by key; robot records join those there, another
+        key's value replaces) to what is saved with the model, as ``SharedGPLVM.annotate``."""
         self._native = self._require().with_annotations(json.dumps(dict(annotations)))
 
     def save(self, path: Union[str, os.PathLike]) -> None:

@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 
 use pyo3::exceptions::PyValueError;
 use sgplvm::pipeline::human_pose_bounds;
-use sgplvm::provenance::check_annotation;
+use sgplvm::provenance::added_annotation;
 use sgplvm_core::{KernelParams, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
 
 use crate::guard::guarded;
@@ -284,11 +284,13 @@ impl NativeModel {
         annotations_json(self.inner.annotations())
     }
 
-    /// A copy with the annotations of the JSON object `json` added (a key already there is
-    /// replaced).
+    /// A copy with the annotations of the JSON object `json` added: robot records join those
+    /// there, another key's value replaces its earlier one.
     fn with_annotations(&self, json: &str) -> PyResult<Self> {
         let mut inner = self.inner.clone();
         for (key, value) in parse_annotations(json)? {
+            let value = added_annotation(inner.annotations(), &key, value)
+                .map_err(PyValueError::new_err)?;
             inner.annotate(&key, value);
         }
         Ok(NativeModel { inner })
@@ -441,19 +443,14 @@ pub(crate) fn annotations_json(annotations: &BTreeMap<String, serde_json::Value>
     serde_json::Value::Object(annotations.clone().into_iter().collect()).to_string()
 }
 
-/// The annotations of the JSON object `json` (Python's `json.dumps` of a dict), each checked
-/// where sgplvm reads it (a robot record, a capture record): a `ValueError` names the key and
-/// what was expected.
+/// The annotations of the JSON object `json` (Python's `json.dumps` of a dict); each is
+/// checked where it is added (`added_annotation`).
 pub(crate) fn parse_annotations(json: &str) -> PyResult<BTreeMap<String, serde_json::Value>> {
-    let map: BTreeMap<String, serde_json::Value> = serde_json::from_str(json).map_err(|e| {
+    serde_json::from_str(json).map_err(|e| {
         PyValueError::new_err(format!(
             "annotations: expected a mapping of names to JSON values: {e}"
         ))
-    })?;
-    for (key, value) in &map {
-        check_annotation(key, value).map_err(PyValueError::new_err)?;
-    }
-    Ok(map)
+    })
 }
 
 /// One space's negative collapsed variational bound of the sparse model (see
