@@ -148,9 +148,8 @@ impl MvnInput {
         match (told.is_empty(), self.receiver.counts().frames) {
             (true, 0) => "not told yet: type 02 taken as metres, 01 as centimetres".into(),
             // A stream of the upper body alone (a replay of arm angles, a suit's partial
-            // configuration) never says: the span is measured from the pelvis to the neck and
-            // along the arms and legs.
-            (true, _) => "not told by the stream (its frames lack the segments a person's span is measured on: pelvis to neck, arms and legs): type 02 taken as metres, 01 as centimetres".into(),
+            // configuration), or of a span no person has, never says.
+            (true, _) => "not told by the stream: no frame has given a person's span (pelvis to neck, arms and legs, each a person's size in metres or centimetres): type 02 taken as metres, 01 as centimetres".into(),
             (false, _) => told.join("; "),
         }
     }

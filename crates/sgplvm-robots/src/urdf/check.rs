@@ -227,7 +227,7 @@ fn check_length(ctx: &Ctx, at: At, attr: &str, v: f64, what: &str) -> RobotResul
 /// repair pass leaves it out and says so ([`zero_size_shape`]).
 fn check_size(ctx: &Ctx, at: At, attr: &str, v: f64) -> RobotResult<f64> {
     if v < 0.0 {
-        return Err(at.attr_error(ctx, attr, format!("{v} is negative, expected a size > 0")));
+        return Err(at.attr_error(ctx, attr, format!("{v} is negative, expected a size ≥ 0")));
     }
     check_length(ctx, at, attr, v, "a size")?;
     Ok(v)

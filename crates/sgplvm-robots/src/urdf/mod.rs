@@ -11,7 +11,9 @@
 //!    [`Robot::repairs`]): a `<material>` without a name, a `<texture>` without a file, a
 //!    `<limit>` without `velocity` or `effort`, `velocity="0"` on a joint that can move (read as
 //!    no limit given), a `<limit>` whose lower is above its upper (read the other way round,
-//!    as InMoov's head roll means it), an `<axis>` without `xyz`; what the specification defaults but urdf-rs 0.9
+//!    as InMoov's head roll means it), an `<axis>` without `xyz`, a repeat of an element ROS
+//!    reads once (the first kept), a shape of size zero and an `<inertial>` beyond any robot's
+//!    (left out); what the specification defaults but urdf-rs 0.9
 //!    insists on is filled in silently. The repaired text (every line where it was) is parsed by
 //!    urdf-rs, so that the same [`urdf_rs::Robot`] can be handed to rapier's URDF loader;
 //! 3. the joints are assembled into a tree: unknown links, a link with two parents, cycles and
