@@ -9,7 +9,6 @@ use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
-use sgplvm::provenance::added_annotation;
 use sgplvm_core::{
     AnyModel, Control, IterationRecord, Mat, ModelConfig, PartSpec, PartStage, PartsConfig,
     PartsGplvm, SharedGplvm, TrainOptions, Validation,
@@ -17,7 +16,7 @@ use sgplvm_core::{
 
 use crate::guard::guarded;
 use crate::model::{
-    annotations_json, finish_training, model_error, parse_annotations, parse_back_constraint,
+    added_annotations, annotations_json, finish_training, model_error, parse_back_constraint,
     read_error, settle, signal_interrupt, to_mat, to_numpy, NativeModel,
 };
 
@@ -334,9 +333,7 @@ impl NativePartsModel {
     /// there, another key's value replaces its earlier one.
     fn with_annotations(&self, json: &str) -> PyResult<Self> {
         let mut inner = self.inner.clone();
-        for (key, value) in parse_annotations(json)? {
-            let value = added_annotation(inner.annotations(), &key, value)
-                .map_err(PyValueError::new_err)?;
+        for (key, value) in added_annotations(inner.annotations(), json)? {
             inner.annotate(&key, value);
         }
         Ok(NativePartsModel { inner })

@@ -288,9 +288,7 @@ impl NativeModel {
     /// there, another key's value replaces its earlier one.
     fn with_annotations(&self, json: &str) -> PyResult<Self> {
         let mut inner = self.inner.clone();
-        for (key, value) in parse_annotations(json)? {
-            let value = added_annotation(inner.annotations(), &key, value)
-                .map_err(PyValueError::new_err)?;
+        for (key, value) in added_annotations(inner.annotations(), json)? {
             inner.annotate(&key, value);
         }
         Ok(NativeModel { inner })
@@ -443,14 +441,26 @@ pub(crate) fn annotations_json(annotations: &BTreeMap<String, serde_json::Value>
     serde_json::Value::Object(annotations.clone().into_iter().collect()).to_string()
 }
 
-/// The annotations of the JSON object `json` (Python's `json.dumps` of a dict); each is
-/// checked where it is added (`added_annotation`).
-pub(crate) fn parse_annotations(json: &str) -> PyResult<BTreeMap<String, serde_json::Value>> {
-    serde_json::from_str(json).map_err(|e| {
+/// The annotations of the JSON object `json` (Python's `json.dumps` of a dict) as they are to
+/// be kept on a model whose annotations are `existing` (`added_annotation`: robot records
+/// joined, each value checked where sgplvm reads it): a `ValueError` names the key and what
+/// was expected, and nothing is to be added.
+pub(crate) fn added_annotations(
+    existing: &BTreeMap<String, serde_json::Value>,
+    json: &str,
+) -> PyResult<Vec<(String, serde_json::Value)>> {
+    let given: BTreeMap<String, serde_json::Value> = serde_json::from_str(json).map_err(|e| {
         PyValueError::new_err(format!(
             "annotations: expected a mapping of names to JSON values: {e}"
         ))
-    })
+    })?;
+    given
+        .into_iter()
+        .map(|(key, value)| {
+            let kept = added_annotation(existing, &key, value).map_err(PyValueError::new_err)?;
+            Ok((key, kept))
+        })
+        .collect()
 }
 
 /// One space's negative collapsed variational bound of the sparse model (see
