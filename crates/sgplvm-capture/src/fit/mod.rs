@@ -32,7 +32,6 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-mod refine;
 mod shoulder;
 
 use crate::bvh::axis_rotation;
@@ -262,6 +261,10 @@ fn clavicle_angles(d: &Vector3<f64>) -> (f64, f64) {
 /// the rest directions turns the twist taken from them by ten or more.
 pub const REST_GIMBAL: f64 = 0.12;
 
+/// Gauss–Newton iterations of the refinement at a limit (it starts from the clamped closed
+/// form, a few steps from its optimum).
+const REFINE_ITERATIONS: usize = 30;
+
 /// Clamps `v` into `lim`, recording whether it moved.
 fn clamp_into(v: f64, lim: (f64, f64), clamped: &mut bool) -> f64 {
     let c = v.clamp(lim.0, lim.1);
@@ -432,6 +435,89 @@ impl HumanArms {
             + upper * Vector3::new(0.0, 0.0, -self.upper_arm);
         let wrist = elbow + upper * ry(-q[5]) * Vector3::new(0.0, 0.0, -self.forearm);
         (elbow, wrist)
+    }
+
+    /// Moves the clavicle and shoulder angles and the elbow flexion of `q`, within `lim`, to
+    /// the least squares of the elbow's and the wrist's distances to the scaled capture and the
+    /// elbow angle's difference (weighted by the arm's length): a damped Gauss–Newton on
+    /// the six angles, started from the clamped closed form. (The clavicle may then leave the
+    /// capture's: raising the shoulder girdle is how a person reaches beyond the arm's range.)
+    fn refine_at_limits(
+        &self,
+        t: &ArmTarget,
+        lim: &[(f64, f64); 9],
+        elbow_angle: f64,
+        q: &mut [f64; 9],
+    ) {
+        let goal = self.target_points(t);
+        let residual = |q: &[f64; 9]| -> [f64; 7] {
+            let (e, w) = self.elbow_wrist_left(q);
+            let (de, dw) = (e - goal.elbow, w - goal.wrist);
+            [
+                de.x,
+                de.y,
+                de.z,
+                dw.x,
+                dw.y,
+                dw.z,
+                (self.upper_arm + self.forearm) * (q[5] - elbow_angle),
+            ]
+        };
+        let cost = |r: &[f64; 7]| r.iter().map(|v| v * v).sum::<f64>();
+        let mut r = residual(q);
+        let mut c = cost(&r);
+        let mut lambda = 1e-3;
+        for _ in 0..REFINE_ITERATIONS {
+            // Numerical Jacobian (7 × 6) by forward differences.
+            let mut jac = nalgebra::SMatrix::<f64, 7, 6>::zeros();
+            for k in 0..6 {
+                let mut qh = *q;
+                qh[k] += 1e-7;
+                let rh = residual(&qh);
+                for i in 0..7 {
+                    jac[(i, k)] = (rh[i] - r[i]) / 1e-7;
+                }
+            }
+            let rv = nalgebra::SVector::<f64, 7>::from_column_slice(&r);
+            let mut jtj = jac.transpose() * jac;
+            let mut jtr = jac.transpose() * rv;
+            // An angle at a limit that the descent would push beyond stays there (its row and
+            // column out of the system): the others then converge as if it were fixed.
+            for k in 0..6 {
+                let (lo, hi) = lim[k];
+                if (q[k] <= lo && jtr[k] > 0.0) || (q[k] >= hi && jtr[k] < 0.0) {
+                    jtj.row_mut(k).fill(0.0);
+                    jtj.column_mut(k).fill(0.0);
+                    jtj[(k, k)] = 1.0;
+                    jtr[k] = 0.0;
+                }
+            }
+            let mut improved = false;
+            while lambda < 1e6 {
+                let a = jtj + nalgebra::Matrix6::identity() * lambda;
+                let Some(step) = a.cholesky().map(|ch| ch.solve(&(-jtr))) else {
+                    break;
+                };
+                let mut trial = *q;
+                for k in 0..6 {
+                    trial[k] = (q[k] + step[k]).clamp(lim[k].0, lim[k].1);
+                }
+                let rt = residual(&trial);
+                let ct = cost(&rt);
+                if ct < c {
+                    *q = trial;
+                    r = rt;
+                    improved = c - ct > 1e-6 * c.max(1e-12);
+                    c = ct;
+                    lambda = (lambda * 0.3).max(1e-9);
+                    break;
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
     }
 }
 
