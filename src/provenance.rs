@@ -10,8 +10,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde_json::Value;
-use sgplvm_robots::dataset::{capture_records, CAPTURE_METADATA};
-use sgplvm_robots::retarget::file::retargeted_arms;
+use sgplvm_robots::dataset::{capture_records_in, CAPTURE_METADATA};
+use sgplvm_robots::joint_state::read_topics;
+use sgplvm_robots::retarget::file::retargeted_arms_in;
 use sgplvm_robots::{Anatomy, RobotIdentity};
 
 use crate::pipeline::PipelineError;
@@ -34,22 +35,23 @@ pub fn demonstration_annotations(
     existing: &BTreeMap<String, Value>,
 ) -> Result<Vec<(&'static str, Value)>, PipelineError> {
     let mut found = Vec::new();
-    let records = capture_records(path)?;
+    // The file's metadata read once for both records.
+    let metadata = read_topics(path, &[])?.metadata;
+    let records = capture_records_in(path, &metadata)?;
     if !records.is_empty() && !existing.contains_key(CAPTURE_METADATA) {
         found.push((CAPTURE_METADATA, Value::from(records)));
     }
-    let mut identities = BTreeMap::new();
-    if !robots.is_empty() {
-        let mut arms = retargeted_arms(path).map_err(|e| PipelineError::Parts {
+    let mut arms = match robots {
+        [] => BTreeMap::new(),
+        _ => retargeted_arms_in(path, &metadata).map_err(|e| PipelineError::Parts {
             body: robots.join(", "),
             detail: e.to_string(),
-        })?;
-        for name in robots {
-            if let Some(identity) = arms.remove(name).and_then(|a| a.identity) {
-                identities.insert(name.clone(), identity);
-            }
-        }
-    }
+        })?,
+    };
+    let identities: BTreeMap<String, RobotIdentity> = robots
+        .iter()
+        .filter_map(|name| Some((name.clone(), arms.remove(name)?.identity?)))
+        .collect();
     if let Some(value) = robots_annotation(existing, identities) {
         found.push((ROBOTS_ANNOTATION, value));
     }
@@ -60,7 +62,7 @@ pub fn demonstration_annotations(
 /// [`ROBOTS_ANNOTATION`] robot records by name, for [`CAPTURE_METADATA`] capture records as
 /// `teleop` reads them (their calibrations valid); any value under another key. The error
 /// says what was expected.
-pub fn check_annotation(key: &str, value: &Value) -> Result<(), String> {
+fn check_annotation(key: &str, value: &Value) -> Result<(), String> {
     match key {
         ROBOTS_ANNOTATION => serde_json::from_value::<BTreeMap<String, RobotIdentity>>(value.clone())
             .map(drop)
@@ -75,7 +77,7 @@ pub fn check_annotation(key: &str, value: &Value) -> Result<(), String> {
 /// The value to keep under annotation `key` when `value` is added to a model whose
 /// annotations are `existing`: robot records join those there (a robot's replacing its
 /// earlier one, as `transfer` adds each robot it fits), any other value replaces; checked as
-/// [`check_annotation`] checks it.
+/// sgplvm reads it (robot records, capture records with valid calibrations).
 pub fn added_annotation(
     existing: &BTreeMap<String, Value>,
     key: &str,

@@ -30,12 +30,15 @@ pub fn capture_records(
     path: impl AsRef<std::path::Path>,
 ) -> Result<Vec<serde_json::Map<String, serde_json::Value>>> {
     let path = path.as_ref();
-    let read = crate::joint_state::read_topics(path, &[])?;
-    match read
-        .metadata
-        .get(CAPTURE_METADATA)
-        .and_then(|m| m.get("json"))
-    {
+    capture_records_in(path, &crate::joint_state::read_topics(path, &[])?.metadata)
+}
+
+/// [`capture_records`] from the metadata records already read from `path` (named in errors).
+pub fn capture_records_in(
+    path: &std::path::Path,
+    metadata: &std::collections::BTreeMap<String, std::collections::BTreeMap<String, String>>,
+) -> Result<Vec<serde_json::Map<String, serde_json::Value>>> {
+    match metadata.get(CAPTURE_METADATA).and_then(|m| m.get("json")) {
         None => Ok(Vec::new()),
         Some(json) => serde_json::from_str(json).map_err(|e| JointStateError::BadDatasetMetadata {
             path: path.to_path_buf(),

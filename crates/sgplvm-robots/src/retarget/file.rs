@@ -40,18 +40,27 @@ pub struct RetargetedArms {
 /// [`RETARGET_METADATA`] record; empty for a file without one or written before the record
 /// held them.
 pub fn retargeted_arms(path: &Path) -> Result<BTreeMap<String, RetargetedArms>, RetargetError> {
+    let read = crate::joint_state::read_topics(path, &[]).map_err(|e| {
+        RetargetError::Invalid(format!(
+            "{}: record `{RETARGET_METADATA}`: {e}",
+            path.display()
+        ))
+    })?;
+    retargeted_arms_in(path, &read.metadata)
+}
+
+/// [`retargeted_arms`] from the metadata records already read from `path` (named in errors).
+pub fn retargeted_arms_in(
+    path: &Path,
+    metadata: &BTreeMap<String, BTreeMap<String, String>>,
+) -> Result<BTreeMap<String, RetargetedArms>, RetargetError> {
     let bad = |detail: String| {
         RetargetError::Invalid(format!(
             "{}: record `{RETARGET_METADATA}`: {detail}",
             path.display()
         ))
     };
-    let read = crate::joint_state::read_topics(path, &[]).map_err(|e| bad(e.to_string()))?;
-    let Some(json) = read
-        .metadata
-        .get(RETARGET_METADATA)
-        .and_then(|m| m.get("json"))
-    else {
+    let Some(json) = metadata.get(RETARGET_METADATA).and_then(|m| m.get("json")) else {
         return Ok(BTreeMap::new());
     };
     let value: serde_json::Value =
