@@ -24,6 +24,7 @@ pub mod axes;
 pub mod bvh;
 pub mod calibration;
 pub mod fit;
+pub mod girdle;
 pub mod mirror;
 pub mod segments;
 pub mod skeleton;

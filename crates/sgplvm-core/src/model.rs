@@ -327,6 +327,19 @@ impl SharedGplvm {
         Ok(())
     }
 
+    /// The mean of each input (human) column over the training frames, in the user's units:
+    /// the pose the people the model learned from hold on average.
+    pub fn input_means(&self) -> Vec<f64> {
+        let s = &self.spaces[0];
+        let n = s.data.nrows().max(1) as f64;
+        (0..s.data.ncols())
+            .map(|t| {
+                let mean = (0..s.data.nrows()).map(|i| s.data[(i, t)]).sum::<f64>() / n;
+                s.offset[t] + s.scale[t] * mean
+            })
+            .collect()
+    }
+
     /// Per-column offset (mean) and scale of a space's preprocessing.
     pub fn normalisation(&self, space: &str) -> Option<(&[f64], &[f64])> {
         self.spaces

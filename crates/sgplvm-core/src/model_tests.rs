@@ -475,3 +475,13 @@ fn a_whitened_model_stores_its_weights_and_round_trips_like_any_other() {
         assert_eq!(p.variance, q.variance, "{bc:?}");
     }
 }
+
+#[test]
+fn input_means_are_the_training_frames_means_in_the_user_s_units() {
+    let m = fit(BackConstraint::Input, 40, 2, 1);
+    let (h, ..) = demo(40, 7);
+    for (t, got) in m.input_means().into_iter().enumerate() {
+        let want = (0..40).map(|i| h[(i, t)]).sum::<f64>() / 40.0;
+        assert!((got - want).abs() < 1e-12, "column {t}: {got} vs {want}");
+    }
+}

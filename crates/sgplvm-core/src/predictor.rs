@@ -165,6 +165,14 @@ impl AnyModel {
         }
     }
 
+    /// The mean of each human column over the training frames.
+    pub fn input_means(&self) -> Vec<f64> {
+        match self {
+            AnyModel::Single(m) => m.input_means(),
+            AnyModel::Parts(m) => m.input_means(),
+        }
+    }
+
     /// The configuration the model (each of its parts) was trained with.
     pub fn config(&self) -> &crate::ModelConfig {
         match self {

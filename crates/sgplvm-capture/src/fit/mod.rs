@@ -32,7 +32,10 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
+mod girdle;
 mod shoulder;
+
+pub use girdle::with_clavicle;
 
 use crate::bvh::axis_rotation;
 use sgplvm_robots::kinematics::Chain;

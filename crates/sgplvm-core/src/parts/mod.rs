@@ -257,6 +257,19 @@ impl PartsGplvm {
         Ok(())
     }
 
+    /// The mean of each human column over the training frames ([`SharedGplvm::input_means`]),
+    /// whole-space positions, each from the part that holds it.
+    pub fn input_means(&self) -> Vec<f64> {
+        let input = self.input_name();
+        let mut out = vec![0.0; self.space_dim(input).unwrap_or(0)];
+        for part in &self.parts {
+            for (&c, m) in part.columns[input].iter().zip(part.model.input_means()) {
+                out[c] = m;
+            }
+        }
+        out
+    }
+
     /// The parts' names, in order.
     pub fn part_names(&self) -> Vec<&str> {
         self.parts.iter().map(|p| p.name.as_str()).collect()
