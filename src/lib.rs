@@ -25,6 +25,7 @@ pub mod csv;
 pub mod experiment;
 pub mod figures;
 pub mod files;
+pub mod girdle;
 pub mod pipeline;
 pub mod plots;
 pub mod provenance;

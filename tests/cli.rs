@@ -195,9 +195,12 @@ fn predictions_agree_with_evaluate_and_a_dense_reference(
         "test MSE {mse} vs {baseline} for the mean"
     );
 
-    // The standard deviations against a dense computation from the model's parameters.
+    // The standard deviations against a dense computation from the model's parameters, on
+    // the frames as predict gives them to the model (the clavicles aligned, `--girdle`).
     let model = sgplvm::SharedGplvm::load(coman).unwrap();
-    let human = &ds.human.positions;
+    let (aligned, _) =
+        sgplvm::girdle::aligned_dataset(&sgplvm::AnyModel::Single(model.clone()), &ds).unwrap();
+    let human = &aligned.human.positions;
     let frames: Vec<usize> = (0..ds.len()).step_by(17).collect();
     let h = sgplvm::Mat::from_fn(frames.len(), human.ncols(), |r, c| human[(frames[r], c)]);
     let xs = model.latent(h.as_ref()).unwrap();

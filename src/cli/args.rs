@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
+use sgplvm::capture::girdle::GirdleAlignment;
 use sgplvm::pipeline::{self, Demonstrations};
 use sgplvm::provenance::demonstration_annotations;
 use sgplvm::{AnyModel, BackConstraint, ModelConfig, TrainOptions, Validation};
@@ -80,6 +81,36 @@ pub struct JsonArg {
     /// Print machine-readable results.
     #[arg(long)]
     pub json: bool,
+}
+
+// `--girdle`: how a person's clavicles reach the model.
+#[derive(Args)]
+pub struct GirdleArg {
+    /// How a person's clavicle angles reach the model: `aligned` moves each person's mean
+    /// clavicle elevation and protraction (over their frames so far) to the model's people's
+    /// and turns the shoulder so that the arm keeps its pose — rigs put the collarbone in
+    /// different places (docs/capture.md); `as-captured` gives them as imported.
+    #[arg(long, value_enum, default_value_t = Girdle::Aligned)]
+    pub girdle: Girdle,
+}
+
+/// `--girdle`'s values.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Girdle {
+    /// Aligned to the model's people.
+    Aligned,
+    /// As the capture gives them.
+    AsCaptured,
+}
+
+impl GirdleArg {
+    /// The alignment for `model`'s human frames, where asked for and the model has one.
+    pub fn alignment(&self, model: &AnyModel) -> Option<GirdleAlignment> {
+        match self.girdle {
+            Girdle::Aligned => sgplvm::girdle::for_model(model),
+            Girdle::AsCaptured => None,
+        }
+    }
 }
 
 // `--max-iters`, `--validation`, `--patience`: the iteration budget of a training and how it is

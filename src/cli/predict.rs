@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use sgplvm::capture::girdle::GirdleAlignment;
 use sgplvm::csv::{format_line, read_header};
 use sgplvm::files::atomic_write_with;
 use sgplvm::provenance::other_robot;
@@ -24,7 +25,7 @@ use sgplvm::robots::anatomy::{Anatomy, CommandColumns};
 use sgplvm::robots::safety::{SafetyOptions, SafetyStep};
 use sgplvm::robots::Robot;
 
-use super::args::ModelFileArg;
+use super::args::{GirdleArg, ModelFileArg};
 use super::body::BodyArgs;
 use super::frames::{
     advise_unnamed, column_order, model_joint_names, read_human_frames, require_robot,
@@ -75,6 +76,8 @@ pub struct PredictArgs {
     margin: f64,
     #[command(flatten)]
     body: BodyArgs,
+    #[command(flatten)]
+    girdle: GirdleArg,
 }
 
 /// The robot predicted for: its anatomy when known (built in, or `--urdf`), and how its
@@ -236,20 +239,33 @@ pub fn run(args: PredictArgs) -> Result<()> {
     let target = args.target(model)?;
     let robot_joints = target.names().to_vec();
     let scene = args.out.ends_with(".mcap") && !args.no_tf;
+    // The person's clavicles aligned to the model's people, frame by frame (--girdle).
+    let girdle = args.girdle.alignment(&loaded);
     if args.input == "-" {
         // Times (hence velocity limits) when the stream's header has a time column: known
         // after the header; the limits are checked before reading it.
         let commands = args.commands(&target, true)?;
         if args.out.ends_with(".mcap") {
-            return scene::predict_stream_mcap(model, &target, &args.out, !args.no_tf, commands);
+            return scene::predict_stream_mcap(
+                model,
+                &target,
+                &args.out,
+                !args.no_tf,
+                commands,
+                girdle,
+            );
         }
-        return predict_stream(model, &target, &args.out, args.std, commands);
+        return predict_stream(model, &target, &args.out, args.std, commands, girdle);
     }
     let human = read_human_frames(model, &args.input, args.topic.as_deref())?;
     let commands = args.commands(&target, human.timed)?;
+    let mut input = human.frames.clone();
+    if let Some(mut g) = girdle {
+        sgplvm::girdle::align_rows(&mut g, &mut input);
+    }
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
-        .predict(human.frames.as_ref(), robot, args.std || scene)
+        .predict(input.as_ref(), robot, args.std || scene)
         .with_context(|| args.model.model.display().to_string())?;
     let rows = |m: &Mat<f64>, f: fn(f64) -> f64| -> Vec<f64> {
         (0..m.nrows())
@@ -446,6 +462,7 @@ fn predict_stream(
     out: &str,
     with_std: bool,
     commands: Commands,
+    mut girdle: Option<GirdleAlignment>,
 ) -> Result<()> {
     let robot = target.robot.as_str();
     let robot_joints = target.names();
@@ -484,6 +501,9 @@ fn predict_stream(
         let (time, values) = header.parse_line(&line, header_line + i + 1, "stdin")?;
         for (h, &k) in human.iter_mut().zip(&order) {
             *h = values[k];
+        }
+        if let Some(g) = girdle.as_mut() {
+            g.align(&mut human);
         }
         if with_std {
             let frame = Mat::from_fn(1, human.len(), |_, j| human[j]);

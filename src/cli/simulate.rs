@@ -9,6 +9,7 @@ use sgplvm::robots::urdf::MeshSearch;
 use sgplvm::robots::{PhysicsError, ReplayOptions, Robot, Trajectory};
 
 use super::args::load_any_model;
+use super::args::GirdleArg;
 use super::body::BodyArgs;
 use super::frames::{builtin_urdf, read_human_frames, read_trajectory, require_robot};
 use super::predict::Target;
@@ -72,6 +73,8 @@ pub struct SimulateArgs {
     /// of the simulated robot, and the limit and collision events as markers (/ROBOT/events).
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    girdle: GirdleArg,
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
@@ -271,7 +274,11 @@ fn predicted_trajectory(
     let target = Target::load(model, robot, args.urdf.as_deref(), &body, false)?;
     let human = read_human_frames(model, input, args.topic.as_deref())?;
     let mut commands = target.commands(human.timed, args.margin, false)?;
-    let mean = model.predict(human.frames.as_ref(), robot, false)?.mean;
+    let mut input_frames = human.frames.clone();
+    if let Some(mut g) = args.girdle.alignment(&loaded) {
+        sgplvm::girdle::align_rows(&mut g, &mut input_frames);
+    }
+    let mean = model.predict(input_frames.as_ref(), robot, false)?.mean;
     let rows: Vec<f64> = (0..mean.nrows())
         .flat_map(|i| (0..mean.ncols()).map(move |j| (i, j)))
         .map(|(i, j)| mean[(i, j)])

@@ -13,6 +13,7 @@ use sgplvm_live::gate::Signals;
 use sgplvm_live::{CommandForm, Drive, GateOptions, Reliability, TeleopOptions};
 
 use super::args::{load_any_model, JsonArg};
+use super::args::{Girdle, GirdleArg};
 use super::body::BodyArgs;
 use super::calibration::CalibrationArgs;
 
@@ -59,6 +60,8 @@ pub struct TeleopArgs {
     map: Option<PathBuf>,
     #[command(flatten)]
     calibration: CalibrationArgs,
+    #[command(flatten)]
+    girdle: GirdleArg,
     /// The command's message: joint-state (sensor_msgs/JointState on /ROBOT/joint_command),
     /// forward (std_msgs/Float64MultiArray for ros2_control's forward position controller),
     /// trajectory (trajectory_msgs/JointTrajectory, one point one frame ahead) or xbot
@@ -437,6 +440,7 @@ pub fn run(args: TeleopArgs) -> Result<()> {
         calibration: args
             .calibration
             .options(&models.iter().map(AsRef::as_ref).collect::<Vec<_>>())?,
+        align_girdle: args.girdle.girdle == Girdle::Aligned,
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!(

@@ -16,8 +16,8 @@ use sgplvm_core::{
 
 use crate::guard::guarded;
 use crate::model::{
-    added_annotations, annotations_json, finish_training, model_error, parse_back_constraint,
-    read_error, settle, signal_interrupt, to_mat, to_numpy, NativeModel,
+    added_annotations, aligned_girdle, annotations_json, finish_training, model_error,
+    parse_back_constraint, read_error, settle, signal_interrupt, to_mat, to_numpy, NativeModel,
 };
 
 /// Parts as Python gives them: (part name, [(space name, columns)]).
@@ -259,6 +259,17 @@ impl NativePartsModel {
     /// Dimension of a space.
     fn space_dim(&self, space: &str) -> Option<usize> {
         self.inner.space_dim(space)
+    }
+
+    /// One person's human frames aligned to the model's people ([`NativeModel`]'s
+    /// `align_girdle`).
+    fn align_girdle<'py>(
+        &self,
+        py: Python<'py>,
+        h: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+        let names = self.inner.column_names(self.inner.input_name());
+        aligned_girdle(py, names, &self.inner.input_means(), &h)
     }
 
     /// The parts' names, in order.

@@ -417,8 +417,9 @@ def models(tmp):
     return out
 
 
-def predict_raw(tmp, model, robot, names, rows, times_ns):
-    """``sgplvm predict --raw`` on the same frames (CSV in, CSV out): the model's output."""
+def predict_raw(tmp, model, robot, names, rows, times_ns, *extra):
+    """``sgplvm predict --raw`` on the same frames (CSV in, CSV out): the model's output.
+    ``extra``: further flags (``--girdle as-captured`` where the node is sent other frames)."""
     src = tmp / "frames.csv"
     with open(src, "w") as f:
         f.write("time_ns," + ",".join(names) + "\n")
@@ -426,7 +427,7 @@ def predict_raw(tmp, model, robot, names, rows, times_ns):
             f.write(f"{int(t)}," + ",".join(repr(float(v)) for v in row) + "\n")
     dst = tmp / f"raw_{robot}.csv"
     subprocess.run(
-        [str(sgplvm_binary()), "predict", "--model", str(model), "--input", str(src), "--robot", robot, "--out", str(dst), "--raw"],
+        [str(sgplvm_binary()), "predict", "--model", str(model), "--input", str(src), "--robot", robot, "--out", str(dst), "--raw", *extra],
         check=True,
         capture_output=True,
     )
@@ -855,20 +856,23 @@ def test_a_threshold_for_a_signal_that_does_not_gate_is_refused(models):
 
 def test_position_limits_hold_a_pose_beyond_them(tmp, data, models):
     """A recorded frame whose prediction leaves COMAN's position limits: the command is held at
-    the limit, and the status names the joint."""
+    the limit, and the status names the joint. (The node is sent that frame alone, predict all
+    of them: the clavicles as captured in both, so that neither aligns by frames the other did
+    not see.)"""
     d = data["all"]
     test = np.asarray(d["test"])
     names = data["names"]
     human = np.asarray(d["human"]["positions"])[test]
     times = np.asarray(d["times_ns"])[test]
-    joints, raw = predict_raw(tmp, models["coman"], "coman", names, human, times)
+    as_captured = ["--girdle", "as-captured"]
+    joints, raw = predict_raw(tmp, models["coman"], "coman", names, human, times, *as_captured)
     lo, hi, _ = limits(sgplvm.Robot.builtin_urdf("coman"), joints)
     beyond = np.where(np.any((raw < lo) | (raw > hi), axis=1))[0]
     assert len(beyond) > 0, "no test frame predicted beyond COMAN's limits"
     k = int(beyond[0])
     domain = next_domain()
     urdf, _ = relaxed_urdf(tmp, "coman")  # position limits only
-    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5"])
+    node = Teleop(tmp, domain, ["--model", str(models["coman"]), "--robot", "coman", "--gate", "reconstruction", "--reconstruction-threshold", "1e9", "--margin", "0", "--urdf", f"coman={urdf}", "--timeout", "5", *as_captured])
     try:
         ros, w = coman_session(domain)
         w.write(joint_state(names, human[k], int(times[k])))

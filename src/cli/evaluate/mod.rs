@@ -9,13 +9,14 @@ use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use serde::Serialize;
+use sgplvm::girdle::{aligned_dataset, PersonShifts};
 use sgplvm::pipeline::{
     human_pose_bounds, mean_squared_error, to_mat, Demonstrations, Evaluation, TestTrust,
 };
 use sgplvm::provenance::other_robot;
 use sgplvm::{AnyModel, Mat, Predictor, Robot};
 
-use super::args::{DataArg, JsonArg, ModelFileArg};
+use super::args::{DataArg, Girdle, GirdleArg, JsonArg, ModelFileArg};
 use super::body::BodyArgs;
 use super::frames::require_robot;
 use super::report;
@@ -47,6 +48,8 @@ pub struct EvaluateArgs {
     urdf: Option<std::path::PathBuf>,
     #[command(flatten)]
     body: BodyArgs,
+    #[command(flatten)]
+    girdle: GirdleArg,
     #[command(flatten)]
     json: JsonArg,
 }
@@ -190,12 +193,27 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     // mismatch of joint lists would.
     require_robot(&model, &args.model.model, &args.robot)?;
     let demos = args.data.load()?;
-    let evaluation = demos.evaluate(&model, &args.robot)?;
+    // The model's input: each person's clavicles aligned to the model's people (--girdle).
+    let aligned = match args.girdle.girdle {
+        Girdle::Aligned => aligned_dataset(&model, &demos.dataset),
+        Girdle::AsCaptured => None,
+    };
+    let (input, shifts) = match aligned {
+        Some((dataset, shifts)) => (
+            Demonstrations {
+                dataset,
+                source_name: demos.source_name.clone(),
+            },
+            shifts,
+        ),
+        None => (demos.clone(), Vec::new()),
+    };
+    let evaluation = input.evaluate(&model, &args.robot)?;
     let trust = match &model {
-        AnyModel::Single(m) => Some(demos.test_trust(m, &args.robot)?),
+        AnyModel::Single(m) => Some(input.test_trust(m, &args.robot)?),
         AnyModel::Parts(_) => None,
     };
-    let (gate, held) = gate_report(&model, &demos, &args)?;
+    let (gate, held) = gate_report(&model, &input, &args)?;
     let arms = match (&args.urdf, Robot::builtin_urdf(&args.robot)) {
         (None, None) => None,
         (urdf, _) => {
@@ -203,7 +221,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             if let Some(warning) = other_robot(model.annotations(), &args.robot, &anatomy) {
                 eprintln!("warning: {warning}");
             }
-            let test = to_mat(&demos.dataset.human.rows(&demos.dataset.test));
+            let test = to_mat(&input.dataset.human.rows(&input.dataset.test));
             let predicted = model.predict(test.as_ref(), &args.robot, false)?.mean;
             Some(arms::report(
                 &anatomy,
@@ -223,17 +241,20 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
             trust: Option<&'a TestTrust>,
             gate: &'a GateReport,
             arms: Option<&'a arms::ArmsReport>,
+            girdle_shifts: Vec<GirdleShift<'a>>,
         }
         let all = All {
             evaluation: &evaluation,
             trust: trust.as_ref(),
             gate: &gate,
             arms: arms.as_ref(),
+            girdle_shifts: girdle_shifts(&shifts),
         };
         println!("{}", serde_json::to_string_pretty(&all)?);
         return Ok(());
     }
     report::evaluation(&evaluation, trust.as_ref());
+    print_girdle(&shifts, args.girdle.girdle);
     print_gate(&gate);
     if let Some(arms) = &arms {
         arms::print(arms, &args.robot);
@@ -351,6 +372,56 @@ fn random_poses(names: &[String], n: usize, seed: u64) -> Result<Mat<f64>> {
         }
     }
     Ok(poses)
+}
+
+/// One person's clavicle shifts, for `--json`: per arm (left, right) elevation and
+/// protraction, degrees.
+#[derive(Serialize)]
+struct GirdleShift<'a> {
+    person: Option<&'a str>,
+    degrees: Vec<[f64; 2]>,
+}
+
+fn girdle_shifts(shifts: &PersonShifts) -> Vec<GirdleShift<'_>> {
+    shifts
+        .iter()
+        .map(|(person, arms)| GirdleShift {
+            person: person.as_deref(),
+            degrees: arms
+                .iter()
+                .map(|s| [s[0].to_degrees(), s[1].to_degrees()])
+                .collect(),
+        })
+        .collect()
+}
+
+/// The line saying how each test person's clavicles reached the model.
+fn print_girdle(shifts: &PersonShifts, girdle: Girdle) {
+    if girdle == Girdle::AsCaptured {
+        println!("clavicles as captured (--girdle as-captured)");
+        return;
+    }
+    if shifts.is_empty() {
+        return;
+    }
+    let people: Vec<String> = shifts
+        .iter()
+        .map(|(person, arms)| {
+            let arms: Vec<String> = arms
+                .iter()
+                .map(|s| format!("{:+.1}°/{:+.1}°", s[0].to_degrees(), s[1].to_degrees()))
+                .collect();
+            format!(
+                "{} {}",
+                person.as_deref().unwrap_or("(unnamed)"),
+                arms.join(" ")
+            )
+        })
+        .collect();
+    println!(
+        "clavicles aligned to the model's people (--girdle; each person's mean elevation/protraction shifted by, per arm): {}",
+        people.join("; ")
+    );
 }
 
 fn print_gate(g: &GateReport) {

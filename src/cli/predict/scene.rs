@@ -14,6 +14,7 @@ use sgplvm::{Mat, Predictor};
 use super::super::frames::{advise_unnamed, column_order, model_joint_names};
 use super::super::limits::Commands;
 use super::{StreamLimits, Target};
+use sgplvm::capture::girdle::GirdleAlignment;
 use sgplvm::csv::read_header;
 
 /// Where the human's root link stands in `world` (metres): on the left, seen from the front.
@@ -137,6 +138,7 @@ pub fn predict_stream_mcap(
     out: &str,
     tf: bool,
     commands: Commands,
+    mut girdle: Option<GirdleAlignment>,
 ) -> Result<()> {
     let stdin = std::io::stdin();
     let mut lines = stdin.lock().lines();
@@ -182,7 +184,11 @@ pub fn predict_stream_mcap(
                 time_ns as f64 * 1e-9
             );
         }
-        let h = Mat::from_fn(1, human.len(), |_, j| human[j]);
+        // The model takes the person's clavicles aligned; the scene draws them as captured.
+        let mut h = Mat::from_fn(1, human.len(), |_, j| human[j]);
+        if let Some(g) = girdle.as_mut() {
+            sgplvm::girdle::align_rows(g, &mut h);
+        }
         let p = model.predict(h.as_ref(), robot, true)?;
         let model_mean: Vec<f64> = (0..m).map(|j| p.mean[(0, j)]).collect();
         let mut mean = vec![0.0; d];

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use ros2_client::dds::Node;
+use sgplvm_capture::girdle::GirdleAlignment;
 use sgplvm_core::{AnyModel, Predictor};
 use sgplvm_robots::anatomy::CommandColumns;
 use sgplvm_robots::limits::CommandLimits;
@@ -55,6 +56,28 @@ pub(super) struct LatentSlot {
     pub(super) model: std::sync::Arc<AnyModel>,
     pub(super) x: Vec<f64>,
     pub(super) ok: bool,
+    /// The person's clavicles aligned to this model's people (`TeleopOptions::align_girdle`),
+    /// and the current frame as the model takes it.
+    pub(super) girdle: Option<GirdleAlignment>,
+    pub(super) h: Vec<f64>,
+}
+
+impl LatentSlot {
+    /// The model's input for human frame `h`: as it is, or its clavicles aligned.
+    pub(super) fn take(&mut self, h: &[f64]) {
+        self.h.clear();
+        self.h.extend_from_slice(h);
+        if let Some(g) = self.girdle.as_mut() {
+            g.align(&mut self.h);
+        }
+    }
+}
+
+/// The alignment of a person's clavicles to `model`'s people, where it names the human
+/// model's arm angles.
+fn girdle_of(model: &AnyModel) -> Option<GirdleAlignment> {
+    let names = model.column_names(model.input_name())?;
+    GirdleAlignment::new(names, &model.input_means())
 }
 
 /// The human's joint names of the models (all must agree; a robot driven by retargeting takes
@@ -105,14 +128,17 @@ pub(super) fn drive_all(
     let mut driven = Vec::with_capacity(drives.len());
     let mut slots: Vec<LatentSlot> = Vec::new();
     for drive in drives {
-        let model_slot = drive.model.as_ref().map(|m| slot_of(&mut slots, m));
+        let model_slot = drive
+            .model
+            .as_ref()
+            .map(|m| slot_of(&mut slots, m, options.align_girdle));
         driven.push(drive_one(node, drive, model_slot, options, shared, log)?);
     }
     Ok((driven, slots))
 }
 
 /// The index of `model` among `slots`, added if it is not there yet.
-fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<AnyModel>) -> usize {
+fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<AnyModel>, align_girdle: bool) -> usize {
     match slots
         .iter()
         .position(|s| std::sync::Arc::ptr_eq(&s.model, model))
@@ -123,6 +149,8 @@ fn slot_of(slots: &mut Vec<LatentSlot>, model: &Arc<AnyModel>) -> usize {
                 model: model.clone(),
                 x: vec![0.0; model.latent_dim()],
                 ok: false,
+                girdle: align_girdle.then(|| girdle_of(model)).flatten(),
+                h: Vec::new(),
             });
             slots.len() - 1
         }

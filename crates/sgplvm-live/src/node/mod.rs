@@ -104,6 +104,11 @@ pub struct TeleopOptions {
     /// How the person of a stream (MVN, TF) is calibrated: the calibrations offered (the
     /// models' training data's, or the user's file) and how long to watch the motion.
     pub calibration: sgplvm_capture::StreamCalibrationOptions,
+    /// Whether each model takes the person's clavicles aligned to its people
+    /// ([`sgplvm_capture::girdle::GirdleAlignment`]: each arm's mean clavicle angles over the
+    /// frames so far moved to the model's people's, the shoulder turned to keep the arm's pose),
+    /// as `predict` and `evaluate` give them by default.
+    pub align_girdle: bool,
 }
 
 /// How the TF input finds the arms.
@@ -134,6 +139,7 @@ impl Default for TeleopOptions {
             mvn_from: crate::mvn::Senders::First,
             tf: None,
             calibration: sgplvm_capture::StreamCalibrationOptions::default(),
+            align_girdle: true,
         }
     }
 }

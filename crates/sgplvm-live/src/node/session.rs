@@ -338,20 +338,21 @@ impl<'a> Session<'a> {
         }
         self.last_stamp = Some(stamp.to_ns());
         for (slot, known) in self.slots.iter_mut().zip(&mut self.known) {
+            slot.take(&self.h);
             // Not a number (the robots hold) when the pose cannot be reconstructed.
             *known = match slot.model.as_ref() {
                 AnyModel::Single(m) => {
-                    slot.ok = m.latent_frame(&self.h, &mut slot.x).is_ok();
+                    slot.ok = m.latent_frame(&slot.h, &mut slot.x).is_ok();
                     match slot.ok {
                         true => [
-                            m.reconstruction_error(&self.h, &slot.x).unwrap_or(f64::NAN),
-                            m.novelty(&self.h).unwrap_or(f64::NAN),
+                            m.reconstruction_error(&slot.h, &slot.x).unwrap_or(f64::NAN),
+                            m.novelty(&slot.h).unwrap_or(f64::NAN),
                         ],
                         false => [f64::NAN; 2],
                     }
                 }
                 AnyModel::Parts(m) => {
-                    let known = m.known_frame(&self.h, &mut slot.x);
+                    let known = m.known_frame(&slot.h, &mut slot.x);
                     slot.ok = known.is_ok();
                     known.unwrap_or([f64::NAN; 2])
                 }

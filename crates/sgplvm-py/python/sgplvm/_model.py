@@ -448,6 +448,19 @@ class SharedGPLVM:
         distances = _per_frame_signal(self._require().novelties, frames)
         return float(distances[0]) if single else distances
 
+    def align_girdle(self, H: ArrayLike) -> np.ndarray:
+        """One person's human frames (n × D_H, in their order) as ``sgplvm predict`` gives them
+        to this model by default (``--girdle aligned``): each arm's clavicle moved by the
+        difference between the model's people's mean clavicle angles and the person's mean over
+        their frames so far, the shoulder turned so that the arm keeps its pose — rigs put the
+        collarbone in different places (docs/capture.md). Feed the result to :meth:`predict`,
+        :meth:`trusted` and the other signals; ``H`` unchanged where the model's human is not
+        the human model's 18 angles."""
+        frames, single = _as_frames(H, "H")
+        aligned = self._require().align_girdle(frames)
+        out = frames if aligned is None else aligned
+        return out[0] if single else out
+
     def novelty_threshold(self) -> float:
         """The novelty threshold stored in the model (the distance within which 1 % of poses
         drawn at random within the human's joint limits fall, or, for a model trained without

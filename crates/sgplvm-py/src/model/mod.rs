@@ -15,6 +15,7 @@ use pyo3::types::{PyBytes, PyDict};
 use std::collections::BTreeMap;
 
 use pyo3::exceptions::PyValueError;
+use sgplvm::capture::girdle::GirdleAlignment;
 use sgplvm::pipeline::human_pose_bounds;
 use sgplvm::provenance::added_annotation;
 use sgplvm_core::{KernelParams, Mat, ModelConfig, SharedGplvm, TrainOptions, Validation};
@@ -248,6 +249,18 @@ impl NativeModel {
         })
     }
 
+    /// One person's human frames (rows of `h`, in their order) with their clavicles aligned to
+    /// the model's people, as `sgplvm predict` gives them to it; `None` where the model's human
+    /// columns are not the human model's arm angles.
+    fn align_girdle<'py>(
+        &self,
+        py: Python<'py>,
+        h: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+        let names = self.inner.column_names(self.inner.input_name());
+        aligned_girdle(py, names, &self.inner.input_means(), &h)
+    }
+
     /// The novelty threshold: frames farther than it from every training pose are held live.
     fn novelty_threshold(&self) -> PyResult<f64> {
         guarded(|| self.inner.novelty_threshold().map_err(model_error))
@@ -439,6 +452,31 @@ impl NativeModel {
 /// Annotations as one JSON object.
 pub(crate) fn annotations_json(annotations: &BTreeMap<String, serde_json::Value>) -> String {
     serde_json::Value::Object(annotations.clone().into_iter().collect()).to_string()
+}
+
+/// Frames `h` of human columns `names` aligned to people of means `means`
+/// (`sgplvm::girdle`); `None` where `names` are not the human model's arm angles.
+pub(crate) fn aligned_girdle<'py>(
+    py: Python<'py>,
+    names: Option<&[String]>,
+    means: &[f64],
+    h: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+    guarded(|| {
+        let Some(mut girdle) = names.and_then(|n| GirdleAlignment::new(n, means)) else {
+            return Ok(None);
+        };
+        let mut frames = to_mat(h);
+        if frames.ncols() != names.map_or(0, <[String]>::len) {
+            return Err(PyValueError::new_err(format!(
+                "H has {} columns; the model's human has {}",
+                frames.ncols(),
+                names.map_or(0, <[String]>::len)
+            )));
+        }
+        sgplvm::girdle::align_rows(&mut girdle, &mut frames);
+        Ok(Some(to_numpy(py, &frames)))
+    })
 }
 
 /// The annotations of the JSON object `json` (Python's `json.dumps` of a dict) as they are to
