@@ -165,6 +165,12 @@ fn absurd_sizes_are_refused_with_the_element_and_absurd_inertials_left_out_with_
             "a mass of 2e6 kg",
         ),
         ("1", "1e300", "an inertia of 1e300 kg·m²"),
+        // RobotEra's STAR1: a placeholder's mass on its hands (the physics engine failed).
+        (
+            "1.375E-08",
+            "5.7e-14",
+            "a mass of 1.375e-8 kg, under a milligram",
+        ),
         // Pollen's Reachy: g·mm² written as kg·m², its mass 660 m from the axis.
         (
             "0.158",

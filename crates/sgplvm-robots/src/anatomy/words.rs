@@ -82,6 +82,8 @@ const GRIPPER: &[&str] = &[
     "claw",
     "knuckle",
     "grasp",
+    // LimX's TRON2: `grasper_base_L_Joint` turns the grasper on the wrist.
+    "grasper",
 ];
 const LEG: &[&str] = &[
     "leg", "hip", "knee", "ankle", "foot", "feet", "toe", "thigh", "shin", "calf", "crus", "sole",
@@ -96,12 +98,12 @@ const ARM: &[&str] = &[
     "wrist", "wr", "hand", "palm", "clavicle", "collar", "e", "s", "w",
 ];
 
-/// Whether a name says a finger or jaw (a gripper word other than `gripper` and `grasp`, which
-/// makers also give the gripper's base, carried by the wrist).
+/// Whether a name says a finger or jaw (a gripper word other than `gripper`, `grasp` and
+/// `grasper`, which makers also give the gripper's base, carried by the wrist).
 pub fn names_a_finger(name: &str) -> bool {
-    words(name)
-        .iter()
-        .any(|w| GRIPPER.contains(&w.as_str()) && w != "gripper" && w != "grasp")
+    words(name).iter().any(|w| {
+        GRIPPER.contains(&w.as_str()) && !["gripper", "grasp", "grasper"].contains(&w.as_str())
+    })
 }
 
 /// Whether a name says which part of the arm it is (`shoulder`, `elbow`, `wrist`, …), not only
@@ -193,6 +195,7 @@ mod tests {
         }
         assert_eq!(part_of("left_hand_thumb_0_joint"), Part::Gripper);
         assert_eq!(part_of("gripper_left_inner_double_joint"), Part::Gripper);
+        assert_eq!(part_of("grasper_base_L_Joint"), Part::Gripper);
         assert_eq!(part_of("left_hip_pitch_joint"), Part::Leg);
         assert_eq!(part_of("head_2_joint"), Part::Head);
         assert_eq!(part_of("waist_yaw_joint"), Part::Torso);

@@ -317,7 +317,7 @@ fn check_geometry(ctx: &Ctx, holder: At) -> RobotResult<()> {
 }
 
 /// Why an `<inertial>` that reads is of no use: an origin, mass or inertia beyond any robot's
-/// ([`MAX_LENGTH_M`], [`MAX_MASS_KG`], [`MAX_INERTIA`], [`MAX_GYRATION_M`]; an exporter's
+/// ([`MAX_LENGTH_M`], [`MAX_MASS_KG`], [`MIN_MASS_KG`], [`MAX_INERTIA`], [`MAX_GYRATION_M`]; an exporter's
 /// garbage, as UBTech Walker's palm at 3.8e12 m), which ROS's parser loads; `None` when usable or when it does
 /// not read (the check says why). The repair leaves such an element out: its link then
 /// declares no mass (kinematics never reads it; `simulate` says what it does instead).
@@ -343,6 +343,15 @@ pub(super) fn unusable_inertial(inertial: El) -> Option<String> {
         .and_then(|m| m.into_iter().find(|v| *v > MAX_MASS_KG))
     {
         return Some(format!("a mass of {v:e} kg"));
+    }
+    // A mote for a mass (RobotEra's STAR1: 1.4e-8 kg on its hands' bases and tips, an
+    // exporter's placeholder): beside an arm's kilograms the physics engine's solver, in f32,
+    // fails on it (NaN) and names nothing.
+    if let Some(v) = first("mass")
+        .map(|m| numbers(m, "value"))
+        .and_then(|m| m.into_iter().find(|v| *v > 0.0 && *v < MIN_MASS_KG))
+    {
+        return Some(format!("a mass of {v:e} kg, under a milligram"));
     }
     let inertia = first("inertia")?;
     if let Some(v) = ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
@@ -563,6 +572,9 @@ pub const MAX_LENGTH_M: f64 = 1e4;
 
 /// The largest mass a link may declare, kg.
 pub const MAX_MASS_KG: f64 = 1e6;
+
+/// The least positive mass a link may declare, kg (a milligram; 0 declares none).
+pub const MIN_MASS_KG: f64 = 1e-6;
 
 /// The largest inertia component a link may declare, kg·m².
 pub const MAX_INERTIA: f64 = 1e9;

@@ -39,7 +39,9 @@ mod parse;
 mod repair;
 mod tree;
 
-pub use check::{pose_from_xyz_rpy, MAX_GYRATION_M, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG};
+pub use check::{
+    pose_from_xyz_rpy, MAX_GYRATION_M, MAX_INERTIA, MAX_LENGTH_M, MAX_MASS_KG, MIN_MASS_KG,
+};
 pub use identity::{JointRecord, RobotIdentity, IDENTITY_TOLERANCE};
 pub use meshes::{file_uri, MeshMiss, MeshSearch, ANCESTOR_LEVELS, PACKAGE_SEARCH_DEPTH};
 pub use parse::MAX_DEPTH;
