@@ -9,6 +9,7 @@ mod common;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::OnceLock;
 
 use common::{ok, s, scratch};
 use sgplvm::capture::fit::{with_clavicle, ArmAngles};
@@ -95,7 +96,13 @@ struct Setup {
     rig: PathBuf,
 }
 
-fn setup() -> Setup {
+/// The model and the two rigs' files, made once for every test here.
+fn setup() -> &'static Setup {
+    static SETUP: OnceLock<Setup> = OnceLock::new();
+    SETUP.get_or_init(make_setup)
+}
+
+fn make_setup() -> Setup {
     let dir = scratch("girdle");
     let model = dir.join("coman.sgp");
     ok(&[
@@ -221,54 +228,28 @@ fn one_motion_from_two_rigs_is_commanded_alike_once_aligned() {
 
 #[test]
 fn evaluate_says_how_far_each_person_s_clavicles_were_moved() {
-    let dir = scratch("girdle-evaluate");
-    let model = dir.join("coman.sgp");
-    ok(&[
-        "train",
-        "--data",
-        DEMOS,
-        "--robot",
-        "coman",
-        "--parts",
-        "arms",
-        "--out",
-        s(&model),
-    ]);
-    let aligned = ok(&[
-        "evaluate",
-        "--model",
-        s(&model),
-        "--data",
-        DEMOS,
-        "--robot",
-        "coman",
-    ]);
+    let model = &setup().model;
+    let evaluate = |extra: &[&str]| {
+        let mut args = vec![
+            "evaluate",
+            "--model",
+            s(model),
+            "--data",
+            DEMOS,
+            "--robot",
+            "coman",
+        ];
+        args.extend_from_slice(extra);
+        ok(&args)
+    };
+    let aligned = evaluate(&[]);
     assert!(
         aligned.contains("clavicles aligned to the model's people"),
         "{aligned}"
     );
-    let captured = ok(&[
-        "evaluate",
-        "--model",
-        s(&model),
-        "--data",
-        DEMOS,
-        "--robot",
-        "coman",
-        "--girdle",
-        "as-captured",
-    ]);
+    let captured = evaluate(&["--girdle", "as-captured"]);
     assert!(captured.contains("clavicles as captured"), "{captured}");
-    let json = ok(&[
-        "evaluate",
-        "--model",
-        s(&model),
-        "--data",
-        DEMOS,
-        "--robot",
-        "coman",
-        "--json",
-    ]);
+    let json = evaluate(&["--json"]);
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let shifts = v["girdle_shifts"].as_array().unwrap();
     assert!(!shifts.is_empty(), "{json:.300}");

@@ -55,6 +55,14 @@ def _as_frames(value: ArrayLike, what: str) -> Tuple[np.ndarray, bool]:
     return _as_matrix(array, what), False
 
 
+def _align_girdle(native, H: ArrayLike) -> np.ndarray:
+    """``align_girdle`` of a native model of either kind (one frame or n)."""
+    frames, single = _as_frames(H, "H")
+    aligned = native.align_girdle(frames)
+    out = frames if aligned is None else aligned
+    return out[0] if single else out
+
+
 def _per_frame_signal(signal: Callable[[np.ndarray], object], frames: np.ndarray) -> np.ndarray:
     """``signal`` of every frame, NaN for a frame it cannot give one for (a non-finite value,
     a pose far enough to overflow): the gate holds on a signal that is not a number, frame by
@@ -456,10 +464,7 @@ class SharedGPLVM:
         collarbone in different places (docs/capture.md). Feed the result to :meth:`predict`,
         :meth:`trusted` and the other signals; ``H`` unchanged where the model's human is not
         the human model's 18 angles."""
-        frames, single = _as_frames(H, "H")
-        aligned = self._require().align_girdle(frames)
-        out = frames if aligned is None else aligned
-        return out[0] if single else out
+        return _align_girdle(self._require(), H)
 
     def novelty_threshold(self) -> float:
         """The novelty threshold stored in the model (the distance within which 1 % of poses

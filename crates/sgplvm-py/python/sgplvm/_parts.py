@@ -15,6 +15,7 @@ from ._model import (
     ArrayLike,
     SharedGPLVM,
     Validation,
+    _align_girdle,
     _as_frames,
     _as_matrix,
     _builtin_joint_names,
@@ -271,16 +272,8 @@ class PartsGPLVM:
 
     def align_girdle(self, H: ArrayLike) -> np.ndarray:
         """One person's human frames (n × D_H, in their order) as ``sgplvm predict`` gives them
-        to this model by default (``--girdle aligned``): each arm's clavicle moved by the
-        difference between the model's people's mean clavicle angles and the person's mean over
-        their frames so far, the shoulder turned so that the arm keeps its pose — rigs put the
-        collarbone in different places (docs/capture.md). Feed the result to :meth:`predict`,
-        :meth:`trusted` and the other signals; ``H`` unchanged where the model's human is not
-        the human model's 18 angles."""
-        frames, single = _as_frames(H, "H")
-        aligned = self._require().align_girdle(frames)
-        out = frames if aligned is None else aligned
-        return out[0] if single else out
+        to this model by default (``--girdle aligned``; :meth:`SharedGPLVM.align_girdle`)."""
+        return _align_girdle(self._require(), H)
 
     def novelty_threshold(self) -> float:
         """1: :meth:`novelty` is each part's over its own threshold."""
