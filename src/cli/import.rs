@@ -222,6 +222,9 @@ fn summary(s: &CaptureSource, frames_out: usize) {
             cm(MEDIAN_RESIDUAL_LIMIT_M)
         );
     }
+    if let Some(note) = &s.clavicle_note {
+        eprintln!("note: {}: {note}", s.file);
+    }
     if let Some(mirrored) = &s.sides_mirrored {
         eprintln!("warning: {}: {}", s.file, mirrored.describe());
     }

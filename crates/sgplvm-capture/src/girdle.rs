@@ -25,6 +25,11 @@ fn arm_limits() -> [[(f64, f64); 9]; 2] {
     })
 }
 
+/// A clavicle shift below this (radians) leaves the frame as it is: re-solving the shoulder
+/// would only add the rotations' rounding (data far from radians, such as angles scaled by
+/// 1e-150, would lose every digit).
+const NEGLIGIBLE_SHIFT_RAD: f64 = 1e-9;
+
 /// One arm's nine columns, the model's people's mean clavicle angles, and the sums and count
 /// of the person's frames counted.
 #[derive(Clone, Debug)]
@@ -112,7 +117,7 @@ impl GirdleAlignment {
                 arm.counted += 1;
             }
             let shift = arm.shift();
-            if shift == [0.0; 2] {
+            if shift.iter().all(|v| v.abs() < NEGLIGIBLE_SHIFT_RAD) {
                 continue;
             }
             let moved = with_clavicle(

@@ -252,6 +252,7 @@ pub fn import_parsed(
             fit,
             calibration: Some(calibration),
             person: None,
+            clavicle_note: skeleton.clavicle_note.clone(),
             sides_mirrored: SidesMirrored::of(&fits.bends, skeleton.swapped_map(bvh)),
         },
     })

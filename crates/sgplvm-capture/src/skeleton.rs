@@ -101,6 +101,9 @@ pub struct Skeleton {
     pub axes_from: String,
     /// Upper arm plus forearm length at rest, in the file's units.
     pub arm_length: f64,
+    /// Where an arm was found without a clavicle although its upper arm hangs from a joint
+    /// named like one: which, said to the user.
+    pub clavicle_note: Option<String>,
 }
 
 /// Where one arm is in one frame, in body axes (x forward, y left, z up), file units,
@@ -166,7 +169,12 @@ impl Skeleton {
             });
         }
         let axes = body_axes(bvh, torso, &arms, arm_length, file)?;
+        let clavicle_note = match map {
+            Some(_) => None,
+            None => clavicles_left_out(bvh, &arms),
+        };
         Ok(Skeleton {
+            clavicle_note,
             scheme,
             torso,
             arms,
@@ -410,6 +418,28 @@ fn find_arms(bvh: &Bvh) -> Option<(String, [ArmJoints; 2])> {
         }
     }
     None
+}
+
+/// Where an arm was found without a clavicle although its upper arm hangs from a joint named
+/// like one (GAMES-105's `lTorso_Clavicle`, whose scheme calls the clavicle `Collar`): that
+/// joint's turn is then the shoulder's — said, so that the user can name it with `--map`.
+fn clavicles_left_out(bvh: &Bvh, arms: &[ArmJoints; 2]) -> Option<String> {
+    let named: Vec<String> = arms
+        .iter()
+        .filter(|a| a.clavicle.is_none())
+        .filter_map(|a| bvh.joints[a.upper_arm].parent)
+        .map(|p| format!("`{}`", bvh.joints[p].name))
+        .filter(|n| {
+            let n = normalise(n);
+            n.contains("clavicle") || n.contains("collar")
+        })
+        .collect();
+    (!named.is_empty()).then(|| {
+        format!(
+            "no clavicle segment was found, though the upper arms hang from {}, named like one: its turn is taken as the shoulder's (a map naming it jLeftC7Shoulder / jRightC7Shoulder fits it as the clavicle)",
+            named.join(" and ")
+        )
+    })
 }
 
 /// [`find_arms`] over the schemes with lookup `find`, requiring the clavicles or not.

@@ -198,7 +198,19 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         Girdle::Aligned => aligned_dataset(&model, &demos.dataset),
         Girdle::AsCaptured => None,
     };
-    let (input, shifts) = match aligned {
+    // Said of the people whose frames are tested (the training people's shifts are not).
+    let tested: std::collections::BTreeSet<Option<&str>> = demos
+        .dataset
+        .test
+        .iter()
+        .map(|&f| {
+            demos
+                .dataset
+                .segment_of(f)
+                .and_then(|s| s.person.as_deref())
+        })
+        .collect();
+    let (input, mut shifts) = match aligned {
         Some((dataset, shifts)) => (
             Demonstrations {
                 dataset,
@@ -208,6 +220,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         ),
         None => (demos.clone(), Vec::new()),
     };
+    shifts.retain(|(person, _)| tested.contains(&person.as_deref()));
     let evaluation = input.evaluate(&model, &args.robot)?;
     let trust = match &model {
         AnyModel::Single(m) => Some(input.test_trust(m, &args.robot)?),
@@ -419,7 +432,7 @@ fn print_girdle(shifts: &PersonShifts, girdle: Girdle) {
         })
         .collect();
     println!(
-        "clavicles aligned to the model's people (--girdle; each person's mean elevation/protraction shifted by, per arm): {}",
+        "clavicles aligned to the model's people (--girdle; each tested person's mean elevation/protraction shifted by, per arm): {}",
         people.join("; ")
     );
 }

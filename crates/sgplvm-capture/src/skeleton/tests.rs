@@ -452,3 +452,49 @@ fn a_mirror_labelled_skeleton_is_said_to_be_so_with_the_map_that_swaps_its_sides
     assert_eq!(swapped.source.sides_mirrored, None);
     assert_eq!(swapped.positions, want.positions);
 }
+
+/// GAMES-105's character: its arms `lTorso_Clavicle` → `lShoulder` → `lElbow` → `lWrist`, found
+/// by the Xsens scheme (`Shoulder` the upper arm), whose clavicle is `Collar`: the arms are
+/// found without a clavicle, and the skeleton says which joint is named like one.
+#[test]
+fn a_joint_named_like_a_clavicle_left_out_is_said() {
+    let build = |clavicle: &str| {
+        let mut t = String::from(
+            "HIERARCHY\nROOT RootJoint\n{\nOFFSET 0 100 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
+        );
+        t += &joint("lowerback_torso", [0.0, 40.0, 0.0]);
+        t += &joint("torso_head", [0.0, 15.0, 0.0]);
+        t += &end([0.0, 10.0, 0.0]);
+        t += "}\n";
+        for (s, x) in [("l", 1.0), ("r", -1.0)] {
+            let chain = [
+                (format!("{s}{clavicle}"), [x * 3.0, 12.0, 0.0]),
+                (format!("{s}Shoulder"), [x * 14.0, 0.0, 0.0]),
+                (format!("{s}Elbow"), [x * 28.0, 0.0, 0.0]),
+                (format!("{s}Wrist"), [x * 25.0, 0.0, 0.0]),
+            ];
+            for (name, offset) in &chain {
+                t += &joint(name, *offset);
+            }
+            t += &end([x * 8.0, 0.0, 0.0]);
+            t += &"}\n".repeat(chain.len());
+        }
+        t += "}\n}\nMOTION\nFrames: 1\nFrame Time: 0.025\n";
+        t += &vec!["0"; 6 + 3 * 2 + 2 * 3 * 4].join(" ");
+        t.push('\n');
+        let bvh = Bvh::parse(&t, "games105.bvh").unwrap();
+        crate::Skeleton::identify(&bvh, None, "games105.bvh").unwrap()
+    };
+    let s = build("Torso_Clavicle");
+    assert!(s.arms.iter().all(|a| a.clavicle.is_none()));
+    let note = s.clavicle_note.unwrap();
+    assert!(
+        note.contains("`lTorso_Clavicle` and `rTorso_Clavicle`")
+            && note.contains("jLeftC7Shoulder"),
+        "{note}"
+    );
+    // Named as the scheme names it, the clavicle is found and nothing is said.
+    let s = build("Collar");
+    assert!(s.arms.iter().all(|a| a.clavicle.is_some()));
+    assert_eq!(s.clavicle_note, None);
+}
