@@ -222,7 +222,7 @@ fn summary(s: &CaptureSource, frames_out: usize) {
             cm(MEDIAN_RESIDUAL_LIMIT_M)
         );
     }
-    if let Some(note) = &s.clavicle_note {
+    for note in &s.notes {
         eprintln!("note: {}: {note}", s.file);
     }
     if let Some(mirrored) = &s.sides_mirrored {

@@ -537,6 +537,7 @@ fn asf_amc_to_bvh(s: &Skeleton, amc: &str, asf_file: &str, file: &str) -> Result
         frame_time: 1.0 / 120.0,
         channels,
         values,
+        frame_lines_left_out: 0,
     })
 }
 

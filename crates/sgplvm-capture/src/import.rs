@@ -252,7 +252,7 @@ pub fn import_parsed(
             fit,
             calibration: Some(calibration),
             person: None,
-            clavicle_note: skeleton.clavicle_note.clone(),
+            notes: bvh_notes(bvh, &skeleton),
             sides_mirrored: SidesMirrored::of(&fits.bends, skeleton.swapped_map(bvh)),
         },
     })
@@ -561,4 +561,19 @@ fn resample(
         times_ns.push(options.start_time_ns + (t * 1e9).round() as i64);
     }
     Ok((out, times_ns))
+}
+
+/// What the import says of `bvh` and its `skeleton` beside the figures
+/// ([`CaptureSource::notes`]).
+fn bvh_notes(bvh: &Bvh, skeleton: &Skeleton) -> Vec<String> {
+    let mut notes = Vec::new();
+    if bvh.frame_lines_left_out > 0 {
+        notes.push(format!(
+            "{} past the {} frames that `Frames:` declares left out (the count rules, as Blender reads a file)",
+            sgplvm_robots::names::count(bvh.frame_lines_left_out, "frame line"),
+            bvh.values.len() / bvh.channels.max(1)
+        ));
+    }
+    notes.extend(skeleton.clavicle_note.clone());
+    notes
 }

@@ -335,10 +335,11 @@ pub struct CaptureSource {
     /// leave-people-out split holds out and a model's trust threshold is calibrated over.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub person: Option<String>,
-    /// Said of the skeleton where an arm was found without its clavicle although a joint is
-    /// named like one ([`Skeleton::clavicle_note`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub clavicle_note: Option<String>,
+    /// What the import says of the file beside its figures: frame lines past the `Frames:`
+    /// count left out, an arm found without its clavicle although a joint is named like one
+    /// ([`Skeleton::clavicle_note`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// Present where most clearly bent elbows bend backwards: the skeleton's Left and Right are
     /// probably the person's right and left ([`mirror`]), with the `--map` that swaps them.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -353,6 +353,7 @@ pub fn tree_skeleton(frames: &[TreeFrame]) -> Bvh {
         frame_time: 0.025,
         channels,
         values: Vec::new(),
+        frame_lines_left_out: 0,
     }
 }
 

@@ -195,7 +195,7 @@ fn capture(
             calibration,
             person: None,
             // MVN names the sides by its own specification.
-            clavicle_note: None,
+            notes: Vec::new(),
             sides_mirrored: None,
         },
     })

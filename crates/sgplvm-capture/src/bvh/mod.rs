@@ -189,6 +189,9 @@ pub struct Bvh {
     pub channels: usize,
     /// Frame values, row-major: frame `f` is `values[f * channels..(f + 1) * channels]`.
     pub values: Vec<f64>,
+    /// Frame lines after the `Frames:` count, left out (an exporter's count one short: assimp's
+    /// `Boxing_Toes.bvh`); 0 for a file that holds what it declares.
+    pub frame_lines_left_out: usize,
 }
 
 impl Bvh {

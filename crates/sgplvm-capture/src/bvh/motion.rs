@@ -6,12 +6,13 @@ use super::parser::{channel_owner, parse_finite, short, Parser};
 use super::{BvhError, BvhJoint, MAX_FRAME_TIME_S};
 
 impl Parser<'_> {
-    /// Reads `Frames: N`, `Frame Time: T` and the N frame lines.
+    /// Reads `Frames: N`, `Frame Time: T` and the N frame lines; returns the frame time, the
+    /// values and how many lines after the N were left out (not read: the count rules).
     pub(super) fn motion(
         &mut self,
         channels: usize,
         joints: &[BvhJoint],
-    ) -> Result<(f64, Vec<f64>), BvhError> {
+    ) -> Result<(f64, Vec<f64>, usize), BvhError> {
         let w = self.expect_keyword("Frames:")?;
         let count_word = self.expect_word("the frame count")?;
         let declared: usize = count_word.text.parse().map_err(|_| {
@@ -60,6 +61,7 @@ impl Parser<'_> {
         }
         let mut values = Vec::with_capacity(declared * channels);
         let mut frames = 0usize;
+        let mut left_out = 0usize;
         let bytes = self.text.as_bytes();
         while self.pos < bytes.len() {
             let start = self.pos;
@@ -76,10 +78,15 @@ impl Parser<'_> {
                 continue;
             }
             if frames == declared {
-                return Err(self.error(
-                    line_no,
-                    format!("more frame lines than the {declared} that `Frames:` declares (line {} declares them)", count_word.line),
-                ));
+                // More lines than declared: the count rules, as Blender reads a file; the rest
+                // is counted and said (assimp reads them all).
+                let rest = 1 + self.text[self.pos..]
+                    .lines()
+                    .filter(|l| !l.trim().is_empty())
+                    .count();
+                self.pos = self.text.len();
+                left_out = rest;
+                break;
             }
             let before = values.len();
             for (k, word) in line.split_ascii_whitespace().enumerate() {
@@ -116,7 +123,7 @@ impl Parser<'_> {
         if channels == 0 && declared > 0 {
             return Err(self.error(count_word.line, "frames declared but no joint has channels"));
         }
-        Ok((frame_time, values))
+        Ok((frame_time, values, left_out))
     }
 
     /// Consumes the rest of line `line`, which must hold nothing but whitespace.

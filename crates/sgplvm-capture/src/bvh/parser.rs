@@ -125,12 +125,13 @@ impl<'a> Parser<'a> {
         }
         let joints = self.hierarchy()?;
         let channels = joints.iter().map(|j| j.channels.len()).sum();
-        let (frame_time, values) = self.motion(channels, &joints)?;
+        let (frame_time, values, frame_lines_left_out) = self.motion(channels, &joints)?;
         Ok(Bvh {
             joints,
             frame_time,
             channels,
             values,
+            frame_lines_left_out,
         })
     }
 }

@@ -121,6 +121,7 @@ fn with_twist_bones(
         frame_time: bvh.frame_time,
         channels,
         values,
+        frame_lines_left_out: 0,
     }
 }
 
