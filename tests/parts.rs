@@ -110,8 +110,10 @@ fn train_transfer_and_predict_a_latent_space_per_arm() {
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
-    // The file predicts what the model does: each arm from its own human arm.
-    let h: Vec<f64> = std::fs::read_to_string(&human)
+    // The file predicts what the model does: each arm from its own human arm, the person's
+    // clavicles aligned to the model's people as predict gives them (the first frame: its own
+    // clavicles moved to the people's mean).
+    let mut h: Vec<f64> = std::fs::read_to_string(&human)
         .unwrap()
         .lines()
         .nth(1)
@@ -121,6 +123,9 @@ fn train_transfer_and_predict_a_latent_space_per_arm() {
         .map(|v| v.parse().unwrap())
         .collect();
     let loaded = sgplvm::PartsGplvm::load(&coman).unwrap();
+    sgplvm::girdle::for_model(&sgplvm::AnyModel::Parts(loaded.clone()))
+        .expect("a model of the human's arms")
+        .align(&mut h);
     let mut expected = vec![0.0; 14];
     loaded.predict_frame(&h, "coman", &mut expected).unwrap();
     for (a, b) in first[1..].iter().zip(&expected) {
