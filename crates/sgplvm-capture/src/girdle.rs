@@ -30,26 +30,37 @@ fn arm_limits() -> [[(f64, f64); 9]; 2] {
 /// 1e-150, would lose every digit).
 const NEGLIGIBLE_SHIFT_RAD: f64 = 1e-9;
 
-/// One arm's nine columns, the model's people's mean clavicle angles, and the sums and count
-/// of the person's frames counted.
+/// One arm's nine columns, the model's people's mean clavicle angles, and the person's mean
+/// over the frames counted and their count.
 #[derive(Clone, Debug)]
 struct ArmGirdle {
     columns: [usize; 9],
     limits: [(f64, f64); 9],
     reference: [f64; 2],
-    sums: [f64; 2],
+    means: [f64; 2],
     counted: usize,
 }
 
 impl ArmGirdle {
+    /// Counts clavicle angles `v` into the person's means, updated as `m += (v − m) / n`: a
+    /// person standing still keeps exactly their own values (a sum divided would round, and
+    /// move a still robot by 1e-13 rad).
+    fn count(&mut self, v: [f64; 2]) {
+        self.counted += 1;
+        let n = self.counted as f64;
+        for (m, v) in self.means.iter_mut().zip(v) {
+            *m += (v - *m) / n;
+        }
+    }
+
     /// The shift of the clavicle's elevation and protraction: the people's mean minus the
     /// person's so far (none before a frame is counted).
     fn shift(&self) -> [f64; 2] {
         match self.counted {
             0 => [0.0; 2],
-            n => [
-                self.reference[0] - self.sums[0] / n as f64,
-                self.reference[1] - self.sums[1] / n as f64,
+            _ => [
+                self.reference[0] - self.means[0],
+                self.reference[1] - self.means[1],
             ],
         }
     }
@@ -81,7 +92,7 @@ impl GirdleAlignment {
                     columns,
                     limits,
                     reference,
-                    sums: [0.0; 2],
+                    means: [0.0; 2],
                     counted: 0,
                 })
             })
@@ -112,9 +123,7 @@ impl GirdleAlignment {
                 (lo..=hi).contains(&angles[k])
             });
             if within {
-                arm.sums[0] += angles[0];
-                arm.sums[1] += angles[1];
-                arm.counted += 1;
+                arm.count([angles[0], angles[1]]);
             }
             let shift = arm.shift();
             if shift.iter().all(|v| v.abs() < NEGLIGIBLE_SHIFT_RAD) {
@@ -188,5 +197,18 @@ mod tests {
         assert_eq!(a.shifts(), before);
         // Frames of other joints: nothing to align.
         assert!(GirdleAlignment::new(&["x".to_string()], &[0.0]).is_none());
+        // A person standing still gives the very same frame every time (a robot held still).
+        let mut still = GirdleAlignment::new(&names(), &means).unwrap();
+        let pose: Vec<f64> = (0..18).map(|k| 0.1 + 0.013 * k as f64).collect();
+        let first = {
+            let mut h = pose.clone();
+            still.align(&mut h);
+            h
+        };
+        for _ in 0..500 {
+            let mut h = pose.clone();
+            still.align(&mut h);
+            assert_eq!(h, first);
+        }
     }
 }
