@@ -111,6 +111,15 @@ impl GirdleArg {
             Girdle::AsCaptured => None,
         }
     }
+
+    /// One person's frames `h` (rows, in order) aligned for `model` as asked; `None` where they
+    /// go to it as they are.
+    pub fn aligned_rows(&self, model: &AnyModel, h: &sgplvm::Mat<f64>) -> Option<sgplvm::Mat<f64>> {
+        let mut alignment = self.alignment(model)?;
+        let mut aligned = h.clone();
+        sgplvm::girdle::align_rows(&mut alignment, &mut aligned);
+        Some(aligned)
+    }
 }
 
 // `--max-iters`, `--validation`, `--patience`: the iteration budget of a training and how it is

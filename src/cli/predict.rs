@@ -239,9 +239,9 @@ pub fn run(args: PredictArgs) -> Result<()> {
     let target = args.target(model)?;
     let robot_joints = target.names().to_vec();
     let scene = args.out.ends_with(".mcap") && !args.no_tf;
-    // The person's clavicles aligned to the model's people, frame by frame (--girdle).
-    let girdle = args.girdle.alignment(&loaded);
     if args.input == "-" {
+        // The person's clavicles aligned to the model's people, frame by frame (--girdle).
+        let girdle = args.girdle.alignment(&loaded);
         // Times (hence velocity limits) when the stream's header has a time column: known
         // after the header; the limits are checked before reading it.
         let commands = args.commands(&target, true)?;
@@ -259,10 +259,9 @@ pub fn run(args: PredictArgs) -> Result<()> {
     }
     let human = read_human_frames(model, &args.input, args.topic.as_deref())?;
     let commands = args.commands(&target, human.timed)?;
-    let mut input = human.frames.clone();
-    if let Some(mut g) = girdle {
-        sgplvm::girdle::align_rows(&mut g, &mut input);
-    }
+    // The person's clavicles aligned to the model's people (--girdle).
+    let aligned = args.girdle.aligned_rows(&loaded, &human.frames);
+    let input = aligned.as_ref().unwrap_or(&human.frames);
     // A model that cannot predict finite values for this input says so naming its file.
     let prediction = model
         .predict(input.as_ref(), robot, args.std || scene)

@@ -274,11 +274,9 @@ fn predicted_trajectory(
     let target = Target::load(model, robot, args.urdf.as_deref(), &body, false)?;
     let human = read_human_frames(model, input, args.topic.as_deref())?;
     let mut commands = target.commands(human.timed, args.margin, false)?;
-    let mut input_frames = human.frames.clone();
-    if let Some(mut g) = args.girdle.alignment(&loaded) {
-        sgplvm::girdle::align_rows(&mut g, &mut input_frames);
-    }
-    let mean = model.predict(input_frames.as_ref(), robot, false)?.mean;
+    let aligned = args.girdle.aligned_rows(&loaded, &human.frames);
+    let input = aligned.as_ref().unwrap_or(&human.frames);
+    let mean = model.predict(input.as_ref(), robot, false)?.mean;
     let rows: Vec<f64> = (0..mean.nrows())
         .flat_map(|i| (0..mean.ncols()).map(move |j| (i, j)))
         .map(|(i, j)| mean[(i, j)])

@@ -210,23 +210,25 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
                 .and_then(|s| s.person.as_deref())
         })
         .collect();
-    let (input, mut shifts) = match aligned {
+    let (aligned, mut shifts) = match aligned {
         Some((dataset, shifts)) => (
-            Demonstrations {
+            Some(Demonstrations {
                 dataset,
                 source_name: demos.source_name.clone(),
-            },
+            }),
             shifts,
         ),
-        None => (demos.clone(), Vec::new()),
+        None => (None, Vec::new()),
     };
+    // The model's input: the aligned frames, or the demonstrations as they are (not copied).
+    let input = aligned.as_ref().unwrap_or(&demos);
     shifts.retain(|(person, _)| tested.contains(&person.as_deref()));
     let evaluation = input.evaluate(&model, &args.robot)?;
     let trust = match &model {
         AnyModel::Single(m) => Some(input.test_trust(m, &args.robot)?),
         AnyModel::Parts(_) => None,
     };
-    let (gate, held) = gate_report(&model, &input, &args)?;
+    let (gate, held) = gate_report(&model, input, &args)?;
     let arms = match (&args.urdf, Robot::builtin_urdf(&args.robot)) {
         (None, None) => None,
         (urdf, _) => {

@@ -14,7 +14,8 @@ only their latent-to-output mapping.
 
 from ._sgplvm import Robot, __version__
 from ._io import load_demonstrations, read_bvh, read_joint_states, retarget, simulate, write_joint_states
-from ._model import DEFAULT_PATIENCE, GPRegression, SharedGPLVM
+from ._model import DEFAULT_PATIENCE, SharedGPLVM
+from ._regression import GPRegression
 from ._parts import PartsGPLVM, load_model
 
 __all__ = [
